@@ -1,0 +1,3 @@
+//! handgate gateway: router, fronts, profiles, runtime and CLI.
+
+pub mod cli;

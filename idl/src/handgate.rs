@@ -1,0 +1,88 @@
+//! Rust twin of `idl/handgate.idl`: handgate's canonical messages.
+
+use crate::keyless_topic_type;
+use serde::{Deserialize, Serialize};
+
+pub const MODE_JOINTS: u8 = 0;
+pub const MODE_CLOSURE: u8 = 1;
+pub const MODE_SAFE: u8 = 2;
+
+pub const FRESH: u8 = 0;
+pub const STALE: u8 = 1;
+pub const COMMANDED_ONLY: u8 = 2;
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct JointCmd_ {
+    pub name: String,
+    pub q: f32,
+    pub dq: f32,
+    pub tau: f32,
+    pub kp: f32,
+    pub kd: f32,
+}
+keyless_topic_type!(JointCmd_, "handgate::msg::dds_::JointCmd_");
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct HandCmd_ {
+    pub seq: u64,
+    pub mode: u8,
+    pub closure: f32,
+    pub stiffness: f32,
+    pub joints: Vec<JointCmd_>,
+}
+keyless_topic_type!(HandCmd_, "handgate::msg::dds_::HandCmd_");
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct JointState_ {
+    pub name: String,
+    pub q: f32,
+    pub dq: f32,
+    pub tau: f32,
+    pub temperature: f32,
+}
+keyless_topic_type!(JointState_, "handgate::msg::dds_::JointState_");
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct HandState_ {
+    pub device: String,
+    pub kind: String,
+    pub side: String,
+    pub cmd_seq: u64,
+    pub stamp_ns: u64,
+    pub freshness: u8,
+    pub closure: f32,
+    pub joints: Vec<JointState_>,
+    pub pressure: Vec<f32>,
+    pub accelerometer: [f32; 3],
+    pub gyroscope: [f32; 3],
+    pub power_v: f32,
+    pub power_a: f32,
+    pub faults: u32,
+}
+keyless_topic_type!(HandState_, "handgate::msg::dds_::HandState_");
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct DeviceStatus_ {
+    pub device: String,
+    pub kind: String,
+    pub backend: String,
+    pub freshness: u8,
+    pub safe: bool,
+    pub cmd_rate_hz: f32,
+    pub state_rate_hz: f32,
+    pub crc_errors: u64,
+    pub bad_input: u64,
+    pub watchdog_trips: u64,
+    pub reconnects: u64,
+    pub missed_cycles: u64,
+    pub age_ms: f32,
+}
+keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct GatewayStatus_ {
+    pub profile: String,
+    pub uptime_ms: u64,
+    pub devices: Vec<DeviceStatus_>,
+}
+keyless_topic_type!(GatewayStatus_, "handgate::msg::dds_::GatewayStatus_");

@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Installs what handgate needs on a fresh Debian machine that has only the Rust toolchain.
+# Idempotent: every step checks first. Usage: scripts/setup.sh [--no-python]
+#   - Debian packages: cyclonedds-dev 0.10.2 (the version on Unitree robots), its tools,
+#     libclang-dev (bindgen), libusb-1.0-0-dev (rusb), pkg-config.
+#   - .venv/ (git-ignored): cyclonedds==0.10.2 built against that library, and the official
+#     unitree-sdk2 (unitree_sdk2py) for the interop tests.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+
+want_python=1
+[ "${1:-}" = "--no-python" ] && want_python=0
+
+sudo_cmd=""
+[ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+
+pkgs=(cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "setup: installing Debian packages: ${missing[*]}"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+ver=$(dpkg-query -W -f='${Version}' cyclonedds-dev)
+case "$ver" in
+  0.10.2*) ;;
+  *) echo "setup: warning: cyclonedds-dev is $ver; Unitree robots and cyclonedds-rs 0.6.5 want 0.10.2" >&2 ;;
+esac
+
+[ "$want_python" -eq 1 ] || exit 0
+
+# The Python cyclonedds 0.10.2 package has no wheel for this Python: it builds against the
+# installed C library and wants CYCLONEDDS_HOME laid out as lib/ include/ bin/.
+multiarch=$(gcc -print-multiarch 2>/dev/null || echo x86_64-linux-gnu)
+home="$root/.cyclonedds-home"
+mkdir -p "$home"
+ln -sfn "/usr/lib/$multiarch" "$home/lib"
+ln -sfn /usr/include "$home/include"
+ln -sfn /usr/bin "$home/bin"
+
+py=${PYTHON:-python3}
+venv="$root/.venv"
+if [ ! -x "$venv/bin/python" ]; then
+  echo "setup: creating $venv"
+  "$py" -m venv "$venv"
+fi
+vpy="$venv/bin/python"
+if [ "$("$vpy" -m pip show cyclonedds 2>/dev/null | sed -n 's/^Version: //p')" != "0.10.2" ]; then
+  echo "setup: building cyclonedds==0.10.2 (Python) against the system library"
+  "$vpy" -m pip install -q "setuptools<70" wheel
+  CYCLONEDDS_HOME="$home" "$vpy" -m pip install -q --no-build-isolation "cyclonedds==0.10.2"
+fi
+if ! "$vpy" -m pip show -q unitree-sdk2 >/dev/null 2>&1; then
+  echo "setup: installing unitree-sdk2==1.0.1 (unitree_sdk2py)"
+  "$vpy" -m pip install -q "unitree-sdk2==1.0.1"
+fi
+# unitree-sdk2 1.0.1's __init__ imports a subpackage `b2` that the wheel does not ship
+# (FACTS §8). Give it an empty one inside our venv so `import unitree_sdk2py` works.
+site=$("$vpy" -c "import sysconfig; print(sysconfig.get_paths()['purelib'])")
+if [ ! -e "$site/unitree_sdk2py/b2/__init__.py" ]; then
+  mkdir -p "$site/unitree_sdk2py/b2"
+  echo "# handgate setup: empty stand-in for the subpackage unitree-sdk2 1.0.1 imports but does not ship" \
+    > "$site/unitree_sdk2py/b2/__init__.py"
+fi
+"$vpy" -c "import unitree_sdk2py.core.channel, unitree_sdk2py.idl.unitree_hg.msg.dds_" \
+  || { echo "setup: unitree_sdk2py does not import" >&2; exit 1; }
+echo "setup: ok (cyclonedds-dev $ver, $("$vpy" --version), unitree_sdk2py ready in .venv)"

@@ -1,0 +1,1 @@
+//! Shared helpers for handgate's cross-crate and interop tests.
