@@ -26,6 +26,8 @@ pub enum DdsError {
     },
     #[error("invalid network interface name {0:?}")]
     BadInterface(String),
+    #[error("could not start a thread: {0}")]
+    Thread(String),
     #[error("timed out after {0:?} waiting for {1}")]
     Timeout(Duration, &'static str),
 }

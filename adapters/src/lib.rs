@@ -1,5 +1,16 @@
 //! handgate adapters: the [`HandDevice`](device::HandDevice) trait, the canonical command
-//! model, and one folder per device kind (codec, transport, emulator, adapter).
+//! model, the table-driven mapping, and one folder per device kind (codec, transport,
+//! emulator, adapter).
 
+pub mod control;
 pub mod dds;
+pub mod dds_device;
+pub mod device;
+pub mod dex1;
+pub mod dex3;
+pub mod ezgripper;
+pub mod hand_sdk;
+pub mod mapping;
+pub mod model;
 pub mod sim;
+pub mod tables;

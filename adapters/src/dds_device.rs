@@ -1,0 +1,238 @@
+//! A generic DDS-client device: a device loop thread at a fixed rate that folds the latest
+//! canonical command into targets, encodes them with a per-kind [`DdsCodec`], publishes, and
+//! turns the peer's state samples back into canonical state. Used by the Dex3-over-DDS,
+//! Dex1-1 and rt/hand_sdk adapters; each kind only supplies its codec.
+
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant, SystemTime};
+
+use async_trait::async_trait;
+use cyclonedds_rs::TopicType;
+use tokio::sync::watch;
+
+use crate::control::{Active, CommandState, Counters};
+use crate::dds::{DdsError, Node, Qos};
+use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::mapping::DeviceTable;
+use crate::model::{faults, Freshness, HandCommand, HandState, SafeAction};
+
+/// Per-kind wire encoding for a DDS-client device.
+pub trait DdsCodec: Send + 'static {
+    type Cmd: TopicType + Clone + Send + 'static;
+    type State: TopicType + Clone + Send + 'static;
+
+    /// The message to publish this cycle for the targets in force, or None to stay silent.
+    /// `dt` is the loop period in seconds.
+    fn encode(&mut self, active: &Active, table: &DeviceTable, dt: f32) -> Option<Self::Cmd>;
+
+    /// Canonical state from one state sample (joints in canonical order), or None if the
+    /// sample does not carry this device (wrong size, other side).
+    fn decode(&mut self, sample: &Self::State, table: &DeviceTable) -> Option<HandState>;
+
+    /// For devices without feedback: the state to publish (what is commanded).
+    fn commanded_state(&self, _table: &DeviceTable) -> Option<HandState> {
+        None
+    }
+}
+
+/// Topics and timing of a DDS-client device.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DdsDeviceConfig {
+    pub cmd_topic: String,
+    /// None for devices without a state topic (rt/hand_sdk).
+    pub state_topic: Option<String>,
+    /// Publish rate, Hz.
+    pub rate_hz: f64,
+    /// State older than this is stale (and the link is considered down).
+    pub stale_after: Duration,
+}
+
+struct Shared<S> {
+    latest: Mutex<Option<S>>,
+}
+
+/// A running DDS-client device.
+pub struct DdsDevice {
+    info: DeviceInfo,
+    cmd: CommandState,
+    state_rx: watch::Receiver<HandState>,
+    cycles: watch::Receiver<u64>,
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    thread: Mutex<Option<JoinHandle<()>>>,
+}
+
+impl DdsDevice {
+    /// Creates the endpoints on `node` and starts the device loop.
+    pub fn start<C: DdsCodec>(
+        node: &Node,
+        info: DeviceInfo,
+        config: DdsDeviceConfig,
+        mut codec: C,
+    ) -> Result<Self, DdsError> {
+        let table = info.table.clone();
+        let cmd = CommandState::new(table.clone());
+        let mut writer = node.writer::<C::Cmd>(&config.cmd_topic, Qos::Reliable { depth: 1 })?;
+        let shared: Arc<Shared<C::State>> = Arc::new(Shared {
+            latest: Mutex::new(None),
+        });
+        let counters = cmd.counters.clone();
+        let reader = match &config.state_topic {
+            Some(t) => {
+                let sh = shared.clone();
+                let ctr = counters.clone();
+                Some(node.reader_with_callback::<C::State, _>(t, Qos::BestEffort, move |h| {
+                    let mut v = Vec::new();
+                    if h.take_into(&mut v) > 0 {
+                        ctr.state_samples.fetch_add(v.len() as u64, Ordering::Relaxed);
+                        *sh.latest.lock().unwrap_or_else(|p| p.into_inner()) = v.pop();
+                    }
+                })?)
+            }
+            None => None,
+        };
+        let n = table.joint_count();
+        let (state_tx, state_rx) = watch::channel(HandState::empty(n));
+        let (cycle_tx, cycles) = watch::channel(0u64);
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let stop2 = stop.clone();
+        let loop_cmd = cmd.clone();
+        let name = info.name.clone();
+        let thread = std::thread::Builder::new()
+            .name(format!("dev-{name}"))
+            .spawn(move || {
+                let _keep_reader = reader;
+                let period = Duration::from_secs_f64(1.0 / config.rate_hz.max(1.0));
+                let dt = period.as_secs_f32();
+                let start = Instant::now();
+                let mut k: u64 = 0;
+                let mut current = HandState::empty(n);
+                let mut ever_fresh = false;
+                let mut link_was_up = false;
+                while !stop2.load(Ordering::Relaxed) {
+                    let now = Instant::now();
+                    let sample = shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
+                    if let Some(s) = sample {
+                        if let Some(mut st) = codec.decode(&s, &table) {
+                            st.measured_at = Some(now);
+                            st.measured_wall = Some(SystemTime::now());
+                            st.freshness = Freshness::Fresh;
+                            st.closure = table.closure_of(&st.joints.iter().map(|j| j.q).collect::<Vec<_>>());
+                            current = st;
+                            if ever_fresh && !link_was_up {
+                                // The peer came back: never replay what was in force before.
+                                Counters::inc(&loop_cmd.counters.reconnects);
+                                loop_cmd.reseed(&current.joints);
+                            }
+                            ever_fresh = true;
+                            link_was_up = true;
+                        }
+                    }
+                    if config.state_topic.is_some() {
+                        let stale = current.age(now).map(|a| a > config.stale_after).unwrap_or(true);
+                        if stale {
+                            current.freshness = Freshness::Stale;
+                            current.faults |= faults::LINK_DOWN;
+                            link_was_up = false;
+                        }
+                    }
+                    loop_cmd.counters.link_up.store(link_was_up as u64, Ordering::Relaxed);
+                    let active = loop_cmd.step(&current.joints);
+                    // Never "hold" a position that was never measured.
+                    let blind_hold = config.state_topic.is_some()
+                        && !ever_fresh
+                        && matches!(active, Active::Safe(SafeAction::Hold, _));
+                    if blind_hold {
+                        // stay silent
+                    } else if let Some(msg) = codec.encode(&active, &table, dt) {
+                        if writer.write(msg).is_ok() {
+                            Counters::inc(&loop_cmd.counters.sent);
+                        }
+                    }
+                    let (seq, tag) = loop_cmd.applied();
+                    let mut out = if config.state_topic.is_none() {
+                        codec.commanded_state(&table).unwrap_or_else(|| current.clone())
+                    } else {
+                        current.clone()
+                    };
+                    out.cmd_seq = seq;
+                    out.cmd_tag = tag;
+                    if matches!(active, Active::Safe(..)) {
+                        out.faults |= faults::SAFE_STATE;
+                    } else {
+                        out.faults &= !faults::SAFE_STATE;
+                    }
+                    let _ = state_tx.send(out);
+                    k += 1;
+                    let _ = cycle_tx.send(k);
+                    let next = start + period * (k as u32);
+                    let now = Instant::now();
+                    if next > now {
+                        std::thread::sleep(next - now);
+                    } else if now - next > period {
+                        Counters::inc(&loop_cmd.counters.missed_cycles);
+                    }
+                }
+            })
+            .map_err(|e| DdsError::Thread(e.to_string()))?;
+        Ok(Self {
+            info,
+            cmd,
+            state_rx,
+            cycles,
+            stop,
+            thread: Mutex::new(Some(thread)),
+        })
+    }
+
+    /// Stops the loop thread (after the caller put the device in a safe state).
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            let _ = t.join();
+        }
+    }
+
+    /// Waits until the loop has run `n` more cycles.
+    pub async fn cycles(&self, n: u64) -> Result<(), DeviceError> {
+        let mut rx = self.cycles.clone();
+        let target = *rx.borrow() + n;
+        while *rx.borrow() < target {
+            if rx.changed().await.is_err() {
+                return Err(DeviceError::Stopped);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for DdsDevice {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+#[async_trait]
+impl HandDevice for DdsDevice {
+    fn info(&self) -> &DeviceInfo {
+        &self.info
+    }
+
+    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
+        Ok(self.cmd.submit(cmd)?)
+    }
+
+    fn state(&self) -> watch::Receiver<HandState> {
+        self.state_rx.clone()
+    }
+
+    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
+        self.cmd.request_safe(action);
+        self.cycles(2).await
+    }
+
+    fn stats(&self) -> DeviceStats {
+        self.cmd.counters.snapshot()
+    }
+}

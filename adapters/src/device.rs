@@ -1,0 +1,128 @@
+//! The `HandDevice` trait every adapter implements, and what it reports.
+
+use std::sync::Arc;
+
+use async_trait::async_trait;
+use serde::{Deserialize, Serialize};
+use tokio::sync::watch;
+
+use crate::mapping::{DeviceTable, MappingError};
+use crate::model::{DeviceKind, HandCommand, HandState, SafeAction, Side};
+
+/// How the device is reached.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Backend {
+    Usb,
+    Dds,
+    Serial,
+    Emulator,
+}
+
+impl Backend {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Backend::Usb => "usb",
+            Backend::Dds => "dds",
+            Backend::Serial => "serial",
+            Backend::Emulator => "emulator",
+        }
+    }
+}
+
+/// What a device can report or do beyond the basics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Capabilities {
+    /// Measured joint feedback (false for rt/hand_sdk: state is "commanded only").
+    pub feedback: bool,
+    pub pressure: bool,
+    pub imu: bool,
+    pub power: bool,
+    /// Can list the (bus, id) wiring it answers from.
+    pub discovery: bool,
+    pub calibration: bool,
+}
+
+/// Identity of a device.
+#[derive(Debug, Clone)]
+pub struct DeviceInfo {
+    /// Unique name from the profile.
+    pub name: String,
+    pub kind: DeviceKind,
+    pub side: Side,
+    pub backend: Backend,
+    pub table: Arc<DeviceTable>,
+    pub capabilities: Capabilities,
+}
+
+/// Counters a device keeps; read by the status publisher, never blocking the device loop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DeviceStats {
+    /// Commands accepted by [`HandDevice::command`].
+    pub commands: u64,
+    /// Commands rejected (mapping errors: non-finite values, unknown joints).
+    pub rejected: u64,
+    /// Commands written to the device (wire frames / samples).
+    pub sent: u64,
+    /// Measured state samples received.
+    pub state_samples: u64,
+    pub crc_errors: u64,
+    pub reconnects: u64,
+    pub missed_cycles: u64,
+    /// Setpoints replaced by a hold at the measured position after the link came back.
+    pub reseeds: u64,
+    pub link_up: bool,
+}
+
+/// Device errors.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    #[error(transparent)]
+    Mapping(#[from] MappingError),
+    #[error("{0} is not supported by this device")]
+    Unsupported(&'static str),
+    #[error("link to the device failed: {0}")]
+    Link(String),
+    #[error("the device has stopped")]
+    Stopped,
+}
+
+/// One hand or gripper, whatever its transport.
+///
+/// Commands are canonical ([`HandCommand`]); the device keeps only the latest (never a
+/// queue), maps it through its [`DeviceTable`], clamps it against its limits and the
+/// measured state, and sends it at its own rate. State is published on a watch channel.
+#[async_trait]
+pub trait HandDevice: Send + Sync {
+    fn info(&self) -> &DeviceInfo;
+
+    /// Replaces the pending command (latest wins). Returns an error, and changes nothing,
+    /// when the command cannot be mapped safely.
+    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError>;
+
+    /// The latest canonical state.
+    fn state(&self) -> watch::Receiver<HandState>;
+
+    /// Moves to a safe state and stays there until the next command.
+    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError>;
+
+    /// Counters.
+    fn stats(&self) -> DeviceStats {
+        DeviceStats::default()
+    }
+
+    /// Reports the wiring the device answers from (Dex3 over USB).
+    async fn discover(&self) -> Result<String, DeviceError> {
+        Err(DeviceError::Unsupported("discovery"))
+    }
+
+    /// Runs the device's calibration (EZGripper).
+    async fn calibrate(&self) -> Result<(), DeviceError> {
+        Err(DeviceError::Unsupported("calibration"))
+    }
+
+    /// Safe state, then release the transport. Called once at gateway shutdown.
+    async fn shutdown(&self, action: SafeAction) -> Result<(), DeviceError> {
+        self.safe_state(action).await
+    }
+}

@@ -1,0 +1,2 @@
+pub mod dds_client;
+pub mod table;

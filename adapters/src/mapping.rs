@@ -1,0 +1,380 @@
+//! Table-driven mapping between the canonical model and each device's wire frame.
+//!
+//! One [`DeviceTable`] per device kind and side: for every canonical joint, its index in the
+//! wire message, its URDF joint name, and the affine map
+//! `wire_q = offset + sign * scale * canonical_q` (velocities scale without the offset, gains
+//! scale inversely so that the same torque results), plus canonical limits, the closure map
+//! and the hold gains. Each kind's folder builds its table (`dex3::table`, `dex1::table`, ...);
+//! the router and the adapters only ever go through this module, so adding a device kind is a
+//! new folder and a new table.
+
+use serde::{Deserialize, Serialize};
+
+use crate::model::{CommandBody, DeviceKind, JointCommand, JointId, JointState, SafeAction, Side};
+use crate::sim::MotorTarget;
+
+/// A joint command in the device's own frame and units (its wire values).
+pub type WireTarget = MotorTarget;
+
+/// Inclusive range in canonical units (rad, positive = closing).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Limits {
+    pub min: f32,
+    pub max: f32,
+}
+
+impl Limits {
+    pub fn new(min: f32, max: f32) -> Self {
+        Self { min, max }
+    }
+    pub fn clamp(&self, v: f32) -> f32 {
+        v.clamp(self.min, self.max)
+    }
+    pub fn contains(&self, v: f32) -> bool {
+        v >= self.min && v <= self.max
+    }
+    pub fn span(&self) -> f32 {
+        self.max - self.min
+    }
+}
+
+/// One canonical joint's mapping onto the wire.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointMap {
+    /// Canonical name (`index_0`, `jaw`, `motor_2`).
+    pub name: &'static str,
+    /// Index of this joint in the wire message's motor array (IDL order).
+    pub wire_index: usize,
+    /// URDF joint name (for JointState), e.g. `left_hand_three_joint`.
+    pub urdf: String,
+    /// +1 or -1: wire direction of canonical "closing".
+    pub sign: f32,
+    /// Wire units per canonical unit (1 for rad<->rad; percent per rad for the EZGripper).
+    pub scale: f32,
+    /// Wire position at canonical 0.
+    pub offset: f32,
+    /// Canonical limits.
+    pub limits: Limits,
+}
+
+impl JointMap {
+    pub fn q_to_wire(&self, q: f32) -> f32 {
+        self.offset + self.sign * self.scale * q
+    }
+    pub fn q_from_wire(&self, w: f32) -> f32 {
+        (w - self.offset) / (self.sign * self.scale)
+    }
+    pub fn rate_to_wire(&self, v: f32) -> f32 {
+        self.sign * self.scale * v
+    }
+    pub fn rate_from_wire(&self, w: f32) -> f32 {
+        w / (self.sign * self.scale)
+    }
+    /// Torque: wire torque has the wire's sign; its unit is N*m on every device that has one.
+    pub fn tau_to_wire(&self, t: f32) -> f32 {
+        self.sign * t
+    }
+    pub fn tau_from_wire(&self, w: f32) -> f32 {
+        self.sign * w
+    }
+    /// Gains keep `kp * error` the same torque: kp_wire = kp / scale.
+    pub fn gain_to_wire(&self, k: f32) -> f32 {
+        k / self.scale
+    }
+    pub fn gain_from_wire(&self, k: f32) -> f32 {
+        k * self.scale
+    }
+
+    pub fn to_wire(&self, c: &JointCommand) -> WireTarget {
+        WireTarget {
+            q: self.q_to_wire(c.q),
+            dq: self.rate_to_wire(c.dq),
+            tau: self.tau_to_wire(c.tau),
+            kp: self.gain_to_wire(c.kp),
+            kd: self.gain_to_wire(c.kd),
+        }
+    }
+
+    pub fn from_wire(&self, w: &WireTarget) -> JointCommand {
+        JointCommand {
+            q: self.q_from_wire(w.q),
+            dq: self.rate_from_wire(w.dq),
+            tau: self.tau_from_wire(w.tau),
+            kp: self.gain_from_wire(w.kp),
+            kd: self.gain_from_wire(w.kd),
+        }
+    }
+}
+
+/// How a hand-level closure in [0, 1] becomes joint commands.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "type")]
+pub enum ClosureMap {
+    /// Linear between two canonical postures (one position per joint), held with kp/kd.
+    Postures {
+        open: Vec<f32>,
+        closed: Vec<f32>,
+        kp: f32,
+        kd: f32,
+    },
+    /// Feed-forward torque only, the same on every joint (rt/hand_sdk: +tau closes).
+    Torque { open: f32, closed: f32 },
+}
+
+/// Errors mapping a command onto a device.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MappingError {
+    #[error("joint id {0} out of range for a {1} ({2} joints)")]
+    UnknownJoint(u8, DeviceKind, usize),
+    #[error("unknown joint {0:?} for a {1}")]
+    UnknownJointName(String, DeviceKind),
+    #[error("non-finite value in the command for joint {0}")]
+    NonFinite(&'static str),
+    #[error("closure {0} is not a finite number")]
+    BadClosure(f32),
+    #[error("table for {0} has {1} joints but the closure map has {2}")]
+    ClosureShape(DeviceKind, usize, usize),
+}
+
+/// The complete mapping of one device.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceTable {
+    pub kind: DeviceKind,
+    pub side: Side,
+    /// In canonical order.
+    pub joints: Vec<JointMap>,
+    pub closure: ClosureMap,
+    /// Gains used to hold a measured position (safe state "hold", re-seeding after reconnect).
+    pub hold_kp: f32,
+    pub hold_kd: f32,
+    /// Largest allowed |target - measured| per command, rad (None = no per-step limit).
+    pub max_step: Option<f32>,
+    /// Largest stiffness/damping a command may ask for (canonical units).
+    pub max_kp: f32,
+    pub max_kd: f32,
+    /// Largest |feed-forward torque|, N*m.
+    pub max_tau: f32,
+}
+
+impl DeviceTable {
+    pub fn joint_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    pub fn joint(&self, id: JointId) -> Result<&JointMap, MappingError> {
+        self.joints
+            .get(id.index())
+            .ok_or(MappingError::UnknownJoint(id.0, self.kind, self.joints.len()))
+    }
+
+    pub fn joint_by_name(&self, name: &str) -> Result<JointId, MappingError> {
+        self.joints
+            .iter()
+            .position(|j| j.name == name)
+            .map(|i| JointId(i as u8))
+            .ok_or_else(|| MappingError::UnknownJointName(name.to_string(), self.kind))
+    }
+
+    /// Number of motors in the wire message (max wire index + 1).
+    pub fn wire_len(&self) -> usize {
+        self.joints.iter().map(|j| j.wire_index + 1).max().unwrap_or(0)
+    }
+
+    /// Makes a canonical joint command safe for the device: non-finite → error, position
+    /// clamped to limits and (when `measured` is known and the table has a per-step limit)
+    /// to `measured ± max_step`, gains to [0, max], torque to ±max_tau.
+    pub fn sanitize(&self, id: JointId, c: &JointCommand, measured: Option<f32>) -> Result<JointCommand, MappingError> {
+        let j = self.joint(id)?;
+        if !c.is_finite() {
+            return Err(MappingError::NonFinite(j.name));
+        }
+        let mut q = j.limits.clamp(c.q);
+        if let (Some(step), Some(m)) = (self.max_step, measured) {
+            if m.is_finite() {
+                q = q.clamp(m - step, m + step);
+                q = j.limits.clamp(q);
+            }
+        }
+        Ok(JointCommand {
+            q,
+            dq: c.dq.clamp(-100.0, 100.0),
+            tau: c.tau.clamp(-self.max_tau, self.max_tau),
+            kp: c.kp.clamp(0.0, self.max_kp),
+            kd: c.kd.clamp(0.0, self.max_kd),
+        })
+    }
+
+    /// Hold every joint at its measured position with the hold gains.
+    pub fn hold_measured(&self, measured: &[JointState]) -> Vec<JointCommand> {
+        self.joints
+            .iter()
+            .enumerate()
+            .map(|(i, j)| {
+                let q = measured.get(i).map(|s| s.q).filter(|q| q.is_finite()).unwrap_or(0.0);
+                JointCommand::hold(j.limits.clamp(q), self.hold_kp, self.hold_kd)
+            })
+            .collect()
+    }
+
+    /// Canonical targets for a closure in [0, 1] (clamped).
+    pub fn closure_targets(&self, closure: f32, stiffness: Option<f32>) -> Result<Vec<JointCommand>, MappingError> {
+        if !closure.is_finite() {
+            return Err(MappingError::BadClosure(closure));
+        }
+        let c = closure.clamp(0.0, 1.0);
+        match &self.closure {
+            ClosureMap::Postures { open, closed, kp, kd } => {
+                if open.len() != self.joints.len() || closed.len() != self.joints.len() {
+                    return Err(MappingError::ClosureShape(
+                        self.kind,
+                        self.joints.len(),
+                        open.len().min(closed.len()),
+                    ));
+                }
+                let kp = stiffness.filter(|s| s.is_finite()).unwrap_or(*kp);
+                Ok(self
+                    .joints
+                    .iter()
+                    .enumerate()
+                    .map(|(i, j)| JointCommand::hold(j.limits.clamp(open[i] + c * (closed[i] - open[i])), kp, *kd))
+                    .collect())
+            }
+            ClosureMap::Torque { open, closed } => {
+                let tau = open + c * (closed - open);
+                Ok(self
+                    .joints
+                    .iter()
+                    .map(|_| JointCommand {
+                        tau,
+                        ..Default::default()
+                    })
+                    .collect())
+            }
+        }
+    }
+
+    /// Estimated closure [0, 1] of canonical joint positions (mean over joints that move
+    /// between the postures). Torque-mapped devices report NaN-free 0 unless `q` says more.
+    pub fn closure_of(&self, q: &[f32]) -> f32 {
+        match &self.closure {
+            ClosureMap::Postures { open, closed, .. } => {
+                let mut sum = 0.0;
+                let mut n = 0;
+                for i in 0..self.joints.len().min(q.len()).min(open.len()).min(closed.len()) {
+                    let span = closed[i] - open[i];
+                    if span.abs() > 1e-6 && q[i].is_finite() {
+                        sum += ((q[i] - open[i]) / span).clamp(0.0, 1.0);
+                        n += 1;
+                    }
+                }
+                if n == 0 {
+                    0.0
+                } else {
+                    sum / n as f32
+                }
+            }
+            ClosureMap::Torque { .. } => 0.0,
+        }
+    }
+
+    /// Resolves a command body into a full set of sanitized canonical targets, given the
+    /// previous targets (joints a partial command leaves out keep them) and the measured
+    /// state (for per-step limits and holds).
+    pub fn resolve(
+        &self,
+        body: &CommandBody,
+        previous: Option<&[JointCommand]>,
+        measured: &[JointState],
+    ) -> Result<Vec<JointCommand>, MappingError> {
+        let meas = |i: usize| measured.get(i).map(|s| s.q);
+        let raw: Vec<JointCommand> = match body {
+            CommandBody::Joints(list) => {
+                let mut out: Vec<JointCommand> = match previous {
+                    Some(p) if p.len() == self.joints.len() => p.to_vec(),
+                    _ => self.hold_measured(measured),
+                };
+                for (id, c) in list {
+                    self.joint(*id)?;
+                    out[id.index()] = *c;
+                }
+                out
+            }
+            CommandBody::Closure { closure, stiffness } => self.closure_targets(*closure, *stiffness)?,
+            CommandBody::Safe(a) => return Ok(self.safe_targets(*a, measured)),
+        };
+        raw.iter()
+            .enumerate()
+            .map(|(i, c)| self.sanitize(JointId(i as u8), c, meas(i)))
+            .collect()
+    }
+
+    /// Targets for a safe action.
+    pub fn safe_targets(&self, action: SafeAction, measured: &[JointState]) -> Vec<JointCommand> {
+        match action {
+            SafeAction::Hold => self.hold_measured(measured),
+            SafeAction::Limp => vec![JointCommand::default(); self.joints.len()],
+            SafeAction::Open => self
+                .closure_targets(0.0, None)
+                .unwrap_or_else(|_| self.hold_measured(measured)),
+        }
+    }
+
+    /// Canonical targets → wire targets in wire order (length [`Self::wire_len`]).
+    pub fn to_wire(&self, targets: &[JointCommand]) -> Vec<WireTarget> {
+        let mut out = vec![WireTarget::LIMP; self.wire_len()];
+        for (j, c) in self.joints.iter().zip(targets) {
+            out[j.wire_index] = j.to_wire(c);
+        }
+        out
+    }
+
+    /// Wire commands (wire order) → canonical commands (canonical order). Entries missing
+    /// from `wire` are `None`.
+    pub fn from_wire(&self, wire: &[WireTarget]) -> Vec<Option<JointCommand>> {
+        self.joints
+            .iter()
+            .map(|j| wire.get(j.wire_index).map(|w| j.from_wire(w)))
+            .collect()
+    }
+
+    /// Wire measurements (q, dq, tau in wire order) → canonical joint states.
+    pub fn state_from_wire(&self, q: &[f32], dq: &[f32], tau: &[f32]) -> Vec<JointState> {
+        self.joints
+            .iter()
+            .map(|j| {
+                let i = j.wire_index;
+                JointState {
+                    q: q.get(i).map(|v| j.q_from_wire(*v)).unwrap_or(f32::NAN),
+                    dq: dq.get(i).map(|v| j.rate_from_wire(*v)).unwrap_or(0.0),
+                    tau: tau.get(i).map(|v| j.tau_from_wire(*v)).unwrap_or(0.0),
+                    temperature: None,
+                }
+            })
+            .collect()
+    }
+
+    /// Canonical joint states → wire (q, dq, tau) in wire order, for fronts that publish a
+    /// device's state in another device's layout.
+    pub fn state_to_wire(&self, states: &[JointState]) -> Vec<(f32, f32, f32)> {
+        let mut out = vec![(0.0, 0.0, 0.0); self.wire_len()];
+        for (j, s) in self.joints.iter().zip(states) {
+            out[j.wire_index] = (j.q_to_wire(s.q), j.rate_to_wire(s.dq), j.tau_to_wire(s.tau));
+        }
+        out
+    }
+
+    /// Wire position limits of joint `id` (ordered min <= max).
+    pub fn wire_limits(&self, id: JointId) -> Result<(f32, f32), MappingError> {
+        let j = self.joint(id)?;
+        let a = j.q_to_wire(j.limits.min);
+        let b = j.q_to_wire(j.limits.max);
+        Ok((a.min(b), a.max(b)))
+    }
+
+    /// Overrides limits, closure postures and step limit from a profile.
+    pub fn with_limits(mut self, name: &str, limits: Limits) -> Result<Self, MappingError> {
+        let id = self.joint_by_name(name)?;
+        self.joints[id.index()].limits = limits;
+        Ok(self)
+    }
+}

@@ -1,0 +1,317 @@
+//! The canonical model: one way to command and observe any hand.
+//!
+//! - Joints are named per device kind ([`DeviceKind::joint_names`]) and addressed by
+//!   [`JointId`] (an index into that list).
+//! - Units are SI: rad, rad/s, N*m, N*m/rad, N*m*s/rad.
+//! - Sign: **positive = closing** for every joint of every hand, left or right
+//!   (docs/model.md explains the thumb).
+//! - Every device also accepts a hand-level [`CommandBody::Closure`] in [0, 1] (0 open,
+//!   1 closed), mapped through the device table's closure map.
+
+use std::fmt;
+use std::time::{Duration, Instant, SystemTime};
+
+use serde::{Deserialize, Serialize};
+
+/// What a device is. Each kind has one folder in `adapters/src/` and one mapping table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DeviceKind {
+    /// Unitree Dex3-1, 7 joints (USB or through a G1's resident service over DDS).
+    Dex3,
+    /// Unitree Dex1-1 parallel gripper (through dex1_1_service over DDS).
+    Dex1,
+    /// SAKE EZGripper (Dynamixel MX-64 over serial).
+    Ezgripper,
+    /// The G1's `rt/hand_sdk` interface to an internally wired hand (4 motors).
+    HandSdk,
+}
+
+/// Dex3-1 joint names, canonical order (= the IDL order of `HandCmd_.motor_cmd`).
+pub const DEX3_JOINTS: [&str; 7] = [
+    "thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1",
+];
+/// A parallel gripper's single joint.
+pub const GRIPPER_JOINTS: [&str; 1] = ["jaw"];
+/// `rt/hand_sdk` motors. Which finger or hand each drives is unpublished (FACTS §6), so
+/// they are named neutrally.
+pub const HAND_SDK_JOINTS: [&str; 4] = ["motor_0", "motor_1", "motor_2", "motor_3"];
+
+impl DeviceKind {
+    pub const ALL: [DeviceKind; 4] = [
+        DeviceKind::Dex3,
+        DeviceKind::Dex1,
+        DeviceKind::Ezgripper,
+        DeviceKind::HandSdk,
+    ];
+
+    /// Canonical joint names of this kind, in canonical order.
+    pub fn joint_names(self) -> &'static [&'static str] {
+        match self {
+            DeviceKind::Dex3 => &DEX3_JOINTS,
+            DeviceKind::Dex1 | DeviceKind::Ezgripper => &GRIPPER_JOINTS,
+            DeviceKind::HandSdk => &HAND_SDK_JOINTS,
+        }
+    }
+
+    pub fn joint_count(self) -> usize {
+        self.joint_names().len()
+    }
+
+    /// The joint called `name`, if this kind has one.
+    pub fn joint(self, name: &str) -> Option<JointId> {
+        self.joint_names()
+            .iter()
+            .position(|n| *n == name)
+            .map(|i| JointId(i as u8))
+    }
+
+    /// Grippers share one joint set, so a gripper front can drive any gripper joint-for-joint.
+    pub fn is_gripper(self) -> bool {
+        matches!(self, DeviceKind::Dex1 | DeviceKind::Ezgripper)
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DeviceKind::Dex3 => "dex3",
+            DeviceKind::Dex1 => "dex1",
+            DeviceKind::Ezgripper => "ezgripper",
+            DeviceKind::HandSdk => "hand_sdk",
+        }
+    }
+}
+
+impl fmt::Display for DeviceKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Which hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    Left,
+    Right,
+    /// A single gripper with no side (EZGripper servo id 3).
+    Center,
+}
+
+impl Side {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Side::Left => "left",
+            Side::Right => "right",
+            Side::Center => "center",
+        }
+    }
+}
+
+impl fmt::Display for Side {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Index of a joint in its kind's canonical joint list.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct JointId(pub u8);
+
+impl JointId {
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// One joint's command in canonical units and sign.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct JointCommand {
+    /// Position, rad (positive = closing).
+    pub q: f32,
+    /// Velocity, rad/s.
+    pub dq: f32,
+    /// Feed-forward torque, N*m (positive = closing).
+    pub tau: f32,
+    /// Stiffness, N*m/rad.
+    pub kp: f32,
+    /// Damping, N*m*s/rad.
+    pub kd: f32,
+}
+
+impl JointCommand {
+    pub fn is_finite(&self) -> bool {
+        [self.q, self.dq, self.tau, self.kp, self.kd]
+            .iter()
+            .all(|v| v.is_finite())
+    }
+
+    /// Hold `q` with the given gains and no feed-forward.
+    pub fn hold(q: f32, kp: f32, kd: f32) -> Self {
+        Self {
+            q,
+            dq: 0.0,
+            tau: 0.0,
+            kp,
+            kd,
+        }
+    }
+}
+
+/// What the device should do when commands stop or the gateway shuts down.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SafeAction {
+    /// Hold the measured position with damping (gains from the device table).
+    #[default]
+    Hold,
+    /// Zero gains and torque.
+    Limp,
+    /// Move to the open posture (closure 0).
+    Open,
+}
+
+/// The body of a canonical command.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CommandBody {
+    /// Per-joint targets; joints not listed keep their previous target (or hold where
+    /// measured if they never had one).
+    Joints(Vec<(JointId, JointCommand)>),
+    /// Hand-level closure in [0, 1]; `stiffness` None = the table's default gains.
+    Closure { closure: f32, stiffness: Option<f32> },
+    /// Go to a safe state.
+    Safe(SafeAction),
+}
+
+/// A canonical command. Devices keep only the latest (never a queue).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HandCommand {
+    /// Client sequence number, echoed in [`HandState::cmd_seq`].
+    pub seq: u64,
+    pub body: CommandBody,
+    /// A client tag echoed in state (used to measure end-to-end latency).
+    pub tag: u32,
+}
+
+impl HandCommand {
+    pub fn joints(seq: u64, joints: Vec<(JointId, JointCommand)>) -> Self {
+        Self {
+            seq,
+            body: CommandBody::Joints(joints),
+            tag: 0,
+        }
+    }
+    pub fn closure(seq: u64, closure: f32) -> Self {
+        Self {
+            seq,
+            body: CommandBody::Closure {
+                closure,
+                stiffness: None,
+            },
+            tag: 0,
+        }
+    }
+}
+
+/// One joint's state in canonical units and sign.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct JointState {
+    pub q: f32,
+    pub dq: f32,
+    pub tau: f32,
+    /// deg C, when the device reports it.
+    pub temperature: Option<f32>,
+}
+
+/// How current the state is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Freshness {
+    /// Measured within the device's freshness bound.
+    Fresh,
+    /// The last measured sample is older than the bound (or the link is down).
+    #[default]
+    Stale,
+    /// The device has no feedback: the joint values are what was commanded (hand_sdk).
+    CommandedOnly,
+}
+
+/// IMU reading (hand frame).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Imu {
+    /// w, x, y, z
+    pub quaternion: [f32; 4],
+    /// rad/s
+    pub gyroscope: [f32; 3],
+    /// m/s^2
+    pub accelerometer: [f32; 3],
+}
+
+/// Supply measurements.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Power {
+    pub voltage: f32,
+    pub current: f32,
+}
+
+/// One tactile pad.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pad {
+    /// Raw taxel values as the device reports them (Dex3: 30000 = no reading).
+    pub pressure: [f32; 12],
+    pub temperature: [f32; 12],
+}
+
+/// Fault bits in [`HandState::faults`].
+pub mod faults {
+    /// A motor reports an error (over-current, over-temperature, ...).
+    pub const MOTOR_ERROR: u32 = 1 << 0;
+    /// A motor's command timeout protection tripped.
+    pub const MOTOR_TIMEOUT: u32 = 1 << 1;
+    /// The link to the device is down.
+    pub const LINK_DOWN: u32 = 1 << 2;
+    /// Frames failed their CRC in the last cycle.
+    pub const CRC: u32 = 1 << 3;
+    /// The device reports a hardware error (EZGripper) or overload.
+    pub const HARDWARE: u32 = 1 << 4;
+    /// The device is in its safe state (watchdog or shutdown).
+    pub const SAFE_STATE: u32 = 1 << 5;
+}
+
+/// Canonical state of one device.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct HandState {
+    /// Joints in canonical order.
+    pub joints: Vec<JointState>,
+    pub pads: Vec<Pad>,
+    pub imu: Option<Imu>,
+    pub power: Option<Power>,
+    /// Estimated closure [0, 1] (through the table's closure map).
+    pub closure: f32,
+    /// Bit set of [`faults`].
+    pub faults: u32,
+    pub freshness: Freshness,
+    /// When the last measured sample arrived (monotonic).
+    pub measured_at: Option<Instant>,
+    /// The same, as wall-clock time (for messages).
+    pub measured_wall: Option<SystemTime>,
+    /// seq of the last command applied.
+    pub cmd_seq: u64,
+    /// tag of the last command applied.
+    pub cmd_tag: u32,
+    /// Device-specific status byte (EZGripper grasp state, Dex1 service mode...).
+    pub mode: u8,
+}
+
+impl HandState {
+    /// A state with `n` zero joints, stale.
+    pub fn empty(n: usize) -> Self {
+        Self {
+            joints: vec![JointState::default(); n],
+            ..Default::default()
+        }
+    }
+
+    /// Age of the last measured sample.
+    pub fn age(&self, now: Instant) -> Option<Duration> {
+        self.measured_at.map(|t| now.saturating_duration_since(t))
+    }
+}
