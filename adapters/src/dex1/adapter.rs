@@ -1,0 +1,237 @@
+//! Dex1-1 over DDS, as a client of dex1_1_service (or of SAKE's EZGripper driver, which
+//! presents the same interface). Three wire variants exist in the field (FACTS §4):
+//!
+//! | variant | cmd / state topics | types | elements |
+//! |---|---|---|---|
+//! | `Go` (default, real systems) | `rt/dex1/{side}/cmd`, `rt/dex1/{side}/state` | unitree_go MotorCmds_ / MotorStates_ | 1 |
+//! | `Hg` (the seed spec) | same topics | unitree_hg HandCmd_ / HandState_ | 1 |
+//! | `Actuator` (old xr_teleoperate) | `rt/unitree_actuator/cmd`, `/state` | unitree_go MotorCmds_ / MotorStates_ | 2: index 0 right, 1 left |
+
+use handgate_idl::{unitree_go, unitree_hg};
+
+use crate::control::Active;
+use crate::dds_device::DdsCodec;
+use crate::mapping::DeviceTable;
+use crate::model::{faults, HandState, JointCommand, Side};
+
+/// Which Dex1 interface the peer speaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Variant {
+    #[default]
+    Go,
+    Hg,
+    Actuator,
+}
+
+/// Default topics of a variant for a side.
+pub fn topics(variant: Variant, side: Side) -> (String, String) {
+    match variant {
+        Variant::Go | Variant::Hg => (format!("rt/dex1/{side}/cmd"), format!("rt/dex1/{side}/state")),
+        Variant::Actuator => ("rt/unitree_actuator/cmd".into(), "rt/unitree_actuator/state".into()),
+    }
+}
+
+/// Element index of `side` in the 2-element `rt/unitree_actuator` messages.
+pub fn actuator_index(side: Side) -> usize {
+    match side {
+        Side::Right => 0,
+        Side::Left | Side::Center => 1,
+    }
+}
+
+/// Value the EZGripper driver (and handgate's Dex1 front) put in `lost` on a hardware fault.
+pub const LOST_FAULT: u32 = 0xFFFF_FFFF;
+/// `mode` the EZGripper driver reports on a hardware fault.
+pub const MODE_FAULT: u8 = 255;
+
+fn go_cmd(w: &crate::mapping::WireTarget) -> unitree_go::MotorCmd_ {
+    unitree_go::MotorCmd_ {
+        mode: 0,
+        q: w.q,
+        dq: w.dq,
+        tau: w.tau,
+        kp: w.kp,
+        kd: w.kd,
+        reserve: [0; 3],
+    }
+}
+
+/// Codec for the `unitree_go` variants (Go and Actuator).
+#[derive(Debug, Clone)]
+pub struct Dex1GoCodec {
+    pub variant: Variant,
+    pub side: Side,
+    /// Actuator variant: the other gripper's last measured wire q, so our messages hold it
+    /// where it is instead of commanding it anywhere.
+    other_q: Option<f32>,
+}
+
+impl Dex1GoCodec {
+    pub fn new(variant: Variant, side: Side) -> Self {
+        Self {
+            variant,
+            side,
+            other_q: None,
+        }
+    }
+    fn index(&self) -> usize {
+        match self.variant {
+            Variant::Actuator => actuator_index(self.side),
+            _ => 0,
+        }
+    }
+}
+
+fn targets(active: &Active) -> Option<&[JointCommand]> {
+    match active {
+        Active::Idle => None,
+        Active::Command(t) | Active::Safe(_, t) => Some(t),
+    }
+}
+
+/// Canonical state from one gripper's unitree_go MotorState_.
+pub fn decode_go_state(m: &unitree_go::MotorState_, table: &DeviceTable) -> HandState {
+    let mut joints = table.state_from_wire(&[m.q], &[m.dq], &[m.tau_est]);
+    joints[0].temperature = Some(m.temperature as f32);
+    let mut f = 0;
+    if m.mode == MODE_FAULT || m.lost == LOST_FAULT {
+        f |= faults::HARDWARE;
+    }
+    HandState {
+        joints,
+        faults: f,
+        mode: m.mode,
+        ..Default::default()
+    }
+}
+
+impl DdsCodec for Dex1GoCodec {
+    type Cmd = unitree_go::MotorCmds_;
+    type State = unitree_go::MotorStates_;
+
+    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
+        let w = table.to_wire(targets(active)?);
+        match self.variant {
+            Variant::Actuator => {
+                // Without the other gripper's position we cannot hold it: stay silent.
+                let other = self.other_q?;
+                let mut msg = unitree_go::MotorCmds_::with_len(2);
+                msg.cmds[self.index()] = go_cmd(&w[0]);
+                msg.cmds[1 - self.index()] = unitree_go::MotorCmd_ {
+                    q: other,
+                    kp: table.hold_kp,
+                    kd: table.hold_kd,
+                    ..Default::default()
+                };
+                Some(msg)
+            }
+            _ => Some(unitree_go::MotorCmds_ {
+                cmds: vec![go_cmd(&w[0])],
+            }),
+        }
+    }
+
+    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
+        let need = if self.variant == Variant::Actuator { 2 } else { 1 };
+        if s.states.len() < need {
+            return None;
+        }
+        if self.variant == Variant::Actuator {
+            self.other_q = Some(s.states[1 - self.index()].q);
+        }
+        Some(decode_go_state(&s.states[self.index()], table))
+    }
+}
+
+/// Codec for the seed spec's `unitree_hg` variant.
+#[derive(Debug, Clone, Default)]
+pub struct Dex1HgCodec;
+
+impl DdsCodec for Dex1HgCodec {
+    type Cmd = unitree_hg::HandCmd_;
+    type State = unitree_hg::HandState_;
+
+    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
+        let w = table.to_wire(targets(active)?);
+        let mut msg = unitree_hg::HandCmd_::with_motors(1);
+        msg.motor_cmd[0] = unitree_hg::MotorCmd_ {
+            mode: 0,
+            q: w[0].q,
+            dq: w[0].dq,
+            tau: w[0].tau,
+            kp: w[0].kp,
+            kd: w[0].kd,
+            reserve: 0,
+        };
+        Some(msg)
+    }
+
+    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
+        let m = s.motor_state.first()?;
+        let mut joints = table.state_from_wire(&[m.q], &[m.dq], &[m.tau_est]);
+        joints[0].temperature = Some(m.temperature[0] as f32);
+        let f = if m.motorstate != 0 { faults::MOTOR_ERROR } else { 0 };
+        Some(HandState {
+            joints,
+            faults: f,
+            mode: m.mode,
+            ..Default::default()
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::SafeAction;
+
+    #[test]
+    fn go_variant_encodes_one_element_in_radians() {
+        let t = crate::dex1::table::table(Side::Left, 5.4);
+        let mut c = Dex1GoCodec::new(Variant::Go, Side::Left);
+        let closed = t.closure_targets(1.0, None).unwrap();
+        let msg = c.encode(&Active::Command(closed), &t, 0.005).unwrap();
+        assert_eq!(msg.cmds.len(), 1);
+        assert_eq!(msg.cmds[0].q, 0.0);
+        assert_eq!(msg.cmds[0].kp, 5.0);
+        let open = t.closure_targets(0.0, None).unwrap();
+        assert_eq!(c.encode(&Active::Command(open), &t, 0.005).unwrap().cmds[0].q, 5.4);
+        assert!(c.encode(&Active::Idle, &t, 0.005).is_none());
+    }
+
+    #[test]
+    fn actuator_variant_holds_the_other_gripper_and_uses_index_0_for_right() {
+        let t = crate::dex1::table::table(Side::Right, 5.4);
+        let mut c = Dex1GoCodec::new(Variant::Actuator, Side::Right);
+        let tg = t.closure_targets(0.5, None).unwrap();
+        assert!(
+            c.encode(&Active::Command(tg.clone()), &t, 0.005).is_none(),
+            "silent until the other is measured"
+        );
+        let mut st = unitree_go::MotorStates_::with_len(2);
+        st.states[0].q = 1.0; // right
+        st.states[1].q = 4.0; // left
+        let s = c.decode(&st, &t).unwrap();
+        assert!(
+            (s.joints[0].q - 4.4).abs() < 1e-5,
+            "right jaw measured from open: 5.4 - 1.0"
+        );
+        let msg = c.encode(&Active::Command(tg), &t, 0.005).unwrap();
+        assert_eq!(msg.cmds.len(), 2);
+        assert!((msg.cmds[0].q - 2.7).abs() < 1e-5);
+        assert_eq!(msg.cmds[1].q, 4.0);
+        let _ = SafeAction::Hold;
+    }
+
+    #[test]
+    fn fault_markers_become_hardware_fault() {
+        let t = crate::dex1::table::table(Side::Left, 5.4);
+        let m = unitree_go::MotorState_ {
+            mode: MODE_FAULT,
+            lost: LOST_FAULT,
+            ..Default::default()
+        };
+        assert_ne!(decode_go_state(&m, &t).faults & faults::HARDWARE, 0);
+    }
+}
