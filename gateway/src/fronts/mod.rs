@@ -1,0 +1,63 @@
+//! Fronts: the DDS interfaces clients already speak. Each module here is a pure codec
+//! (front wire message ⇄ canonical), validated by the rules in docs/fronts.md; the runtime
+//! (`crate::runtime`) binds them to DDS endpoints and devices.
+//!
+//! Bad input rule, for every front: a message with the wrong entry count, a non-finite value,
+//! an unknown mode/status, a wrong motor id or an unknown joint name is **rejected whole**
+//! (nothing moves, it is counted by reason and logged at most once per second per front);
+//! finite values outside a joint's limits are **clamped** by the device's table (counted).
+
+pub mod canonical;
+pub mod dex1;
+pub mod dex3;
+pub mod joint_state;
+
+use handgate_adapters::model::JointCommand;
+
+/// Why a front rejected a message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Rejection {
+    #[error("expected {want} entries, got {got}")]
+    WrongCount { got: usize, want: usize },
+    #[error("non-finite value in entry {0}")]
+    NonFinite(usize),
+    #[error("entry {index} carries motor id {id}")]
+    WrongId { index: usize, id: u8 },
+    #[error("entry {index} has unknown motor status {status}")]
+    UnknownStatus { index: usize, status: u8 },
+    #[error("unknown command mode {0}")]
+    UnknownMode(u8),
+    #[error("unknown joint {0:?}")]
+    UnknownJoint(String),
+    #[error("closure {0} is not finite")]
+    BadClosure(f32),
+}
+
+impl Rejection {
+    /// A short stable reason key for counters and logs.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            Rejection::WrongCount { .. } => "wrong_count",
+            Rejection::NonFinite(_) => "non_finite",
+            Rejection::WrongId { .. } => "wrong_id",
+            Rejection::UnknownStatus { .. } => "unknown_status",
+            Rejection::UnknownMode(_) => "unknown_mode",
+            Rejection::UnknownJoint(_) => "unknown_joint",
+            Rejection::BadClosure(_) => "bad_closure",
+        }
+    }
+}
+
+/// A decoded front command, in the front table's canonical order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrontCommand {
+    pub joints: Vec<Option<JointCommand>>,
+    /// The client asked for the motors' 1 s timeout protection (Dex3 RIS bit 7).
+    pub timeout_bit: bool,
+    /// Client tag echoed back in state (HandCmd_.reserve[0]).
+    pub tag: u32,
+}
+
+fn finite5(v: [f32; 5]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
