@@ -2,4 +2,6 @@
 
 pub mod cli;
 pub mod fronts;
+pub mod plan;
 pub mod router;
+pub mod runtime;

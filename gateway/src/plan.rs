@@ -1,0 +1,128 @@
+//! The resolved fleet the runtime starts: what a validated profile turns into. Kept separate
+//! from the profile schema (user-facing, layered, validated) so the runtime only ever sees
+//! complete, typed values.
+
+use std::time::Duration;
+
+use handgate_adapters::device::Backend;
+use handgate_adapters::dex1::adapter::Variant;
+use handgate_adapters::dex3::dds_client::StateSource;
+use handgate_adapters::hand_sdk::adapter::WeightRamp;
+use handgate_adapters::model::{DeviceKind, SafeAction, Side};
+use handgate_adapters::tables::TableParams;
+
+/// How a device is reached.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Transport {
+    /// Dex3-1 through a G1's resident service.
+    Dex3Dds {
+        cmd_topic: String,
+        state_topic: String,
+        timeout_bit: bool,
+    },
+    /// Dex1-1 through dex1_1_service / the EZGripper driver.
+    Dex1Dds {
+        variant: Variant,
+        cmd_topic: String,
+        state_topic: String,
+    },
+    /// G1 rt/hand_sdk.
+    HandSdk {
+        topic: String,
+        ramp: WeightRamp,
+        publish_hz: f64,
+    },
+}
+
+/// One device.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DevicePlan {
+    pub name: String,
+    pub kind: DeviceKind,
+    pub side: Side,
+    pub backend: Backend,
+    pub table: TableParams,
+    pub rate_hz: f64,
+    pub stale_after: Duration,
+    pub safe_action: SafeAction,
+    pub transport: Transport,
+}
+
+/// What a front speaks.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FrontKind {
+    Dex3 {
+        lf_state_topic: Option<String>,
+        lf_state_hz: f64,
+    },
+    Dex1 {
+        variant: Variant,
+        range_rad: f32,
+    },
+    Canonical,
+    JointState {
+        devices: Vec<String>,
+        urdf_names: bool,
+    },
+}
+
+/// One front, bound to one device (a JointState front lists its devices instead).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrontPlan {
+    pub kind: FrontKind,
+    pub device: String,
+    /// The side whose wire convention the front speaks.
+    pub side: Side,
+    pub cmd_topic: Option<String>,
+    pub state_topic: String,
+    pub state_hz: f64,
+    pub watchdog: Duration,
+}
+
+/// The whole fleet.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    pub profile: String,
+    pub domain: u32,
+    pub interface: Option<String>,
+    pub status_topic: String,
+    pub status_hz: f64,
+    pub devices: Vec<DevicePlan>,
+    pub fronts: Vec<FrontPlan>,
+}
+
+/// Standard topics.
+pub fn dex3_topics(side: Side) -> (String, String, String) {
+    let s = side.as_str();
+    (
+        format!("rt/dex3/{s}/cmd"),
+        format!("rt/dex3/{s}/state"),
+        format!("rt/lf/dex3/{s}/state"),
+    )
+}
+
+/// Standard Dex1 topics for a variant.
+pub fn dex1_topics(variant: Variant, side: Side) -> (String, String) {
+    handgate_adapters::dex1::adapter::topics(variant, side)
+}
+
+/// The canonical front's topics for a device.
+pub fn canonical_topics(device: &str) -> (String, String) {
+    (
+        format!("rt/handgate/{device}/cmd"),
+        format!("rt/handgate/{device}/state"),
+    )
+}
+
+/// Private topics of an in-process emulated peer for `device`.
+pub fn emulator_topics(device: &str) -> (String, String) {
+    (
+        format!("rt/handgate/emu/{device}/cmd"),
+        format!("rt/handgate/emu/{device}/state"),
+    )
+}
+
+/// The Dex3 resident service's state source → topic.
+pub fn dex3_state_topic(side: Side, source: StateSource) -> String {
+    handgate_adapters::dex3::dds_client::topics(side, source).1
+}
