@@ -5,3 +5,4 @@ pub mod fronts;
 pub mod plan;
 pub mod router;
 pub mod runtime;
+pub mod tools;
