@@ -2,4 +2,8 @@
 //! model, and one folder per device kind (codec, transport, emulator, adapter).
 
 pub mod dds;
+pub mod dex1;
+pub mod dex3;
+pub mod emu_common;
+pub mod hand_sdk;
 pub mod sim;

@@ -1,0 +1,1 @@
+pub mod dds_service_emulator;
