@@ -610,12 +610,6 @@ impl Dex3ServiceEmulator {
     pub fn start(node: &Node, config: Dex3ServiceConfig) -> Result<Self, EmulatorError> {
         let period = config.state_rate.period()?;
         let lf_period = config.lf_rate.period()?;
-        if !(0.0..=58.0).contains(&config.tuning.power_v) {
-            return Err(EmulatorError::InvalidConfig(format!(
-                "power_v {} outside 0..=58 V",
-                config.tuning.power_v
-            )));
-        }
         let side = config.side;
         // Best-effort reader: matches reliable and best-effort writers alike.
         let reader = node.reader::<HandCmd_>(&cmd_topic(side), Qos::BestEffort)?;
@@ -837,6 +831,30 @@ mod tests {
         assert!((core.joints[3].q - 0.4).abs() < 0.01, "q = {}", core.joints[3].q);
         assert_eq!(core.applied(3).q, 0.4);
         assert_eq!(core.state().motor_state[3].mode, 0x03);
+        // An undefined status (2) holds too, and is reported back as received.
+        core.on_command(
+            &cmd_all(|i| 0x20 | i, [1.5; MOTORS], 3.0, 0.1),
+            t0 + Duration::from_secs(1),
+        );
+        assert_eq!(core.applied(3).q, 0.4);
+        assert_eq!(core.state().motor_state[3].mode, 0x23);
+        // FOC releases the hold.
+        core.on_command(
+            &cmd_all(|i| 0x10 | i, [1.5; MOTORS], 3.0, 0.1),
+            t0 + Duration::from_secs(1),
+        );
+        assert_eq!(core.applied(3).q, 1.5);
+    }
+
+    #[test]
+    fn id_bits_not_matching_the_index_are_counted_and_applied_by_index() {
+        let mut core = Dex3Core::new(&Dex3ServiceConfig::new(Side::Right));
+        let mut q = [0.0; MOTORS];
+        q[4] = 0.7;
+        // Every motor claims id 0.
+        core.on_command(&cmd_all(|_| 0x10, q, 1.5, 0.1), Instant::now());
+        assert_eq!(core.id_mismatches, 6);
+        assert_eq!(core.applied(4).q, 0.7);
     }
 
     #[test]
