@@ -61,6 +61,14 @@ pub enum EmulatorError {
     Spawn(#[from] std::io::Error),
 }
 
+/// `Err(InvalidConfig)` unless every value is finite.
+pub(crate) fn ensure_finite(what: &str, values: &[f32]) -> Result<(), EmulatorError> {
+    match values.iter().find(|v| !v.is_finite()) {
+        Some(v) => Err(EmulatorError::InvalidConfig(format!("{what} must be finite, got {v}"))),
+        None => Ok(()),
+    }
+}
+
 /// A background thread running `tick` at a fixed period until stopped (explicitly or on drop).
 pub(crate) struct Worker {
     stop: Arc<AtomicBool>,

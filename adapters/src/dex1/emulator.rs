@@ -25,7 +25,7 @@ use handgate_idl::unitree_go::{MotorCmds_, MotorState_ as GoMotorState, MotorSta
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorState_ as HgMotorState};
 
 use crate::dds::{Node, Qos, Reader, Writer};
-use crate::emu_common::{tick_dt, EmulatorError, Hz, Side, Worker};
+use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget};
 
 /// Nominal open position clients command (xr_teleoperate, EZGripper driver; FACTS §4), rad.
@@ -202,6 +202,22 @@ impl Dex1Core {
             return Err(EmulatorError::InvalidConfig(format!("bad range {:?}", config.range)));
         }
         let t = &config.tuning;
+        ensure_finite("initial_q", &[config.initial_q])?;
+        ensure_finite("object", &config.object.into_iter().collect::<Vec<_>>())?;
+        ensure_finite(
+            "tuning",
+            &[
+                t.default_kp,
+                t.default_kd,
+                t.inertia,
+                t.friction,
+                t.tau_max,
+                t.contact_stiffness,
+            ],
+        )?;
+        if t.inertia <= 0.0 {
+            return Err(EmulatorError::InvalidConfig("inertia must be > 0".into()));
+        }
         let params = JointParams {
             inertia: t.inertia,
             friction: t.friction,
@@ -588,6 +604,11 @@ mod tests {
         assert_eq!((core.commands, core.rejected), (1, 3));
         assert!(Dex1Core::new(&Dex1Config {
             range: (1.0, 1.0),
+            ..Dex1Config::new(Dex1Variant::GoMotorCmds, Side::Right)
+        })
+        .is_err());
+        assert!(Dex1Core::new(&Dex1Config {
+            initial_q: f32::NAN,
             ..Dex1Config::new(Dex1Variant::GoMotorCmds, Side::Right)
         })
         .is_err());

@@ -29,7 +29,7 @@ use handgate_idl::unitree_hg::{
 };
 
 use crate::dds::{Node, Qos};
-use crate::emu_common::{tick_dt, EmulatorError, Hz, Side, Worker};
+use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget};
 
 /// Motors per hand (FACTS §2).
@@ -296,6 +296,30 @@ impl Dex3ServiceConfig {
             objects: [None; 3],
             tuning: Dex3Tuning::default(),
         }
+    }
+
+    /// Checks rates and that positions, objects and tuning values are finite.
+    pub fn validate(&self) -> Result<(), EmulatorError> {
+        self.state_rate.period()?;
+        self.lf_rate.period()?;
+        ensure_finite("initial_q", &self.initial_q)?;
+        ensure_finite("objects", &self.objects.iter().flatten().copied().collect::<Vec<_>>())?;
+        let t = &self.tuning;
+        ensure_finite(
+            "tuning",
+            &[
+                t.hold_kp,
+                t.hold_kd,
+                t.contact_stiffness,
+                t.press_raw_per_nm,
+                t.temperature_c,
+                t.power_v,
+                t.power_a_idle,
+                t.power_a_per_nm,
+                t.system_v,
+                t.device_v,
+            ],
+        )
     }
 }
 
@@ -608,6 +632,7 @@ impl std::fmt::Debug for Dex3ServiceEmulator {
 impl Dex3ServiceEmulator {
     /// Starts the service on `node`: creates its reader and writers, then its loop thread.
     pub fn start(node: &Node, config: Dex3ServiceConfig) -> Result<Self, EmulatorError> {
+        config.validate()?;
         let period = config.state_rate.period()?;
         let lf_period = config.lf_rate.period()?;
         let side = config.side;
@@ -844,6 +869,20 @@ mod tests {
             t0 + Duration::from_secs(1),
         );
         assert_eq!(core.applied(3).q, 1.5);
+    }
+
+    #[test]
+    fn invalid_configs_are_errors() {
+        let mut c = Dex3ServiceConfig::new(Side::Left);
+        c.initial_q[2] = f32::NAN;
+        assert!(matches!(c.validate(), Err(EmulatorError::InvalidConfig(_))));
+        let mut c = Dex3ServiceConfig::new(Side::Left);
+        c.lf_rate = Hz(0.0);
+        assert!(c.validate().is_err());
+        let mut c = Dex3ServiceConfig::new(Side::Left);
+        c.objects[1] = Some(f32::INFINITY);
+        assert!(c.validate().is_err());
+        assert!(Dex3ServiceConfig::new(Side::Right).validate().is_ok());
     }
 
     #[test]

@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use handgate_idl::unitree_go::MotorCmds_;
 
 use crate::dds::{Node, Qos};
-use crate::emu_common::{tick_dt, EmulatorError, Hz, Worker};
+use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
 use crate::sim::{JointModel, JointParams, MotorTarget};
 
 /// The topic (g1-hand-sdk-interface.txt).
@@ -131,6 +131,27 @@ impl Default for HandSdkConfig {
             models: Some(HandSdkModels::default()),
             history_capacity: 4096,
         }
+    }
+}
+
+impl HandSdkConfig {
+    /// Checks the rate and that commands, joint parameters and positions are finite.
+    pub fn validate(&self) -> Result<(), EmulatorError> {
+        self.control_rate.period()?;
+        let fields = |t: &MotorTarget| [t.q, t.dq, t.tau, t.kp, t.kd];
+        for t in self.defaults.iter().chain(&self.damping_command) {
+            ensure_finite("default / damping command", &fields(t))?;
+        }
+        if let Some(m) = &self.models {
+            ensure_finite("model initial_q", &m.initial_q)?;
+            for p in &m.params {
+                ensure_finite("model params", &[p.inertia, p.friction, p.tau_max, p.q_min, p.q_max])?;
+                if !(p.inertia > 0.0 && p.q_min < p.q_max) {
+                    return Err(EmulatorError::InvalidConfig(format!("bad joint params {p:?}")));
+                }
+            }
+        }
+        Ok(())
     }
 }
 
@@ -341,6 +362,7 @@ impl std::fmt::Debug for HandSdkEmulator {
 impl HandSdkEmulator {
     /// Starts the blend on `node`.
     pub fn start(node: &Node, config: HandSdkConfig) -> Result<Self, EmulatorError> {
+        config.validate()?;
         let period = config.control_rate.period()?;
         // Best-effort reader: matches reliable and best-effort writers alike.
         let reader = node.reader::<MotorCmds_>(HAND_SDK_TOPIC, Qos::BestEffort)?;
@@ -508,6 +530,19 @@ mod tests {
             (5, 3, 1, 1, 1)
         );
         assert_eq!(core.weight_history(), vec![0.0, 1.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn invalid_configs_are_errors() {
+        let mut c = HandSdkConfig::default();
+        c.defaults[3].kp = f32::NAN;
+        assert!(matches!(c.validate(), Err(EmulatorError::InvalidConfig(_))));
+        let c = HandSdkConfig {
+            control_rate: Hz(-5.0),
+            ..HandSdkConfig::default()
+        };
+        assert!(c.validate().is_err());
+        assert!(HandSdkConfig::default().validate().is_ok());
     }
 
     #[test]
