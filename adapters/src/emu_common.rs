@@ -131,6 +131,34 @@ pub(crate) fn tick_dt(prev: Option<Instant>, now: Instant, nominal: Duration) ->
     dt.as_secs_f32().clamp(0.0, 0.01)
 }
 
+/// Test support: makes DDS domain `id` private to this process.
+///
+/// The emulator tests own fixed domain ids; two runs of the same tests at once (two
+/// worktrees, two engineers) would otherwise discover each other's emulators on the same
+/// host. CycloneDDS's `Discovery/Tag` makes participants ignore remote participants without
+/// the same tag; participants inside one process still match locally. Call it before any
+/// `Node` on `id`. The domain is kept for the life of the process (deleting it under live
+/// participants would make their deletion fail), and a second call for the same id is a no-op.
+#[cfg(test)]
+pub(crate) fn isolated_test_domain(id: u32) {
+    use std::collections::HashSet;
+    use std::sync::OnceLock;
+    static CREATED: OnceLock<std::sync::Mutex<HashSet<u32>>> = OnceLock::new();
+    let mut created = CREATED
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    if created.insert(id) {
+        let cfg = format!(
+            "<CycloneDDS><Domain Id=\"any\"><Discovery><Tag>handgate-emu-test-{}-{id}</Tag></Discovery></Domain></CycloneDDS>",
+            std::process::id()
+        );
+        let domain =
+            cyclonedds_rs::dds_domain::DdsDomain::create(id, Some(&cfg)).expect("create an isolated test domain");
+        std::mem::forget(domain);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

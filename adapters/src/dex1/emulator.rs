@@ -698,6 +698,7 @@ mod tests {
 
     #[test]
     fn dds_go_variant_tracks_q_brakes_after_silence_and_resumes() {
+        crate::emu_common::isolated_test_domain(36);
         let emu_node = Node::new(36, None).unwrap();
         let emu = Dex1Emulator::start(&emu_node, Dex1Config::new(Dex1Variant::GoMotorCmds, Side::Left)).unwrap();
         let node = Node::new(36, None).unwrap();
@@ -733,6 +734,7 @@ mod tests {
 
     #[test]
     fn dds_unitree_actuator_index_0_drives_the_right_gripper() {
+        crate::emu_common::isolated_test_domain(37);
         let emu_node = Node::new(37, None).unwrap();
         let cfg = Dex1Config::new(Dex1Variant::UnitreeActuator, Side::Left);
         let emu = Dex1Emulator::start(&emu_node, cfg).unwrap();
@@ -760,6 +762,7 @@ mod tests {
 
     #[test]
     fn dds_hg_variant_serves_hand_cmd_with_one_motor() {
+        crate::emu_common::isolated_test_domain(38);
         let emu_node = Node::new(38, None).unwrap();
         let emu = Dex1Emulator::start(&emu_node, Dex1Config::new(Dex1Variant::HgHandCmd, Side::Right)).unwrap();
         let node = Node::new(38, None).unwrap();
@@ -783,6 +786,7 @@ mod tests {
 
     #[test]
     fn dds_grasped_object_stops_jaws_and_raises_tau_est() {
+        crate::emu_common::isolated_test_domain(39);
         let emu_node = Node::new(39, None).unwrap();
         let emu = Dex1Emulator::start(&emu_node, Dex1Config::new(Dex1Variant::GoMotorCmds, Side::Right)).unwrap();
         emu.set_object(Side::Right, Some(1.5));

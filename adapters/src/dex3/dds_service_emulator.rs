@@ -970,6 +970,7 @@ mod tests {
 
     fn setup(domain: u32, config: Dex3ServiceConfig) -> (Dex3ServiceEmulator, Client) {
         let side = config.side;
+        crate::emu_common::isolated_test_domain(domain);
         let emu_node = Node::new(domain, None).unwrap();
         let emu = Dex3ServiceEmulator::start(&emu_node, config).unwrap();
         let node = Node::new(domain, None).unwrap();
@@ -1115,6 +1116,7 @@ mod tests {
 
     #[test]
     fn dds_low_frequency_copy_is_published_at_a_lower_rate() {
+        crate::emu_common::isolated_test_domain(34);
         let emu_node = Node::new(34, None).unwrap();
         let emu = Dex3ServiceEmulator::start(&emu_node, Dex3ServiceConfig::new(Side::Right)).unwrap();
         let node = Node::new(34, None).unwrap();

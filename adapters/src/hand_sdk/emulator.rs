@@ -573,6 +573,7 @@ mod tests {
     }
 
     fn setup(domain: u32, config: HandSdkConfig) -> (HandSdkEmulator, Node, Writer<MotorCmds_>) {
+        crate::emu_common::isolated_test_domain(domain);
         let emu_node = Node::new(domain, None).unwrap();
         let emu = HandSdkEmulator::start(&emu_node, config).unwrap();
         let node = Node::new(domain, None).unwrap();
