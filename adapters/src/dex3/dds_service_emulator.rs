@@ -668,14 +668,14 @@ impl Dex3ServiceEmulator {
                 let lf_due = lf_writer.is_some() && now >= next_lf;
                 (g.core.state(), lf_due)
             };
-            let ok = writer.write(state.clone()).is_ok();
             let mut lf_ok = false;
             if lf_due {
                 next_lf = (next_lf + lf_period).max(now);
                 if let Some(w) = lf_writer.as_mut() {
-                    lf_ok = w.write(state).is_ok();
+                    lf_ok = w.write(state.clone()).is_ok();
                 }
             }
+            let ok = writer.write(state).is_ok();
             let mut g = lock(&sh);
             g.states_published += u64::from(ok);
             g.lf_published += u64::from(lf_ok);
