@@ -26,9 +26,33 @@ pub enum Variant {
 
 /// Default topics of a variant for a side.
 pub fn topics(variant: Variant, side: Side) -> (String, String) {
-    match variant {
-        Variant::Go | Variant::Hg => (format!("rt/dex1/{side}/cmd"), format!("rt/dex1/{side}/state")),
-        Variant::Actuator => ("rt/unitree_actuator/cmd".into(), "rt/unitree_actuator/state".into()),
+    variant.topics(side)
+}
+
+impl Variant {
+    /// (command topic, state topic) for `side` (ignored by [`Variant::Actuator`]).
+    pub fn topics(self, side: Side) -> (String, String) {
+        match self {
+            Variant::Go | Variant::Hg => (format!("rt/dex1/{side}/cmd"), format!("rt/dex1/{side}/state")),
+            Variant::Actuator => ("rt/unitree_actuator/cmd".into(), "rt/unitree_actuator/state".into()),
+        }
+    }
+
+    /// Which gripper each message element drives.
+    pub fn layout(self, side: Side) -> Vec<Side> {
+        match self {
+            Variant::Go | Variant::Hg => vec![side],
+            Variant::Actuator => vec![Side::Right, Side::Left],
+        }
+    }
+
+    /// The position range this variant's clients use: 0..5.4 rad (FACTS §4), or 0..2pi for
+    /// the seed spec's hg variant.
+    pub fn default_range(self) -> (f32, f32) {
+        match self {
+            Variant::Hg => (0.0, crate::dex1::table::SEED_SPEC_RANGE_RAD),
+            _ => (0.0, crate::dex1::table::DEFAULT_RANGE_RAD),
+        }
     }
 }
 

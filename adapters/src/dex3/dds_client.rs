@@ -5,48 +5,11 @@
 
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorCmd_};
 
+use super::RisMode;
 use crate::control::Active;
 use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, Imu, JointState, Pad, Power, SafeAction, Side};
-
-/// Motor status in the RIS mode byte (bits 4-6).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u8)]
-pub enum MotorStatus {
-    /// 0: locked (motor holds / zero gains, per the service).
-    Lock = 0,
-    /// 1: field-oriented control: follows q/dq/tau/kp/kd.
-    Foc = 1,
-}
-
-/// The RIS mode byte: bits 0-3 motor id (= IDL index), 4-6 status, 7 timeout protection.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RisMode {
-    pub id: u8,
-    pub status: u8,
-    pub timeout: bool,
-}
-
-impl RisMode {
-    pub fn new(id: u8, status: MotorStatus, timeout: bool) -> Self {
-        Self {
-            id: id & 0x0F,
-            status: status as u8,
-            timeout,
-        }
-    }
-    pub fn to_byte(self) -> u8 {
-        (self.id & 0x0F) | ((self.status & 0x07) << 4) | ((self.timeout as u8) << 7)
-    }
-    pub fn from_byte(b: u8) -> Self {
-        Self {
-            id: b & 0x0F,
-            status: (b >> 4) & 0x07,
-            timeout: b & 0x80 != 0,
-        }
-    }
-}
 
 /// Which state topic to read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -68,9 +31,6 @@ pub fn topics(side: Side, source: StateSource) -> (String, String) {
     (format!("rt/dex3/{s}/cmd"), state)
 }
 
-/// Raw pressure value meaning "no reading" (FACTS §2).
-pub const PRESSURE_NO_READING: f32 = 30000.0;
-
 /// Encoder/decoder for the resident service's messages.
 #[derive(Debug, Clone)]
 pub struct Dex3DdsCodec {
@@ -90,7 +50,7 @@ pub fn encode_hand_cmd(table: &DeviceTable, targets: &[crate::model::JointComman
     let mut msg = HandCmd_::with_motors(wire.len());
     for (i, (m, w)) in msg.motor_cmd.iter_mut().zip(&wire).enumerate() {
         *m = MotorCmd_ {
-            mode: RisMode::new(i as u8, MotorStatus::Foc, timeout_bit).to_byte(),
+            mode: RisMode::foc(i as u8, timeout_bit).encode(),
             q: w.q,
             dq: w.dq,
             tau: w.tau,
@@ -115,7 +75,7 @@ pub fn decode_hand_state(s: &HandState_, table: &DeviceTable) -> Option<HandStat
     for (j, map) in joints.iter_mut().zip(&table.joints) {
         let m = &s.motor_state[map.wire_index];
         j.temperature = Some(m.temperature[0] as f32);
-        if RisMode::from_byte(m.mode).timeout {
+        if RisMode::decode(m.mode).timeout {
             fault_bits |= faults::MOTOR_TIMEOUT;
         }
         if m.motorstate != 0 {
@@ -175,23 +135,6 @@ pub fn limp_targets(table: &DeviceTable) -> Vec<crate::model::JointCommand> {
 mod tests {
     use super::*;
     use crate::model::JointCommand;
-
-    #[test]
-    fn ris_mode_packs_bits() {
-        assert_eq!(RisMode::new(3, MotorStatus::Foc, false).to_byte(), 0x13);
-        assert_eq!(RisMode::new(6, MotorStatus::Foc, true).to_byte(), 0x96);
-        assert_eq!(
-            RisMode::from_byte(0x96),
-            RisMode {
-                id: 6,
-                status: 1,
-                timeout: true
-            }
-        );
-        for b in 0..=255u8 {
-            assert_eq!(RisMode::from_byte(b).to_byte(), b);
-        }
-    }
 
     #[test]
     fn encode_sets_mode_order_and_signs() {

@@ -46,13 +46,9 @@ pub const CLOSURE_KD: f32 = 0.2;
 
 /// The Dex3-1 table for one side.
 pub fn table(side: Side) -> DeviceTable {
-    let mirror = match side {
-        Side::Right => -1.0,
-        Side::Left | Side::Center => 1.0,
-    };
     let joints = (0..7)
         .map(|i| {
-            let sign = LEFT_SIGNS[i] * mirror;
+            let sign = wire_sign(side, i);
             // Canonical limits are the same on both hands: convert the left wire range.
             let (lo, hi) = LEFT_WIRE_LIMITS[i];
             let (a, b) = (lo * LEFT_SIGNS[i], hi * LEFT_SIGNS[i]);
@@ -87,5 +83,23 @@ pub fn table(side: Side) -> DeviceTable {
         max_kp: 10.0,
         max_kd: 1.0,
         max_tau: 1.5,
+    }
+}
+
+/// Wire limits (rad) of IDL index `i` on `side` (the URDF's ranges; the right hand mirrors
+/// the left).
+pub fn wire_limits(side: Side, i: usize) -> (f32, f32) {
+    let (lo, hi) = LEFT_WIRE_LIMITS[i];
+    match side {
+        Side::Right => (-hi, -lo),
+        Side::Left | Side::Center => (lo, hi),
+    }
+}
+
+/// Wire direction of closing for IDL index `i` on `side`.
+pub fn wire_sign(side: Side, i: usize) -> f32 {
+    match side {
+        Side::Right => -LEFT_SIGNS[i],
+        Side::Left | Side::Center => LEFT_SIGNS[i],
     }
 }

@@ -10,7 +10,7 @@
 //! in `HandCmd_.reserve[0]` of the last applied command; `reserve[1]` is the freshness
 //! (0 fresh, 1 stale, 2 commanded only); `error[1]` bit 0 is set while the state is stale.
 
-use handgate_adapters::dex3::dds_client::{MotorStatus, RisMode, PRESSURE_NO_READING};
+use handgate_adapters::dex3::{MotorStatus, RisMode, PRESS_NO_READING};
 use handgate_adapters::mapping::{DeviceTable, WireTarget};
 use handgate_adapters::model::{faults, Freshness, HandState, JointCommand, JointState};
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, IMUState_, MotorState_, PressSensorState_, DEX3_PRESS_SENSORS};
@@ -32,15 +32,12 @@ pub fn decode_cmd(msg: &HandCmd_, front: &DeviceTable, measured: &[JointState]) 
         if !finite5([m.q, m.dq, m.tau, m.kp, m.kd]) {
             return Err(Rejection::NonFinite(i));
         }
-        let mode = RisMode::from_byte(m.mode);
+        let mode = RisMode::decode(m.mode);
         if mode.id as usize != i {
             return Err(Rejection::WrongId { index: i, id: mode.id });
         }
-        if mode.status != MotorStatus::Foc as u8 && mode.status != MotorStatus::Lock as u8 {
-            return Err(Rejection::UnknownStatus {
-                index: i,
-                status: mode.status,
-            });
+        if let MotorStatus::Undefined(status) = mode.status {
+            return Err(Rejection::UnknownStatus { index: i, status });
         }
         timeout_bit |= mode.timeout;
     }
@@ -50,7 +47,7 @@ pub fn decode_cmd(msg: &HandCmd_, front: &DeviceTable, measured: &[JointState]) 
         .enumerate()
         .map(|(ci, j)| {
             let m = &msg.motor_cmd[j.wire_index];
-            if RisMode::from_byte(m.mode).status == MotorStatus::Lock as u8 {
+            if RisMode::decode(m.mode).status == MotorStatus::Lock {
                 let q = measured.get(ci).map(|s| s.q).filter(|q| q.is_finite()).unwrap_or(0.0);
                 Some(JointCommand::hold(q, front.hold_kp, front.hold_kd))
             } else {
@@ -94,7 +91,7 @@ pub fn encode_state(front: &DeviceTable, joints: &[JointState], st: &HandState) 
             .round()
             .clamp(-32768.0, 32767.0) as i16;
         out.motor_state[map.wire_index] = MotorState_ {
-            mode: RisMode::new(map.wire_index as u8, MotorStatus::Foc, timeout).to_byte(),
+            mode: RisMode::foc(map.wire_index as u8, timeout).encode(),
             q: w.0,
             dq: w.1,
             ddq: 0.0,
@@ -119,7 +116,7 @@ pub fn encode_state(front: &DeviceTable, joints: &[JointState], st: &HandState) 
         .collect();
     while pads.len() < DEX3_PRESS_SENSORS {
         pads.push(PressSensorState_ {
-            pressure: [PRESSURE_NO_READING; 12],
+            pressure: [PRESS_NO_READING; 12],
             ..Default::default()
         });
     }

@@ -1,0 +1,771 @@
+//! Emulator of `dex1_1_service`, the DDS peer a Dex1-1 gripper adapter talks to.
+//!
+//! Three wire variants exist in the field (shared FACTS §4), chosen by [`Dex1Variant`]:
+//! - [`Dex1Variant::Go`] (default, what dex1_1_service and current xr_teleoperate
+//!   use): `unitree_go::msg::dds_::MotorCmds_` with 1 element on `rt/dex1/{side}/cmd`,
+//!   `MotorStates_` with 1 element on `rt/dex1/{side}/state`;
+//! - [`Dex1Variant::Hg`] (the seed dex1-1-dds-interface-spec.txt): `unitree_hg`
+//!   `HandCmd_`/`HandState_` with 1 motor on the same topics, range 0..2pi;
+//! - [`Dex1Variant::Actuator`] (older xr_teleoperate): `rt/unitree_actuator/{cmd,state}`
+//!   with 2 elements, index 0 = right, 1 = left; one emulator serves both grippers.
+//!
+//! Behaviour (FACTS §4 unless marked): 500 Hz loop; mode ignored; q = 0 closed .. ~5.4 open;
+//! after 1000 ms without a command the gripper brakes (holds its position, keeps reporting
+//! it; see [`GripperView::braked`]) and resumes on the next command; state carries q, dq,
+//! tau_est. Assumed (the real service's control law is not public): the commanded q is
+//! tracked with the commanded kp/kd when non-zero, else [`Dex1Tuning::default_kp`]/
+//! [`Dex1Tuning::default_kd`]; dq and tau of the command are not used; the gripper starts
+//! braked (no command yet); commands with a wrong element count or a non-finite q are
+//! ignored and counted.
+
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use handgate_idl::unitree_go::{MotorCmds_, MotorState_ as GoMotorState, MotorStates_};
+use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorState_ as HgMotorState};
+
+use crate::dds::{Node, Qos, Reader, Writer};
+use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
+use crate::sim::{Contact, JointModel, JointParams, MotorTarget};
+
+/// Nominal open position clients command (xr_teleoperate, EZGripper driver; FACTS §4), rad.
+pub const DEX1_OPEN_Q: f32 = super::table::DEFAULT_RANGE_RAD;
+/// The range dex1_1_service calibrates (322 degrees; FACTS §4), rad.
+pub const DEX1_CALIBRATED_RANGE: f32 = 5.62;
+/// The seed spec's open position (2pi), rad.
+pub const SEED_SPEC_OPEN_Q: f32 = super::table::SEED_SPEC_RANGE_RAD;
+
+pub use super::adapter::Variant as Dex1Variant;
+
+/// Values not taken from a public source (plus the 1000 ms brake delay, which is), in one
+/// overridable table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dex1Tuning {
+    /// Silence after which the gripper brakes (FACTS §4: 1000 ms).
+    pub brake_after: Duration,
+    /// Gains used when a command's kp / kd is zero (assumption: xr_teleoperate's 5.0 / 0.05).
+    pub default_kp: f32,
+    pub default_kd: f32,
+    /// Emulated jaw drive: inertia kg*m^2, viscous friction, torque limit N*m (assumption).
+    pub inertia: f32,
+    pub friction: f32,
+    pub tau_max: f32,
+    /// Object stiffness, N*m/rad (assumption).
+    pub contact_stiffness: f32,
+}
+
+impl Default for Dex1Tuning {
+    fn default() -> Self {
+        Self {
+            brake_after: Duration::from_millis(1000),
+            default_kp: 5.0,
+            default_kd: 0.05,
+            inertia: 1.0e-3,
+            friction: 0.05,
+            tau_max: 2.0,
+            contact_stiffness: 20.0,
+        }
+    }
+}
+
+/// Configuration of one emulated dex1_1_service.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dex1Config {
+    pub variant: Dex1Variant,
+    /// The gripper served (ignored by [`Dex1Variant::Actuator`], which serves both).
+    pub side: Side,
+    /// Loop and state rate (FACTS §4: 500 Hz).
+    pub rate: Hz,
+    /// Position range (closed, open), rad: the jaw's hard stops.
+    pub range: (f32, f32),
+    /// Jaw position at start, rad.
+    pub initial_q: f32,
+    /// Position (rad) at which the jaws meet a graspable object while closing; `None`: none.
+    pub object: Option<f32>,
+    pub tuning: Dex1Tuning,
+}
+
+impl Dex1Config {
+    pub fn new(variant: Dex1Variant, side: Side) -> Self {
+        let range = variant.default_range();
+        Self {
+            variant,
+            side,
+            rate: Hz(500.0),
+            range,
+            initial_q: range.1,
+            object: None,
+            tuning: Dex1Tuning::default(),
+        }
+    }
+}
+
+/// The last command received, as it came.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Dex1Command {
+    Go(MotorCmds_),
+    Hg(HandCmd_),
+}
+
+/// One gripper, as the emulator sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GripperView {
+    pub side: Side,
+    /// Jaw position, rad (0 closed).
+    pub q: f32,
+    pub dq: f32,
+    /// Reported torque, N*m (rises when the jaws press an object; 0 while braked).
+    pub tau_est: f32,
+    pub braked: bool,
+    /// What the motor tracks (q, kp, kd after defaults).
+    pub target: MotorTarget,
+    /// Contact torque from the object.
+    pub contact_tau: f32,
+}
+
+/// A consistent copy of the emulator's state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dex1Snapshot {
+    pub last_command: Option<Dex1Command>,
+    /// Accepted commands.
+    pub commands: u64,
+    /// Commands ignored (wrong element count, non-finite q).
+    pub rejected: u64,
+    pub grippers: Vec<GripperView>,
+    pub states_published: u64,
+}
+
+#[derive(Debug, Clone)]
+struct Gripper {
+    side: Side,
+    joint: JointModel,
+    target: MotorTarget,
+    braked: bool,
+    last_cmd_at: Option<Instant>,
+}
+
+/// One element of a command, variant-independent: (q, kp, kd).
+type JawCmd = (f32, f32, f32);
+
+/// The service logic without DDS.
+#[derive(Debug, Clone)]
+pub struct Dex1Core {
+    tuning: Dex1Tuning,
+    grippers: Vec<Gripper>,
+    last_command: Option<Dex1Command>,
+    commands: u64,
+    rejected: u64,
+}
+
+impl Dex1Core {
+    pub fn new(config: &Dex1Config) -> Result<Self, EmulatorError> {
+        let (lo, hi) = config.range;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(EmulatorError::InvalidConfig(format!("bad range {:?}", config.range)));
+        }
+        let t = &config.tuning;
+        ensure_finite("initial_q", &[config.initial_q])?;
+        ensure_finite("object", &config.object.into_iter().collect::<Vec<_>>())?;
+        ensure_finite(
+            "tuning",
+            &[
+                t.default_kp,
+                t.default_kd,
+                t.inertia,
+                t.friction,
+                t.tau_max,
+                t.contact_stiffness,
+            ],
+        )?;
+        if t.inertia <= 0.0 {
+            return Err(EmulatorError::InvalidConfig("inertia must be > 0".into()));
+        }
+        let params = JointParams {
+            inertia: t.inertia,
+            friction: t.friction,
+            tau_max: t.tau_max,
+            q_min: lo,
+            q_max: hi,
+        };
+        let grippers = config
+            .variant
+            .layout(config.side)
+            .into_iter()
+            .map(|side| {
+                let joint = JointModel::new(params, config.initial_q);
+                Gripper {
+                    side,
+                    target: MotorTarget {
+                        q: joint.q,
+                        ..MotorTarget::LIMP
+                    },
+                    joint,
+                    braked: true,
+                    last_cmd_at: None,
+                }
+            })
+            .collect();
+        let mut core = Self {
+            tuning: config.tuning.clone(),
+            grippers,
+            last_command: None,
+            commands: 0,
+            rejected: 0,
+        };
+        for side in [Side::Left, Side::Right] {
+            core.set_object(side, config.object);
+        }
+        Ok(core)
+    }
+
+    /// Places (or removes) the object `side`'s jaws close on.
+    pub fn set_object(&mut self, side: Side, at: Option<f32>) {
+        let k = self.tuning.contact_stiffness;
+        for g in self.grippers.iter_mut().filter(|g| g.side == side) {
+            g.joint.contact = at.filter(|a| a.is_finite()).map(|at| Contact {
+                at,
+                dir: -1.0, // closing is decreasing q
+                stiffness: k,
+            });
+        }
+    }
+
+    /// Handles a unitree_go command.
+    pub fn on_go(&mut self, cmd: &MotorCmds_, now: Instant) -> bool {
+        self.last_command = Some(Dex1Command::Go(cmd.clone()));
+        let jaws: Vec<JawCmd> = cmd.cmds.iter().map(|c| (c.q, c.kp, c.kd)).collect();
+        self.apply(&jaws, now)
+    }
+
+    /// Handles a unitree_hg command.
+    pub fn on_hg(&mut self, cmd: &HandCmd_, now: Instant) -> bool {
+        self.last_command = Some(Dex1Command::Hg(cmd.clone()));
+        let jaws: Vec<JawCmd> = cmd.motor_cmd.iter().map(|c| (c.q, c.kp, c.kd)).collect();
+        self.apply(&jaws, now)
+    }
+
+    fn apply(&mut self, jaws: &[JawCmd], now: Instant) -> bool {
+        if jaws.len() != self.grippers.len() || jaws.iter().any(|j| !j.0.is_finite()) {
+            self.rejected += 1;
+            return false;
+        }
+        self.commands += 1;
+        let t = &self.tuning;
+        for (g, &(q, kp, kd)) in self.grippers.iter_mut().zip(jaws) {
+            let gain = |v: f32, default: f32| if v.is_finite() && v != 0.0 { v } else { default };
+            g.target = MotorTarget {
+                q: q.clamp(g.joint.params.q_min, g.joint.params.q_max),
+                dq: 0.0,
+                tau: 0.0,
+                kp: gain(kp, t.default_kp),
+                kd: gain(kd, t.default_kd),
+            };
+            g.braked = false;
+            g.last_cmd_at = Some(now);
+        }
+        true
+    }
+
+    /// Applies the brake where due and advances the jaws by `dt` seconds.
+    pub fn step(&mut self, now: Instant, dt: f32) {
+        let brake_after = self.tuning.brake_after;
+        for g in &mut self.grippers {
+            if !g.braked
+                && g.last_cmd_at
+                    .is_some_and(|t| now.saturating_duration_since(t) >= brake_after)
+            {
+                g.braked = true;
+            }
+            if g.braked {
+                // The brake holds the jaw where it is; the motor applies nothing.
+                g.joint.dq = 0.0;
+                g.joint.tau = 0.0;
+            } else {
+                g.joint.step(&g.target, dt);
+            }
+        }
+    }
+
+    fn view(g: &Gripper) -> GripperView {
+        GripperView {
+            side: g.side,
+            q: g.joint.q,
+            dq: g.joint.dq,
+            tau_est: g.joint.tau,
+            braked: g.braked,
+            target: g.target,
+            contact_tau: g.joint.contact_tau,
+        }
+    }
+
+    /// unitree_go state: one element per gripper, q/dq/tau_est filled (FACTS §4).
+    pub fn go_state(&self) -> MotorStates_ {
+        MotorStates_ {
+            states: self
+                .grippers
+                .iter()
+                .map(|g| GoMotorState {
+                    q: g.joint.q,
+                    dq: g.joint.dq,
+                    tau_est: g.joint.tau,
+                    ..GoMotorState::default()
+                })
+                .collect(),
+        }
+    }
+
+    /// unitree_hg state as the seed spec fills it: one motor, mode 0, temperature [25, 25],
+    /// vol 12, no pressure sensors, everything else zero.
+    pub fn hg_state(&self) -> HandState_ {
+        HandState_ {
+            motor_state: self
+                .grippers
+                .iter()
+                .map(|g| HgMotorState {
+                    q: g.joint.q,
+                    dq: g.joint.dq,
+                    tau_est: g.joint.tau,
+                    temperature: [25, 25],
+                    vol: 12.0,
+                    ..HgMotorState::default()
+                })
+                .collect(),
+            ..HandState_::default()
+        }
+    }
+
+    pub fn snapshot(&self) -> Dex1Snapshot {
+        Dex1Snapshot {
+            last_command: self.last_command.clone(),
+            commands: self.commands,
+            rejected: self.rejected,
+            grippers: self.grippers.iter().map(Self::view).collect(),
+            states_published: 0,
+        }
+    }
+}
+
+enum Io {
+    Go {
+        reader: Reader<MotorCmds_>,
+        writer: Writer<MotorStates_>,
+    },
+    Hg {
+        reader: Reader<HandCmd_>,
+        writer: Writer<HandState_>,
+    },
+}
+
+struct Shared {
+    core: Dex1Core,
+    states_published: u64,
+}
+
+/// A running emulated dex1_1_service. Dropping it stops its thread.
+pub struct Dex1Emulator {
+    shared: Arc<Mutex<Shared>>,
+    worker: Worker,
+    config: Dex1Config,
+}
+
+impl std::fmt::Debug for Dex1Emulator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Dex1Emulator")
+            .field("variant", &self.config.variant)
+            .field("side", &self.config.side)
+            .finish()
+    }
+}
+
+impl Dex1Emulator {
+    /// Starts the service on `node`.
+    pub fn start(node: &Node, config: Dex1Config) -> Result<Self, EmulatorError> {
+        let period = config.rate.period()?;
+        let core = Dex1Core::new(&config)?;
+        let (cmd_topic, state_topic) = config.variant.topics(config.side);
+        // Best-effort reader matches any writer; reliable keep-last-1 writer matches any reader.
+        let mut io = match config.variant {
+            Dex1Variant::Hg => Io::Hg {
+                reader: node.reader(&cmd_topic, Qos::BestEffort)?,
+                writer: node.writer(&state_topic, Qos::Reliable { depth: 1 })?,
+            },
+            _ => Io::Go {
+                reader: node.reader(&cmd_topic, Qos::BestEffort)?,
+                writer: node.writer(&state_topic, Qos::Reliable { depth: 1 })?,
+            },
+        };
+        let shared = Arc::new(Mutex::new(Shared {
+            core,
+            states_published: 0,
+        }));
+        let sh = shared.clone();
+        let mut prev = None;
+        let name = format!("dex1-emu-{}", config.side);
+        let worker = Worker::spawn(&name, period, move |now| {
+            let dt = tick_dt(prev, now, period);
+            prev = Some(now);
+            let ok = match &mut io {
+                Io::Go { reader, writer } => {
+                    let cmds = reader.take();
+                    let state = {
+                        let mut g = lock(&sh);
+                        let received = Instant::now();
+                        for c in &cmds {
+                            g.core.on_go(c, received);
+                        }
+                        g.core.step(Instant::now(), dt);
+                        g.core.go_state()
+                    };
+                    writer.write(state).is_ok()
+                }
+                Io::Hg { reader, writer } => {
+                    let cmds = reader.take();
+                    let state = {
+                        let mut g = lock(&sh);
+                        let received = Instant::now();
+                        for c in &cmds {
+                            g.core.on_hg(c, received);
+                        }
+                        g.core.step(Instant::now(), dt);
+                        g.core.hg_state()
+                    };
+                    writer.write(state).is_ok()
+                }
+            };
+            lock(&sh).states_published += u64::from(ok);
+        })?;
+        Ok(Self { shared, worker, config })
+    }
+
+    pub fn config(&self) -> &Dex1Config {
+        &self.config
+    }
+
+    pub fn snapshot(&self) -> Dex1Snapshot {
+        let g = lock(&self.shared);
+        Dex1Snapshot {
+            states_published: g.states_published,
+            ..g.core.snapshot()
+        }
+    }
+
+    /// The last command received (accepted or not).
+    pub fn last_command(&self) -> Option<Dex1Command> {
+        lock(&self.shared).core.last_command.clone()
+    }
+
+    /// Accepted commands.
+    pub fn commands_received(&self) -> u64 {
+        lock(&self.shared).core.commands
+    }
+
+    /// Ignored commands.
+    pub fn commands_rejected(&self) -> u64 {
+        lock(&self.shared).core.rejected
+    }
+
+    /// `side`'s gripper, if this emulator serves it.
+    pub fn gripper(&self, side: Side) -> Option<GripperView> {
+        lock(&self.shared)
+            .core
+            .grippers
+            .iter()
+            .find(|g| g.side == side)
+            .map(Dex1Core::view)
+    }
+
+    /// Whether the configured side's gripper is braked (for the 2-element variant: the
+    /// configured side too; use [`Dex1Emulator::gripper`] for the other).
+    pub fn braked(&self) -> bool {
+        self.gripper(self.config.side).is_some_and(|g| g.braked)
+    }
+
+    /// The configured side's jaw position, rad.
+    pub fn jaw_position(&self) -> f32 {
+        self.gripper(self.config.side).map_or(f32::NAN, |g| g.q)
+    }
+
+    /// Places (or removes) the object `side`'s jaws close on.
+    pub fn set_object(&self, side: Side, at: Option<f32>) {
+        lock(&self.shared).core.set_object(side, at);
+    }
+
+    /// Stops the loop thread (also done on drop).
+    pub fn stop(mut self) {
+        self.worker.stop();
+    }
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use handgate_idl::unitree_go::MotorCmd_ as GoMotorCmd;
+    use handgate_idl::unitree_hg::MotorCmd_ as HgMotorCmd;
+
+    fn go(qs: &[f32], kp: f32, kd: f32) -> MotorCmds_ {
+        MotorCmds_ {
+            cmds: qs
+                .iter()
+                .map(|&q| GoMotorCmd {
+                    q,
+                    kp,
+                    kd,
+                    ..GoMotorCmd::default()
+                })
+                .collect(),
+        }
+    }
+
+    fn run(core: &mut Dex1Core, t0: Instant, from_ms: u64, to_ms: u64) {
+        for k in from_ms..to_ms {
+            core.step(t0 + Duration::from_millis(k), 0.001);
+        }
+    }
+
+    #[test]
+    fn tracks_q_with_default_gains_then_brakes_and_resumes() {
+        let mut core = Dex1Core::new(&Dex1Config::new(Dex1Variant::Go, Side::Left)).unwrap();
+        assert!(core.grippers[0].braked, "braked before any command");
+        let t0 = Instant::now();
+        assert!(core.on_go(&go(&[2.0], 0.0, 0.0), t0));
+        assert_eq!(core.grippers[0].target.kp, 5.0);
+        run(&mut core, t0, 0, 999);
+        assert!(!core.grippers[0].braked);
+        assert!(
+            (core.grippers[0].joint.q - 2.0).abs() < 0.05,
+            "q = {}",
+            core.grippers[0].joint.q
+        );
+        run(&mut core, t0, 999, 1001);
+        assert!(core.grippers[0].braked);
+        let held = core.grippers[0].joint.q;
+        run(&mut core, t0, 1001, 3000);
+        assert_eq!(core.grippers[0].joint.q, held);
+        assert_eq!(core.go_state().states[0].q, held);
+        assert_eq!(core.go_state().states[0].dq, 0.0);
+        assert!(core.on_go(&go(&[4.0], 8.0, 0.1), t0 + Duration::from_secs(3)));
+        assert!(!core.grippers[0].braked);
+        assert_eq!(core.grippers[0].target.kp, 8.0);
+        run(&mut core, t0, 3000, 3500);
+        assert!(core.grippers[0].joint.q > 3.5);
+    }
+
+    #[test]
+    fn commands_are_clamped_to_the_range_and_bad_ones_rejected() {
+        let mut core = Dex1Core::new(&Dex1Config::new(Dex1Variant::Go, Side::Right)).unwrap();
+        let t0 = Instant::now();
+        core.on_go(&go(&[9.0], 0.0, 0.0), t0);
+        assert_eq!(core.grippers[0].target.q, DEX1_OPEN_Q);
+        assert!(!core.on_go(&go(&[], 0.0, 0.0), t0));
+        assert!(!core.on_go(&go(&[1.0, 1.0], 0.0, 0.0), t0));
+        assert!(!core.on_go(&go(&[f32::NAN], 0.0, 0.0), t0));
+        assert_eq!((core.commands, core.rejected), (1, 3));
+        assert!(Dex1Core::new(&Dex1Config {
+            range: (1.0, 1.0),
+            ..Dex1Config::new(Dex1Variant::Go, Side::Right)
+        })
+        .is_err());
+        assert!(Dex1Core::new(&Dex1Config {
+            initial_q: f32::NAN,
+            ..Dex1Config::new(Dex1Variant::Go, Side::Right)
+        })
+        .is_err());
+    }
+
+    #[test]
+    fn object_stops_the_jaws_and_raises_tau_est() {
+        let mut cfg = Dex1Config::new(Dex1Variant::Go, Side::Right);
+        cfg.object = Some(2.0);
+        let mut core = Dex1Core::new(&cfg).unwrap();
+        let t0 = Instant::now();
+        core.on_go(&go(&[0.0], 0.0, 0.0), t0);
+        run(&mut core, t0, 0, 900);
+        let s = core.go_state().states[0];
+        assert!(s.q < 2.0 && s.q > 1.8, "q = {}", s.q);
+        assert!(s.tau_est < -1.0, "closing torque against the object: {}", s.tau_est);
+        // Without the object the same command closes fully with little torque left.
+        core.set_object(Side::Right, None);
+        core.on_go(&go(&[0.0], 0.0, 0.0), t0 + Duration::from_millis(900));
+        run(&mut core, t0, 900, 1800);
+        let s = core.go_state().states[0];
+        assert!(s.q < 0.05 && s.tau_est.abs() < 0.5, "{s:?}");
+    }
+
+    #[test]
+    fn hg_variant_uses_seed_range_and_one_motor() {
+        let cfg = Dex1Config::new(Dex1Variant::Hg, Side::Left);
+        assert_eq!(cfg.range.1, SEED_SPEC_OPEN_Q);
+        let mut core = Dex1Core::new(&cfg).unwrap();
+        let mut c = HandCmd_::with_motors(1);
+        c.motor_cmd[0] = HgMotorCmd {
+            q: 6.0,
+            ..HgMotorCmd::default()
+        };
+        assert!(core.on_hg(&c, Instant::now()));
+        assert!(!core.on_hg(&HandCmd_::with_motors(7), Instant::now()));
+        let s = core.hg_state();
+        assert_eq!(s.motor_state.len(), 1);
+        assert!(s.press_sensor_state.is_empty());
+    }
+
+    // ---- over real DDS (domains 36..=41) ----
+
+    const WAIT: Duration = Duration::from_secs(20);
+
+    fn wait_for(mut cond: impl FnMut() -> bool) {
+        let deadline = Instant::now() + WAIT;
+        while !cond() {
+            assert!(Instant::now() < deadline, "condition not reached");
+            std::thread::yield_now();
+        }
+    }
+
+    /// Publishes `cmd` once per received state sample until `done` holds. Returns the state
+    /// and the instant just before the last write.
+    fn drive_until<C: Clone + handgate_idl::TopicType, S: Clone + handgate_idl::TopicType + std::fmt::Debug>(
+        w: &mut Writer<C>,
+        r: &Reader<S>,
+        cmd: &C,
+        mut done: impl FnMut(&S) -> bool,
+    ) -> (S, Instant) {
+        let deadline = Instant::now() + WAIT;
+        loop {
+            let written = Instant::now();
+            w.write(cmd.clone()).unwrap();
+            let s = r.wait_take(WAIT).unwrap().pop().unwrap();
+            if done(&s) {
+                return (s, written);
+            }
+            assert!(Instant::now() < deadline, "condition not reached; last {s:?}");
+        }
+    }
+
+    fn watch_until<S: Clone + handgate_idl::TopicType + std::fmt::Debug>(
+        r: &Reader<S>,
+        mut done: impl FnMut(&S) -> bool,
+    ) -> S {
+        let deadline = Instant::now() + WAIT;
+        loop {
+            let s = r.wait_take(WAIT).unwrap().pop().unwrap();
+            if done(&s) {
+                return s;
+            }
+            assert!(Instant::now() < deadline, "condition not reached; last {s:?}");
+        }
+    }
+
+    #[test]
+    fn dds_go_variant_tracks_q_brakes_after_silence_and_resumes() {
+        crate::emu_common::isolated_test_domain(36);
+        let emu_node = Node::new(36, None).unwrap();
+        let emu = Dex1Emulator::start(&emu_node, Dex1Config::new(Dex1Variant::Go, Side::Left)).unwrap();
+        let node = Node::new(36, None).unwrap();
+        let mut w = node
+            .writer::<MotorCmds_>("rt/dex1/left/cmd", Qos::Reliable { depth: 4 })
+            .unwrap();
+        let r = node
+            .reader::<MotorStates_>("rt/dex1/left/state", Qos::BestEffort)
+            .unwrap();
+        w.wait_matched(1, WAIT).unwrap();
+        r.wait_matched(1, WAIT).unwrap();
+        assert!(emu.braked());
+        let cmd = go(&[2.5], 5.0, 0.05);
+        let (s, last_write) = drive_until(&mut w, &r, &cmd, |s: &MotorStates_| (s.states[0].q - 2.5).abs() < 0.05);
+        assert_eq!(s.states.len(), 1);
+        assert!(!emu.braked());
+        wait_for(|| emu.braked());
+        assert!(last_write.elapsed() >= Duration::from_secs(1));
+        // Braked: the jaw holds and the state keeps reporting the held position.
+        let held = emu.jaw_position();
+        let s = watch_until(&r, |s: &MotorStates_| s.states[0].dq == 0.0);
+        assert_eq!(s.states[0].q, held);
+        assert_eq!(s.states[0].tau_est, 0.0);
+        // The next command releases the brake.
+        let cmd = go(&[0.5], 0.0, 0.0);
+        drive_until(&mut w, &r, &cmd, |s: &MotorStates_| (s.states[0].q - 0.5).abs() < 0.05);
+        assert!(!emu.braked());
+        let snap = emu.snapshot();
+        assert_eq!(snap.last_command, Some(Dex1Command::Go(cmd)));
+        assert_eq!(snap.rejected, 0);
+        assert_eq!(snap.grippers[0].target.kp, 5.0, "kp 0 falls back to the default");
+    }
+
+    #[test]
+    fn dds_unitree_actuator_index_0_drives_the_right_gripper() {
+        crate::emu_common::isolated_test_domain(37);
+        let emu_node = Node::new(37, None).unwrap();
+        let cfg = Dex1Config::new(Dex1Variant::Actuator, Side::Left);
+        let emu = Dex1Emulator::start(&emu_node, cfg).unwrap();
+        let node = Node::new(37, None).unwrap();
+        let mut w = node
+            .writer::<MotorCmds_>("rt/unitree_actuator/cmd", Qos::Reliable { depth: 4 })
+            .unwrap();
+        let r = node
+            .reader::<MotorStates_>("rt/unitree_actuator/state", Qos::BestEffort)
+            .unwrap();
+        w.wait_matched(1, WAIT).unwrap();
+        r.wait_matched(1, WAIT).unwrap();
+        // index 0 -> 1.0 rad, index 1 -> 4.0 rad
+        let cmd = go(&[1.0, 4.0], 5.0, 0.05);
+        let (s, _) = drive_until(&mut w, &r, &cmd, |s: &MotorStates_| {
+            (s.states[0].q - 1.0).abs() < 0.05 && (s.states[1].q - 4.0).abs() < 0.05
+        });
+        assert_eq!(s.states.len(), 2);
+        assert!((emu.gripper(Side::Right).unwrap().q - 1.0).abs() < 0.1);
+        assert!((emu.gripper(Side::Left).unwrap().q - 4.0).abs() < 0.1);
+        // One element is not this variant's shape: ignored and counted.
+        w.write(go(&[0.0], 5.0, 0.05)).unwrap();
+        wait_for(|| emu.commands_rejected() >= 1);
+    }
+
+    #[test]
+    fn dds_hg_variant_serves_hand_cmd_with_one_motor() {
+        crate::emu_common::isolated_test_domain(38);
+        let emu_node = Node::new(38, None).unwrap();
+        let emu = Dex1Emulator::start(&emu_node, Dex1Config::new(Dex1Variant::Hg, Side::Right)).unwrap();
+        let node = Node::new(38, None).unwrap();
+        let mut w = node
+            .writer::<HandCmd_>("rt/dex1/right/cmd", Qos::Reliable { depth: 4 })
+            .unwrap();
+        let r = node
+            .reader::<HandState_>("rt/dex1/right/state", Qos::BestEffort)
+            .unwrap();
+        w.wait_matched(1, WAIT).unwrap();
+        r.wait_matched(1, WAIT).unwrap();
+        let mut cmd = HandCmd_::with_motors(1);
+        cmd.motor_cmd[0].q = 3.0;
+        let (s, _) = drive_until(&mut w, &r, &cmd, |s: &HandState_| {
+            (s.motor_state[0].q - 3.0).abs() < 0.05
+        });
+        assert_eq!(s.motor_state.len(), 1);
+        assert!(s.press_sensor_state.is_empty());
+        assert!(emu.commands_received() >= 1);
+    }
+
+    #[test]
+    fn dds_grasped_object_stops_jaws_and_raises_tau_est() {
+        crate::emu_common::isolated_test_domain(39);
+        let emu_node = Node::new(39, None).unwrap();
+        let emu = Dex1Emulator::start(&emu_node, Dex1Config::new(Dex1Variant::Go, Side::Right)).unwrap();
+        emu.set_object(Side::Right, Some(1.5));
+        let node = Node::new(39, None).unwrap();
+        let mut w = node
+            .writer::<MotorCmds_>("rt/dex1/right/cmd", Qos::Reliable { depth: 4 })
+            .unwrap();
+        let r = node
+            .reader::<MotorStates_>("rt/dex1/right/state", Qos::BestEffort)
+            .unwrap();
+        w.wait_matched(1, WAIT).unwrap();
+        r.wait_matched(1, WAIT).unwrap();
+        let (s, _) = drive_until(&mut w, &r, &go(&[0.0], 5.0, 0.05), |s: &MotorStates_| {
+            s.states[0].q < 1.55 && s.states[0].dq.abs() < 0.01
+        });
+        assert!(s.states[0].q > 1.3, "jaws stop at the object: {}", s.states[0].q);
+        assert!(s.states[0].tau_est.abs() > 1.0, "tau_est {}", s.states[0].tau_est);
+        assert!(emu.gripper(Side::Right).unwrap().contact_tau > 1.0);
+    }
+}

@@ -1,0 +1,1100 @@
+//! Emulator of the G1's resident Dex3-1 service: the DDS peer a Dex3 DDS adapter talks to.
+//!
+//! It subscribes `unitree_hg::msg::dds_::HandCmd_` on `rt/dex3/{side}/cmd` and publishes
+//! `HandState_` on `rt/dex3/{side}/state` (default 500 Hz) and, optionally, the low-frequency
+//! copy on `rt/lf/dex3/{side}/state` (default on, 50 Hz). Topics, joint order, the RIS mode
+//! byte, URDF limits and pressure encoding follow shared FACTS §1-§2 and the Dex3-1 user
+//! manual; everything else is an assumption kept in [`Dex3Tuning`] (see `docs/adapters.md`,
+//! "Emulators").
+//!
+//! Behaviour per motor (message index = motor id, order thumb_0, thumb_1, thumb_2, middle_0,
+//! middle_1, index_0, index_1):
+//! - status FOC (1): the motor runs `tau = kp*(q-q_m) + kd*(dq-dq_m) + tau_ff` on a
+//!   [`JointModel`] with the side's URDF limits;
+//! - status lock (0), and any undocumented status 2..7: the motor HOLDS the position it had
+//!   when it entered lock, with [`Dex3Tuning::hold_kp`]/[`Dex3Tuning::hold_kd`] (assumption:
+//!   "lock" read as a position lock, not limp);
+//! - timeout bit (7) set in the last command: after [`Dex3Tuning::timeout`] (1 s, manual)
+//!   without an accepted command the motor stops (limp, zero torque) and its feedback mode has
+//!   bit 7 set; it stays stopped until a command with bit 7 = 0 arrives (a command with bit 7
+//!   still set is recorded but does not clear the latch — manual: "need to send 0 to clear").
+//! - commands whose motor count is not 7 are ignored (nothing applied, the timeout clock not
+//!   reset) and counted.
+
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use handgate_idl::unitree_hg::{
+    HandCmd_, HandState_, IMUState_, MotorState_, PressSensorState_, DEX3_MOTORS, DEX3_PRESS_SENSORS,
+};
+
+use crate::dds::{Node, Qos};
+use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
+use crate::model::Side;
+use crate::sim::{Contact, JointModel, JointParams, MotorTarget};
+
+/// Motors per hand (FACTS §2).
+pub const MOTORS: usize = DEX3_MOTORS;
+/// Pressure pads per hand (FACTS §2, SDK C++ example; manual: 9 sensors, 33 points).
+pub const PADS: usize = DEX3_PRESS_SENSORS;
+/// Values in one `PressSensorState_::pressure` array.
+pub const PAD_POINTS: usize = 12;
+pub use super::{MotorStatus, RisMode, PRESS_NO_READING, PRESS_VALID_MIN, RIS_TIMEOUT_BIT};
+
+/// `rt/dex3/{side}/cmd`.
+pub fn cmd_topic(side: Side) -> String {
+    format!("rt/dex3/{side}/cmd")
+}
+/// `rt/dex3/{side}/state`.
+pub fn state_topic(side: Side) -> String {
+    format!("rt/dex3/{side}/state")
+}
+/// `rt/lf/dex3/{side}/state` (the low-frequency copy the SDK examples subscribe).
+pub fn lf_state_topic(side: Side) -> String {
+    format!("rt/lf/dex3/{side}/state")
+}
+
+/// A Dex3-1 joint, in message order (FACTS §2: both hands use the same message order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Dex3Joint {
+    Thumb0,
+    Thumb1,
+    Thumb2,
+    Middle0,
+    Middle1,
+    Index0,
+    Index1,
+}
+
+/// A Dex3-1 finger.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Finger {
+    Thumb,
+    Middle,
+    Index,
+}
+
+impl Finger {
+    pub const ALL: [Finger; 3] = [Finger::Thumb, Finger::Middle, Finger::Index];
+
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+impl Dex3Joint {
+    pub const ALL: [Dex3Joint; MOTORS] = [
+        Dex3Joint::Thumb0,
+        Dex3Joint::Thumb1,
+        Dex3Joint::Thumb2,
+        Dex3Joint::Middle0,
+        Dex3Joint::Middle1,
+        Dex3Joint::Index0,
+        Dex3Joint::Index1,
+    ];
+
+    /// Index in `motor_cmd` / `motor_state` (= the RIS motor id).
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    pub fn finger(self) -> Finger {
+        match self {
+            Dex3Joint::Thumb0 | Dex3Joint::Thumb1 | Dex3Joint::Thumb2 => Finger::Thumb,
+            Dex3Joint::Middle0 | Dex3Joint::Middle1 => Finger::Middle,
+            Dex3Joint::Index0 | Dex3Joint::Index1 => Finger::Index,
+        }
+    }
+
+    /// URDF joint limits (rad) used by xr_teleoperate (FACTS §2), from the Dex3 table.
+    pub fn limits(self, side: Side) -> (f32, f32) {
+        super::table::wire_limits(side, self.index())
+    }
+
+    /// Sign of the closing motion of a flexing joint (the Dex3 table's sign); `None` for
+    /// thumb_0 (rotation, does not close on an object).
+    pub fn closing_dir(self, side: Side) -> Option<f32> {
+        match self {
+            Dex3Joint::Thumb0 => None,
+            _ => Some(super::table::wire_sign(side, self.index())),
+        }
+    }
+}
+
+/// Where a pressure pad sits and how many of its 12 points carry readings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PadSpec {
+    /// `None`: on the palm.
+    pub finger: Option<Finger>,
+    /// Points with readings (the rest report "no reading").
+    pub points: usize,
+}
+
+/// Every value of the emulated service that is NOT taken from a public source, in one
+/// overridable table. `Default` holds the documented assumptions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dex3Tuning {
+    /// Timeout protection period (manual: "default 1s timeout").
+    pub timeout: Duration,
+    /// Gains holding a motor in status lock (assumption).
+    pub hold_kp: f32,
+    pub hold_kd: f32,
+    /// Stiffness of an emulated object, N*m/rad (assumption).
+    pub contact_stiffness: f32,
+    /// Pad layout. The manual lists 3 palm pads of 2x2 points, 3 fingertip pads of 2x2 and 3
+    /// finger pads of 3x1, but its figure mapping pad ids to places is not public. Assumed:
+    /// 0-1 thumb, 2-3 middle, 4-5 index (2x2 then 3x1), 6-8 palm.
+    pub pads: [PadSpec; PADS],
+    /// Raw pressure added per N*m of contact torque on top of [`PRESS_VALID_MIN`] (assumption).
+    pub press_raw_per_nm: f32,
+    /// Pad and motor temperature reported, deg C (assumption).
+    pub temperature_c: f32,
+    /// Supply voltage reported, V (manual: working voltage 24-58 V; 52 V assumed, a G1 battery).
+    pub power_v: f32,
+    /// Supply current: idle plus a share per N*m of motor torque, A (assumption).
+    pub power_a_idle: f32,
+    pub power_a_per_nm: f32,
+    /// Internal supply and buck output voltages, V (manual names them, values assumed).
+    pub system_v: f32,
+    pub device_v: f32,
+    /// IMU: hand at rest, upright (assumption; the real reading depends on the arm pose).
+    pub imu_quaternion: [f32; 4],
+    pub imu_accelerometer: [f32; 3],
+}
+
+impl Default for Dex3Tuning {
+    fn default() -> Self {
+        let pad = |finger, points| PadSpec { finger, points };
+        Self {
+            timeout: Duration::from_secs(1),
+            hold_kp: 1.5,
+            hold_kd: 0.1,
+            contact_stiffness: 20.0,
+            pads: [
+                pad(Some(Finger::Thumb), 4),
+                pad(Some(Finger::Thumb), 3),
+                pad(Some(Finger::Middle), 4),
+                pad(Some(Finger::Middle), 3),
+                pad(Some(Finger::Index), 4),
+                pad(Some(Finger::Index), 3),
+                pad(None, 4),
+                pad(None, 4),
+                pad(None, 4),
+            ],
+            press_raw_per_nm: 100_000.0,
+            temperature_c: 32.0,
+            power_v: 52.0,
+            power_a_idle: 0.1,
+            power_a_per_nm: 0.3,
+            system_v: 12.0,
+            device_v: 5.0,
+            imu_quaternion: [1.0, 0.0, 0.0, 0.0],
+            imu_accelerometer: [0.0, 0.0, 9.81],
+        }
+    }
+}
+
+/// Configuration of one emulated Dex3 service (one hand).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dex3ServiceConfig {
+    pub side: Side,
+    /// Rate of `rt/dex3/{side}/state` and of the emulated control loop (default 500 Hz).
+    pub state_rate: Hz,
+    /// Rate of `rt/lf/dex3/{side}/state` (default 50 Hz; assumption, FACTS names no rate).
+    pub lf_rate: Hz,
+    pub publish_lf: bool,
+    /// Joint positions at start, rad, message order (clamped to the limits).
+    pub initial_q: [f32; MOTORS],
+    /// An object per finger ([`Finger::index`] order): how far (rad, >= 0) the finger's flex
+    /// joints can close from 0 before they touch it. `None`: nothing to touch.
+    pub objects: [Option<f32>; 3],
+    pub tuning: Dex3Tuning,
+}
+
+impl Dex3ServiceConfig {
+    pub fn new(side: Side) -> Self {
+        Self {
+            side,
+            state_rate: Hz(500.0),
+            lf_rate: Hz(50.0),
+            publish_lf: true,
+            initial_q: [0.0; MOTORS],
+            objects: [None; 3],
+            tuning: Dex3Tuning::default(),
+        }
+    }
+
+    /// Checks rates and that positions, objects and tuning values are finite.
+    pub fn validate(&self) -> Result<(), EmulatorError> {
+        self.state_rate.period()?;
+        self.lf_rate.period()?;
+        ensure_finite("initial_q", &self.initial_q)?;
+        ensure_finite("objects", &self.objects.iter().flatten().copied().collect::<Vec<_>>())?;
+        let t = &self.tuning;
+        ensure_finite(
+            "tuning",
+            &[
+                t.hold_kp,
+                t.hold_kd,
+                t.contact_stiffness,
+                t.press_raw_per_nm,
+                t.temperature_c,
+                t.power_v,
+                t.power_a_idle,
+                t.power_a_per_nm,
+                t.system_v,
+                t.device_v,
+            ],
+        )
+    }
+}
+
+/// What one motor is doing, as the emulator sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotorView {
+    /// Mode of the last accepted command for this motor (`None` before any).
+    pub commanded_mode: Option<RisMode>,
+    /// What the motor applies now (hold gains in lock, zero when the timeout tripped).
+    pub applied: MotorTarget,
+    /// Timeout protection enabled by the last accepted command.
+    pub timeout_enabled: bool,
+    /// Timeout protection tripped (feedback bit 7).
+    pub timeout_tripped: bool,
+    pub q: f32,
+    pub dq: f32,
+    pub tau: f32,
+    /// Contact torque from the emulated object.
+    pub contact_tau: f32,
+}
+
+/// A consistent copy of the emulator's state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dex3Snapshot {
+    /// The last command received, accepted or not.
+    pub last_command: Option<HandCmd_>,
+    /// Accepted commands (7 motors).
+    pub commands: u64,
+    /// Commands ignored for a wrong motor count.
+    pub rejected: u64,
+    /// Accepted motor commands whose id bits differ from their message index (applied by index).
+    pub id_mismatches: u64,
+    pub motors: [MotorView; MOTORS],
+    pub states_published: u64,
+    pub lf_published: u64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct MotorSlot {
+    mode: Option<RisMode>,
+    /// The command as received (used in FOC).
+    cmd: MotorTarget,
+    hold_q: f32,
+    tripped: bool,
+}
+
+/// The service's logic without DDS: commands in, time passes, state out. Pure enough to test
+/// with synthetic instants.
+#[derive(Debug, Clone)]
+pub struct Dex3Core {
+    side: Side,
+    tuning: Dex3Tuning,
+    joints: [JointModel; MOTORS],
+    slots: [MotorSlot; MOTORS],
+    prev_dq: [f32; MOTORS],
+    ddq: [f32; MOTORS],
+    last_cmd_at: Option<Instant>,
+    last_command: Option<HandCmd_>,
+    commands: u64,
+    rejected: u64,
+    id_mismatches: u64,
+}
+
+impl Dex3Core {
+    pub fn new(config: &Dex3ServiceConfig) -> Self {
+        let joints = Dex3Joint::ALL.map(|j| {
+            let (lo, hi) = j.limits(config.side);
+            JointModel::new(JointParams::dex3_finger(lo, hi), config.initial_q[j.index()])
+        });
+        let slots = std::array::from_fn(|i| MotorSlot {
+            mode: None,
+            cmd: MotorTarget::LIMP,
+            hold_q: joints[i].q,
+            tripped: false,
+        });
+        let mut core = Self {
+            side: config.side,
+            tuning: config.tuning.clone(),
+            joints,
+            slots,
+            prev_dq: [0.0; MOTORS],
+            ddq: [0.0; MOTORS],
+            last_cmd_at: None,
+            last_command: None,
+            commands: 0,
+            rejected: 0,
+            id_mismatches: 0,
+        };
+        for f in Finger::ALL {
+            core.set_object(f, config.objects[f.index()]);
+        }
+        core
+    }
+
+    /// Places (or removes) the object a finger closes on.
+    pub fn set_object(&mut self, finger: Finger, closure: Option<f32>) {
+        for j in Dex3Joint::ALL.into_iter().filter(|j| j.finger() == finger) {
+            self.joints[j.index()].contact = match (closure, j.closing_dir(self.side)) {
+                (Some(at), Some(dir)) if at.is_finite() => Some(Contact {
+                    at: dir * at.abs(),
+                    dir,
+                    stiffness: self.tuning.contact_stiffness,
+                }),
+                _ => None,
+            };
+        }
+    }
+
+    /// Handles one received command at `now`. Returns whether it was accepted.
+    pub fn on_command(&mut self, cmd: &HandCmd_, now: Instant) -> bool {
+        self.last_command = Some(cmd.clone());
+        if cmd.motor_cmd.len() != MOTORS {
+            self.rejected += 1;
+            return false;
+        }
+        self.commands += 1;
+        self.last_cmd_at = Some(now);
+        for (i, m) in cmd.motor_cmd.iter().enumerate() {
+            let mode = RisMode::decode(m.mode);
+            if usize::from(mode.id) != i {
+                self.id_mismatches += 1;
+            }
+            let slot = &mut self.slots[i];
+            let was_locked = matches!(slot.mode, Some(RisMode { status, .. }) if status != MotorStatus::Foc);
+            if mode.status != MotorStatus::Foc && (!was_locked || slot.tripped) {
+                slot.hold_q = self.joints[i].q;
+            }
+            if slot.tripped && !mode.timeout {
+                slot.tripped = false;
+            }
+            slot.mode = Some(mode);
+            slot.cmd = MotorTarget {
+                q: m.q,
+                dq: m.dq,
+                tau: m.tau,
+                kp: m.kp,
+                kd: m.kd,
+            };
+        }
+        true
+    }
+
+    /// Trips timeouts due at `now`.
+    pub fn check_timeouts(&mut self, now: Instant) {
+        let silent_for = match self.last_cmd_at {
+            Some(t) => now.saturating_duration_since(t),
+            None => return,
+        };
+        if silent_for < self.tuning.timeout {
+            return;
+        }
+        for slot in &mut self.slots {
+            if matches!(slot.mode, Some(m) if m.timeout) {
+                slot.tripped = true;
+            }
+        }
+    }
+
+    fn applied(&self, i: usize) -> MotorTarget {
+        let slot = &self.slots[i];
+        if slot.tripped {
+            return MotorTarget::LIMP;
+        }
+        match slot.mode {
+            Some(RisMode {
+                status: MotorStatus::Foc,
+                ..
+            }) => slot.cmd,
+            // Before the first command, in lock and in undefined statuses: hold.
+            _ => MotorTarget {
+                q: slot.hold_q,
+                dq: 0.0,
+                tau: 0.0,
+                kp: self.tuning.hold_kp,
+                kd: self.tuning.hold_kd,
+            },
+        }
+    }
+
+    /// Checks timeouts and advances every joint by `dt` seconds.
+    pub fn step(&mut self, now: Instant, dt: f32) {
+        self.check_timeouts(now);
+        for i in 0..MOTORS {
+            let target = self.applied(i);
+            self.joints[i].step(&target, dt);
+            let dq = self.joints[i].dq;
+            self.ddq[i] = if dt > 0.0 { (dq - self.prev_dq[i]) / dt } else { 0.0 };
+            self.prev_dq[i] = dq;
+        }
+    }
+
+    fn finger_contact(&self, finger: Finger) -> f32 {
+        Dex3Joint::ALL
+            .into_iter()
+            .filter(|j| j.finger() == finger)
+            .map(|j| self.joints[j.index()].contact_tau)
+            .fold(0.0, f32::max)
+    }
+
+    /// The HandState_ the service publishes now (7 motors, 9 pads).
+    pub fn state(&self) -> HandState_ {
+        let t = &self.tuning;
+        let motor_state = (0..MOTORS)
+            .map(|i| {
+                let slot = &self.slots[i];
+                let status = slot.mode.map(|m| m.status).unwrap_or(MotorStatus::Lock);
+                let mode = RisMode {
+                    id: i as u8,
+                    status,
+                    timeout: slot.tripped,
+                };
+                let j = &self.joints[i];
+                MotorState_ {
+                    mode: mode.encode(),
+                    q: j.q,
+                    dq: j.dq,
+                    ddq: self.ddq[i],
+                    tau_est: j.tau,
+                    temperature: [t.temperature_c as i16; 2],
+                    vol: t.power_v,
+                    ..MotorState_::default()
+                }
+            })
+            .collect();
+        let press_sensor_state = t
+            .pads
+            .iter()
+            .map(|pad| {
+                let contact = pad.finger.map(|f| self.finger_contact(f)).unwrap_or(0.0);
+                let mut p = PressSensorState_ {
+                    pressure: [PRESS_NO_READING; PAD_POINTS],
+                    ..PressSensorState_::default()
+                };
+                for k in 0..pad.points.min(PAD_POINTS) {
+                    p.temperature[k] = t.temperature_c;
+                    if contact > 0.0 {
+                        p.pressure[k] = PRESS_VALID_MIN + t.press_raw_per_nm * contact;
+                    }
+                }
+                p
+            })
+            .collect();
+        let torque: f32 = self.joints.iter().map(|j| j.tau.abs()).sum();
+        HandState_ {
+            motor_state,
+            press_sensor_state,
+            imu_state: IMUState_ {
+                quaternion: t.imu_quaternion,
+                accelerometer: t.imu_accelerometer,
+                temperature: t.temperature_c as i16,
+                ..IMUState_::default()
+            },
+            power_v: t.power_v,
+            power_a: t.power_a_idle + t.power_a_per_nm * torque,
+            system_v: t.system_v,
+            device_v: t.device_v,
+            ..HandState_::default()
+        }
+    }
+
+    fn view(&self, i: usize) -> MotorView {
+        let slot = &self.slots[i];
+        let j = &self.joints[i];
+        MotorView {
+            commanded_mode: slot.mode,
+            applied: self.applied(i),
+            timeout_enabled: matches!(slot.mode, Some(m) if m.timeout),
+            timeout_tripped: slot.tripped,
+            q: j.q,
+            dq: j.dq,
+            tau: j.tau,
+            contact_tau: j.contact_tau,
+        }
+    }
+
+    pub fn snapshot(&self) -> Dex3Snapshot {
+        Dex3Snapshot {
+            last_command: self.last_command.clone(),
+            commands: self.commands,
+            rejected: self.rejected,
+            id_mismatches: self.id_mismatches,
+            motors: std::array::from_fn(|i| self.view(i)),
+            states_published: 0,
+            lf_published: 0,
+        }
+    }
+}
+
+struct Shared {
+    core: Dex3Core,
+    states_published: u64,
+    lf_published: u64,
+}
+
+/// A running emulated Dex3 service. Dropping it stops its thread.
+pub struct Dex3ServiceEmulator {
+    shared: Arc<Mutex<Shared>>,
+    worker: Worker,
+    config: Dex3ServiceConfig,
+}
+
+impl std::fmt::Debug for Dex3ServiceEmulator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Dex3ServiceEmulator")
+            .field("side", &self.config.side)
+            .finish()
+    }
+}
+
+impl Dex3ServiceEmulator {
+    /// Starts the service on `node`: creates its reader and writers, then its loop thread.
+    pub fn start(node: &Node, config: Dex3ServiceConfig) -> Result<Self, EmulatorError> {
+        config.validate()?;
+        let period = config.state_rate.period()?;
+        let lf_period = config.lf_rate.period()?;
+        let side = config.side;
+        // Best-effort reader: matches reliable and best-effort writers alike.
+        let reader = node.reader::<HandCmd_>(&cmd_topic(side), Qos::BestEffort)?;
+        // Reliable writers (keep last 1): match reliable and best-effort readers alike.
+        let mut writer = node.writer::<HandState_>(&state_topic(side), Qos::Reliable { depth: 1 })?;
+        let mut lf_writer = if config.publish_lf {
+            Some(node.writer::<HandState_>(&lf_state_topic(side), Qos::Reliable { depth: 1 })?)
+        } else {
+            None
+        };
+        let shared = Arc::new(Mutex::new(Shared {
+            core: Dex3Core::new(&config),
+            states_published: 0,
+            lf_published: 0,
+        }));
+        let sh = shared.clone();
+        let mut prev: Option<Instant> = None;
+        let mut next_lf = Instant::now();
+        let worker = Worker::spawn(&format!("dex3-emu-{side}"), period, move |now| {
+            let cmds = reader.take();
+            let dt = tick_dt(prev, now, period);
+            prev = Some(now);
+            let (state, lf_due) = {
+                let mut g = lock(&sh);
+                // Receive time taken after the take: never earlier than the sender's write.
+                let received = Instant::now();
+                for c in &cmds {
+                    g.core.on_command(c, received);
+                }
+                g.core.step(Instant::now(), dt);
+                let lf_due = lf_writer.is_some() && now >= next_lf;
+                (g.core.state(), lf_due)
+            };
+            let mut lf_ok = false;
+            if lf_due {
+                next_lf = (next_lf + lf_period).max(now);
+                if let Some(w) = lf_writer.as_mut() {
+                    lf_ok = w.write(state.clone()).is_ok();
+                }
+            }
+            let ok = writer.write(state).is_ok();
+            let mut g = lock(&sh);
+            g.states_published += u64::from(ok);
+            g.lf_published += u64::from(lf_ok);
+        })?;
+        Ok(Self { shared, worker, config })
+    }
+
+    pub fn config(&self) -> &Dex3ServiceConfig {
+        &self.config
+    }
+
+    pub fn snapshot(&self) -> Dex3Snapshot {
+        let g = lock(&self.shared);
+        Dex3Snapshot {
+            states_published: g.states_published,
+            lf_published: g.lf_published,
+            ..g.core.snapshot()
+        }
+    }
+
+    /// The last command received (accepted or not).
+    pub fn last_command(&self) -> Option<HandCmd_> {
+        lock(&self.shared).core.last_command.clone()
+    }
+
+    /// Accepted commands.
+    pub fn commands_received(&self) -> u64 {
+        lock(&self.shared).core.commands
+    }
+
+    /// Commands ignored for a wrong motor count.
+    pub fn commands_rejected(&self) -> u64 {
+        lock(&self.shared).core.rejected
+    }
+
+    /// What `joint`'s motor applies now.
+    pub fn applied_target(&self, joint: Dex3Joint) -> MotorTarget {
+        lock(&self.shared).core.applied(joint.index())
+    }
+
+    /// Whether `joint`'s timeout protection has tripped.
+    pub fn timeout_tripped(&self, joint: Dex3Joint) -> bool {
+        lock(&self.shared).core.slots[joint.index()].tripped
+    }
+
+    /// Places (or removes) the object `finger` closes on.
+    pub fn set_object(&self, finger: Finger, closure: Option<f32>) {
+        lock(&self.shared).core.set_object(finger, closure);
+    }
+
+    /// Stops the loop thread (also done on drop).
+    pub fn stop(mut self) {
+        self.worker.stop();
+    }
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    // A panic inside the loop thread leaves plain data behind: keep serving it.
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use handgate_idl::unitree_hg::MotorCmd_;
+    use proptest::prelude::*;
+
+    fn cmd_all(mode: impl Fn(u8) -> u8, q: [f32; MOTORS], kp: f32, kd: f32) -> HandCmd_ {
+        let mut c = HandCmd_::with_motors(MOTORS);
+        for (i, m) in c.motor_cmd.iter_mut().enumerate() {
+            *m = MotorCmd_ {
+                mode: mode(i as u8),
+                q: q[i],
+                kp,
+                kd,
+                ..MotorCmd_::default()
+            };
+        }
+        c
+    }
+
+    proptest! {
+        #[test]
+        fn ris_mode_roundtrips(b in any::<u8>()) {
+            prop_assert_eq!(RisMode::decode(b).encode(), b);
+        }
+    }
+
+    #[test]
+    fn ris_mode_fields() {
+        let m = RisMode::decode(0x95);
+        assert_eq!(m, RisMode::foc(5, true));
+        assert_eq!(RisMode::foc(3, false).encode(), 0x13);
+        assert_eq!(RisMode::decode(0x02).status, MotorStatus::Lock);
+        assert_eq!(RisMode::decode(0x72).status, MotorStatus::Undefined(7));
+    }
+
+    #[test]
+    fn limits_are_mirrored_and_closing_signs_follow_facts() {
+        for j in Dex3Joint::ALL {
+            let (l0, l1) = j.limits(Side::Left);
+            let (r0, r1) = j.limits(Side::Right);
+            assert_eq!((r0, r1), (-l1, -l0), "{j:?}");
+            assert!(l0 <= 0.0 && l1 >= 0.0);
+        }
+        #[allow(clippy::approx_constant)]
+        let urdf_index0 = (-1.5708, 0.0);
+        assert_eq!(Dex3Joint::Index0.limits(Side::Left), urdf_index0);
+        assert_eq!(Dex3Joint::Middle1.limits(Side::Right), (0.0, 1.7453));
+        assert_eq!(Dex3Joint::Thumb1.limits(Side::Right), (-0.920, 0.7243));
+        assert_eq!(Dex3Joint::Index1.closing_dir(Side::Left), Some(-1.0));
+        assert_eq!(Dex3Joint::Index1.closing_dir(Side::Right), Some(1.0));
+        assert_eq!(Dex3Joint::Thumb0.closing_dir(Side::Right), None);
+        // Closing goes into the range, not out of it.
+        for side in [Side::Left, Side::Right] {
+            for j in Dex3Joint::ALL {
+                if let Some(d) = j.closing_dir(side) {
+                    let (lo, hi) = j.limits(side);
+                    assert!(if d > 0.0 { hi > 0.5 } else { lo < -0.5 }, "{side:?} {j:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn timeout_trips_after_one_second_latches_and_clears_with_bit_zero() {
+        let mut core = Dex3Core::new(&Dex3ServiceConfig::new(Side::Right));
+        let t0 = Instant::now();
+        assert!(core.on_command(&cmd_all(|i| 0x90 | i, [0.2; MOTORS], 1.5, 0.1), t0));
+        core.step(t0 + Duration::from_millis(999), 0.001);
+        assert!(core.slots.iter().all(|s| !s.tripped));
+        core.step(t0 + Duration::from_millis(1000), 0.001);
+        assert!(core.slots.iter().all(|s| s.tripped));
+        assert!(core.state().motor_state.iter().all(|m| m.mode & 0x80 != 0));
+        assert_eq!(core.applied(0), MotorTarget::LIMP);
+        // Bit 7 still set: stays tripped.
+        core.on_command(
+            &cmd_all(|i| 0x90 | i, [0.2; MOTORS], 1.5, 0.1),
+            t0 + Duration::from_secs(2),
+        );
+        assert!(core.slots.iter().all(|s| s.tripped));
+        // Bit 7 = 0 clears and the command applies again.
+        core.on_command(
+            &cmd_all(|i| 0x10 | i, [0.2; MOTORS], 1.5, 0.1),
+            t0 + Duration::from_secs(3),
+        );
+        core.step(t0 + Duration::from_secs(10), 0.001);
+        assert!(core.slots.iter().all(|s| !s.tripped), "timeout disabled now");
+        assert_eq!(core.applied(5).q, 0.2);
+        assert!(core
+            .state()
+            .motor_state
+            .iter()
+            .enumerate()
+            .all(|(i, m)| m.mode == 0x10 | i as u8));
+    }
+
+    #[test]
+    fn no_timeout_without_bit() {
+        let mut core = Dex3Core::new(&Dex3ServiceConfig::new(Side::Left));
+        let t0 = Instant::now();
+        core.on_command(&cmd_all(|i| 0x10 | i, [0.0; MOTORS], 1.5, 0.1), t0);
+        core.step(t0 + Duration::from_secs(60), 0.001);
+        assert!(core.slots.iter().all(|s| !s.tripped));
+    }
+
+    #[test]
+    fn lock_holds_where_it_entered_lock() {
+        let mut cfg = Dex3ServiceConfig::new(Side::Right);
+        cfg.initial_q[3] = 0.4;
+        let mut core = Dex3Core::new(&cfg);
+        let t0 = Instant::now();
+        // Lock (status 0) with a far target: the target is not applied, the position is held.
+        core.on_command(&cmd_all(|i| i, [1.5; MOTORS], 3.0, 0.1), t0);
+        for k in 0..500 {
+            core.step(t0 + Duration::from_millis(k), 0.001);
+        }
+        assert!((core.joints[3].q - 0.4).abs() < 0.01, "q = {}", core.joints[3].q);
+        assert_eq!(core.applied(3).q, 0.4);
+        assert_eq!(core.state().motor_state[3].mode, 0x03);
+        // An undefined status (2) holds too, and is reported back as received.
+        core.on_command(
+            &cmd_all(|i| 0x20 | i, [1.5; MOTORS], 3.0, 0.1),
+            t0 + Duration::from_secs(1),
+        );
+        assert_eq!(core.applied(3).q, 0.4);
+        assert_eq!(core.state().motor_state[3].mode, 0x23);
+        // FOC releases the hold.
+        core.on_command(
+            &cmd_all(|i| 0x10 | i, [1.5; MOTORS], 3.0, 0.1),
+            t0 + Duration::from_secs(1),
+        );
+        assert_eq!(core.applied(3).q, 1.5);
+    }
+
+    #[test]
+    fn invalid_configs_are_errors() {
+        let mut c = Dex3ServiceConfig::new(Side::Left);
+        c.initial_q[2] = f32::NAN;
+        assert!(matches!(c.validate(), Err(EmulatorError::InvalidConfig(_))));
+        let mut c = Dex3ServiceConfig::new(Side::Left);
+        c.lf_rate = Hz(0.0);
+        assert!(c.validate().is_err());
+        let mut c = Dex3ServiceConfig::new(Side::Left);
+        c.objects[1] = Some(f32::INFINITY);
+        assert!(c.validate().is_err());
+        assert!(Dex3ServiceConfig::new(Side::Right).validate().is_ok());
+    }
+
+    #[test]
+    fn id_bits_not_matching_the_index_are_counted_and_applied_by_index() {
+        let mut core = Dex3Core::new(&Dex3ServiceConfig::new(Side::Right));
+        let mut q = [0.0; MOTORS];
+        q[4] = 0.7;
+        // Every motor claims id 0.
+        core.on_command(&cmd_all(|_| 0x10, q, 1.5, 0.1), Instant::now());
+        assert_eq!(core.id_mismatches, 6);
+        assert_eq!(core.applied(4).q, 0.7);
+    }
+
+    #[test]
+    fn wrong_size_is_rejected_without_effect() {
+        let mut core = Dex3Core::new(&Dex3ServiceConfig::new(Side::Right));
+        let before = core.snapshot().motors;
+        let t0 = Instant::now();
+        for n in [0, 6, 8] {
+            let mut c = HandCmd_::with_motors(n);
+            c.motor_cmd.iter_mut().for_each(|m| m.mode = 0x90);
+            assert!(!core.on_command(&c, t0));
+        }
+        assert_eq!(core.rejected, 3);
+        assert_eq!(core.commands, 0);
+        assert_eq!(core.snapshot().motors, before);
+        assert_eq!(core.last_command.as_ref().map(|c| c.motor_cmd.len()), Some(8));
+        core.step(t0 + Duration::from_secs(5), 0.001);
+        assert!(core.slots.iter().all(|s| !s.tripped));
+    }
+
+    #[test]
+    fn state_sizes_pressure_and_power() {
+        let mut cfg = Dex3ServiceConfig::new(Side::Left);
+        cfg.objects[Finger::Index.index()] = Some(0.5);
+        let mut core = Dex3Core::new(&cfg);
+        let s = core.state();
+        assert_eq!(s.motor_state.len(), MOTORS);
+        assert_eq!(s.press_sensor_state.len(), PADS);
+        assert!(s
+            .press_sensor_state
+            .iter()
+            .all(|p| p.pressure == [PRESS_NO_READING; 12]));
+        assert!((24.0..=58.0).contains(&s.power_v));
+        // Close the left index (negative) onto the object at -0.5.
+        let t0 = Instant::now();
+        core.on_command(
+            &cmd_all(|i| 0x10 | i, [0.0, 0.0, 0.0, 0.0, 0.0, -1.5, -1.5], 1.5, 0.1),
+            t0,
+        );
+        for k in 0..2000 {
+            core.step(t0 + Duration::from_millis(k), 0.001);
+        }
+        let s = core.state();
+        assert!(
+            s.motor_state[5].q < -0.45 && s.motor_state[5].q > -0.7,
+            "q = {}",
+            s.motor_state[5].q
+        );
+        for (i, pad) in core.tuning.pads.iter().enumerate() {
+            let p = &s.press_sensor_state[i];
+            if pad.finger == Some(Finger::Index) {
+                assert!(
+                    p.pressure[..pad.points].iter().all(|&v| v >= PRESS_VALID_MIN),
+                    "pad {i}"
+                );
+                assert!(p.pressure[pad.points..].iter().all(|&v| v == PRESS_NO_READING));
+            } else {
+                assert!(p.pressure.iter().all(|&v| v == PRESS_NO_READING), "pad {i}");
+            }
+        }
+    }
+
+    // ---- over real DDS (domains 30..=35) ----
+
+    use crate::dds::{Reader, Writer};
+
+    const WAIT: Duration = Duration::from_secs(20);
+
+    struct Client {
+        _node: Node,
+        cmd: Writer<HandCmd_>,
+        state: Reader<HandState_>,
+    }
+
+    fn setup(domain: u32, config: Dex3ServiceConfig) -> (Dex3ServiceEmulator, Client) {
+        let side = config.side;
+        crate::emu_common::isolated_test_domain(domain);
+        let emu_node = Node::new(domain, None).unwrap();
+        let emu = Dex3ServiceEmulator::start(&emu_node, config).unwrap();
+        let node = Node::new(domain, None).unwrap();
+        let cmd = node
+            .writer::<HandCmd_>(&cmd_topic(side), Qos::Reliable { depth: 4 })
+            .unwrap();
+        let state = node.reader::<HandState_>(&state_topic(side), Qos::BestEffort).unwrap();
+        cmd.wait_matched(1, WAIT).unwrap();
+        state.wait_matched(1, WAIT).unwrap();
+        (
+            emu,
+            Client {
+                _node: node,
+                cmd,
+                state,
+            },
+        )
+    }
+
+    impl Client {
+        /// Publishes `cmd` once per received state sample (like a client loop paced by the
+        /// state stream) until `done(latest state)` holds.
+        fn drive_until(&mut self, cmd: &HandCmd_, mut done: impl FnMut(&HandState_) -> bool) -> HandState_ {
+            let deadline = Instant::now() + WAIT;
+            loop {
+                self.cmd.write(cmd.clone()).unwrap();
+                let s = self.state.wait_take(WAIT).unwrap().pop().unwrap();
+                if done(&s) {
+                    return s;
+                }
+                assert!(Instant::now() < deadline, "condition not reached; last state {s:?}");
+            }
+        }
+
+        fn watch_until(&self, mut done: impl FnMut(&HandState_) -> bool) -> HandState_ {
+            let deadline = Instant::now() + WAIT;
+            loop {
+                let s = self.state.wait_take(WAIT).unwrap().pop().unwrap();
+                if done(&s) {
+                    return s;
+                }
+                assert!(Instant::now() < deadline, "condition not reached; last state {s:?}");
+            }
+        }
+    }
+
+    fn wait_for(mut cond: impl FnMut() -> bool) {
+        let deadline = Instant::now() + WAIT;
+        while !cond() {
+            assert!(Instant::now() < deadline, "condition not reached");
+            std::thread::yield_now();
+        }
+    }
+
+    #[test]
+    fn dds_moves_commanded_joint_and_reports_full_state() {
+        let (emu, mut client) = setup(30, Dex3ServiceConfig::new(Side::Right));
+        let mut q = [0.0; MOTORS];
+        q[Dex3Joint::Index0.index()] = 1.0;
+        let cmd = cmd_all(|i| 0x10 | i, q, 1.5, 0.1);
+        let s = client.drive_until(&cmd, |s| (s.motor_state[5].q - 1.0).abs() < 0.05);
+        assert_eq!(s.motor_state.len(), MOTORS);
+        assert_eq!(s.press_sensor_state.len(), PADS);
+        for (i, m) in s.motor_state.iter().enumerate() {
+            assert_eq!(m.mode, 0x10 | i as u8);
+        }
+        assert!(s.motor_state[0].q.abs() < 0.05);
+        assert!((24.0..=58.0).contains(&s.power_v));
+        let qn: f32 = s.imu_state.quaternion.iter().map(|v| v * v).sum();
+        assert!((qn - 1.0).abs() < 1e-4);
+        let g: f32 = s.imu_state.accelerometer.iter().map(|v| v * v).sum::<f32>().sqrt();
+        assert!((g - 9.81).abs() < 0.1);
+        let snap = emu.snapshot();
+        assert!(snap.commands >= 1);
+        assert_eq!(snap.rejected, 0);
+        assert_eq!(snap.last_command, Some(cmd));
+        assert_eq!(emu.applied_target(Dex3Joint::Index0).q, 1.0);
+    }
+
+    #[test]
+    fn dds_left_hand_closes_negative_and_stops_at_urdf_limit() {
+        let (_emu, mut client) = setup(31, Dex3ServiceConfig::new(Side::Left));
+        let mut q = [0.0; MOTORS];
+        q[Dex3Joint::Middle0.index()] = -1.0;
+        q[Dex3Joint::Index0.index()] = 1.0; // outside [-1.5708, 0]: stops at 0
+        let cmd = cmd_all(|i| 0x10 | i, q, 1.5, 0.1);
+        let s = client.drive_until(&cmd, |s| (s.motor_state[3].q + 1.0).abs() < 0.05);
+        assert!(s.motor_state[5].q <= 0.0 && s.motor_state[5].q > -0.05);
+    }
+
+    #[test]
+    fn dds_timeout_bit_trips_after_silence_and_clears_with_bit_zero() {
+        let (emu, mut client) = setup(32, Dex3ServiceConfig::new(Side::Right));
+        let armed = cmd_all(|i| 0x90 | i, [0.0; MOTORS], 1.5, 0.1);
+        let written = Instant::now();
+        client.cmd.write(armed.clone()).unwrap();
+        wait_for(|| emu.commands_received() >= 1);
+        assert!(!emu.timeout_tripped(Dex3Joint::Thumb0));
+        let s = client.watch_until(|s| s.motor_state.iter().all(|m| m.mode & 0x80 != 0));
+        // The service trips 1 s after it received the command, which is after the write.
+        assert!(written.elapsed() >= Duration::from_secs(1));
+        assert_eq!(s.motor_state[2].mode, 0x92);
+        assert!(Dex3Joint::ALL.iter().all(|&j| emu.timeout_tripped(j)));
+        assert_eq!(emu.applied_target(Dex3Joint::Index1), MotorTarget::LIMP);
+        // A command that keeps bit 7 set does not clear the latch.
+        let n = emu.commands_received();
+        client.cmd.write(armed).unwrap();
+        wait_for(|| emu.commands_received() > n);
+        assert!(emu.timeout_tripped(Dex3Joint::Middle0));
+        // Bit 7 = 0 clears it.
+        let clear = cmd_all(|i| 0x10 | i, [0.0; MOTORS], 1.5, 0.1);
+        client.drive_until(&clear, |s| s.motor_state.iter().all(|m| m.mode & 0x80 == 0));
+        assert!(!emu.timeout_tripped(Dex3Joint::Middle0));
+        assert_eq!(emu.applied_target(Dex3Joint::Middle0).kp, 1.5);
+    }
+
+    #[test]
+    fn dds_wrong_motor_count_is_rejected_and_counted() {
+        let (emu, mut client) = setup(33, Dex3ServiceConfig::new(Side::Left));
+        let mut six = HandCmd_::with_motors(6);
+        six.motor_cmd.iter_mut().for_each(|m| {
+            m.mode = 0x10;
+            m.q = -1.0;
+            m.kp = 1.5;
+        });
+        client.cmd.write(six).unwrap();
+        wait_for(|| emu.commands_rejected() >= 1);
+        client.cmd.write(HandCmd_::with_motors(8)).unwrap();
+        wait_for(|| emu.commands_rejected() >= 2);
+        let snap = emu.snapshot();
+        assert_eq!(snap.commands, 0);
+        assert_eq!(snap.last_command.map(|c| c.motor_cmd.len()), Some(8));
+        // Nothing applied: every motor still holds its initial position.
+        assert!(snap
+            .motors
+            .iter()
+            .all(|m| m.commanded_mode.is_none() && m.applied.q == 0.0));
+        let good = cmd_all(|i| 0x10 | i, [0.0; MOTORS], 1.5, 0.1);
+        client.cmd.write(good).unwrap();
+        wait_for(|| emu.commands_received() >= 1);
+        assert_eq!(emu.commands_rejected(), 2);
+    }
+
+    #[test]
+    fn dds_low_frequency_copy_is_published_at_a_lower_rate() {
+        crate::emu_common::isolated_test_domain(34);
+        let emu_node = Node::new(34, None).unwrap();
+        let emu = Dex3ServiceEmulator::start(&emu_node, Dex3ServiceConfig::new(Side::Right)).unwrap();
+        let node = Node::new(34, None).unwrap();
+        let hf = node
+            .reader::<HandState_>(&state_topic(Side::Right), Qos::Reliable { depth: 4096 })
+            .unwrap();
+        let lf = node
+            .reader::<HandState_>(&lf_state_topic(Side::Right), Qos::Reliable { depth: 4096 })
+            .unwrap();
+        hf.wait_matched(1, WAIT).unwrap();
+        lf.wait_matched(1, WAIT).unwrap();
+        // Start counting from an empty cache on both.
+        let _ = (hf.take(), lf.take());
+        let (mut n_hf, mut n_lf) = (0usize, 0usize);
+        let deadline = Instant::now() + WAIT;
+        while n_lf < 10 {
+            n_lf += lf.take().iter().filter(|s| s.motor_state.len() == MOTORS).count();
+            n_hf += hf.take().len();
+            assert!(Instant::now() < deadline, "lf stream too slow: {n_lf}");
+            std::thread::yield_now();
+        }
+        n_hf += hf.take().len();
+        assert!(n_hf > n_lf, "state {n_hf} vs lf {n_lf}");
+        let snap = emu.snapshot();
+        assert!(snap.states_published > snap.lf_published);
+    }
+
+    #[test]
+    fn dds_pads_report_contact_on_the_touching_finger_only() {
+        let mut cfg = Dex3ServiceConfig::new(Side::Right);
+        cfg.publish_lf = false;
+        let (emu, mut client) = setup(35, cfg);
+        emu.set_object(Finger::Middle, Some(0.6));
+        let q = [0.0, 0.0, 0.0, 1.5, 1.5, 0.0, 0.0];
+        let cmd = cmd_all(|i| 0x10 | i, q, 1.5, 0.1);
+        let pads = emu.config().tuning.pads;
+        let s = client.drive_until(&cmd, |s| {
+            pads.iter()
+                .zip(&s.press_sensor_state)
+                .filter(|(p, _)| p.finger == Some(Finger::Middle))
+                .all(|(p, st)| st.pressure[..p.points].iter().all(|&v| v >= PRESS_VALID_MIN))
+        });
+        assert!(
+            s.motor_state[3].q < 0.75,
+            "middle_0 stopped by the object: {}",
+            s.motor_state[3].q
+        );
+        for (p, st) in pads.iter().zip(&s.press_sensor_state) {
+            if p.finger != Some(Finger::Middle) {
+                assert!(st.pressure.iter().all(|&v| v == PRESS_NO_READING));
+            }
+        }
+        assert_eq!(emu.snapshot().lf_published, 0);
+    }
+}

@@ -1,0 +1,182 @@
+//! Pieces shared by the DDS peer emulators (`dex3::dds_service_emulator`, `dex1::emulator`,
+//! `hand_sdk::emulator`): the hand side, a rate newtype, the emulator error type and a
+//! stoppable background loop paced at a fixed rate.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use crate::dds::DdsError;
+
+pub use crate::model::Side;
+
+/// A frequency in hertz. Must be finite and > 0 to be used as a loop rate.
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd)]
+pub struct Hz(pub f64);
+
+impl Hz {
+    /// The period of one cycle, or an error for a rate that is not finite and positive.
+    pub fn period(self) -> Result<Duration, EmulatorError> {
+        if self.0.is_finite() && self.0 > 0.0 && self.0 <= 100_000.0 {
+            Ok(Duration::from_secs_f64(1.0 / self.0))
+        } else {
+            Err(EmulatorError::InvalidConfig(format!(
+                "rate {} Hz is not in (0, 100000]",
+                self.0
+            )))
+        }
+    }
+}
+
+/// Errors starting an emulator.
+#[derive(Debug, thiserror::Error)]
+pub enum EmulatorError {
+    #[error(transparent)]
+    Dds(#[from] DdsError),
+    #[error("invalid emulator configuration: {0}")]
+    InvalidConfig(String),
+    #[error("could not spawn the emulator thread: {0}")]
+    Spawn(#[from] std::io::Error),
+}
+
+/// `Err(InvalidConfig)` unless every value is finite.
+pub(crate) fn ensure_finite(what: &str, values: &[f32]) -> Result<(), EmulatorError> {
+    match values.iter().find(|v| !v.is_finite()) {
+        Some(v) => Err(EmulatorError::InvalidConfig(format!("{what} must be finite, got {v}"))),
+        None => Ok(()),
+    }
+}
+
+/// A background thread running `tick` at a fixed period until stopped (explicitly or on drop).
+pub(crate) struct Worker {
+    stop: Arc<AtomicBool>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl Worker {
+    /// Spawns a thread named `name` calling `tick(now)` every `period` (absolute schedule:
+    /// a late cycle is not made up by bursts, the schedule skips ahead instead).
+    pub(crate) fn spawn<F>(name: &str, period: Duration, mut tick: F) -> Result<Self, EmulatorError>
+    where
+        F: FnMut(Instant) + Send + 'static,
+    {
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop2 = stop.clone();
+        let handle = std::thread::Builder::new().name(name.to_string()).spawn(move || {
+            let mut next = Instant::now();
+            while !stop2.load(Ordering::Acquire) {
+                let now = Instant::now();
+                if now < next {
+                    // Pacing of the emulated peer's own control loop, not a test wait.
+                    std::thread::sleep(next - now);
+                    continue;
+                }
+                tick(now);
+                next += period;
+                if next + period < now {
+                    next = now + period;
+                }
+            }
+        })?;
+        Ok(Self {
+            stop,
+            handle: Some(handle),
+        })
+    }
+
+    /// Stops the loop and joins the thread (idempotent).
+    pub(crate) fn stop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// Seconds elapsed between two loop ticks, bounded so a stalled thread (a loaded CI machine)
+/// does not hand the joint model one huge step.
+pub(crate) fn tick_dt(prev: Option<Instant>, now: Instant, nominal: Duration) -> f32 {
+    let dt = match prev {
+        Some(p) => now.saturating_duration_since(p),
+        None => nominal,
+    };
+    dt.as_secs_f32().clamp(0.0, 0.01)
+}
+
+/// Test support: makes DDS domain `id` private to this process.
+///
+/// The emulator tests own fixed domain ids; two runs of the same tests at once (two
+/// worktrees, two engineers) would otherwise discover each other's emulators on the same
+/// host. CycloneDDS's `Discovery/Tag` makes participants ignore remote participants without
+/// the same tag; participants inside one process still match locally. Call it before any
+/// `Node` on `id`. The domain is kept for the life of the process (deleting it under live
+/// participants would make their deletion fail), and a second call for the same id is a no-op.
+#[cfg(test)]
+pub(crate) fn isolated_test_domain(id: u32) {
+    use std::collections::HashSet;
+    use std::sync::OnceLock;
+    static CREATED: OnceLock<std::sync::Mutex<HashSet<u32>>> = OnceLock::new();
+    let mut created = CREATED
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    if created.insert(id) {
+        let cfg = format!(
+            "<CycloneDDS><Domain Id=\"any\"><Discovery><Tag>handgate-emu-test-{}-{id}</Tag></Discovery></Domain></CycloneDDS>",
+            std::process::id()
+        );
+        let domain =
+            cyclonedds_rs::dds_domain::DdsDomain::create(id, Some(&cfg)).expect("create an isolated test domain");
+        std::mem::forget(domain);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hz_period_validates() {
+        assert_eq!(Hz(500.0).period().unwrap(), Duration::from_millis(2));
+        assert!(Hz(0.0).period().is_err());
+        assert!(Hz(-1.0).period().is_err());
+        assert!(Hz(f64::NAN).period().is_err());
+    }
+
+    #[test]
+    fn worker_runs_and_stops_on_drop() {
+        let n = Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let n2 = n.clone();
+        let w = Worker::spawn("t", Duration::from_millis(1), move |_| {
+            n2.fetch_add(1, Ordering::Relaxed);
+        })
+        .unwrap();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while n.load(Ordering::Relaxed) < 5 {
+            assert!(Instant::now() < deadline, "worker never ticked");
+            std::thread::yield_now();
+        }
+        drop(w);
+        let after = n.load(Ordering::Relaxed);
+        // The thread is joined: the counter can no longer move.
+        std::thread::yield_now();
+        assert_eq!(n.load(Ordering::Relaxed), after);
+    }
+
+    #[test]
+    fn tick_dt_is_bounded() {
+        let t = Instant::now();
+        assert_eq!(tick_dt(None, t, Duration::from_millis(2)), 0.002);
+        assert_eq!(
+            tick_dt(Some(t), t + Duration::from_secs(3), Duration::from_millis(2)),
+            0.01
+        );
+    }
+}
