@@ -1,3 +1,4 @@
 //! handgate gateway: router, fronts, profiles, runtime and CLI.
 
 pub mod cli;
+pub mod profile;
