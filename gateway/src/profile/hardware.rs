@@ -32,6 +32,8 @@ pub fn joint_names(kind: DeviceKind) -> &'static [&'static str] {
 ///   dex1_1_service calibrates 5.62 rad; open is 5.4 by default).
 /// - EZGripper: 0 ..= 5.4, the SAKE driver's Dex1-equivalent clamp (FACTS §5).
 /// - hand_sdk: ASSUMPTION -pi ..= pi; the motors' ranges are not public.
+// The Dex3 values are the URDF's 4-decimal literals, kept exactly as published.
+#[allow(clippy::approx_constant)]
 pub fn joint_range(kind: DeviceKind, side: Side, joint: &str) -> Option<(f64, f64)> {
     match kind {
         DeviceKind::Dex3 => {

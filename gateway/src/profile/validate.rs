@@ -25,6 +25,16 @@ fn root() -> KeyPath {
     KeyPath::root()
 }
 
+/// "a dex3", "an ezgripper".
+fn a(word: &str) -> String {
+    let article = if word.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    };
+    format!("{article} {word}")
+}
+
 fn is_name(s: &str) -> bool {
     !s.is_empty()
         && s.bytes()
@@ -129,7 +139,10 @@ impl Checker {
                 },
                 None => {
                     if f.kind != FrontKind::JointState {
-                        self.err(k.key("device"), format!("a {} front must name its device", f.kind));
+                        self.err(
+                            k.key("device"),
+                            format!("{} front must name its device", a(f.kind.as_str())),
+                        );
                     }
                     None
                 }
@@ -185,8 +198,8 @@ impl Checker {
             self.err(
                 key,
                 format!(
-                    "unknown joint `{joint}` for a {} (joints: {})",
-                    d.kind,
+                    "unknown joint `{joint}` for {} (joints: {})",
+                    a(d.kind.as_str()),
                     joint_names(d.kind).join(", ")
                 ),
             );
@@ -223,8 +236,8 @@ impl Checker {
             self.err(
                 k.key("backend"),
                 format!(
-                    "a {} cannot use backend {} (valid: {})",
-                    d.kind,
+                    "{} cannot use backend {} (valid: {})",
+                    a(d.kind.as_str()),
                     d.backend,
                     names.join(", ")
                 ),
@@ -291,7 +304,7 @@ impl Checker {
                 if !m.is_empty() {
                     self.err(
                         ck.key(which),
-                        format!("only a dex3 has closure postures, this is a {}", d.kind),
+                        format!("only a dex3 has closure postures, this is {}", a(d.kind.as_str())),
                     );
                 }
             }
@@ -301,7 +314,10 @@ impl Checker {
             if d.kind != HandSdk {
                 self.err(
                     ck.key(which),
-                    format!("only a hand_sdk device maps closure to torque, this is a {}", d.kind),
+                    format!(
+                        "only a hand_sdk device maps closure to torque, this is {}",
+                        a(d.kind.as_str())
+                    ),
                 );
             } else if !v.is_finite() || v.abs() > 5.0 {
                 self.err(ck.key(which), format!("must be a torque within +-5 N*m, got {v}"));
@@ -321,7 +337,11 @@ impl Checker {
             if present && !ok {
                 this.err(
                     k.key(name),
-                    format!("[{name}] {why}, this is a {} on backend {}", d.kind, d.backend),
+                    format!(
+                        "[{name}] {why}, this is {} on backend {}",
+                        a(d.kind.as_str()),
+                        d.backend
+                    ),
                 );
             }
         };
@@ -389,14 +409,14 @@ impl Checker {
                 }
             }
         }
-        if d.backend == Dds {
+        if d.backend == Dds && matches!(d.kind, Dex3 | Dex1) && d.side == Side::Center {
             if let Some((cmd, state)) = d.dds_topics() {
-                if cmd.is_none() || (state.is_none() && d.kind != HandSdk) {
+                if cmd.is_none() || state.is_none() {
                     self.err(
                         k.key("side"),
                         format!(
-                            "a {} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
-                            d.kind
+                            "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
+                            a(d.kind.as_str())
                         ),
                     );
                 }
@@ -576,7 +596,7 @@ impl Checker {
         let kind = f.kind;
         let only = |this: &mut Self, name: &str, present: bool, ok: bool, what: &str| {
             if present && !ok {
-                this.err(k.key(name), format!("only {what}, this is a {kind} front"));
+                this.err(k.key(name), format!("only {what}, this is {} front", a(kind.as_str())));
             }
         };
         let dex = matches!(kind, FrontKind::Dex3 | FrontKind::Dex1);
@@ -679,7 +699,8 @@ impl Checker {
                 self.err(
                     k.key("side"),
                     format!(
-                        "a {kind} front serves side left or right ({why}); set `side` (the device's side is center)"
+                        "{} front serves side left or right ({why}); set `side` (the device's side is center)",
+                        a(kind.as_str())
                     ),
                 );
             }
