@@ -691,3 +691,18 @@ fn default_structs_validate() {
     };
     assert_eq!(validate(&p), vec![]);
 }
+
+#[test]
+fn the_example_in_the_docs_validates() {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/profiles.md")).unwrap();
+    let example = doc
+        .split("## Example")
+        .nth(1)
+        .and_then(|s| s.split("```toml\n").nth(1))
+        .and_then(|s| s.split("```").next())
+        .expect("docs/profiles.md has an Example section with a toml block");
+    let (_, r) = load_text(example);
+    let l = r.unwrap_or_else(|e| panic!("docs example: {e}"));
+    assert_eq!(l.profile.name, "bench-2");
+    assert_eq!(l.profile.devices.len(), 2);
+}
