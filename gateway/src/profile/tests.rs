@@ -238,6 +238,12 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "devices[0].hand_sdk.weight",
         "between 0 and 1",
     ),
+    (
+        "two dds devices on one command topic",
+        "[[devices]]\nname = \"a\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n[[devices]]\nname = \"b\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n",
+        "devices[1].dds",
+        "also sends commands on `rt/dex3/left/cmd`",
+    ),
     ("status rate", "[status]\nrate_hz = 50\n", "status.rate_hz", "at most 10 Hz"),
     ("bad topic", "[status]\ntopic = \"rt/a b\"\n", "status.topic", "not a topic name"),
 ];
@@ -705,4 +711,22 @@ fn the_example_in_the_docs_validates() {
     let l = r.unwrap_or_else(|e| panic!("docs example: {e}"));
     assert_eq!(l.profile.name, "bench-2");
     assert_eq!(l.profile.devices.len(), 2);
+}
+
+#[test]
+fn fronts_on_missing_devices_report_only_the_missing_devices() {
+    // Without a device their default topics would coincide; that is not reported twice.
+    let (path, r) = load_text(
+        "[[fronts]]\nkind = \"canonical\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"x\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"y\"\n",
+    );
+    let lines = r.unwrap_err().lines();
+    let p = path.display();
+    assert_eq!(
+        lines,
+        [
+            format!("{p}: fronts[0].device: a canonical front must name its device"),
+            format!("{p}: fronts[1].device: no device named `x` (devices: none)"),
+            format!("{p}: fronts[2].device: no device named `y` (devices: none)"),
+        ]
+    );
 }

@@ -148,6 +148,10 @@ impl Checker {
                 }
             };
             self.front(&k, f, dev, f.device.is_some() && dev.is_none());
+            if dev.is_none() && f.kind != FrontKind::JointState {
+                // Its topics depend on a device that is not there; already reported.
+                continue;
+            }
             let topics = f.topics(dev);
             if let Some(t) = &topics.cmd {
                 let side = f.served_side(dev);
@@ -554,8 +558,17 @@ impl Checker {
         let mut usb_sides: HashMap<(Side, Option<String>), usize> = HashMap::new();
         let mut ports: HashMap<String, (usize, u32)> = HashMap::new();
         let mut servo_ids: HashMap<(String, u8), usize> = HashMap::new();
+        let mut dds_cmd: HashMap<Topic, usize> = HashMap::new();
         for (i, d) in p.devices.iter().enumerate() {
             let k = root().key("devices").index(i);
+            if let Some((Some(cmd), _)) = d.dds_topics() {
+                if let Some(j) = dds_cmd.insert(cmd.clone(), i) {
+                    self.err(
+                        k.key("dds"),
+                        format!("devices[{j}] also sends commands on `{cmd}`: two devices would fight over one"),
+                    );
+                }
+            }
             if d.kind == DeviceKind::Dex3 && d.backend == Backend::Usb {
                 let serial = d.usb.as_ref().and_then(|u| u.serial.clone());
                 if let Some(j) = usb_sides.insert((d.side, serial.clone()), i) {
