@@ -10,16 +10,29 @@ use crate::mapping::{DeviceTable, MappingError};
 use crate::model::{DeviceKind, HandCommand, HandState, SafeAction, Side};
 
 /// How the device is reached.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Backend {
+    /// Dex3-1 USB bulk protocol.
     Usb,
+    /// DDS, as a client of a service that owns the device.
     Dds,
+    /// Dynamixel Protocol 2.0 over a serial port.
     Serial,
+    /// An emulated device at the transport seam.
+    #[default]
     Emulator,
 }
 
+impl std::fmt::Display for Backend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 impl Backend {
+    pub const ALL: [Backend; 4] = [Backend::Usb, Backend::Dds, Backend::Serial, Backend::Emulator];
+
     pub fn as_str(self) -> &'static str {
         match self {
             Backend::Usb => "usb",

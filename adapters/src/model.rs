@@ -14,9 +14,10 @@ use std::time::{Duration, Instant, SystemTime};
 use serde::{Deserialize, Serialize};
 
 /// What a device is. Each kind has one folder in `adapters/src/` and one mapping table.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum DeviceKind {
+    #[default]
     /// Unitree Dex3-1, 7 joints (USB or through a G1's resident service over DDS).
     Dex3,
     /// Unitree Dex1-1 parallel gripper (through dex1_1_service over DDS).
@@ -88,9 +89,10 @@ impl fmt::Display for DeviceKind {
 }
 
 /// Which hand.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Side {
+    #[default]
     Left,
     Right,
     /// A single gripper with no side (EZGripper servo id 3).
@@ -98,6 +100,8 @@ pub enum Side {
 }
 
 impl Side {
+    pub const ALL: [Side; 3] = [Side::Left, Side::Right, Side::Center];
+
     pub fn as_str(self) -> &'static str {
         match self {
             Side::Left => "left",
@@ -158,7 +162,7 @@ impl JointCommand {
 }
 
 /// What the device should do when commands stop or the gateway shuts down.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SafeAction {
     /// Hold the measured position with damping (gains from the device table).
@@ -168,6 +172,24 @@ pub enum SafeAction {
     Limp,
     /// Move to the open posture (closure 0).
     Open,
+}
+
+impl SafeAction {
+    pub const ALL: [SafeAction; 3] = [SafeAction::Hold, SafeAction::Limp, SafeAction::Open];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SafeAction::Hold => "hold",
+            SafeAction::Limp => "limp",
+            SafeAction::Open => "open",
+        }
+    }
+}
+
+impl fmt::Display for SafeAction {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
 }
 
 /// The body of a canonical command.

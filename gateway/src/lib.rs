@@ -3,6 +3,7 @@
 pub mod cli;
 pub mod fronts;
 pub mod plan;
+pub mod profile;
 pub mod router;
 pub mod runtime;
 pub mod tools;

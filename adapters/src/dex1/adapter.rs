@@ -15,13 +15,26 @@ use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, JointCommand, Side};
 
 /// Which Dex1 interface the peer speaks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Variant {
+    /// `rt/dex1/{side}/{cmd,state}`, unitree_go MotorCmds_/MotorStates_, 1 element.
     #[default]
     Go,
+    /// `rt/dex1/{side}/{cmd,state}`, unitree_hg HandCmd_/HandState_ (the seed spec).
     Hg,
+    /// `rt/unitree_actuator/{cmd,state}`, unitree_go, 2 elements (0 = right, 1 = left).
     Actuator,
+}
+
+impl std::fmt::Display for Variant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Variant::Go => "go",
+            Variant::Hg => "hg",
+            Variant::Actuator => "actuator",
+        })
+    }
 }
 
 /// Default topics of a variant for a side.

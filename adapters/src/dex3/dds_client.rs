@@ -12,13 +12,23 @@ use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, Imu, JointState, Pad, Power, SafeAction, Side};
 
 /// Which state topic to read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum StateSource {
     /// `rt/dex3/{side}/state` (xr_teleoperate, docs).
     #[default]
     State,
     /// `rt/lf/dex3/{side}/state` (the SDK's C++ and ROS 2 examples).
-    LowFrequency,
+    Lf,
+}
+
+impl std::fmt::Display for StateSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            StateSource::State => "state",
+            StateSource::Lf => "lf",
+        })
+    }
 }
 
 /// Default topics for a side.
@@ -26,7 +36,7 @@ pub fn topics(side: Side, source: StateSource) -> (String, String) {
     let s = side.as_str();
     let state = match source {
         StateSource::State => format!("rt/dex3/{s}/state"),
-        StateSource::LowFrequency => format!("rt/lf/dex3/{s}/state"),
+        StateSource::Lf => format!("rt/lf/dex3/{s}/state"),
     };
     (format!("rt/dex3/{s}/cmd"), state)
 }

@@ -1,0 +1,84 @@
+//! The resolved fleet as `handgate check` and `handgate run` print it.
+
+use std::fmt::Write;
+
+use super::error::Origin;
+use super::schema::*;
+
+/// A human-readable summary of the resolved profile: DDS, devices with their effective
+/// rates and watchdogs, fronts with their topics and bound device.
+pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "profile {} ({origin})", p.name);
+    if !p.description.is_empty() {
+        let _ = writeln!(s, "  {}", p.description);
+    }
+    let _ = writeln!(
+        s,
+        "dds: domain {}, interface {}",
+        p.dds.domain.0,
+        p.dds.interface.as_deref().unwrap_or("(any)")
+    );
+    let _ = writeln!(s, "log: {} {}", p.log.format, p.log.level);
+    let _ = writeln!(s, "status: {} at {}", p.status.topic, p.status.rate_hz);
+    let _ = writeln!(s, "devices ({}):", p.devices.len());
+    for d in &p.devices {
+        let _ = write!(
+            s,
+            "  {:<14} {:<9} {:<6} {:<8} rate {}, watchdog {} then {}",
+            d.name.as_str(),
+            d.kind.as_str(),
+            d.side.as_str(),
+            d.backend.as_str(),
+            d.rate(),
+            d.watchdog.timeout_ms,
+            d.watchdog.safe_action
+        );
+        if let Some((cmd, state)) = d.dds_topics() {
+            let _ = write!(
+                s,
+                ", via {} / {}",
+                cmd.map(|t| t.0).unwrap_or_else(|| "-".into()),
+                state.map(|t| t.0).unwrap_or_else(|| "-".into())
+            );
+        }
+        if d.kind == DeviceKind::Dex1 && d.backend == Backend::Dds {
+            let _ = write!(s, " ({})", d.dex1_variant());
+        }
+        if let Some(e) = &d.ezgripper {
+            let _ = write!(s, ", {} @ {} baud id {}", e.port, e.baud, e.servo_id_for(d.side));
+        }
+        if let Some(u) = d.usb.as_ref().and_then(|u| u.serial.as_ref()) {
+            let _ = write!(s, ", usb serial {u}");
+        }
+        s.push('\n');
+    }
+    let _ = writeln!(s, "fronts ({}):", p.fronts.len());
+    for f in &p.fronts {
+        let dev = f.device.as_ref().and_then(|n| p.devices.iter().find(|d| &d.name == n));
+        let t = f.topics(dev);
+        let target = f
+            .device
+            .as_ref()
+            .map(|n| n.0.clone())
+            .unwrap_or_else(|| "all devices".into());
+        let _ = write!(s, "  {:<11} -> {:<14}", f.kind.as_str(), target);
+        if let Some(c) = &t.cmd {
+            let _ = write!(s, " cmd {c}");
+        }
+        if let Some(st) = &t.state {
+            let _ = write!(s, " state {st} at {}", t.state_hz);
+        }
+        if let (Some(lf), Some(hz)) = (&t.lf_state, t.lf_state_hz) {
+            let _ = write!(s, " lf {lf} at {hz}");
+        }
+        if f.kind == FrontKind::Dex1 {
+            let _ = write!(s, " ({})", f.dex1_variant());
+        }
+        if f.kind != FrontKind::JointState {
+            let _ = write!(s, ", watchdog {}", f.watchdog_ms);
+        }
+        s.push('\n');
+    }
+    s
+}

@@ -1,0 +1,732 @@
+//! Loader and validation tests: bad profiles, layering, shipped profiles.
+
+// figment::Jail's closures return figment's (large) error type.
+#![allow(clippy::result_large_err)]
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use super::*;
+
+/// Writes `text` to a fresh file under the system temp dir and returns its path.
+fn temp_profile(text: &str) -> PathBuf {
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let dir = std::env::temp_dir().join(format!("handgate-profile-tests-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(format!("p{}.toml", N.fetch_add(1, Ordering::Relaxed)));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn opts(profile: Option<String>) -> LoadOptions {
+    LoadOptions {
+        profile,
+        overrides: CliOverrides::default(),
+        env: EnvLayer::Ignore,
+        search_dirs: Some(vec![]),
+    }
+}
+
+fn load_text(text: &str) -> (PathBuf, Result<Loaded, ProfileError>) {
+    let p = temp_profile(text);
+    let r = load(&opts(Some(p.display().to_string())));
+    (p, r)
+}
+
+fn repo_profiles_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../profiles")
+}
+
+const DEX3: &str = r#"
+[[devices]]
+name = "l"
+kind = "dex3"
+side = "left"
+backend = "emulator"
+"#;
+
+/// (case, profile text, expected key path, expected message fragment). Each must give
+/// exactly one line `<file>: <key>: <message>`.
+const BAD: &[(&str, &str, &str, &str)] = &[
+    ("unknown key", "[dds]\ndomian = 3\n", "dds.domian", "unknown key"),
+    ("unknown top-level key", "devcies = []\n", "devcies", "unknown key"),
+    (
+        "unknown key in an array element",
+        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\nwatchdg = { timeout_ms = 100 }\n",
+        "devices[0].watchdg",
+        "unknown key",
+    ),
+    ("wrong type", "[dds]\ndomain = \"three\"\n", "dds.domain", "invalid type"),
+    (
+        "wrong type deep",
+        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\nwatchdog = { timeout_ms = \"soon\" }\n",
+        "devices[0].watchdog.timeout_ms",
+        "invalid type",
+    ),
+    (
+        "unknown enum value",
+        "[[devices]]\nname = \"l\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"emulator\"\n",
+        "devices[0].kind",
+        "dex5",
+    ),
+    (
+        "missing required key",
+        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\n",
+        "devices[0].backend",
+        "missing",
+    ),
+    ("domain too high", "[dds]\ndomain = 233\n", "dds.domain", "between 0 and 232"),
+    (
+        "unknown device in a front",
+        "[[fronts]]\nkind = \"canonical\"\ndevice = \"nope\"\n",
+        "fronts[0].device",
+        "no device named `nope`",
+    ),
+    (
+        "front without device",
+        "[[fronts]]\nkind = \"dex3\"\n",
+        "fronts[0].device",
+        "must name its device",
+    ),
+    (
+        "duplicate device names",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n",
+        "devices[1].name",
+        "duplicate device name `g`",
+    ),
+    (
+        "bad device name",
+        "[[devices]]\nname = \"Left Hand\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n",
+        "devices[0].name",
+        "not a device name",
+    ),
+    (
+        "limits min >= max",
+        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.limits.joints]\nthumb_0 = { min = 0.5, max = 0.2 }\n",
+        "devices[0].limits.joints.thumb_0",
+        "must be below max",
+    ),
+    (
+        "limit outside the hardware range",
+        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.limits.joints]\nindex_0 = { max = 0.5 }\n",
+        "devices[0].limits.joints.index_0.max",
+        "outside the left dex3 hardware range",
+    ),
+    (
+        "unknown joint for the kind",
+        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.limits.joints]\njaw = { max = 1.0 }\n",
+        "devices[0].limits.joints.jaw",
+        "unknown joint `jaw` for a dex3",
+    ),
+    (
+        "gripper joint name",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\ninitial = { thumb_0 = 1.0 }\n",
+        "devices[0].emulator.initial.thumb_0",
+        "unknown joint",
+    ),
+    (
+        "negative max_step",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nlimits = { max_step = -0.1 }\n",
+        "devices[0].limits.max_step",
+        "above 0",
+    ),
+    (
+        "rate zero",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nrate_hz = 0\n",
+        "devices[0].rate_hz",
+        "at most 2000",
+    ),
+    (
+        "rate too high",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nrate_hz = 2001\n",
+        "devices[0].rate_hz",
+        "at most 2000",
+    ),
+    (
+        "watchdog too short",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nwatchdog = { timeout_ms = 5 }\n",
+        "devices[0].watchdog.timeout_ms",
+        "between 10 and 10000",
+    ),
+    (
+        "backend not valid for kind",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"usb\"\n",
+        "devices[0].backend",
+        "a dex1 cannot use backend usb (valid: dds, emulator)",
+    ),
+    (
+        "ezgripper on dds",
+        "[[devices]]\nname = \"g\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"dds\"\n",
+        "devices[0].backend",
+        "valid: serial, emulator",
+    ),
+    (
+        "dex3 center",
+        "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"center\"\nbackend = \"emulator\"\n",
+        "devices[0].side",
+        "not center",
+    ),
+    (
+        "section for another kind",
+        "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.ezgripper]\nport = \"/dev/ttyUSB0\"\n",
+        "devices[0].ezgripper",
+        "applies to an ezgripper",
+    ),
+    (
+        "dds option for another kind",
+        "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n[devices.dds]\nvariant = \"go\"\n",
+        "devices[0].dds.variant",
+        "only a dex1",
+    ),
+    (
+        "duplicate command topics",
+        "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"h\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"h\"\ncmd_topic = \"rt/dex3/left/cmd\"\n",
+        "fronts[1].cmd_topic",
+        "already served by fronts[0]",
+    ),
+    (
+        "front serving the resident service's topics",
+        "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"h\"\n",
+        "fronts[0]",
+        "uses to reach the real device",
+    ),
+    (
+        "actuator front on a center device",
+        "[[devices]]\nname = \"g\"\nkind = \"ezgripper\"\nside = \"center\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nvariant = \"actuator\"\n",
+        "fronts[0].side",
+        "element 0 = right, 1 = left",
+    ),
+    (
+        "two actuator fronts for the same side",
+        "[[devices]]\nname = \"a\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"b\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"a\"\nvariant = \"actuator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"b\"\nvariant = \"actuator\"\n",
+        "fronts[1].cmd_topic",
+        "rt/unitree_actuator/cmd",
+    ),
+    (
+        "dex1 front state too slow",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nstate_hz = 100\n",
+        "fronts[0].state_hz",
+        "200 Hz or faster",
+    ),
+    (
+        "front option for another front kind",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\nvariant = \"hg\"\n",
+        "fronts[0].variant",
+        "only dex1 fronts",
+    ),
+    (
+        "two ezgrippers, one servo id",
+        "[[devices]]\nname = \"a\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"serial\"\nezgripper = { servo_id = 1 }\n[[devices]]\nname = \"b\"\nkind = \"ezgripper\"\nside = \"right\"\nbackend = \"serial\"\nezgripper = { servo_id = 1 }\n",
+        "devices[1].ezgripper.servo_id",
+        "servo id 1 on /dev/ttyUSB0 is also devices[0]",
+    ),
+    (
+        "two usb hands of one side without serials",
+        "[[devices]]\nname = \"a\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n[[devices]]\nname = \"b\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n",
+        "devices[1].usb.serial",
+        "give each hand its USB serial",
+    ),
+    (
+        "usb wiring bus out of range",
+        "[[devices]]\nname = \"a\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n[devices.usb.wiring.joints]\nthumb_0 = { bus = 5, id = 0 }\n",
+        "devices[0].usb.wiring.joints.thumb_0.bus",
+        "between 0 and 4",
+    ),
+    (
+        "hand_sdk weight",
+        "[[devices]]\nname = \"h\"\nkind = \"hand_sdk\"\nside = \"center\"\nbackend = \"dds\"\nhand_sdk = { weight = 1.5 }\n",
+        "devices[0].hand_sdk.weight",
+        "between 0 and 1",
+    ),
+    (
+        "two dds devices on one command topic",
+        "[[devices]]\nname = \"a\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n[[devices]]\nname = \"b\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n",
+        "devices[1].dds",
+        "also sends commands on `rt/dex3/left/cmd`",
+    ),
+    ("status rate", "[status]\nrate_hz = 50\n", "status.rate_hz", "at most 10 Hz"),
+    ("bad topic", "[status]\ntopic = \"rt/a b\"\n", "status.topic", "not a topic name"),
+];
+
+#[test]
+fn every_bad_profile_gives_one_error_naming_file_and_key() {
+    for (case, text, key, fragment) in BAD {
+        let (path, r) = load_text(text);
+        let err = match r {
+            Ok(_) => panic!("{case}: profile was accepted"),
+            Err(e) => e,
+        };
+        let lines = err.lines();
+        assert_eq!(lines.len(), 1, "{case}: expected one error, got {lines:#?}");
+        let prefix = format!("{}: {key}: ", path.display());
+        assert!(
+            lines[0].starts_with(&prefix),
+            "{case}: `{}` does not start with `{prefix}`",
+            lines[0]
+        );
+        assert!(
+            lines[0].contains(fragment),
+            "{case}: `{}` does not mention `{fragment}`",
+            lines[0]
+        );
+    }
+}
+
+#[test]
+fn toml_syntax_error_is_one_line_naming_the_file() {
+    let (path, r) = load_text("[dds\ndomain = 1\n");
+    let lines = r.unwrap_err().lines();
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(
+        lines[0].starts_with(&format!("{}: not valid TOML", path.display())),
+        "{}",
+        lines[0]
+    );
+    assert!(lines[0].contains("line 1"), "{}", lines[0]);
+    assert!(!lines[0].contains('\n'));
+}
+
+#[test]
+fn all_semantic_errors_are_collected() {
+    let text = format!(
+        "[dds]\ndomain = 500\n{DEX3}rate_hz = 0\nwatchdog = {{ timeout_ms = 1 }}\n[[fronts]]\nkind = \"dex3\"\ndevice = \"nobody\"\n"
+    );
+    let (path, r) = load_text(&text);
+    let lines = r.unwrap_err().lines();
+    let want = [
+        "dds.domain",
+        "devices[0].rate_hz",
+        "devices[0].watchdog.timeout_ms",
+        "fronts[0].device",
+    ];
+    assert_eq!(lines.len(), want.len(), "{lines:#?}");
+    for (line, key) in lines.iter().zip(want) {
+        assert!(line.starts_with(&format!("{}: {key}: ", path.display())), "{line}");
+    }
+}
+
+#[test]
+fn missing_file_is_an_error_naming_it() {
+    let p = std::env::temp_dir().join("handgate-no-such-profile/absent.toml");
+    let err = load(&opts(Some(p.display().to_string()))).unwrap_err();
+    assert!(matches!(err, ProfileError::Unreadable { .. }), "{err:?}");
+    let lines = err.lines();
+    assert_eq!(lines.len(), 1);
+    assert!(
+        lines[0].starts_with(&format!("{}: cannot read profile", p.display())),
+        "{}",
+        lines[0]
+    );
+}
+
+#[test]
+fn unknown_profile_name_lists_the_available_ones() {
+    let err = load(&opts(Some("no-such-robot".into()))).unwrap_err();
+    let lines = err.lines();
+    assert_eq!(lines.len(), 1);
+    assert!(lines[0].contains("unknown profile `no-such-robot`"), "{}", lines[0]);
+    for (name, _) in SHIPPED {
+        assert!(lines[0].contains(name), "{} does not list {name}", lines[0]);
+    }
+}
+
+#[test]
+fn every_shipped_profile_validates_embedded_and_on_disk() {
+    for (name, _) in SHIPPED {
+        let l = load(&opts(Some((*name).to_string()))).unwrap_or_else(|e| panic!("embedded {name}: {e}"));
+        assert_eq!(l.origin, Origin::Embedded((*name).to_string()));
+        assert_eq!(l.profile.name, *name);
+        assert!(!l.profile.description.is_empty(), "{name} has no description");
+        assert!(!l.profile.devices.is_empty(), "{name} has no devices");
+        assert!(!l.profile.fronts.is_empty(), "{name} has no fronts");
+        let path = repo_profiles_dir().join(format!("{name}.toml"));
+        let f = load(&opts(Some(path.display().to_string()))).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert_eq!(f.profile, l.profile, "{name}: file and embedded copy differ");
+    }
+}
+
+#[test]
+fn every_file_in_profiles_is_shipped() {
+    for e in std::fs::read_dir(repo_profiles_dir()).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            let stem = p.file_stem().unwrap().to_string_lossy().into_owned();
+            assert!(
+                SHIPPED.iter().any(|(n, _)| *n == stem),
+                "{} is not in profile::SHIPPED",
+                p.display()
+            );
+        }
+    }
+}
+
+#[test]
+fn no_profile_means_the_embedded_default_simulated_fleet() {
+    let l = load(&opts(None)).unwrap();
+    assert_eq!(l.origin, Origin::Embedded("default".into()));
+    assert_eq!(l.origin.to_string(), "embedded default");
+    let p = &l.profile;
+    assert_eq!(p.dds.domain, DomainId(1), "the simulated fleet must stay off domain 0");
+    assert!(p.devices.iter().all(|d| d.backend == Backend::Emulator));
+    let kinds: Vec<(DeviceKind, Side)> = p.devices.iter().map(|d| (d.kind, d.side)).collect();
+    assert_eq!(
+        kinds,
+        [
+            (DeviceKind::Dex3, Side::Left),
+            (DeviceKind::Dex3, Side::Right),
+            (DeviceKind::Dex1, Side::Left),
+            (DeviceKind::Dex1, Side::Right)
+        ]
+    );
+    let cmd_topics: Vec<String> = p
+        .fronts
+        .iter()
+        .filter_map(|f| {
+            let dev = f.device.as_ref().and_then(|n| p.devices.iter().find(|d| &d.name == n));
+            f.topics(dev).cmd.map(|t| t.0)
+        })
+        .collect();
+    for t in [
+        "rt/dex3/left/cmd",
+        "rt/dex3/right/cmd",
+        "rt/dex1/left/cmd",
+        "rt/dex1/right/cmd",
+        "rt/handgate/dex3_left/cmd",
+        "rt/handgate/dex1_right/cmd",
+    ] {
+        assert!(cmd_topics.iter().any(|c| c == t), "default serves no {t}");
+    }
+    assert_eq!(p.fronts.iter().filter(|f| f.kind == FrontKind::JointState).count(), 1);
+}
+
+#[test]
+fn a_profile_file_replaces_the_default_fleet() {
+    let (path, r) = load_text(&format!("{DEX3}[[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n"));
+    let l = r.unwrap();
+    assert_eq!(l.profile.devices.len(), 1, "devices were merged with the default's");
+    assert_eq!(l.profile.fronts.len(), 1);
+    // Omitted keys take the struct defaults.
+    assert_eq!(l.profile.dds, DdsConfig::default());
+    assert_eq!(l.profile.status, StatusConfig::default());
+    assert_eq!(l.profile.devices[0].watchdog, WatchdogConfig::default());
+    assert_eq!(
+        l.profile.name,
+        path.file_stem().unwrap().to_string_lossy(),
+        "an unnamed profile is named after its file"
+    );
+}
+
+#[test]
+fn cli_flags_override_the_file() {
+    let p = temp_profile(&format!("[dds]\ndomain = 2\ninterface = \"eth0\"\n{DEX3}"));
+    let l = load(&LoadOptions {
+        overrides: CliOverrides {
+            domain: Some(4),
+            interface: None,
+            log_format: Some(LogFormat::Json),
+        },
+        ..opts(Some(p.display().to_string()))
+    })
+    .unwrap();
+    assert_eq!(l.profile.dds.domain, DomainId(4));
+    assert_eq!(l.profile.dds.interface.as_deref(), Some("eth0"), "untouched key kept");
+    assert_eq!(l.profile.log.format, LogFormat::Json);
+    assert_eq!(l.profile.devices.len(), 1);
+}
+
+#[test]
+fn bad_cli_value_is_attributed_to_the_flag() {
+    let err = load(&LoadOptions {
+        overrides: CliOverrides {
+            domain: Some(300),
+            ..CliOverrides::default()
+        },
+        ..opts(None)
+    })
+    .unwrap_err();
+    assert_eq!(
+        err.lines(),
+        ["command line (--domain): dds.domain: must be between 0 and 232, got 300"]
+    );
+}
+
+#[test]
+fn precedence_file_then_env_then_cli() {
+    figment::Jail::expect_with(|jail| {
+        let p = temp_profile(&format!("[dds]\ndomain = 2\n[log]\nlevel = \"warn\"\n{DEX3}"));
+        let o = |cli: Option<u32>| LoadOptions {
+            profile: Some(p.display().to_string()),
+            overrides: CliOverrides {
+                domain: cli,
+                ..CliOverrides::default()
+            },
+            env: EnvLayer::Process,
+            search_dirs: Some(vec![]),
+        };
+        assert_eq!(load(&o(None)).unwrap().profile.dds.domain, DomainId(2));
+        jail.set_env("HANDGATE_DDS__DOMAIN", 3);
+        jail.set_env("HANDGATE_DDS__INTERFACE", "lo");
+        let l = load(&o(None)).unwrap();
+        assert_eq!(l.profile.dds.domain, DomainId(3), "env beats file");
+        assert_eq!(l.profile.dds.interface.as_deref(), Some("lo"));
+        assert_eq!(l.profile.log.level, "warn", "file keys not in env are kept");
+        assert_eq!(
+            load(&o(Some(4))).unwrap().profile.dds.domain,
+            DomainId(4),
+            "CLI beats env"
+        );
+        // HANDGATE_PROFILE_DIR is the search path, not a profile key.
+        jail.set_env("HANDGATE_PROFILE_DIR", "/nonexistent");
+        assert!(load(&o(None)).is_ok());
+        Ok(())
+    });
+}
+
+#[test]
+fn bad_env_vars_are_attributed_to_the_environment() {
+    figment::Jail::expect_with(|jail| {
+        let p = temp_profile(DEX3);
+        let o = LoadOptions {
+            profile: Some(p.display().to_string()),
+            env: EnvLayer::Process,
+            search_dirs: Some(vec![]),
+            ..LoadOptions::default()
+        };
+        jail.set_env("HANDGATE_DDS__DOMAIN", "three");
+        assert_eq!(
+            load(&o).unwrap_err().lines(),
+            [r#"environment (HANDGATE_DDS__DOMAIN): dds.domain: invalid type: found string "three", expected u32"#]
+        );
+        jail.set_env("HANDGATE_DDS__DOMAIN", 999);
+        assert_eq!(
+            load(&o).unwrap_err().lines(),
+            ["environment (HANDGATE_DDS__DOMAIN): dds.domain: must be between 0 and 232, got 999"]
+        );
+        jail.set_env("HANDGATE_DDS__DOMAIN", 5);
+        jail.set_env("HANDGATE_DDS__DOMAN", 5);
+        let lines = load(&o).unwrap_err().lines();
+        assert_eq!(lines.len(), 1, "{lines:?}");
+        assert!(
+            lines[0].starts_with("environment (HANDGATE_DDS__DOMAN): dds.doman: unknown key"),
+            "{}",
+            lines[0]
+        );
+        Ok(())
+    });
+}
+
+#[test]
+fn semantic_errors_name_the_layer_that_set_the_value() {
+    figment::Jail::expect_with(|jail| {
+        // The file sets a bad rate; the environment sets a fine domain: the rate error
+        // names the file, not the environment.
+        let p = temp_profile(&format!("[status]\nrate_hz = 99\n{DEX3}"));
+        jail.set_env("HANDGATE_DDS__DOMAIN", 3);
+        let lines = load(&LoadOptions {
+            profile: Some(p.display().to_string()),
+            env: EnvLayer::Process,
+            search_dirs: Some(vec![]),
+            ..LoadOptions::default()
+        })
+        .unwrap_err()
+        .lines();
+        assert_eq!(lines.len(), 1, "{lines:?}");
+        assert!(
+            lines[0].starts_with(&format!("{}: status.rate_hz: ", p.display())),
+            "{}",
+            lines[0]
+        );
+        Ok(())
+    });
+}
+
+#[test]
+fn profile_names_resolve_in_search_dirs_then_shipped() {
+    figment::Jail::expect_with(|jail| {
+        // ./profiles in the working directory (the Jail's temp dir).
+        jail.create_dir("profiles")?;
+        jail.create_file("profiles/bench.toml", &format!("name = \"bench\"\n{DEX3}"))?;
+        // A file shadows the shipped profile of the same name.
+        jail.create_file(
+            "profiles/g1-dex3.toml",
+            &format!("description = \"local copy\"\n{DEX3}"),
+        )?;
+        let o = |name: &str| LoadOptions {
+            profile: Some(name.into()),
+            env: EnvLayer::Ignore,
+            ..LoadOptions::default()
+        };
+        let l = load(&o("bench")).unwrap();
+        assert_eq!(l.origin, Origin::File("profiles/bench.toml".into()));
+        let l = load(&o("g1-dex3")).unwrap();
+        assert_eq!(l.profile.description, "local copy");
+        let l = load(&o("g1-ezgripper")).unwrap();
+        assert_eq!(l.origin, Origin::Embedded("g1-ezgripper".into()));
+
+        // $HANDGATE_PROFILE_DIR is searched before ./profiles.
+        jail.create_dir("elsewhere")?;
+        jail.create_file(
+            "elsewhere/bench.toml",
+            &format!("description = \"from the env dir\"\n{DEX3}"),
+        )?;
+        jail.set_env(PROFILE_DIR_ENV, "elsewhere");
+        let l = load(&o("bench")).unwrap();
+        assert_eq!(l.profile.description, "from the env dir");
+
+        let names: Vec<String> = list_profiles(&default_search_dirs())
+            .into_iter()
+            .map(|p| p.name)
+            .collect();
+        for n in ["bench", "default", "g1-dex3", "mixed-lab"] {
+            assert!(names.contains(&n.to_string()), "{names:?} lacks {n}");
+        }
+        assert_eq!(names.iter().filter(|n| *n == "g1-dex3").count(), 1);
+        Ok(())
+    });
+}
+
+#[test]
+fn actuator_fronts_for_both_sides_share_the_topic() {
+    let text = "[[devices]]\nname = \"a\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"b\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"a\"\nvariant = \"actuator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"b\"\nvariant = \"actuator\"\n";
+    let (_, r) = load_text(text);
+    let l = r.unwrap();
+    let t = l.profile.fronts[0].topics(Some(&l.profile.devices[0]));
+    assert_eq!(t.cmd, Some(Topic::new("rt/unitree_actuator/cmd")));
+}
+
+#[test]
+fn any_front_kind_binds_any_device_kind() {
+    // The migration shim: a dex1 front driving an EZGripper, a dex3 front on a Dex1.
+    let text = "[[devices]]\nname = \"g\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"d\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"d\"\n";
+    let (_, r) = load_text(text);
+    r.unwrap();
+}
+
+#[test]
+fn front_defaults_follow_kind_side_and_device_rate() {
+    let mut d = DeviceConfig {
+        rate_hz: Some(RateHz(300.0)),
+        ..DeviceConfig::default()
+    };
+    let f = FrontConfig {
+        kind: FrontKind::Dex3,
+        device: Some(d.name.clone()),
+        ..FrontConfig::default()
+    };
+    let t = f.topics(Some(&d));
+    assert_eq!(t.cmd, Some(Topic::new("rt/dex3/left/cmd")));
+    assert_eq!(t.state, Some(Topic::new("rt/dex3/left/state")));
+    assert_eq!(t.lf_state, Some(Topic::new("rt/lf/dex3/left/state")));
+    assert_eq!(
+        t.state_hz,
+        RateHz(300.0),
+        "dex3 state rate is capped by the device rate"
+    );
+    assert_eq!(t.lf_state_hz, Some(RateHz(50.0)));
+    d.rate_hz = None;
+    assert_eq!(f.topics(Some(&d)).state_hz, RateHz(500.0));
+    let right = FrontConfig {
+        side: Some(Side::Right),
+        ..f.clone()
+    };
+    assert_eq!(right.topics(Some(&d)).cmd, Some(Topic::new("rt/dex3/right/cmd")));
+
+    let js = FrontConfig {
+        kind: FrontKind::JointState,
+        ..FrontConfig::default()
+    };
+    let t = js.topics(None);
+    assert_eq!((t.cmd, t.state), (None, Some(Topic::new("rt/joint_states"))));
+}
+
+#[test]
+fn device_rate_defaults_per_kind() {
+    let rate = |kind, backend| {
+        DeviceConfig {
+            kind,
+            backend,
+            ..DeviceConfig::default()
+        }
+        .rate()
+    };
+    assert_eq!(rate(DeviceKind::Dex3, Backend::Usb), DeviceRate::Hz(RateHz(1000.0)));
+    assert_eq!(rate(DeviceKind::Dex1, Backend::Dds), DeviceRate::Hz(RateHz(500.0)));
+    assert_eq!(rate(DeviceKind::Ezgripper, Backend::Serial), DeviceRate::AsFastAsBus);
+    assert_eq!(rate(DeviceKind::HandSdk, Backend::Dds), DeviceRate::Hz(RateHz(200.0)));
+}
+
+#[test]
+fn dds_device_topics_follow_variant_and_state_source() {
+    let mut d = DeviceConfig {
+        kind: DeviceKind::Dex3,
+        side: Side::Right,
+        backend: Backend::Dds,
+        dds: Some(DeviceDdsConfig {
+            state_source: Some(StateSource::Lf),
+            ..DeviceDdsConfig::default()
+        }),
+        ..DeviceConfig::default()
+    };
+    assert_eq!(
+        d.dds_topics(),
+        Some((
+            Some(Topic::new("rt/dex3/right/cmd")),
+            Some(Topic::new("rt/lf/dex3/right/state"))
+        ))
+    );
+    d.kind = DeviceKind::Dex1;
+    d.dds = Some(DeviceDdsConfig {
+        variant: Some(Dex1Variant::Actuator),
+        ..DeviceDdsConfig::default()
+    });
+    assert_eq!(d.dds_topics().unwrap().0, Some(Topic::new("rt/unitree_actuator/cmd")));
+    assert_eq!(d.dex1_range(), Radians(5.4));
+    d.backend = Backend::Emulator;
+    assert_eq!(d.dds_topics(), None);
+}
+
+#[test]
+fn default_structs_validate() {
+    let p = Profile {
+        devices: vec![DeviceConfig::default()],
+        fronts: vec![FrontConfig {
+            device: Some(DeviceConfig::default().name),
+            ..FrontConfig::default()
+        }],
+        ..Profile::default()
+    };
+    assert_eq!(validate(&p), vec![]);
+}
+
+#[test]
+fn the_example_in_the_docs_validates() {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/profiles.md")).unwrap();
+    let example = doc
+        .split("## Example")
+        .nth(1)
+        .and_then(|s| s.split("```toml\n").nth(1))
+        .and_then(|s| s.split("```").next())
+        .expect("docs/profiles.md has an Example section with a toml block");
+    let (_, r) = load_text(example);
+    let l = r.unwrap_or_else(|e| panic!("docs example: {e}"));
+    assert_eq!(l.profile.name, "bench-2");
+    assert_eq!(l.profile.devices.len(), 2);
+}
+
+#[test]
+fn fronts_on_missing_devices_report_only_the_missing_devices() {
+    // Without a device their default topics would coincide; that is not reported twice.
+    let (path, r) = load_text(
+        "[[fronts]]\nkind = \"canonical\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"x\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"y\"\n",
+    );
+    let lines = r.unwrap_err().lines();
+    let p = path.display();
+    assert_eq!(
+        lines,
+        [
+            format!("{p}: fronts[0].device: a canonical front must name its device"),
+            format!("{p}: fronts[1].device: no device named `x` (devices: none)"),
+            format!("{p}: fronts[2].device: no device named `y` (devices: none)"),
+        ]
+    );
+}
