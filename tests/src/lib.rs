@@ -58,6 +58,14 @@ pub fn venv_python() -> PathBuf {
     py
 }
 
+/// Network interface for the interop tests, from `HANDGATE_INTEROP_IFACE` (e.g. `lo`), passed
+/// to both sides (`Node::new(domain, Some(iface))` and `ChannelFactoryInitialize(domain, iface)`).
+/// Unset or empty: both let CycloneDDS pick an interface, as `ChannelFactoryInitialize(domain)`
+/// does.
+pub fn interop_interface() -> Option<String> {
+    std::env::var("HANDGATE_INTEROP_IFACE").ok().filter(|s| !s.is_empty())
+}
+
 // ---------------------------------------------------------------------------------------------
 // Python helper processes
 

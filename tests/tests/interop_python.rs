@@ -13,13 +13,14 @@
 //! the same JSON. Each test has its own DDS domain (10..29, see docs/development.md), so the
 //! tests run in parallel. Every wait is on readiness with a deadline; nothing sleeps blindly.
 //! Needs `.venv` (scripts/setup.sh); without it the tests fail with that instruction.
+//! `HANDGATE_INTEROP_IFACE=lo` pins both sides to one network interface.
 
 use std::fmt::Debug;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::{to_cdr_le, unitree_go, unitree_hg, TopicType};
-use handgate_tests::{fixture, from_plain_json, FromPlain, PyError, PyProcess};
+use handgate_tests::{fixture, from_plain_json, interop_interface, FromPlain, PyError, PyProcess};
 use serde::Serialize;
 
 /// Upper bound for any single readiness wait (Python start-up + DDS discovery).
@@ -41,7 +42,7 @@ fn split_key(key: &str) -> (&str, &str) {
 }
 
 fn base_args(domain: u32, topic: &str, key: &str) -> Vec<String> {
-    vec![
+    let mut args = vec![
         "--domain".into(),
         domain.to_string(),
         "--topic".into(),
@@ -50,7 +51,15 @@ fn base_args(domain: u32, topic: &str, key: &str) -> Vec<String> {
         key.into(),
         "--timeout".into(),
         "60".into(),
-    ]
+    ];
+    if let Some(iface) = interop_interface() {
+        args.extend(["--interface".to_string(), iface]);
+    }
+    args
+}
+
+fn node(domain: u32) -> Node {
+    Node::new(domain, interop_interface().as_deref()).expect("DDS participant")
 }
 
 /// Rust writer -> unitree_sdk2py ChannelSubscriber.
@@ -64,7 +73,7 @@ where
     let py = PyProcess::spawn("interop_sub.py", &base_args(domain, topic, key)).unwrap();
     py.wait_line("READY", DEADLINE).unwrap_or_else(|e| panic!("{e}"));
 
-    let node = Node::new(domain, None).expect("participant");
+    let node = node(domain);
     let mut w = node.writer::<T>(topic, Qos::Reliable { depth: 10 }).unwrap();
     w.wait_matched(1, DEADLINE)
         .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
@@ -91,7 +100,7 @@ where
     let fx = fixture(module, ty, case).unwrap();
     let value: T = fx.value_as().unwrap();
 
-    let node = Node::new(domain, None).expect("participant");
+    let node = node(domain);
     let r = node.reader::<T>(topic, Qos::Reliable { depth: 10 }).unwrap();
 
     let mut args = base_args(domain, topic, key);
