@@ -7,9 +7,10 @@ How to run (from the repository root):
 
 What it does: for each of the ten Unitree wire types handgate speaks (unitree_hg MotorCmd_,
 MotorState_, PressSensorState_, IMUState_, HandCmd_, HandState_; unitree_go MotorCmd_,
-MotorCmds_, MotorState_, MotorStates_) and each case (empty, typical, extreme, nan, plus
+MotorCmds_, MotorState_, MotorStates_) -- plus handgate's canonical types (idl/handgate.idl) and
+the ROS 2 JointState_ chain, declared for CycloneDDS Python in handgate_types.py -- and each case (empty, typical, extreme, nan, plus
 sdk_default for HandCmd_/HandState_) it builds the message with unitree_sdk2py's idl classes
-(unitree-sdk2 1.0.1) and serialises it with CycloneDDS Python 0.10.2 (`msg.serialize()`, plain
+(unitree-sdk2 1.0.1; handgate_types.py for the non-Unitree types) and serialises it with CycloneDDS Python 0.10.2 (`msg.serialize()`, plain
 CDR / XCDR1, little-endian, with the 4-byte encapsulation header 00 01 00 00). It writes
 `<module>__<Type>__<case>.json` holding the values and the hex of those bytes. The Rust test
 tests/tests/golden_bytes.rs rebuilds each value in Rust and requires byte equality.
@@ -26,9 +27,10 @@ Cases:
               limits, kp 1.5 kd 0.1, 9 pressure pads with raw readings >= 100000 (and one
               30000 "no reading"), a unit quaternion, power_v 24.x.
   extreme     f32 max/-max/min normal/subnormals/-0.0/+-inf, u32 max, i16 min/max, u8 255,
-              sequences of 32 elements.
-  nan         every f32 field NaN (CPython writes the quiet NaN 0x7fc00000); 2-element
-              sequences. Compared bit-for-bit on the Rust side (NaN != NaN as a value).
+              sequences of 32 elements (f64/u64/i32/bool/string extremes for the canonical
+              types: empty, non-ASCII and 300-byte strings).
+  nan         every f32/f64 field NaN (CPython writes the quiet NaNs 0x7fc00000 and
+              0x7ff8000000000000); 2-element sequences. Compared bit-for-bit on the Rust side (NaN != NaN as a value).
 """
 
 import json
@@ -100,7 +102,61 @@ def go_motor_state_typical(i):
     )
 
 
+DEX3_JOINTS = ["thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1"]
+
+
+def hg_device_status_typical(i):
+    c = ws.CLASSES["handgate/DeviceStatus_"]
+    kinds = [("left_dex3", "dex3", "usb"), ("right_dex1", "dex1", "dds"), ("center_ezgripper", "ezgripper", "serial")]
+    device, kind, backend = kinds[i % 3]
+    return c(
+        device=device, kind=kind, backend=backend, freshness=i % 2, safe=(i == 2),
+        cmd_rate_hz=f32(500.0 - 470.0 * (i == 2)), state_rate_hz=f32(500.0 - 300.0 * (i == 1)),
+        crc_errors=3 * i, bad_input=i, watchdog_trips=0, reconnects=1, missed_cycles=12 + i,
+        age_ms=f32(1.5 + 4.0 * i),
+    )
+
+
+def canonical_typical(key):
+    c = ws.CLASSES
+    if key == "handgate/JointCmd_":
+        return c[key](name="index_0", q=f32(0.8), dq=f32(0.0), tau=f32(0.1), kp=f32(1.5), kd=f32(0.1))
+    if key == "handgate/HandCmd_":
+        joints = [c["handgate/JointCmd_"](n, f32(0.2 * i), f32(0.0), f32(0.0), f32(1.5), f32(0.1))
+                  for i, n in enumerate(DEX3_JOINTS)]
+        return c[key](seq=42, mode=0, closure=f32(0.0), stiffness=f32(0.0), joints=joints)
+    if key == "handgate/JointState_":
+        return c[key](name="thumb_1", q=f32(0.3), dq=f32(-0.02), tau=f32(0.12), temperature=f32(36.5))
+    if key == "handgate/HandState_":
+        joints = [c["handgate/JointState_"](n, f32(0.2 * i - 0.01), f32(-0.02 * i), f32(0.11 * i), f32(35.0 + i))
+                  for i, n in enumerate(DEX3_JOINTS)]
+        return c[key](
+            device="left_dex3", kind="dex3", side="left", cmd_seq=42, stamp_ns=1_763_712_000_123_456_789,
+            freshness=0, closure=f32(0.35), joints=joints, pressure=[f32(10.0 + 0.5 * p) for p in range(9)],
+            accelerometer=[f32(0.12), f32(-0.98), f32(9.76)], gyroscope=[f32(0.012), f32(-0.021), f32(0.003)],
+            power_v=f32(24.6), power_a=f32(0.85), faults=0,
+        )
+    if key == "handgate/DeviceStatus_":
+        return hg_device_status_typical(0)
+    if key == "handgate/GatewayStatus_":
+        return c[key](profile="default", uptime_ms=3_600_000, devices=[hg_device_status_typical(i) for i in range(3)])
+    if key == "builtin_interfaces/Time_":
+        return c[key](sec=1_763_712_000, nanosec=123_456_789)
+    if key == "std_msgs/Header_":
+        return c[key](stamp=c["builtin_interfaces/Time_"](1_763_712_000, 123_456_789), frame_id="left_hand_base")
+    if key == "sensor_msgs/JointState_":
+        names = ["left_hand_" + n for n in ["zero", "one", "two", "three", "four", "five", "six"]]
+        return c[key](
+            header=c["std_msgs/Header_"](c["builtin_interfaces/Time_"](1_763_712_000, 5_000_000), ""),
+            name=names, position=[0.1 * i for i in range(7)], velocity=[-0.01 * i for i in range(7)],
+            effort=[],
+        )
+    raise KeyError(key)
+
+
 def typical(key):
+    if not key.startswith("unitree_"):
+        return canonical_typical(key)
     if key == "unitree_hg/MotorCmd_":
         return hg_motor_cmd_typical(3)
     if key == "unitree_hg/MotorState_":
@@ -144,10 +200,25 @@ F32_EXTREMES = [
     f32_from_bits(0x8000_0001),  # smallest negative subnormal
     f32(-1.5),
 ]
+F64_EXTREMES = [
+    1.7976931348623157e308,  # f64::MAX
+    -1.7976931348623157e308,
+    2.2250738585072014e-308,  # smallest positive normal
+    5e-324,  # smallest positive subnormal
+    -0.0,
+    math.inf,
+    -math.inf,
+    0.1,
+]
 INT_EXTREMES = {
     "u8": [255, 0, 0x80],
     "i16": [-32768, 32767, -1],
+    "i32": [-0x8000_0000, 0x7FFF_FFFF, -1],
     "u32": [0xFFFF_FFFF, 0, 0x8000_0000],
+    "u64": [0xFFFF_FFFF_FFFF_FFFF, 0, 0x8000_0000_0000_0000],
+    "bool": [True, False],
+    # Empty, non-ASCII (UTF-8 on the wire) and long strings.
+    "string": ["", "d\u00e9j\u00e0_\u2713_\U0001f91a", "n" * 300],
 }
 
 
@@ -169,6 +240,8 @@ class Filler:
                 out[name] = self.scalar(kind)
             elif kind[0] == "array":
                 out[name] = [self.scalar(kind[1]) for _ in range(kind[2])]
+            elif kind[0] == "seq" and "/" not in kind[1]:
+                out[name] = [self.scalar(kind[1]) for _ in range(self.seq_len)]
             elif kind[0] == "seq":
                 out[name] = [self.plain(kind[1]) for _ in range(self.seq_len)]
             else:
@@ -176,15 +249,18 @@ class Filler:
         return out
 
 
+ZEROS = {"f32": 0.0, "f64": 0.0, "bool": False, "string": ""}
+
+
 def zero_scalar(kind):
-    return 0.0 if kind == "f32" else 0
+    return ZEROS.get(kind, 0)
 
 
 def cycling_extremes():
     counters = {}
 
     def scalar(kind):
-        values = F32_EXTREMES if kind == "f32" else INT_EXTREMES[kind]
+        values = {"f32": F32_EXTREMES, "f64": F64_EXTREMES}.get(kind) or INT_EXTREMES[kind]
         i = counters.get(kind, 0)
         counters[kind] = i + 1
         v = values[i % len(values)]
@@ -194,7 +270,7 @@ def cycling_extremes():
 
 
 def nan_scalar(kind):
-    return "nan" if kind == "f32" else 0
+    return "nan" if kind in ("f32", "f64") else zero_scalar(kind)
 
 
 def build(key, case):
@@ -239,6 +315,12 @@ def same_plain(a, b):
     return json.dumps(a, sort_keys=False) == json.dumps(b, sort_keys=False)
 
 
+GEN_SDK = ("tests/python/gen_golden.py with unitree-sdk2 1.0.1 idl classes, "
+           "cyclonedds (Python) 0.10.2 IdlStruct.serialize()")
+GEN_OWN = ("tests/python/gen_golden.py with handgate's declarations in tests/python/handgate_types.py, "
+           "cyclonedds (Python) 0.10.2 IdlStruct.serialize()")
+
+
 def fixture(key, case):
     msg = build(key, case)
     plain = ws.to_plain(key, msg)
@@ -262,8 +344,7 @@ def fixture(key, case):
         "case": case,
         "dds_type_name": ws.dds_type_name(key),
         "python_type_name": ws.python_type_name(key),
-        "generator": "tests/python/gen_golden.py with unitree-sdk2 1.0.1 idl classes, "
-        "cyclonedds (Python) 0.10.2 IdlStruct.serialize()",
+        "generator": GEN_SDK if key in ws.SDK_KEYS else GEN_OWN,
         "encoding": "plain CDR (XCDR1), little-endian, 4-byte encapsulation header 00 01 00 00",
         "value": plain,
         "cdr_le_len": len(data),

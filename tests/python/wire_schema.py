@@ -6,7 +6,8 @@ idl, wire order); `check_schema()` asserts they equal the SDK classes' own field
 drift in the installed SDK fails loudly instead of producing wrong fixtures.
 
 Plain-value conventions (the Rust side in tests/src/lib.rs reads the same):
-  * integers are JSON integers;
+  * integers are JSON integers, booleans JSON booleans, strings JSON strings (UTF-8 on the wire);
+  * f64 values are JSON numbers or "inf"/"-inf"/"nan" (NaN = 0x7ff8000000000000);
   * f32 values are JSON numbers holding the exact (f32-representable) value, -0.0 included;
     the non-finite values are the strings "inf", "-inf" and "nan" (NaN = the quiet NaN
     0x7fc00000 that CPython's struct module writes for float('nan'));
@@ -91,7 +92,62 @@ CLASSES = {
     "unitree_go/MotorStates_": go.MotorStates_,
 }
 
-RANGES = {"u8": (0, 0xFF), "i16": (-0x8000, 0x7FFF), "u32": (0, 0xFFFF_FFFF)}
+# handgate's canonical messages (idl/handgate.idl) and the ROS 2 JointState_ (idl/src/ros2.rs).
+# unitree_sdk2py has no classes for them; handgate_types.py declares them for CycloneDDS Python,
+# which then serves as the reference serialiser.
+SCHEMA.update({
+    "handgate/JointCmd_": [
+        ("name", "string"), ("q", "f32"), ("dq", "f32"), ("tau", "f32"), ("kp", "f32"), ("kd", "f32"),
+    ],
+    "handgate/HandCmd_": [
+        ("seq", "u64"), ("mode", "u8"), ("closure", "f32"), ("stiffness", "f32"),
+        ("joints", ("seq", "handgate/JointCmd_")),
+    ],
+    "handgate/JointState_": [
+        ("name", "string"), ("q", "f32"), ("dq", "f32"), ("tau", "f32"), ("temperature", "f32"),
+    ],
+    "handgate/HandState_": [
+        ("device", "string"), ("kind", "string"), ("side", "string"), ("cmd_seq", "u64"),
+        ("stamp_ns", "u64"), ("freshness", "u8"), ("closure", "f32"),
+        ("joints", ("seq", "handgate/JointState_")), ("pressure", ("seq", "f32")),
+        ("accelerometer", ("array", "f32", 3)), ("gyroscope", ("array", "f32", 3)),
+        ("power_v", "f32"), ("power_a", "f32"), ("faults", "u32"),
+    ],
+    "handgate/DeviceStatus_": [
+        ("device", "string"), ("kind", "string"), ("backend", "string"), ("freshness", "u8"),
+        ("safe", "bool"), ("cmd_rate_hz", "f32"), ("state_rate_hz", "f32"), ("crc_errors", "u64"),
+        ("bad_input", "u64"), ("watchdog_trips", "u64"), ("reconnects", "u64"),
+        ("missed_cycles", "u64"), ("age_ms", "f32"),
+    ],
+    "handgate/GatewayStatus_": [
+        ("profile", "string"), ("uptime_ms", "u64"), ("devices", ("seq", "handgate/DeviceStatus_")),
+    ],
+    "builtin_interfaces/Time_": [("sec", "i32"), ("nanosec", "u32")],
+    "std_msgs/Header_": [("stamp", ("struct", "builtin_interfaces/Time_")), ("frame_id", "string")],
+    "sensor_msgs/JointState_": [
+        ("header", ("struct", "std_msgs/Header_")), ("name", ("seq", "string")),
+        ("position", ("seq", "f64")), ("velocity", ("seq", "f64")), ("effort", ("seq", "f64")),
+    ],
+})
+
+import handgate_types as _hgt  # noqa: E402
+
+CLASSES.update(_hgt.CLASSES)
+
+# Keys whose classes come from the official SDK (the rest are handgate's declarations).
+SDK_KEYS = [k for k in SCHEMA if k.startswith("unitree_")]
+
+RANGES = {
+    "u8": (0, 0xFF),
+    "i16": (-0x8000, 0x7FFF),
+    "i32": (-0x8000_0000, 0x7FFF_FFFF),
+    "u32": (0, 0xFFFF_FFFF),
+    "u64": (0, 0xFFFF_FFFF_FFFF_FFFF),
+}
+
+
+def _is_struct_key(k):
+    return "/" in k
 
 
 def dds_type_name(key):
@@ -129,6 +185,21 @@ def f32_from_bits(bits):
 
 
 def _plain_scalar(kind, v, where):
+    if kind == "f64":
+        v = float(v)
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return v
+    if kind == "bool":
+        if not isinstance(v, bool):
+            raise ValueError("%s: %r is not a bool" % (where, v))
+        return v
+    if kind == "string":
+        if not isinstance(v, str):
+            raise ValueError("%s: %r is not a string" % (where, v))
+        return v
     if kind == "f32":
         v = float(v)
         if math.isnan(v):
@@ -145,7 +216,7 @@ def _plain_scalar(kind, v, where):
 
 
 def _scalar_from_plain(kind, v, where):
-    if kind == "f32":
+    if kind in ("f32", "f64"):
         if isinstance(v, str):
             return {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}[v]
         return float(v)
@@ -164,6 +235,8 @@ def to_plain(key, msg, where=None):
         elif kind[0] == "array":
             if len(v) != kind[2]:
                 raise ValueError("%s: array length %d, want %d" % (w, len(v), kind[2]))
+            out[name] = [_plain_scalar(kind[1], x, "%s[%d]" % (w, i)) for i, x in enumerate(v)]
+        elif kind[0] == "seq" and not _is_struct_key(kind[1]):
             out[name] = [_plain_scalar(kind[1], x, "%s[%d]" % (w, i)) for i, x in enumerate(v)]
         elif kind[0] == "seq":
             out[name] = [to_plain(kind[1], x, "%s[%d]" % (w, i)) for i, x in enumerate(v)]
@@ -187,6 +260,8 @@ def from_plain(key, plain, where=None):
         elif kind[0] == "array":
             if len(v) != kind[2]:
                 raise ValueError("%s: array length %d, want %d" % (w, len(v), kind[2]))
+            args.append([_scalar_from_plain(kind[1], x, "%s[%d]" % (w, i)) for i, x in enumerate(v)])
+        elif kind[0] == "seq" and not _is_struct_key(kind[1]):
             args.append([_scalar_from_plain(kind[1], x, "%s[%d]" % (w, i)) for i, x in enumerate(v)])
         elif kind[0] == "seq":
             args.append([from_plain(kind[1], x, "%s[%d]" % (w, i)) for i, x in enumerate(v)])

@@ -8,10 +8,11 @@
 //!   `tests/python/gen_golden.py` with the official unitree_sdk2py, and the conversion of their
 //!   "plain" JSON values (also what the Python interop scripts print) into handgate's wire types.
 //!
-//! Plain-value conventions (same as `tests/python/wire_schema.py`): integers are JSON
-//! integers; f32 values are JSON numbers holding the exact f32 value (`-0.0` included) or the
-//! strings `"inf"`, `"-inf"`, `"nan"` (the quiet NaN 0x7fc00000); arrays and sequences are
-//! JSON arrays; nested structs are objects with exactly the IDL field names.
+//! Plain-value conventions (same as `tests/python/wire_schema.py`): integers, booleans and
+//! strings are their JSON kinds; f32 and f64 values are JSON numbers holding the exact value
+//! (`-0.0` included) or the strings `"inf"`, `"-inf"`, `"nan"` (the quiet NaNs 0x7fc00000 and
+//! 0x7ff8000000000000); arrays and sequences are JSON arrays; nested structs are objects with
+//! exactly the IDL field names.
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
@@ -20,7 +21,7 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use handgate_idl::{unitree_go, unitree_hg};
+use handgate_idl::{handgate, ros2, unitree_go, unitree_hg};
 use serde_json::Value;
 
 // ---------------------------------------------------------------------------------------------
@@ -277,7 +278,40 @@ macro_rules! plain_int {
         }
     )*};
 }
-plain_int!(u8, i16, u32);
+plain_int!(u8, i16, i32, u32);
+
+impl FromPlain for u64 {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        v.as_u64().ok_or_else(|| type_err(at, "an unsigned 64-bit integer", v))
+    }
+}
+
+impl FromPlain for bool {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        v.as_bool().ok_or_else(|| type_err(at, "a boolean", v))
+    }
+}
+
+impl FromPlain for String {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        v.as_str()
+            .map(str::to_string)
+            .ok_or_else(|| type_err(at, "a string", v))
+    }
+}
+
+impl FromPlain for f64 {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        match v {
+            Value::String(s) if s == "nan" => Ok(f64::NAN),
+            Value::String(s) if s == "inf" => Ok(f64::INFINITY),
+            Value::String(s) if s == "-inf" => Ok(f64::NEG_INFINITY),
+            // Exact: serde_json is built with `float_roundtrip` for this crate.
+            Value::Number(n) => n.as_f64().ok_or_else(|| type_err(at, "an f64", v)),
+            _ => Err(type_err(at, "an f64 number or \"inf\"/\"-inf\"/\"nan\"", v)),
+        }
+    }
+}
 
 impl FromPlain for f32 {
     fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
@@ -423,6 +457,74 @@ plain_struct!(unitree_go::MotorState_ {
 });
 plain_struct!(unitree_go::MotorStates_ { states });
 
+plain_struct!(handgate::JointCmd_ {
+    name,
+    q,
+    dq,
+    tau,
+    kp,
+    kd
+});
+plain_struct!(handgate::HandCmd_ {
+    seq,
+    mode,
+    closure,
+    stiffness,
+    joints
+});
+plain_struct!(handgate::JointState_ {
+    name,
+    q,
+    dq,
+    tau,
+    temperature
+});
+plain_struct!(handgate::HandState_ {
+    device,
+    kind,
+    side,
+    cmd_seq,
+    stamp_ns,
+    freshness,
+    closure,
+    joints,
+    pressure,
+    accelerometer,
+    gyroscope,
+    power_v,
+    power_a,
+    faults
+});
+plain_struct!(handgate::DeviceStatus_ {
+    device,
+    kind,
+    backend,
+    freshness,
+    safe,
+    cmd_rate_hz,
+    state_rate_hz,
+    crc_errors,
+    bad_input,
+    watchdog_trips,
+    reconnects,
+    missed_cycles,
+    age_ms
+});
+plain_struct!(handgate::GatewayStatus_ {
+    profile,
+    uptime_ms,
+    devices
+});
+plain_struct!(ros2::Time_ { sec, nanosec });
+plain_struct!(ros2::Header_ { stamp, frame_id });
+plain_struct!(ros2::JointState_ {
+    header,
+    name,
+    position,
+    velocity,
+    effort
+});
+
 /// Parses one JSON document (e.g. a line a Python helper printed) into a wire value.
 pub fn from_plain_json<T: FromPlain>(text: &str) -> Result<T, FixtureError> {
     let v: Value = serde_json::from_str(text).map_err(|e| FixtureError::Json {
@@ -466,7 +568,7 @@ pub enum FixtureError {
 #[derive(Debug, Clone)]
 pub struct Fixture {
     pub path: PathBuf,
-    /// `unitree_hg` or `unitree_go`.
+    /// `unitree_hg`, `unitree_go`, `handgate`, `builtin_interfaces`, `std_msgs`, `sensor_msgs`.
     pub module: String,
     /// e.g. `HandCmd_`.
     pub type_name: String,

@@ -8,10 +8,15 @@
 //!   * `TopicType::typename()` must be the fixture's `unitree_xx::msg::dds_::Type_` name.
 //!
 //! NaN cases are compared bit-for-bit (re-encoding) because NaN != NaN as a value.
+//!
+//! handgate's canonical types and the ROS 2 JointState_ chain have no SDK classes; their
+//! fixtures come from CycloneDDS Python 0.10.2 serialising handgate's declarations
+//! (tests/python/handgate_types.py), an independent XCDR1 implementation (u64/f64 alignment,
+//! strings, booleans, sequences of primitives).
 
 use std::fmt::Debug;
 
-use handgate_idl::{from_cdr, to_cdr_be, to_cdr_le, unitree_go, unitree_hg, DdsTypeName, TopicType};
+use handgate_idl::{from_cdr, handgate, ros2, to_cdr_be, to_cdr_le, unitree_go, unitree_hg, DdsTypeName, TopicType};
 use handgate_tests::{golden_fixtures, Fixture, FromPlain};
 use serde::{de::DeserializeOwned, Serialize};
 
@@ -196,7 +201,74 @@ fn go_motor_states() {
     assert_eq!(case(&all, "extreme").states.len(), 32);
 }
 
-/// Every fixture file belongs to one of the ten types above (nothing is silently skipped).
+#[test]
+fn handgate_joint_cmd() {
+    let all = check_type::<handgate::JointCmd_>("handgate", "JointCmd_");
+    assert_eq!(case(&all, "empty"), &handgate::JointCmd_::default());
+}
+
+#[test]
+fn handgate_hand_cmd() {
+    let all = check_type::<handgate::HandCmd_>("handgate", "HandCmd_");
+    assert_eq!(case(&all, "empty"), &handgate::HandCmd_::default());
+    // XCDR1 aligns the u64 `seq` to 8 and `closure` after the u8 mode to 4.
+    let typical = case(&all, "typical");
+    assert_eq!(typical.seq, 42);
+    assert_eq!(typical.joints.len(), 7);
+}
+
+#[test]
+fn handgate_joint_state() {
+    let all = check_type::<handgate::JointState_>("handgate", "JointState_");
+    assert_eq!(case(&all, "empty"), &handgate::JointState_::default());
+}
+
+#[test]
+fn handgate_hand_state() {
+    let all = check_type::<handgate::HandState_>("handgate", "HandState_");
+    assert_eq!(case(&all, "empty"), &handgate::HandState_::default());
+    assert_eq!(case(&all, "typical").pressure.len(), 9);
+}
+
+#[test]
+fn handgate_device_status() {
+    let all = check_type::<handgate::DeviceStatus_>("handgate", "DeviceStatus_");
+    assert_eq!(case(&all, "empty"), &handgate::DeviceStatus_::default());
+}
+
+#[test]
+fn handgate_gateway_status() {
+    let all = check_type::<handgate::GatewayStatus_>("handgate", "GatewayStatus_");
+    assert_eq!(case(&all, "empty"), &handgate::GatewayStatus_::default());
+    // Non-ASCII (multi-byte UTF-8) and 300-byte strings survive byte-exactly.
+    let extreme = case(&all, "extreme");
+    assert!(extreme.devices.iter().any(|d| !d.device.is_ascii()));
+    assert!(extreme
+        .devices
+        .iter()
+        .any(|d| d.kind.len() == 300 || d.device.len() == 300));
+}
+
+#[test]
+fn ros2_time() {
+    let all = check_type::<ros2::Time_>("builtin_interfaces", "Time_");
+    assert_eq!(case(&all, "empty"), &ros2::Time_::default());
+}
+
+#[test]
+fn ros2_header() {
+    let all = check_type::<ros2::Header_>("std_msgs", "Header_");
+    assert_eq!(case(&all, "empty"), &ros2::Header_::default());
+}
+
+#[test]
+fn ros2_joint_state() {
+    let all = check_type::<ros2::JointState_>("sensor_msgs", "JointState_");
+    assert_eq!(case(&all, "empty"), &ros2::JointState_::default());
+    assert_eq!(case(&all, "typical").name[0], "left_hand_zero");
+}
+
+/// Every fixture file belongs to one of the types above (nothing is silently skipped).
 #[test]
 fn every_fixture_is_checked() {
     let known = [
@@ -210,6 +282,15 @@ fn every_fixture_is_checked() {
         ("unitree_go", "MotorCmds_"),
         ("unitree_go", "MotorState_"),
         ("unitree_go", "MotorStates_"),
+        ("handgate", "JointCmd_"),
+        ("handgate", "HandCmd_"),
+        ("handgate", "JointState_"),
+        ("handgate", "HandState_"),
+        ("handgate", "DeviceStatus_"),
+        ("handgate", "GatewayStatus_"),
+        ("builtin_interfaces", "Time_"),
+        ("std_msgs", "Header_"),
+        ("sensor_msgs", "JointState_"),
     ];
     let all = golden_fixtures().unwrap();
     assert!(all.len() >= known.len() * CASES.len());
