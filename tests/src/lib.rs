@@ -669,3 +669,69 @@ pub fn golden_fixtures() -> Result<Vec<Fixture>, FixtureError> {
 pub fn fixture(module: &str, type_name: &str, case: &str) -> Result<Fixture, FixtureError> {
     load_fixture(&golden_dir().join(format!("{module}__{type_name}__{case}.json")))
 }
+
+#[cfg(test)]
+mod unit {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn hex_decodes_and_rejects_garbage() {
+        assert_eq!(hex_decode("00ff7F"), Some(vec![0, 0xff, 0x7f]));
+        assert_eq!(hex_decode("abc"), None);
+        assert_eq!(hex_decode("zz"), None);
+    }
+
+    #[test]
+    fn floats_accept_the_non_finite_spellings() {
+        assert!(f32::from_plain(&json!("nan"), "x").unwrap().is_nan());
+        assert_eq!(f32::from_plain(&json!("-inf"), "x").unwrap(), f32::NEG_INFINITY);
+        assert_eq!(f32::from_plain(&json!(-0.0), "x").unwrap().to_bits(), 0x8000_0000);
+        assert!(matches!(
+            f32::from_plain(&json!(1e39), "x"),
+            Err(PlainError::Range { .. })
+        ));
+        assert!(matches!(
+            f32::from_plain(&json!("NaN"), "x"),
+            Err(PlainError::Type { .. })
+        ));
+        assert_eq!(f64::from_plain(&json!(5e-324), "x").unwrap().to_bits(), 1);
+    }
+
+    #[test]
+    fn integers_are_range_checked() {
+        assert_eq!(u8::from_plain(&json!(255), "x").unwrap(), 255);
+        assert!(matches!(
+            u8::from_plain(&json!(256), "x"),
+            Err(PlainError::Range { .. })
+        ));
+        assert!(matches!(
+            i16::from_plain(&json!(-32769), "x"),
+            Err(PlainError::Range { .. })
+        ));
+        assert!(matches!(
+            u32::from_plain(&json!(1.5), "x"),
+            Err(PlainError::Type { .. })
+        ));
+        assert_eq!(u64::from_plain(&json!(u64::MAX), "x").unwrap(), u64::MAX);
+    }
+
+    #[test]
+    fn structs_reject_missing_unknown_fields_and_wrong_lengths() {
+        let ok = json!({"quaternion": [1.0, 0, 0, 0], "gyroscope": [0, 0, 0], "accelerometer": [0, 0, 0],
+                        "rpy": [0, 0, 0], "temperature": 30});
+        let imu = unitree_hg::IMUState_::from_plain(&ok, "imu").unwrap();
+        assert_eq!((imu.quaternion[0], imu.temperature), (1.0, 30));
+
+        let mut extra = ok.clone();
+        extra["id"] = json!(1);
+        assert!(matches!(
+            unitree_hg::IMUState_::from_plain(&extra, "imu"),
+            Err(PlainError::Fields { .. })
+        ));
+        let mut short = ok.clone();
+        short["rpy"] = json!([0, 0]);
+        let err = unitree_hg::IMUState_::from_plain(&short, "imu").unwrap_err();
+        assert!(err.to_string().contains("imu.rpy"), "{err}");
+    }
+}
