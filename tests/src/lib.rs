@@ -1,1 +1,737 @@
 //! Shared helpers for handgate's cross-crate and interop tests.
+//!
+//! * [`repo_root`], [`venv_python`]: where the repository and the interop venv
+//!   (`scripts/setup.sh`) are.
+//! * [`PyProcess`]: a Python helper process (one of `tests/python/*.py`) whose stdout lines
+//!   are collected on a thread; wait for a line with a deadline; killed on drop.
+//! * [`Fixture`], [`golden_fixtures`], [`FromPlain`]: the golden CDR fixtures written by
+//!   `tests/python/gen_golden.py` with the official unitree_sdk2py, and the conversion of their
+//!   "plain" JSON values (also what the Python interop scripts print) into handgate's wire types.
+//!
+//! Plain-value conventions (same as `tests/python/wire_schema.py`): integers, booleans and
+//! strings are their JSON kinds; f32 and f64 values are JSON numbers holding the exact value
+//! (`-0.0` included) or the strings `"inf"`, `"-inf"`, `"nan"` (the quiet NaNs 0x7fc00000 and
+//! 0x7ff8000000000000); arrays and sequences are JSON arrays; nested structs are objects with
+//! exactly the IDL field names.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use handgate_idl::{handgate, ros2, unitree_go, unitree_hg};
+use serde_json::Value;
+
+// ---------------------------------------------------------------------------------------------
+// Locations
+
+/// The repository root (the parent of this crate's directory).
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ has a parent")
+        .to_path_buf()
+}
+
+/// `tests/fixtures/golden/`.
+pub fn golden_dir() -> PathBuf {
+    repo_root().join("tests").join("fixtures").join("golden")
+}
+
+/// `tests/python/<name>`.
+pub fn python_script(name: &str) -> PathBuf {
+    repo_root().join("tests").join("python").join(name)
+}
+
+/// The interop venv's interpreter, `.venv/bin/python`. Panics with instructions when missing:
+/// the interop tests need the official SDK and must not silently pass without it.
+pub fn venv_python() -> PathBuf {
+    let py = repo_root().join(".venv").join("bin").join("python");
+    assert!(
+        py.exists(),
+        "{} is missing: the interop tests need the official unitree_sdk2py. Run `scripts/setup.sh` \
+         (or `make test`) in {} first.",
+        py.display(),
+        repo_root().display()
+    );
+    py
+}
+
+/// Network interface for the interop tests, from `HANDGATE_INTEROP_IFACE` (e.g. `lo`), passed
+/// to both sides (`Node::new(domain, Some(iface))` and `ChannelFactoryInitialize(domain, iface)`).
+/// Unset or empty: both let CycloneDDS pick an interface, as `ChannelFactoryInitialize(domain)`
+/// does.
+pub fn interop_interface() -> Option<String> {
+    std::env::var("HANDGATE_INTEROP_IFACE").ok().filter(|s| !s.is_empty())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Python helper processes
+
+/// Failure while driving a Python helper process.
+#[derive(Debug, thiserror::Error)]
+pub enum PyError {
+    #[error("could not start {script}: {source}")]
+    Spawn {
+        script: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{script}: no line starting with {prefix:?} within {timeout:?}\n{transcript}")]
+    Timeout {
+        script: String,
+        prefix: String,
+        timeout: Duration,
+        transcript: String,
+    },
+    #[error("{script} closed its stdout before printing a line starting with {prefix:?}\n{transcript}")]
+    Exited {
+        script: String,
+        prefix: String,
+        transcript: String,
+    },
+}
+
+/// A running `tests/python/<script>` under the venv interpreter. Its stdout is read line by
+/// line on a thread; stderr is kept for error messages. The process is killed when dropped.
+pub struct PyProcess {
+    script: String,
+    child: Child,
+    lines: Receiver<String>,
+    seen: Mutex<Vec<String>>,
+    stderr: Arc<Mutex<String>>,
+}
+
+impl std::fmt::Debug for PyProcess {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PyProcess")
+            .field("script", &self.script)
+            .field("pid", &self.child.id())
+            .finish()
+    }
+}
+
+impl PyProcess {
+    /// Starts `.venv/bin/python tests/python/<script> <args>` (unbuffered output).
+    pub fn spawn(script: &str, args: &[String]) -> Result<Self, PyError> {
+        let mut child = Command::new(venv_python())
+            .arg("-u")
+            .arg(python_script(script))
+            .args(args)
+            .current_dir(repo_root())
+            .env("PYTHONUNBUFFERED", "1")
+            .env("PYTHONDONTWRITEBYTECODE", "1")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|source| PyError::Spawn {
+                script: script.to_string(),
+                source,
+            })?;
+        let stdout = child.stdout.take().expect("stdout is piped");
+        let (tx, lines) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines() {
+                match line {
+                    Ok(l) => {
+                        if tx.send(l).is_err() {
+                            break;
+                        }
+                    }
+                    Err(_) => break,
+                }
+            }
+        });
+        let stderr = Arc::new(Mutex::new(String::new()));
+        let mut err_pipe = child.stderr.take().expect("stderr is piped");
+        let err_buf = Arc::clone(&stderr);
+        std::thread::spawn(move || {
+            let mut chunk = [0u8; 4096];
+            while let Ok(n) = err_pipe.read(&mut chunk) {
+                if n == 0 {
+                    break;
+                }
+                let text = String::from_utf8_lossy(&chunk[..n]).into_owned();
+                err_buf.lock().unwrap_or_else(|e| e.into_inner()).push_str(&text);
+            }
+        });
+        Ok(Self {
+            script: script.to_string(),
+            child,
+            lines,
+            seen: Mutex::new(Vec::new()),
+            stderr,
+        })
+    }
+
+    /// The process id.
+    pub fn id(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Waits until the process prints a line starting with `prefix` and returns the rest of
+    /// that line. Other lines are kept for the error transcript.
+    pub fn wait_line(&self, prefix: &str, timeout: Duration) -> Result<String, PyError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(line) => {
+                    if let Some(rest) = line.strip_prefix(prefix) {
+                        return Ok(rest.to_string());
+                    }
+                    self.seen.lock().unwrap_or_else(|e| e.into_inner()).push(line);
+                }
+                Err(RecvTimeoutError::Timeout) => {
+                    return Err(PyError::Timeout {
+                        script: self.script.clone(),
+                        prefix: prefix.to_string(),
+                        timeout,
+                        transcript: self.transcript(),
+                    })
+                }
+                Err(RecvTimeoutError::Disconnected) => {
+                    return Err(PyError::Exited {
+                        script: self.script.clone(),
+                        prefix: prefix.to_string(),
+                        transcript: self.transcript(),
+                    })
+                }
+            }
+        }
+    }
+
+    /// What the process printed so far that no `wait_line` consumed, plus its stderr.
+    pub fn transcript(&self) -> String {
+        let out = self.seen.lock().unwrap_or_else(|e| e.into_inner()).join("\n");
+        let err = self.stderr.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        format!(
+            "--- {} stdout ---\n{out}\n--- {} stderr ---\n{err}",
+            self.script, self.script
+        )
+    }
+}
+
+impl Drop for PyProcess {
+    fn drop(&mut self) {
+        // The helper may already have exited; both calls are then harmless errors.
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Plain values -> wire types
+
+/// A plain JSON value that does not fit the wire type.
+#[derive(Debug, thiserror::Error)]
+pub enum PlainError {
+    #[error("{at}: expected {want}, found {found}")]
+    Type {
+        at: String,
+        want: &'static str,
+        found: String,
+    },
+    #[error("{at}: {value} is out of range for {want}")]
+    Range {
+        at: String,
+        value: String,
+        want: &'static str,
+    },
+    #[error("{at}: array of {found} elements, the type has {want}")]
+    Length { at: String, found: usize, want: usize },
+    #[error("{at}: fields {found:?}, the type has {want:?}")]
+    Fields {
+        at: String,
+        found: Vec<String>,
+        want: Vec<&'static str>,
+    },
+}
+
+fn type_err(at: &str, want: &'static str, v: &Value) -> PlainError {
+    PlainError::Type {
+        at: at.to_string(),
+        want,
+        found: v.to_string(),
+    }
+}
+
+/// Builds a wire value from its plain JSON form (see the module docs).
+pub trait FromPlain: Sized {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError>;
+}
+
+macro_rules! plain_int {
+    ($($t:ty),*) => {$(
+        impl FromPlain for $t {
+            fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+                let n = v.as_i64().ok_or_else(|| type_err(at, "an integer", v))?;
+                <$t>::try_from(n).map_err(|_| PlainError::Range {
+                    at: at.to_string(),
+                    value: n.to_string(),
+                    want: stringify!($t),
+                })
+            }
+        }
+    )*};
+}
+plain_int!(u8, i16, i32, u32);
+
+impl FromPlain for u64 {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        v.as_u64().ok_or_else(|| type_err(at, "an unsigned 64-bit integer", v))
+    }
+}
+
+impl FromPlain for bool {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        v.as_bool().ok_or_else(|| type_err(at, "a boolean", v))
+    }
+}
+
+impl FromPlain for String {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        v.as_str()
+            .map(str::to_string)
+            .ok_or_else(|| type_err(at, "a string", v))
+    }
+}
+
+impl FromPlain for f64 {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        match v {
+            Value::String(s) if s == "nan" => Ok(f64::NAN),
+            Value::String(s) if s == "inf" => Ok(f64::INFINITY),
+            Value::String(s) if s == "-inf" => Ok(f64::NEG_INFINITY),
+            // Exact: serde_json is built with `float_roundtrip` for this crate.
+            Value::Number(n) => n.as_f64().ok_or_else(|| type_err(at, "an f64", v)),
+            _ => Err(type_err(at, "an f64 number or \"inf\"/\"-inf\"/\"nan\"", v)),
+        }
+    }
+}
+
+impl FromPlain for f32 {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        match v {
+            Value::String(s) if s == "nan" => Ok(f32::NAN),
+            Value::String(s) if s == "inf" => Ok(f32::INFINITY),
+            Value::String(s) if s == "-inf" => Ok(f32::NEG_INFINITY),
+            Value::Number(n) => {
+                let x = n.as_f64().ok_or_else(|| type_err(at, "an f32", v))?;
+                // `as` rounds to nearest, so a parse that is off in the last f64 bit still
+                // lands on the f32 the fixture holds; only true overflow becomes infinite.
+                if (x as f32).is_infinite() {
+                    return Err(PlainError::Range {
+                        at: at.to_string(),
+                        value: x.to_string(),
+                        want: "f32",
+                    });
+                }
+                // The fixture holds the exact f32 value, so this conversion is exact.
+                Ok(x as f32)
+            }
+            _ => Err(type_err(at, "an f32 number or \"inf\"/\"-inf\"/\"nan\"", v)),
+        }
+    }
+}
+
+impl<T: FromPlain, const N: usize> FromPlain for [T; N] {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        let items: Vec<T> = Vec::<T>::from_plain(v, at)?;
+        let found = items.len();
+        items.try_into().map_err(|_| PlainError::Length {
+            at: at.to_string(),
+            found,
+            want: N,
+        })
+    }
+}
+
+impl<T: FromPlain> FromPlain for Vec<T> {
+    fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+        let arr = v.as_array().ok_or_else(|| type_err(at, "an array", v))?;
+        arr.iter()
+            .enumerate()
+            .map(|(i, x)| T::from_plain(x, &format!("{at}[{i}]")))
+            .collect()
+    }
+}
+
+/// Implements [`FromPlain`] for a struct from its field list. The struct literal makes the
+/// compiler insist the list is complete; the key check rejects unknown or missing JSON fields.
+macro_rules! plain_struct {
+    ($ty:path { $($field:ident),* $(,)? }) => {
+        impl FromPlain for $ty {
+            fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
+                let obj = v.as_object().ok_or_else(|| type_err(at, "an object", v))?;
+                let want: Vec<&'static str> = vec![$(stringify!($field)),*];
+                let mut found: Vec<String> = obj.keys().cloned().collect();
+                let mut sorted_want: Vec<String> = want.iter().map(|s| s.to_string()).collect();
+                found.sort();
+                sorted_want.sort();
+                if found != sorted_want {
+                    return Err(PlainError::Fields { at: at.to_string(), found, want });
+                }
+                Ok(Self {
+                    $($field: FromPlain::from_plain(
+                        &obj[stringify!($field)],
+                        &format!("{at}.{}", stringify!($field)),
+                    )?,)*
+                })
+            }
+        }
+    };
+}
+
+plain_struct!(unitree_hg::MotorCmd_ {
+    mode,
+    q,
+    dq,
+    tau,
+    kp,
+    kd,
+    reserve
+});
+plain_struct!(unitree_hg::MotorState_ {
+    mode,
+    q,
+    dq,
+    ddq,
+    tau_est,
+    temperature,
+    vol,
+    sensor,
+    motorstate,
+    reserve
+});
+plain_struct!(unitree_hg::PressSensorState_ {
+    pressure,
+    temperature,
+    lost,
+    reserve
+});
+plain_struct!(unitree_hg::IMUState_ {
+    quaternion,
+    gyroscope,
+    accelerometer,
+    rpy,
+    temperature
+});
+plain_struct!(unitree_hg::HandCmd_ { motor_cmd, reserve });
+plain_struct!(unitree_hg::HandState_ {
+    motor_state,
+    press_sensor_state,
+    imu_state,
+    power_v,
+    power_a,
+    system_v,
+    device_v,
+    error,
+    reserve
+});
+plain_struct!(unitree_go::MotorCmd_ {
+    mode,
+    q,
+    dq,
+    tau,
+    kp,
+    kd,
+    reserve
+});
+plain_struct!(unitree_go::MotorCmds_ { cmds });
+plain_struct!(unitree_go::MotorState_ {
+    mode,
+    q,
+    dq,
+    ddq,
+    tau_est,
+    q_raw,
+    dq_raw,
+    ddq_raw,
+    temperature,
+    lost,
+    reserve
+});
+plain_struct!(unitree_go::MotorStates_ { states });
+
+plain_struct!(handgate::JointCmd_ {
+    name,
+    q,
+    dq,
+    tau,
+    kp,
+    kd
+});
+plain_struct!(handgate::HandCmd_ {
+    seq,
+    mode,
+    closure,
+    stiffness,
+    joints
+});
+plain_struct!(handgate::JointState_ {
+    name,
+    q,
+    dq,
+    tau,
+    temperature
+});
+plain_struct!(handgate::HandState_ {
+    device,
+    kind,
+    side,
+    cmd_seq,
+    stamp_ns,
+    freshness,
+    closure,
+    joints,
+    pressure,
+    accelerometer,
+    gyroscope,
+    power_v,
+    power_a,
+    faults
+});
+plain_struct!(handgate::DeviceStatus_ {
+    device,
+    kind,
+    backend,
+    freshness,
+    safe,
+    cmd_rate_hz,
+    state_rate_hz,
+    crc_errors,
+    bad_input,
+    watchdog_trips,
+    reconnects,
+    missed_cycles,
+    age_ms
+});
+plain_struct!(handgate::GatewayStatus_ {
+    profile,
+    uptime_ms,
+    devices
+});
+plain_struct!(ros2::Time_ { sec, nanosec });
+plain_struct!(ros2::Header_ { stamp, frame_id });
+plain_struct!(ros2::JointState_ {
+    header,
+    name,
+    position,
+    velocity,
+    effort
+});
+
+/// Parses one JSON document (e.g. a line a Python helper printed) into a wire value.
+pub fn from_plain_json<T: FromPlain>(text: &str) -> Result<T, FixtureError> {
+    let v: Value = serde_json::from_str(text).map_err(|e| FixtureError::Json {
+        path: "<line>".into(),
+        source: e,
+    })?;
+    Ok(T::from_plain(&v, "value")?)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Golden fixtures
+
+/// A golden fixture could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum FixtureError {
+    #[error("reading {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("parsing {path}: {source}")]
+    Json {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("{path}: field {field} missing or not a {want}")]
+    Field {
+        path: PathBuf,
+        field: &'static str,
+        want: &'static str,
+    },
+    #[error("{path}: bad hex at offset {offset}")]
+    Hex { path: PathBuf, offset: usize },
+    #[error(transparent)]
+    Plain(#[from] PlainError),
+}
+
+/// One golden fixture: a value and the CDR bytes the official Python SDK made from it.
+#[derive(Debug, Clone)]
+pub struct Fixture {
+    pub path: PathBuf,
+    /// `unitree_hg`, `unitree_go`, `handgate`, `builtin_interfaces`, `std_msgs`, `sensor_msgs`.
+    pub module: String,
+    /// e.g. `HandCmd_`.
+    pub type_name: String,
+    /// `empty`, `typical`, `extreme`, `nan` or `sdk_default`.
+    pub case: String,
+    /// e.g. `unitree_hg::msg::dds_::HandCmd_`.
+    pub dds_type_name: String,
+    /// The plain JSON value.
+    pub value: Value,
+    /// Little-endian CDR with the encapsulation header, as unitree_sdk2py serialised it.
+    pub cdr_le: Vec<u8>,
+}
+
+impl Fixture {
+    /// `module::Type case`, for messages.
+    pub fn label(&self) -> String {
+        format!("{}::{} {}", self.module, self.type_name, self.case)
+    }
+
+    /// The fixture's value as a handgate wire value.
+    pub fn value_as<T: FromPlain>(&self) -> Result<T, PlainError> {
+        T::from_plain(&self.value, &self.label())
+    }
+}
+
+/// Decodes lowercase or uppercase hex without separators.
+pub fn hex_decode(s: &str) -> Option<Vec<u8>> {
+    let b = s.as_bytes();
+    if b.len() % 2 != 0 {
+        return None;
+    }
+    b.chunks(2)
+        .map(|p| {
+            let hi = (p[0] as char).to_digit(16)?;
+            let lo = (p[1] as char).to_digit(16)?;
+            Some((hi * 16 + lo) as u8)
+        })
+        .collect()
+}
+
+/// Reads one fixture file.
+pub fn load_fixture(path: &Path) -> Result<Fixture, FixtureError> {
+    let text = std::fs::read_to_string(path).map_err(|source| FixtureError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let v: Value = serde_json::from_str(&text).map_err(|source| FixtureError::Json {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let field = |name: &'static str| -> Result<String, FixtureError> {
+        v.get(name)
+            .and_then(Value::as_str)
+            .map(str::to_string)
+            .ok_or_else(|| FixtureError::Field {
+                path: path.to_path_buf(),
+                field: name,
+                want: "string",
+            })
+    };
+    let hex = field("cdr_le_hex")?;
+    let cdr_le = hex_decode(&hex).ok_or_else(|| FixtureError::Hex {
+        path: path.to_path_buf(),
+        offset: 0,
+    })?;
+    let value = v.get("value").cloned().ok_or(FixtureError::Field {
+        path: path.to_path_buf(),
+        field: "value",
+        want: "object",
+    })?;
+    Ok(Fixture {
+        path: path.to_path_buf(),
+        module: field("module")?,
+        type_name: field("type")?,
+        case: field("case")?,
+        dds_type_name: field("dds_type_name")?,
+        value,
+        cdr_le,
+    })
+}
+
+/// Every fixture in [`golden_dir`], sorted by file name.
+pub fn golden_fixtures() -> Result<Vec<Fixture>, FixtureError> {
+    let dir = golden_dir();
+    let rd = std::fs::read_dir(&dir).map_err(|source| FixtureError::Io {
+        path: dir.clone(),
+        source,
+    })?;
+    let mut paths: Vec<PathBuf> = rd
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    paths.sort();
+    paths.iter().map(|p| load_fixture(p)).collect()
+}
+
+/// The fixture `<module>__<type_name>__<case>.json`.
+pub fn fixture(module: &str, type_name: &str, case: &str) -> Result<Fixture, FixtureError> {
+    load_fixture(&golden_dir().join(format!("{module}__{type_name}__{case}.json")))
+}
+
+#[cfg(test)]
+mod unit {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn hex_decodes_and_rejects_garbage() {
+        assert_eq!(hex_decode("00ff7F"), Some(vec![0, 0xff, 0x7f]));
+        assert_eq!(hex_decode("abc"), None);
+        assert_eq!(hex_decode("zz"), None);
+    }
+
+    #[test]
+    fn floats_accept_the_non_finite_spellings() {
+        assert!(f32::from_plain(&json!("nan"), "x").unwrap().is_nan());
+        assert_eq!(f32::from_plain(&json!("-inf"), "x").unwrap(), f32::NEG_INFINITY);
+        assert_eq!(f32::from_plain(&json!(-0.0), "x").unwrap().to_bits(), 0x8000_0000);
+        assert!(matches!(
+            f32::from_plain(&json!(1e39), "x"),
+            Err(PlainError::Range { .. })
+        ));
+        assert!(matches!(
+            f32::from_plain(&json!("NaN"), "x"),
+            Err(PlainError::Type { .. })
+        ));
+        assert_eq!(f64::from_plain(&json!(5e-324), "x").unwrap().to_bits(), 1);
+    }
+
+    #[test]
+    fn integers_are_range_checked() {
+        assert_eq!(u8::from_plain(&json!(255), "x").unwrap(), 255);
+        assert!(matches!(
+            u8::from_plain(&json!(256), "x"),
+            Err(PlainError::Range { .. })
+        ));
+        assert!(matches!(
+            i16::from_plain(&json!(-32769), "x"),
+            Err(PlainError::Range { .. })
+        ));
+        assert!(matches!(
+            u32::from_plain(&json!(1.5), "x"),
+            Err(PlainError::Type { .. })
+        ));
+        assert_eq!(u64::from_plain(&json!(u64::MAX), "x").unwrap(), u64::MAX);
+    }
+
+    #[test]
+    fn structs_reject_missing_unknown_fields_and_wrong_lengths() {
+        let ok = json!({"quaternion": [1.0, 0, 0, 0], "gyroscope": [0, 0, 0], "accelerometer": [0, 0, 0],
+                        "rpy": [0, 0, 0], "temperature": 30});
+        let imu = unitree_hg::IMUState_::from_plain(&ok, "imu").unwrap();
+        assert_eq!((imu.quaternion[0], imu.temperature), (1.0, 30));
+
+        let mut extra = ok.clone();
+        extra["id"] = json!(1);
+        assert!(matches!(
+            unitree_hg::IMUState_::from_plain(&extra, "imu"),
+            Err(PlainError::Fields { .. })
+        ));
+        let mut short = ok.clone();
+        short["rpy"] = json!([0, 0]);
+        let err = unitree_hg::IMUState_::from_plain(&short, "imu").unwrap_err();
+        assert!(err.to_string().contains("imu.rpy"), "{err}");
+    }
+}

@@ -1,0 +1,133 @@
+"""handgate's canonical messages (idl/handgate.idl) and the ROS 2 JointState_ chain, declared for
+CycloneDDS Python 0.10.2 (final, sequential ids; IDL octet as uint8, which encodes the same
+single byte). Used only to produce reference CDR bytes for tests/fixtures/golden/; the IDL file is the
+authority, and wire_schema.check_schema() keeps these field lists equal to SCHEMA.
+"""
+
+from dataclasses import dataclass
+
+import cyclonedds.idl as idl
+import cyclonedds.idl.annotations as annotate
+import cyclonedds.idl.types as types
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class JointCmd_(idl.IdlStruct, typename="handgate.msg.dds_.JointCmd_"):
+    name: str
+    q: types.float32
+    dq: types.float32
+    tau: types.float32
+    kp: types.float32
+    kd: types.float32
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class HandCmd_(idl.IdlStruct, typename="handgate.msg.dds_.HandCmd_"):
+    seq: types.uint64
+    mode: types.uint8
+    closure: types.float32
+    stiffness: types.float32
+    joints: types.sequence[JointCmd_]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class JointState_(idl.IdlStruct, typename="handgate.msg.dds_.JointState_"):
+    name: str
+    q: types.float32
+    dq: types.float32
+    tau: types.float32
+    temperature: types.float32
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class HandState_(idl.IdlStruct, typename="handgate.msg.dds_.HandState_"):
+    device: str
+    kind: str
+    side: str
+    cmd_seq: types.uint64
+    stamp_ns: types.uint64
+    freshness: types.uint8
+    closure: types.float32
+    joints: types.sequence[JointState_]
+    pressure: types.sequence[types.float32]
+    accelerometer: types.array[types.float32, 3]
+    gyroscope: types.array[types.float32, 3]
+    power_v: types.float32
+    power_a: types.float32
+    faults: types.uint32
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class DeviceStatus_(idl.IdlStruct, typename="handgate.msg.dds_.DeviceStatus_"):
+    device: str
+    kind: str
+    backend: str
+    freshness: types.uint8
+    safe: bool
+    cmd_rate_hz: types.float32
+    state_rate_hz: types.float32
+    crc_errors: types.uint64
+    bad_input: types.uint64
+    watchdog_trips: types.uint64
+    reconnects: types.uint64
+    missed_cycles: types.uint64
+    age_ms: types.float32
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class GatewayStatus_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatus_"):
+    profile: str
+    uptime_ms: types.uint64
+    devices: types.sequence[DeviceStatus_]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class Time_(idl.IdlStruct, typename="builtin_interfaces.msg.dds_.Time_"):
+    sec: types.int32
+    nanosec: types.uint32
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class Header_(idl.IdlStruct, typename="std_msgs.msg.dds_.Header_"):
+    stamp: Time_
+    frame_id: str
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class RosJointState_(idl.IdlStruct, typename="sensor_msgs.msg.dds_.JointState_"):
+    header: Header_
+    name: types.sequence[str]
+    position: types.sequence[types.float64]
+    velocity: types.sequence[types.float64]
+    effort: types.sequence[types.float64]
+
+
+CLASSES = {
+    "handgate/JointCmd_": JointCmd_,
+    "handgate/HandCmd_": HandCmd_,
+    "handgate/JointState_": JointState_,
+    "handgate/HandState_": HandState_,
+    "handgate/DeviceStatus_": DeviceStatus_,
+    "handgate/GatewayStatus_": GatewayStatus_,
+    "builtin_interfaces/Time_": Time_,
+    "std_msgs/Header_": Header_,
+    "sensor_msgs/JointState_": RosJointState_,
+}
