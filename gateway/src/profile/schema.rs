@@ -420,7 +420,7 @@ impl Default for WatchdogConfig {
 pub struct ClosureConfig {
     /// Dex3: joint -> rad at closure 0 (omitted joints: 0 rad).
     pub open: BTreeMap<String, Radians>,
-    /// Dex3: joint -> rad at closure 1 (omitted joints: see `hardware::dex3_closed_default`).
+    /// Dex3: joint -> rad at closure 1 (omitted joints: the Dex3 table's default posture, `hardware::dex3_closed_default`).
     pub closed: BTreeMap<String, Radians>,
     /// hand_sdk: feed-forward torque at closure 0 (negative opens), N*m.
     #[serde(skip_serializing_if = "Option::is_none")]

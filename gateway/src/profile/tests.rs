@@ -108,7 +108,7 @@ const BAD: &[(&str, &str, &str, &str)] = &[
     ),
     (
         "limit outside the hardware range",
-        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.limits.joints]\nindex_0 = { max = 0.5 }\n",
+        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.limits.joints]\nindex_0 = { max = 1.9 }\n",
         "devices[0].limits.joints.index_0.max",
         "outside the left dex3 hardware range",
     ),
