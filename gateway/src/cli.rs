@@ -39,6 +39,68 @@ pub enum Command {
         #[command(flatten)]
         overrides: OverrideArgs,
     },
+    /// Show a live table of the running gateway's devices (from its status topic).
+    Status {
+        #[command(flatten)]
+        dds: DdsArgs,
+        /// Status topic (`status.topic`).
+        #[arg(long, default_value = "rt/handgate/status")]
+        topic: String,
+        /// Print one sample and exit.
+        #[arg(long)]
+        once: bool,
+        /// How long to wait for a status sample, seconds.
+        #[arg(long, default_value_t = 5.0)]
+        timeout: f64,
+    },
+    /// Send one canonical command to a named device (bring-up).
+    Send {
+        /// Device name from the profile (e.g. dex3_left).
+        device: String,
+        #[command(flatten)]
+        dds: DdsArgs,
+        /// Hand closure in [0, 1] (0 open, 1 closed).
+        #[arg(long, conflicts_with = "joint")]
+        closure: Option<f32>,
+        /// A joint target NAME=RAD (canonical frame, positive = closing); repeatable.
+        #[arg(long, value_parser = parse_joint)]
+        joint: Vec<(String, f32)>,
+        /// Stiffness for joint targets, N*m/rad.
+        #[arg(long, default_value_t = 1.5)]
+        kp: f32,
+        /// Damping for joint targets, N*m*s/rad.
+        #[arg(long, default_value_t = 0.1)]
+        kd: f32,
+        /// Move the device to its safe state instead.
+        #[arg(long, conflicts_with_all = ["closure", "joint"])]
+        safe: bool,
+        /// How long to wait for the gateway to match, seconds.
+        #[arg(long, default_value_t = 5.0)]
+        timeout: f64,
+    },
+}
+
+/// `NAME=RAD` for `send --joint`.
+pub fn parse_joint(s: &str) -> Result<(String, f32), String> {
+    let (n, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=RAD, got {s:?}"))?;
+    let v: f32 = v.trim().parse().map_err(|e| format!("{v:?} is not a number: {e}"))?;
+    if !v.is_finite() {
+        return Err(format!("{v} is not finite"));
+    }
+    Ok((n.trim().to_string(), v))
+}
+
+/// Where to find a running gateway on DDS (for `status` and `send`).
+#[derive(Debug, Clone, Args)]
+pub struct DdsArgs {
+    /// DDS domain id of the gateway (the simulated fleet uses 1).
+    #[arg(long, default_value_t = 1)]
+    pub domain: u32,
+    /// Network interface for DDS, e.g. eth0.
+    #[arg(long)]
+    pub interface: Option<String>,
 }
 
 /// Flags that override profile keys (above the profile file and `HANDGATE_*` variables).

@@ -1,9 +1,11 @@
 //! handgate gateway: router, fronts, profiles, runtime and CLI.
 
 pub mod cli;
+pub mod emulated;
 pub mod fronts;
 pub mod plan;
 pub mod profile;
+pub mod resolve;
 pub mod router;
 pub mod runtime;
 pub mod tools;

@@ -1,8 +1,11 @@
 use std::process::ExitCode;
+use std::time::Duration;
 
 use clap::Parser;
 use handgate_gateway::cli::{Cli, Command};
 use handgate_gateway::profile::{self, LoadOptions, LogFormat};
+use handgate_gateway::{resolve, runtime, tools};
+use handgate_idl::handgate as hg;
 
 /// Exit code for an invalid profile: nothing was started.
 const EXIT_INVALID: u8 = 2;
@@ -19,6 +22,24 @@ fn load(profile: Option<String>, overrides: handgate_gateway::cli::OverrideArgs)
         }
         ExitCode::from(EXIT_INVALID)
     })
+}
+
+fn init_logging(level: &str, format: LogFormat) {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    let fmt = tracing_subscriber::fmt().with_env_filter(filter);
+    match format {
+        LogFormat::Human => fmt.init(),
+        LogFormat::Json => fmt.json().init(),
+    }
+}
+
+async fn wait_for_signal() -> anyhow::Result<&'static str> {
+    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
+    tokio::select! {
+        r = tokio::signal::ctrl_c() => { r?; Ok("SIGINT") }
+        _ = term.recv() => Ok("SIGTERM"),
+    }
 }
 
 fn main() -> anyhow::Result<ExitCode> {
@@ -38,24 +59,100 @@ fn main() -> anyhow::Result<ExitCode> {
                 Ok(l) => l,
                 Err(code) => return Ok(code),
             };
-            let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(&l.profile.log.level));
-            let fmt = tracing_subscriber::fmt().with_env_filter(filter);
-            match l.profile.log.format {
-                LogFormat::Human => fmt.init(),
-                LogFormat::Json => fmt.json().init(),
-            }
+            let plan = match resolve::plan(&l.profile) {
+                Ok(p) => p,
+                Err(errors) => {
+                    for e in errors {
+                        eprintln!("{}: {e}", l.origin);
+                    }
+                    return Ok(ExitCode::from(EXIT_INVALID));
+                }
+            };
+            init_logging(&l.profile.log.level, l.profile.log.format);
             print!("{}", profile::render_fleet(&l.profile, &l.origin));
-            let dds = &l.profile.dds;
-            let node = handgate_adapters::dds::Node::new(dds.domain.0, dds.interface.as_deref())?;
-            tracing::info!(
-                domain = node.domain_id(),
-                profile = %l.profile.name,
-                "handgate started (devices and fronts are not started yet)"
-            );
             let rt = tokio::runtime::Runtime::new()?;
-            rt.block_on(async { tokio::signal::ctrl_c().await })?;
+            rt.block_on(async {
+                let gw = runtime::Runtime::start(&plan)?;
+                println!(
+                    "handgate serving {} device(s), {} front(s) on DDS domain {}",
+                    gw.devices.len(),
+                    plan.fronts.len(),
+                    plan.domain
+                );
+                tracing::info!(profile = %plan.profile, domain = plan.domain, "handgate started");
+                let sig = wait_for_signal().await?;
+                tracing::info!(signal = sig, "stopping: moving every device to its safe state");
+                for (name, r) in gw.shutdown().await {
+                    match r {
+                        Ok(()) => tracing::info!(device = %name, "safe"),
+                        Err(e) => tracing::warn!(device = %name, error = %e, "safe state not confirmed"),
+                    }
+                }
+                anyhow::Ok(())
+            })?;
+            rt.shutdown_timeout(Duration::from_millis(200));
             tracing::info!("stopped");
+        }
+        Command::Status {
+            dds,
+            topic,
+            once,
+            timeout,
+        } => {
+            let node = handgate_adapters::dds::Node::new(dds.domain, dds.interface.as_deref())?;
+            loop {
+                let s = tools::status_once(&node, &topic, Duration::from_secs_f64(timeout))?;
+                if !once {
+                    print!("\x1b[2J\x1b[H");
+                }
+                print!("{}", tools::render_status(&s));
+                if once {
+                    break;
+                }
+            }
+        }
+        Command::Send {
+            device,
+            dds,
+            closure,
+            joint,
+            kp,
+            kd,
+            safe,
+            timeout,
+        } => {
+            let node = handgate_adapters::dds::Node::new(dds.domain, dds.interface.as_deref())?;
+            let cmd = if safe {
+                hg::HandCmd_ {
+                    mode: hg::MODE_SAFE,
+                    ..Default::default()
+                }
+            } else if let Some(c) = closure {
+                hg::HandCmd_ {
+                    mode: hg::MODE_CLOSURE,
+                    closure: c,
+                    ..Default::default()
+                }
+            } else if !joint.is_empty() {
+                hg::HandCmd_ {
+                    mode: hg::MODE_JOINTS,
+                    joints: joint
+                        .into_iter()
+                        .map(|(name, q)| hg::JointCmd_ {
+                            name,
+                            q,
+                            kp,
+                            kd,
+                            ..Default::default()
+                        })
+                        .collect(),
+                    ..Default::default()
+                }
+            } else {
+                anyhow::bail!("say what to send: --closure X, --joint NAME=RAD (repeatable) or --safe");
+            };
+            tools::send(&node, &device, cmd, Duration::from_secs_f64(timeout))?;
+            println!("sent to {device}");
         }
     }
     Ok(ExitCode::SUCCESS)

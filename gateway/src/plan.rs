@@ -32,6 +32,21 @@ pub enum Transport {
         ramp: WeightRamp,
         publish_hz: f64,
     },
+    /// A DDS peer emulator started in-process on private topics
+    /// ([`emulator_topics`]), driven by the same DDS adapter a real peer would get: the
+    /// emulator sits exactly where the robot's service would.
+    EmulatedDds(EmulatedPeer),
+}
+
+/// Which peer to emulate, with its initial state (wire units).
+#[derive(Debug, Clone, PartialEq)]
+pub enum EmulatedPeer {
+    /// A G1's resident Dex3 service.
+    Dex3Service { initial_q: [f32; 7], timeout_bit: bool },
+    /// dex1_1_service.
+    Dex1Service { initial_q: f32, object_q: Option<f32> },
+    /// ai_sport's rt/hand_sdk blend.
+    AiSport { ramp: WeightRamp, publish_hz: f64 },
 }
 
 /// One device.

@@ -137,6 +137,7 @@ fn build_dds_device(node: &Node, p: &DevicePlan, table: Arc<DeviceTable>) -> Res
             cfg(topic, None, *publish_hz),
             HandSdkCodec::new(*ramp),
         )?),
+        Transport::EmulatedDds(peer) => return crate::emulated::build(node, p, peer, info(Capabilities::default())),
     };
     Ok(dev)
 }

@@ -83,6 +83,9 @@ pub struct Dex1Config {
     /// Position (rad) at which the jaws meet a graspable object while closing; `None`: none.
     pub object: Option<f32>,
     pub tuning: Dex1Tuning,
+    /// (command, state) topics; `None` = the variant's standard topics. The gateway's
+    /// emulator backend puts the service on private topics.
+    pub topics: Option<(String, String)>,
 }
 
 impl Dex1Config {
@@ -96,6 +99,7 @@ impl Dex1Config {
             initial_q: range.1,
             object: None,
             tuning: Dex1Tuning::default(),
+            topics: None,
         }
     }
 }
@@ -382,7 +386,10 @@ impl Dex1Emulator {
     pub fn start(node: &Node, config: Dex1Config) -> Result<Self, EmulatorError> {
         let period = config.rate.period()?;
         let core = Dex1Core::new(&config)?;
-        let (cmd_topic, state_topic) = config.variant.topics(config.side);
+        let (cmd_topic, state_topic) = config
+            .topics
+            .clone()
+            .unwrap_or_else(|| config.variant.topics(config.side));
         // Best-effort reader matches any writer; reliable keep-last-1 writer matches any reader.
         let mut io = match config.variant {
             Dex1Variant::Hg => Io::Hg {

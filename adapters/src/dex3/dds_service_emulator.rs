@@ -209,6 +209,9 @@ pub struct Dex3ServiceConfig {
     /// joints can close from 0 before they touch it. `None`: nothing to touch.
     pub objects: [Option<f32>; 3],
     pub tuning: Dex3Tuning,
+    /// (command, state, low-frequency state) topics; `None` = the standard ones. The
+    /// gateway's emulator backend puts the service on private topics.
+    pub topics: Option<(String, String, String)>,
 }
 
 impl Dex3ServiceConfig {
@@ -221,6 +224,7 @@ impl Dex3ServiceConfig {
             initial_q: [0.0; MOTORS],
             objects: [None; 3],
             tuning: Dex3Tuning::default(),
+            topics: None,
         }
     }
 
@@ -563,11 +567,15 @@ impl Dex3ServiceEmulator {
         let lf_period = config.lf_rate.period()?;
         let side = config.side;
         // Best-effort reader: matches reliable and best-effort writers alike.
-        let reader = node.reader::<HandCmd_>(&cmd_topic(side), Qos::BestEffort)?;
+        let (cmd_t, state_t, lf_t) = config
+            .topics
+            .clone()
+            .unwrap_or_else(|| (cmd_topic(side), state_topic(side), lf_state_topic(side)));
+        let reader = node.reader::<HandCmd_>(&cmd_t, Qos::BestEffort)?;
         // Reliable writers (keep last 1): match reliable and best-effort readers alike.
-        let mut writer = node.writer::<HandState_>(&state_topic(side), Qos::Reliable { depth: 1 })?;
+        let mut writer = node.writer::<HandState_>(&state_t, Qos::Reliable { depth: 1 })?;
         let mut lf_writer = if config.publish_lf {
-            Some(node.writer::<HandState_>(&lf_state_topic(side), Qos::Reliable { depth: 1 })?)
+            Some(node.writer::<HandState_>(&lf_t, Qos::Reliable { depth: 1 })?)
         } else {
             None
         };

@@ -110,6 +110,9 @@ pub struct HandSdkConfig {
     pub models: Option<HandSdkModels>,
     /// Distinct effective weights kept in the history (oldest dropped first).
     pub history_capacity: usize,
+    /// Topic to listen on (default `rt/hand_sdk`; the gateway's emulator backend uses a
+    /// private one).
+    pub topic: String,
 }
 
 impl Default for HandSdkConfig {
@@ -130,6 +133,7 @@ impl Default for HandSdkConfig {
             }; HAND_SDK_MOTORS],
             models: Some(HandSdkModels::default()),
             history_capacity: 4096,
+            topic: HAND_SDK_TOPIC.to_string(),
         }
     }
 }
@@ -365,7 +369,7 @@ impl HandSdkEmulator {
         config.validate()?;
         let period = config.control_rate.period()?;
         // Best-effort reader: matches reliable and best-effort writers alike.
-        let reader = node.reader::<MotorCmds_>(HAND_SDK_TOPIC, Qos::BestEffort)?;
+        let reader = node.reader::<MotorCmds_>(&config.topic, Qos::BestEffort)?;
         let shared = Arc::new(Mutex::new(HandSdkCore::new(config)));
         let sh = shared.clone();
         let mut prev = None;

@@ -1,0 +1,293 @@
+//! Profile → plan: turns a validated [`Profile`] into the typed [`Plan`] the runtime starts.
+//! Everything a profile leaves out gets its documented default here or in the schema.
+
+use std::time::Duration;
+
+use handgate_adapters::device::Backend;
+use handgate_adapters::hand_sdk::adapter::WeightRamp;
+use handgate_adapters::mapping::Limits;
+use handgate_adapters::model::DeviceKind;
+use handgate_adapters::tables::{table_for, TableParams};
+
+use crate::plan::{
+    canonical_topics, dex1_topics, dex3_topics, emulator_topics, DevicePlan, EmulatedPeer, FrontKind, FrontPlan, Plan,
+    Transport,
+};
+use crate::profile::{DeviceConfig, DeviceRate, FrontConfig, FrontKind as ProfileFrontKind, Profile, Topic};
+
+/// Why a profile could not become a plan (after validation these indicate a gap between the
+/// validator and the runtime; they are reported like validation errors).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ResolveError {
+    #[error("devices[{0}] ({1}): {2}")]
+    Device(usize, String, String),
+    #[error("fronts[{0}]: {1}")]
+    Front(usize, String),
+}
+
+/// How long without a state sample before a device's state is stale.
+pub const DEFAULT_STALE_AFTER: Duration = Duration::from_millis(100);
+
+fn table_params(d: &DeviceConfig) -> TableParams {
+    let mut t = TableParams::default();
+    if d.kind == DeviceKind::Dex1 {
+        t.range_rad = d.dex1_range().0 as f32;
+    }
+    if let Some(ez) = &d.ezgripper {
+        t.max_open_percent = ez.max_open_percent as f32;
+    }
+    t.max_step = d.limits.max_step.map(|r| r.0 as f32);
+    let base = table_for(
+        d.kind,
+        d.side,
+        &TableParams {
+            limits: vec![],
+            ..t.clone()
+        },
+    )
+    .ok();
+    for (name, l) in &d.limits.joints {
+        let hw = base
+            .as_ref()
+            .and_then(|b| b.joint_by_name(name).ok().map(|id| b.joints[id.index()].limits))
+            .unwrap_or(Limits::new(f32::NEG_INFINITY, f32::INFINITY));
+        let min = l.min.map(|v| v.0 as f32).unwrap_or(hw.min);
+        let max = l.max.map(|v| v.0 as f32).unwrap_or(hw.max);
+        t.limits.push((name.clone(), Limits::new(min, max)));
+    }
+    if d.kind == DeviceKind::Dex3 {
+        let names = DeviceKind::Dex3.joint_names();
+        if !d.closure.open.is_empty() {
+            t.open_posture = Some(
+                names
+                    .iter()
+                    .enumerate()
+                    .map(|(i, n)| {
+                        d.closure
+                            .open
+                            .get(*n)
+                            .map(|r| r.0 as f32)
+                            .unwrap_or(handgate_adapters::dex3::table::OPEN_POSTURE[i])
+                    })
+                    .collect(),
+            );
+        }
+        if !d.closure.closed.is_empty() {
+            t.closed_posture = Some(
+                names
+                    .iter()
+                    .enumerate()
+                    .map(|(i, n)| {
+                        d.closure
+                            .closed
+                            .get(*n)
+                            .map(|r| r.0 as f32)
+                            .unwrap_or(handgate_adapters::dex3::table::CLOSED_POSTURE[i])
+                    })
+                    .collect(),
+            );
+        }
+    }
+    t
+}
+
+fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
+    let err = |m: String| ResolveError::Device(i, d.name.to_string(), m);
+    let rate_hz = match d.rate() {
+        DeviceRate::Hz(r) => r.0,
+        DeviceRate::AsFastAsBus => 1000.0,
+    };
+    let table = table_params(d);
+    let t = table_for(d.kind, d.side, &table).map_err(|e| err(e.to_string()))?;
+    // Emulator initial positions are canonical; the emulated peers take wire values.
+    let initial = |name: &str, default: f32| -> f32 {
+        let id = match t.joint_by_name(name) {
+            Ok(id) => id,
+            Err(_) => return default,
+        };
+        let j = &t.joints[id.index()];
+        d.emulator
+            .as_ref()
+            .and_then(|e| e.initial.get(name))
+            .map(|r| j.q_to_wire(r.0 as f32))
+            .unwrap_or(default)
+    };
+    let ramp = |d: &DeviceConfig| {
+        let h = d.hand_sdk.clone().unwrap_or_default();
+        (
+            WeightRamp {
+                target: h.weight as f32,
+                per_second: h.ramp_per_s as f32,
+            },
+            h.publish_hz.map(|r| r.0).unwrap_or(rate_hz),
+            h.topic.0,
+        )
+    };
+    let transport = match (d.kind, d.backend) {
+        (DeviceKind::Dex3, Backend::Dds) => {
+            let (cmd, state) = d.dds_topics().unwrap_or((None, None));
+            let (c, s, _) = dex3_topics(d.side);
+            Transport::Dex3Dds {
+                cmd_topic: cmd.map(|t| t.0).unwrap_or(c),
+                state_topic: state.map(|t| t.0).unwrap_or(s),
+                timeout_bit: d.usb.as_ref().map(|u| u.timeout_bit).unwrap_or(true),
+            }
+        }
+        (DeviceKind::Dex1, Backend::Dds) => {
+            let (cmd, state) = d.dds_topics().unwrap_or((None, None));
+            let (c, s) = dex1_topics(d.dex1_variant(), d.side);
+            Transport::Dex1Dds {
+                variant: d.dex1_variant(),
+                cmd_topic: cmd.map(|t| t.0).unwrap_or(c),
+                state_topic: state.map(|t| t.0).unwrap_or(s),
+            }
+        }
+        (DeviceKind::HandSdk, Backend::Dds) => {
+            let (ramp, publish_hz, topic) = ramp(d);
+            Transport::HandSdk {
+                topic,
+                ramp,
+                publish_hz,
+            }
+        }
+        (DeviceKind::Dex3, Backend::Emulator) => {
+            let mut q = [0.0f32; 7];
+            for j in &t.joints {
+                // Wire 0 is inside every Dex3 joint's range: the hand starts straight.
+                q[j.wire_index] = initial(j.name, 0.0);
+            }
+            Transport::EmulatedDds(EmulatedPeer::Dex3Service {
+                initial_q: q,
+                timeout_bit: d.usb.as_ref().map(|u| u.timeout_bit).unwrap_or(true),
+            })
+        }
+        (DeviceKind::Dex1, Backend::Emulator) => {
+            let jaw = &t.joints[0];
+            let object = d
+                .emulator
+                .as_ref()
+                .and_then(|e| e.object_at.get("jaw"))
+                .map(|r| jaw.q_to_wire(r.0 as f32));
+            Transport::EmulatedDds(EmulatedPeer::Dex1Service {
+                initial_q: initial("jaw", jaw.q_to_wire(0.0)),
+                object_q: object,
+            })
+        }
+        (DeviceKind::HandSdk, Backend::Emulator) => {
+            let (ramp, publish_hz, _) = ramp(d);
+            Transport::EmulatedDds(EmulatedPeer::AiSport { ramp, publish_hz })
+        }
+        (kind, backend) => {
+            return Err(err(format!(
+                "backend {backend} for a {kind} is not available in this build"
+            )));
+        }
+    };
+    Ok(DevicePlan {
+        name: d.name.to_string(),
+        kind: d.kind,
+        side: d.side,
+        backend: d.backend,
+        table,
+        rate_hz,
+        stale_after: DEFAULT_STALE_AFTER,
+        safe_action: d.watchdog.safe_action,
+        transport,
+    })
+}
+
+fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveError> {
+    let dev = f.device.as_ref().and_then(|n| p.devices.iter().find(|d| &d.name == n));
+    let topics = f.topics(dev);
+    let side = f.served_side(dev).unwrap_or_default();
+    let device_watchdog = dev.map(|d| d.watchdog.timeout_ms.as_duration());
+    let watchdog = device_watchdog.map_or(f.watchdog_ms.as_duration(), |d| d.min(f.watchdog_ms.as_duration()));
+    let need = |t: Option<Topic>, what: &str| {
+        t.map(|t| t.0)
+            .ok_or_else(|| ResolveError::Front(i, format!("no {what} topic (side center?)")))
+    };
+    let device_name = || {
+        dev.map(|d| d.name.to_string())
+            .ok_or_else(|| ResolveError::Front(i, "a device is required".into()))
+    };
+    let kind = match f.kind {
+        ProfileFrontKind::Dex3 => FrontKind::Dex3 {
+            lf_state_topic: topics.lf_state.clone().map(|t| t.0),
+            lf_state_hz: topics.lf_state_hz.map(|r| r.0).unwrap_or(50.0),
+        },
+        ProfileFrontKind::Dex1 => FrontKind::Dex1 {
+            variant: f.dex1_variant(),
+            range_rad: dev
+                .filter(|d| d.kind == DeviceKind::Dex1)
+                .map(|d| d.dex1_range().0 as f32)
+                .unwrap_or(5.4),
+        },
+        ProfileFrontKind::Canonical => FrontKind::Canonical,
+        ProfileFrontKind::JointState => FrontKind::JointState {
+            devices: match dev {
+                Some(d) => vec![d.name.to_string()],
+                None => p.devices.iter().map(|d| d.name.to_string()).collect(),
+            },
+            urdf_names: f.urdf_names.unwrap_or(true),
+        },
+    };
+    let (cmd_topic, state_topic) = match f.kind {
+        ProfileFrontKind::JointState => (None, need(topics.state, "state")?),
+        ProfileFrontKind::Canonical => {
+            let name = device_name()?;
+            let (c, s) = canonical_topics(&name);
+            (
+                Some(topics.cmd.map(|t| t.0).unwrap_or(c)),
+                topics.state.map(|t| t.0).unwrap_or(s),
+            )
+        }
+        _ => (Some(need(topics.cmd, "command")?), need(topics.state, "state")?),
+    };
+    Ok(FrontPlan {
+        kind,
+        device: if f.kind == ProfileFrontKind::JointState {
+            String::new()
+        } else {
+            device_name()?
+        },
+        side,
+        cmd_topic,
+        state_topic,
+        state_hz: topics.state_hz.0,
+        watchdog,
+    })
+}
+
+/// The plan for a validated profile.
+pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
+    let mut errors = Vec::new();
+    let devices: Vec<DevicePlan> = p
+        .devices
+        .iter()
+        .enumerate()
+        .filter_map(|(i, d)| device(i, d).map_err(|e| errors.push(e)).ok())
+        .collect();
+    let fronts: Vec<FrontPlan> = p
+        .fronts
+        .iter()
+        .enumerate()
+        .filter_map(|(i, f)| front(i, f, p).map_err(|e| errors.push(e)).ok())
+        .collect();
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    Ok(Plan {
+        profile: p.name.clone(),
+        domain: p.dds.domain.0,
+        interface: p.dds.interface.clone(),
+        status_topic: p.status.topic.0.clone(),
+        status_hz: p.status.rate_hz.0,
+        devices,
+        fronts,
+    })
+}
+
+/// Emulator topics are private per device; exported for tests and docs.
+pub fn private_topics(device: &str) -> (String, String) {
+    emulator_topics(device)
+}
