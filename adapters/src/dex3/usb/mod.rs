@@ -6,5 +6,8 @@
 pub mod codec;
 pub mod convert;
 pub mod crc;
+pub mod emulator;
 pub mod scaling;
+pub mod socket;
+pub mod transport;
 pub mod wiring;
