@@ -216,6 +216,13 @@ impl Dex3Emulator {
     pub fn stall_for(&mut self, d: Duration) {
         self.faults.stall_until = Some(Instant::now() + d);
     }
+    /// Ends every pending fault (drops, corruptions, stall); does not replug.
+    pub fn clear_faults(&mut self) {
+        self.faults.drop_replies = 0;
+        self.faults.corrupt_frames = 0;
+        self.faults.corrupt_motor_packets = 0;
+        self.faults.stall_until = None;
+    }
     /// Real time left in a stall.
     pub fn stall_remaining(&self) -> Option<Duration> {
         let until = self.faults.stall_until?;

@@ -6,7 +6,9 @@
 pub mod codec;
 pub mod convert;
 pub mod crc;
+pub mod device_loop;
 pub mod emulator;
+pub mod rusb_transport;
 pub mod scaling;
 pub mod socket;
 pub mod transport;
