@@ -7,6 +7,7 @@ pub mod codec;
 pub mod convert;
 pub mod crc;
 pub mod device_loop;
+pub mod discovery;
 pub mod emulator;
 pub mod rusb_transport;
 pub mod scaling;
