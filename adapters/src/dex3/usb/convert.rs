@@ -1,15 +1,21 @@
 //! Between the hand-level types ([`Dex3Command`], [`Dex3Measurement`]) and the frames, through
 //! the [`WiringMap`] and the [`Scalings`] table.
 
-use super::codec::{
-    parse_feedback, BusId, LinuxToMcuCmd, McuToLinuxState, MotorCmdFrame, ParseCounters, RisMode, BUS_COUNT,
-};
+use super::codec::{parse_feedback, BusId, LinuxToMcuCmd, McuToLinuxState, MotorCmdFrame, ParseCounters, RisMode};
 use super::scaling::Scalings;
 use super::wiring::{BusAddr, WiringMap};
 use crate::dex3::{Dex3Command, Dex3Measurement, Imu, Power, MOTOR_COUNT};
 
-/// One motor command frame from a [`crate::dex3::MotorCommand`].
+/// One motor command frame from a [`crate::dex3::MotorCommand`]. A command with any
+/// non-finite field is sent as limp (all zero, status kept) rather than saturated: a NaN
+/// position must not become "go to 0 rad".
 pub fn motor_frame(m: &crate::dex3::MotorCommand, id: u8, timeout_bit: bool, s: &Scalings) -> MotorCmdFrame {
+    let finite = [m.q, m.dq, m.tau, m.kp, m.kd].iter().all(|v| v.is_finite());
+    let limp = crate::dex3::MotorCommand {
+        status: m.status,
+        ..Default::default()
+    };
+    let m = if finite { m } else { &limp };
     MotorCmdFrame {
         mode: RisMode::new(id, m.status.raw(), timeout_bit),
         res: 0,
@@ -125,9 +131,6 @@ pub fn apply_state(
     rep
 }
 
-/// Number of buses (re-exported for callers that size per-bus tables).
-pub const BUSES: usize = BUS_COUNT;
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,6 +165,27 @@ mod tests {
         assert_eq!(m.k_spd, 3277);
         let first = MotorCmdFrame::decode(&f.buses[1].bytes()[..20]).unwrap();
         assert_eq!(first.mode, RisMode::new(0, 1, true));
+    }
+
+    #[test]
+    fn non_finite_command_is_sent_limp() {
+        let s = Scalings::default();
+        let m = MotorCommand {
+            q: f32::NAN,
+            kp: 1.5,
+            kd: 0.1,
+            tau: 0.3,
+            ..Default::default()
+        };
+        let f = motor_frame(&m, 2, true, &s);
+        assert_eq!((f.pos_des, f.k_pos, f.k_spd, f.tor_des, f.spd_des), (0, 0, 0, 0, 0));
+        assert_eq!(f.mode, RisMode::new(2, 1, true));
+        let inf = MotorCommand {
+            kd: f32::INFINITY,
+            q: 0.5,
+            ..Default::default()
+        };
+        assert_eq!(motor_frame(&inf, 0, false, &s).pos_des, 0);
     }
 
     #[test]

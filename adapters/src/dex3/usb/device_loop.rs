@@ -75,6 +75,8 @@ impl Default for LoopConfig {
 pub enum LoopError {
     #[error("invalid wiring map: {0}")]
     Wiring(#[from] WiringError),
+    #[error("invalid scalings: {0}")]
+    Scalings(#[from] super::scaling::ScalingError),
     #[error("invalid loop period {0:?}")]
     Period(Duration),
     #[error("cannot start the device thread: {0}")]
@@ -189,6 +191,7 @@ impl Dex3UsbLoop {
     /// Starts the loop thread. `factory` opens the transport, now and after every disconnect.
     pub fn spawn(factory: TransportFactory, config: LoopConfig) -> Result<Dex3UsbHandle, LoopError> {
         config.wiring.validate()?;
+        config.scalings.validate()?;
         if config.period.is_zero() {
             return Err(LoopError::Period(config.period));
         }

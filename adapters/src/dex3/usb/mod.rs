@@ -14,3 +14,13 @@ pub mod scaling;
 pub mod socket;
 pub mod transport;
 pub mod wiring;
+
+pub use codec::{BusId, DeviceId, CMD_FRAME_LEN, STATE_FRAME_LEN};
+pub use device_loop::{Dex3UsbHandle, Dex3UsbLoop, LoopConfig, LoopError, LoopStats, PeriodHistogram};
+pub use discovery::{discover, DiscoveryOptions, DiscoveryReport};
+pub use emulator::{Dex3Emulator, EmulatorClock, EmulatorConfig, EmulatorTransport, SharedEmulator};
+pub use rusb_transport::{list_hands, HandInfo, RusbTransport};
+pub use scaling::Scalings;
+pub use socket::{run_emulator_server, EmulatorServer, UnixSocketTransport};
+pub use transport::{Dex3Transport, TransportError, TransportFactory};
+pub use wiring::{BusAddr, WiringMap};

@@ -135,6 +135,34 @@ impl Scalings {
         }
     }
 
+    /// Every factor must be finite and positive (a zero would divide by zero on decode).
+    pub fn validate(&self) -> Result<(), ScalingError> {
+        let fields = [
+            ("cmd_torque_per_nm", self.cmd_torque_per_nm),
+            ("cmd_speed_per_rad_s", self.cmd_speed_per_rad_s),
+            ("cmd_position_per_rad", self.cmd_position_per_rad),
+            ("cmd_kp_per_unit", self.cmd_kp_per_unit),
+            ("cmd_kd_per_unit", self.cmd_kd_per_unit),
+            ("fb_torque_per_nm", self.fb_torque_per_nm),
+            ("fb_speed_per_rad_s", self.fb_speed_per_rad_s),
+            ("fb_position_per_rad", self.fb_position_per_rad),
+            ("fb_voltage_per_v", self.fb_voltage_per_v),
+            ("pressure_pa_per_count", self.pressure_pa_per_count),
+            ("pin_v_per_count", self.pin_v_per_count),
+            ("vin_v_per_count", self.vin_v_per_count),
+            ("vm_v_per_count", self.vm_v_per_count),
+            ("pin_a_per_count", self.pin_a_per_count),
+            ("imu_accel_per_count", self.imu_accel_per_count),
+            ("imu_gyro_per_count", self.imu_gyro_per_count),
+        ];
+        for (name, v) in fields {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ScalingError { field: name, value: v });
+            }
+        }
+        Ok(())
+    }
+
     /// Encodes a command torque (N·m) to `tor_des`, saturating.
     pub fn encode_cmd_torque(&self, nm: f32) -> i16 {
         sat_i16(nm * self.cmd_torque_per_nm)
@@ -192,6 +220,14 @@ impl Scalings {
     }
 }
 
+/// A scaling factor that is zero, negative or not finite.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("scaling {field} = {value} must be finite and positive")]
+pub struct ScalingError {
+    pub field: &'static str,
+    pub value: f32,
+}
+
 /// Rounds and saturates; NaN maps to 0 (Rust's float-to-int `as` casts saturate and map NaN to 0).
 fn sat_i16(x: f32) -> i16 {
     x.round() as i16
@@ -218,6 +254,22 @@ mod tests {
         assert_eq!(s.encode_fb_voltage(24.0), 48);
         assert!((s.decode_fb_speed(256) - 2.0 * PI).abs() < 1e-5);
         assert!((s.pin_v_per_count * 65536.0 - 69.3).abs() < 1e-3);
+    }
+
+    #[test]
+    fn validation() {
+        Scalings::default().validate().unwrap();
+        Scalings::manual().validate().unwrap();
+        let bad = Scalings {
+            fb_speed_per_rad_s: 0.0,
+            ..Scalings::default()
+        };
+        assert_eq!(bad.validate().unwrap_err().field, "fb_speed_per_rad_s");
+        let nan = Scalings {
+            imu_gyro_per_count: f32::NAN,
+            ..Scalings::default()
+        };
+        assert!(nan.validate().is_err());
     }
 
     #[test]
