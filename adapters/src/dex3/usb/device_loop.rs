@@ -225,7 +225,10 @@ pub struct Dex3UsbHandle {
 }
 
 impl Dex3UsbHandle {
-    /// Replaces the command slot (latest wins).
+    /// Replaces the command slot (latest wins). A command only takes effect on a connection
+    /// that is already up when it is set: commands set before a (re)connect, including while
+    /// disconnected, are never sent (the hand holds its measured position until the next
+    /// `set_command`). Set the first command once `latest()` shows a fresh measurement.
     pub fn set_command(&self, cmd: Dex3Command) {
         let mut slot = self.shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
         let seq = self.shared.cmd_seq.fetch_add(1, Ordering::SeqCst) + 1;
