@@ -133,7 +133,12 @@ fn timeout_bit_can_be_disabled() {
 
 #[test]
 fn crc_burst_is_counted_and_last_good_state_kept_stale() {
-    let (emu, h) = setup(Side::Left, LoopConfig::default());
+    // No reconnect however long the burst lasts (the test thread may be descheduled).
+    let cfg = LoopConfig {
+        failures_before_reconnect: u32::MAX,
+        ..LoopConfig::default()
+    };
+    let (emu, h) = setup(Side::Left, cfg);
     let m0 = wait_meas(&h, "first state", all_present);
     h.set_command(one_joint(m0.positions(), Joint::Thumb2, 1.0));
     wait_meas(&h, "thumb_2 at 1.0", |m| (m.motor(Joint::Thumb2).q - 1.0).abs() < 0.02);
