@@ -221,3 +221,35 @@ fn subscribe_sees_updates() {
         .expect("updates");
     });
 }
+
+#[test]
+fn repeated_timeouts_reopen_the_transport() {
+    let cfg = LoopConfig {
+        exchange_timeout: Duration::from_millis(1),
+        failures_before_reconnect: 5,
+        ..LoopConfig::default()
+    };
+    let (emu, h) = setup(Side::Right, cfg);
+    wait_meas(&h, "first state", all_present);
+    lock(&emu).drop_replies(20);
+    wait_for("a reconnect after timeouts", || {
+        (h.stats().reconnects >= 1).then_some(())
+    });
+    wait_meas(&h, "fresh again", |m| !m.stale);
+    let s = h.stats();
+    assert!(s.timeouts >= 5, "timeouts {}", s.timeouts);
+    assert_eq!(s.transport_errors, 0);
+}
+
+#[test]
+fn invalid_configuration_is_refused() {
+    let emu: SharedEmulator = Arc::new(Mutex::new(Dex3Emulator::new(Side::Left, EmulatorConfig::default())));
+    let mut bad = LoopConfig::default();
+    bad.wiring.motors[1] = bad.wiring.motors[0];
+    assert!(Dex3UsbLoop::spawn(EmulatorTransport::factory(emu.clone()), bad).is_err());
+    let zero = LoopConfig {
+        period: Duration::ZERO,
+        ..LoopConfig::default()
+    };
+    assert!(Dex3UsbLoop::spawn(EmulatorTransport::factory(emu), zero).is_err());
+}
