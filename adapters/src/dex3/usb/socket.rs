@@ -164,8 +164,10 @@ fn serve_client(mut stream: UnixStream, emu: &SharedEmulator, stop: &AtomicBool)
                     return Ok(()); // cable pulled: drop the link
                 }
                 if let Some(left) = e.stall_remaining() {
+                    // Stalled: the command is lost, nothing comes back. Sleep in short steps so
+                    // a stop request is still seen.
                     drop(e);
-                    std::thread::sleep(left);
+                    std::thread::sleep(left.min(Duration::from_millis(50)));
                     None
                 } else {
                     Some(e.handle_frame(&rx[4..REQ_LEN], &mut state))
@@ -325,6 +327,21 @@ mod tests {
             UnixSocketTransport::connect(&path),
             Err(TransportError::NotFound(_))
         ));
+    }
+
+    #[test]
+    fn stalled_server_still_stops() {
+        let path = sock("stall");
+        let server = EmulatorServer::spawn(&path, Side::Right, EmulatorConfig::default()).unwrap();
+        let mut t = UnixSocketTransport::connect(&path).unwrap();
+        let cmd = LinuxToMcuCmd::default().encode();
+        let mut out = [0u8; STATE_FRAME_LEN];
+        lock(server.emulator()).stall_for(Duration::from_secs(3600));
+        assert!(matches!(
+            t.exchange(&cmd, &mut out, Duration::from_millis(20)),
+            Err(TransportError::Timeout(_))
+        ));
+        server.stop();
     }
 
     #[test]
