@@ -54,17 +54,8 @@ pub fn lf_state_topic(side: Side) -> String {
     format!("rt/lf/dex3/{side}/state")
 }
 
-/// A Dex3-1 joint, in message order (FACTS §2: both hands use the same message order).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Dex3Joint {
-    Thumb0,
-    Thumb1,
-    Thumb2,
-    Middle0,
-    Middle1,
-    Index0,
-    Index1,
-}
+/// A Dex3-1 joint, in message order (the shared [`super::Joint`]).
+pub use super::Joint as Dex3Joint;
 
 /// A Dex3-1 finger.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -79,45 +70,6 @@ impl Finger {
 
     pub fn index(self) -> usize {
         self as usize
-    }
-}
-
-impl Dex3Joint {
-    pub const ALL: [Dex3Joint; MOTORS] = [
-        Dex3Joint::Thumb0,
-        Dex3Joint::Thumb1,
-        Dex3Joint::Thumb2,
-        Dex3Joint::Middle0,
-        Dex3Joint::Middle1,
-        Dex3Joint::Index0,
-        Dex3Joint::Index1,
-    ];
-
-    /// Index in `motor_cmd` / `motor_state` (= the RIS motor id).
-    pub fn index(self) -> usize {
-        self as usize
-    }
-
-    pub fn finger(self) -> Finger {
-        match self {
-            Dex3Joint::Thumb0 | Dex3Joint::Thumb1 | Dex3Joint::Thumb2 => Finger::Thumb,
-            Dex3Joint::Middle0 | Dex3Joint::Middle1 => Finger::Middle,
-            Dex3Joint::Index0 | Dex3Joint::Index1 => Finger::Index,
-        }
-    }
-
-    /// URDF joint limits (rad) used by xr_teleoperate (FACTS §2), from the Dex3 table.
-    pub fn limits(self, side: Side) -> (f32, f32) {
-        super::table::wire_limits(side, self.index())
-    }
-
-    /// Sign of the closing motion of a flexing joint (the Dex3 table's sign); `None` for
-    /// thumb_0 (rotation, does not close on an object).
-    pub fn closing_dir(self, side: Side) -> Option<f32> {
-        match self {
-            Dex3Joint::Thumb0 => None,
-            _ => Some(super::table::wire_sign(side, self.index())),
-        }
     }
 }
 

@@ -1,0 +1,515 @@
+//! The 1 kHz device loop: a dedicated thread exchanging one command frame for one state frame
+//! per period, on absolute deadlines (`next = start + k·period`: no drift; sleep, then spin the
+//! last [`LoopConfig::spin`]).
+//!
+//! - Latest-command semantics: one slot, never a queue; every cycle sends the newest command.
+//! - The motor timeout bit is set explicitly on every motor packet ([`LoopConfig::timeout_bit`]).
+//! - On (re)connect the old command is never replayed: setpoints are re-seeded from the first
+//!   measured state (hold the measured position with [`LoopConfig::hold_kp`]/[`LoopConfig::hold_kd`])
+//!   and only a command set after the reconnect moves the hand again. The first exchange after
+//!   a connect sends the timeout bit at 0 with pure damping, which clears timeout latches that
+//!   tripped while the link was down ([`LoopConfig::clear_timeouts_on_connect`]).
+//! - A failed exchange (timeout, bad frame CRC, transport error) keeps the last good values and
+//!   marks the measurement `stale`.
+
+use super::codec::{McuToLinuxState, CMD_FRAME_LEN, STATE_FRAME_LEN};
+use super::convert::{apply_state, build_command};
+use super::scaling::Scalings;
+use super::transport::{TransportError, TransportFactory};
+use super::wiring::{WiringError, WiringMap};
+use crate::dex3::{Dex3Command, Dex3Measurement, MotorCommand, MOTOR_COUNT};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+use thiserror::Error;
+use tokio::sync::watch;
+
+/// Device loop settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopConfig {
+    /// Cycle period (manual: 1000 Hz).
+    pub period: Duration,
+    /// How long one exchange may wait for the reply.
+    pub exchange_timeout: Duration,
+    /// The motor timeout-protection bit sent on every motor (default on: a motor stops 1 s
+    /// after the commands stop).
+    pub timeout_bit: bool,
+    /// Stiffness of the hold after a (re)connect, N·m/rad.
+    pub hold_kp: f32,
+    /// Damping of the hold after a (re)connect, N·m·s/rad.
+    pub hold_kd: f32,
+    /// Busy-wait this long before each deadline (0: sleep only).
+    pub spin: Duration,
+    /// Reopen the transport after this many consecutive failed exchanges.
+    pub failures_before_reconnect: u32,
+    pub backoff_min: Duration,
+    pub backoff_max: Duration,
+    /// On every (re)connect, send the first exchange with the timeout bit at 0.
+    pub clear_timeouts_on_connect: bool,
+    pub wiring: WiringMap,
+    pub scalings: Scalings,
+}
+
+impl Default for LoopConfig {
+    fn default() -> Self {
+        Self {
+            period: Duration::from_millis(1),
+            exchange_timeout: Duration::from_millis(20),
+            timeout_bit: true,
+            // unitree_sdk2's Dex3 example sweeps with kp 0.5 / kd 0.1 (FACTS §2).
+            hold_kp: 0.5,
+            hold_kd: 0.1,
+            spin: Duration::from_micros(100),
+            failures_before_reconnect: 100,
+            backoff_min: Duration::from_millis(20),
+            backoff_max: Duration::from_secs(2),
+            clear_timeouts_on_connect: true,
+            wiring: WiringMap::default(),
+            scalings: Scalings::default(),
+        }
+    }
+}
+
+#[derive(Debug, Error)]
+pub enum LoopError {
+    #[error("invalid wiring map: {0}")]
+    Wiring(#[from] WiringError),
+    #[error("invalid scalings: {0}")]
+    Scalings(#[from] super::scaling::ScalingError),
+    #[error("invalid loop period {0:?}")]
+    Period(Duration),
+    #[error("cannot start the device thread: {0}")]
+    Thread(#[from] std::io::Error),
+}
+
+/// Histogram of cycle-start to cycle-start periods, 5 µs buckets up to 20 ms.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PeriodHistogram {
+    counts: Vec<u64>,
+    overflow: u64,
+    max: Duration,
+    n: u64,
+}
+
+impl PeriodHistogram {
+    pub const BUCKET: Duration = Duration::from_micros(5);
+    const BUCKETS: usize = 4000;
+
+    pub fn new() -> Self {
+        Self {
+            counts: vec![0; Self::BUCKETS],
+            overflow: 0,
+            max: Duration::ZERO,
+            n: 0,
+        }
+    }
+
+    pub fn record(&mut self, d: Duration) {
+        let b = (d.as_nanos() / Self::BUCKET.as_nanos()) as usize;
+        match self.counts.get_mut(b) {
+            Some(c) => *c += 1,
+            None => self.overflow += 1,
+        }
+        self.max = self.max.max(d);
+        self.n += 1;
+    }
+
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    pub fn max(&self) -> Duration {
+        self.max
+    }
+
+    /// The `q` quantile (0..=1), to bucket resolution (upper edge of the bucket); `None` when
+    /// empty. Values beyond the last bucket report the maximum.
+    pub fn quantile(&self, q: f64) -> Option<Duration> {
+        if self.n == 0 {
+            return None;
+        }
+        let rank = ((q.clamp(0.0, 1.0) * self.n as f64).ceil() as u64).max(1);
+        let mut acc = 0;
+        for (i, c) in self.counts.iter().enumerate() {
+            acc += c;
+            if acc >= rank {
+                return Some(Self::BUCKET * (i as u32 + 1));
+            }
+        }
+        Some(self.max)
+    }
+}
+
+impl Default for PeriodHistogram {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Loop counters.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct LoopStats {
+    /// Exchanges that got a reply (good or not).
+    pub exchanges: u64,
+    /// Replies that passed the frame CRC.
+    pub good_frames: u64,
+    /// Replies rejected by the frame CRC or length.
+    pub frame_crc_errors: u64,
+    /// Motor/sensor packets with a bad CRC inside good frames.
+    pub packet_crc_errors: u64,
+    /// Other packet problems (unknown head, truncation, oversize `state_size`).
+    pub packet_format_errors: u64,
+    /// Packets from addresses not in the wiring map.
+    pub unmapped_packets: u64,
+    pub timeouts: u64,
+    pub transport_errors: u64,
+    /// Successful opens of the transport, including the first.
+    pub connects: u64,
+    /// Opens after the first.
+    pub reconnects: u64,
+    pub connect_failures: u64,
+    /// Deadlines missed (cycles that started late by at least one period).
+    pub misses: u64,
+    pub connected: bool,
+    pub period: PeriodHistogram,
+}
+
+struct Shared {
+    stop: AtomicBool,
+    cmd_seq: AtomicU64,
+    cmd: Mutex<Option<(u64, Dex3Command)>>,
+    clear_timeouts: AtomicBool,
+    stats: Mutex<LoopStats>,
+}
+
+/// Namespace of the device loop.
+#[derive(Debug)]
+pub struct Dex3UsbLoop;
+
+impl Dex3UsbLoop {
+    /// Starts the loop thread. `factory` opens the transport, now and after every disconnect.
+    pub fn spawn(factory: TransportFactory, config: LoopConfig) -> Result<Dex3UsbHandle, LoopError> {
+        config.wiring.validate()?;
+        config.scalings.validate()?;
+        if config.period.is_zero() {
+            return Err(LoopError::Period(config.period));
+        }
+        let shared = Arc::new(Shared {
+            stop: AtomicBool::new(false),
+            cmd_seq: AtomicU64::new(0),
+            cmd: Mutex::new(None),
+            clear_timeouts: AtomicBool::new(false),
+            stats: Mutex::new(LoopStats::default()),
+        });
+        let (tx, rx) = watch::channel(Dex3Measurement::empty(Instant::now()));
+        let thread = {
+            let shared = shared.clone();
+            std::thread::Builder::new()
+                .name("dex3-usb-loop".into())
+                .spawn(move || run(factory, config, shared, tx))?
+        };
+        Ok(Dex3UsbHandle {
+            shared,
+            rx,
+            thread: Some(thread),
+        })
+    }
+}
+
+/// Control of a running loop. Dropping it stops the loop.
+pub struct Dex3UsbHandle {
+    shared: Arc<Shared>,
+    rx: watch::Receiver<Dex3Measurement>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Dex3UsbHandle {
+    /// Replaces the command slot (latest wins). A command only takes effect on a connection
+    /// that is already up when it is set: commands set before a (re)connect, including while
+    /// disconnected, are never sent (the hand holds its measured position until the next
+    /// `set_command`). Set the first command once `latest()` shows a fresh measurement.
+    pub fn set_command(&self, cmd: Dex3Command) {
+        let mut slot = self.shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
+        let seq = self.shared.cmd_seq.fetch_add(1, Ordering::SeqCst) + 1;
+        *slot = Some((seq, cmd));
+    }
+
+    /// Sends the timeout bit at 0 for one exchange, clearing latched timeout trips.
+    pub fn clear_timeouts(&self) {
+        self.shared.clear_timeouts.store(true, Ordering::SeqCst);
+    }
+
+    pub fn latest(&self) -> Dex3Measurement {
+        self.rx.borrow().clone()
+    }
+
+    pub fn subscribe(&self) -> watch::Receiver<Dex3Measurement> {
+        self.rx.clone()
+    }
+
+    pub fn stats(&self) -> LoopStats {
+        self.shared.stats.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    pub fn stop(mut self) {
+        self.shutdown();
+    }
+
+    fn shutdown(&mut self) {
+        self.shared.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            t.thread().unpark();
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for Dex3UsbHandle {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+/// Sleeps until `deadline` unless stopped; `false` if stopped.
+fn park_until(deadline: Instant, stop: &AtomicBool) -> bool {
+    loop {
+        if stop.load(Ordering::SeqCst) {
+            return false;
+        }
+        let now = Instant::now();
+        if now >= deadline {
+            return true;
+        }
+        std::thread::park_timeout(deadline - now);
+    }
+}
+
+/// `t0 + k·period` without accumulating rounding.
+fn deadline(t0: Instant, period: Duration, k: u64) -> Instant {
+    t0 + Duration::from_nanos((period.as_nanos() * k as u128).min(u64::MAX as u128) as u64)
+}
+
+/// Sleeps until `spin` before `deadline`, then spins.
+fn wait_until(deadline: Instant, spin: Duration) {
+    let now = Instant::now();
+    if deadline > now + spin {
+        std::thread::sleep(deadline - now - spin);
+    }
+    while Instant::now() < deadline {
+        std::hint::spin_loop();
+    }
+}
+
+struct Session {
+    /// Commands with a sequence number up to this one predate the connect: never sent.
+    floor_seq: u64,
+    hold: [Option<MotorCommand>; MOTOR_COUNT],
+    first_exchange: bool,
+    consecutive_failures: u32,
+}
+
+fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: watch::Sender<Dex3Measurement>) {
+    let mut meas = Dex3Measurement::empty(Instant::now());
+    let mut transport = None;
+    let mut session: Option<Session> = None;
+    let mut backoff = cfg.backoff_min;
+    let mut last_connect_error = String::new();
+    let mut cmd_buf = [0u8; CMD_FRAME_LEN];
+    let mut st_buf = [0u8; STATE_FRAME_LEN];
+    let mut t0 = Instant::now();
+    let mut k: u64 = 0;
+    let mut last_start: Option<Instant> = None;
+    let stats = |f: &mut dyn FnMut(&mut LoopStats)| f(&mut shared.stats.lock().unwrap_or_else(|e| e.into_inner()));
+
+    while !shared.stop.load(Ordering::SeqCst) {
+        let Some(t) = transport.as_mut() else {
+            match factory() {
+                Ok(t) => {
+                    tracing::info!("dex3 usb: connected to {}", t.describe());
+                    transport = Some(t);
+                    backoff = cfg.backoff_min;
+                    last_connect_error.clear();
+                    session = Some(Session {
+                        floor_seq: shared.cmd_seq.load(Ordering::SeqCst),
+                        hold: [None; MOTOR_COUNT],
+                        first_exchange: true,
+                        consecutive_failures: 0,
+                    });
+                    for m in &mut meas.motors {
+                        m.present = false;
+                    }
+                    for p in &mut meas.pads {
+                        p.present = false;
+                    }
+                    stats(&mut |s| {
+                        if s.connects > 0 {
+                            s.reconnects += 1;
+                        }
+                        s.connects += 1;
+                        s.connected = true;
+                    });
+                    t0 = Instant::now();
+                    k = 0;
+                    last_start = None;
+                }
+                Err(e) => {
+                    let msg = e.to_string();
+                    if msg != last_connect_error {
+                        tracing::warn!("dex3 usb: cannot open the hand: {msg}; retrying");
+                        last_connect_error = msg;
+                    }
+                    stats(&mut |s| s.connect_failures += 1);
+                    if !park_until(Instant::now() + backoff, &shared.stop) {
+                        break;
+                    }
+                    backoff = (backoff * 2).min(cfg.backoff_max);
+                }
+            }
+            continue;
+        };
+        let sess = session.as_mut().expect("session exists while connected");
+
+        let start = Instant::now();
+        if let Some(prev) = last_start {
+            stats(&mut |s| s.period.record(start - prev));
+        }
+        last_start = Some(start);
+
+        // Choose what to send.
+        let user = {
+            let slot = shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
+            slot.filter(|(seq, _)| *seq > sess.floor_seq).map(|(_, c)| c)
+        };
+        let cmd = match user {
+            Some(c) => c,
+            None => {
+                let mut c = Dex3Command::damping(cfg.hold_kd);
+                for (m, h) in c.motors.iter_mut().zip(sess.hold) {
+                    if let Some(h) = h {
+                        *m = h;
+                    }
+                }
+                c
+            }
+        };
+        let mut timeout_bit = cfg.timeout_bit;
+        if (sess.first_exchange && cfg.clear_timeouts_on_connect) || shared.clear_timeouts.swap(false, Ordering::SeqCst)
+        {
+            timeout_bit = false;
+        }
+        let cmd = if sess.first_exchange {
+            Dex3Command::damping(cfg.hold_kd)
+        } else {
+            cmd
+        };
+        build_command(&cmd, &cfg.wiring, &cfg.scalings, timeout_bit).encode_into(&mut cmd_buf);
+
+        let res = t.exchange(&cmd_buf, &mut st_buf, cfg.exchange_timeout);
+        let now = Instant::now();
+        let mut drop_transport = false;
+        match res {
+            Ok(()) => {
+                sess.first_exchange = false;
+                match McuToLinuxState::decode(&st_buf) {
+                    Ok(st) => {
+                        let rep = apply_state(&mut meas, &st, &cfg.wiring, &cfg.scalings);
+                        meas.measured_at = now;
+                        meas.stale = false;
+                        meas.seq += 1;
+                        sess.consecutive_failures = 0;
+                        for (i, seen) in rep.motors_seen.iter().enumerate() {
+                            if *seen && sess.hold[i].is_none() {
+                                sess.hold[i] = Some(MotorCommand {
+                                    q: meas.motors[i].q,
+                                    kp: cfg.hold_kp,
+                                    kd: cfg.hold_kd,
+                                    ..Default::default()
+                                });
+                            }
+                        }
+                        stats(&mut |s| {
+                            s.exchanges += 1;
+                            s.good_frames += 1;
+                            s.packet_crc_errors += rep.counters.bad_crc as u64;
+                            s.packet_format_errors +=
+                                (rep.counters.unknown_header + rep.counters.truncated + rep.counters.oversize) as u64;
+                            s.unmapped_packets += (rep.unmapped_motors + rep.unmapped_sensors) as u64;
+                        });
+                    }
+                    Err(_) => {
+                        meas.stale = true;
+                        sess.consecutive_failures += 1;
+                        stats(&mut |s| {
+                            s.exchanges += 1;
+                            s.frame_crc_errors += 1;
+                        });
+                    }
+                }
+            }
+            Err(e) => {
+                meas.stale = true;
+                sess.consecutive_failures += 1;
+                let is_timeout = matches!(e, TransportError::Timeout(_));
+                stats(&mut |s| {
+                    if is_timeout {
+                        s.timeouts += 1;
+                    } else {
+                        s.transport_errors += 1;
+                    }
+                });
+                if e.needs_reconnect() || sess.consecutive_failures >= cfg.failures_before_reconnect {
+                    tracing::warn!("dex3 usb: link lost ({e}); reconnecting");
+                    drop_transport = true;
+                }
+            }
+        }
+        tx.send_replace(meas.clone());
+        if drop_transport {
+            transport = None;
+            session = None;
+            stats(&mut |s| s.connected = false);
+            continue;
+        }
+
+        // Absolute deadlines: next = t0 + k·period.
+        k += 1;
+        let mut next = deadline(t0, cfg.period, k);
+        let now = Instant::now();
+        if now > next {
+            let behind = ((now - next).as_nanos() / cfg.period.as_nanos()) as u64 + 1;
+            stats(&mut |s| s.misses += behind);
+            k += behind;
+            next = deadline(t0, cfg.period, k);
+        }
+        if shared.stop.load(Ordering::SeqCst) {
+            break;
+        }
+        wait_until(next, cfg.spin);
+    }
+    stats(&mut |s| s.connected = false);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn histogram_quantiles() {
+        let mut h = PeriodHistogram::new();
+        assert_eq!(h.quantile(0.5), None);
+        for _ in 0..90 {
+            h.record(Duration::from_micros(1000));
+        }
+        for _ in 0..9 {
+            h.record(Duration::from_micros(1200));
+        }
+        h.record(Duration::from_millis(50));
+        assert_eq!(h.count(), 100);
+        assert_eq!(h.quantile(0.5), Some(Duration::from_micros(1005)));
+        assert_eq!(h.quantile(0.9), Some(Duration::from_micros(1005)));
+        assert_eq!(h.quantile(0.95), Some(Duration::from_micros(1205)));
+        assert_eq!(h.quantile(1.0), Some(Duration::from_millis(50)));
+        assert_eq!(h.max(), Duration::from_millis(50));
+    }
+}
