@@ -126,9 +126,11 @@ impl CommandState {
     pub fn reseed(&self, measured: &[JointState]) {
         let mut g = self.lock();
         g.pending = None;
-        if !matches!(g.active, Active::Idle) {
-            Counters::inc(&self.counters.reseeds);
+        if matches!(g.active, Active::Idle) {
+            // Nothing was commanded: nothing to replay, nothing to hold.
+            return;
         }
+        Counters::inc(&self.counters.reseeds);
         g.active = Active::Safe(SafeAction::Hold, self.table.hold_measured(measured));
     }
 

@@ -26,6 +26,13 @@ pub enum Transport {
         cmd_topic: String,
         state_topic: String,
     },
+    /// Dex3-1 over USB (a real hand, or the MCU emulator at the transport seam).
+    Dex3Usb {
+        source: handgate_adapters::dex3::usb::adapter::UsbSource,
+        timeout_bit: bool,
+        wiring: handgate_adapters::dex3::usb::WiringMap,
+        scalings: handgate_adapters::dex3::usb::Scalings,
+    },
     /// G1 rt/hand_sdk.
     HandSdk {
         topic: String,

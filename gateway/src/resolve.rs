@@ -4,6 +4,8 @@
 use std::time::Duration;
 
 use handgate_adapters::device::Backend;
+use handgate_adapters::dex3::usb::adapter::UsbSource;
+use handgate_adapters::dex3::usb::{BusAddr, BusId, DeviceId, EmulatorConfig, WiringMap};
 use handgate_adapters::hand_sdk::adapter::WeightRamp;
 use handgate_adapters::mapping::Limits;
 use handgate_adapters::model::DeviceKind;
@@ -26,7 +28,7 @@ pub enum ResolveError {
 }
 
 /// How long without a state sample before a device's state is stale.
-pub const DEFAULT_STALE_AFTER: Duration = Duration::from_millis(100);
+pub const DEFAULT_STALE_AFTER: Duration = Duration::from_millis(200);
 
 fn table_params(d: &DeviceConfig) -> TableParams {
     let mut t = TableParams::default();
@@ -91,6 +93,33 @@ fn table_params(d: &DeviceConfig) -> TableParams {
     t
 }
 
+/// The profile's (partial) wiring over the USB adapter's default map.
+fn wiring(w: Option<&crate::profile::WiringConfig>) -> Result<WiringMap, String> {
+    let mut m = WiringMap::default();
+    let Some(w) = w else { return Ok(m) };
+    let addr = |s: &crate::profile::BusSlot| -> Result<BusAddr, String> {
+        Ok(BusAddr {
+            bus: BusId::new(s.bus).map_err(|e| e.to_string())?,
+            id: DeviceId::new(s.id).map_err(|e| e.to_string())?,
+        })
+    };
+    for (name, slot) in &w.joints {
+        let j = DeviceKind::Dex3
+            .joint(name)
+            .ok_or_else(|| format!("unknown joint {name}"))?;
+        m.motors[j.index()] = addr(slot)?;
+    }
+    for (name, slot) in &w.pads {
+        let i: usize = name
+            .strip_prefix("pad_")
+            .and_then(|n| n.parse().ok())
+            .ok_or_else(|| format!("unknown pad {name}"))?;
+        *m.pads.get_mut(i).ok_or_else(|| format!("unknown pad {name}"))? = addr(slot)?;
+    }
+    m.validate().map_err(|e| e.to_string())?;
+    Ok(m)
+}
+
 fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
     let err = |m: String| ResolveError::Device(i, d.name.to_string(), m);
     let rate_hz = match d.rate() {
@@ -150,16 +179,29 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
                 publish_hz,
             }
         }
-        (DeviceKind::Dex3, Backend::Emulator) => {
-            let mut q = [0.0f32; 7];
-            for j in &t.joints {
-                // Wire 0 is inside every Dex3 joint's range: the hand starts straight.
-                q[j.wire_index] = initial(j.name, 0.0);
+        (DeviceKind::Dex3, Backend::Usb | Backend::Emulator) => {
+            let usb = d.usb.clone().unwrap_or_default();
+            let source = if d.backend == Backend::Usb {
+                UsbSource::Hardware {
+                    serial: usb.serial.clone(),
+                }
+            } else {
+                let mut q = [0.0f32; 7];
+                for j in &t.joints {
+                    // Wire 0 is inside every Dex3 joint's range: the hand starts straight.
+                    q[j.wire_index] = initial(j.name, 0.0);
+                }
+                UsbSource::Emulator(Box::new(EmulatorConfig {
+                    initial_q: Some(q),
+                    ..Default::default()
+                }))
+            };
+            Transport::Dex3Usb {
+                source,
+                timeout_bit: usb.timeout_bit,
+                wiring: wiring(usb.wiring.as_ref()).map_err(err)?,
+                scalings: usb.scalings.unwrap_or_default(),
             }
-            Transport::EmulatedDds(EmulatedPeer::Dex3Service {
-                initial_q: q,
-                timeout_bit: d.usb.as_ref().map(|u| u.timeout_bit).unwrap_or(true),
-            })
         }
         (DeviceKind::Dex1, Backend::Emulator) => {
             let jaw = &t.joints[0];

@@ -137,6 +137,29 @@ fn build_dds_device(node: &Node, p: &DevicePlan, table: Arc<DeviceTable>) -> Res
             cfg(topic, None, *publish_hz),
             HandSdkCodec::new(*ramp),
         )?),
+        Transport::Dex3Usb {
+            source,
+            timeout_bit,
+            wiring,
+            scalings,
+        } => {
+            let config = handgate_adapters::dex3::usb::LoopConfig {
+                period: Duration::from_secs_f64(1.0 / p.rate_hz.max(1.0)),
+                timeout_bit: *timeout_bit,
+                hold_kp: table.hold_kp,
+                hold_kd: table.hold_kd,
+                wiring: wiring.clone(),
+                scalings: *scalings,
+                ..Default::default()
+            };
+            let dev = handgate_adapters::dex3::usb::adapter::Dex3UsbDevice::start(
+                info(handgate_adapters::dex3::usb::adapter::CAPABILITIES),
+                source.clone(),
+                config,
+            )
+            .map_err(|e| RuntimeError::Device(p.name.clone(), e.to_string()))?;
+            Arc::new(dev)
+        }
         Transport::EmulatedDds(peer) => return crate::emulated::build(node, p, peer, info(Capabilities::default())),
     };
     Ok(dev)

@@ -444,7 +444,7 @@ pub struct UsbConfig {
     pub wiring: Option<WiringConfig>,
     /// Overrides of the motor-frame scalings (FACTS §3 "scaling conflict").
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub scalings: Option<ScalingsConfig>,
+    pub scalings: Option<Scalings>,
 }
 
 impl Default for UsbConfig {
@@ -481,47 +481,9 @@ pub struct WiringConfig {
     pub pads: BTreeMap<String, BusSlot>,
 }
 
-/// Motor-frame scalings (raw units per SI unit); each omitted one keeps the USB adapter's
-/// built-in value.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ScalingsConfig {
-    /// Raw torque per N*m (dex1_1_service: 256, q8).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub torque_per_nm: Option<f64>,
-    /// Raw speed per rad/s (dex1_1_service: 128, q7).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub speed_per_rad_s: Option<f64>,
-    /// Raw position per rad (dex1_1_service: 32768 / 2pi).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub position_per_rad: Option<f64>,
-    /// Raw k_pos at full scale 1.0 (dex1_1_service: 32768, q15).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub kp_full_scale: Option<f64>,
-    /// Raw k_spd at full scale 1.0 (dex1_1_service: 32768, q15).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub kd_full_scale: Option<f64>,
-    /// Raw voltage per volt (dex1_1_service: 2).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub voltage_per_v: Option<f64>,
-}
-
-impl ScalingsConfig {
-    /// (key, value) of every scaling that is set.
-    pub fn set_values(&self) -> Vec<(&'static str, f64)> {
-        [
-            ("torque_per_nm", self.torque_per_nm),
-            ("speed_per_rad_s", self.speed_per_rad_s),
-            ("position_per_rad", self.position_per_rad),
-            ("kp_full_scale", self.kp_full_scale),
-            ("kd_full_scale", self.kd_full_scale),
-            ("voltage_per_v", self.voltage_per_v),
-        ]
-        .into_iter()
-        .filter_map(|(k, v)| v.map(|v| (k, v)))
-        .collect()
-    }
-}
+/// Motor-frame scalings: the USB adapter's one table (`handgate_adapters::dex3::usb::Scalings`,
+/// docs/dex3-usb.md); every key a profile leaves out keeps its built-in value.
+pub use handgate_adapters::dex3::usb::Scalings;
 
 /// A DDS-backed device: topic overrides and wire variant.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]

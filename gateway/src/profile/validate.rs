@@ -532,10 +532,11 @@ impl Checker {
             }
         }
         if let Some(s) = &u.scalings {
-            for (name, v) in s.set_values() {
-                if !(v.is_finite() && v > 0.0) {
-                    self.err(uk.key("scalings").key(name), format!("must be above 0, got {v}"));
-                }
+            if let Err(e) = s.validate() {
+                self.err(
+                    uk.key("scalings").key(e.field),
+                    format!("must be a finite number above 0, got {}", e.value),
+                );
             }
         }
     }

@@ -3,6 +3,7 @@
 //! emulator of the hand's MCU (in process or behind a Unix socket), wiring discovery and the
 //! 1 kHz device loop. See docs/dex3-usb.md.
 
+pub mod adapter;
 pub mod codec;
 pub mod convert;
 pub mod crc;

@@ -1,0 +1,276 @@
+//! The Dex3-1-over-USB [`HandDevice`]: canonical commands are resolved through the Dex3 table
+//! against the measured state and handed to the 1 kHz [`Dex3UsbLoop`] (latest wins); the
+//! loop's measurements become canonical state. The transport is chosen by [`UsbSource`]: a
+//! real hand through libusb, the MCU emulator in-process, or the emulator as a separate
+//! process behind a Unix socket — the emulator plugs in exactly where the hardware would.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Instant, SystemTime};
+
+use async_trait::async_trait;
+use tokio::sync::watch;
+
+use super::device_loop::{Dex3UsbHandle, Dex3UsbLoop, LoopConfig, LoopError};
+use super::emulator::{Dex3Emulator, EmulatorClock, EmulatorConfig, EmulatorTransport, SharedEmulator};
+use super::rusb_transport::RusbTransport;
+use super::socket::UnixSocketTransport;
+use super::transport::TransportFactory;
+use crate::control::{Active, CommandState, Counters};
+use crate::device::{Capabilities, DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::dex3::{Dex3Command, Dex3Measurement, MotorCommand, MotorStatus};
+use crate::mapping::DeviceTable;
+use crate::model::{faults, Freshness, HandCommand, HandState, Imu, JointCommand, Pad, Power, SafeAction};
+
+/// Where the frames go.
+#[derive(Debug, Clone, PartialEq)]
+pub enum UsbSource {
+    /// A real hand (VID 0x34B7, PID by side), optionally by serial number.
+    Hardware { serial: Option<String> },
+    /// The MCU emulator in this process, on its own wall clock.
+    Emulator(Box<EmulatorConfig>),
+    /// The MCU emulator in another process (`handgate emulate dex3 --socket PATH`).
+    Socket(PathBuf),
+}
+
+/// Wire commands (IDL order) for canonical targets.
+pub fn to_dex3_command(table: &DeviceTable, targets: &[JointCommand]) -> Dex3Command {
+    let mut c = Dex3Command::default();
+    for (m, w) in c.motors.iter_mut().zip(table.to_wire(targets)) {
+        *m = MotorCommand {
+            q: w.q,
+            dq: w.dq,
+            tau: w.tau,
+            kp: w.kp,
+            kd: w.kd,
+            status: MotorStatus::Foc,
+        };
+    }
+    c
+}
+
+/// Canonical state from a loop measurement.
+pub fn to_hand_state(table: &DeviceTable, m: &Dex3Measurement, connected: bool) -> HandState {
+    let q: Vec<f32> = m.motors.iter().map(|x| x.q).collect();
+    let dq: Vec<f32> = m.motors.iter().map(|x| x.dq).collect();
+    let tau: Vec<f32> = m.motors.iter().map(|x| x.tau).collect();
+    let mut joints = table.state_from_wire(&q, &dq, &tau);
+    let mut f = 0;
+    for (j, map) in joints.iter_mut().zip(&table.joints) {
+        let mm = &m.motors[map.wire_index];
+        j.temperature = mm.present.then_some(mm.temperature_winding);
+        if mm.error != 0 {
+            f |= faults::MOTOR_ERROR;
+        }
+        if mm.timeout {
+            f |= faults::MOTOR_TIMEOUT;
+        }
+    }
+    if m.error != 0 {
+        f |= faults::HARDWARE;
+    }
+    if !connected {
+        f |= faults::LINK_DOWN;
+    }
+    let fresh = connected && !m.stale && m.seq > 0;
+    HandState {
+        closure: table.closure_of(&joints.iter().map(|j| j.q).collect::<Vec<_>>()),
+        joints,
+        pads: m
+            .pads
+            .iter()
+            .map(|p| Pad {
+                pressure: p.pressure,
+                temperature: p.temperature,
+            })
+            .collect(),
+        imu: Some(Imu {
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+            gyroscope: m.imu.gyro,
+            accelerometer: m.imu.accel,
+        }),
+        power: Some(Power {
+            voltage: m.power.power_v,
+            current: m.power.power_a,
+        }),
+        faults: f,
+        freshness: if fresh { Freshness::Fresh } else { Freshness::Stale },
+        measured_at: (m.seq > 0).then_some(m.measured_at),
+        ..Default::default()
+    }
+}
+
+/// A Dex3-1 over USB (or its emulator at the same seam).
+pub struct Dex3UsbDevice {
+    info: DeviceInfo,
+    cmd: CommandState,
+    handle: Arc<Mutex<Option<Dex3UsbHandle>>>,
+    state_rx: watch::Receiver<HandState>,
+    stop: Arc<AtomicBool>,
+    bridge: Mutex<Option<JoinHandle<()>>>,
+    /// The in-process emulator, when that is the source (tests inject faults through it).
+    pub emulator: Option<SharedEmulator>,
+}
+
+impl Dex3UsbDevice {
+    /// Starts the loop on `source` and the bridge that turns measurements into state.
+    pub fn start(info: DeviceInfo, source: UsbSource, config: LoopConfig) -> Result<Self, LoopError> {
+        let side = info.side;
+        let (factory, emulator): (TransportFactory, Option<SharedEmulator>) = match source {
+            UsbSource::Hardware { serial } => (RusbTransport::factory(side, serial), None),
+            UsbSource::Emulator(cfg) => {
+                let cfg = EmulatorConfig {
+                    clock: EmulatorClock::Wall,
+                    ..*cfg
+                };
+                let emu: SharedEmulator = Arc::new(Mutex::new(Dex3Emulator::new(side, cfg)));
+                (EmulatorTransport::factory(emu.clone()), Some(emu))
+            }
+            UsbSource::Socket(path) => (UnixSocketTransport::factory(path), None),
+        };
+        let handle = Dex3UsbLoop::spawn(factory, config)?;
+        let table = info.table.clone();
+        let cmd = CommandState::new(table.clone());
+        let mut rx = handle.subscribe();
+        let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
+        let handle = Arc::new(Mutex::new(Some(handle)));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (b_cmd, b_handle, b_stop) = (cmd.clone(), handle.clone(), stop.clone());
+        let bridge = std::thread::Builder::new()
+            .name(format!("dex3-usb-{}", info.name))
+            .spawn(move || {
+                let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_time().build() else {
+                    return;
+                };
+                rt.block_on(async move {
+                    let mut last_connects = 0;
+                    while !b_stop.load(Ordering::Relaxed) {
+                        let changed = tokio::time::timeout(std::time::Duration::from_millis(50), rx.changed()).await;
+                        if matches!(changed, Ok(Err(_))) {
+                            break;
+                        }
+                        let m = rx.borrow_and_update().clone();
+                        let stats = match b_handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+                            Some(h) => h.stats(),
+                            None => break,
+                        };
+                        let mut st = to_hand_state(&table, &m, stats.connected);
+                        if stats.connects != last_connects && m.seq > 0 && !m.stale {
+                            // The loop itself holds the first measured state after a
+                            // (re)connect; forget the targets that were in force before.
+                            if last_connects != 0 {
+                                b_cmd.reseed(&st.joints);
+                            }
+                            last_connects = stats.connects;
+                        }
+                        b_cmd.counters.link_up.store(stats.connected as u64, Ordering::Relaxed);
+                        let (seq, tag) = b_cmd.applied();
+                        st.cmd_seq = seq;
+                        st.cmd_tag = tag;
+                        st.measured_wall = st
+                            .measured_at
+                            .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
+                        if b_cmd.is_safe() {
+                            st.faults |= faults::SAFE_STATE;
+                        }
+                        let _ = tx.send(st);
+                    }
+                });
+            })
+            .map_err(LoopError::Thread)?;
+        Ok(Self {
+            info,
+            cmd,
+            handle,
+            state_rx,
+            stop,
+            bridge: Mutex::new(Some(bridge)),
+            emulator,
+        })
+    }
+
+    /// Folds the pending command into targets against the latest measurement and hands the
+    /// result to the loop.
+    fn apply(&self) {
+        let measured = self.state_rx.borrow().joints.clone();
+        let active = self.cmd.step(&measured);
+        let targets = match &active {
+            Active::Idle => return,
+            Active::Command(t) | Active::Safe(_, t) => t,
+        };
+        if let Some(h) = self.handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+            h.set_command(to_dex3_command(&self.info.table, targets));
+            Counters::inc(&self.cmd.counters.sent);
+        }
+    }
+
+    /// Stops the loop and the bridge.
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(h) = self.handle.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            h.stop();
+        }
+        if let Some(b) = self.bridge.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            let _ = b.join();
+        }
+    }
+}
+
+impl Drop for Dex3UsbDevice {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// Capabilities of a Dex3 over USB.
+pub const CAPABILITIES: Capabilities = Capabilities {
+    feedback: true,
+    pressure: true,
+    imu: true,
+    power: true,
+    discovery: true,
+    calibration: false,
+};
+
+#[async_trait]
+impl HandDevice for Dex3UsbDevice {
+    fn info(&self) -> &DeviceInfo {
+        &self.info
+    }
+
+    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
+        self.cmd.submit(cmd)?;
+        self.apply();
+        Ok(())
+    }
+
+    fn state(&self) -> watch::Receiver<HandState> {
+        self.state_rx.clone()
+    }
+
+    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
+        if self.state_rx.borrow().measured_at.is_none() && action == SafeAction::Hold {
+            // Never "hold" a position that was never measured: the loop's own connect hold
+            // (damping at the first measured state) is already in force.
+            return Ok(());
+        }
+        self.cmd.request_safe(action);
+        self.apply();
+        Ok(())
+    }
+
+    fn stats(&self) -> DeviceStats {
+        let mut s = self.cmd.counters.snapshot();
+        if let Some(h) = self.handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+            let l = h.stats();
+            s.crc_errors = l.frame_crc_errors + l.packet_crc_errors;
+            s.reconnects = l.reconnects;
+            s.missed_cycles = l.misses;
+            s.state_samples = l.good_frames;
+            s.link_up = l.connected;
+        }
+        s
+    }
+}
