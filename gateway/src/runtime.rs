@@ -148,7 +148,7 @@ fn build_dds_device(node: &Node, p: &DevicePlan, table: Arc<DeviceTable>) -> Res
                 timeout_bit: *timeout_bit,
                 hold_kp: table.hold_kp,
                 hold_kd: table.hold_kd,
-                wiring: wiring.clone(),
+                wiring: *wiring,
                 scalings: *scalings,
                 ..Default::default()
             };
