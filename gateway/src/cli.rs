@@ -53,6 +53,26 @@ pub enum Command {
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
     },
+    /// List the Dex3-1 hands on USB (with permission problems explained).
+    List,
+    /// Report which (bus, id) a Dex3-1 on USB answers from, and print a wiring table to
+    /// paste into a profile (sends zero-gain frames only: nothing moves).
+    Discover {
+        /// left or right.
+        #[arg(long)]
+        side: handgate_adapters::model::Side,
+        /// USB serial number, to pick one of several hands of that side.
+        #[arg(long)]
+        serial: Option<String>,
+        /// Talk to an emulator socket (`handgate emulate dex3`) instead of USB.
+        #[arg(long)]
+        socket: Option<PathBuf>,
+    },
+    /// Run an emulator as a standalone process.
+    Emulate {
+        #[command(subcommand)]
+        target: EmulateTarget,
+    },
     /// Send one canonical command to a named device (bring-up).
     Send {
         /// Device name from the profile (e.g. dex3_left).
@@ -77,6 +97,22 @@ pub enum Command {
         /// How long to wait for the gateway to match, seconds.
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
+    },
+}
+
+/// What `handgate emulate` runs.
+#[derive(Debug, Subcommand)]
+pub enum EmulateTarget {
+    /// A Dex3-1's MCU behind a Unix socket, speaking the USB frame protocol. Point a device
+    /// at it with `backend = "usb"` and `usb.socket = PATH`; kill and restart it to emulate
+    /// an unplug.
+    Dex3 {
+        /// left or right.
+        #[arg(long)]
+        side: handgate_adapters::model::Side,
+        /// Socket path.
+        #[arg(long)]
+        socket: PathBuf,
     },
 }
 

@@ -111,6 +111,45 @@ fn main() -> anyhow::Result<ExitCode> {
                 }
             }
         }
+        Command::List => {
+            use handgate_adapters::dex3::usb::list_hands;
+            let hands = list_hands()?;
+            if hands.is_empty() {
+                println!("no Dex3-1 hand on USB (VID 34b7, PID 1010 left / 1011 right)");
+            }
+            for h in hands {
+                let serial = h.serial.as_deref().unwrap_or("?");
+                match h.problem {
+                    None => println!(
+                        "{} hand  serial {serial}  bus {:03} device {:03}",
+                        h.side, h.bus, h.address
+                    ),
+                    Some(p) => println!("{} hand  bus {:03} device {:03}: {p}", h.side, h.bus, h.address),
+                }
+            }
+        }
+        Command::Discover { side, serial, socket } => {
+            use handgate_adapters::dex3::usb::{
+                discover, DiscoveryOptions, RusbTransport, Scalings, UnixSocketTransport,
+            };
+            let mut t: Box<dyn handgate_adapters::dex3::usb::Dex3Transport> = match socket {
+                Some(p) => Box::new(UnixSocketTransport::connect(&p)?),
+                None => Box::new(RusbTransport::open(side, serial.as_deref())?),
+            };
+            let report = discover(t.as_mut(), DiscoveryOptions::default(), &Scalings::default())?;
+            print!("{}", report.wiring_template());
+        }
+        Command::Emulate {
+            target: handgate_gateway::cli::EmulateTarget::Dex3 { side, socket },
+        } => {
+            use handgate_adapters::dex3::usb::{run_emulator_server, EmulatorClock, EmulatorConfig};
+            println!("emulating a Dex3-1 {side} hand on {}", socket.display());
+            let cfg = EmulatorConfig {
+                clock: EmulatorClock::Wall,
+                ..Default::default()
+            };
+            run_emulator_server(&socket, side, cfg)?;
+        }
         Command::Send {
             device,
             dds,

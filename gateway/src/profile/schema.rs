@@ -437,6 +437,10 @@ pub struct UsbConfig {
     /// USB serial number, to tell two hands of the same side apart.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub serial: Option<String>,
+    /// Talk to a Dex3-1 MCU emulator process (`handgate emulate dex3 --socket PATH`) over this
+    /// Unix socket instead of USB (backend `usb` only): tests kill and restart "the hand".
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub socket: Option<std::path::PathBuf>,
     /// Set the motors' timeout-protection bit (motor stops after 1 s without commands).
     pub timeout_bit: bool,
     /// Which bus and id each joint and pressure pad sits on; not public (FACTS §3).
@@ -451,6 +455,7 @@ impl Default for UsbConfig {
     fn default() -> Self {
         UsbConfig {
             serial: None,
+            socket: None,
             timeout_bit: true,
             wiring: None,
             scalings: None,

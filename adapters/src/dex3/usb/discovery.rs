@@ -7,7 +7,7 @@
 //! report in every reply regardless). Nothing here drives a motor: kp = kd = tau = 0.
 //!
 //! The report lists every motor and sensor address seen; [`DiscoveryReport::wiring_template`]
-//! renders it as a TOML `[wiring]` skeleton to fill in (which joint/pad each address is must
+//! renders it as the profile's `[devices.usb.wiring]` tables to fill in (which joint/pad each address is must
 //! still be decided by moving the fingers: the report shows each motor's position).
 
 use super::codec::{
@@ -201,24 +201,31 @@ impl DiscoveryReport {
             out,
             "# Move each finger by hand and re-run to see which motor's q changes; then edit:"
         );
-        let _ = writeln!(out, "[wiring]");
-        let _ = writeln!(out, "motors = [");
+        // In the profile's format (`[devices.usb.wiring]` of a `[[devices]]` entry).
+        let _ = writeln!(out, "[devices.usb.wiring.joints]");
         let motors: Vec<BusAddr> = match &guess {
             Some(w) => w.motors.to_vec(),
             None => self.motors.keys().copied().collect(),
         };
         for (i, a) in motors.iter().enumerate() {
-            let name = Joint::from_index(i)
-                .map(|j| j.name())
-                .unwrap_or("(extra: not a Dex3 joint)");
-            let _ = writeln!(out, "  {{ bus = {}, id = {} }},  # {name}", a.bus.get(), a.id.get());
+            match Joint::from_index(i) {
+                Some(j) => {
+                    let _ = writeln!(out, "{} = {{ bus = {}, id = {} }}", j.name(), a.bus.get(), a.id.get());
+                }
+                None => {
+                    let _ = writeln!(
+                        out,
+                        "# extra motor, not a Dex3 joint: bus {} id {}",
+                        a.bus.get(),
+                        a.id.get()
+                    );
+                }
+            }
         }
-        let _ = writeln!(out, "]");
-        let _ = writeln!(out, "pads = [");
+        let _ = writeln!(out, "[devices.usb.wiring.pads]");
         for (i, a) in self.sensors.keys().enumerate() {
-            let _ = writeln!(out, "  {{ bus = {}, id = {} }},  # pad {i}", a.bus.get(), a.id.get());
+            let _ = writeln!(out, "pad_{i} = {{ bus = {}, id = {} }}", a.bus.get(), a.id.get());
         }
-        let _ = writeln!(out, "]");
         out
     }
 }
@@ -275,7 +282,8 @@ mod tests {
         let guess = rep.address_order_guess().unwrap();
         assert_eq!(guess.pads, wiring.pads);
         let toml = rep.wiring_template();
-        assert!(toml.contains("{ bus = 1, id = 9 },  # thumb_2"), "{toml}");
+        assert!(toml.contains("thumb_2 = { bus = 1, id = 9 }"), "{toml}");
+        assert!(toml.contains("[devices.usb.wiring.joints]") && toml.contains("[devices.usb.wiring.pads]"));
         assert!(toml.contains("motors answering: 7, sensors answering: 9"));
     }
 
