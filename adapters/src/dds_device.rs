@@ -93,7 +93,12 @@ impl DdsDevice {
             None => None,
         };
         let n = table.joint_count();
-        let (state_tx, state_rx) = watch::channel(HandState::empty(n));
+        let initial = match &config.state_topic {
+            // A device without feedback reports what is commanded from the start.
+            None => codec.commanded_state(&table).unwrap_or_else(|| HandState::empty(n)),
+            Some(_) => HandState::empty(n),
+        };
+        let (state_tx, state_rx) = watch::channel(initial);
         let (cycle_tx, cycles) = watch::channel(0u64);
         let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
         let stop2 = stop.clone();
