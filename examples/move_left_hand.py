@@ -8,7 +8,8 @@ from unitree_sdk2py.core.channel import ChannelFactoryInitialize, ChannelPublish
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__HandCmd_
 from unitree_sdk2py.idl.unitree_hg.msg.dds_ import HandCmd_, HandState_
 
-ChannelFactoryInitialize(int(sys.argv[1]) if len(sys.argv) > 1 else 1)  # the default profile's domain
+domain = int(sys.argv[1]) if len(sys.argv) > 1 else 1  # 1: the default profile's DDS domain
+ChannelFactoryInitialize(domain)
 seen = {}
 sub = ChannelSubscriber("rt/dex3/left/state", HandState_)
 sub.Init(lambda s: seen.update(q=s.motor_state[5].q), 10)

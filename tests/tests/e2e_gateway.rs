@@ -306,6 +306,7 @@ fn watchdog_trips_holds_and_resumes() {
     .unwrap_or_else(|| panic!("no watchdog trip in status: {:?}\n{}", status.last, gw.transcript()));
     let took = stopped.elapsed();
     assert!(took < Duration::from_secs(2), "trip shown after {took:?}: {tripped:?}");
+    println!("watchdog trip shown in status {took:?} after the last command");
 
     // Held: the next 100 state samples stay where the gripper was.
     let mut samples = Vec::new();
@@ -526,6 +527,7 @@ fn sigterm_brings_devices_safe_and_exits_0_within_1_s() {
     let st = st.unwrap_or_else(|| panic!("still running 5 s after SIGTERM\n{}", gw.transcript()));
     assert_eq!(st.code(), Some(0), "{}", gw.transcript());
     assert!(took < Duration::from_secs(1), "exit took {took:?}");
+    println!("SIGTERM -> exit 0 in {took:?}");
     let log = gw.wait_stdout("stopped", DEADLINE).map(|_| gw.transcript());
     let log = log.unwrap_or_else(|e| panic!("{e}"));
     assert!(log.contains("stopping: moving every device to its safe state"), "{log}");
@@ -582,4 +584,33 @@ fn readme_tour_example_moves_the_left_hand() {
         gw.transcript()
     );
     assert!(text(&o.stdout).contains("left index_0 closed"), "{}", text(&o.stdout));
+}
+
+/// Code lines without their `#` comment, trimmed, blank ones dropped.
+fn python_code_lines(text: &str) -> Vec<String> {
+    text.lines()
+        .map(|l| l.split(" #").next().unwrap_or("").trim().to_string())
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .collect()
+}
+
+#[test]
+fn readme_tour_snippet_is_the_example() {
+    let readme = std::fs::read_to_string(repo_root().join("README.md")).unwrap();
+    let example = std::fs::read_to_string(repo_root().join("examples").join("move_left_hand.py")).unwrap();
+    let block = readme
+        .split("Its core")
+        .nth(1)
+        .and_then(|rest| rest.split("```python").nth(1))
+        .and_then(|b| b.split("```").next())
+        .expect("README tour has the example's core in a python block after \"Its core\"");
+    let lines = python_code_lines(&example);
+    let snippet = python_code_lines(block);
+    assert!(snippet.len() >= 10, "{snippet:?}");
+    for l in &snippet {
+        assert!(
+            lines.contains(l),
+            "README line {l:?} is not in examples/move_left_hand.py"
+        );
+    }
 }
