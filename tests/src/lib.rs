@@ -336,19 +336,27 @@ impl Gateway {
 
     /// [`Gateway::start`], returning the error instead.
     pub fn try_start(domain: u32, args: &[&str]) -> Result<Gateway, GatewayError> {
-        let gw = Self::spawn(domain, args)?;
+        Self::try_start_on(domain, args, interop_interface().as_deref())
+    }
+
+    /// As [`Gateway::try_start`] with an explicit network interface (`None`: CycloneDDS picks,
+    /// as a client that calls `ChannelFactoryInitialize(domain)` without one does).
+    pub fn try_start_on(domain: u32, args: &[&str], interface: Option<&str>) -> Result<Gateway, GatewayError> {
+        let gw = Self::spawn(domain, args, interface)?;
         gw.wait_stdout("handgate serving", GATEWAY_START_TIMEOUT)?;
         Ok(gw)
     }
 
-    /// Spawns `handgate run --domain <domain> <args>` without waiting for readiness.
-    pub fn spawn(domain: u32, args: &[&str]) -> Result<Gateway, GatewayError> {
+    /// Spawns `handgate run --domain <domain> [--interface <interface>] <args>` without
+    /// waiting for readiness.
+    pub fn spawn(domain: u32, args: &[&str], interface: Option<&str>) -> Result<Gateway, GatewayError> {
         let bin = handgate_bin();
         let mut cmd = Command::new(&bin);
-        cmd.arg("run").arg("--domain").arg(domain.to_string()).args(args);
-        if let Some(iface) = interop_interface() {
+        cmd.arg("run").arg("--domain").arg(domain.to_string());
+        if let Some(iface) = interface {
             cmd.arg("--interface").arg(iface);
         }
+        cmd.args(args);
         for (k, _) in std::env::vars() {
             if k.starts_with("HANDGATE_") {
                 cmd.env_remove(k);
