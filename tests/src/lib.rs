@@ -4,6 +4,8 @@
 //!   (`scripts/setup.sh`) are.
 //! * [`PyProcess`]: a Python helper process (one of `tests/python/*.py`) whose stdout lines
 //!   are collected on a thread; wait for a line with a deadline; killed on drop.
+//! * [`Gateway`], [`handgate_bin`]: the real `handgate` binary running `handgate run` on a
+//!   test's own DDS domain, started when it reports it is serving, stopped with SIGINT on drop.
 //! * [`Fixture`], [`golden_fixtures`], [`FromPlain`]: the golden CDR fixtures written by
 //!   `tests/python/gen_golden.py` with the official unitree_sdk2py, and the conversion of their
 //!   "plain" JSON values (also what the Python interop scripts print) into handgate's wire types.
@@ -16,9 +18,9 @@
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 use handgate_idl::{handgate, ros2, unitree_go, unitree_hg};
@@ -218,6 +220,289 @@ impl PyProcess {
 impl Drop for PyProcess {
     fn drop(&mut self) {
         // The helper may already have exited; both calls are then harmless errors.
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The handgate binary
+
+/// The `handgate` binary of this build: `target/<profile>/handgate`, next to the directory
+/// (`target/<profile>/deps/`) holding the running test executable. (Only the gateway crate's
+/// own tests get `CARGO_BIN_EXE_handgate`.) Panics with instructions when it was not built.
+pub fn handgate_bin() -> PathBuf {
+    let exe = std::env::current_exe().expect("the test executable's path");
+    let profile_dir = exe
+        .parent()
+        .and_then(|deps| {
+            if deps.file_name().is_some_and(|n| n == "deps") {
+                deps.parent()
+            } else {
+                Some(deps)
+            }
+        })
+        .expect("the test executable lives in target/<profile>/deps")
+        .to_path_buf();
+    let bin = profile_dir.join(format!("handgate{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        bin.exists(),
+        "{} is missing: the end-to-end tests run the real gateway binary. Run `cargo build -p \
+         handgate` (with the same CARGO_TARGET_DIR and profile) or `make test` first.",
+        bin.display()
+    );
+    bin
+}
+
+/// A Unix signal the tests send to a gateway.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Signal {
+    Int,
+    Term,
+}
+
+impl Signal {
+    fn name(self) -> &'static str {
+        match self {
+            Signal::Int => "INT",
+            Signal::Term => "TERM",
+        }
+    }
+}
+
+/// Failure while starting or driving the gateway process.
+#[derive(Debug, thiserror::Error)]
+pub enum GatewayError {
+    #[error("could not start {bin}: {source}")]
+    Spawn {
+        bin: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("handgate printed no line containing {what:?} within {timeout:?}\n{transcript}")]
+    Timeout {
+        what: String,
+        timeout: Duration,
+        transcript: String,
+    },
+    #[error("handgate closed its stdout (exited) before printing a line containing {what:?}\n{transcript}")]
+    Exited { what: String, transcript: String },
+    #[error("could not send SIG{signal} to pid {pid}: {detail}")]
+    Signal {
+        signal: &'static str,
+        pid: u32,
+        detail: String,
+    },
+}
+
+/// Text a child process wrote, collected on threads.
+#[derive(Default)]
+struct Captured {
+    lines: Mutex<(Vec<String>, bool)>,
+    changed: Condvar,
+    stderr: Mutex<String>,
+}
+
+/// How long [`Gateway::start`] waits for `handgate serving ...` (DDS start-up included).
+pub const GATEWAY_START_TIMEOUT: Duration = Duration::from_secs(30);
+/// How long dropping a [`Gateway`] waits after SIGINT before killing it.
+pub const GATEWAY_STOP_GRACE: Duration = Duration::from_secs(2);
+
+/// A running `handgate run --domain N [args]`. Its stdout (the resolved fleet, the
+/// `handgate serving ...` line and the logs) and stderr are collected on threads. Dropping it
+/// sends SIGINT and waits up to [`GATEWAY_STOP_GRACE`], then kills it.
+pub struct Gateway {
+    domain: u32,
+    child: Child,
+    out: Arc<Captured>,
+}
+
+impl std::fmt::Debug for Gateway {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Gateway")
+            .field("domain", &self.domain)
+            .field("pid", &self.child.id())
+            .finish()
+    }
+}
+
+impl Gateway {
+    /// Starts `handgate run --domain <domain> <args>` from the repository root (no
+    /// `HANDGATE_*` variables inherited; `HANDGATE_INTEROP_IFACE` adds `--interface`) and
+    /// waits until it prints `handgate serving`. Panics (with its output) when it does not.
+    pub fn start(domain: u32, args: &[&str]) -> Gateway {
+        Self::try_start(domain, args).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// [`Gateway::start`], returning the error instead.
+    pub fn try_start(domain: u32, args: &[&str]) -> Result<Gateway, GatewayError> {
+        Self::try_start_on(domain, args, interop_interface().as_deref())
+    }
+
+    /// As [`Gateway::try_start`] with an explicit network interface (`None`: CycloneDDS picks,
+    /// as a client that calls `ChannelFactoryInitialize(domain)` without one does).
+    pub fn try_start_on(domain: u32, args: &[&str], interface: Option<&str>) -> Result<Gateway, GatewayError> {
+        let gw = Self::spawn(domain, args, interface)?;
+        gw.wait_stdout("handgate serving", GATEWAY_START_TIMEOUT)?;
+        Ok(gw)
+    }
+
+    /// Spawns `handgate run --domain <domain> [--interface <interface>] <args>` without
+    /// waiting for readiness.
+    pub fn spawn(domain: u32, args: &[&str], interface: Option<&str>) -> Result<Gateway, GatewayError> {
+        let bin = handgate_bin();
+        let mut cmd = Command::new(&bin);
+        cmd.arg("run").arg("--domain").arg(domain.to_string());
+        if let Some(iface) = interface {
+            cmd.arg("--interface").arg(iface);
+        }
+        cmd.args(args);
+        for (k, _) in std::env::vars() {
+            if k.starts_with("HANDGATE_") {
+                cmd.env_remove(k);
+            }
+        }
+        let mut child = cmd
+            .current_dir(repo_root())
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|source| GatewayError::Spawn {
+                bin: bin.display().to_string(),
+                source,
+            })?;
+        let out = Arc::new(Captured::default());
+        let stdout = child.stdout.take().expect("stdout is piped");
+        let o = Arc::clone(&out);
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                o.lines.lock().unwrap_or_else(|e| e.into_inner()).0.push(line);
+                o.changed.notify_all();
+            }
+            o.lines.lock().unwrap_or_else(|e| e.into_inner()).1 = true;
+            o.changed.notify_all();
+        });
+        let mut err_pipe = child.stderr.take().expect("stderr is piped");
+        let o = Arc::clone(&out);
+        std::thread::spawn(move || {
+            let mut chunk = [0u8; 4096];
+            while let Ok(n) = err_pipe.read(&mut chunk) {
+                if n == 0 {
+                    break;
+                }
+                let text = String::from_utf8_lossy(&chunk[..n]).into_owned();
+                o.stderr.lock().unwrap_or_else(|e| e.into_inner()).push_str(&text);
+            }
+        });
+        Ok(Gateway { domain, child, out })
+    }
+
+    /// The DDS domain it serves.
+    pub fn domain(&self) -> u32 {
+        self.domain
+    }
+
+    /// The process id.
+    pub fn id(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// The child process.
+    pub fn child(&mut self) -> &mut Child {
+        &mut self.child
+    }
+
+    /// Waits until a stdout line contains `what` (lines printed earlier count) and returns it.
+    pub fn wait_stdout(&self, what: &str, timeout: Duration) -> Result<String, GatewayError> {
+        let deadline = Instant::now() + timeout;
+        let mut g = self.out.lines.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            if let Some(l) = g.0.iter().find(|l| l.contains(what)) {
+                return Ok(l.clone());
+            }
+            if g.1 {
+                drop(g);
+                return Err(GatewayError::Exited {
+                    what: what.to_string(),
+                    transcript: self.transcript(),
+                });
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                drop(g);
+                return Err(GatewayError::Timeout {
+                    what: what.to_string(),
+                    timeout,
+                    transcript: self.transcript(),
+                });
+            }
+            g = self
+                .out
+                .changed
+                .wait_timeout(g, left)
+                .unwrap_or_else(|e| e.into_inner())
+                .0;
+        }
+    }
+
+    /// Everything it printed so far (stdout, then stderr).
+    pub fn transcript(&self) -> String {
+        let out = self.out.lines.lock().unwrap_or_else(|e| e.into_inner()).0.join("\n");
+        let err = self.out.stderr.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        format!("--- handgate stdout ---\n{out}\n--- handgate stderr ---\n{err}")
+    }
+
+    /// Whether the process is still running.
+    pub fn is_running(&mut self) -> bool {
+        matches!(self.child.try_wait(), Ok(None))
+    }
+
+    /// Sends `signal` to the process (with `kill(1)`, keeping this crate free of libc).
+    pub fn signal(&self, signal: Signal) -> Result<(), GatewayError> {
+        let pid = self.child.id();
+        let err = |detail: String| GatewayError::Signal {
+            signal: signal.name(),
+            pid,
+            detail,
+        };
+        let st = Command::new("kill")
+            .arg("-s")
+            .arg(signal.name())
+            .arg(pid.to_string())
+            .status()
+            .map_err(|e| err(e.to_string()))?;
+        if st.success() {
+            Ok(())
+        } else {
+            Err(err(format!("kill exited with {st}")))
+        }
+    }
+
+    /// Polls for the process's exit until `timeout`; None if it is still running.
+    pub fn wait_exit(&mut self, timeout: Duration) -> Option<ExitStatus> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Ok(Some(st)) = self.child.try_wait() {
+                return Some(st);
+            }
+            if Instant::now() >= deadline {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+}
+
+impl Drop for Gateway {
+    fn drop(&mut self) {
+        if !self.is_running() {
+            return;
+        }
+        if self.signal(Signal::Int).is_ok() && self.wait_exit(GATEWAY_STOP_GRACE).is_some() {
+            return;
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
