@@ -97,6 +97,10 @@ pub enum Command {
         /// How long to wait for the gateway to match, seconds.
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
+        /// Keep repeating the command at 50 Hz for this many seconds, so the front's command
+        /// watchdog does not stop the motion early (0: send once).
+        #[arg(long, default_value_t = 1.0)]
+        hold: f64,
     },
 }
 

@@ -27,7 +27,10 @@ fn load(profile: Option<String>, overrides: handgate_gateway::cli::OverrideArgs)
 fn init_logging(level: &str, format: LogFormat) {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
-    let fmt = tracing_subscriber::fmt().with_env_filter(filter);
+    use std::io::IsTerminal;
+    let fmt = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(std::io::stdout().is_terminal());
     match format {
         LogFormat::Human => fmt.init(),
         LogFormat::Json => fmt.json().init(),
@@ -190,8 +193,14 @@ fn main() -> anyhow::Result<ExitCode> {
             } else {
                 anyhow::bail!("say what to send: --closure X, --joint NAME=RAD (repeatable) or --safe");
             };
-            tools::send(&node, &device, cmd, Duration::from_secs_f64(timeout))?;
-            println!("sent to {device}");
+            let n = tools::send(
+                &node,
+                &device,
+                cmd,
+                Duration::from_secs_f64(timeout),
+                Duration::from_secs_f64(hold),
+            )?;
+            println!("sent {n} command(s) to {device}");
         }
     }
     Ok(ExitCode::SUCCESS)

@@ -68,13 +68,28 @@ pub fn status_once(node: &Node, topic: &str, timeout: Duration) -> Result<hg::Ga
     Ok(v.pop().expect("wait_take returns at least one sample"))
 }
 
-/// Publishes one canonical command to `rt/handgate/{device}/cmd`, after waiting for the
-/// gateway's reader to match.
-pub fn send(node: &Node, device: &str, cmd: hg::HandCmd_, timeout: Duration) -> Result<(), DdsError> {
+/// Publishes a canonical command to `rt/handgate/{device}/cmd` after the gateway's reader has
+/// matched, repeating it at 50 Hz for `hold` (the front's watchdog holds the device once the
+/// stream stops). Returns how many samples were written.
+pub fn send(node: &Node, device: &str, cmd: hg::HandCmd_, timeout: Duration, hold: Duration) -> Result<u64, DdsError> {
     let (topic, _) = crate::plan::canonical_topics(device);
     let mut w = node.writer::<hg::HandCmd_>(&topic, Qos::Reliable { depth: 1 })?;
     w.wait_matched(1, timeout)?;
-    w.write(cmd)
+    let start = std::time::Instant::now();
+    let mut n: u64 = 0;
+    loop {
+        w.write(hg::HandCmd_ {
+            seq: n + 1,
+            ..cmd.clone()
+        })?;
+        n += 1;
+        let next = start + Duration::from_millis(20) * n as u32;
+        if next.duration_since(start) > hold {
+            break;
+        }
+        std::thread::sleep(next.saturating_duration_since(std::time::Instant::now()));
+    }
+    Ok(n)
 }
 
 #[cfg(test)]
