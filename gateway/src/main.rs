@@ -162,6 +162,7 @@ fn main() -> anyhow::Result<ExitCode> {
             kd,
             safe,
             timeout,
+            hold,
         } => {
             let node = handgate_adapters::dds::Node::new(dds.domain, dds.interface.as_deref())?;
             let cmd = if safe {
