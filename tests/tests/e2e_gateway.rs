@@ -551,7 +551,11 @@ fn send_closure_closes_dex1_left() {
     args.extend(dds.iter().map(String::as_str));
     let o = handgate(&args);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    assert!(text(&o.stdout).contains("sent to dex1_left"), "{}", text(&o.stdout));
+    assert!(
+        text(&o.stdout).contains("command(s) to dex1_left"),
+        "{}",
+        text(&o.stdout)
+    );
 
     let closed = poll(DEADLINE, || state.update().filter(|s| s.closure >= 0.95).cloned());
     assert!(
