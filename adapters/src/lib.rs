@@ -2,4 +2,5 @@
 //! model, and one folder per device kind (codec, transport, emulator, adapter).
 
 pub mod dds;
+pub mod ezgripper;
 pub mod sim;
