@@ -101,7 +101,7 @@ pub struct EmulatorStats {
     pub reboots: u64,
     pub sync_reads: u64,
     pub sync_writes: u64,
-    /// Sync reads that listed every id in the list given (see [`VirtualBus::stats`]).
+    /// Sync reads counted by the exact id list each one carried.
     pub sync_reads_by_ids: BTreeMap<Vec<u8>, u64>,
     pub statuses_sent: u64,
     pub bad_frames: u64,
