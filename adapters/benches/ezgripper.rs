@@ -67,7 +67,11 @@ fn run_case(n: u8, usb_latency: Duration, secs: f64) {
     }
     // Warm up until every gripper delivered fresh state, then measure.
     let warm = Instant::now();
-    while ids.iter().any(|&i| bus.latest(i).map(|s| s.stale).unwrap_or(true)) {
+    while ids.iter().any(|&i| {
+        bus.latest(ServoId::new(i).expect("valid id"))
+            .map(|s| s.stale)
+            .unwrap_or(true)
+    }) {
         assert!(warm.elapsed() < Duration::from_secs(10), "no state from the emulator");
         std::thread::sleep(Duration::from_millis(5));
     }

@@ -48,7 +48,7 @@ fn cfg(ids: &[(u8, Option<i32>)]) -> BusConfig {
 
 fn fresh(bus: &EzGripperBus, i: u8, f: impl Fn(&GripperState) -> bool) -> GripperState {
     wait_for(&format!("gripper {i} condition"), || {
-        let s = bus.latest(i).unwrap();
+        let s = bus.latest(id(i)).unwrap();
         (!s.stale && f(&s)).then_some(s)
     })
 }
@@ -143,7 +143,12 @@ fn ezgripper_calibrates_against_the_closed_stop() {
     bus.calibrate(id(1)).unwrap();
     fresh(&bus, 1, |s| s.calibration == Calibration::Running);
     let s = fresh(&bus, 1, |s| matches!(s.calibration, Calibration::Calibrated { .. }));
-    assert!((s.calibration.zero().unwrap() - 1000).abs() <= 5);
+    assert!(
+        (s.calibration.zero().unwrap() - 1000).abs() <= 5,
+        "{s:?} servo at {:?}, {:?}",
+        emu.position_ticks(1),
+        bus.stats()
+    );
 }
 
 #[test]
@@ -222,7 +227,7 @@ fn ezgripper_reports_faults_and_recovers() {
     wait_for("timeouts", || {
         (bus.stats().per_gripper[&1].timeouts >= before.timeouts + 3).then_some(())
     });
-    let r = bus.latest(1).unwrap().round;
+    let r = bus.latest(id(1)).unwrap().round;
     fresh(&bus, 1, |s| s.round > r + 2);
 
     // Bad CRC: counted, then fresh data again.
@@ -232,7 +237,7 @@ fn ezgripper_reports_faults_and_recovers() {
         (bus.stats().crc_errors >= before.crc_errors + 3).then_some(())
     });
     assert!(bus.stats().per_gripper[&1].crc_errors >= 3);
-    let r = bus.latest(1).unwrap().round;
+    let r = bus.latest(id(1)).unwrap().round;
     fresh(&bus, 1, |s| s.round > r + 2);
 
     // Overload: the alert bit leads to Hardware Error Status, reported with its name.
@@ -260,14 +265,14 @@ fn ezgripper_reconnects_after_unplug() {
     fresh(&bus, 1, |s| (s.position_pct - 70.0).abs() < 2.0);
     emu.unplug();
     wait_for("disconnect", || (!bus.stats().connected).then_some(()));
-    wait_for("stale", || bus.latest(1).unwrap().stale.then_some(()));
+    wait_for("stale", || bus.latest(id(1)).unwrap().stale.then_some(()));
     assert!(bus.stats().disconnects >= 1);
     assert!(!emu.path().exists(), "the device path is gone while unplugged");
     emu.replug();
     wait_for("reconnect", || {
         (bus.stats().reconnects >= 1 && bus.stats().connected).then_some(())
     });
-    let r = bus.latest(1).unwrap().round;
+    let r = bus.latest(id(1)).unwrap().round;
     fresh(&bus, 1, |s| s.round > r);
     g.set_target(25.0, 50.0).unwrap();
     fresh(&bus, 1, |s| (s.position_pct - 25.0).abs() < 2.0);
@@ -285,13 +290,52 @@ fn ezgripper_serves_two_grippers_in_one_round() {
     let stats = emu.stats();
     let both = stats.sync_reads_by_ids.get(&vec![1, 2]).copied().unwrap_or(0);
     assert!(both >= 10, "{stats:?}");
-    assert_eq!(both, stats.sync_reads, "every sync read listed both ids: {stats:?}");
+    // (Not every sync read needs to list both: on a starved machine a gripper can miss its
+    // init replies and join a few rounds later.)
     // ...so their measurements come from the same rounds.
     wait_for("same round", || {
-        let (a, b) = (bus.latest(1).unwrap(), bus.latest(2).unwrap());
+        let (a, b) = (bus.latest(id(1)).unwrap(), bus.latest(id(2)).unwrap());
         (a.round == b.round && a.measured_at == b.measured_at).then_some(())
     });
     let st = bus.stats();
-    assert_eq!(st.per_gripper[&1].samples, st.per_gripper[&2].samples);
+    let (c1, c2) = (st.per_gripper[&1], st.per_gripper[&2]);
+    if c1.inits == 1 && c2.inits == 1 {
+        // Neither went offline (which a heavily loaded machine can cause), so every round
+        // polled both.
+        assert_eq!(c1.polls, st.rounds, "{st:?}");
+        assert_eq!(c2.polls, st.rounds, "{st:?}");
+    }
+    assert!(c1.samples > 10 && c2.samples > 10, "{st:?}");
     assert!(bus.take_round_periods().len() > 5);
+    // A silent gripper does not hold up the other one.
+    let r2 = bus.latest(id(2)).unwrap().round;
+    emu.inject(Fault::NoReply { id: 1, count: 4 });
+    wait_for("timeouts on 1", || {
+        (bus.stats().per_gripper[&1].timeouts >= c1.timeouts + 4).then_some(())
+    });
+    fresh(&bus, 2, |s| s.round > r2 + 4);
+    fresh(&bus, 1, |s| s.round > r2 + 4);
+}
+
+#[test]
+fn ezgripper_uncalibrated_gripper_holds_until_calibrated() {
+    let emu = VirtualBus::start(link("uncal"), EmulatorConfig::with_ids(&[1])).unwrap();
+    let bus = EzGripperBus::open(emu.path(), cfg(&[(1, None)])).unwrap();
+    let g = bus.gripper(id(1)).unwrap();
+    let s = fresh(&bus, 1, |s| s.round > 2);
+    assert_eq!(s.calibration, Calibration::Uncalibrated);
+    let start = emu.position_ticks(1).unwrap();
+    g.set_target(0.0, 50.0).unwrap();
+    let r = bus.latest(id(1)).unwrap().round;
+    let s = fresh(&bus, 1, |s| s.round > r + 50);
+    assert!(
+        (emu.position_ticks(1).unwrap() - start).abs() < 10,
+        "moved without a zero"
+    );
+    assert_eq!(s.target, None);
+    assert_eq!(s.position_pct, 0.0);
+    g.calibrate();
+    fresh(&bus, 1, |s| matches!(s.calibration, Calibration::Calibrated { .. }));
+    g.set_target(80.0, 50.0).unwrap();
+    fresh(&bus, 1, |s| (s.position_pct - 80.0).abs() < 1.5);
 }

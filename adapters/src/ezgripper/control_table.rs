@@ -265,8 +265,10 @@ pub struct EzGripperParams {
     /// Calibration ends when the position stays within this many ticks...
     /// [SAKE `calibrate`: position_threshold = 2]
     pub calibration_still_ticks: i32,
-    /// ...for this long. [SAKE: 5 consecutive readings 33 ms apart = 165 ms]
+    /// ...for this long... [SAKE: 5 consecutive readings 33 ms apart = 165 ms]
     pub calibration_still_ms: u64,
+    /// ...and for at least this many consecutive readings. [SAKE `stable_required` = 5]
+    pub calibration_still_samples: u32,
     /// Calibration fails after this long. [SAKE: 200 cycles x 33 ms = 6.6 s]
     pub calibration_timeout_ms: u64,
     /// Position commanded after calibration, %. [SAKE `calibrate`: 50 % of grip_max]
@@ -306,6 +308,7 @@ impl Default for EzGripperParams {
             calibration_overtravel_ticks: 15000,
             calibration_still_ticks: 2,
             calibration_still_ms: 165,
+            calibration_still_samples: 5,
             calibration_timeout_ms: 6600,
             calibration_settle_pct: 50.0,
             calibration_settle_force_pct: 40.0,

@@ -228,6 +228,9 @@ pub struct Target {
 /// Per-gripper counters.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct GripperCounters {
+    /// Rounds whose sync read included this gripper.
+    pub polls: u64,
+    /// Polls answered with valid data.
     pub samples: u64,
     pub timeouts: u64,
     pub crc_errors: u64,
@@ -246,11 +249,14 @@ pub struct BusStats {
     pub timeouts: u64,
     pub crc_errors: u64,
     pub bad_length: u64,
+    /// Status packets that arrived after their transaction had timed out.
+    pub late_replies: u64,
     pub truncated: u64,
     pub garbage_bytes: u64,
     pub disconnects: u64,
     pub reconnects: u64,
     pub last_error: Option<String>,
+    /// Keyed by raw servo id.
     pub per_gripper: BTreeMap<u8, GripperCounters>,
 }
 
@@ -269,6 +275,8 @@ struct Shared {
 }
 
 const MAX_PERIODS: usize = 200_000;
+/// Attempts for a unicast request during open and init.
+const UNICAST_ATTEMPTS: usize = 3;
 
 /// A running bus.
 pub struct EzGripperBus {
@@ -313,7 +321,7 @@ impl Gripper<'_> {
 
     pub fn latest(&self) -> GripperState {
         self.bus
-            .latest(self.id)
+            .latest_raw(self.id)
             .unwrap_or_else(|_| unreachable!("handle ids are configured"))
     }
 
@@ -363,10 +371,8 @@ impl EzGripperBus {
             let mut missing = Vec::new();
             for g in &cfg.grippers {
                 let req = Request::Ping { id: g.id.get() };
-                match link.transact(&req, &[g.id.get()]) {
-                    Ok(r) if r.replies.contains_key(&g.id.get()) => {}
-                    Ok(_) => missing.push(g.id.get()),
-                    Err(e) => return Err(e.into()),
+                if link.ask(&req, g.id.get())?.is_none() {
+                    missing.push(g.id.get());
                 }
             }
             if missing.len() == cfg.grippers.len() {
@@ -420,15 +426,20 @@ impl EzGripperBus {
     }
 
     /// Latest state of gripper `id`, with `stale` recomputed against the current time.
-    pub fn latest(&self, id: u8) -> Result<GripperState, EzError> {
+    pub fn latest(&self, id: ServoId) -> Result<GripperState, EzError> {
+        self.latest_raw(id.get())
+    }
+
+    fn latest_raw(&self, id: u8) -> Result<GripperState, EzError> {
         let tx = self.states.get(&id).ok_or(EzError::UnknownGripper(id))?;
         let mut s = tx.borrow().clone();
         s.stale = s.stale || s.measured_at.elapsed() > self.stale_after;
         Ok(s)
     }
 
-    pub fn subscribe(&self, id: u8) -> Result<watch::Receiver<GripperState>, EzError> {
-        Ok(self.states.get(&id).ok_or(EzError::UnknownGripper(id))?.subscribe())
+    /// A watch channel that holds the newest state of gripper `id` (updated every round).
+    pub fn subscribe(&self, id: ServoId) -> Result<watch::Receiver<GripperState>, EzError> {
+        Ok(self.gripper(id)?.subscribe())
     }
 
     pub fn calibrate(&self, id: ServoId) -> Result<(), EzError> {
@@ -472,6 +483,16 @@ struct Link {
     baud: u32,
     grace: Duration,
     buf: Vec<u8>,
+    /// Errors of every transaction (rounds, init, open) since the last drain.
+    tally: Tally,
+}
+
+#[derive(Debug, Default)]
+struct Tally {
+    crc: BTreeMap<u8, u64>,
+    timeouts: BTreeMap<u8, u64>,
+    bad_length: u64,
+    late: u64,
 }
 
 #[derive(Debug, Default)]
@@ -489,6 +510,7 @@ impl Link {
             baud: cfg.baud,
             grace: Duration::from_millis(cfg.response_timeout_ms),
             buf: vec![0; 4096],
+            tally: Tally::default(),
         }
     }
 
@@ -503,8 +525,7 @@ impl Link {
     /// Sends `req` and collects the status packets of `expect` (in any order) until all are
     /// in or the deadline (wire time of request and replies + grace) passes.
     fn transact(&mut self, req: &Request, expect: &[u8]) -> Result<Reply, TransportError> {
-        self.dec.reset();
-        self.t.clear_input()?;
+        self.drain_late()?;
         let sent = self.send(req)?;
         let reply_len = match req {
             Request::Read { len, .. } | Request::SyncRead { len, .. } => 11 + *len as usize,
@@ -543,13 +564,58 @@ impl Link {
             let chunk = self.buf[..n].to_vec();
             self.dec.push(&chunk);
         }
+        for (&id, &n) in &out.bad_crc {
+            *self.tally.crc.entry(id).or_default() += n;
+        }
+        for &id in &waiting {
+            if !out.bad_crc.contains_key(&id) {
+                *self.tally.timeouts.entry(id).or_default() += 1;
+            }
+        }
+        self.tally.bad_length += out.bad_length;
         Ok(out)
+    }
+
+    /// Reads and accounts what arrived after its transaction's deadline (late replies, a
+    /// corrupted late reply counts as a CRC error), then starts the decoder afresh.
+    fn drain_late(&mut self) -> Result<(), TransportError> {
+        let mut budget: usize = 64 * 1024;
+        while budget > 0 {
+            let n = self.t.read(&mut self.buf, Duration::ZERO)?;
+            if n == 0 {
+                break;
+            }
+            budget = budget.saturating_sub(n);
+            let chunk = self.buf[..n].to_vec();
+            self.dec.push(&chunk);
+        }
+        while let Some(frame) = self.dec.next_frame() {
+            match frame {
+                Ok(pk) if pk.instruction == Instruction::Status as u8 => self.tally.late += 1,
+                Ok(_) => {}
+                Err(FrameError::BadCrc { id, .. }) => *self.tally.crc.entry(id).or_default() += 1,
+                Err(FrameError::BadLength { .. }) => self.tally.bad_length += 1,
+            }
+        }
+        self.dec.reset();
+        Ok(())
+    }
+
+    /// One unicast request with its status, retried (it must be idempotent) when the reply
+    /// is lost: init and open should not fail on a single dropped packet.
+    fn ask(&mut self, req: &Request, id: u8) -> Result<Option<Status>, TransportError> {
+        for _ in 0..UNICAST_ATTEMPTS {
+            if let Some(st) = self.transact(req, &[id])?.replies.remove(&id) {
+                return Ok(Some(st));
+            }
+        }
+        Ok(None)
     }
 
     fn write_reg(&mut self, id: u8, r: Reg, v: i64) -> Result<Result<(), String>, TransportError> {
         let data = v.to_le_bytes()[..r.len as usize].to_vec();
-        let rep = self.transact(&Request::Write { id, addr: r.addr, data }, &[id])?;
-        Ok(match rep.replies.get(&id) {
+        let rep = self.ask(&Request::Write { id, addr: r.addr, data }, id)?;
+        Ok(match rep.as_ref() {
             Some(st) if st.error.number == super::protocol::ErrorNumber::None => Ok(()),
             Some(st) => Err(format!("write {} -> {:?}", r.addr, st.error.number)),
             None => Err(format!("no answer writing address {}", r.addr)),
@@ -557,15 +623,15 @@ impl Link {
     }
 
     fn read_reg(&mut self, id: u8, r: Reg) -> Result<Result<i64, String>, TransportError> {
-        let rep = self.transact(
+        let rep = self.ask(
             &Request::Read {
                 id,
                 addr: r.addr,
                 len: r.len,
             },
-            &[id],
+            id,
         )?;
-        Ok(match rep.replies.get(&id) {
+        Ok(match rep.as_ref() {
             Some(st) if st.params.len() == r.len as usize => Ok(match r.len {
                 1 => st.params[0] as i64,
                 2 => le_i16(&st.params).unwrap_or(0) as i64,
@@ -598,6 +664,7 @@ struct CalRun {
     goal: i32,
     anchor: i32,
     anchor_since: Instant,
+    still_samples: u32,
 }
 
 struct Worker {
@@ -689,7 +756,9 @@ impl Worker {
                 continue;
             };
             let started = Instant::now();
-            match self.round(l) {
+            let res = self.round(l);
+            self.drain_tally(l);
+            match res {
                 Ok(()) => {}
                 Err(e) => {
                     self.note_error(&e.to_string());
@@ -718,6 +787,23 @@ impl Worker {
         }
     }
 
+    /// Moves the link's error counts into the shared stats.
+    fn drain_tally(&self, l: &mut Link) {
+        let t = std::mem::take(&mut l.tally);
+        let mut sh = self.lock();
+        let st = &mut sh.stats;
+        st.bad_length += t.bad_length;
+        st.late_replies += t.late;
+        for (id, n) in t.crc {
+            st.crc_errors += n;
+            st.per_gripper.entry(id).or_default().crc_errors += n;
+        }
+        for (id, n) in t.timeouts {
+            st.timeouts += n;
+            st.per_gripper.entry(id).or_default().timeouts += n;
+        }
+    }
+
     fn publish(&self, i: usize) {
         let r = &self.rt[i];
         if let Some(tx) = self.tx.get(&r.id) {
@@ -730,8 +816,7 @@ impl Worker {
         let id = self.rt[i].id;
         self.rt[i].last_init_try = Some(Instant::now());
         self.lock().stats.per_gripper.entry(id).or_default().inits += 1;
-        let ping = l.transact(&Request::Ping { id }, &[id])?;
-        if !ping.replies.contains_key(&id) {
+        if l.ask(&Request::Ping { id }, id)?.is_none() {
             self.rt[i].state.last_error = Some(format!("servo {id} does not answer ping"));
             return Ok(());
         }
@@ -762,15 +847,15 @@ impl Worker {
         rt.state.hardware_error = HardwareError(hw);
         let (goal, cur) = (pos, p.force_to_current(p.idle_force_pct));
         let data = goal_block(&p, cur, goal);
-        let rep = l.transact(
+        let rep = l.ask(
             &Request::Write {
                 id,
                 addr: GOAL_BLOCK.addr,
                 data,
             },
-            &[id],
+            id,
         )?;
-        if !rep.replies.contains_key(&id) {
+        if rep.is_none() {
             self.rt[i].state.last_error = Some(format!("init servo {id}: no answer writing goals"));
             return Ok(());
         }
@@ -835,6 +920,7 @@ impl Worker {
                 goal: self.p.calibration_goal(present),
                 anchor: present,
                 anchor_since: now,
+                still_samples: 0,
             });
             r.state.calibration = Calibration::Running;
             r.contact_rounds = 0;
@@ -874,20 +960,12 @@ impl Worker {
             let mut sh = self.shared.lock().unwrap_or_else(|p| p.into_inner());
             let st = &mut sh.stats;
             st.rounds = round;
-            st.bad_length += rep.bad_length;
             let ds = l.dec.stats();
             st.truncated = ds.truncated;
             st.garbage_bytes = ds.garbage_bytes;
             for &id in &ids {
                 let c = st.per_gripper.entry(id).or_default();
-                if let Some(n) = rep.bad_crc.get(&id) {
-                    c.crc_errors += n;
-                    st.crc_errors += n;
-                } else if !rep.replies.contains_key(&id) {
-                    c.timeouts += 1;
-                    st.timeouts += 1;
-                }
-                let c = st.per_gripper.entry(id).or_default();
+                c.polls += 1;
                 if let Some(s) = rep.replies.get(&id) {
                     if s.error.number != super::protocol::ErrorNumber::None {
                         c.status_errors += 1;
@@ -1020,12 +1098,21 @@ impl Worker {
         s.last_error = None;
         // Calibration progress.
         if let Some(c) = r.cal.as_mut() {
-            if (pos - c.anchor).abs() > p.calibration_still_ticks {
+            // At rest against the stop: still, and the loop pushing with the calibration
+            // current (a jaw that merely paused, e.g. on a stalled bus, does not count).
+            let pushing = (cur.unsigned_abs() as f32) >= p.contact_current_pct / 100.0 * r.goal_current.max(1) as f32;
+            // Counting readings as well as time: a reply that sat in a starved driver's
+            // queue must not pass for 165 ms of stillness on its own.
+            if (pos - c.anchor).abs() > p.calibration_still_ticks || !pushing {
                 c.anchor = pos;
                 c.anchor_since = at;
+                c.still_samples = 0;
+            } else {
+                c.still_samples += 1;
             }
             let still = Duration::from_millis(p.calibration_still_ms);
-            if at - c.anchor_since >= still && at - c.started >= still {
+            if at - c.anchor_since >= still && at - c.started >= still && c.still_samples >= p.calibration_still_samples
+            {
                 s.calibration = Calibration::Calibrated { zero_ticks: pos };
                 s.target = Some(Target {
                     position_pct: p.calibration_settle_pct,
