@@ -621,7 +621,9 @@ impl Worker {
 
     fn step_physics(&self, last: &mut Instant) {
         let now = Instant::now();
-        let dt = (now - *last).as_secs_f32().min(0.05);
+        // Capped so a starved emulator thread slows the jaw down rather than teleporting it;
+        // JointModel sub-steps keep 0.2 s stable (100 steps of 2 ms).
+        let dt = (now - *last).as_secs_f32().min(0.2);
         *last = now;
         if dt <= 0.0 {
             return;
