@@ -1,0 +1,608 @@
+//! DYNAMIXEL Protocol 2.0 codec: pure functions over bytes.
+//!
+//! Packet layout (ROBOTIS e-Manual, "Protocol 2.0", Instruction Packet / Status Packet):
+//!
+//! ```text
+//! FF FF FD 00 | ID | LEN_L LEN_H | INST | PARAM ... | CRC_L CRC_H
+//! ```
+//!
+//! * `LEN` counts instruction + (stuffed) parameters + the two CRC bytes.
+//! * Byte stuffing: inside the instruction..parameter range every `FF FF FD` gets an extra
+//!   `FD` (`FF FF FD FD`); length and CRC are computed over the stuffed bytes.
+//! * CRC: CRC-16 with polynomial 0x8005, init 0, no reflection, no final xor, over everything
+//!   from the first header byte to the last parameter byte. That is the catalogued
+//!   CRC-16/UMTS (a.k.a. CRC-16/BUYPASS, CRC-16/VERIFONE) from the `crc` crate; the fixtures in
+//!   `tests` prove it against the e-Manual's worked examples.
+//! * A status packet carries instruction 0x55 and an error byte before its parameters:
+//!   bit 7 = alert (read Hardware Error Status for the cause), bits 0..6 = error number.
+
+use std::fmt;
+
+use crc::{Crc, CRC_16_UMTS};
+
+/// The four bytes every packet starts with (three header bytes and the reserved 0x00).
+pub const HEADER: [u8; 4] = [0xFF, 0xFF, 0xFD, 0x00];
+/// Broadcast id: every device executes the packet (sync read/write use it).
+pub const BROADCAST_ID: u8 = 0xFE;
+/// Highest id a device may have (253 = 0xFD and 255 = 0xFF would collide with the header).
+pub const MAX_DEVICE_ID: u8 = 252;
+/// Header (4) + id (1) + length (2).
+const PREFIX_LEN: usize = 7;
+/// Largest LEN field the decoder accepts. Real packets here are far below this; a bigger
+/// value means we locked onto garbage, so the decoder resynchronises instead of waiting.
+pub const MAX_LENGTH_FIELD: usize = 1024;
+
+const DXL_CRC: Crc<u16> = Crc::<u16>::new(&CRC_16_UMTS);
+
+/// The DYNAMIXEL CRC-16 over `bytes`.
+pub fn crc16(bytes: &[u8]) -> u16 {
+    DXL_CRC.checksum(bytes)
+}
+
+/// Instruction byte values (e-Manual, Protocol 2.0, "Instruction").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum Instruction {
+    Ping = 0x01,
+    Read = 0x02,
+    Write = 0x03,
+    RegWrite = 0x04,
+    Action = 0x05,
+    FactoryReset = 0x06,
+    Reboot = 0x08,
+    Clear = 0x10,
+    Status = 0x55,
+    SyncRead = 0x82,
+    SyncWrite = 0x83,
+    BulkRead = 0x92,
+    BulkWrite = 0x93,
+}
+
+impl Instruction {
+    pub fn from_byte(b: u8) -> Option<Self> {
+        use Instruction::*;
+        Some(match b {
+            0x01 => Ping,
+            0x02 => Read,
+            0x03 => Write,
+            0x04 => RegWrite,
+            0x05 => Action,
+            0x06 => FactoryReset,
+            0x08 => Reboot,
+            0x10 => Clear,
+            0x55 => Status,
+            0x82 => SyncRead,
+            0x83 => SyncWrite,
+            0x92 => BulkRead,
+            0x93 => BulkWrite,
+            _ => return None,
+        })
+    }
+}
+
+/// A device id on the bus (0..=252). Broadcast is not a device id; see [`BROADCAST_ID`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "u8", into = "u8")]
+pub struct ServoId(u8);
+
+impl ServoId {
+    pub fn new(id: u8) -> Result<Self, CodecError> {
+        if id <= MAX_DEVICE_ID {
+            Ok(Self(id))
+        } else {
+            Err(CodecError::BadId(id))
+        }
+    }
+    pub const fn get(self) -> u8 {
+        self.0
+    }
+}
+
+impl TryFrom<u8> for ServoId {
+    type Error = CodecError;
+    fn try_from(v: u8) -> Result<Self, CodecError> {
+        ServoId::new(v)
+    }
+}
+
+impl From<ServoId> for u8 {
+    fn from(v: ServoId) -> u8 {
+        v.0
+    }
+}
+
+impl fmt::Display for ServoId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
+/// Errors of building or interpreting packets.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum CodecError {
+    #[error("servo id {0} is outside 0..=252")]
+    BadId(u8),
+    #[error("packet too long: {0} stuffed bytes (max {MAX_LENGTH_FIELD})")]
+    TooLong(usize),
+    #[error("sync write entry for id {id} has {got} bytes, expected {expected}")]
+    SyncWriteLength { id: u8, got: usize, expected: usize },
+    #[error("instruction 0x{0:02X} is not a known Protocol 2.0 instruction")]
+    UnknownInstruction(u8),
+    #[error("{instruction:?} packet has {got} parameter bytes, which does not fit its layout")]
+    BadParams { instruction: Instruction, got: usize },
+    #[error("packet is not a status packet (instruction 0x{0:02X})")]
+    NotStatus(u8),
+}
+
+/// Adds byte stuffing: every `FF FF FD` gets an extra `FD`.
+pub fn stuff(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(data.len() + data.len() / 3);
+    for &b in data {
+        out.push(b);
+        let n = out.len();
+        if n >= 3 && out[n - 3] == 0xFF && out[n - 2] == 0xFF && out[n - 1] == 0xFD {
+            out.push(0xFD);
+        }
+    }
+    out
+}
+
+/// Removes byte stuffing: `FF FF FD FD` becomes `FF FF FD`.
+pub fn unstuff(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(data.len());
+    let mut i = 0;
+    while i < data.len() {
+        let b = data[i];
+        out.push(b);
+        let n = out.len();
+        if n >= 3 && out[n - 3] == 0xFF && out[n - 2] == 0xFF && out[n - 1] == 0xFD && data.get(i + 1) == Some(&0xFD) {
+            i += 1; // skip the stuffing byte
+        }
+        i += 1;
+    }
+    out
+}
+
+/// A decoded packet with its parameters unstuffed. For a status packet `params[0]` is the
+/// error byte; use [`Status::from_packet`] to interpret it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Packet {
+    pub id: u8,
+    pub instruction: u8,
+    pub params: Vec<u8>,
+}
+
+/// Encodes one packet: stuffing, length and CRC.
+pub fn encode_packet(id: u8, instruction: u8, params: &[u8]) -> Result<Vec<u8>, CodecError> {
+    let mut body = Vec::with_capacity(params.len() + 1);
+    body.push(instruction);
+    body.extend_from_slice(params);
+    let stuffed = stuff(&body);
+    let len = stuffed.len() + 2;
+    if len > MAX_LENGTH_FIELD {
+        return Err(CodecError::TooLong(len));
+    }
+    let mut out = Vec::with_capacity(PREFIX_LEN + len);
+    out.extend_from_slice(&HEADER);
+    out.push(id);
+    out.extend_from_slice(&(len as u16).to_le_bytes());
+    out.extend_from_slice(&stuffed);
+    let crc = crc16(&out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    Ok(out)
+}
+
+/// Error number of a status packet (bits 0..6 of its error byte).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ErrorNumber {
+    None,
+    ResultFail,
+    InstructionError,
+    CrcError,
+    DataRangeError,
+    DataLengthError,
+    DataLimitError,
+    AccessError,
+    Other(u8),
+}
+
+impl ErrorNumber {
+    pub fn from_bits(v: u8) -> Self {
+        match v & 0x7F {
+            0 => Self::None,
+            1 => Self::ResultFail,
+            2 => Self::InstructionError,
+            3 => Self::CrcError,
+            4 => Self::DataRangeError,
+            5 => Self::DataLengthError,
+            6 => Self::DataLimitError,
+            7 => Self::AccessError,
+            n => Self::Other(n),
+        }
+    }
+    pub fn bits(self) -> u8 {
+        match self {
+            Self::None => 0,
+            Self::ResultFail => 1,
+            Self::InstructionError => 2,
+            Self::CrcError => 3,
+            Self::DataRangeError => 4,
+            Self::DataLengthError => 5,
+            Self::DataLimitError => 6,
+            Self::AccessError => 7,
+            Self::Other(n) => n & 0x7F,
+        }
+    }
+}
+
+/// The error byte of a status packet.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StatusError {
+    /// Bit 7: the device has a hardware error; read Hardware Error Status for the cause.
+    pub alert: bool,
+    pub number: ErrorNumber,
+}
+
+impl StatusError {
+    pub const OK: StatusError = StatusError {
+        alert: false,
+        number: ErrorNumber::None,
+    };
+    pub fn from_byte(b: u8) -> Self {
+        Self {
+            alert: b & 0x80 != 0,
+            number: ErrorNumber::from_bits(b),
+        }
+    }
+    pub fn to_byte(self) -> u8 {
+        (if self.alert { 0x80 } else { 0 }) | self.number.bits()
+    }
+}
+
+/// A status (return) packet.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Status {
+    pub id: u8,
+    pub error: StatusError,
+    pub params: Vec<u8>,
+}
+
+impl Status {
+    pub fn from_packet(p: &Packet) -> Result<Self, CodecError> {
+        if p.instruction != Instruction::Status as u8 {
+            return Err(CodecError::NotStatus(p.instruction));
+        }
+        let Some((&err, params)) = p.params.split_first() else {
+            return Err(CodecError::BadParams {
+                instruction: Instruction::Status,
+                got: 0,
+            });
+        };
+        Ok(Self {
+            id: p.id,
+            error: StatusError::from_byte(err),
+            params: params.to_vec(),
+        })
+    }
+
+    pub fn encode(&self) -> Result<Vec<u8>, CodecError> {
+        let mut params = Vec::with_capacity(self.params.len() + 1);
+        params.push(self.error.to_byte());
+        params.extend_from_slice(&self.params);
+        encode_packet(self.id, Instruction::Status as u8, &params)
+    }
+}
+
+/// A typed instruction packet (the ones handgate sends, plus what the emulator must parse).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Request {
+    Ping {
+        id: u8,
+    },
+    Read {
+        id: u8,
+        addr: u16,
+        len: u16,
+    },
+    Write {
+        id: u8,
+        addr: u16,
+        data: Vec<u8>,
+    },
+    Reboot {
+        id: u8,
+    },
+    /// Same address and length from several devices; each answers with its own status, in
+    /// the order of `ids`.
+    SyncRead {
+        addr: u16,
+        len: u16,
+        ids: Vec<u8>,
+    },
+    /// Same address and length to several devices; no status is returned.
+    SyncWrite {
+        addr: u16,
+        len: u16,
+        entries: Vec<(u8, Vec<u8>)>,
+    },
+}
+
+impl Request {
+    /// The id in the packet header.
+    pub fn packet_id(&self) -> u8 {
+        match self {
+            Request::Ping { id } | Request::Read { id, .. } | Request::Write { id, .. } | Request::Reboot { id } => *id,
+            Request::SyncRead { .. } | Request::SyncWrite { .. } => BROADCAST_ID,
+        }
+    }
+
+    pub fn instruction(&self) -> Instruction {
+        match self {
+            Request::Ping { .. } => Instruction::Ping,
+            Request::Read { .. } => Instruction::Read,
+            Request::Write { .. } => Instruction::Write,
+            Request::Reboot { .. } => Instruction::Reboot,
+            Request::SyncRead { .. } => Instruction::SyncRead,
+            Request::SyncWrite { .. } => Instruction::SyncWrite,
+        }
+    }
+
+    /// Encodes the request to wire bytes.
+    pub fn encode(&self) -> Result<Vec<u8>, CodecError> {
+        let mut p = Vec::new();
+        match self {
+            Request::Ping { .. } | Request::Reboot { .. } => {}
+            Request::Read { addr, len, .. } => {
+                p.extend_from_slice(&addr.to_le_bytes());
+                p.extend_from_slice(&len.to_le_bytes());
+            }
+            Request::Write { addr, data, .. } => {
+                p.extend_from_slice(&addr.to_le_bytes());
+                p.extend_from_slice(data);
+            }
+            Request::SyncRead { addr, len, ids } => {
+                p.extend_from_slice(&addr.to_le_bytes());
+                p.extend_from_slice(&len.to_le_bytes());
+                for &id in ids {
+                    check_id(id)?;
+                    p.push(id);
+                }
+            }
+            Request::SyncWrite { addr, len, entries } => {
+                p.extend_from_slice(&addr.to_le_bytes());
+                p.extend_from_slice(&len.to_le_bytes());
+                for (id, data) in entries {
+                    check_id(*id)?;
+                    if data.len() != *len as usize {
+                        return Err(CodecError::SyncWriteLength {
+                            id: *id,
+                            got: data.len(),
+                            expected: *len as usize,
+                        });
+                    }
+                    p.push(*id);
+                    p.extend_from_slice(data);
+                }
+            }
+        }
+        let id = self.packet_id();
+        if id != BROADCAST_ID {
+            check_id(id)?;
+        }
+        encode_packet(id, self.instruction() as u8, &p)
+    }
+
+    /// Interprets a decoded instruction packet (the emulator's side).
+    pub fn from_packet(pk: &Packet) -> Result<Self, CodecError> {
+        let inst = Instruction::from_byte(pk.instruction).ok_or(CodecError::UnknownInstruction(pk.instruction))?;
+        let p = &pk.params;
+        let bad = || CodecError::BadParams {
+            instruction: inst,
+            got: p.len(),
+        };
+        let u16_at = |i: usize| u16::from_le_bytes([p[i], p[i + 1]]);
+        Ok(match inst {
+            Instruction::Ping if p.is_empty() => Request::Ping { id: pk.id },
+            Instruction::Reboot if p.is_empty() => Request::Reboot { id: pk.id },
+            Instruction::Read if p.len() == 4 => Request::Read {
+                id: pk.id,
+                addr: u16_at(0),
+                len: u16_at(2),
+            },
+            Instruction::Write if p.len() >= 3 => Request::Write {
+                id: pk.id,
+                addr: u16_at(0),
+                data: p[2..].to_vec(),
+            },
+            Instruction::SyncRead if p.len() >= 4 => Request::SyncRead {
+                addr: u16_at(0),
+                len: u16_at(2),
+                ids: p[4..].to_vec(),
+            },
+            Instruction::SyncWrite if p.len() >= 4 => {
+                let len = u16_at(2);
+                let chunk = len as usize + 1;
+                let rest = &p[4..];
+                if len == 0 || rest.len() % chunk != 0 {
+                    return Err(bad());
+                }
+                Request::SyncWrite {
+                    addr: u16_at(0),
+                    len,
+                    entries: rest.chunks(chunk).map(|c| (c[0], c[1..].to_vec())).collect(),
+                }
+            }
+            Instruction::Ping
+            | Instruction::Reboot
+            | Instruction::Read
+            | Instruction::Write
+            | Instruction::SyncRead
+            | Instruction::SyncWrite => return Err(bad()),
+            other => {
+                return Err(CodecError::BadParams {
+                    instruction: other,
+                    got: p.len(),
+                })
+            }
+        })
+    }
+}
+
+fn check_id(id: u8) -> Result<(), CodecError> {
+    if id <= MAX_DEVICE_ID {
+        Ok(())
+    } else {
+        Err(CodecError::BadId(id))
+    }
+}
+
+/// Something the stream decoder rejected.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum FrameError {
+    /// A complete frame whose CRC did not match.
+    BadCrc { id: u8, expected: u16, got: u16 },
+    /// A header whose length field is impossible (< 3 or > [`MAX_LENGTH_FIELD`]).
+    BadLength { id: u8, len: usize },
+}
+
+/// Counters kept by [`Decoder`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DecoderStats {
+    pub packets: u64,
+    pub bad_crc: u64,
+    pub bad_length: u64,
+    /// Partial frames dropped by [`Decoder::reset`] (the sender stopped mid-packet).
+    pub truncated: u64,
+    /// Bytes skipped while looking for a header.
+    pub garbage_bytes: u64,
+}
+
+/// Streaming decoder: feed it bytes as they arrive, take packets out. Never panics on any
+/// input; resynchronises on the next header after garbage or a bad frame.
+#[derive(Debug, Default)]
+pub struct Decoder {
+    buf: Vec<u8>,
+    stats: DecoderStats,
+}
+
+impl Decoder {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn stats(&self) -> DecoderStats {
+        self.stats
+    }
+
+    /// Bytes held that are not yet a complete packet.
+    pub fn pending(&self) -> usize {
+        self.buf.len()
+    }
+
+    pub fn push(&mut self, bytes: &[u8]) {
+        self.buf.extend_from_slice(bytes);
+    }
+
+    /// Drops buffered bytes (e.g. after a timeout); a partial frame counts as truncated.
+    pub fn reset(&mut self) {
+        if self.buf.len() >= HEADER.len() && self.buf.starts_with(&HEADER) {
+            self.stats.truncated += 1;
+        } else {
+            self.stats.garbage_bytes += self.buf.len() as u64;
+        }
+        self.buf.clear();
+    }
+
+    /// The next complete packet or rejected frame; `None` when more bytes are needed.
+    pub fn next_frame(&mut self) -> Option<Result<Packet, FrameError>> {
+        loop {
+            // Find a header.
+            let start = find_header(&self.buf);
+            match start {
+                Some(0) => {}
+                Some(n) => {
+                    self.stats.garbage_bytes += n as u64;
+                    self.buf.drain(..n);
+                }
+                None => {
+                    // Keep a possible header prefix at the end of the buffer.
+                    let keep = header_prefix_suffix(&self.buf);
+                    let drop = self.buf.len() - keep;
+                    self.stats.garbage_bytes += drop as u64;
+                    self.buf.drain(..drop);
+                    return None;
+                }
+            }
+            if self.buf.len() < PREFIX_LEN {
+                return None;
+            }
+            let id = self.buf[4];
+            let len = u16::from_le_bytes([self.buf[5], self.buf[6]]) as usize;
+            if !(3..=MAX_LENGTH_FIELD).contains(&len) {
+                self.stats.bad_length += 1;
+                self.buf.drain(..1);
+                return Some(Err(FrameError::BadLength { id, len }));
+            }
+            let total = PREFIX_LEN + len;
+            if self.buf.len() < total {
+                return None;
+            }
+            let got = u16::from_le_bytes([self.buf[total - 2], self.buf[total - 1]]);
+            let expected = crc16(&self.buf[..total - 2]);
+            if got != expected {
+                self.stats.bad_crc += 1;
+                // Skip only the header: a real packet may start inside the bad frame.
+                self.buf.drain(..1);
+                return Some(Err(FrameError::BadCrc { id, expected, got }));
+            }
+            let body = unstuff(&self.buf[PREFIX_LEN..total - 2]);
+            self.buf.drain(..total);
+            let Some((&instruction, params)) = body.split_first() else {
+                continue;
+            };
+            self.stats.packets += 1;
+            return Some(Ok(Packet {
+                id,
+                instruction,
+                params: params.to_vec(),
+            }));
+        }
+    }
+}
+
+fn find_header(buf: &[u8]) -> Option<usize> {
+    buf.windows(HEADER.len()).position(|w| w == HEADER)
+}
+
+/// Length of the longest suffix of `buf` that is a proper prefix of [`HEADER`].
+fn header_prefix_suffix(buf: &[u8]) -> usize {
+    (1..HEADER.len())
+        .rev()
+        .find(|&k| buf.len() >= k && buf[buf.len() - k..] == HEADER[..k])
+        .unwrap_or(0)
+}
+
+/// Decodes every packet in `bytes` (convenience for tests and one-shot parsing).
+pub fn decode_all(bytes: &[u8]) -> Vec<Result<Packet, FrameError>> {
+    let mut d = Decoder::new();
+    d.push(bytes);
+    std::iter::from_fn(|| d.next_frame()).collect()
+}
+
+/// Little-endian helpers for control-table values.
+pub fn le_u16(b: &[u8]) -> Option<u16> {
+    Some(u16::from_le_bytes(b.get(..2)?.try_into().ok()?))
+}
+
+pub fn le_i16(b: &[u8]) -> Option<i16> {
+    Some(i16::from_le_bytes(b.get(..2)?.try_into().ok()?))
+}
+
+pub fn le_i32(b: &[u8]) -> Option<i32> {
+    Some(i32::from_le_bytes(b.get(..4)?.try_into().ok()?))
+}
+
+/// Wire time of `bytes` bytes at `baud` with 8N1 framing (10 bits per byte).
+pub fn wire_time(bytes: usize, baud: u32) -> std::time::Duration {
+    std::time::Duration::from_nanos(bytes as u64 * 10 * 1_000_000_000 / baud.max(1) as u64)
+}

@@ -1,0 +1,277 @@
+//! The byte-pipe seam between the bus driver and hardware: a [`Transport`] writes bytes and
+//! reads bytes with a timeout; a [`Connector`] (re)opens one. [`SerialPort`] is the real
+//! implementation (raw termios on a tty via `libc`, 8N1, no flow control); the emulator's
+//! pseudo-terminal is opened through the very same code path.
+
+use std::ffi::CString;
+use std::io;
+use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// Transport failures.
+#[derive(Debug, thiserror::Error)]
+pub enum TransportError {
+    #[error("serial port {path} does not exist (adapter unplugged or wrong path)")]
+    NotFound { path: PathBuf },
+    #[error("cannot open serial port {path}: {source}")]
+    Open { path: PathBuf, source: io::Error },
+    #[error("cannot configure serial port {path}: {source}")]
+    Configure { path: PathBuf, source: io::Error },
+    #[error("baud rate {0} is not supported by this serial driver")]
+    UnsupportedBaud(u32),
+    #[error("serial port disconnected")]
+    Disconnected,
+    #[error("serial I/O error: {0}")]
+    Io(#[from] io::Error),
+}
+
+/// A half-duplex byte pipe to a Dynamixel bus.
+pub trait Transport: Send {
+    /// Writes all bytes (blocking until the OS took them).
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), TransportError>;
+    /// Reads what is available, waiting at most `timeout` for the first byte.
+    /// `Ok(0)` means the timeout expired with nothing to read.
+    fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, TransportError>;
+    /// Discards bytes received but not read yet.
+    fn clear_input(&mut self) -> Result<(), TransportError>;
+}
+
+/// Opens a [`Transport`]; called again after a disconnect.
+pub trait Connector: Send {
+    fn connect(&mut self) -> Result<Box<dyn Transport>, TransportError>;
+    /// What this connects to, for messages.
+    fn describe(&self) -> String;
+}
+
+/// A serial device path (`/dev/ttyUSB0`, `/dev/serial/by-id/...`, or an emulator's link).
+#[derive(Debug, Clone)]
+pub struct SerialConnector {
+    pub path: PathBuf,
+    pub baud: u32,
+}
+
+impl Connector for SerialConnector {
+    fn connect(&mut self) -> Result<Box<dyn Transport>, TransportError> {
+        Ok(Box::new(SerialPort::open(&self.path, self.baud)?))
+    }
+    fn describe(&self) -> String {
+        format!("{} @ {} baud", self.path.display(), self.baud)
+    }
+}
+
+/// A tty in raw 8N1 mode.
+#[derive(Debug)]
+pub struct SerialPort {
+    fd: OwnedFd,
+}
+
+fn baud_constant(baud: u32) -> Option<libc::speed_t> {
+    Some(match baud {
+        9600 => libc::B9600,
+        57600 => libc::B57600,
+        115200 => libc::B115200,
+        1_000_000 => libc::B1000000,
+        2_000_000 => libc::B2000000,
+        3_000_000 => libc::B3000000,
+        4_000_000 => libc::B4000000,
+        _ => return None,
+    })
+}
+
+impl SerialPort {
+    /// Opens `path` non-blocking, exclusive, raw, 8N1 at `baud`.
+    pub fn open(path: &Path, baud: u32) -> Result<Self, TransportError> {
+        let speed = baud_constant(baud).ok_or(TransportError::UnsupportedBaud(baud))?;
+        let cpath = CString::new(path.as_os_str().as_encoded_bytes()).map_err(|_| TransportError::Open {
+            path: path.to_path_buf(),
+            source: io::Error::new(io::ErrorKind::InvalidInput, "path contains NUL"),
+        })?;
+        // SAFETY: cpath is a valid NUL-terminated string; open has no other preconditions.
+        let fd = unsafe {
+            libc::open(
+                cpath.as_ptr(),
+                libc::O_RDWR | libc::O_NOCTTY | libc::O_NONBLOCK | libc::O_CLOEXEC,
+            )
+        };
+        if fd < 0 {
+            let e = io::Error::last_os_error();
+            return Err(if e.kind() == io::ErrorKind::NotFound {
+                TransportError::NotFound {
+                    path: path.to_path_buf(),
+                }
+            } else {
+                TransportError::Open {
+                    path: path.to_path_buf(),
+                    source: e,
+                }
+            });
+        }
+        // SAFETY: fd was just returned by open and is owned by nobody else.
+        let fd = unsafe { OwnedFd::from_raw_fd(fd) };
+        let cfg_err = |source| TransportError::Configure {
+            path: path.to_path_buf(),
+            source,
+        };
+        set_raw(fd.as_raw_fd(), Some(speed)).map_err(cfg_err)?;
+        // SAFETY: valid fd; TIOCEXCL takes no argument. Keeps a second process off the bus.
+        unsafe { libc::ioctl(fd.as_raw_fd(), libc::TIOCEXCL) };
+        let port = SerialPort { fd };
+        port.flush_both();
+        Ok(port)
+    }
+
+    fn flush_both(&self) {
+        // SAFETY: valid fd.
+        unsafe { libc::tcflush(self.fd.as_raw_fd(), libc::TCIOFLUSH) };
+    }
+}
+
+/// Puts a tty into raw 8N1 mode without flow control, optionally setting the speed.
+pub(crate) fn set_raw(fd: libc::c_int, speed: Option<libc::speed_t>) -> io::Result<()> {
+    // SAFETY: termios is plain old data; tcgetattr fills it for a valid fd.
+    let mut t: libc::termios = unsafe { std::mem::zeroed() };
+    // SAFETY: fd is valid for the duration of the call, t is a valid out pointer.
+    if unsafe { libc::tcgetattr(fd, &mut t) } != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    // SAFETY: t is a valid termios.
+    unsafe { libc::cfmakeraw(&mut t) };
+    t.c_cflag |= libc::CLOCAL | libc::CREAD;
+    t.c_cflag &= !(libc::CSTOPB | libc::PARENB | libc::CRTSCTS);
+    t.c_iflag &= !(libc::IXON | libc::IXOFF | libc::IXANY);
+    t.c_cc[libc::VMIN] = 0;
+    t.c_cc[libc::VTIME] = 0;
+    if let Some(speed) = speed {
+        // SAFETY: t is a valid termios.
+        if unsafe { libc::cfsetspeed(&mut t, speed) } != 0 {
+            return Err(io::Error::last_os_error());
+        }
+    }
+    // SAFETY: fd valid, t valid.
+    if unsafe { libc::tcsetattr(fd, libc::TCSANOW, &t) } != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok(())
+}
+
+/// Waits until `fd` is readable or `timeout` passes. Ok(true) = readable.
+pub(crate) fn poll_readable(fd: libc::c_int, timeout: Duration) -> Result<bool, TransportError> {
+    let mut pfd = libc::pollfd {
+        fd,
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    // Round up so a sub-millisecond timeout still waits.
+    let ms = timeout.as_micros().div_ceil(1000).min(i32::MAX as u128) as libc::c_int;
+    loop {
+        // SAFETY: pfd is a valid pollfd array of length 1.
+        let r = unsafe { libc::poll(&mut pfd, 1, ms) };
+        if r < 0 {
+            let e = io::Error::last_os_error();
+            if e.kind() == io::ErrorKind::Interrupted {
+                continue;
+            }
+            return Err(TransportError::Io(e));
+        }
+        if r == 0 {
+            return Ok(false);
+        }
+        if pfd.revents & libc::POLLIN != 0 {
+            return Ok(true);
+        }
+        if pfd.revents & (libc::POLLHUP | libc::POLLERR | libc::POLLNVAL) != 0 {
+            return Err(TransportError::Disconnected);
+        }
+        return Ok(false);
+    }
+}
+
+fn map_io(e: io::Error) -> TransportError {
+    match e.raw_os_error() {
+        Some(libc::EIO) | Some(libc::ENXIO) | Some(libc::ENODEV) | Some(libc::EBADF) => TransportError::Disconnected,
+        _ => TransportError::Io(e),
+    }
+}
+
+impl Transport for SerialPort {
+    fn write_all(&mut self, mut bytes: &[u8]) -> Result<(), TransportError> {
+        let fd = self.fd.as_raw_fd();
+        while !bytes.is_empty() {
+            // SAFETY: bytes is a valid readable buffer of the given length.
+            let n = unsafe { libc::write(fd, bytes.as_ptr().cast(), bytes.len()) };
+            if n < 0 {
+                let e = io::Error::last_os_error();
+                match e.kind() {
+                    io::ErrorKind::Interrupted => continue,
+                    io::ErrorKind::WouldBlock => {
+                        let mut pfd = libc::pollfd {
+                            fd,
+                            events: libc::POLLOUT,
+                            revents: 0,
+                        };
+                        // SAFETY: valid pollfd.
+                        let r = unsafe { libc::poll(&mut pfd, 1, 100) };
+                        if r > 0 && pfd.revents & (libc::POLLHUP | libc::POLLERR) != 0 {
+                            return Err(TransportError::Disconnected);
+                        }
+                        continue;
+                    }
+                    _ => return Err(map_io(e)),
+                }
+            }
+            bytes = &bytes[n as usize..];
+        }
+        Ok(())
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, TransportError> {
+        let fd = self.fd.as_raw_fd();
+        if !poll_readable(fd, timeout)? {
+            return Ok(0);
+        }
+        loop {
+            // SAFETY: buf is a valid writable buffer of the given length.
+            let n = unsafe { libc::read(fd, buf.as_mut_ptr().cast(), buf.len()) };
+            if n < 0 {
+                let e = io::Error::last_os_error();
+                match e.kind() {
+                    io::ErrorKind::Interrupted => continue,
+                    io::ErrorKind::WouldBlock => return Ok(0),
+                    _ => return Err(map_io(e)),
+                }
+            }
+            if n == 0 {
+                // Readable but end of file: the device went away.
+                return Err(TransportError::Disconnected);
+            }
+            return Ok(n as usize);
+        }
+    }
+
+    fn clear_input(&mut self) -> Result<(), TransportError> {
+        // SAFETY: valid fd.
+        if unsafe { libc::tcflush(self.fd.as_raw_fd(), libc::TCIFLUSH) } != 0 {
+            return Err(map_io(io::Error::last_os_error()));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missing_port_is_a_clear_error() {
+        let e = SerialPort::open(Path::new("/nonexistent/ttyUSB9"), 1_000_000).unwrap_err();
+        assert!(matches!(e, TransportError::NotFound { .. }), "{e}");
+        assert!(e.to_string().contains("/nonexistent/ttyUSB9"));
+    }
+
+    #[test]
+    fn unsupported_baud_is_rejected() {
+        let e = SerialPort::open(Path::new("/dev/null"), 12345).unwrap_err();
+        assert!(matches!(e, TransportError::UnsupportedBaud(12345)));
+    }
+}
