@@ -2,6 +2,7 @@
 
 pub mod cli;
 pub mod emulated;
+pub mod ezbus;
 pub mod fronts;
 pub mod plan;
 pub mod profile;

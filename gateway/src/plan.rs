@@ -33,6 +33,16 @@ pub enum Transport {
         wiring: handgate_adapters::dex3::usb::WiringMap,
         scalings: handgate_adapters::dex3::usb::Scalings,
     },
+    /// An EZGripper on a Dynamixel bus (`port` is shared by every gripper on it).
+    EzGripper {
+        /// Serial port, or for an emulated bus the key grippers on the same virtual bus share.
+        port: String,
+        emulated: bool,
+        baud: u32,
+        servo_id: u8,
+        force_pct: f32,
+        calibrate_on_start: bool,
+    },
     /// G1 rt/hand_sdk.
     HandSdk {
         topic: String,

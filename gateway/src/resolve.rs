@@ -203,6 +203,19 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
                 scalings: usb.scalings.unwrap_or_default(),
             }
         }
+        (DeviceKind::Ezgripper, Backend::Serial | Backend::Emulator) => {
+            let ez = d.ezgripper.clone().unwrap_or_default();
+            let emulated = d.backend == Backend::Emulator;
+            Transport::EzGripper {
+                port: ez.port.clone(),
+                emulated,
+                baud: ez.baud,
+                servo_id: ez.servo_id_for(d.side),
+                force_pct: ez.force_limit_percent.map(f32::from).unwrap_or(100.0),
+                // An emulated gripper powers up uncalibrated, like a real one: calibrate it.
+                calibrate_on_start: ez.calibrate_on_start || emulated,
+            }
+        }
         (DeviceKind::Dex1, Backend::Emulator) => {
             let jaw = &t.joints[0];
             let object = d

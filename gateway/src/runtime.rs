@@ -66,6 +66,8 @@ pub struct Runtime {
     shutdown: watch::Sender<bool>,
     tasks: Vec<tokio::task::JoinHandle<()>>,
     started: Instant,
+    /// EZGripper buses (and emulated buses), alive as long as the runtime.
+    pub buses: crate::ezbus::Buses,
 }
 
 fn table(p: &DevicePlan) -> Result<Arc<DeviceTable>, RuntimeError> {
@@ -78,7 +80,12 @@ fn table(p: &DevicePlan) -> Result<Arc<DeviceTable>, RuntimeError> {
 }
 
 /// Builds one device (DDS-side kinds). Other backends are added by [`build_device`].
-fn build_dds_device(node: &Node, p: &DevicePlan, table: Arc<DeviceTable>) -> Result<Arc<dyn HandDevice>, RuntimeError> {
+fn build_any_device(
+    node: &Node,
+    p: &DevicePlan,
+    table: Arc<DeviceTable>,
+    buses: &crate::ezbus::Buses,
+) -> Result<Arc<dyn HandDevice>, RuntimeError> {
     let info = |caps: Capabilities| DeviceInfo {
         name: p.name.clone(),
         kind: p.kind,
@@ -160,15 +167,41 @@ fn build_dds_device(node: &Node, p: &DevicePlan, table: Arc<DeviceTable>) -> Res
             .map_err(|e| RuntimeError::Device(p.name.clone(), e.to_string()))?;
             Arc::new(dev)
         }
+        Transport::EzGripper {
+            port,
+            servo_id,
+            force_pct,
+            ..
+        } => {
+            let bus = buses
+                .buses
+                .get(port)
+                .cloned()
+                .ok_or_else(|| RuntimeError::Device(p.name.clone(), format!("no bus open on {port}")))?;
+            let id = handgate_adapters::ezgripper::ServoId::new(*servo_id)
+                .map_err(|e| RuntimeError::Device(p.name.clone(), e.to_string()))?;
+            let dev = handgate_adapters::ezgripper::adapter::EzGripperDevice::start(
+                info(handgate_adapters::ezgripper::adapter::CAPABILITIES),
+                bus,
+                id,
+                *force_pct,
+            )
+            .map_err(|e| RuntimeError::Device(p.name.clone(), e.to_string()))?;
+            Arc::new(dev)
+        }
         Transport::EmulatedDds(peer) => return crate::emulated::build(node, p, peer, info(Capabilities::default())),
     };
     Ok(dev)
 }
 
 /// Builds any device of the plan.
-pub fn build_device(node: &Node, p: &DevicePlan) -> Result<(Arc<dyn HandDevice>, Arc<DeviceTable>), RuntimeError> {
+pub fn build_device(
+    node: &Node,
+    p: &DevicePlan,
+    buses: &crate::ezbus::Buses,
+) -> Result<(Arc<dyn HandDevice>, Arc<DeviceTable>), RuntimeError> {
     let t = table(p)?;
-    let dev = build_dds_device(node, p, t.clone())?;
+    let dev = build_any_device(node, p, t.clone(), buses)?;
     Ok((dev, t))
 }
 
@@ -221,10 +254,11 @@ impl Runtime {
     /// Starts every device and front of `plan`. Must be called inside a tokio runtime.
     pub fn start(plan: &Plan) -> Result<Self, RuntimeError> {
         let node = Node::new(plan.domain, plan.interface.as_deref())?;
+        let buses = crate::ezbus::open(&plan.devices)?;
         let mut devices = Vec::new();
         let mut by_name = HashMap::new();
         for p in &plan.devices {
-            let (device, table) = build_device(&node, p)?;
+            let (device, table) = build_device(&node, p, &buses)?;
             let slot = Arc::new(DeviceSlot {
                 plan: p.clone(),
                 device,
@@ -246,6 +280,7 @@ impl Runtime {
             shutdown,
             tasks,
             started: Instant::now(),
+            buses,
         })
     }
 

@@ -619,3 +619,49 @@ fn readme_tour_snippet_is_the_example() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// 9. The migration shim: an xr_teleoperate-style Dex1 client drives an emulated EZGripper (a
+//    virtual MX-64 bus on a real pseudo-terminal) through handgate's Dex1 front.
+
+#[test]
+fn xr_teleoperate_style_dex1_client_drives_an_emulated_ezgripper() {
+    let _serial = serial();
+    let gw = Gateway::start(77, &["--profile", "ezgripper-sim"]);
+    let n = node(77);
+    let mut status = status_reader(&n);
+    // The grippers calibrate at start (they close gently against the stop); wait for them.
+    let ready = poll(DEADLINE, || {
+        status
+            .update()
+            .filter(|s| s.devices.iter().all(|d| d.freshness == hg::FRESH))
+            .cloned()
+    });
+    assert!(
+        ready.is_some(),
+        "grippers never fresh: {:?}\n{}",
+        status.last,
+        gw.transcript()
+    );
+    let mut args = vec!["77".to_string(), "1.0".to_string()];
+    if let Some(i) = interop_interface() {
+        args.push(i);
+    }
+    let py = PyProcess::spawn("e2e_xr_dex1.py", &args).expect("python client");
+    py.wait_line("READY", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    let done = py
+        .wait_line("DONE ", Duration::from_secs(40))
+        .unwrap_or_else(|e| panic!("{e}\n{}\n{}", py.transcript(), gw.transcript()));
+    let v: Value = serde_json::from_str(done.trim_start_matches("DONE ")).expect("json");
+    assert!((f(&v, "q") - 1.0).abs() < 0.05, "{v}");
+    assert!(f(&v, "max_q") <= 5.4, "q must never exceed 5.4 rad: {v}");
+    assert_eq!(f(&v, "lost"), 0.0, "no fault, not stale: {v}");
+    assert!(f(&v, "mode") <= 3.0, "mode is the grasp state 0..3: {v}");
+    // Measured, not cached: the device's measured-state counter advances while it is served.
+    let s1 = status.next(DEADLINE).expect("status");
+    let left = device(&s1, "left_gripper");
+    assert_eq!(left.freshness, hg::FRESH, "{left:?}");
+    assert!(left.state_rate_hz > 0.0, "{left:?}");
+    assert_eq!(left.bad_input, 0, "{left:?}");
+}

@@ -8,6 +8,7 @@
 //!
 //! See docs/ezgripper.md.
 
+pub mod adapter;
 pub mod control_table;
 pub mod driver;
 pub mod emulator;

@@ -1,0 +1,210 @@
+//! The EZGripper [`HandDevice`]: the canonical jaw (measured from open, positive = closing,
+//! the Dex1's radians) maps through the EZGripper table to SAKE's percent (0 closed ..
+//! `max_open_percent` open) and is set on the gripper's servo; the bus's measurements become
+//! canonical state. Several grippers on one port share one [`EzGripperBus`] (one thread, sync
+//! read/write serving all of them in one round), so each device holds an `Arc` of its bus.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant, SystemTime};
+
+use async_trait::async_trait;
+use tokio::sync::watch;
+
+use super::driver::{EzGripperBus, GripperState};
+use super::protocol::ServoId;
+use crate::control::{Active, CommandState, Counters};
+use crate::device::{Capabilities, DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::mapping::DeviceTable;
+use crate::model::{faults, Freshness, HandCommand, HandState, JointState, SafeAction};
+
+/// Capabilities of an EZGripper.
+pub const CAPABILITIES: Capabilities = Capabilities {
+    feedback: true,
+    pressure: false,
+    imu: false,
+    power: false,
+    discovery: false,
+    calibration: true,
+};
+
+/// SAKE's driver reports `tau_est = effort / 10` (FACTS §5); handgate keeps that scale: the
+/// canonical joint torque is `effort_pct / 10` ("N·m-like", positive = squeezing).
+pub const EFFORT_PCT_PER_TAU: f32 = 10.0;
+
+/// Canonical state of one gripper.
+pub fn to_hand_state(table: &DeviceTable, g: &GripperState) -> HandState {
+    let j = &table.joints[0];
+    let joints = vec![JointState {
+        q: j.q_from_wire(g.position_pct),
+        dq: j.rate_from_wire(g.velocity_pct_s),
+        tau: g.effort_pct / EFFORT_PCT_PER_TAU,
+        temperature: g.online.then_some(g.temperature_c as f32),
+    }];
+    let mut f = 0;
+    if !g.hardware_error.is_empty() {
+        f |= faults::HARDWARE;
+    }
+    if !g.online {
+        f |= faults::LINK_DOWN;
+    }
+    let fresh = g.online && !g.stale && g.round > 0;
+    HandState {
+        closure: table.closure_of(&[joints[0].q]),
+        joints,
+        faults: f,
+        freshness: if fresh { Freshness::Fresh } else { Freshness::Stale },
+        measured_at: (g.round > 0).then_some(g.measured_at),
+        mode: g.grasp.code(),
+        ..Default::default()
+    }
+}
+
+/// One EZGripper on a (possibly shared) bus.
+pub struct EzGripperDevice {
+    info: DeviceInfo,
+    bus: Arc<EzGripperBus>,
+    id: ServoId,
+    /// Force limit %, applied with every position target.
+    force_pct: f32,
+    cmd: CommandState,
+    state_rx: watch::Receiver<HandState>,
+    stop: Arc<AtomicBool>,
+    bridge: Mutex<Option<JoinHandle<()>>>,
+}
+
+impl EzGripperDevice {
+    /// A device for servo `id` on `bus`; `force_pct` is the grip force limit (% of the
+    /// servo's current limit).
+    pub fn start(info: DeviceInfo, bus: Arc<EzGripperBus>, id: ServoId, force_pct: f32) -> Result<Self, DeviceError> {
+        let mut rx = bus.subscribe(id).map_err(|e| DeviceError::Link(e.to_string()))?;
+        let table = info.table.clone();
+        let cmd = CommandState::new(table.clone());
+        let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (b_cmd, b_stop) = (cmd.clone(), stop.clone());
+        let bridge = std::thread::Builder::new()
+            .name(format!("ezgripper-{}", info.name))
+            .spawn(move || {
+                let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_time().build() else {
+                    return;
+                };
+                rt.block_on(async move {
+                    let mut was_online = false;
+                    let mut ever_online = false;
+                    while !b_stop.load(Ordering::Relaxed) {
+                        let changed = tokio::time::timeout(Duration::from_millis(50), rx.changed()).await;
+                        if matches!(changed, Ok(Err(_))) {
+                            break;
+                        }
+                        let g = rx.borrow_and_update().clone();
+                        let mut st = to_hand_state(&table, &g);
+                        let online = st.freshness == Freshness::Fresh;
+                        if online && !was_online && ever_online {
+                            // Back after an unplug or a silent servo: never replay.
+                            Counters::inc(&b_cmd.counters.reconnects);
+                            b_cmd.reseed(&st.joints);
+                        }
+                        ever_online |= online;
+                        was_online = online;
+                        b_cmd.counters.link_up.store(online as u64, Ordering::Relaxed);
+                        if online {
+                            Counters::inc(&b_cmd.counters.state_samples);
+                        }
+                        let (seq, tag) = b_cmd.applied();
+                        st.cmd_seq = seq;
+                        st.cmd_tag = tag;
+                        st.measured_wall = st
+                            .measured_at
+                            .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
+                        if b_cmd.is_safe() {
+                            st.faults |= faults::SAFE_STATE;
+                        }
+                        let _ = tx.send(st);
+                    }
+                });
+            })
+            .map_err(|e| DeviceError::Link(e.to_string()))?;
+        Ok(Self {
+            info,
+            bus,
+            id,
+            force_pct,
+            cmd,
+            state_rx,
+            stop,
+            bridge: Mutex::new(Some(bridge)),
+        })
+    }
+
+    fn apply(&self) -> Result<(), DeviceError> {
+        let measured = self.state_rx.borrow().joints.clone();
+        let active = self.cmd.step(&measured);
+        let (targets, force) = match &active {
+            Active::Idle => return Ok(()),
+            Active::Safe(SafeAction::Limp, t) => (t, 0.0),
+            Active::Command(t) | Active::Safe(_, t) => (t, self.force_pct),
+        };
+        let pct = self.info.table.to_wire(targets)[0].q;
+        let g = self
+            .bus
+            .gripper(self.id)
+            .map_err(|e| DeviceError::Link(e.to_string()))?;
+        g.set_target(pct, force).map_err(|e| DeviceError::Link(e.to_string()))?;
+        Counters::inc(&self.cmd.counters.sent);
+        Ok(())
+    }
+
+    /// Stops the bridge (the bus stops when its last device is dropped).
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(b) = self.bridge.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            let _ = b.join();
+        }
+    }
+}
+
+impl Drop for EzGripperDevice {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+#[async_trait]
+impl HandDevice for EzGripperDevice {
+    fn info(&self) -> &DeviceInfo {
+        &self.info
+    }
+
+    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
+        self.cmd.submit(cmd)?;
+        self.apply()
+    }
+
+    fn state(&self) -> watch::Receiver<HandState> {
+        self.state_rx.clone()
+    }
+
+    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
+        if self.state_rx.borrow().measured_at.is_none() && action == SafeAction::Hold {
+            return Ok(());
+        }
+        self.cmd.request_safe(action);
+        self.apply()
+    }
+
+    fn stats(&self) -> DeviceStats {
+        let mut s = self.cmd.counters.snapshot();
+        let b = self.bus.stats();
+        s.reconnects = s.reconnects.max(b.reconnects);
+        s.crc_errors = b.crc_errors;
+        s
+    }
+
+    async fn calibrate(&self) -> Result<(), DeviceError> {
+        self.bus
+            .calibrate(self.id)
+            .map_err(|e| DeviceError::Link(e.to_string()))
+    }
+}
