@@ -42,6 +42,9 @@ pub enum Transport {
         servo_id: u8,
         force_pct: f32,
         calibrate_on_start: bool,
+        zero_ticks: Option<i32>,
+        response_timeout_ms: Option<u64>,
+        params: handgate_adapters::ezgripper::EzGripperParams,
     },
     /// G1 rt/hand_sdk.
     HandSdk {

@@ -214,6 +214,13 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
                 force_pct: ez.force_limit_percent.map(f32::from).unwrap_or(100.0),
                 // An emulated gripper powers up uncalibrated, like a real one: calibrate it.
                 calibrate_on_start: ez.calibrate_on_start || emulated,
+                zero_ticks: ez.zero_ticks,
+                response_timeout_ms: ez.response_timeout_ms,
+                params: handgate_adapters::ezgripper::EzGripperParams {
+                    // The profile's max_open_percent is both the Dex1 scale and the clamp.
+                    max_open_pct: f32::from(ez.max_open_percent),
+                    ..ez.params.clone().unwrap_or_default()
+                },
             }
         }
         (DeviceKind::Dex1, Backend::Emulator) => {

@@ -555,7 +555,22 @@ pub struct EzGripperConfig {
     pub force_limit_percent: Option<u8>,
     /// Run the closing calibration at start (moves the gripper).
     pub calibrate_on_start: bool,
+    /// A known calibration zero (raw ticks at the closed stop), e.g. from a previous run
+    /// (SAKE's `/tmp/ezgripper_device_config.json`); a calibration replaces it at run time.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub zero_ticks: Option<i32>,
+    /// Grace for a reply beyond its wire time, ms (USB-serial adapter latency; SAKE's
+    /// `communication.timeout`). Default 20.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub response_timeout_ms: Option<u64>,
+    /// The driver's constants (MX-64 settings, calibration, grasp detection; docs/ezgripper.md),
+    /// every key optional.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub params: Option<EzGripperParams>,
 }
+
+/// The EZGripper driver's constants: the adapter's one table.
+pub use handgate_adapters::ezgripper::EzGripperParams;
 
 impl Default for EzGripperConfig {
     fn default() -> Self {
@@ -566,6 +581,9 @@ impl Default for EzGripperConfig {
             max_open_percent: 100,
             force_limit_percent: None,
             calibrate_on_start: false,
+            zero_ticks: None,
+            response_timeout_ms: None,
+            params: None,
         }
     }
 }
