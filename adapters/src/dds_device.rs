@@ -104,9 +104,12 @@ impl DdsDevice {
         let stop2 = stop.clone();
         let loop_cmd = cmd.clone();
         let name = info.name.clone();
+        let span = tracing::info_span!("device", name = %info.name, kind = %info.kind, backend = info.backend.as_str());
         let thread = std::thread::Builder::new()
             .name(format!("dev-{name}"))
             .spawn(move || {
+                let _span = span.enter();
+                tracing::debug!(rate_hz = config.rate_hz, cmd = %config.cmd_topic, "device loop started");
                 let _keep_reader = reader;
                 let period = Duration::from_secs_f64(1.0 / config.rate_hz.max(1.0));
                 let dt = period.as_secs_f32();
@@ -127,6 +130,7 @@ impl DdsDevice {
                             current = st;
                             if ever_fresh && !link_was_up {
                                 // The peer came back: never replay what was in force before.
+                                tracing::info!("peer back: holding the measured position until the next command");
                                 Counters::inc(&loop_cmd.counters.reconnects);
                                 loop_cmd.reseed(&current.joints);
                             }
@@ -137,6 +141,12 @@ impl DdsDevice {
                     if config.state_topic.is_some() {
                         let stale = current.age(now).map(|a| a > config.stale_after).unwrap_or(true);
                         if stale {
+                            if link_was_up {
+                                tracing::warn!(
+                                    stale_after_ms = config.stale_after.as_millis() as u64,
+                                    "peer state stale: link down"
+                                );
+                            }
                             current.freshness = Freshness::Stale;
                             current.faults |= faults::LINK_DOWN;
                             link_was_up = false;

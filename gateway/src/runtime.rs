@@ -409,96 +409,100 @@ fn spawn_front(
     let mut out = FrontWriters::new(node, f)?;
     let f = f.clone();
     let log = RateLimitedLog::default();
-    Ok(tokio::spawn(async move {
-        let _reader = reader_keep;
-        let device = slot.device.clone();
-        let dtable = slot.table.clone();
-        let counters = slot.counters.clone();
-        let name = f.device.clone();
-        let mut seq: u64 = 0;
-        let mut last_valid: Option<Instant> = None;
-        let mut tripped = false;
-        let mut watchdog = f.watchdog;
-        let mut state_tick = tokio::time::interval(Duration::from_secs_f64(1.0 / f.state_hz.max(0.1)));
-        state_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-        let lf_hz = match &f.kind {
-            FrontKind::Dex3 {
-                lf_state_topic: Some(_),
-                lf_state_hz,
-            } => *lf_state_hz,
-            _ => 0.0,
-        };
-        let mut lf_tick = tokio::time::interval(Duration::from_secs_f64(1.0 / lf_hz.max(0.1)));
-        lf_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-        let mut wd_tick = tokio::time::interval(Duration::from_millis(5));
-        wd_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-        loop {
-            tokio::select! {
-                msg = rx.recv() => {
-                    let Some(msg) = msg else { break };
-                    let measured = {
-                        let st = device.state().borrow().clone();
-                        router::route_state(&ftable, &dtable, &st.joints, st.closure)
-                    };
-                    let decoded: Result<(handgate_adapters::model::CommandBody, u32, bool), Rejection> = match &msg {
-                        Incoming::Dex3(m) => fronts::dex3::decode_cmd(m, &ftable, &measured).map(|c| routed(&ftable, &dtable, c)),
-                        Incoming::Dex1Go(m) => {
-                            let v = match &f.kind { FrontKind::Dex1 { variant, .. } => *variant, _ => Variant::Go };
-                            fronts::dex1::decode_go(m, v, f.side, &ftable).map(|c| routed(&ftable, &dtable, c))
-                        }
-                        Incoming::Dex1Hg(m) => fronts::dex1::decode_hg(m, &ftable).map(|c| routed(&ftable, &dtable, c)),
-                        Incoming::Canonical(m) => fronts::canonical::decode_cmd(m, &dtable, slot.plan.safe_action).map(|b| (b, 0, false)),
-                    };
-                    match decoded {
-                        Ok((body, tag, timeout_bit)) => {
-                            seq += 1;
-                            match device.command(HandCommand { seq, body, tag }) {
-                                Ok(()) => {
-                                    counters.accepted.fetch_add(1, Ordering::Relaxed);
-                                    last_valid = Some(Instant::now());
-                                    watchdog = if timeout_bit { f.watchdog.min(Duration::from_secs(1)) } else { f.watchdog };
-                                    if tripped {
-                                        tripped = false;
-                                        counters.tripped.store(0, Ordering::Relaxed);
-                                        info!(front = %f.state_topic, device = %name, "commands resumed after watchdog");
+    let span = tracing::info_span!("device", name = %slot.plan.name, front = %f.state_topic);
+    Ok(tokio::spawn(tracing::Instrument::instrument(
+        async move {
+            let _reader = reader_keep;
+            let device = slot.device.clone();
+            let dtable = slot.table.clone();
+            let counters = slot.counters.clone();
+            let name = f.device.clone();
+            let mut seq: u64 = 0;
+            let mut last_valid: Option<Instant> = None;
+            let mut tripped = false;
+            let mut watchdog = f.watchdog;
+            let mut state_tick = tokio::time::interval(Duration::from_secs_f64(1.0 / f.state_hz.max(0.1)));
+            state_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            let lf_hz = match &f.kind {
+                FrontKind::Dex3 {
+                    lf_state_topic: Some(_),
+                    lf_state_hz,
+                } => *lf_state_hz,
+                _ => 0.0,
+            };
+            let mut lf_tick = tokio::time::interval(Duration::from_secs_f64(1.0 / lf_hz.max(0.1)));
+            lf_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            let mut wd_tick = tokio::time::interval(Duration::from_millis(5));
+            wd_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            loop {
+                tokio::select! {
+                    msg = rx.recv() => {
+                        let Some(msg) = msg else { break };
+                        let measured = {
+                            let st = device.state().borrow().clone();
+                            router::route_state(&ftable, &dtable, &st.joints, st.closure)
+                        };
+                        let decoded: Result<(handgate_adapters::model::CommandBody, u32, bool), Rejection> = match &msg {
+                            Incoming::Dex3(m) => fronts::dex3::decode_cmd(m, &ftable, &measured).map(|c| routed(&ftable, &dtable, c)),
+                            Incoming::Dex1Go(m) => {
+                                let v = match &f.kind { FrontKind::Dex1 { variant, .. } => *variant, _ => Variant::Go };
+                                fronts::dex1::decode_go(m, v, f.side, &ftable).map(|c| routed(&ftable, &dtable, c))
+                            }
+                            Incoming::Dex1Hg(m) => fronts::dex1::decode_hg(m, &ftable).map(|c| routed(&ftable, &dtable, c)),
+                            Incoming::Canonical(m) => fronts::canonical::decode_cmd(m, &dtable, slot.plan.safe_action).map(|b| (b, 0, false)),
+                        };
+                        match decoded {
+                            Ok((body, tag, timeout_bit)) => {
+                                seq += 1;
+                                match device.command(HandCommand { seq, body, tag }) {
+                                    Ok(()) => {
+                                        counters.accepted.fetch_add(1, Ordering::Relaxed);
+                                        last_valid = Some(Instant::now());
+                                        watchdog = if timeout_bit { f.watchdog.min(Duration::from_secs(1)) } else { f.watchdog };
+                                        if tripped {
+                                            tripped = false;
+                                            counters.tripped.store(0, Ordering::Relaxed);
+                                            info!(front = %f.state_topic, device = %name, "commands resumed after watchdog");
+                                        }
+                                    }
+                                    Err(e) => {
+                                        counters.rejected.fetch_add(1, Ordering::Relaxed);
+                                        log.warn(&f.state_topic, "device_rejected", &e);
                                     }
                                 }
-                                Err(e) => {
-                                    counters.rejected.fetch_add(1, Ordering::Relaxed);
-                                    log.warn(&f.state_topic, "device_rejected", &e);
-                                }
+                            }
+                            Err(r) => {
+                                counters.rejected.fetch_add(1, Ordering::Relaxed);
+                                log.warn(&f.state_topic, r.reason(), &r);
                             }
                         }
-                        Err(r) => {
-                            counters.rejected.fetch_add(1, Ordering::Relaxed);
-                            log.warn(&f.state_topic, r.reason(), &r);
+                    }
+                    _ = wd_tick.tick() => {
+                        if let Some(t) = last_valid {
+                            if !tripped && t.elapsed() > watchdog {
+                                tripped = true;
+                                counters.watchdog_trips.fetch_add(1, Ordering::Relaxed);
+                                counters.tripped.store(1, Ordering::Relaxed);
+                                warn!(front = %f.state_topic, device = %name, timeout_ms = watchdog.as_millis() as u64,
+                                    action = ?slot.plan.safe_action, "command watchdog tripped: moving device to its safe state");
+                                let _ = device.safe_state(slot.plan.safe_action).await;
+                            }
                         }
                     }
-                }
-                _ = wd_tick.tick() => {
-                    if let Some(t) = last_valid {
-                        if !tripped && t.elapsed() > watchdog {
-                            tripped = true;
-                            counters.watchdog_trips.fetch_add(1, Ordering::Relaxed);
-                            counters.tripped.store(1, Ordering::Relaxed);
-                            warn!(front = %f.state_topic, device = %name, timeout_ms = watchdog.as_millis() as u64,
-                                action = ?slot.plan.safe_action, "command watchdog tripped: moving device to its safe state");
-                            let _ = device.safe_state(slot.plan.safe_action).await;
-                        }
+                    _ = state_tick.tick() => {
+                        let st = device.state().borrow().clone();
+                        out.publish(&f, &ftable, &dtable, &st, false);
                     }
+                    _ = lf_tick.tick(), if lf_hz > 0.0 => {
+                        let st = device.state().borrow().clone();
+                        out.publish(&f, &ftable, &dtable, &st, true);
+                    }
+                    _ = shutdown.changed() => break,
                 }
-                _ = state_tick.tick() => {
-                    let st = device.state().borrow().clone();
-                    out.publish(&f, &ftable, &dtable, &st, false);
-                }
-                _ = lf_tick.tick(), if lf_hz > 0.0 => {
-                    let st = device.state().borrow().clone();
-                    out.publish(&f, &ftable, &dtable, &st, true);
-                }
-                _ = shutdown.changed() => break,
             }
-        }
-    }))
+        },
+        span,
+    )))
 }
 
 fn routed(

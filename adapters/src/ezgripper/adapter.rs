@@ -84,9 +84,11 @@ impl EzGripperDevice {
         let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
         let stop = Arc::new(AtomicBool::new(false));
         let (b_cmd, b_stop) = (cmd.clone(), stop.clone());
+        let span = tracing::info_span!("device", name = %info.name, kind = %info.kind, backend = info.backend.as_str());
         let bridge = std::thread::Builder::new()
             .name(format!("ezgripper-{}", info.name))
             .spawn(move || {
+                let _span = span.enter();
                 let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_time().build() else {
                     return;
                 };
@@ -103,6 +105,7 @@ impl EzGripperDevice {
                         let online = st.freshness == Freshness::Fresh;
                         if online && !was_online && ever_online {
                             // Back after an unplug or a silent servo: never replay.
+                            tracing::info!("gripper back: holding the measured position until the next command");
                             Counters::inc(&b_cmd.counters.reconnects);
                             b_cmd.reseed(&st.joints);
                         }

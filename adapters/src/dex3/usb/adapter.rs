@@ -138,9 +138,11 @@ impl Dex3UsbDevice {
         let handle = Arc::new(Mutex::new(Some(handle)));
         let stop = Arc::new(AtomicBool::new(false));
         let (b_cmd, b_handle, b_stop) = (cmd.clone(), handle.clone(), stop.clone());
+        let span = tracing::info_span!("device", name = %info.name, kind = %info.kind, backend = info.backend.as_str());
         let bridge = std::thread::Builder::new()
             .name(format!("dex3-usb-{}", info.name))
             .spawn(move || {
+                let _span = span.enter();
                 let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_time().build() else {
                     return;
                 };
@@ -161,6 +163,10 @@ impl Dex3UsbDevice {
                             // The loop itself holds the first measured state after a
                             // (re)connect; forget the targets that were in force before.
                             if last_connects != 0 {
+                                tracing::info!(
+                                    connects = stats.connects,
+                                    "hand reconnected: holding the measured position until the next command"
+                                );
                                 b_cmd.reseed(&st.joints);
                             }
                             last_connects = stats.connects;
