@@ -531,8 +531,14 @@ impl Link {
                 match frame {
                     Ok(pk) if pk.instruction == Instruction::Status as u8 => {
                         if let Ok(st) = Status::from_packet(&pk) {
-                            waiting.retain(|&id| id != st.id);
-                            out.replies.insert(st.id, st);
+                            if waiting.contains(&st.id) && answers(req, &st) {
+                                waiting.retain(|&id| id != st.id);
+                                out.replies.insert(st.id, st);
+                            } else {
+                                // A late reply to an earlier request (Protocol 2.0 carries
+                                // no sequence number; the shape tells them apart).
+                                self.tally.late += 1;
+                            }
                         }
                     }
                     Ok(_) => {} // our own instruction echoed back by a half-duplex adapter
@@ -1148,6 +1154,20 @@ impl Worker {
             r.contact_rounds = 0;
             s.grasp = if moving { GraspState::Moving } else { GraspState::Idle };
         }
+    }
+}
+
+/// Whether `st` has the shape of a reply to `req`: a read returns its length of data (or an
+/// error without data), a write or reboot returns no data, a ping returns model + firmware.
+fn answers(req: &Request, st: &Status) -> bool {
+    let failed = st.error.number != super::protocol::ErrorNumber::None;
+    match req {
+        Request::Read { len, .. } | Request::SyncRead { len, .. } => {
+            st.params.len() == *len as usize || (failed && st.params.is_empty())
+        }
+        Request::Write { .. } | Request::Reboot { .. } => st.params.is_empty(),
+        Request::Ping { .. } => st.params.len() == 3,
+        Request::SyncWrite { .. } => false,
     }
 }
 

@@ -67,6 +67,9 @@ pub struct EmulatorConfig {
     pub servos: Vec<ServoSpec>,
     /// Extra delay before any reply reaches the host (a USB-serial adapter's latency).
     pub usb_latency: Duration,
+    /// Echo the host's own bytes back, as a half-duplex adapter without echo suppression
+    /// does (the driver must skip its instruction packets in the reply stream).
+    pub echo: bool,
 }
 
 impl EmulatorConfig {
@@ -75,6 +78,7 @@ impl EmulatorConfig {
             baud: 1_000_000,
             servos: ids.iter().map(|&id| ServoSpec::new(id)).collect(),
             usb_latency: Duration::ZERO,
+            echo: false,
         }
     }
 }
@@ -428,6 +432,7 @@ impl VirtualBus {
             stop: stop.clone(),
             byte_time: wire_time(1, cfg.baud),
             usb_latency: cfg.usb_latency,
+            echo: cfg.echo,
         };
         let thread = std::thread::Builder::new()
             .name("ezgripper-emu".into())
@@ -533,6 +538,7 @@ struct Worker {
     stop: Arc<AtomicBool>,
     byte_time: Duration,
     usb_latency: Duration,
+    echo: bool,
 }
 
 /// Sleeps until `deadline` with sub-100-us accuracy (sleep most of it, spin the rest).
@@ -591,6 +597,9 @@ impl Worker {
             }
             let now = Instant::now();
             line_free = line_free.max(now) + self.byte_time * n as u32;
+            if self.echo {
+                let _ = p.write_all(&buf[..n]);
+            }
             decoder.push(&buf[..n]);
             while let Some(frame) = decoder.next_frame() {
                 let pk = match frame {
