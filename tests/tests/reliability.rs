@@ -1317,3 +1317,71 @@ fn gateway_killed_and_restarted_under_load() {
     );
     figure("gateway_killed", "motor_timeout_flag_seen_after_restart", timeouts_seen);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Configuration errors through the real binary (the full table of 38+ bad profiles is
+// gateway/src/profile/tests.rs; e2e_gateway.rs covers the unknown key).
+
+#[test]
+fn bad_profiles_exit_2_with_one_line_naming_file_and_key() {
+    let dir = Scratch::new("config");
+    let cases: [(&str, &str, &str, &str); 4] = [
+        ("wrong type", "[dds]\ndomain = \"three\"\n", "dds.domain", "invalid type"),
+        (
+            "unknown device in a front",
+            "[[fronts]]\nkind = \"canonical\"\ndevice = \"nope\"\n",
+            "fronts[0].device",
+            "no device named `nope`",
+        ),
+        (
+            "duplicate device names",
+            "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n",
+            "devices[1].name",
+            "duplicate device name `g`",
+        ),
+        (
+            "impossible limits",
+            "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.limits.joints]\nthumb_0 = { min = 0.5, max = 0.2 }\n",
+            "devices[0].limits.joints.thumb_0",
+            "must be below max",
+        ),
+    ];
+    let run = |path: &Path| {
+        let mut c = Command::new(handgate_bin());
+        c.args(["run", "--profile"]).arg(path).current_dir(repo_root());
+        for (k, _) in std::env::vars() {
+            if k.starts_with("HANDGATE_") {
+                c.env_remove(k);
+            }
+        }
+        c.output().expect("handgate runs")
+    };
+    for (i, (what, text, key, msg)) in cases.iter().enumerate() {
+        let p = dir.path(&format!("bad{i}.toml"));
+        std::fs::write(&p, text).unwrap();
+        let o = run(&p);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{what}: {err}");
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert_eq!(lines.len(), 1, "{what}: one message: {err}");
+        assert!(
+            lines[0].starts_with(&format!("{}: {key}: ", p.display())),
+            "{what}: {err}"
+        );
+        assert!(lines[0].contains(msg), "{what}: {err}");
+        assert!(
+            !String::from_utf8_lossy(&o.stdout).contains("handgate serving"),
+            "{what}: must not start"
+        );
+    }
+    let missing = dir.path("absent.toml");
+    let o = run(&missing);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "missing file: {err}");
+    assert_eq!(err.lines().filter(|l| !l.trim().is_empty()).count(), 1, "{err}");
+    assert!(
+        err.starts_with(&format!("{}: cannot read profile", missing.display())),
+        "{err}"
+    );
+    figure("config", "bad_profiles_through_binary", cases.len() + 1);
+}
