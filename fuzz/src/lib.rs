@@ -370,16 +370,18 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
         }
     }
     // Valid front commands built here (the fixtures' HandCmd_ has 7 motors; Dex1 needs 1/2).
-    let mut hand = unitree_hg::HandCmd_::default();
-    hand.motor_cmd = (0..7)
-        .map(|i| unitree_hg::MotorCmd_ {
-            mode: RisMode::new(i as u8, MotorStatus::Foc, false).encode(),
-            q: 0.3,
-            kp: 1.5,
-            kd: 0.1,
-            ..Default::default()
-        })
-        .collect();
+    let hand = unitree_hg::HandCmd_ {
+        motor_cmd: (0..7)
+            .map(|i| unitree_hg::MotorCmd_ {
+                mode: RisMode::new(i as u8, MotorStatus::Foc, false).encode(),
+                q: 0.3,
+                kp: 1.5,
+                kd: 0.1,
+                ..Default::default()
+            })
+            .collect(),
+        ..Default::default()
+    };
     out.push((
         "front_decode",
         "dex3_valid".into(),
@@ -455,7 +457,7 @@ fn json_str(text: &str, key: &str) -> Option<String> {
 }
 
 fn unhex(s: &str) -> Option<Vec<u8>> {
-    if s.len() % 2 != 0 {
+    if s.len() & 1 == 1 {
         return None;
     }
     (0..s.len())
