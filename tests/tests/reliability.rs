@@ -1385,3 +1385,53 @@ fn bad_profiles_exit_2_with_one_line_naming_file_and_key() {
     );
     figure("config", "bad_profiles_through_binary", cases.len() + 1);
 }
+
+/// A link stall longer than the motors' 1 s timeout protection but shorter than the loop's
+/// reconnect threshold (100 failures x 20 ms): the motors latch their timeout (limp) while the
+/// loop keeps the same session. Nothing may move by itself afterwards (no replay of the old
+/// target), and a NEW command must move the hand again.
+#[test]
+fn usb_stall_past_the_motor_timeout_then_a_new_command_moves() {
+    let _serial = serial();
+    let (dev, table) = usb_device(Side::Left);
+    let emu = dev.emulator.clone().expect("in-process emulator");
+    let rx = dev.state();
+    let st = || rx.borrow().clone();
+    let ix = canon_index(&table, "index_0");
+    poll(DEADLINE, || (st().freshness == Freshness::Fresh).then_some(())).expect("link up");
+    dev.command(joint_cmd(1, ix, 0.8)).unwrap();
+    poll(DEADLINE, || ((st().joints[ix].q - 0.8).abs() < TOL).then_some(())).expect("at 0.8");
+    let reconnects = dev.stats().reconnects;
+    // 1.5 s with no exchange reaching the hand (the emulator's clock catches up on the next
+    // exchange: the motors go limp after 1 s and latch it).
+    emu.lock().unwrap().stall_for(Duration::from_millis(1500));
+    poll(DEADLINE, || (st().freshness == Freshness::Stale).then_some(())).expect("stale");
+    poll(DEADLINE, || (st().freshness == Freshness::Fresh).then_some(())).expect("fresh again");
+    let latched = poll(Duration::from_secs(5), || {
+        (st().faults & faults::MOTOR_TIMEOUT != 0).then_some(())
+    });
+    let same_session = dev.stats().reconnects == reconnects;
+    figure("usb_faults", "stall_1500ms_motor_timeout_latched", latched.is_some());
+    figure("usb_faults", "stall_1500ms_same_session", same_session);
+    assert!(
+        latched.is_some(),
+        "the 1.5 s stall should trip the motors' 1 s timeout: {:?}",
+        st()
+    );
+    // A new command must move the hand (regression: it stayed limp, the latch never cleared).
+    dev.command(joint_cmd(2, ix, 0.3)).unwrap();
+    let t0 = Instant::now();
+    let moved = poll(Duration::from_secs(5), || {
+        ((st().joints[ix].q - 0.3).abs() < TOL).then(|| t0.elapsed())
+    });
+    assert!(
+        moved.is_some(),
+        "a new command after a 1.5 s stall did not move the hand: {:?}",
+        st()
+    );
+    figure(
+        "usb_faults",
+        "stall_1500ms_new_command_reached_target_ms",
+        ms(moved.unwrap()),
+    );
+}
