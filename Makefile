@@ -2,6 +2,9 @@
 #   make run   - install what is missing, build, start the gateway on its embedded default
 #                profile (the simulated fleet on DDS domain 1)
 #   make test  - install what is missing (incl. the interop venv), then the whole suite
+#                (with the short reliability suites and a 15 s smoke run of every fuzz target)
+#   make reliability - the full reliability suites (docs/reliability.md): 10,000 malformed
+#                samples per front, every fault cycle repeated, each fuzz target 10 minutes
 SHELL := /bin/bash
 CARGO ?= cargo
 ARGS ?=
@@ -20,8 +23,15 @@ run: build
 test: setup
 	$(CARGO) build --workspace --all-targets
 	$(CARGO) test --workspace --no-fail-fast
+	scripts/fuzz.sh smoke 15
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) fmt --all -- --check
+
+FUZZ_SECS ?= 600
+reliability: setup
+	$(CARGO) build -p handgate
+	HANDGATE_RELIABILITY_FULL=1 $(CARGO) test -p handgate-tests --test reliability -- --nocapture --test-threads=1
+	scripts/fuzz.sh full $(FUZZ_SECS)
 
 lint:
 	$(CARGO) clippy --workspace --all-targets -- -D warnings

@@ -182,8 +182,12 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
         (DeviceKind::Dex3, Backend::Usb | Backend::Emulator) => {
             let usb = d.usb.clone().unwrap_or_default();
             let source = if d.backend == Backend::Usb {
-                UsbSource::Hardware {
-                    serial: usb.serial.clone(),
+                match &usb.socket {
+                    // `usb.socket`: the MCU emulator in another process (`handgate emulate`).
+                    Some(path) => UsbSource::Socket(path.clone()),
+                    None => UsbSource::Hardware {
+                        serial: usb.serial.clone(),
+                    },
                 }
             } else {
                 let mut q = [0.0f32; 7];

@@ -432,6 +432,9 @@ fn spawn_front(
             };
             let mut lf_tick = tokio::time::interval(Duration::from_secs_f64(1.0 / lf_hz.max(0.1)));
             lf_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            // Commands dropped because this front's queue was full (reported at most once a
+            // second, with the running total, so a flood's losses are visible).
+            let mut dropped_reported = (0u64, Instant::now() - Duration::from_secs(2));
             let mut wd_tick = tokio::time::interval(Duration::from_millis(5));
             wd_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
             loop {
@@ -478,6 +481,12 @@ fn spawn_front(
                         }
                     }
                     _ = wd_tick.tick() => {
+                        let d = dropped.load(Ordering::Relaxed);
+                        if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
+                            warn!(front = %f.state_topic, device = %name, dropped = d - dropped_reported.0,
+                                queue_full_total = d, "front queue full: commands dropped unprocessed");
+                            dropped_reported = (d, Instant::now());
+                        }
                         if let Some(t) = last_valid {
                             if !tripped && t.elapsed() > watchdog {
                                 tripped = true;

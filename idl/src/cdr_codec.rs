@@ -34,3 +34,152 @@ pub fn from_cdr<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, CdrError> {
     let bound = (bytes.len() as u64).min(MAX_DECODE_BYTES);
     cdr::deserialize_from::<_, T, _>(bytes, cdr::Bounded(bound)).map_err(|e| CdrError::Decode(e.to_string()))
 }
+
+/// CDR strings decoded without trusting their length prefix.
+///
+/// The `cdr` crate (0.2.4, also what cyclonedds-rs decodes every received sample with)
+/// allocates and zero-fills a buffer of the announced string length *before* checking it
+/// against the bytes that exist, so one malformed sample announcing a 4 GiB string costs 4 GiB
+/// of memory (found by `fuzz/` cdr_decode; docs/reliability.md). Every `String` field of the
+/// wire types decodes through [`cdr_string::deserialize`] instead: the same bytes (u32 length
+/// including the terminating NUL, then the bytes), read one element at a time so the size
+/// bound stops a lying length after the bytes that are actually there.
+pub mod cdr_string {
+    use std::fmt;
+
+    use serde::de::{self, DeserializeSeed, Deserializer, SeqAccess, Visitor};
+
+    /// Largest string kept (bytes); longer ones are a decode error. Joint and device names
+    /// are tens of bytes.
+    pub const MAX_STRING: usize = 64 * 1024;
+
+    struct StrVisitor;
+
+    impl<'de> Visitor<'de> for StrVisitor {
+        type Value = String;
+
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("a CDR string (u32 length, bytes)")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<String, A::Error> {
+            let len: u32 = seq
+                .next_element()?
+                .ok_or_else(|| de::Error::custom("string length missing"))?;
+            let len = len as usize;
+            if len > MAX_STRING {
+                return Err(de::Error::custom(format!("string of {len} bytes (max {MAX_STRING})")));
+            }
+            let mut buf = Vec::with_capacity(len.min(256));
+            for _ in 0..len {
+                let b: u8 = seq
+                    .next_element()?
+                    .ok_or_else(|| de::Error::custom("string truncated"))?;
+                buf.push(b);
+            }
+            // The length counts the terminating NUL (as the cdr crate: drop the last byte).
+            buf.pop();
+            String::from_utf8(buf).map_err(de::Error::custom)
+        }
+    }
+
+    /// `#[serde(deserialize_with = "cdr_string::deserialize")]` for a `String` field.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<String, D::Error> {
+        // A tuple reads nothing up front: the visitor pulls the length, then the bytes.
+        d.deserialize_tuple(usize::MAX, StrVisitor)
+    }
+
+    struct StrSeed;
+
+    impl<'de> DeserializeSeed<'de> for StrSeed {
+        type Value = String;
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<String, D::Error> {
+            deserialize(d)
+        }
+    }
+
+    struct VecVisitor;
+
+    impl<'de> Visitor<'de> for VecVisitor {
+        type Value = Vec<String>;
+
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("a CDR sequence of strings")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<String>, A::Error> {
+            let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(256));
+            while let Some(s) = seq.next_element_seed(StrSeed)? {
+                out.push(s);
+            }
+            Ok(out)
+        }
+    }
+
+    /// `#[serde(deserialize_with = "cdr_string::deserialize_vec")]` for a `Vec<String>` field.
+    pub fn deserialize_vec<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<String>, D::Error> {
+        d.deserialize_seq(VecVisitor)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{handgate as hg, ros2};
+
+    /// Regression (fuzz/ cdr_decode, out-of-memory): a string announcing ~4 GiB must fail
+    /// fast, not allocate it.
+    #[test]
+    fn lying_string_length_is_an_error_not_an_allocation() {
+        let mut ok = hg::HandCmd_::default();
+        ok.joints.push(hg::JointCmd_ {
+            name: "index_0".into(),
+            ..Default::default()
+        });
+        for enc in [to_cdr_le::<hg::HandCmd_>, to_cdr_be::<hg::HandCmd_>] {
+            let bytes = enc(&ok).unwrap();
+            assert_eq!(from_cdr::<hg::HandCmd_>(&bytes).unwrap(), ok);
+            // The name's length word sits after seq(8) mode(1)+pad(3) closure(4) stiffness(4)
+            // count(4), after the 4-byte encapsulation header.
+            let at = 4 + 8 + 4 + 4 + 4 + 4;
+            for len in [0xFFFF_FFF0u32, 0x8000_0000, MAX_DECODE_BYTES as u32 + 1, 100] {
+                let mut bad = bytes.clone();
+                let word = if bytes[1] == 1 {
+                    len.to_le_bytes()
+                } else {
+                    len.to_be_bytes()
+                };
+                bad[at..at + 4].copy_from_slice(&word);
+                assert!(from_cdr::<hg::HandCmd_>(&bad).is_err(), "length {len:#x}");
+            }
+        }
+        // The fuzzer's input: a ros2 JointState_ whose name sequence lies the same way.
+        let js = ros2::JointState_ {
+            name: vec!["a".into(), "bc".into()],
+            ..Default::default()
+        };
+        let bytes = to_cdr_le(&js).unwrap();
+        assert_eq!(from_cdr::<ros2::JointState_>(&bytes).unwrap(), js);
+        let mut bad = bytes.clone();
+        let n = bad.len();
+        bad.truncate(n - 12);
+        assert!(from_cdr::<ros2::JointState_>(&bad).is_err());
+    }
+
+    #[test]
+    fn empty_and_long_strings_round_trip() {
+        for name in [String::new(), "x".repeat(1000)] {
+            let v = hg::JointCmd_ {
+                name,
+                ..Default::default()
+            };
+            assert_eq!(from_cdr::<hg::JointCmd_>(&to_cdr_le(&v).unwrap()).unwrap(), v);
+            assert_eq!(from_cdr::<hg::JointCmd_>(&to_cdr_be(&v).unwrap()).unwrap(), v);
+        }
+        let v = hg::JointCmd_ {
+            name: "y".repeat(cdr_string::MAX_STRING + 1),
+            ..Default::default()
+        };
+        assert!(from_cdr::<hg::JointCmd_>(&to_cdr_le(&v).unwrap()).is_err());
+    }
+}

@@ -13,6 +13,7 @@ pub const COMMANDED_ONLY: u8 = 2;
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct JointCmd_ {
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub name: String,
     pub q: f32,
     pub dq: f32,
@@ -34,6 +35,7 @@ keyless_topic_type!(HandCmd_, "handgate::msg::dds_::HandCmd_");
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct JointState_ {
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub name: String,
     pub q: f32,
     pub dq: f32,
@@ -44,8 +46,11 @@ keyless_topic_type!(JointState_, "handgate::msg::dds_::JointState_");
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct HandState_ {
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub device: String,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub kind: String,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub side: String,
     pub cmd_seq: u64,
     pub stamp_ns: u64,
@@ -63,8 +68,11 @@ keyless_topic_type!(HandState_, "handgate::msg::dds_::HandState_");
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct DeviceStatus_ {
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub device: String,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub kind: String,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub backend: String,
     pub freshness: u8,
     pub safe: bool,
@@ -81,6 +89,7 @@ keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct GatewayStatus_ {
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub profile: String,
     pub uptime_ms: u64,
     pub devices: Vec<DeviceStatus_>,

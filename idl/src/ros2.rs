@@ -16,6 +16,7 @@ keyless_topic_type!(Time_, "builtin_interfaces::msg::dds_::Time_");
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Header_ {
     pub stamp: Time_,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub frame_id: String,
 }
 keyless_topic_type!(Header_, "std_msgs::msg::dds_::Header_");
@@ -24,6 +25,7 @@ keyless_topic_type!(Header_, "std_msgs::msg::dds_::Header_");
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct JointState_ {
     pub header: Header_,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize_vec")]
     pub name: Vec<String>,
     pub position: Vec<f64>,
     pub velocity: Vec<f64>,

@@ -595,6 +595,21 @@ fn actuator_fronts_for_both_sides_share_the_topic() {
 }
 
 #[test]
+fn usb_socket_points_the_device_at_the_emulator_process() {
+    // Regression: `usb.socket` was validated but ignored, so the device looked for USB hardware.
+    let text = "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n[devices.usb]\nsocket = \"/tmp/h.sock\"\n";
+    let (_, r) = load_text(text);
+    let plan = crate::resolve::plan(&r.unwrap().profile).unwrap();
+    match &plan.devices[0].transport {
+        crate::plan::Transport::Dex3Usb {
+            source: handgate_adapters::dex3::usb::adapter::UsbSource::Socket(p),
+            ..
+        } => assert_eq!(p, Path::new("/tmp/h.sock")),
+        _ => panic!("usb.socket must select the socket transport"),
+    }
+}
+
+#[test]
 fn any_front_kind_binds_any_device_kind() {
     // The migration shim: a dex1 front driving an EZGripper, a dex3 front on a Dex1.
     let text = "[[devices]]\nname = \"g\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"d\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"d\"\n";

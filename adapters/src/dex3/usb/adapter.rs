@@ -249,6 +249,15 @@ impl HandDevice for Dex3UsbDevice {
     fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
         self.cmd.submit(cmd)?;
         self.apply();
+        // Motors whose 1 s timeout protection tripped while the link stalled (shorter than a
+        // reconnect, which clears it) stay limp until the latch is cleared. A NEW client
+        // command is the intent to move again: clear it now that the new targets are in
+        // place (the old target is never re-energised by itself). docs/reliability.md.
+        if self.state_rx.borrow().faults & faults::MOTOR_TIMEOUT != 0 {
+            if let Some(h) = self.handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+                h.clear_timeouts();
+            }
+        }
         Ok(())
     }
 

@@ -1,0 +1,3 @@
+#![no_main]
+//! See handgate_fuzz::dex3_emulator_frame.
+libfuzzer_sys::fuzz_target!(|data: &[u8]| handgate_fuzz::dex3_emulator_frame(data));
