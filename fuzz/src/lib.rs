@@ -335,6 +335,29 @@ pub fn front_decode(data: &[u8]) {
 /// Seed inputs per target: (target, name, bytes). CDR seeds come from the committed golden
 /// fixtures (`tests/fixtures/golden/*.json`, `cdr_le_hex`, written by unitree_sdk2py /
 /// CycloneDDS Python); Dex3 frames from the codec and the emulator.
+/// Dynamixel Protocol 2.0 stream decoder, fed in chunks of (byte 0 % 64 + 1) bytes: every
+/// packet it yields re-encodes (`encode_packet`) to bytes that decode to the same packet, and
+/// the status/request views never panic.
+pub fn dynamixel_packet(data: &[u8]) {
+    use handgate_adapters::ezgripper::protocol::{encode_packet, Decoder, Request, Status};
+    let Some((&step, body)) = data.split_first() else {
+        return;
+    };
+    let mut d = Decoder::new();
+    for chunk in body.chunks(step as usize % 64 + 1) {
+        d.push(chunk);
+        while let Some(frame) = d.next_frame() {
+            let Ok(p) = frame else { continue };
+            let _ = Status::from_packet(&p);
+            let _ = Request::from_packet(&p);
+            let bytes = encode_packet(p.id, p.instruction, &p.params).expect("a decoded packet re-encodes");
+            let mut again = Decoder::new();
+            again.push(&bytes);
+            assert_eq!(again.next_frame().and_then(Result::ok).as_ref(), Some(&p));
+        }
+    }
+}
+
 pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>)> {
     let mut out = Vec::new();
     // Golden CDR fixtures.
@@ -437,6 +460,26 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
         structured.extend_from_slice(&[i % 5, 0x10 | (i % 3), 0, 0, 0, 0, 0, 0x40, 0x1F, 0, 0, 0x2C, 1, 20, 0]);
     }
     out.push(("dex3_emulator_frame", "structured".into(), structured));
+    // Dynamixel packets: ping, a read, a sync read and a status with stuffed bytes.
+    {
+        use handgate_adapters::ezgripper::protocol::encode_packet;
+        let packets: [(u8, u8, &[u8]); 4] = [
+            (1, 0x01, &[]),
+            (1, 0x02, &[0x84, 0x00, 0x04, 0x00]),
+            (0xFE, 0x82, &[0x84, 0x00, 0x04, 0x00, 0x01, 0x02]),
+            (2, 0x55, &[0x00, 0xFF, 0xFF, 0xFD, 0x01]),
+        ];
+        let mut stream = vec![7u8];
+        for (k, (id, inst, params)) in packets.iter().enumerate() {
+            if let Ok(b) = encode_packet(*id, *inst, params) {
+                let mut v = vec![64u8];
+                v.extend_from_slice(&b);
+                out.push(("dynamixel_packet", format!("packet_{k}"), v));
+                stream.extend_from_slice(&b);
+            }
+        }
+        out.push(("dynamixel_packet", "stream".to_string(), stream));
+    }
     out
 }
 
