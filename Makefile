@@ -2,6 +2,7 @@
 #   make run   - install what is missing, build, start the gateway on its embedded default
 #                profile (the simulated fleet on DDS domain 1)
 #   make test  - install what is missing (incl. the interop venv), then the whole suite
+#   make bench - release benchmarks (minutes); rewrites docs/benchmarks.md
 SHELL := /bin/bash
 CARGO ?= cargo
 ARGS ?=
@@ -22,6 +23,9 @@ test: setup
 	$(CARGO) test --workspace --no-fail-fast
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) fmt --all -- --check
+
+bench: setup
+	@scripts/bench.sh
 
 lint:
 	$(CARGO) clippy --workspace --all-targets -- -D warnings

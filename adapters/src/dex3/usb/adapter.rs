@@ -4,6 +4,7 @@
 //! real hand through libusb, the MCU emulator in-process, or the emulator as a separate
 //! process behind a Unix socket — the emulator plugs in exactly where the hardware would.
 
+use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -106,6 +107,9 @@ pub fn to_hand_state(table: &DeviceTable, m: &Dex3Measurement, connected: bool) 
 pub struct Dex3UsbDevice {
     info: DeviceInfo,
     cmd: CommandState,
+    /// (loop command seq, client seq, client tag) of the commands handed to the loop, oldest
+    /// first: the bridge tags a measurement with the client command its exchange sent.
+    sent: Arc<Mutex<VecDeque<(u64, u64, u32)>>>,
     handle: Arc<Mutex<Option<Dex3UsbHandle>>>,
     state_rx: watch::Receiver<HandState>,
     stop: Arc<AtomicBool>,
@@ -137,7 +141,8 @@ impl Dex3UsbDevice {
         let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
         let handle = Arc::new(Mutex::new(Some(handle)));
         let stop = Arc::new(AtomicBool::new(false));
-        let (b_cmd, b_handle, b_stop) = (cmd.clone(), handle.clone(), stop.clone());
+        let sent: Arc<Mutex<VecDeque<(u64, u64, u32)>>> = Arc::default();
+        let (b_cmd, b_handle, b_stop, b_sent) = (cmd.clone(), handle.clone(), stop.clone(), sent.clone());
         let bridge = std::thread::Builder::new()
             .name(format!("dex3-usb-{}", info.name))
             .spawn(move || {
@@ -146,6 +151,8 @@ impl Dex3UsbDevice {
                 };
                 rt.block_on(async move {
                     let mut last_connects = 0;
+                    // (client seq, tag) of the newest command a measurement reflects.
+                    let mut echo = (0u64, 0u32);
                     while !b_stop.load(Ordering::Relaxed) {
                         let changed = tokio::time::timeout(std::time::Duration::from_millis(50), rx.changed()).await;
                         if matches!(changed, Ok(Err(_))) {
@@ -166,9 +173,9 @@ impl Dex3UsbDevice {
                             last_connects = stats.connects;
                         }
                         b_cmd.counters.link_up.store(stats.connected as u64, Ordering::Relaxed);
-                        let (seq, tag) = b_cmd.applied();
-                        st.cmd_seq = seq;
-                        st.cmd_tag = tag;
+                        echo =
+                            reflected(&mut b_sent.lock().unwrap_or_else(|p| p.into_inner()), m.cmd_seq).unwrap_or(echo);
+                        (st.cmd_seq, st.cmd_tag) = echo;
                         st.measured_wall = st
                             .measured_at
                             .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
@@ -183,6 +190,7 @@ impl Dex3UsbDevice {
         Ok(Self {
             info,
             cmd,
+            sent,
             handle,
             state_rx,
             stop,
@@ -201,7 +209,13 @@ impl Dex3UsbDevice {
             Active::Command(t) | Active::Safe(_, t) => t,
         };
         if let Some(h) = self.handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-            h.set_command(to_dex3_command(&self.info.table, targets));
+            let mut sent = self.sent.lock().unwrap_or_else(|p| p.into_inner());
+            let loop_seq = h.set_command(to_dex3_command(&self.info.table, targets));
+            let (seq, tag) = self.cmd.applied();
+            sent.push_back((loop_seq, seq, tag));
+            while sent.len() > SENT_HISTORY {
+                sent.pop_front();
+            }
             Counters::inc(&self.cmd.counters.sent);
         }
     }
@@ -222,6 +236,22 @@ impl Drop for Dex3UsbDevice {
     fn drop(&mut self) {
         self.stop();
     }
+}
+
+/// Commands remembered for tagging measurements (the loop sends one per 1 ms cycle; older
+/// entries are superseded long before they could be looked up).
+const SENT_HISTORY: usize = 64;
+
+/// The (client seq, tag) of the newest command handed to the loop at or before loop seq
+/// `loop_seq`, dropping the older entries; `None` when no such command is known.
+fn reflected(sent: &mut VecDeque<(u64, u64, u32)>, loop_seq: u64) -> Option<(u64, u32)> {
+    let n = sent.iter().take_while(|(s, _, _)| *s <= loop_seq).count();
+    if n == 0 {
+        return None;
+    }
+    let (_, seq, tag) = sent[n - 1];
+    sent.drain(..n - 1);
+    Some((seq, tag))
 }
 
 /// Capabilities of a Dex3 over USB.

@@ -229,10 +229,14 @@ impl Dex3UsbHandle {
     /// that is already up when it is set: commands set before a (re)connect, including while
     /// disconnected, are never sent (the hand holds its measured position until the next
     /// `set_command`). Set the first command once `latest()` shows a fresh measurement.
-    pub fn set_command(&self, cmd: Dex3Command) {
+    ///
+    /// Returns the command's sequence number: the measurements of exchanges that sent it carry
+    /// it in [`Dex3Measurement::cmd_seq`].
+    pub fn set_command(&self, cmd: Dex3Command) -> u64 {
         let mut slot = self.shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
         let seq = self.shared.cmd_seq.fetch_add(1, Ordering::SeqCst) + 1;
         *slot = Some((seq, cmd));
+        seq
     }
 
     /// Sends the timeout bit at 0 for one exchange, clearing latched timeout trips.
@@ -379,9 +383,10 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
         // Choose what to send.
         let user = {
             let slot = shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
-            slot.filter(|(seq, _)| *seq > sess.floor_seq).map(|(_, c)| c)
+            slot.filter(|(seq, _)| *seq > sess.floor_seq)
         };
-        let cmd = match user {
+        let sent_seq = user.filter(|_| !sess.first_exchange).map(|(seq, _)| seq);
+        let cmd = match user.map(|(_, c)| c) {
             Some(c) => c,
             None => {
                 let mut c = Dex3Command::damping(cfg.hold_kd);
@@ -417,6 +422,9 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
                         meas.measured_at = now;
                         meas.stale = false;
                         meas.seq += 1;
+                        if let Some(seq) = sent_seq {
+                            meas.cmd_seq = seq;
+                        }
                         sess.consecutive_failures = 0;
                         for (i, seen) in rep.motors_seen.iter().enumerate() {
                             if *seen && sess.hold[i].is_none() {
