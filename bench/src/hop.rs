@@ -79,8 +79,19 @@ pub fn client(
     let t0 = Instant::now();
     let mut anchor = t0;
     let mut i = 0usize;
+    // Each command goes out at a uniformly random point of its period (xorshift64), so its
+    // phase against the 1 kHz device loop is uniform, as for an unsynchronised client; with
+    // exact periods the two clocks lock and every command waits the same fixed fraction of
+    // a cycle.
+    let mut rng: u64 = 0x9E37_79B9_7F4A_7C15 ^ u64::from(base);
+    let mut dither = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        period.mul_f64((rng >> 11) as f64 / (1u64 << 53) as f64)
+    };
     while i < max_sent {
-        let deadline = anchor + period * i as u32;
+        let deadline = anchor + period * i as u32 + dither();
         let now = Instant::now();
         if deadline > now {
             std::thread::sleep(deadline - now);

@@ -184,7 +184,8 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     body.push_str("\n## 3. End-to-end hop: HandCmd_ in, the HandState_ reflecting it out\n\n");
     body.push_str(
         "`handgate-bench hop`: a Rust client publishes unitree_hg `HandCmd_` on `rt/dex3/left/cmd` with a \
-         unique tag in `reserve[0]` at a fixed rate and times the first `HandState_` on \
+         unique tag in `reserve[0]` at a fixed rate (each command at a uniformly random point of its \
+         period, so its phase against the device loop is that of an unsynchronised client) and times the first `HandState_` on \
          `rt/dex3/left/state` whose `reserve[0]` carries it (timestamps taken in the client's DDS \
          listener). Peers, each on its own DDS domain, same host, CycloneDDS picking the interface:\n\n\
          - **floor**: a Rust process (`handgate-bench echo`) that answers every command from its DDS \

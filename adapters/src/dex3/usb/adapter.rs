@@ -159,20 +159,22 @@ impl Dex3UsbDevice {
                             break;
                         }
                         let m = rx.borrow_and_update().clone();
-                        let stats = match b_handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-                            Some(h) => h.stats(),
+                        // Runs once per measurement (1 kHz): `link()`, not `stats()`, which
+                        // copies the 32 kB period histogram.
+                        let (connected, connects) = match b_handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+                            Some(h) => h.link(),
                             None => break,
                         };
-                        let mut st = to_hand_state(&table, &m, stats.connected);
-                        if stats.connects != last_connects && m.seq > 0 && !m.stale {
+                        let mut st = to_hand_state(&table, &m, connected);
+                        if connects != last_connects && m.seq > 0 && !m.stale {
                             // The loop itself holds the first measured state after a
                             // (re)connect; forget the targets that were in force before.
                             if last_connects != 0 {
                                 b_cmd.reseed(&st.joints);
                             }
-                            last_connects = stats.connects;
+                            last_connects = connects;
                         }
-                        b_cmd.counters.link_up.store(stats.connected as u64, Ordering::Relaxed);
+                        b_cmd.counters.link_up.store(connected as u64, Ordering::Relaxed);
                         echo =
                             reflected(&mut b_sent.lock().unwrap_or_else(|p| p.into_inner()), m.cmd_seq).unwrap_or(echo);
                         (st.cmd_seq, st.cmd_tag) = echo;

@@ -252,6 +252,13 @@ impl Dex3UsbHandle {
         self.rx.clone()
     }
 
+    /// Whether the transport is up, and how many times it was opened: [`Self::stats`] without
+    /// copying the period histogram (cheap enough for every cycle).
+    pub fn link(&self) -> (bool, u64) {
+        let s = self.shared.stats.lock().unwrap_or_else(|e| e.into_inner());
+        (s.connected, s.connects)
+    }
+
     pub fn stats(&self) -> LoopStats {
         self.shared.stats.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
