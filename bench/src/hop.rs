@@ -139,21 +139,57 @@ pub fn client(
 }
 
 /// The floor: answers every HandCmd_ at once, from the DDS listener thread, with a HandState_
-/// of 7 motors and 9 pads echoing `reserve[0]`. Runs until killed.
-pub fn echo(domain: u32, iface: Option<&str>, cmd_topic: &str, state_topic: &str) -> anyhow::Result<()> {
+/// of 7 motors and 9 pads echoing `reserve[0]`. With `tick`, an ideal gateway in front of a
+/// device polled at that period instead: the newest tag is answered at the next tick of its
+/// own clock (no device, no work: only the wait for the next cycle). Runs until killed.
+pub fn echo(
+    domain: u32,
+    iface: Option<&str>,
+    cmd_topic: &str,
+    state_topic: &str,
+    tick: Option<Duration>,
+) -> anyhow::Result<()> {
     let node = Node::new(domain, iface)?;
-    let mut writer = node.writer::<HandState_>(state_topic, Qos::BestEffort)?;
+    let writer = node.writer::<HandState_>(state_topic, Qos::BestEffort)?;
+    let answer = |w: &mut handgate_adapters::dds::Writer<HandState_>, tag: u32| {
+        let mut s = HandState_::with_sizes(DEX3_MOTORS, DEX3_PRESS_SENSORS);
+        s.reserve[0] = tag;
+        let _ = w.write(s);
+    };
+    let pending: Arc<Mutex<Option<u32>>> = Arc::default();
+    let p = pending.clone();
+    let (mut direct, ticked) = match tick {
+        None => (Some(writer), None),
+        Some(_) => (None, Some(writer)),
+    };
     let _reader = node.reader_with_callback::<HandCmd_, _>(cmd_topic, Qos::Reliable { depth: 16 }, move |h| {
         let mut v = Vec::new();
         h.take_into(&mut v);
         for c in v {
-            let mut s = HandState_::with_sizes(DEX3_MOTORS, DEX3_PRESS_SENSORS);
-            s.reserve[0] = c.reserve[0];
-            let _ = writer.write(s);
+            match direct.as_mut() {
+                Some(w) => answer(w, c.reserve[0]),
+                None => *p.lock().unwrap_or_else(|e| e.into_inner()) = Some(c.reserve[0]),
+            }
         }
     })?;
     println!("READY");
+    let (Some(tick), Some(mut writer)) = (tick, ticked) else {
+        loop {
+            std::thread::park();
+        }
+    };
+    let t0 = Instant::now();
+    let mut k: u32 = 0;
     loop {
-        std::thread::park();
+        k = k.wrapping_add(1);
+        let next = t0 + tick * k;
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        }
+        let tag = pending.lock().unwrap_or_else(|e| e.into_inner()).take();
+        if let Some(tag) = tag {
+            answer(&mut writer, tag);
+        }
     }
 }

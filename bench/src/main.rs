@@ -56,13 +56,13 @@ enum Cmd {
         samples: usize,
         #[arg(long, default_value_t = 200)]
         warmup: usize,
-        /// Domains: base (handgate), base+1 (floor), base+2 (relay).
+        /// Domains: base (handgate), base+1 (floor), base+2 (relay), base+3 (floor + tick).
         #[arg(long, default_value_t = 100)]
         domain_base: u32,
         #[arg(long)]
         interface: Option<String>,
-        /// Only these peers (floor, handgate, python).
-        #[arg(long, value_delimiter = ',', default_value = "floor,handgate,python")]
+        /// Only these peers (floor, floor-1khz, handgate, python).
+        #[arg(long, value_delimiter = ',', default_value = "floor,floor-1khz,handgate,python")]
         only: Vec<String>,
         #[arg(long)]
         out: PathBuf,
@@ -77,6 +77,9 @@ enum Cmd {
         cmd_topic: String,
         #[arg(long, default_value = "rt/dex3/left/state")]
         state_topic: String,
+        /// Answer at the next tick of this period (µs) instead of at once.
+        #[arg(long)]
+        tick_us: Option<u64>,
     },
     /// Fleet scale: one gateway with many emulated devices.
     Fleet {
@@ -199,6 +202,18 @@ fn main() -> anyhow::Result<()> {
                             child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
                         )
                     }
+                    "floor-1khz" => {
+                        let mut c = Command::new(std::env::current_exe()?);
+                        c.args(["echo", "--tick-us", "1000", "--domain", &(domain_base + 3).to_string()]);
+                        if let Some(i) = iface {
+                            c.args(["--interface", i]);
+                        }
+                        (
+                            "floor + 1 kHz tick",
+                            domain_base + 3,
+                            child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
+                        )
+                    }
                     "handgate" => ("handgate", domain_base, gateway(&handgate, domain_base, iface, None)?),
                     "python" => {
                         let Some(py) = python.as_ref().filter(|p| p.exists()) else {
@@ -236,7 +251,14 @@ fn main() -> anyhow::Result<()> {
             interface,
             cmd_topic,
             state_topic,
-        } => hop::echo(domain, interface.as_deref(), &cmd_topic, &state_topic)?,
+            tick_us,
+        } => hop::echo(
+            domain,
+            interface.as_deref(),
+            &cmd_topic,
+            &state_topic,
+            tick_us.map(Duration::from_micros),
+        )?,
         Cmd::Fleet {
             handgate,
             dex3,
