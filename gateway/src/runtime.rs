@@ -150,6 +150,13 @@ fn build_dds_device(node: &Node, p: &DevicePlan, table: Arc<DeviceTable>) -> Res
                 hold_kd: table.hold_kd,
                 wiring: *wiring,
                 scalings: *scalings,
+                // The spin before each deadline buys period jitter for real hardware; an
+                // emulated hand has no use for it, and a fleet of them would burn a core on it
+                // (docs/benchmarks.md, fleet scale).
+                spin: match source {
+                    handgate_adapters::dex3::usb::adapter::UsbSource::Emulator(_) => Duration::ZERO,
+                    _ => handgate_adapters::dex3::usb::LoopConfig::default().spin,
+                },
                 ..Default::default()
             };
             let dev = handgate_adapters::dex3::usb::adapter::Dex3UsbDevice::start(

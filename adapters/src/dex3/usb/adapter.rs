@@ -6,15 +6,14 @@
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
 use std::time::{Instant, SystemTime};
 
 use async_trait::async_trait;
 use tokio::sync::watch;
 
-use super::device_loop::{Dex3UsbHandle, Dex3UsbLoop, LoopConfig, LoopError};
+use super::device_loop::{Dex3UsbHandle, Dex3UsbLoop, Link, LoopConfig, LoopError, Observer};
 use super::emulator::{Dex3Emulator, EmulatorClock, EmulatorConfig, EmulatorTransport, SharedEmulator};
 use super::rusb_transport::RusbTransport;
 use super::socket::UnixSocketTransport;
@@ -108,18 +107,16 @@ pub struct Dex3UsbDevice {
     info: DeviceInfo,
     cmd: CommandState,
     /// (loop command seq, client seq, client tag) of the commands handed to the loop, oldest
-    /// first: the bridge tags a measurement with the client command its exchange sent.
+    /// first: the loop-thread observer tags a measurement with the client command its exchange sent.
     sent: Arc<Mutex<VecDeque<(u64, u64, u32)>>>,
     handle: Arc<Mutex<Option<Dex3UsbHandle>>>,
     state_rx: watch::Receiver<HandState>,
-    stop: Arc<AtomicBool>,
-    bridge: Mutex<Option<JoinHandle<()>>>,
     /// The in-process emulator, when that is the source (tests inject faults through it).
     pub emulator: Option<SharedEmulator>,
 }
 
 impl Dex3UsbDevice {
-    /// Starts the loop on `source` and the bridge that turns measurements into state.
+    /// Starts the loop on `source`, turning each measurement into state on the loop thread.
     pub fn start(info: DeviceInfo, source: UsbSource, config: LoopConfig) -> Result<Self, LoopError> {
         let side = info.side;
         let (factory, emulator): (TransportFactory, Option<SharedEmulator>) = match source {
@@ -134,69 +131,45 @@ impl Dex3UsbDevice {
             }
             UsbSource::Socket(path) => (UnixSocketTransport::factory(path), None),
         };
-        let handle = Dex3UsbLoop::spawn(factory, config)?;
         let table = info.table.clone();
         let cmd = CommandState::new(table.clone());
-        let mut rx = handle.subscribe();
         let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
-        let handle = Arc::new(Mutex::new(Some(handle)));
-        let stop = Arc::new(AtomicBool::new(false));
         let sent: Arc<Mutex<VecDeque<(u64, u64, u32)>>> = Arc::default();
-        let (b_cmd, b_handle, b_stop, b_sent) = (cmd.clone(), handle.clone(), stop.clone(), sent.clone());
-        let bridge = std::thread::Builder::new()
-            .name(format!("dex3-usb-{}", info.name))
-            .spawn(move || {
-                let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_time().build() else {
-                    return;
-                };
-                rt.block_on(async move {
-                    let mut last_connects = 0;
-                    // (client seq, tag) of the newest command a measurement reflects.
-                    let mut echo = (0u64, 0u32);
-                    while !b_stop.load(Ordering::Relaxed) {
-                        let changed = tokio::time::timeout(std::time::Duration::from_millis(50), rx.changed()).await;
-                        if matches!(changed, Ok(Err(_))) {
-                            break;
-                        }
-                        let m = rx.borrow_and_update().clone();
-                        // Runs once per measurement (1 kHz): `link()`, not `stats()`, which
-                        // copies the 32 kB period histogram.
-                        let (connected, connects) = match b_handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-                            Some(h) => h.link(),
-                            None => break,
-                        };
-                        let mut st = to_hand_state(&table, &m, connected);
-                        if connects != last_connects && m.seq > 0 && !m.stale {
-                            // The loop itself holds the first measured state after a
-                            // (re)connect; forget the targets that were in force before.
-                            if last_connects != 0 {
-                                b_cmd.reseed(&st.joints);
-                            }
-                            last_connects = connects;
-                        }
-                        b_cmd.counters.link_up.store(connected as u64, Ordering::Relaxed);
-                        echo =
-                            reflected(&mut b_sent.lock().unwrap_or_else(|p| p.into_inner()), m.cmd_seq).unwrap_or(echo);
-                        (st.cmd_seq, st.cmd_tag) = echo;
-                        st.measured_wall = st
-                            .measured_at
-                            .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
-                        if b_cmd.is_safe() {
-                            st.faults |= faults::SAFE_STATE;
-                        }
-                        let _ = tx.send(st);
-                    }
-                });
-            })
-            .map_err(LoopError::Thread)?;
+        // Measurement -> canonical state, on the loop thread after every cycle (no second
+        // thread woken per cycle and device).
+        let (b_cmd, b_sent) = (cmd.clone(), sent.clone());
+        let mut last_connects = 0;
+        // (client seq, tag) of the newest command a measurement reflects.
+        let mut echo = (0u64, 0u32);
+        let observer: Observer = Box::new(move |m: &Dex3Measurement, link: Link| {
+            let mut st = to_hand_state(&table, m, link.connected);
+            if link.connects != last_connects && m.seq > 0 && !m.stale {
+                // The loop itself holds the first measured state after a (re)connect; forget
+                // the targets that were in force before.
+                if last_connects != 0 {
+                    b_cmd.reseed(&st.joints);
+                }
+                last_connects = link.connects;
+            }
+            b_cmd.counters.link_up.store(link.connected as u64, Ordering::Relaxed);
+            echo = reflected(&mut b_sent.lock().unwrap_or_else(|p| p.into_inner()), m.cmd_seq).unwrap_or(echo);
+            (st.cmd_seq, st.cmd_tag) = echo;
+            st.measured_wall = st
+                .measured_at
+                .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
+            if b_cmd.is_safe() {
+                st.faults |= faults::SAFE_STATE;
+            }
+            tx.send_replace(st);
+        });
+        let handle = Dex3UsbLoop::spawn_observed(factory, config, Some(observer))?;
+        let handle = Arc::new(Mutex::new(Some(handle)));
         Ok(Self {
             info,
             cmd,
             sent,
             handle,
             state_rx,
-            stop,
-            bridge: Mutex::new(Some(bridge)),
             emulator,
         })
     }
@@ -222,14 +195,10 @@ impl Dex3UsbDevice {
         }
     }
 
-    /// Stops the loop and the bridge.
+    /// Stops the loop.
     pub fn stop(&self) {
-        self.stop.store(true, Ordering::Relaxed);
         if let Some(h) = self.handle.lock().unwrap_or_else(|p| p.into_inner()).take() {
             h.stop();
-        }
-        if let Some(b) = self.bridge.lock().unwrap_or_else(|p| p.into_inner()).take() {
-            let _ = b.join();
         }
     }
 }

@@ -183,6 +183,19 @@ struct Shared {
     stats: Mutex<LoopStats>,
 }
 
+/// The link as the loop sees it, handed to an [`Observer`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Link {
+    pub connected: bool,
+    /// Successful opens of the transport so far.
+    pub connects: u64,
+}
+
+/// Called on the loop thread after every cycle and after every failed connect attempt, with
+/// the newest measurement: derive state there instead of waking another thread per cycle.
+/// Must be quick (it runs inside the 1 ms cycle) and must not call back into the handle.
+pub type Observer = Box<dyn FnMut(&Dex3Measurement, Link) + Send>;
+
 /// Namespace of the device loop.
 #[derive(Debug)]
 pub struct Dex3UsbLoop;
@@ -190,6 +203,15 @@ pub struct Dex3UsbLoop;
 impl Dex3UsbLoop {
     /// Starts the loop thread. `factory` opens the transport, now and after every disconnect.
     pub fn spawn(factory: TransportFactory, config: LoopConfig) -> Result<Dex3UsbHandle, LoopError> {
+        Self::spawn_observed(factory, config, None)
+    }
+
+    /// [`Self::spawn`] with an [`Observer`] of every cycle.
+    pub fn spawn_observed(
+        factory: TransportFactory,
+        config: LoopConfig,
+        observer: Option<Observer>,
+    ) -> Result<Dex3UsbHandle, LoopError> {
         config.wiring.validate()?;
         config.scalings.validate()?;
         if config.period.is_zero() {
@@ -207,7 +229,7 @@ impl Dex3UsbLoop {
             let shared = shared.clone();
             std::thread::Builder::new()
                 .name("dex3-usb-loop".into())
-                .spawn(move || run(factory, config, shared, tx))?
+                .spawn(move || run(factory, config, shared, tx, observer))?
         };
         Ok(Dex3UsbHandle {
             shared,
@@ -320,7 +342,19 @@ struct Session {
     consecutive_failures: u32,
 }
 
-fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: watch::Sender<Dex3Measurement>) {
+fn run(
+    mut factory: TransportFactory,
+    cfg: LoopConfig,
+    shared: Arc<Shared>,
+    tx: watch::Sender<Dex3Measurement>,
+    mut observer: Option<Observer>,
+) {
+    let mut connects: u64 = 0;
+    let mut observe = |m: &Dex3Measurement, connected: bool, connects: u64| {
+        if let Some(o) = observer.as_mut() {
+            o(m, Link { connected, connects });
+        }
+    };
     let mut meas = Dex3Measurement::empty(Instant::now());
     let mut transport = None;
     let mut session: Option<Session> = None;
@@ -360,6 +394,7 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
                         s.connects += 1;
                         s.connected = true;
                     });
+                    connects += 1;
                     t0 = Instant::now();
                     k = 0;
                     last_start = None;
@@ -371,6 +406,7 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
                         last_connect_error = msg;
                     }
                     stats(&mut |s| s.connect_failures += 1);
+                    observe(&meas, false, connects);
                     if !park_until(Instant::now() + backoff, &shared.stop) {
                         break;
                     }
@@ -484,8 +520,10 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
             transport = None;
             session = None;
             stats(&mut |s| s.connected = false);
+            observe(&meas, false, connects);
             continue;
         }
+        observe(&meas, true, connects);
 
         // Absolute deadlines: next = t0 + k·period.
         k += 1;
