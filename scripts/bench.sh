@@ -67,6 +67,7 @@ if want fleet; then
   "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --out "$results/fleet.json"
 fi
 
+"$bin/handgate-bench" machine --out "$results/machine_end.json"
 "$bin/handgate-bench" report --results "$results" --repo "$root" --out "$root/docs/benchmarks.md"
 echo "bench: load average at end: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "bench: wrote docs/benchmarks.md (results in $results)"

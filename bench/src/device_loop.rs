@@ -21,6 +21,8 @@ pub struct LoopResult {
     /// Timer slack of the loop thread, ns (`None`: the default, 50 µs).
     pub slack_ns: Option<u64>,
     pub secs: f64,
+    /// Wall time the loop actually ran (the stats are read at its end).
+    pub wall_s: f64,
     pub cycles: u64,
     /// Period quantiles, ms (upper edges of 5 µs buckets).
     pub median_ms: f64,
@@ -119,6 +121,7 @@ pub fn run(label: &str, secs: f64, spin: Duration, fifo: bool, slack_ns: Option<
         fifo,
         slack_ns,
         secs,
+        wall_s: wall,
         cycles: s.period.count(),
         median_ms: q(0.5),
         p90_ms: q(0.9),
