@@ -5,6 +5,7 @@
 #                (with the short reliability suites and a 15 s smoke run of every fuzz target)
 #   make reliability - the full reliability suites (docs/reliability.md): 10,000 malformed
 #                samples per front, every fault cycle repeated, each fuzz target 10 minutes
+#   make bench - release benchmarks (minutes); rewrites docs/benchmarks.md
 SHELL := /bin/bash
 CARGO ?= cargo
 ARGS ?=
@@ -32,6 +33,9 @@ reliability: setup
 	$(CARGO) build -p handgate
 	HANDGATE_RELIABILITY_FULL=1 $(CARGO) test -p handgate-tests --test reliability -- --nocapture --test-threads=1
 	scripts/fuzz.sh full $(FUZZ_SECS)
+
+bench: setup
+	@scripts/bench.sh
 
 lint:
 	$(CARGO) clippy --workspace --all-targets -- -D warnings

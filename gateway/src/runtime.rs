@@ -157,6 +157,13 @@ fn build_any_device(
                 hold_kd: table.hold_kd,
                 wiring: *wiring,
                 scalings: *scalings,
+                // The spin before each deadline buys period jitter for real hardware; an
+                // emulated hand has no use for it, and a fleet of them would burn a core on it
+                // (docs/benchmarks.md, fleet scale).
+                spin: match source {
+                    handgate_adapters::dex3::usb::adapter::UsbSource::Emulator(_) => Duration::ZERO,
+                    _ => handgate_adapters::dex3::usb::LoopConfig::default().spin,
+                },
                 ..Default::default()
             };
             let dev = handgate_adapters::dex3::usb::adapter::Dex3UsbDevice::start(
@@ -437,6 +444,13 @@ fn spawn_front(
             let mut dropped_reported = (0u64, Instant::now() - Duration::from_secs(2));
             let mut wd_tick = tokio::time::interval(Duration::from_millis(5));
             wd_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            // Prompt state: after a command is accepted, the first state that reflects it
+            // (`cmd_seq` == its seq) is published at once instead of at the next state tick, and
+            // the tick restarts from there. At most one extra publish per accepted command, never
+            // more than one per device measurement; the front listens to the device's state only
+            // while such a command is pending.
+            let mut state_rx = device.state();
+            let mut awaiting: Option<(u64, Instant)> = None;
             loop {
                 tokio::select! {
                     msg = rx.recv() => {
@@ -461,6 +475,8 @@ fn spawn_front(
                                     Ok(()) => {
                                         counters.accepted.fetch_add(1, Ordering::Relaxed);
                                         last_valid = Some(Instant::now());
+                                        state_rx.mark_unchanged();
+                                        awaiting = Some((seq, Instant::now()));
                                         watchdog = if timeout_bit { f.watchdog.min(Duration::from_secs(1)) } else { f.watchdog };
                                         if tripped {
                                             tripped = false;
@@ -498,6 +514,23 @@ fn spawn_front(
                             }
                         }
                     }
+                    changed = state_rx.changed(), if awaiting.is_some() => {
+                        if changed.is_err() {
+                            awaiting = None;
+                            continue;
+                        }
+                        let st = state_rx.borrow_and_update().clone();
+                        if let Some((want, since)) = awaiting {
+                            if st.cmd_seq == want {
+                                out.publish(&f, &ftable, &dtable, &st, false);
+                                state_tick.reset();
+                                awaiting = None;
+                            } else if since.elapsed() > PROMPT_STATE_WAIT {
+                                // Superseded by another front's command, or never applied.
+                                awaiting = None;
+                            }
+                        }
+                    }
                     _ = state_tick.tick() => {
                         let st = device.state().borrow().clone();
                         out.publish(&f, &ftable, &dtable, &st, false);
@@ -513,6 +546,10 @@ fn spawn_front(
         span,
     )))
 }
+
+/// How long a front waits for the state reflecting an accepted command before it stops
+/// listening for it (the periodic state carries on regardless).
+const PROMPT_STATE_WAIT: Duration = Duration::from_millis(100);
 
 fn routed(
     ftable: &DeviceTable,

@@ -296,6 +296,10 @@ pub struct Dex3Measurement {
     pub stale: bool,
     /// Number of good frames since start.
     pub seq: u64,
+    /// The loop's sequence number (from `Dex3UsbHandle::set_command`) of the client command
+    /// sent in the exchange that produced these values; 0 until one was sent. Lets a state be
+    /// tagged with the command it reflects, not one still in flight.
+    pub cmd_seq: u64,
 }
 
 impl Dex3Measurement {
@@ -311,6 +315,7 @@ impl Dex3Measurement {
             measured_at: now,
             stale: true,
             seq: 0,
+            cmd_seq: 0,
         }
     }
 

@@ -4,16 +4,16 @@
 //! real hand through libusb, the MCU emulator in-process, or the emulator as a separate
 //! process behind a Unix socket — the emulator plugs in exactly where the hardware would.
 
+use std::collections::VecDeque;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
 use std::time::{Instant, SystemTime};
 
 use async_trait::async_trait;
 use tokio::sync::watch;
 
-use super::device_loop::{Dex3UsbHandle, Dex3UsbLoop, LoopConfig, LoopError};
+use super::device_loop::{Dex3UsbHandle, Dex3UsbLoop, Link, LoopConfig, LoopError, Observer};
 use super::emulator::{Dex3Emulator, EmulatorClock, EmulatorConfig, EmulatorTransport, SharedEmulator};
 use super::rusb_transport::RusbTransport;
 use super::socket::UnixSocketTransport;
@@ -106,16 +106,17 @@ pub fn to_hand_state(table: &DeviceTable, m: &Dex3Measurement, connected: bool) 
 pub struct Dex3UsbDevice {
     info: DeviceInfo,
     cmd: CommandState,
+    /// (loop command seq, client seq, client tag) of the commands handed to the loop, oldest
+    /// first: the loop-thread observer tags a measurement with the client command its exchange sent.
+    sent: Arc<Mutex<VecDeque<(u64, u64, u32)>>>,
     handle: Arc<Mutex<Option<Dex3UsbHandle>>>,
     state_rx: watch::Receiver<HandState>,
-    stop: Arc<AtomicBool>,
-    bridge: Mutex<Option<JoinHandle<()>>>,
     /// The in-process emulator, when that is the source (tests inject faults through it).
     pub emulator: Option<SharedEmulator>,
 }
 
 impl Dex3UsbDevice {
-    /// Starts the loop on `source` and the bridge that turns measurements into state.
+    /// Starts the loop on `source`, turning each measurement into state on the loop thread.
     pub fn start(info: DeviceInfo, source: UsbSource, config: LoopConfig) -> Result<Self, LoopError> {
         let side = info.side;
         let (factory, emulator): (TransportFactory, Option<SharedEmulator>) = match source {
@@ -130,69 +131,51 @@ impl Dex3UsbDevice {
             }
             UsbSource::Socket(path) => (UnixSocketTransport::factory(path), None),
         };
-        let handle = Dex3UsbLoop::spawn(factory, config)?;
         let table = info.table.clone();
         let cmd = CommandState::new(table.clone());
-        let mut rx = handle.subscribe();
         let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
+        let sent: Arc<Mutex<VecDeque<(u64, u64, u32)>>> = Arc::default();
+        // Measurement -> canonical state, on the loop thread after every cycle (no second
+        // thread woken per cycle and device).
+        let (b_cmd, b_sent) = (cmd.clone(), sent.clone());
+        let name = info.name.clone();
+        let mut last_connects = 0;
+        // (client seq, tag) of the newest command a measurement reflects.
+        let mut echo = (0u64, 0u32);
+        let observer: Observer = Box::new(move |m: &Dex3Measurement, link: Link| {
+            let mut st = to_hand_state(&table, m, link.connected);
+            if link.connects != last_connects && m.seq > 0 && !m.stale {
+                // The loop itself holds the first measured state after a (re)connect; forget
+                // the targets that were in force before.
+                if last_connects != 0 {
+                    tracing::info!(
+                        device = %name,
+                        connects = link.connects,
+                        "hand reconnected: holding the measured position until the next command"
+                    );
+                    b_cmd.reseed(&st.joints);
+                }
+                last_connects = link.connects;
+            }
+            b_cmd.counters.link_up.store(link.connected as u64, Ordering::Relaxed);
+            echo = reflected(&mut b_sent.lock().unwrap_or_else(|p| p.into_inner()), m.cmd_seq).unwrap_or(echo);
+            (st.cmd_seq, st.cmd_tag) = echo;
+            st.measured_wall = st
+                .measured_at
+                .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
+            if b_cmd.is_safe() {
+                st.faults |= faults::SAFE_STATE;
+            }
+            tx.send_replace(st);
+        });
+        let handle = Dex3UsbLoop::spawn_observed(factory, config, Some(observer))?;
         let handle = Arc::new(Mutex::new(Some(handle)));
-        let stop = Arc::new(AtomicBool::new(false));
-        let (b_cmd, b_handle, b_stop) = (cmd.clone(), handle.clone(), stop.clone());
-        let span = tracing::info_span!("device", name = %info.name, kind = %info.kind, backend = info.backend.as_str());
-        let bridge = std::thread::Builder::new()
-            .name(format!("dex3-usb-{}", info.name))
-            .spawn(move || {
-                let _span = span.enter();
-                let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_time().build() else {
-                    return;
-                };
-                rt.block_on(async move {
-                    let mut last_connects = 0;
-                    while !b_stop.load(Ordering::Relaxed) {
-                        let changed = tokio::time::timeout(std::time::Duration::from_millis(50), rx.changed()).await;
-                        if matches!(changed, Ok(Err(_))) {
-                            break;
-                        }
-                        let m = rx.borrow_and_update().clone();
-                        let stats = match b_handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-                            Some(h) => h.stats(),
-                            None => break,
-                        };
-                        let mut st = to_hand_state(&table, &m, stats.connected);
-                        if stats.connects != last_connects && m.seq > 0 && !m.stale {
-                            // The loop itself holds the first measured state after a
-                            // (re)connect; forget the targets that were in force before.
-                            if last_connects != 0 {
-                                tracing::info!(
-                                    connects = stats.connects,
-                                    "hand reconnected: holding the measured position until the next command"
-                                );
-                                b_cmd.reseed(&st.joints);
-                            }
-                            last_connects = stats.connects;
-                        }
-                        b_cmd.counters.link_up.store(stats.connected as u64, Ordering::Relaxed);
-                        let (seq, tag) = b_cmd.applied();
-                        st.cmd_seq = seq;
-                        st.cmd_tag = tag;
-                        st.measured_wall = st
-                            .measured_at
-                            .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
-                        if b_cmd.is_safe() {
-                            st.faults |= faults::SAFE_STATE;
-                        }
-                        let _ = tx.send(st);
-                    }
-                });
-            })
-            .map_err(LoopError::Thread)?;
         Ok(Self {
             info,
             cmd,
+            sent,
             handle,
             state_rx,
-            stop,
-            bridge: Mutex::new(Some(bridge)),
             emulator,
         })
     }
@@ -207,19 +190,21 @@ impl Dex3UsbDevice {
             Active::Command(t) | Active::Safe(_, t) => t,
         };
         if let Some(h) = self.handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-            h.set_command(to_dex3_command(&self.info.table, targets));
+            let mut sent = self.sent.lock().unwrap_or_else(|p| p.into_inner());
+            let loop_seq = h.set_command(to_dex3_command(&self.info.table, targets));
+            let (seq, tag) = self.cmd.applied();
+            sent.push_back((loop_seq, seq, tag));
+            while sent.len() > SENT_HISTORY {
+                sent.pop_front();
+            }
             Counters::inc(&self.cmd.counters.sent);
         }
     }
 
-    /// Stops the loop and the bridge.
+    /// Stops the loop.
     pub fn stop(&self) {
-        self.stop.store(true, Ordering::Relaxed);
         if let Some(h) = self.handle.lock().unwrap_or_else(|p| p.into_inner()).take() {
             h.stop();
-        }
-        if let Some(b) = self.bridge.lock().unwrap_or_else(|p| p.into_inner()).take() {
-            let _ = b.join();
         }
     }
 }
@@ -228,6 +213,22 @@ impl Drop for Dex3UsbDevice {
     fn drop(&mut self) {
         self.stop();
     }
+}
+
+/// Commands remembered for tagging measurements (the loop sends one per 1 ms cycle; older
+/// entries are superseded long before they could be looked up).
+const SENT_HISTORY: usize = 64;
+
+/// The (client seq, tag) of the newest command handed to the loop at or before loop seq
+/// `loop_seq`, dropping the older entries; `None` when no such command is known.
+fn reflected(sent: &mut VecDeque<(u64, u64, u32)>, loop_seq: u64) -> Option<(u64, u32)> {
+    let n = sent.iter().take_while(|(s, _, _)| *s <= loop_seq).count();
+    if n == 0 {
+        return None;
+    }
+    let (_, seq, tag) = sent[n - 1];
+    sent.drain(..n - 1);
+    Some((seq, tag))
 }
 
 /// Capabilities of a Dex3 over USB.

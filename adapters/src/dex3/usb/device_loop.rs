@@ -183,6 +183,19 @@ struct Shared {
     stats: Mutex<LoopStats>,
 }
 
+/// The link as the loop sees it, handed to an [`Observer`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Link {
+    pub connected: bool,
+    /// Successful opens of the transport so far.
+    pub connects: u64,
+}
+
+/// Called on the loop thread after every cycle and after every failed connect attempt, with
+/// the newest measurement: derive state there instead of waking another thread per cycle.
+/// Must be quick (it runs inside the 1 ms cycle) and must not call back into the handle.
+pub type Observer = Box<dyn FnMut(&Dex3Measurement, Link) + Send>;
+
 /// Namespace of the device loop.
 #[derive(Debug)]
 pub struct Dex3UsbLoop;
@@ -190,6 +203,15 @@ pub struct Dex3UsbLoop;
 impl Dex3UsbLoop {
     /// Starts the loop thread. `factory` opens the transport, now and after every disconnect.
     pub fn spawn(factory: TransportFactory, config: LoopConfig) -> Result<Dex3UsbHandle, LoopError> {
+        Self::spawn_observed(factory, config, None)
+    }
+
+    /// [`Self::spawn`] with an [`Observer`] of every cycle.
+    pub fn spawn_observed(
+        factory: TransportFactory,
+        config: LoopConfig,
+        observer: Option<Observer>,
+    ) -> Result<Dex3UsbHandle, LoopError> {
         config.wiring.validate()?;
         config.scalings.validate()?;
         if config.period.is_zero() {
@@ -207,7 +229,7 @@ impl Dex3UsbLoop {
             let shared = shared.clone();
             std::thread::Builder::new()
                 .name("dex3-usb-loop".into())
-                .spawn(move || run(factory, config, shared, tx))?
+                .spawn(move || run(factory, config, shared, tx, observer))?
         };
         Ok(Dex3UsbHandle {
             shared,
@@ -229,10 +251,14 @@ impl Dex3UsbHandle {
     /// that is already up when it is set: commands set before a (re)connect, including while
     /// disconnected, are never sent (the hand holds its measured position until the next
     /// `set_command`). Set the first command once `latest()` shows a fresh measurement.
-    pub fn set_command(&self, cmd: Dex3Command) {
+    ///
+    /// Returns the command's sequence number: the measurements of exchanges that sent it carry
+    /// it in [`Dex3Measurement::cmd_seq`].
+    pub fn set_command(&self, cmd: Dex3Command) -> u64 {
         let mut slot = self.shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
         let seq = self.shared.cmd_seq.fetch_add(1, Ordering::SeqCst) + 1;
         *slot = Some((seq, cmd));
+        seq
     }
 
     /// Sends the timeout bit at 0 for one exchange, clearing latched timeout trips.
@@ -246,6 +272,13 @@ impl Dex3UsbHandle {
 
     pub fn subscribe(&self) -> watch::Receiver<Dex3Measurement> {
         self.rx.clone()
+    }
+
+    /// Whether the transport is up, and how many times it was opened: [`Self::stats`] without
+    /// copying the period histogram (cheap enough for every cycle).
+    pub fn link(&self) -> (bool, u64) {
+        let s = self.shared.stats.lock().unwrap_or_else(|e| e.into_inner());
+        (s.connected, s.connects)
     }
 
     pub fn stats(&self) -> LoopStats {
@@ -309,7 +342,19 @@ struct Session {
     consecutive_failures: u32,
 }
 
-fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: watch::Sender<Dex3Measurement>) {
+fn run(
+    mut factory: TransportFactory,
+    cfg: LoopConfig,
+    shared: Arc<Shared>,
+    tx: watch::Sender<Dex3Measurement>,
+    mut observer: Option<Observer>,
+) {
+    let mut connects: u64 = 0;
+    let mut observe = |m: &Dex3Measurement, connected: bool, connects: u64| {
+        if let Some(o) = observer.as_mut() {
+            o(m, Link { connected, connects });
+        }
+    };
     let mut meas = Dex3Measurement::empty(Instant::now());
     let mut transport = None;
     let mut session: Option<Session> = None;
@@ -349,6 +394,7 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
                         s.connects += 1;
                         s.connected = true;
                     });
+                    connects += 1;
                     t0 = Instant::now();
                     k = 0;
                     last_start = None;
@@ -360,6 +406,7 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
                         last_connect_error = msg;
                     }
                     stats(&mut |s| s.connect_failures += 1);
+                    observe(&meas, false, connects);
                     if !park_until(Instant::now() + backoff, &shared.stop) {
                         break;
                     }
@@ -379,9 +426,10 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
         // Choose what to send.
         let user = {
             let slot = shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
-            slot.filter(|(seq, _)| *seq > sess.floor_seq).map(|(_, c)| c)
+            slot.filter(|(seq, _)| *seq > sess.floor_seq)
         };
-        let cmd = match user {
+        let sent_seq = user.filter(|_| !sess.first_exchange).map(|(seq, _)| seq);
+        let cmd = match user.map(|(_, c)| c) {
             Some(c) => c,
             None => {
                 let mut c = Dex3Command::damping(cfg.hold_kd);
@@ -417,6 +465,9 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
                         meas.measured_at = now;
                         meas.stale = false;
                         meas.seq += 1;
+                        if let Some(seq) = sent_seq {
+                            meas.cmd_seq = seq;
+                        }
                         sess.consecutive_failures = 0;
                         for (i, seen) in rep.motors_seen.iter().enumerate() {
                             if *seen && sess.hold[i].is_none() {
@@ -469,8 +520,10 @@ fn run(mut factory: TransportFactory, cfg: LoopConfig, shared: Arc<Shared>, tx: 
             transport = None;
             session = None;
             stats(&mut |s| s.connected = false);
+            observe(&meas, false, connects);
             continue;
         }
+        observe(&meas, true, connects);
 
         // Absolute deadlines: next = t0 + k·period.
         k += 1;

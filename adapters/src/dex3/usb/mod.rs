@@ -17,7 +17,7 @@ pub mod transport;
 pub mod wiring;
 
 pub use codec::{BusId, DeviceId, CMD_FRAME_LEN, STATE_FRAME_LEN};
-pub use device_loop::{Dex3UsbHandle, Dex3UsbLoop, LoopConfig, LoopError, LoopStats, PeriodHistogram};
+pub use device_loop::{Dex3UsbHandle, Dex3UsbLoop, Link, LoopConfig, LoopError, LoopStats, Observer, PeriodHistogram};
 pub use discovery::{discover, DiscoveryOptions, DiscoveryReport};
 pub use emulator::{Dex3Emulator, EmulatorClock, EmulatorConfig, EmulatorTransport, SharedEmulator};
 pub use rusb_transport::{list_hands, HandInfo, RusbTransport};

@@ -1,0 +1,195 @@
+//! Benchmark 3: the end-to-end hop. A client publishes unitree_hg `HandCmd_` with a tag in
+//! `reserve[0]` and times the first `HandState_` whose `reserve[0]` carries that tag, against
+//! a peer: the gateway (its Dex3 front on the emulated hand), the floor (a Rust echo that
+//! answers each command at once from the DDS listener) or the Python relay (unitree_sdk2py).
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use handgate_adapters::dds::{Node, Qos};
+use handgate_idl::unitree_hg::{HandCmd_, HandState_, DEX3_MOTORS, DEX3_PRESS_SENSORS};
+use serde::{Deserialize, Serialize};
+
+use crate::stats::{cpu_seconds, Summary};
+
+/// One client run against one peer at one command rate.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct HopResult {
+    pub target: String,
+    pub rate_hz: f64,
+    /// Commands sent after the warm-up.
+    pub sent: usize,
+    /// Of those, how many came back tagged (the rest were superseded by a newer command
+    /// before a state reflected them, or lost).
+    pub echoed: usize,
+    /// Latency, µs.
+    pub latency_us: Option<Summary>,
+    /// CPU of the peer process during the run, % of one core.
+    pub peer_cpu_pct: f64,
+}
+
+/// A valid Dex3 left-hand command (RIS mode: motor id i, FOC), all joints at their
+/// position 0 with a light hold.
+fn command(tag: u32) -> HandCmd_ {
+    let mut c = HandCmd_::with_motors(DEX3_MOTORS);
+    for (i, m) in c.motor_cmd.iter_mut().enumerate() {
+        m.mode = 0x10 | i as u8;
+        m.kp = 0.5;
+        m.kd = 0.1;
+    }
+    c.reserve[0] = tag;
+    c
+}
+
+#[allow(clippy::too_many_arguments)]
+pub fn client(
+    node: &Node,
+    target: &str,
+    cmd_topic: &str,
+    state_topic: &str,
+    rate_hz: f64,
+    samples: usize,
+    warmup: usize,
+    peer_pid: u32,
+) -> anyhow::Result<HopResult> {
+    let max_sent = warmup + 4 * samples;
+    // Tags unique to this run: a time-derived base, then one per command.
+    let base: u32 = 1 + (SystemTime::now().duration_since(UNIX_EPOCH)?.as_millis() % 3000) as u32 * 1_000_000;
+    let recv: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(vec![None; max_sent]));
+    let r = recv.clone();
+    let reader = node.reader_with_callback::<HandState_, _>(state_topic, Qos::BestEffort, move |h| {
+        let now = Instant::now();
+        let mut v = Vec::new();
+        h.take_into(&mut v);
+        let mut g = r.lock().unwrap_or_else(|e| e.into_inner());
+        for s in v {
+            let i = s.reserve[0].wrapping_sub(base) as usize;
+            if let Some(slot) = g.get_mut(i) {
+                slot.get_or_insert(now);
+            }
+        }
+    })?;
+    let mut writer = node.writer::<HandCmd_>(cmd_topic, Qos::Reliable { depth: 16 })?;
+    writer.wait_matched(1, Duration::from_secs(30))?;
+    reader.wait_matched(1, Duration::from_secs(30))?;
+
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let mut sent_at: Vec<Instant> = Vec::with_capacity(max_sent);
+    let c0 = cpu_seconds(peer_pid).unwrap_or(f64::NAN);
+    let t0 = Instant::now();
+    let mut anchor = t0;
+    let mut i = 0usize;
+    // Each command goes out at a uniformly random point of its period (xorshift64), so its
+    // phase against the 1 kHz device loop is uniform, as for an unsynchronised client; with
+    // exact periods the two clocks lock and every command waits the same fixed fraction of
+    // a cycle.
+    let mut rng: u64 = 0x9E37_79B9_7F4A_7C15 ^ u64::from(base);
+    let mut dither = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        period.mul_f64((rng >> 11) as f64 / (1u64 << 53) as f64)
+    };
+    while i < max_sent {
+        let deadline = anchor + period * i as u32 + dither();
+        let now = Instant::now();
+        if deadline > now {
+            std::thread::sleep(deadline - now);
+        } else if now - deadline > period {
+            // Woke a period late (a loaded machine): re-anchor rather than send a burst,
+            // which would only measure latest-wins superseding.
+            anchor = now - period * i as u32;
+        }
+        sent_at.push(Instant::now());
+        writer.write(command(base + i as u32))?;
+        i += 1;
+        if i >= warmup + samples && i % 50 == 0 {
+            let got = recv.lock().unwrap_or_else(|e| e.into_inner())[warmup..i]
+                .iter()
+                .filter(|x| x.is_some())
+                .count();
+            if got >= samples {
+                break;
+            }
+        }
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    let c1 = cpu_seconds(peer_pid).unwrap_or(f64::NAN);
+    // Let the last answers arrive (a late one only adds a sample; nothing waits on it).
+    let settle = Instant::now() + Duration::from_millis(300);
+    while Instant::now() < settle {
+        if recv.lock().unwrap_or_else(|e| e.into_inner())[i - 1].is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    drop(reader);
+    let g = recv.lock().unwrap_or_else(|e| e.into_inner());
+    let lat: Vec<f64> = (warmup..i)
+        .filter_map(|k| g[k].map(|r| r.saturating_duration_since(sent_at[k]).as_secs_f64() * 1e6))
+        .collect();
+    Ok(HopResult {
+        target: target.into(),
+        rate_hz,
+        sent: i - warmup,
+        echoed: lat.len(),
+        latency_us: Summary::of(&lat),
+        peer_cpu_pct: 100.0 * (c1 - c0) / wall,
+    })
+}
+
+/// The floor: answers every HandCmd_ at once, from the DDS listener thread, with a HandState_
+/// of 7 motors and 9 pads echoing `reserve[0]`. With `tick`, an ideal gateway in front of a
+/// device polled at that period instead: the newest tag is answered at the next tick of its
+/// own clock (no device, no work: only the wait for the next cycle). Runs until killed.
+pub fn echo(
+    domain: u32,
+    iface: Option<&str>,
+    cmd_topic: &str,
+    state_topic: &str,
+    tick: Option<Duration>,
+) -> anyhow::Result<()> {
+    let node = Node::new(domain, iface)?;
+    let writer = node.writer::<HandState_>(state_topic, Qos::BestEffort)?;
+    let answer = |w: &mut handgate_adapters::dds::Writer<HandState_>, tag: u32| {
+        let mut s = HandState_::with_sizes(DEX3_MOTORS, DEX3_PRESS_SENSORS);
+        s.reserve[0] = tag;
+        let _ = w.write(s);
+    };
+    let pending: Arc<Mutex<Option<u32>>> = Arc::default();
+    let p = pending.clone();
+    let (mut direct, ticked) = match tick {
+        None => (Some(writer), None),
+        Some(_) => (None, Some(writer)),
+    };
+    let _reader = node.reader_with_callback::<HandCmd_, _>(cmd_topic, Qos::Reliable { depth: 16 }, move |h| {
+        let mut v = Vec::new();
+        h.take_into(&mut v);
+        for c in v {
+            match direct.as_mut() {
+                Some(w) => answer(w, c.reserve[0]),
+                None => *p.lock().unwrap_or_else(|e| e.into_inner()) = Some(c.reserve[0]),
+            }
+        }
+    })?;
+    println!("READY");
+    let (Some(tick), Some(mut writer)) = (tick, ticked) else {
+        loop {
+            std::thread::park();
+        }
+    };
+    let t0 = Instant::now();
+    let mut k: u32 = 0;
+    loop {
+        k = k.wrapping_add(1);
+        let next = t0 + tick * k;
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        }
+        let tag = pending.lock().unwrap_or_else(|e| e.into_inner()).take();
+        if let Some(tag) = tag {
+            answer(&mut writer, tag);
+        }
+    }
+}

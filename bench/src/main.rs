@@ -1,0 +1,284 @@
+//! `handgate-bench`: the benchmarks `make bench` runs (`scripts/bench.sh`), each writing JSON,
+//! and the report that turns them into docs/benchmarks.md. See docs/benchmarks.md.
+
+mod child;
+mod criterion;
+mod device_loop;
+mod fleet;
+mod hop;
+mod report;
+mod stats;
+
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::Duration;
+
+use clap::{Parser, Subcommand};
+use handgate_adapters::dds::Node;
+
+#[derive(Debug, Parser)]
+#[command(name = "handgate-bench", about = "handgate benchmarks (make bench)")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Debug, Subcommand)]
+enum Cmd {
+    /// Record the date and load average at the start of a run.
+    Machine {
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The Dex3 USB device loop on the emulator, per configuration.
+    Loop {
+        #[arg(long, default_value_t = 60.0)]
+        secs: f64,
+        /// Configurations, in order: default, fifo (SCHED_FIFO 50: needs root or
+        /// CAP_SYS_NICE), spin0, slack (spin 0, timer slack 1 ns), slack-spin.
+        #[arg(long, value_delimiter = ',', default_value = "default")]
+        configs: Vec<String>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The end-to-end hop against the floor, handgate and the Python relay.
+    Hop {
+        #[arg(long)]
+        handgate: PathBuf,
+        /// The venv interpreter with unitree_sdk2py (skip the relay when absent).
+        #[arg(long)]
+        python: Option<PathBuf>,
+        #[arg(long)]
+        relay: PathBuf,
+        #[arg(long, value_delimiter = ',', default_value = "200,1000")]
+        rates: Vec<f64>,
+        #[arg(long, default_value_t = 2000)]
+        samples: usize,
+        #[arg(long, default_value_t = 200)]
+        warmup: usize,
+        /// Domains: base (handgate), base+1 (floor), base+2 (relay), base+3 (floor + tick).
+        #[arg(long, default_value_t = 100)]
+        domain_base: u32,
+        #[arg(long)]
+        interface: Option<String>,
+        /// Only these peers (floor, floor-1khz, handgate, python).
+        #[arg(long, value_delimiter = ',', default_value = "floor,floor-1khz,handgate,python")]
+        only: Vec<String>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The floor's echo peer (internal to `hop`).
+    Echo {
+        #[arg(long)]
+        domain: u32,
+        #[arg(long)]
+        interface: Option<String>,
+        #[arg(long, default_value = "rt/dex3/left/cmd")]
+        cmd_topic: String,
+        #[arg(long, default_value = "rt/dex3/left/state")]
+        state_topic: String,
+        /// Answer at the next tick of this period (µs) instead of at once.
+        #[arg(long)]
+        tick_us: Option<u64>,
+    },
+    /// Fleet scale: one gateway with many emulated devices.
+    Fleet {
+        #[arg(long)]
+        handgate: PathBuf,
+        #[arg(long, default_value_t = 16)]
+        dex3: usize,
+        #[arg(long, default_value_t = 16)]
+        dex1: usize,
+        #[arg(long, default_value_t = 30.0)]
+        secs: f64,
+        #[arg(long, default_value_t = 110)]
+        domain: u32,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Criterion samples written since a time (epoch seconds).
+    Criterion {
+        #[arg(long)]
+        dir: PathBuf,
+        #[arg(long)]
+        since: u64,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Write docs/benchmarks.md from a results directory.
+    Report {
+        #[arg(long)]
+        results: PathBuf,
+        #[arg(long)]
+        repo: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+fn save<T: serde::Serialize>(path: &std::path::Path, v: &T) -> anyhow::Result<()> {
+    std::fs::write(path, serde_json::to_string_pretty(v)?)?;
+    Ok(())
+}
+
+fn gateway(
+    bin: &std::path::Path,
+    domain: u32,
+    iface: Option<&str>,
+    profile: Option<&std::path::Path>,
+) -> anyhow::Result<child::Proc> {
+    let mut c = Command::new(bin);
+    c.arg("run").arg("--domain").arg(domain.to_string());
+    if let Some(p) = profile {
+        c.arg("--profile").arg(p);
+    }
+    if let Some(i) = iface {
+        c.arg("--interface").arg(i);
+    }
+    for (k, _) in std::env::vars() {
+        if k.starts_with("HANDGATE_") {
+            c.env_remove(k);
+        }
+    }
+    child::Proc::start("handgate", c, "handgate serving", Duration::from_secs(60))
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().cmd {
+        Cmd::Machine { out } => {
+            let date = Command::new("date")
+                .args(["-u", "+%Y-%m-%d %H:%M"])
+                .output()
+                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+                .unwrap_or_default();
+            save(
+                &out,
+                &report::Machine {
+                    date,
+                    load_start: stats::loadavg(),
+                },
+            )?;
+        }
+        Cmd::Loop { secs, configs, out } => {
+            let mut v = Vec::new();
+            for name in &configs {
+                let (spin, fifo, slack) = device_loop::by_name(name)?;
+                match device_loop::run(name, secs, spin, fifo, slack) {
+                    Ok(r) => {
+                        eprintln!("loop: {r:?}");
+                        v.push(r);
+                    }
+                    Err(e) => eprintln!("loop: {name} skipped: {e}"),
+                }
+            }
+            save(&out, &v)?;
+        }
+        Cmd::Hop {
+            handgate,
+            python,
+            relay,
+            rates,
+            samples,
+            warmup,
+            domain_base,
+            interface,
+            only,
+            out,
+        } => {
+            let iface = interface.as_deref();
+            let (cmd_t, st_t) = ("rt/dex3/left/cmd", "rt/dex3/left/state");
+            let mut results = Vec::new();
+            for peer in &only {
+                let (label, domain, proc_) = match peer.as_str() {
+                    "floor" => {
+                        let mut c = Command::new(std::env::current_exe()?);
+                        c.args(["echo", "--domain", &(domain_base + 1).to_string()]);
+                        if let Some(i) = iface {
+                            c.args(["--interface", i]);
+                        }
+                        (
+                            "floor",
+                            domain_base + 1,
+                            child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
+                        )
+                    }
+                    "floor-1khz" => {
+                        let mut c = Command::new(std::env::current_exe()?);
+                        c.args(["echo", "--tick-us", "1000", "--domain", &(domain_base + 3).to_string()]);
+                        if let Some(i) = iface {
+                            c.args(["--interface", i]);
+                        }
+                        (
+                            "floor + 1 kHz tick",
+                            domain_base + 3,
+                            child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
+                        )
+                    }
+                    "handgate" => ("handgate", domain_base, gateway(&handgate, domain_base, iface, None)?),
+                    "python" => {
+                        let Some(py) = python.as_ref().filter(|p| p.exists()) else {
+                            eprintln!("hop: no venv python: the Python relay is skipped");
+                            continue;
+                        };
+                        let mut c = Command::new(py);
+                        c.arg("-u")
+                            .arg(&relay)
+                            .args(["--domain", &(domain_base + 2).to_string()]);
+                        if let Some(i) = iface {
+                            c.args(["--interface", i]);
+                        }
+                        (
+                            "python relay",
+                            domain_base + 2,
+                            child::Proc::start("relay.py", c, "READY", Duration::from_secs(60))?,
+                        )
+                    }
+                    other => anyhow::bail!("unknown peer {other:?}"),
+                };
+                let node = Node::new(domain, iface)?;
+                for &rate in &rates {
+                    let r = hop::client(&node, label, cmd_t, st_t, rate, samples, warmup, proc_.pid())?;
+                    eprintln!("hop: {r:?}");
+                    results.push(r);
+                }
+                drop(node);
+                proc_.stop();
+            }
+            save(&out, &results)?;
+        }
+        Cmd::Echo {
+            domain,
+            interface,
+            cmd_topic,
+            state_topic,
+            tick_us,
+        } => hop::echo(
+            domain,
+            interface.as_deref(),
+            &cmd_topic,
+            &state_topic,
+            tick_us.map(Duration::from_micros),
+        )?,
+        Cmd::Fleet {
+            handgate,
+            dex3,
+            dex1,
+            secs,
+            domain,
+            out,
+        } => {
+            let profile = out.with_extension("toml");
+            fleet::write_profile(&profile, dex3, dex1)?;
+            let gw = gateway(&handgate, domain, None, Some(&profile))?;
+            let node = Node::new(domain, None)?;
+            let r = fleet::measure(&node, gw.pid(), dex3, dex1, secs, Duration::from_secs(3));
+            gw.stop();
+            let r = r?;
+            eprintln!("fleet: {r:?}");
+            save(&out, &r)?;
+        }
+        Cmd::Criterion { dir, since, out } => save(&out, &criterion::collect(&dir, since)?)?,
+        Cmd::Report { results, repo, out } => report::write(&results, &repo, &out)?,
+    }
+    Ok(())
+}

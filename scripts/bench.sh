@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# make bench: runs every benchmark (release builds) and rewrites docs/benchmarks.md.
+#   1. codec      cargo bench -p handgate-adapters --bench dex3_usb (criterion), and --bench
+#                 ezgripper when adapters/benches/ezgripper.rs exists
+#   2. loop       the Dex3 USB device loop at 1 kHz on the emulator, 60 s (default, SCHED_FIFO)
+#   3. hop        end-to-end HandCmd_ -> HandState_ through handgate vs a Rust echo (floor) and a
+#                 unitree_sdk2py relay, at 200 Hz and 1 kHz
+#   4. fleet      16 Dex3 + 16 Dex1 emulated in one gateway, 30 s
+# Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
+# BENCH_ONLY="codec loop hop fleet" to run a subset (the report keeps only what this run made).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+cargo=${CARGO:-cargo}
+target=${CARGO_TARGET_DIR:-$root/target}
+results="$target/bench-results"
+only=${BENCH_ONLY:-"codec loop hop fleet"}
+quick=${BENCH_QUICK:-0}
+
+loop_secs=60; fleet_secs=30; samples=2000
+if [ "$quick" = 1 ]; then loop_secs=5; fleet_secs=5; samples=300; fi
+
+want() { [[ " $only " == *" $1 "* ]]; }
+
+[ -x .venv/bin/python ] || scripts/setup.sh
+
+echo "bench: building release binaries"
+$cargo build --release -p handgate -p handgate-bench
+bin="$target/release"
+
+rm -rf "$results"
+mkdir -p "$results"
+"$bin/handgate-bench" machine --out "$results/machine.json"
+echo "bench: load average at start: $(cut -d' ' -f1-3 /proc/loadavg)"
+
+if want codec; then
+  since=$(date +%s)
+  echo "bench: 1. codec (criterion)"
+  # DEX3_JITTER_SECS=0: the criterion file's own short jitter runs are superseded by step 2.
+  DEX3_JITTER_SECS=0 $cargo bench -p handgate-adapters --bench dex3_usb
+  "$bin/handgate-bench" criterion --dir "$target/criterion" --since "$since" --out "$results/codec_dex3.json"
+  since=$(date +%s)
+  $cargo bench -p handgate-adapters --bench dynamixel_codec
+  "$bin/handgate-bench" criterion --dir "$target/criterion" --since "$since" --out "$results/codec_ezgripper.json"
+  echo "bench: 5. EZGripper measured-state rate over the pty emulator (5 s per case)"
+  # The bench prints a markdown table (round periods and rates per gripper); keep it as is.
+  $cargo bench -p handgate-adapters --bench ezgripper -- 5 | grep '^|' > "$results/ezgripper.md"
+fi
+
+if want loop; then
+  echo "bench: 2. device loop (${loop_secs} s per configuration)"
+  configs=default
+  # SCHED_FIFO needs root (or CAP_SYS_NICE): the opt-in real-time configuration.
+  [ "$(id -u)" -eq 0 ] && configs="default,fifo"
+  "$bin/handgate-bench" loop --secs "$loop_secs" --configs "$configs" --out "$results/loop.json"
+fi
+
+if want hop; then
+  echo "bench: 3. end-to-end hop ($samples samples per rate)"
+  "$bin/handgate-bench" hop --handgate "$bin/handgate" --python "$root/.venv/bin/python" \
+    --relay "$root/bench/python/relay.py" --samples "$samples" --out "$results/hop.json"
+fi
+
+if want fleet; then
+  echo "bench: 4. fleet scale (${fleet_secs} s)"
+  "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --out "$results/fleet.json"
+fi
+
+"$bin/handgate-bench" machine --out "$results/machine_end.json"
+"$bin/handgate-bench" report --results "$results" --repo "$root" --out "$root/docs/benchmarks.md"
+echo "bench: load average at end: $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "bench: wrote docs/benchmarks.md (results in $results)"
