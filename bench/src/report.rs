@@ -336,7 +336,10 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
 
     // 5. EZGripper
     body.push_str("\n## 5. EZGripper (Dynamixel)\n\n");
-    match read::<Vec<CodecResult>>(results, "codec_ezgripper.json").filter(|v| !v.is_empty()) {
+    // Only the Dynamixel ids: criterion's directory also holds the Dex3 results of this run.
+    let dxl = read::<Vec<CodecResult>>(results, "codec_ezgripper.json")
+        .map(|v| v.into_iter().filter(|c| c.id.starts_with("dynamixel/")).collect::<Vec<_>>());
+    match dxl.filter(|v| !v.is_empty()) {
         Some(v) => {
             body.push_str(
                 "Codec: `cargo bench -p handgate-adapters --bench dynamixel_codec` (criterion; one bus round's \
