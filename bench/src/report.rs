@@ -337,8 +337,11 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     // 5. EZGripper
     body.push_str("\n## 5. EZGripper (Dynamixel)\n\n");
     // Only the Dynamixel ids: criterion's directory also holds the Dex3 results of this run.
-    let dxl = read::<Vec<CodecResult>>(results, "codec_ezgripper.json")
-        .map(|v| v.into_iter().filter(|c| c.id.starts_with("dynamixel/")).collect::<Vec<_>>());
+    let dxl = read::<Vec<CodecResult>>(results, "codec_ezgripper.json").map(|v| {
+        v.into_iter()
+            .filter(|c| c.id.starts_with("dynamixel/"))
+            .collect::<Vec<_>>()
+    });
     match dxl.filter(|v| !v.is_empty()) {
         Some(v) => {
             body.push_str(

@@ -955,6 +955,84 @@ pub fn fixture(module: &str, type_name: &str, case: &str) -> Result<Fixture, Fix
     load_fixture(&golden_dir().join(format!("{module}__{type_name}__{case}.json")))
 }
 
+// ---------------------------------------------------------------------------------------------
+// Waiting on DDS in gateway-level tests (e2e_gateway.rs, reliability.rs).
+
+/// Serialises the tests of one test binary that start gateways: on a 2-core machine, parallel
+/// gateways starve each other into spurious watchdog trips.
+pub fn serial() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A participant on `domain` (on `HANDGATE_INTEROP_IFACE` when set).
+pub fn node(domain: u32) -> handgate_adapters::dds::Node {
+    handgate_adapters::dds::Node::new(domain, interop_interface().as_deref()).expect("DDS participant")
+}
+
+/// Polls `f` every millisecond until it returns Some or `timeout` passes.
+pub fn poll<T>(timeout: Duration, mut f: impl FnMut() -> Option<T>) -> Option<T> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        if let Some(v) = f() {
+            return Some(v);
+        }
+        if Instant::now() >= deadline {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// The newest sample of a reader, remembered between calls.
+pub struct Latest<T: handgate_idl::TopicType + Clone> {
+    pub reader: handgate_adapters::dds::Reader<T>,
+    pub last: Option<T>,
+    pub count: u64,
+}
+
+impl<T: handgate_idl::TopicType + Clone> Latest<T> {
+    pub fn new(node: &handgate_adapters::dds::Node, topic: &str, qos: handgate_adapters::dds::Qos) -> Self {
+        Self {
+            reader: node.reader(topic, qos).expect("reader"),
+            last: None,
+            count: 0,
+        }
+    }
+
+    /// Takes whatever arrived, calling `each` on every sample; returns the newest.
+    pub fn update_with(&mut self, mut each: impl FnMut(&T)) -> Option<&T> {
+        for s in self.reader.take() {
+            each(&s);
+            self.count += 1;
+            self.last = Some(s);
+        }
+        self.last.as_ref()
+    }
+
+    /// Takes whatever arrived; returns the newest sample seen so far.
+    pub fn update(&mut self) -> Option<&T> {
+        self.update_with(|_| {})
+    }
+
+    /// Waits for a sample newer than the ones already taken.
+    pub fn next(&mut self, timeout: Duration) -> Option<T> {
+        let before = self.count;
+        poll(timeout, || {
+            self.update();
+            (self.count > before).then(|| self.last.clone()).flatten()
+        })
+    }
+}
+
+/// The status row of device `name`.
+pub fn status_device<'a>(s: &'a handgate::GatewayStatus_, name: &str) -> &'a handgate::DeviceStatus_ {
+    s.devices
+        .iter()
+        .find(|d| d.device == name)
+        .unwrap_or_else(|| panic!("status has no device {name}: {s:?}"))
+}
+
 #[cfg(test)]
 mod unit {
     use super::*;

@@ -11,13 +11,16 @@
 //! Needs the binary (`cargo build -p handgate` or `make test`) and `.venv` (scripts/setup.sh).
 
 use std::process::{Command, Output, Stdio};
-use std::sync::{Mutex, MutexGuard};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::{Node, Qos, Reader, Writer};
+use handgate_adapters::dds::{Node, Qos, Writer};
 use handgate_idl::handgate as hg;
 use handgate_idl::{unitree_go, unitree_hg, TopicType};
-use handgate_tests::{handgate_bin, interop_interface, repo_root, venv_python, Gateway, PyProcess, Signal};
+use handgate_tests::{
+    handgate_bin, interop_interface, node, poll, repo_root, serial, status_device as device, venv_python, Gateway,
+    Latest, PyProcess, Signal,
+};
 use serde_json::Value;
 
 /// Upper bound for any single readiness wait (process start-up, DDS discovery, convergence).
@@ -31,31 +34,6 @@ const INDEX_0: usize = 5;
 /// URDF limit of the left hand's index_0 on the wire (left_hand_three_joint: [-1.5708, 0], i.e.
 /// -pi/2 to the URDF's 4 decimals).
 const LEFT_INDEX_0_LIMIT: (f32, f32) = (-std::f32::consts::FRAC_PI_2, 0.0);
-
-/// One gateway at a time (see the module comment). A failed test poisons the lock; the others
-/// still run.
-fn serial() -> MutexGuard<'static, ()> {
-    static LOCK: Mutex<()> = Mutex::new(());
-    LOCK.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-fn node(domain: u32) -> Node {
-    Node::new(domain, interop_interface().as_deref()).expect("DDS participant")
-}
-
-/// Polls `f` every 2 ms until it returns Some or `timeout` passes.
-fn poll<T>(timeout: Duration, mut f: impl FnMut() -> Option<T>) -> Option<T> {
-    let deadline = Instant::now() + timeout;
-    loop {
-        if let Some(v) = f() {
-            return Some(v);
-        }
-        if Instant::now() >= deadline {
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(2));
-    }
-}
 
 /// Writes `msg` every [`PERIOD`] until `cond` holds (checked after each write) or `timeout`.
 fn stream_until<T: TopicType + Clone>(
@@ -81,50 +59,8 @@ fn stream_until<T: TopicType + Clone>(
     }
 }
 
-/// The newest sample of a keep-last-1 reader, remembered between calls.
-struct Latest<T: TopicType + Clone> {
-    reader: Reader<T>,
-    last: Option<T>,
-    count: u64,
-}
-
-impl<T: TopicType + Clone> Latest<T> {
-    fn new(node: &Node, topic: &str, qos: Qos) -> Self {
-        Self {
-            reader: node.reader(topic, qos).expect("reader"),
-            last: None,
-            count: 0,
-        }
-    }
-
-    /// Takes whatever arrived; returns the newest sample seen so far.
-    fn update(&mut self) -> Option<&T> {
-        for s in self.reader.take() {
-            self.count += 1;
-            self.last = Some(s);
-        }
-        self.last.as_ref()
-    }
-
-    /// Waits for a sample newer than the ones already taken.
-    fn next(&mut self, timeout: Duration) -> Option<T> {
-        let before = self.count;
-        poll(timeout, || {
-            self.update();
-            (self.count > before).then(|| self.last.clone()).flatten()
-        })
-    }
-}
-
 fn status_reader(node: &Node) -> Latest<hg::GatewayStatus_> {
     Latest::new(node, "rt/handgate/status", Qos::Reliable { depth: 1 })
-}
-
-fn device<'a>(s: &'a hg::GatewayStatus_, name: &str) -> &'a hg::DeviceStatus_ {
-    s.devices
-        .iter()
-        .find(|d| d.device == name)
-        .unwrap_or_else(|| panic!("status has no device {name}: {s:?}"))
 }
 
 /// A Dex3 command: every motor id i, FOC, kp 1.5, kd 0.1, q 0, except index_0.

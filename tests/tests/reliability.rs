@@ -14,10 +14,10 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::{Mutex, MutexGuard};
+
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::{Node, Qos, Reader, Writer};
+use handgate_adapters::dds::{Node, Qos, Writer};
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
 use handgate_adapters::dex3::usb::adapter::{Dex3UsbDevice, UsbSource, CAPABILITIES};
 use handgate_adapters::dex3::usb::LoopConfig;
@@ -27,7 +27,9 @@ use handgate_adapters::model::{faults, CommandBody, DeviceKind, Freshness, HandC
 use handgate_adapters::tables::{table_for, TableParams};
 use handgate_idl::handgate as hg;
 use handgate_idl::{unitree_go, unitree_hg, TopicType};
-use handgate_tests::{handgate_bin, interop_interface, repo_root, Gateway};
+use handgate_tests::{
+    handgate_bin, interop_interface, node, poll, repo_root, serial, status_device as device, Gateway, Latest,
+};
 
 /// Upper bound for any single readiness wait.
 const DEADLINE: Duration = Duration::from_secs(30);
@@ -51,75 +53,6 @@ fn figure(suite: &str, key: &str, value: impl std::fmt::Display) {
 
 fn ms(d: Duration) -> String {
     format!("{:.1}", d.as_secs_f64() * 1000.0)
-}
-
-fn serial() -> MutexGuard<'static, ()> {
-    static LOCK: Mutex<()> = Mutex::new(());
-    LOCK.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-fn node(domain: u32) -> Node {
-    Node::new(domain, interop_interface().as_deref()).expect("DDS participant")
-}
-
-/// Polls `f` every 1 ms until it returns Some or `timeout` passes.
-fn poll<T>(timeout: Duration, mut f: impl FnMut() -> Option<T>) -> Option<T> {
-    let deadline = Instant::now() + timeout;
-    loop {
-        if let Some(v) = f() {
-            return Some(v);
-        }
-        if Instant::now() >= deadline {
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(1));
-    }
-}
-
-/// The newest sample of a reader, remembered between calls.
-struct Latest<T: TopicType + Clone> {
-    reader: Reader<T>,
-    last: Option<T>,
-    count: u64,
-}
-
-impl<T: TopicType + Clone> Latest<T> {
-    fn new(node: &Node, topic: &str, qos: Qos) -> Self {
-        Self {
-            reader: node.reader(topic, qos).expect("reader"),
-            last: None,
-            count: 0,
-        }
-    }
-
-    /// Takes whatever arrived, calling `each` on every sample; returns the newest.
-    fn update_with(&mut self, mut each: impl FnMut(&T)) -> Option<&T> {
-        for s in self.reader.take() {
-            each(&s);
-            self.count += 1;
-            self.last = Some(s);
-        }
-        self.last.as_ref()
-    }
-
-    fn update(&mut self) -> Option<&T> {
-        self.update_with(|_| {})
-    }
-
-    fn next(&mut self, timeout: Duration) -> Option<T> {
-        let before = self.count;
-        poll(timeout, || {
-            self.update();
-            (self.count > before).then(|| self.last.clone()).flatten()
-        })
-    }
-}
-
-fn device<'a>(s: &'a hg::GatewayStatus_, name: &str) -> &'a hg::DeviceStatus_ {
-    s.devices
-        .iter()
-        .find(|d| d.device == name)
-        .unwrap_or_else(|| panic!("status has no device {name}: {s:?}"))
 }
 
 fn dex3_cmd(index_0: f32, tag: u32) -> unitree_hg::HandCmd_ {
