@@ -984,6 +984,34 @@ pub fn poll<T>(timeout: Duration, mut f: impl FnMut() -> Option<T>) -> Option<T>
     }
 }
 
+/// How often [`stream_until`] writes: 100 Hz, a typical client rate.
+pub const STREAM_PERIOD: Duration = Duration::from_millis(10);
+
+/// Writes `msg` every [`STREAM_PERIOD`] until `cond` holds (checked after each write and
+/// between writes) or `timeout` passes; returns whether `cond` held.
+pub fn stream_until<T: handgate_idl::TopicType + Clone>(
+    w: &mut handgate_adapters::dds::Writer<T>,
+    msg: &T,
+    timeout: Duration,
+    mut cond: impl FnMut() -> bool,
+) -> bool {
+    let deadline = Instant::now() + timeout;
+    let mut next = Instant::now();
+    loop {
+        if Instant::now() >= next {
+            w.write(msg.clone()).expect("write");
+            next += STREAM_PERIOD;
+        }
+        if cond() {
+            return true;
+        }
+        if Instant::now() >= deadline {
+            return false;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
 /// The newest sample of a reader, remembered between calls.
 pub struct Latest<T: handgate_idl::TopicType + Clone> {
     pub reader: handgate_adapters::dds::Reader<T>,

@@ -14,19 +14,17 @@ use std::process::{Command, Output, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::{Node, Qos, Writer};
+use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::handgate as hg;
-use handgate_idl::{unitree_go, unitree_hg, TopicType};
+use handgate_idl::{unitree_go, unitree_hg};
 use handgate_tests::{
-    handgate_bin, interop_interface, node, poll, repo_root, serial, status_device as device, venv_python, Gateway,
-    Latest, PyProcess, Signal,
+    handgate_bin, interop_interface, node, poll, repo_root, serial, status_device as device, stream_until, venv_python,
+    Gateway, Latest, PyProcess, Signal,
 };
 use serde_json::Value;
 
 /// Upper bound for any single readiness wait (process start-up, DDS discovery, convergence).
 const DEADLINE: Duration = Duration::from_secs(20);
-/// Client command period: well inside the fronts' 200 ms watchdog.
-const PERIOD: Duration = Duration::from_millis(10);
 /// Position tolerance for "reached the target", rad.
 const TOL: f32 = 0.05;
 /// IDL index of Dex3 index_0 (Dex3-1 manual; docs/model.md).
@@ -34,30 +32,6 @@ const INDEX_0: usize = 5;
 /// URDF limit of the left hand's index_0 on the wire (left_hand_three_joint: [-1.5708, 0], i.e.
 /// -pi/2 to the URDF's 4 decimals).
 const LEFT_INDEX_0_LIMIT: (f32, f32) = (-std::f32::consts::FRAC_PI_2, 0.0);
-
-/// Writes `msg` every [`PERIOD`] until `cond` holds (checked after each write) or `timeout`.
-fn stream_until<T: TopicType + Clone>(
-    w: &mut Writer<T>,
-    msg: &T,
-    timeout: Duration,
-    mut cond: impl FnMut() -> bool,
-) -> bool {
-    let deadline = Instant::now() + timeout;
-    let mut next = Instant::now();
-    loop {
-        if Instant::now() >= next {
-            w.write(msg.clone()).expect("write");
-            next += PERIOD;
-        }
-        if cond() {
-            return true;
-        }
-        if Instant::now() >= deadline {
-            return false;
-        }
-        std::thread::sleep(Duration::from_millis(2));
-    }
-}
 
 fn status_reader(node: &Node) -> Latest<hg::GatewayStatus_> {
     Latest::new(node, "rt/handgate/status", Qos::Reliable { depth: 1 })

@@ -17,7 +17,7 @@ use std::process::{Child, Command, Stdio};
 
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::{Node, Qos, Writer};
+use handgate_adapters::dds::{Node, Qos};
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
 use handgate_adapters::dex3::usb::adapter::{Dex3UsbDevice, UsbSource, CAPABILITIES};
 use handgate_adapters::dex3::usb::LoopConfig;
@@ -26,15 +26,14 @@ use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::{faults, CommandBody, DeviceKind, Freshness, HandCommand, JointCommand, JointId, Side};
 use handgate_adapters::tables::{table_for, TableParams};
 use handgate_idl::handgate as hg;
-use handgate_idl::{unitree_go, unitree_hg, TopicType};
+use handgate_idl::{unitree_go, unitree_hg};
 use handgate_tests::{
-    handgate_bin, interop_interface, node, poll, repo_root, serial, status_device as device, Gateway, Latest,
+    handgate_bin, interop_interface, node, poll, repo_root, serial, status_device as device, stream_until, Gateway,
+    Latest, STREAM_PERIOD as PERIOD,
 };
 
 /// Upper bound for any single readiness wait.
 const DEADLINE: Duration = Duration::from_secs(30);
-/// Client command period.
-const PERIOD: Duration = Duration::from_millis(10);
 /// Position tolerance, rad.
 const TOL: f32 = 0.05;
 /// IDL index of Dex3 index_0.
@@ -941,30 +940,6 @@ impl HandWatch {
         });
         let cl = &mut self.canon_log;
         self.canon.update_with(|s| cl.push((now, s.freshness)));
-    }
-}
-
-/// Streams `cmd` every PERIOD until `cond` or the deadline.
-fn stream_until<T: TopicType + Clone>(
-    w: &mut Writer<T>,
-    msg: &T,
-    timeout: Duration,
-    mut cond: impl FnMut() -> bool,
-) -> bool {
-    let deadline = Instant::now() + timeout;
-    let mut next = Instant::now();
-    loop {
-        if Instant::now() >= next {
-            w.write(msg.clone()).expect("write");
-            next += PERIOD;
-        }
-        if cond() {
-            return true;
-        }
-        if Instant::now() >= deadline {
-            return false;
-        }
-        std::thread::sleep(Duration::from_millis(1));
     }
 }
 

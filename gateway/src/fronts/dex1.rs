@@ -16,7 +16,7 @@ use handgate_adapters::mapping::{DeviceTable, WireTarget};
 use handgate_adapters::model::{faults, Freshness, HandState, JointState, Side};
 use handgate_idl::{unitree_go, unitree_hg};
 
-use super::{finite5, FrontCommand, Rejection};
+use super::{checked_target, FrontCommand, Rejection};
 
 fn one(front: &DeviceTable, w: WireTarget, tag: u32) -> FrontCommand {
     FrontCommand {
@@ -44,18 +44,9 @@ pub fn decode_go(
         });
     }
     let m = &msg.cmds[idx];
-    if !finite5([m.q, m.dq, m.tau, m.kp, m.kd]) {
-        return Err(Rejection::NonFinite(idx));
-    }
     Ok(one(
         front,
-        WireTarget {
-            q: m.q,
-            dq: m.dq,
-            tau: m.tau,
-            kp: m.kp,
-            kd: m.kd,
-        },
+        checked_target(idx, [m.q, m.dq, m.tau, m.kp, m.kd])?,
         m.reserve[0],
     ))
 }
@@ -69,18 +60,9 @@ pub fn decode_hg(msg: &unitree_hg::HandCmd_, front: &DeviceTable) -> Result<Fron
         });
     }
     let m = &msg.motor_cmd[0];
-    if !finite5([m.q, m.dq, m.tau, m.kp, m.kd]) {
-        return Err(Rejection::NonFinite(0));
-    }
     Ok(one(
         front,
-        WireTarget {
-            q: m.q,
-            dq: m.dq,
-            tau: m.tau,
-            kp: m.kp,
-            kd: m.kd,
-        },
+        checked_target(0, [m.q, m.dq, m.tau, m.kp, m.kd])?,
         msg.reserve[0],
     ))
 }

@@ -15,7 +15,7 @@ use handgate_adapters::mapping::{DeviceTable, WireTarget};
 use handgate_adapters::model::{faults, Freshness, HandState, JointCommand, JointState};
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, IMUState_, MotorState_, PressSensorState_, DEX3_PRESS_SENSORS};
 
-use super::{finite5, FrontCommand, Rejection};
+use super::{checked_target, FrontCommand, Rejection};
 
 /// Decodes a HandCmd_ for a Dex3 front whose table is `front` (its side). `measured` is the
 /// bound device's state in the front's canonical order (for "lock" = hold where measured).
@@ -29,9 +29,7 @@ pub fn decode_cmd(msg: &HandCmd_, front: &DeviceTable, measured: &[JointState]) 
     }
     let mut timeout_bit = false;
     for (i, m) in msg.motor_cmd.iter().enumerate() {
-        if !finite5([m.q, m.dq, m.tau, m.kp, m.kd]) {
-            return Err(Rejection::NonFinite(i));
-        }
+        checked_target(i, [m.q, m.dq, m.tau, m.kp, m.kd])?;
         let mode = RisMode::decode(m.mode);
         if mode.id as usize != i {
             return Err(Rejection::WrongId { index: i, id: mode.id });

@@ -12,6 +12,7 @@ pub mod dex1;
 pub mod dex3;
 pub mod joint_state;
 
+use handgate_adapters::mapping::WireTarget;
 use handgate_adapters::model::JointCommand;
 
 /// Why a front rejected a message.
@@ -58,6 +59,12 @@ pub struct FrontCommand {
     pub tag: u32,
 }
 
-fn finite5(v: [f32; 5]) -> bool {
-    v.iter().all(|x| x.is_finite())
+/// Entry `index`'s five command fields as a wire target, refused whole when any of them is
+/// not finite.
+fn checked_target(index: usize, [q, dq, tau, kp, kd]: [f32; 5]) -> Result<WireTarget, Rejection> {
+    if [q, dq, tau, kp, kd].iter().all(|x| x.is_finite()) {
+        Ok(WireTarget { q, dq, tau, kp, kd })
+    } else {
+        Err(Rejection::NonFinite(index))
+    }
 }
