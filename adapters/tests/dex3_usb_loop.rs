@@ -5,27 +5,12 @@ use handgate_adapters::dex3::usb::device_loop::{Dex3UsbHandle, Dex3UsbLoop, Loop
 use handgate_adapters::dex3::usb::emulator::{lock, Dex3Emulator, EmulatorConfig, EmulatorTransport, SharedEmulator};
 use handgate_adapters::dex3::{Dex3Command, Dex3Measurement, Joint, MotorCommand, Side};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+mod common;
+use common::{wait_for, wait_meas};
 
 const DEADLINE: Duration = Duration::from_secs(20);
-
-fn wait_for<T>(what: &str, mut f: impl FnMut() -> Option<T>) -> T {
-    let end = Instant::now() + DEADLINE;
-    loop {
-        if let Some(v) = f() {
-            return v;
-        }
-        assert!(Instant::now() < end, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(2));
-    }
-}
-
-fn wait_meas(h: &Dex3UsbHandle, what: &str, f: impl Fn(&Dex3Measurement) -> bool) -> Dex3Measurement {
-    wait_for(what, || {
-        let m = h.latest();
-        f(&m).then_some(m)
-    })
-}
 
 fn setup(side: Side, cfg: LoopConfig) -> (SharedEmulator, Dex3UsbHandle) {
     let emu: SharedEmulator = Arc::new(Mutex::new(Dex3Emulator::new(side, EmulatorConfig::default())));
@@ -51,9 +36,11 @@ fn one_joint(base: [f32; 7], j: Joint, q: f32) -> Dex3Command {
 #[test]
 fn commanded_joint_reaches_target() {
     let (emu, h) = setup(Side::Right, LoopConfig::default());
-    let m0 = wait_meas(&h, "first state", all_present);
+    let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
     h.set_command(one_joint(m0.positions(), Joint::Index0, 1.0));
-    let m = wait_meas(&h, "index_0 at 1.0", |m| (m.motor(Joint::Index0).q - 1.0).abs() < 0.02);
+    let m = wait_meas(DEADLINE, &h, "index_0 at 1.0", |m| {
+        (m.motor(Joint::Index0).q - 1.0).abs() < 0.02
+    });
     assert!(!m.motor(Joint::Index0).timeout);
     assert!(m.imu.accel[2] > 9.0);
     let s = h.stats();
@@ -68,11 +55,11 @@ fn commanded_joint_reaches_target() {
 #[test]
 fn latest_command_wins() {
     let (_emu, h) = setup(Side::Left, LoopConfig::default());
-    let m0 = wait_meas(&h, "first state", all_present);
+    let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
     for q in [-0.2, -0.4, -0.6, -1.2] {
         h.set_command(one_joint(m0.positions(), Joint::Middle1, q));
     }
-    wait_meas(&h, "middle_1 at -1.2", |m| {
+    wait_meas(DEADLINE, &h, "middle_1 at -1.2", |m| {
         (m.motor(Joint::Middle1).q + 1.2).abs() < 0.02
     });
 }
@@ -85,32 +72,34 @@ fn timeout_bit_trips_when_commands_stop_and_clears_on_request() {
         ..LoopConfig::default()
     };
     let (emu, h) = setup(Side::Right, cfg);
-    let m0 = wait_meas(&h, "first state", all_present);
+    let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
     h.set_command(one_joint(m0.positions(), Joint::Middle0, 0.8));
-    wait_meas(&h, "middle_0 at 0.8", |m| {
+    wait_meas(DEADLINE, &h, "middle_0 at 0.8", |m| {
         (m.motor(Joint::Middle0).q - 0.8).abs() < 0.02
     });
 
     // Commands stop reaching the hand; 1.5 s pass on the hand's clock.
     lock(&emu).stall_for(Duration::from_secs(3600));
-    wait_meas(&h, "stale during the stall", |m| m.stale);
+    wait_meas(DEADLINE, &h, "stale during the stall", |m| m.stale);
     lock(&emu).advance(Duration::from_millis(1500));
     assert!(lock(&emu).timed_out(Joint::Middle0));
     lock(&emu).clear_faults();
 
     // The loop keeps sending the bit: the trip stays latched and is reported.
-    let m = wait_meas(&h, "timeout reported", |m| !m.stale && m.motor(Joint::Middle0).timeout);
+    let m = wait_meas(DEADLINE, &h, "timeout reported", |m| {
+        !m.stale && m.motor(Joint::Middle0).timeout
+    });
     assert!(m.motors.iter().all(|m| m.timeout));
     let s = h.stats();
     assert!(s.timeouts > 0);
     assert_eq!(s.reconnects, 0);
 
     h.clear_timeouts();
-    wait_meas(&h, "timeout cleared", |m| {
+    wait_meas(DEADLINE, &h, "timeout cleared", |m| {
         !m.stale && m.motors.iter().all(|m| !m.timeout)
     });
     h.set_command(one_joint(m0.positions(), Joint::Middle0, 0.3));
-    wait_meas(&h, "middle_0 follows again", |m| {
+    wait_meas(DEADLINE, &h, "middle_0 follows again", |m| {
         (m.motor(Joint::Middle0).q - 0.3).abs() < 0.02
     });
 }
@@ -122,13 +111,13 @@ fn timeout_bit_can_be_disabled() {
         ..LoopConfig::default()
     };
     let (emu, h) = setup(Side::Right, cfg);
-    wait_meas(&h, "first state", all_present);
+    wait_meas(DEADLINE, &h, "first state", all_present);
     lock(&emu).stall_for(Duration::from_secs(3600));
-    wait_meas(&h, "stale during the stall", |m| m.stale);
+    wait_meas(DEADLINE, &h, "stale during the stall", |m| m.stale);
     lock(&emu).advance(Duration::from_millis(1500));
     assert!(!lock(&emu).timed_out(Joint::Thumb0));
     lock(&emu).clear_faults();
-    wait_meas(&h, "fresh", |m| !m.stale);
+    wait_meas(DEADLINE, &h, "fresh", |m| !m.stale);
 }
 
 #[test]
@@ -139,14 +128,16 @@ fn crc_burst_is_counted_and_last_good_state_kept_stale() {
         ..LoopConfig::default()
     };
     let (emu, h) = setup(Side::Left, cfg);
-    let m0 = wait_meas(&h, "first state", all_present);
+    let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
     h.set_command(one_joint(m0.positions(), Joint::Thumb2, 1.0));
-    wait_meas(&h, "thumb_2 at 1.0", |m| (m.motor(Joint::Thumb2).q - 1.0).abs() < 0.02);
+    wait_meas(DEADLINE, &h, "thumb_2 at 1.0", |m| {
+        (m.motor(Joint::Thumb2).q - 1.0).abs() < 0.02
+    });
 
     lock(&emu).corrupt_frames(1_000_000);
     let bad0 = h.stats().frame_crc_errors;
-    let m1 = wait_meas(&h, "stale after corrupt frames", |m| m.stale);
-    wait_for("20 more CRC errors", || {
+    let m1 = wait_meas(DEADLINE, &h, "stale after corrupt frames", |m| m.stale);
+    wait_for(DEADLINE, "20 more CRC errors", || {
         (h.stats().frame_crc_errors >= bad0 + 20).then_some(())
     });
     let m2 = h.latest();
@@ -158,13 +149,13 @@ fn crc_burst_is_counted_and_last_good_state_kept_stale() {
     assert_eq!(h.stats().reconnects, 0);
 
     lock(&emu).clear_faults();
-    let m3 = wait_meas(&h, "fresh again", |m| !m.stale);
+    let m3 = wait_meas(DEADLINE, &h, "fresh again", |m| !m.stale);
     assert!(m3.seq > m2.seq);
 
     // Corrupt motor packets inside good frames: counted, the other joints still update.
     let pkt0 = h.stats().packet_crc_errors;
     lock(&emu).corrupt_motor_packets(10);
-    wait_for("10 packet CRC errors", || {
+    wait_for(DEADLINE, "10 packet CRC errors", || {
         (h.stats().packet_crc_errors >= pkt0 + 10).then_some(())
     });
 }
@@ -172,21 +163,23 @@ fn crc_burst_is_counted_and_last_good_state_kept_stale() {
 #[test]
 fn unplug_replug_holds_measured_position_not_old_command() {
     let (emu, h) = setup(Side::Right, LoopConfig::default());
-    let m0 = wait_meas(&h, "first state", all_present);
+    let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
     h.set_command(one_joint(m0.positions(), Joint::Thumb0, 0.8));
-    wait_meas(&h, "thumb_0 at 0.8", |m| (m.motor(Joint::Thumb0).q - 0.8).abs() < 0.02);
+    wait_meas(DEADLINE, &h, "thumb_0 at 0.8", |m| {
+        (m.motor(Joint::Thumb0).q - 0.8).abs() < 0.02
+    });
 
     lock(&emu).unplug();
-    wait_for("disconnected", || (!h.stats().connected).then_some(()));
+    wait_for(DEADLINE, "disconnected", || (!h.stats().connected).then_some(()));
     assert!(h.latest().stale);
     // While unplugged, somebody moves the finger.
     lock(&emu).set_joint_q(Joint::Thumb0, -0.5);
     let frames_before = lock(&emu).stats().frames_ok;
     lock(&emu).replug();
 
-    wait_for("reconnected", || (h.stats().reconnects >= 1).then_some(()));
-    wait_meas(&h, "fresh after reconnect", all_present);
-    wait_for("300 exchanges after the replug", || {
+    wait_for(DEADLINE, "reconnected", || (h.stats().reconnects >= 1).then_some(()));
+    wait_meas(DEADLINE, &h, "fresh after reconnect", all_present);
+    wait_for(DEADLINE, "300 exchanges after the replug", || {
         (lock(&emu).stats().frames_ok > frames_before + 300).then_some(())
     });
     let lc = lock(&emu).last_command(Joint::Thumb0).unwrap();
@@ -197,7 +190,9 @@ fn unplug_replug_holds_measured_position_not_old_command() {
 
     // A command set after the reconnect moves it.
     h.set_command(one_joint(h.latest().positions(), Joint::Thumb0, 0.3));
-    wait_meas(&h, "thumb_0 at 0.3", |m| (m.motor(Joint::Thumb0).q - 0.3).abs() < 0.02);
+    wait_meas(DEADLINE, &h, "thumb_0 at 0.3", |m| {
+        (m.motor(Joint::Thumb0).q - 0.3).abs() < 0.02
+    });
 }
 
 #[test]
@@ -230,12 +225,12 @@ fn repeated_timeouts_reopen_the_transport() {
         ..LoopConfig::default()
     };
     let (emu, h) = setup(Side::Right, cfg);
-    wait_meas(&h, "first state", all_present);
+    wait_meas(DEADLINE, &h, "first state", all_present);
     lock(&emu).drop_replies(20);
-    wait_for("a reconnect after timeouts", || {
+    wait_for(DEADLINE, "a reconnect after timeouts", || {
         (h.stats().reconnects >= 1).then_some(())
     });
-    wait_meas(&h, "fresh again", |m| !m.stale);
+    wait_meas(DEADLINE, &h, "fresh again", |m| !m.stale);
     let s = h.stats();
     assert!(s.timeouts >= 5, "timeouts {}", s.timeouts);
     assert_eq!(s.transport_errors, 0);
