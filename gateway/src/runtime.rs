@@ -568,7 +568,12 @@ fn spawn_front(
                             warn!(front = %name, device = %b.slot.plan.name, silence = %b.silence.mode,
                                 timeout_ms = after.as_millis() as u64, action = ?action,
                                 "no command: moving the device to its silence action");
-                            let _ = b.slot.device.safe_state(action).await;
+                            // In a task of its own: the front keeps publishing on its
+                            // deadlines while the device confirms its safe state.
+                            let dev = b.slot.device.clone();
+                            tokio::spawn(async move {
+                                let _ = dev.safe_state(action).await;
+                            });
                         }
                     }
                     changed = first_change(&mut bound), if awaiting => {
