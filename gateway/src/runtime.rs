@@ -415,6 +415,8 @@ struct Bound {
     /// The state reflecting this accepted command (`cmd_seq`) is awaited for a prompt publish.
     awaiting: Option<u64>,
     state_rx: watch::Receiver<HandState>,
+    /// The silence action, running in its own task.
+    pending_safe: Option<tokio::task::JoinHandle<()>>,
 }
 
 impl Bound {
@@ -455,6 +457,7 @@ fn spawn_front(
             acted: false,
             awaiting: None,
             state_rx: slot.device.state(),
+            pending_safe: None,
             slot,
         });
     }
@@ -516,6 +519,9 @@ fn spawn_front(
                                 let mut any = false;
                                 for (i, (body, tag, timeout_bit)) in cmds {
                                     let b = &mut bound[i];
+                                    if let Some(h) = b.pending_safe.take() {
+                                        let _ = h.await;
+                                    }
                                     b.seq += 1;
                                     match b.slot.device.command(HandCommand { seq: b.seq, body, tag }) {
                                         Ok(()) => {
@@ -570,10 +576,12 @@ fn spawn_front(
                                 "no command: moving the device to its silence action");
                             // In a task of its own: the front keeps publishing on its
                             // deadlines while the device confirms its safe state.
+                            // A command for the device waits for it (`pending_safe`), so the
+                            // safe state never lands after a newer command.
                             let dev = b.slot.device.clone();
-                            tokio::spawn(async move {
+                            b.pending_safe = Some(tokio::spawn(async move {
                                 let _ = dev.safe_state(action).await;
-                            });
+                            }));
                         }
                     }
                     changed = first_change(&mut bound), if awaiting => {
