@@ -559,7 +559,7 @@ fn spawn_front(
                     _ = sleep_until_opt(silence_due), if silence_due.is_some() => {
                         let now = Instant::now();
                         for b in bound.iter_mut() {
-                            if b.silence_due().is_none_or(|t| t > now) {
+                            if !b.silence_due().is_some_and(|t| t <= now) {
                                 continue;
                             }
                             b.acted = true;

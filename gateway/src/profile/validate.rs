@@ -189,7 +189,7 @@ impl Checker {
             };
             let dangling = (f.device.is_some() && dev.is_none()) || missing;
             self.front(&k, f, dev, dangling);
-            if dev.is_none() && f.kind != FrontKind::JointState && !(f.devices.is_some() && !missing) {
+            if dev.is_none() && f.kind != FrontKind::JointState && (f.devices.is_none() || missing) {
                 // Its topics depend on a device that is not there; already reported.
                 continue;
             }
