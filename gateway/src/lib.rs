@@ -9,4 +9,5 @@ pub mod profile;
 pub mod resolve;
 pub mod router;
 pub mod runtime;
+pub mod ticker;
 pub mod tools;

@@ -101,17 +101,91 @@ pub enum FrontKind {
     },
 }
 
-/// One front, bound to one device (a JointState front lists its devices instead).
+/// What a front does when its client goes silent, resolved for one bound device
+/// (docs/fronts.md, "Silence").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SilencePlan {
+    /// The semantics in effect (for logs and `handgate check`): the profile's choice, except
+    /// that a canonical front's service semantics are the watchdog's.
+    pub mode: crate::profile::Silence,
+    /// After this long without a command, this action; `None`: the last target is kept.
+    pub after: Option<(Duration, SafeAction)>,
+    /// After a command that set the Dex3 RIS timeout bit (bit 7): this long, this action.
+    pub timeout_bit: Option<(Duration, SafeAction)>,
+}
+
+impl SilencePlan {
+    /// The silence action armed by a command (whether it set the RIS timeout bit): the
+    /// earlier of the two, or `None` when silence keeps the last target.
+    pub fn armed(&self, timeout_bit: bool) -> Option<(Duration, SafeAction)> {
+        let bit = self.timeout_bit.filter(|_| timeout_bit);
+        match (self.after, bit) {
+            (Some(a), Some(b)) => Some(if b.0 < a.0 { b } else { a }),
+            (a, b) => a.or(b),
+        }
+    }
+}
+
+impl std::fmt::Display for SilencePlan {
+    /// E.g. `service: keeps the last target (limp 1000 ms after a command with the RIS
+    /// timeout bit)`, `watchdog: hold after 200 ms`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: ", self.mode)?;
+        match (self.after, self.timeout_bit) {
+            (Some((t, a)), None) => write!(f, "{a} after {} ms", t.as_millis()),
+            (Some((t, a)), Some((tb, ab))) => write!(
+                f,
+                "{a} after {} ms ({ab} after {} ms after a command with the RIS timeout bit)",
+                t.as_millis(),
+                tb.min(t).as_millis()
+            ),
+            (None, Some((tb, ab))) => write!(
+                f,
+                "keeps the last target ({ab} {} ms after a command with the RIS timeout bit)",
+                tb.as_millis()
+            ),
+            (None, None) => f.write_str("keeps the last target"),
+        }
+    }
+}
+
+/// One device a front drives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Binding {
+    pub device: String,
+    /// The side whose wire convention the front speaks for this device.
+    pub side: Side,
+    /// Element of the front's messages that carries this device (actuator: 0 right, 1 left;
+    /// otherwise 0).
+    pub element: usize,
+    pub silence: SilencePlan,
+}
+
+/// One front, bound to its devices (one, except an actuator front's two grippers; a
+/// JointState front lists its devices in its kind instead).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrontPlan {
+    /// The name logs use (profile `name`, or derived).
+    pub name: String,
     pub kind: FrontKind,
-    pub device: String,
-    /// The side whose wire convention the front speaks.
-    pub side: Side,
+    pub bindings: Vec<Binding>,
     pub cmd_topic: Option<String>,
     pub state_topic: String,
     pub state_hz: f64,
-    pub watchdog: Duration,
+}
+
+impl FrontPlan {
+    /// Number of elements in this front's messages that carry a device (2 for an actuator
+    /// front, else 1).
+    pub fn elements(&self) -> usize {
+        match self.kind {
+            FrontKind::Dex1 {
+                variant: Variant::Actuator,
+                ..
+            } => 2,
+            _ => 1,
+        }
+    }
 }
 
 /// The whole fleet.

@@ -11,11 +11,19 @@ use handgate_adapters::mapping::Limits;
 use handgate_adapters::model::DeviceKind;
 use handgate_adapters::tables::{table_for, TableParams};
 
+use handgate_adapters::dex1::adapter::actuator_index;
+use handgate_adapters::dex1::SERVICE_BRAKE_AFTER;
+use handgate_adapters::dex3::RIS_TIMEOUT;
+use handgate_adapters::model::SafeAction;
+
 use crate::plan::{
-    canonical_topics, dex1_topics, dex3_topics, emulator_topics, DevicePlan, EmulatedPeer, FrontKind, FrontPlan, Plan,
-    Transport,
+    canonical_topics, dex1_topics, dex3_topics, emulator_topics, Binding, DevicePlan, EmulatedPeer, FrontKind,
+    FrontPlan, Plan, SilencePlan, Transport,
 };
-use crate::profile::{DeviceConfig, DeviceRate, FrontConfig, FrontKind as ProfileFrontKind, Profile, Topic};
+use crate::profile::{
+    DeviceConfig, DeviceRate, FrontConfig, FrontKind as ProfileFrontKind, Profile, Silence, Topic,
+    DEX1_DEFAULT_RANGE_RAD,
+};
 
 /// Why a profile could not become a plan (after validation these indicate a gap between the
 /// validator and the runtime; they are reported like validation errors).
@@ -262,19 +270,44 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
     })
 }
 
+/// What silence means for front `f` driving device `d` (docs/fronts.md, "Silence").
+pub fn silence_plan(f: &FrontConfig, d: &DeviceConfig) -> SilencePlan {
+    let dog = {
+        let t = d.watchdog.timeout_ms.as_duration();
+        let t = f.watchdog_ms.map_or(t, |w| t.min(w.as_duration()));
+        (t, d.watchdog.safe_action)
+    };
+    let (after, timeout_bit) = match (f.silence, f.kind) {
+        // The Dex3 front honours the RIS timeout bit either way: in watchdog mode it shortens
+        // the watchdog to at most the motors' own timeout, as before.
+        (Silence::Watchdog, ProfileFrontKind::Dex3) => (Some(dog), Some((dog.0.min(RIS_TIMEOUT), dog.1))),
+        (Silence::Watchdog, _) => (Some(dog), None),
+        // The G1 Dex3 service forwards commands to motors that keep their last target; a
+        // motor whose last command set the timeout bit stops (goes limp) 1 s later.
+        (Silence::Service, ProfileFrontKind::Dex3) => (None, Some((RIS_TIMEOUT, SafeAction::Limp))),
+        // dex1_1_service brakes: holds the measured position 1 s after the last command.
+        (Silence::Service, ProfileFrontKind::Dex1) => (Some((SERVICE_BRAKE_AFTER, SafeAction::Hold)), None),
+        // handgate's own interface: its service semantics are the strict watchdog.
+        (Silence::Service, _) => (Some(dog), None),
+    };
+    SilencePlan {
+        mode: if f.kind == ProfileFrontKind::Canonical {
+            Silence::Watchdog
+        } else {
+            f.silence
+        },
+        after,
+        timeout_bit,
+    }
+}
+
 fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveError> {
-    let dev = f.device.as_ref().and_then(|n| p.devices.iter().find(|d| &d.name == n));
+    let lookup = |n: &crate::profile::DeviceName| p.devices.iter().find(|d| &d.name == n);
+    let dev = f.device.as_ref().and_then(lookup);
     let topics = f.topics(dev);
-    let side = f.served_side(dev).unwrap_or_default();
-    let device_watchdog = dev.map(|d| d.watchdog.timeout_ms.as_duration());
-    let watchdog = device_watchdog.map_or(f.watchdog_ms.as_duration(), |d| d.min(f.watchdog_ms.as_duration()));
     let need = |t: Option<Topic>, what: &str| {
         t.map(|t| t.0)
             .ok_or_else(|| ResolveError::Front(i, format!("no {what} topic (side center?)")))
-    };
-    let device_name = || {
-        dev.map(|d| d.name.to_string())
-            .ok_or_else(|| ResolveError::Front(i, "a device is required".into()))
     };
     let kind = match f.kind {
         ProfileFrontKind::Dex3 => FrontKind::Dex3 {
@@ -283,10 +316,13 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
         },
         ProfileFrontKind::Dex1 => FrontKind::Dex1 {
             variant: f.dex1_variant(),
-            range_rad: dev
+            range_rad: f
+                .bindings(lookup)
+                .first()
+                .and_then(|(_, n)| lookup(n))
                 .filter(|d| d.kind == DeviceKind::Dex1)
                 .map(|d| d.dex1_range().0 as f32)
-                .unwrap_or(5.4),
+                .unwrap_or(DEX1_DEFAULT_RANGE_RAD as f32),
         },
         ProfileFrontKind::Canonical => FrontKind::Canonical,
         ProfileFrontKind::JointState => FrontKind::JointState {
@@ -297,11 +333,25 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
             urdf_names: f.urdf_names.unwrap_or(true),
         },
     };
+    let mut bindings = Vec::new();
+    if f.kind != ProfileFrontKind::JointState {
+        for (side, n) in f.bindings(lookup) {
+            let d = lookup(n).ok_or_else(|| ResolveError::Front(i, format!("no device named {n}")))?;
+            bindings.push(Binding {
+                device: n.to_string(),
+                side,
+                element: if f.is_actuator() { actuator_index(side) } else { 0 },
+                silence: silence_plan(f, d),
+            });
+        }
+        if bindings.is_empty() {
+            return Err(ResolveError::Front(i, "a device is required".into()));
+        }
+    }
     let (cmd_topic, state_topic) = match f.kind {
         ProfileFrontKind::JointState => (None, need(topics.state, "state")?),
         ProfileFrontKind::Canonical => {
-            let name = device_name()?;
-            let (c, s) = canonical_topics(&name);
+            let (c, s) = canonical_topics(&bindings[0].device);
             (
                 Some(topics.cmd.map(|t| t.0).unwrap_or(c)),
                 topics.state.map(|t| t.0).unwrap_or(s),
@@ -310,17 +360,12 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
         _ => (Some(need(topics.cmd, "command")?), need(topics.state, "state")?),
     };
     Ok(FrontPlan {
+        name: f.display_name(dev),
         kind,
-        device: if f.kind == ProfileFrontKind::JointState {
-            String::new()
-        } else {
-            device_name()?
-        },
-        side,
+        bindings,
         cmd_topic,
         state_topic,
         state_hz: topics.state_hz.0,
-        watchdog,
     })
 }
 

@@ -13,7 +13,7 @@ use handgate_adapters::dex1::adapter::{Dex1GoCodec, Dex1HgCodec, Variant};
 use handgate_adapters::dex3::dds_client::Dex3DdsCodec;
 use handgate_adapters::hand_sdk::adapter::HandSdkCodec;
 use handgate_adapters::mapping::{DeviceTable, MappingError};
-use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState};
+use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, SafeAction, Side};
 use handgate_adapters::tables::{table_for, TableParams};
 use handgate_idl::handgate as hgmsg;
 use handgate_idl::{ros2, unitree_go, unitree_hg};
@@ -21,8 +21,9 @@ use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
 use crate::fronts::{self, FrontCommand, Rejection};
-use crate::plan::{DevicePlan, FrontKind, FrontPlan, Plan, Transport};
+use crate::plan::{DevicePlan, FrontKind, FrontPlan, Plan, SilencePlan, Transport};
 use crate::router;
+use crate::ticker::Ticker;
 
 /// Runtime errors (start-up).
 #[derive(Debug, thiserror::Error)]
@@ -45,9 +46,13 @@ pub enum RuntimeError {
 #[derive(Debug, Default)]
 pub struct FrontCounters {
     pub accepted: AtomicU64,
+    /// Which front sent the last accepted command (a front's silence action only runs
+    /// when the device's last command was its own).
+    pub last_front: AtomicU64,
     pub rejected: AtomicU64,
+    /// Silence actions run (`wdog` in status): watchdog trips, a service's brake or timeout.
     pub watchdog_trips: AtomicU64,
-    /// 1 while a watchdog holds the device in its safe state.
+    /// 1 while a silence action holds the device (until the next accepted command).
     pub tripped: AtomicU64,
 }
 
@@ -334,7 +339,7 @@ where
     out
 }
 
-fn front_table(f: &FrontPlan, device: &DeviceSlot) -> Result<Arc<DeviceTable>, RuntimeError> {
+fn front_table(f: &FrontPlan, side: Side, device: &DeviceSlot) -> Result<Arc<DeviceTable>, RuntimeError> {
     let (kind, params) = match &f.kind {
         FrontKind::Dex3 { .. } => (DeviceKind::Dex3, TableParams::default()),
         FrontKind::Dex1 { range_rad, .. } => (
@@ -346,12 +351,81 @@ fn front_table(f: &FrontPlan, device: &DeviceSlot) -> Result<Arc<DeviceTable>, R
         ),
         FrontKind::Canonical | FrontKind::JointState { .. } => return Ok(device.table.clone()),
     };
-    table_for(kind, f.side, &params)
+    table_for(kind, side, &params)
         .map(Arc::new)
         .map_err(|source| RuntimeError::Mapping {
             device: device.plan.name.clone(),
             source,
         })
+}
+
+/// Identifies the front that sent a device its last command (see [`FrontCounters::last_front`]).
+static NEXT_FRONT_ID: AtomicU64 = AtomicU64::new(1);
+
+fn spawn_joint_state(
+    node: &Node,
+    f: &FrontPlan,
+    names: &[String],
+    urdf: bool,
+    devices: &HashMap<String, Arc<DeviceSlot>>,
+    mut shutdown: watch::Receiver<bool>,
+) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
+    let slots: Vec<Arc<DeviceSlot>> = names
+        .iter()
+        .map(|n| {
+            devices
+                .get(n)
+                .cloned()
+                .ok_or_else(|| RuntimeError::UnknownDevice(n.clone()))
+        })
+        .collect::<Result<_, _>>()?;
+    let mut writer = node.writer::<ros2::JointState_>(&f.state_topic, Qos::BestEffort)?;
+    let mut tick = Ticker::hz(f.state_hz);
+    Ok(tokio::spawn(async move {
+        loop {
+            tokio::select! {
+                _ = tick.tick() => {
+                    let mut msg = fronts::joint_state::header(std::time::SystemTime::now(), "");
+                    for s in &slots {
+                        let st = s.device.state().borrow().clone();
+                        fronts::joint_state::append(&mut msg, &s.table, &st, urdf, &format!("{}/", s.plan.name));
+                    }
+                    let _ = writer.write(msg);
+                }
+                _ = shutdown.changed() => break,
+            }
+        }
+    }))
+}
+
+/// One device a front drives, with the front's view of its silence.
+struct Bound {
+    slot: Arc<DeviceSlot>,
+    /// The front's table for this device (its wire convention and side).
+    ftable: Arc<DeviceTable>,
+    element: usize,
+    silence: SilencePlan,
+    seq: u64,
+    /// When this front last had a command for the device accepted.
+    last_valid: Option<Instant>,
+    /// The silence action the last accepted command armed (timeout, action).
+    armed: Option<(Duration, SafeAction)>,
+    /// The silence action has run since the last accepted command.
+    acted: bool,
+    /// The state reflecting this accepted command (`cmd_seq`) is awaited for a prompt publish.
+    awaiting: Option<u64>,
+    state_rx: watch::Receiver<HandState>,
+    /// The silence action, running in its own task.
+    pending_safe: Option<tokio::task::JoinHandle<()>>,
+}
+
+impl Bound {
+    fn silence_due(&self) -> Option<Instant> {
+        match (self.last_valid, self.armed, self.acted) {
+            (Some(t), Some((after, _)), false) => Some(t + after),
+            _ => None,
+        }
+    }
 }
 
 fn spawn_front(
@@ -365,41 +439,28 @@ fn spawn_front(
         urdf_names,
     } = &f.kind
     {
-        let slots: Vec<Arc<DeviceSlot>> = names
-            .iter()
-            .map(|n| {
-                devices
-                    .get(n)
-                    .cloned()
-                    .ok_or_else(|| RuntimeError::UnknownDevice(n.clone()))
-            })
-            .collect::<Result<_, _>>()?;
-        let mut writer = node.writer::<ros2::JointState_>(&f.state_topic, Qos::BestEffort)?;
-        let urdf = *urdf_names;
-        let period = Duration::from_secs_f64(1.0 / f.state_hz.max(0.1));
-        return Ok(tokio::spawn(async move {
-            let mut tick = tokio::time::interval(period);
-            tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-            loop {
-                tokio::select! {
-                    _ = tick.tick() => {
-                        let mut msg = fronts::joint_state::header(std::time::SystemTime::now(), "");
-                        for s in &slots {
-                            let st = s.device.state().borrow().clone();
-                            fronts::joint_state::append(&mut msg, &s.table, &st, urdf, &format!("{}/", s.plan.name));
-                        }
-                        let _ = writer.write(msg);
-                    }
-                    _ = shutdown.changed() => break,
-                }
-            }
-        }));
+        return spawn_joint_state(node, f, names, *urdf_names, devices, shutdown);
     }
-    let slot = devices
-        .get(&f.device)
-        .cloned()
-        .ok_or_else(|| RuntimeError::UnknownDevice(f.device.clone()))?;
-    let ftable = front_table(f, &slot)?;
+    let mut bound = Vec::new();
+    for b in &f.bindings {
+        let slot = devices
+            .get(&b.device)
+            .cloned()
+            .ok_or_else(|| RuntimeError::UnknownDevice(b.device.clone()))?;
+        bound.push(Bound {
+            ftable: front_table(f, b.side, &slot)?,
+            element: b.element,
+            silence: b.silence,
+            seq: 0,
+            last_valid: None,
+            armed: None,
+            acted: false,
+            awaiting: None,
+            state_rx: slot.device.state(),
+            pending_safe: None,
+            slot,
+        });
+    }
     let (tx, mut rx) = mpsc::channel::<Incoming>(64);
     let dropped = Arc::new(AtomicU64::new(0));
     let cmd_topic = f.cmd_topic.clone().unwrap_or_default();
@@ -416,20 +477,19 @@ fn spawn_front(
     let mut out = FrontWriters::new(node, f)?;
     let f = f.clone();
     let log = RateLimitedLog::default();
-    let span = tracing::info_span!("device", name = %slot.plan.name, front = %f.state_topic);
+    let front_id = NEXT_FRONT_ID.fetch_add(1, Ordering::Relaxed);
+    let devices_list = f
+        .bindings
+        .iter()
+        .map(|b| b.device.as_str())
+        .collect::<Vec<_>>()
+        .join(",");
+    let span = tracing::info_span!("front", name = %f.name, devices = %devices_list);
     Ok(tokio::spawn(tracing::Instrument::instrument(
         async move {
             let _reader = reader_keep;
-            let device = slot.device.clone();
-            let dtable = slot.table.clone();
-            let counters = slot.counters.clone();
-            let name = f.device.clone();
-            let mut seq: u64 = 0;
-            let mut last_valid: Option<Instant> = None;
-            let mut tripped = false;
-            let mut watchdog = f.watchdog;
-            let mut state_tick = tokio::time::interval(Duration::from_secs_f64(1.0 / f.state_hz.max(0.1)));
-            state_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            let name = f.name.clone();
+            let mut state_tick = Ticker::hz(f.state_hz);
             let lf_hz = match &f.kind {
                 FrontKind::Dex3 {
                     lf_state_topic: Some(_),
@@ -437,107 +497,127 @@ fn spawn_front(
                 } => *lf_state_hz,
                 _ => 0.0,
             };
-            let mut lf_tick = tokio::time::interval(Duration::from_secs_f64(1.0 / lf_hz.max(0.1)));
-            lf_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            let mut lf_tick = Ticker::hz(lf_hz);
             // Commands dropped because this front's queue was full (reported at most once a
             // second, with the running total, so a flood's losses are visible).
             let mut dropped_reported = (0u64, Instant::now() - Duration::from_secs(2));
-            let mut wd_tick = tokio::time::interval(Duration::from_millis(5));
-            wd_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-            // Prompt state: after a command is accepted, the first state that reflects it
-            // (`cmd_seq` == its seq) is published at once instead of at the next state tick, and
-            // the tick restarts from there. At most one extra publish per accepted command, never
-            // more than one per device measurement; the front listens to the device's state only
-            // while such a command is pending.
-            let mut state_rx = device.state();
-            let mut awaiting: Option<(u64, Instant)> = None;
+            // Prompt state: after a command is accepted, the first state that reflects it on
+            // every device it went to (`cmd_seq`) is published at once instead of at the next
+            // deadline. Each period carries one publish: a prompt one stands in for the
+            // periodic one due at the end of its period, so the rate stays the nominal one.
+            let mut prompt_since: Option<Instant> = None;
+            let mut slot_used = false;
             loop {
+                let silence_due = bound.iter().filter_map(Bound::silence_due).min();
+                let awaiting = bound.iter().any(|b| b.awaiting.is_some());
                 tokio::select! {
                     msg = rx.recv() => {
                         let Some(msg) = msg else { break };
-                        let measured = {
-                            let st = device.state().borrow().clone();
-                            router::route_state(&ftable, &dtable, &st.joints, st.closure)
-                        };
-                        let decoded: Result<(handgate_adapters::model::CommandBody, u32, bool), Rejection> = match &msg {
-                            Incoming::Dex3(m) => fronts::dex3::decode_cmd(m, &ftable, &measured).map(|c| routed(&ftable, &dtable, c)),
-                            Incoming::Dex1Go(m) => {
-                                let v = match &f.kind { FrontKind::Dex1 { variant, .. } => *variant, _ => Variant::Go };
-                                fronts::dex1::decode_go(m, v, f.side, &ftable).map(|c| routed(&ftable, &dtable, c))
-                            }
-                            Incoming::Dex1Hg(m) => fronts::dex1::decode_hg(m, &ftable).map(|c| routed(&ftable, &dtable, c)),
-                            Incoming::Canonical(m) => fronts::canonical::decode_cmd(m, &dtable, slot.plan.safe_action).map(|b| (b, 0, false)),
-                        };
+                        let decoded = decode(&f, &bound, &msg);
                         match decoded {
-                            Ok((body, tag, timeout_bit)) => {
-                                seq += 1;
-                                match device.command(HandCommand { seq, body, tag }) {
-                                    Ok(()) => {
-                                        counters.accepted.fetch_add(1, Ordering::Relaxed);
-                                        last_valid = Some(Instant::now());
-                                        state_rx.mark_unchanged();
-                                        awaiting = Some((seq, Instant::now()));
-                                        watchdog = if timeout_bit { f.watchdog.min(Duration::from_secs(1)) } else { f.watchdog };
-                                        if tripped {
-                                            tripped = false;
-                                            counters.tripped.store(0, Ordering::Relaxed);
-                                            info!(front = %f.state_topic, device = %name, "commands resumed after watchdog");
+                            Ok(cmds) => {
+                                let mut any = false;
+                                for (i, (body, tag, timeout_bit)) in cmds {
+                                    let b = &mut bound[i];
+                                    if let Some(h) = b.pending_safe.take() {
+                                        let _ = h.await;
+                                    }
+                                    b.seq += 1;
+                                    match b.slot.device.command(HandCommand { seq: b.seq, body, tag }) {
+                                        Ok(()) => {
+                                            any = true;
+                                            let counters = &b.slot.counters;
+                                            counters.accepted.fetch_add(1, Ordering::Relaxed);
+                                            counters.last_front.store(front_id, Ordering::Relaxed);
+                                            b.last_valid = Some(Instant::now());
+                                            b.armed = b.silence.armed(timeout_bit);
+                                            b.state_rx.mark_unchanged();
+                                            b.awaiting = Some(b.seq);
+                                            if counters.tripped.swap(0, Ordering::Relaxed) != 0 {
+                                                info!(front = %name, device = %b.slot.plan.name, "commands resumed after the silence action");
+                                            }
+                                            b.acted = false;
+                                        }
+                                        Err(e) => {
+                                            b.slot.counters.rejected.fetch_add(1, Ordering::Relaxed);
+                                            log.warn(&name, "device_rejected", &e);
                                         }
                                     }
-                                    Err(e) => {
-                                        counters.rejected.fetch_add(1, Ordering::Relaxed);
-                                        log.warn(&f.state_topic, "device_rejected", &e);
-                                    }
+                                }
+                                if any {
+                                    prompt_since = Some(Instant::now());
                                 }
                             }
                             Err(r) => {
-                                counters.rejected.fetch_add(1, Ordering::Relaxed);
-                                log.warn(&f.state_topic, r.reason(), &r);
+                                for b in &bound {
+                                    b.slot.counters.rejected.fetch_add(1, Ordering::Relaxed);
+                                }
+                                log.warn(&name, r.reason(), &r);
                             }
                         }
                     }
-                    _ = wd_tick.tick() => {
-                        let d = dropped.load(Ordering::Relaxed);
-                        if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
-                            warn!(front = %f.state_topic, device = %name, dropped = d - dropped_reported.0,
-                                queue_full_total = d, "front queue full: commands dropped unprocessed");
-                            dropped_reported = (d, Instant::now());
-                        }
-                        if let Some(t) = last_valid {
-                            if !tripped && t.elapsed() > watchdog {
-                                tripped = true;
-                                counters.watchdog_trips.fetch_add(1, Ordering::Relaxed);
-                                counters.tripped.store(1, Ordering::Relaxed);
-                                warn!(front = %f.state_topic, device = %name, timeout_ms = watchdog.as_millis() as u64,
-                                    action = ?slot.plan.safe_action, "command watchdog tripped: moving device to its safe state");
-                                let _ = device.safe_state(slot.plan.safe_action).await;
+                    _ = sleep_until_opt(silence_due), if silence_due.is_some() => {
+                        let now = Instant::now();
+                        for b in bound.iter_mut() {
+                            if !b.silence_due().is_some_and(|t| t <= now) {
+                                continue;
                             }
+                            b.acted = true;
+                            let (after, action) = b.armed.expect("armed when due");
+                            let counters = &b.slot.counters;
+                            // Another front commanded the device since: its silence, not ours.
+                            if counters.last_front.load(Ordering::Relaxed) != front_id {
+                                continue;
+                            }
+                            counters.watchdog_trips.fetch_add(1, Ordering::Relaxed);
+                            counters.tripped.store(1, Ordering::Relaxed);
+                            warn!(front = %name, device = %b.slot.plan.name, silence = %b.silence.mode,
+                                timeout_ms = after.as_millis() as u64, action = ?action,
+                                "no command: moving the device to its silence action");
+                            // In a task of its own: the front keeps publishing on its
+                            // deadlines while the device confirms its safe state.
+                            // A command for the device waits for it (`pending_safe`), so the
+                            // safe state never lands after a newer command.
+                            let dev = b.slot.device.clone();
+                            b.pending_safe = Some(tokio::spawn(async move {
+                                let _ = dev.safe_state(action).await;
+                            }));
                         }
                     }
-                    changed = state_rx.changed(), if awaiting.is_some() => {
-                        if changed.is_err() {
-                            awaiting = None;
+                    changed = first_change(&mut bound), if awaiting => {
+                        let Some(i) = changed else {
+                            for b in bound.iter_mut() { b.awaiting = None; }
                             continue;
+                        };
+                        let b = &mut bound[i];
+                        let st = b.state_rx.borrow_and_update().clone();
+                        if b.awaiting == Some(st.cmd_seq) {
+                            b.awaiting = None;
                         }
-                        let st = state_rx.borrow_and_update().clone();
-                        if let Some((want, since)) = awaiting {
-                            if st.cmd_seq == want {
-                                out.publish(&f, &ftable, &dtable, &st, false);
-                                state_tick.reset();
-                                awaiting = None;
-                            } else if since.elapsed() > PROMPT_STATE_WAIT {
-                                // Superseded by another front's command, or never applied.
-                                awaiting = None;
-                            }
+                        let expired = prompt_since.is_some_and(|t| t.elapsed() > PROMPT_STATE_WAIT);
+                        if expired {
+                            // Superseded by another front's command, or never applied.
+                            for b in bound.iter_mut() { b.awaiting = None; }
+                        } else if bound.iter().all(|b| b.awaiting.is_none()) && !slot_used {
+                            out.publish(&f, &bound, false);
+                            slot_used = true;
                         }
                     }
                     _ = state_tick.tick() => {
-                        let st = device.state().borrow().clone();
-                        out.publish(&f, &ftable, &dtable, &st, false);
+                        if std::mem::take(&mut slot_used) {
+                            // This period's sample went out promptly.
+                        } else {
+                            out.publish(&f, &bound, false);
+                        }
+                        let d = dropped.load(Ordering::Relaxed);
+                        if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
+                            warn!(front = %name, dropped = d - dropped_reported.0,
+                                queue_full_total = d, "front queue full: commands dropped unprocessed");
+                            dropped_reported = (d, Instant::now());
+                        }
                     }
                     _ = lf_tick.tick(), if lf_hz > 0.0 => {
-                        let st = device.state().borrow().clone();
-                        out.publish(&f, &ftable, &dtable, &st, true);
+                        out.publish(&f, &bound, true);
                     }
                     _ = shutdown.changed() => break,
                 }
@@ -547,15 +627,84 @@ fn spawn_front(
     )))
 }
 
+async fn sleep_until_opt(t: Option<Instant>) {
+    if let Some(t) = t {
+        tokio::time::sleep_until(t.into()).await;
+    }
+}
+
+/// Waits until one of the bound devices awaiting a prompt publish reports a new state;
+/// `None` when a device's state channel closed.
+async fn first_change(bound: &mut [Bound]) -> Option<usize> {
+    let futs = bound
+        .iter_mut()
+        .enumerate()
+        .filter(|(_, b)| b.awaiting.is_some())
+        .map(|(i, b)| Box::pin(async move { b.state_rx.changed().await.ok().map(|_| i) }));
+    futures_select_first(futs.collect()).await
+}
+
+/// The output of whichever future finishes first.
+async fn futures_select_first<F: std::future::Future<Output = Option<usize>> + Unpin>(
+    mut futs: Vec<F>,
+) -> Option<usize> {
+    std::future::poll_fn(move |cx| {
+        for f in futs.iter_mut() {
+            if let std::task::Poll::Ready(v) = std::future::Future::poll(std::pin::Pin::new(f), cx) {
+                return std::task::Poll::Ready(v);
+            }
+        }
+        std::task::Poll::Pending
+    })
+    .await
+}
+
+type Routed = (handgate_adapters::model::CommandBody, u32, bool);
+
+/// Decodes a front message into commands per bound device (index into `bound`).
+fn decode(f: &FrontPlan, bound: &[Bound], msg: &Incoming) -> Result<Vec<(usize, Routed)>, Rejection> {
+    let measured = |b: &Bound| {
+        let st = b.slot.device.state().borrow().clone();
+        router::route_state(&b.ftable, &b.slot.table, &st.joints, st.closure)
+    };
+    let only = |r: Routed| vec![(0, r)];
+    let b0 = &bound[0];
+    Ok(match msg {
+        Incoming::Dex3(m) => only(
+            fronts::dex3::decode_cmd(m, &b0.ftable, &measured(b0)).map(|c| routed(&b0.ftable, &b0.slot.table, c))?,
+        ),
+        Incoming::Dex1Go(m) => match &f.kind {
+            FrontKind::Dex1 {
+                variant: Variant::Actuator,
+                ..
+            } => {
+                let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.ftable)).collect();
+                fronts::dex1::decode_actuator(m, &elems)?
+                    .into_iter()
+                    .zip(bound)
+                    .enumerate()
+                    .map(|(i, (c, b))| (i, routed(&b.ftable, &b.slot.table, c)))
+                    .collect()
+            }
+            _ => only(
+                fronts::dex1::decode_go(m, Variant::Go, Side::Left, &b0.ftable)
+                    .map(|c| routed(&b0.ftable, &b0.slot.table, c))?,
+            ),
+        },
+        Incoming::Dex1Hg(m) => {
+            only(fronts::dex1::decode_hg(m, &b0.ftable).map(|c| routed(&b0.ftable, &b0.slot.table, c))?)
+        }
+        Incoming::Canonical(m) => {
+            only(fronts::canonical::decode_cmd(m, &b0.slot.table, b0.slot.plan.safe_action).map(|b| (b, 0, false))?)
+        }
+    })
+}
+
 /// How long a front waits for the state reflecting an accepted command before it stops
 /// listening for it (the periodic state carries on regardless).
 const PROMPT_STATE_WAIT: Duration = Duration::from_millis(100);
 
-fn routed(
-    ftable: &DeviceTable,
-    dtable: &DeviceTable,
-    c: FrontCommand,
-) -> (handgate_adapters::model::CommandBody, u32, bool) {
+fn routed(ftable: &DeviceTable, dtable: &DeviceTable, c: FrontCommand) -> Routed {
     (router::route_command(ftable, dtable, &c.joints), c.tag, c.timeout_bit)
 }
 
@@ -590,12 +739,18 @@ impl FrontWriters {
         })
     }
 
-    fn publish(&mut self, f: &FrontPlan, ftable: &DeviceTable, dtable: &DeviceTable, st: &HandState, lf: bool) {
-        let joints = router::route_state(ftable, dtable, &st.joints, st.closure);
+    fn publish(&mut self, f: &FrontPlan, bound: &[Bound], lf: bool) {
         let now = Instant::now();
+        let view = |b: &Bound| {
+            let st = b.slot.device.state().borrow().clone();
+            let joints = router::route_state(&b.ftable, &b.slot.table, &st.joints, st.closure);
+            (st, joints)
+        };
+        let b0 = &bound[0];
         let _ = match self {
             FrontWriters::Dex3 { state, lf: lfw } => {
-                let msg = fronts::dex3::encode_state(ftable, &joints, st);
+                let (st, joints) = view(b0);
+                let msg = fronts::dex3::encode_state(&b0.ftable, &joints, &st);
                 match (lf, lfw) {
                     (true, Some(w)) => w.write(msg),
                     (true, None) => Ok(()),
@@ -607,16 +762,30 @@ impl FrontWriters {
                     variant: Variant::Actuator,
                     ..
                 } => {
-                    // Both indices: ours from the device; the other one is not ours to report.
-                    let mut m = unitree_go::MotorStates_::with_len(2);
-                    let i = handgate_adapters::dex1::adapter::actuator_index(f.side);
-                    m.states[i] = fronts::dex1::go_state(ftable, &joints[0], st, now);
+                    // Every element measured: each from its own gripper; an unbound one as
+                    // never measured.
+                    let mut m = unitree_go::MotorStates_ {
+                        states: vec![fronts::dex1::unbound_state(&b0.ftable); f.elements()],
+                    };
+                    for b in bound {
+                        let (st, joints) = view(b);
+                        m.states[b.element] = fronts::dex1::go_state(&b.ftable, &joints[0], &st, now);
+                    }
                     w.write(m)
                 }
-                _ => w.write(fronts::dex1::encode_go(ftable, &joints[0], st, now)),
+                _ => {
+                    let (st, joints) = view(b0);
+                    w.write(fronts::dex1::encode_go(&b0.ftable, &joints[0], &st, now))
+                }
             },
-            FrontWriters::Dex1Hg(w) => w.write(fronts::dex1::encode_hg(ftable, &joints[0], st, now)),
-            FrontWriters::Canonical(w) => w.write(fronts::canonical::encode_state(&f.device, dtable, st)),
+            FrontWriters::Dex1Hg(w) => {
+                let (st, joints) = view(b0);
+                w.write(fronts::dex1::encode_hg(&b0.ftable, &joints[0], &st, now))
+            }
+            FrontWriters::Canonical(w) => {
+                let st = b0.slot.device.state().borrow().clone();
+                w.write(fronts::canonical::encode_state(&b0.slot.plan.name, &b0.slot.table, &st))
+            }
         };
     }
 }
@@ -632,7 +801,7 @@ fn spawn_status(
     let period = Duration::from_secs_f64(1.0 / plan.status_hz.clamp(0.1, 10.0));
     let started = Instant::now();
     Ok(tokio::spawn(async move {
-        let mut tick = tokio::time::interval(period);
+        let mut tick = Ticker::new(period);
         let mut prev: HashMap<String, (u64, u64, Instant)> = HashMap::new();
         loop {
             tokio::select! {

@@ -1061,6 +1061,38 @@ pub fn status_device<'a>(s: &'a handgate::GatewayStatus_, name: &str) -> &'a han
         .unwrap_or_else(|| panic!("status has no device {name}: {s:?}"))
 }
 
+/// `profiles/default.toml` with each `(from, to)` replaced (every `from` must occur: a test
+/// fails loudly when the default profile changes under it), written to a file of its own
+/// under the system temp dir; returns its path.
+pub fn default_profile_edited(name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let mut text = std::fs::read_to_string(repo_root().join("profiles").join("default.toml")).expect("default profile");
+    for (from, to) in edits {
+        assert!(
+            text.contains(from),
+            "profiles/default.toml no longer contains {from:?}; update this test"
+        );
+        text = text.replace(from, to);
+    }
+    let dir = std::env::temp_dir().join(format!("handgate-tests-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, text).expect("write profile");
+    p
+}
+
+/// The default profile's front on `device` (a `device = "<device>"` line of
+/// `profiles/default.toml`'s fronts), with `silence = "watchdog"`: today's strict watchdog
+/// for tests that rely on it (docs/fronts.md, "Silence").
+pub fn default_profile_with_watchdog(name: &str, front_device_line: &str) -> PathBuf {
+    default_profile_edited(
+        name,
+        &[(
+            front_device_line,
+            &format!("{front_device_line}\nsilence = \"watchdog\""),
+        )],
+    )
+}
+
 #[cfg(test)]
 mod unit {
     use super::*;

@@ -167,7 +167,8 @@ fn official_sdk_client_drives_every_front_of_the_default_profile() {
     }
     let at = |n: &str| pos[names.iter().position(|x| *x == n).unwrap()].as_f64().unwrap();
     assert!((at("left_hand_three_joint") + 1.0).abs() < TOL as f64, "{}", ctx(&v));
-    // The right hand was left closed at index_0 by part (a) and held by its watchdog.
+    // The right hand was left closed at index_0 by part (a) and keeps that target (silence
+    // "service": the Dex3 service keeps the last target).
     assert!(at("right_hand_five_joint") > 0.5, "{}", ctx(&v));
     py.wait_line("DONE", DEADLINE).unwrap_or_else(|e| panic!("{e}"));
 }
@@ -178,7 +179,13 @@ fn official_sdk_client_drives_every_front_of_the_default_profile() {
 #[test]
 fn watchdog_trips_holds_and_resumes() {
     let _serial = serial();
-    let mut gw = Gateway::start(71, &[]);
+    // The default profile with today's strict watchdog on the dex1_left front (the default
+    // silence, "service", brakes only after dex1_1_service's 1 s).
+    let profile = handgate_tests::default_profile_with_watchdog(
+        "e2e-watchdog",
+        "device = \"dex1_left\"      # rt/dex1/left/{cmd,state}, unitree_go MotorCmds_/MotorStates_",
+    );
+    let mut gw = Gateway::start(71, &["--profile", profile.to_str().unwrap()]);
     let n = node(71);
     let mut w = n
         .writer::<unitree_go::MotorCmds_>("rt/dex1/left/cmd", Qos::Reliable { depth: 1 })

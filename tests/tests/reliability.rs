@@ -902,6 +902,7 @@ socket = "{}"
 [[fronts]]
 kind = "dex3"
 device = "hand"
+silence = "watchdog"
 
 [[fronts]]
 kind = "canonical"

@@ -17,6 +17,9 @@ pub const PRESS_NO_READING: f32 = 30_000.0;
 pub const PRESS_VALID_MIN: f32 = 100_000.0;
 /// RIS mode: bit 7, the timeout flag.
 pub const RIS_TIMEOUT_BIT: u8 = 0x80;
+/// A motor whose last command set [`RIS_TIMEOUT_BIT`] stops this long after that command
+/// (FACTS §2: "motor stops after 1 s without commands").
+pub const RIS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// Status field (bits 4-6) of the RIS mode byte (manual: 0 lock, 1 FOC).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]

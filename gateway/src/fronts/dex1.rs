@@ -51,6 +51,49 @@ pub fn decode_go(
     ))
 }
 
+/// Decodes the `actuator` variant's 2-element MotorCmds_ for the bound elements
+/// (`bound[i]` = (element, that gripper's front table)). The message is checked whole first:
+/// two elements, every field of both finite (an unbound element included), so a bad
+/// message moves neither gripper. Returns one command per bound element, in `bound`'s order.
+pub fn decode_actuator(
+    msg: &unitree_go::MotorCmds_,
+    bound: &[(usize, &DeviceTable)],
+) -> Result<Vec<FrontCommand>, Rejection> {
+    if msg.cmds.len() != 2 {
+        return Err(Rejection::WrongCount {
+            got: msg.cmds.len(),
+            want: 2,
+        });
+    }
+    let targets = msg
+        .cmds
+        .iter()
+        .enumerate()
+        .map(|(i, m)| checked_target(i, [m.q, m.dq, m.tau, m.kp, m.kd]))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(bound
+        .iter()
+        .map(|&(e, table)| one(table, targets[e], msg.cmds[e].reserve[0]))
+        .collect())
+}
+
+/// An `actuator` element no device is bound to: never measured, so reported as the stale
+/// convention says (`reserve[1]` = 1, `lost` = the saturated age 0xFFFFFFFE) at the open
+/// position, where a Dex1 powers up; commands for it are ignored.
+pub fn unbound_state(front: &DeviceTable) -> unitree_go::MotorState_ {
+    let q = front.joints[0].q_to_wire(0.0);
+    unitree_go::MotorState_ {
+        q,
+        q_raw: q,
+        lost: UNBOUND_LOST,
+        reserve: [0, 1],
+        ..Default::default()
+    }
+}
+
+/// `lost` of an unbound actuator element (the stale age, saturated: never measured).
+pub const UNBOUND_LOST: u32 = 0xFFFF_FFFE;
+
 /// Decodes the seed spec's HandCmd_ (1 motor).
 pub fn decode_hg(msg: &unitree_hg::HandCmd_, front: &DeviceTable) -> Result<FrontCommand, Rejection> {
     if msg.motor_cmd.len() != 1 {
@@ -88,8 +131,8 @@ pub fn go_state(
         LOST_FAULT
     } else if stale {
         st.age(now)
-            .map(|a| a.as_millis().min(0xFFFF_FFFE) as u32)
-            .unwrap_or(0xFFFF_FFFE)
+            .map(|a| a.as_millis().min(u128::from(UNBOUND_LOST)) as u32)
+            .unwrap_or(UNBOUND_LOST)
     } else {
         0
     };
@@ -177,6 +220,37 @@ mod tests {
         m.cmds[1].q = 4.0;
         let d = decode_go(&m, Variant::Actuator, Side::Left, &f).unwrap();
         assert!((d.joints[0].unwrap().q - 1.4).abs() < 1e-5);
+    }
+
+    #[test]
+    fn actuator_decodes_both_elements_and_refuses_a_bad_one_whole() {
+        let f = t();
+        let mut m = unitree_go::MotorCmds_::with_len(2);
+        m.cmds[0].q = 1.0;
+        m.cmds[1].q = 4.0;
+        let both = decode_actuator(&m, &[(0, &f), (1, &f)]).unwrap();
+        assert!(
+            (both[0].joints[0].unwrap().q - 4.4).abs() < 1e-5,
+            "right: 1.0 rad = 4.4 closed"
+        );
+        assert!(
+            (both[1].joints[0].unwrap().q - 1.4).abs() < 1e-5,
+            "left: 4.0 rad = 1.4 closed"
+        );
+        let left_only = decode_actuator(&m, &[(1, &f)]).unwrap();
+        assert_eq!(left_only.len(), 1);
+        assert!((left_only[0].joints[0].unwrap().q - 1.4).abs() < 1e-5);
+        // A NaN in the unbound element still refuses the whole message.
+        m.cmds[0].kp = f32::NAN;
+        assert_eq!(decode_actuator(&m, &[(1, &f)]), Err(Rejection::NonFinite(0)));
+        assert!(decode_actuator(&unitree_go::MotorCmds_::with_len(1), &[(0, &f)]).is_err());
+    }
+
+    #[test]
+    fn unbound_actuator_element_reports_open_and_never_measured() {
+        let s = unbound_state(&t());
+        assert!((s.q - 5.4).abs() < 1e-5, "{}", s.q);
+        assert_eq!((s.lost, s.reserve[1]), (UNBOUND_LOST, 1));
     }
 
     #[test]

@@ -55,14 +55,25 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     }
     let _ = writeln!(s, "fronts ({}):", p.fronts.len());
     for f in &p.fronts {
-        let dev = f.device.as_ref().and_then(|n| p.devices.iter().find(|d| &d.name == n));
+        let lookup = |n: &DeviceName| p.devices.iter().find(|d| &d.name == n);
+        let dev = f.device.as_ref().and_then(lookup);
         let t = f.topics(dev);
-        let target = f
-            .device
-            .as_ref()
-            .map(|n| n.0.clone())
-            .unwrap_or_else(|| "all devices".into());
-        let _ = write!(s, "  {:<11} -> {:<14}", f.kind.as_str(), target);
+        let target = match (&f.devices, &f.device) {
+            (Some(els), _) => format!(
+                "right={}, left={}",
+                els.right.as_ref().map_or("-", |d| d.as_str()),
+                els.left.as_ref().map_or("-", |d| d.as_str())
+            ),
+            (None, Some(n)) => n.0.clone(),
+            (None, None) => "all devices".into(),
+        };
+        let _ = write!(
+            s,
+            "  {:<20} {:<11} -> {:<14}",
+            f.display_name(dev),
+            f.kind.as_str(),
+            target
+        );
         if let Some(c) = &t.cmd {
             let _ = write!(s, " cmd {c}");
         }
@@ -76,9 +87,33 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
             let _ = write!(s, " ({})", f.dex1_variant());
         }
         if f.kind != FrontKind::JointState {
-            let _ = write!(s, ", watchdog {}", f.watchdog_ms);
+            let plans: Vec<(String, String)> = f
+                .bindings(lookup)
+                .into_iter()
+                .filter_map(|(_, n)| lookup(n).map(|d| (n.0.clone(), crate::resolve::silence_plan(f, d).to_string())))
+                .collect();
+            if plans.iter().all(|(_, p)| Some(p) == plans.first().map(|(_, p)| p)) {
+                if let Some((_, p)) = plans.first() {
+                    let _ = write!(s, ", silence: {p}");
+                }
+            } else {
+                for (n, p) in &plans {
+                    let _ = write!(s, ", silence ({n}): {p}");
+                }
+            }
         }
         s.push('\n');
+        if f.is_actuator() {
+            let bound: Vec<Side> = f.bindings(lookup).into_iter().map(|(side, _)| side).collect();
+            for (element, side) in [(0, Side::Right), (1, Side::Left)] {
+                if !bound.contains(&side) {
+                    let _ = writeln!(
+                        s,
+                        "    element {element} ({side}): no device bound; reported as never measured (lost 0xFFFFFFFE, reserve[1] = 1) at the open position, its commands ignored"
+                    );
+                }
+            }
+        }
     }
     s
 }

@@ -150,6 +150,19 @@ snake_enum!(
 );
 
 snake_enum!(
+    /// What a front does when its client goes silent (docs/fronts.md, "Silence").
+    Silence {
+        /// What the served interface's real service does: the Dex3 service keeps the last
+        /// target (the motors stop 1 s after the last command only when it set the RIS
+        /// timeout bit), dex1_1_service brakes (holds the measured position) after 1 s, and
+        /// handgate's canonical interface is the strict watchdog below.
+        Service => "service",
+        /// After the bound device's `watchdog.timeout_ms`, its `watchdog.safe_action`.
+        Watchdog => "watchdog",
+    } default Service
+);
+
+snake_enum!(
     /// Which interface a front serves to clients.
     FrontKind {
         /// The Dex3-1 DDS interface (`rt/dex3/{side}/*`).
@@ -364,6 +377,9 @@ impl DeviceConfig {
         Some((dds.cmd_topic.or(cmd), dds.state_topic.or(state)))
     }
 }
+
+/// A joint_state front's topic when `topic` is not set.
+pub const DEFAULT_JOINT_STATE_TOPIC: &str = "rt/joint_states";
 
 /// Dex1 open position when `dds.range_rad` is not set (xr_teleoperate, EZGripper driver).
 pub const DEX1_DEFAULT_RANGE_RAD: f64 = 5.4;
@@ -609,15 +625,45 @@ pub struct EmulatorConfig {
     pub object_at: BTreeMap<String, Radians>,
 }
 
+/// The grippers of an `actuator` Dex1 front, by message element (0 = right, 1 = left).
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ElementDevices {
+    /// Element 0.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub right: Option<DeviceName>,
+    /// Element 1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub left: Option<DeviceName>,
+}
+
+impl ElementDevices {
+    /// (side, device) for every bound element, in element order.
+    pub fn bound(&self) -> Vec<(Side, &DeviceName)> {
+        [(Side::Right, &self.right), (Side::Left, &self.left)]
+            .into_iter()
+            .filter_map(|(s, d)| d.as_ref().map(|d| (s, d)))
+            .collect()
+    }
+}
+
 /// One front: an interface handgate serves to clients, bound to a device.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FrontConfig {
     pub kind: FrontKind,
+    /// Name used in logs (`[a-z0-9_-]+`, unique among fronts); default derived from the kind
+    /// and what it serves ([`FrontConfig::display_name`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// The device this front drives. Required, except for `joint_state` where omitting it
-    /// publishes every device.
+    /// publishes every device, and for an `actuator` dex1 front bound with `devices`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub device: Option<DeviceName>,
+    /// `actuator` dex1 fronts: the gripper of each element, `{ right = "..", left = ".." }`;
+    /// an element left out is not driven and reports no measurement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub devices: Option<ElementDevices>,
     /// dex3/dex1 fronts: which topic side to serve (default: the device's side).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub side: Option<Side>,
@@ -636,9 +682,13 @@ pub struct FrontConfig {
     /// dex1 fronts: wire variant (default `go`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub variant: Option<Dex1Variant>,
-    /// Per-front command watchdog.
-    #[serde(default = "default_front_watchdog")]
-    pub watchdog_ms: Millis,
+    /// What silence from the client means (default `service`).
+    #[serde(default)]
+    pub silence: Silence,
+    /// `silence = "watchdog"`: a per-front timeout, shorter than the device's
+    /// `watchdog.timeout_ms` (the smaller of the two applies); default: the device's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub watchdog_ms: Option<Millis>,
     /// joint_state fronts: topic (default `rt/joint_states`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub topic: Option<Topic>,
@@ -647,16 +697,14 @@ pub struct FrontConfig {
     pub urdf_names: Option<bool>,
 }
 
-fn default_front_watchdog() -> Millis {
-    Millis(200)
-}
-
 impl Default for FrontConfig {
     /// A canonical front with no device (a profile must name one).
     fn default() -> Self {
         FrontConfig {
             kind: FrontKind::Canonical,
+            name: None,
             device: None,
+            devices: None,
             side: None,
             cmd_topic: None,
             state_topic: None,
@@ -664,7 +712,8 @@ impl Default for FrontConfig {
             state_hz: None,
             lf_state_hz: None,
             variant: None,
-            watchdog_ms: default_front_watchdog(),
+            silence: Silence::default(),
+            watchdog_ms: None,
             topic: None,
             urdf_names: None,
         }
@@ -693,6 +742,50 @@ impl FrontConfig {
     /// The Dex1 variant (dex1 fronts; default `go`).
     pub fn dex1_variant(&self) -> Dex1Variant {
         self.variant.unwrap_or_default()
+    }
+
+    /// An `actuator` dex1 front (one topic pair, element 0 right, 1 left).
+    pub fn is_actuator(&self) -> bool {
+        self.kind == FrontKind::Dex1 && self.dex1_variant() == Dex1Variant::Actuator
+    }
+
+    /// The devices this front drives, with the side whose wire convention each is served in:
+    /// an actuator front's elements (`devices`, or `device` on the served side), otherwise
+    /// `device` on the served side. Names only; `lookup` finds a device's config.
+    pub fn bindings<'a>(
+        &'a self,
+        lookup: impl Fn(&DeviceName) -> Option<&'a DeviceConfig>,
+    ) -> Vec<(Side, &'a DeviceName)> {
+        if let Some(d) = &self.devices {
+            return d.bound();
+        }
+        match &self.device {
+            Some(n) => vec![(self.served_side(lookup(n)).unwrap_or_default(), n)],
+            None => vec![],
+        }
+    }
+
+    /// The name logs use: `name`, else derived from what the front serves: an overridden
+    /// command topic as it is, else `dex3_<side>` / `dex1_<side>` (the served side),
+    /// `dex1_actuator`, `canonical_<device>`, `joint_state` (or its topic when not the
+    /// default). Two fronts cannot derive the same name: they would serve the same topic.
+    pub fn display_name(&self, device: Option<&DeviceConfig>) -> String {
+        if let Some(n) = &self.name {
+            return n.clone();
+        }
+        if let (Some(t), false) = (&self.cmd_topic, self.kind == FrontKind::JointState) {
+            return t.0.clone();
+        }
+        let side = self.served_side(device).map_or("?", |s| s.as_str());
+        match self.kind {
+            FrontKind::Dex1 if self.is_actuator() => "dex1_actuator".into(),
+            FrontKind::Dex3 | FrontKind::Dex1 => format!("{}_{side}", self.kind.as_str()),
+            FrontKind::Canonical => format!("canonical_{}", self.device.as_ref().map_or("?", |d| d.as_str())),
+            FrontKind::JointState => match &self.topic {
+                Some(t) if t.as_str() != DEFAULT_JOINT_STATE_TOPIC => t.0.clone(),
+                _ => "joint_state".into(),
+            },
+        }
     }
 
     /// Topics and rates with defaults applied. `device` is the bound device (`None` for a
@@ -726,7 +819,11 @@ impl FrontConfig {
             ),
             FrontKind::JointState => (
                 None,
-                Some(self.topic.clone().unwrap_or_else(|| Topic::new("rt/joint_states"))),
+                Some(
+                    self.topic
+                        .clone()
+                        .unwrap_or_else(|| Topic::new(DEFAULT_JOINT_STATE_TOPIC)),
+                ),
                 None,
             ),
         };

@@ -203,6 +203,36 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "rt/unitree_actuator/cmd",
     ),
     (
+        "devices on a non-actuator front",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevices = { left = \"g\" }\n",
+        "fronts[0].devices",
+        "only an actuator dex1 front",
+    ),
+    (
+        "actuator element bound to a missing device",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\nvariant = \"actuator\"\ndevices = { left = \"g\", right = \"nope\" }\n",
+        "fronts[0].devices.right",
+        "no device named `nope`",
+    ),
+    (
+        "unknown silence",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nsilence = \"never\"\n",
+        "fronts[0].silence",
+        "never",
+    ),
+    (
+        "watchdog_ms without the watchdog",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nwatchdog_ms = 100\n",
+        "fronts[0].watchdog_ms",
+        "silence = \"watchdog\"",
+    ),
+    (
+        "two fronts with one name",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nname = \"grip\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\nname = \"grip\"\n",
+        "fronts[1].name",
+        "front name `grip` is also fronts[0]'s",
+    ),
+    (
         "dex1 front state too slow",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nstate_hz = 100\n",
         "fronts[0].state_hz",
@@ -586,12 +616,93 @@ fn profile_names_resolve_in_search_dirs_then_shipped() {
 }
 
 #[test]
-fn actuator_fronts_for_both_sides_share_the_topic() {
-    let text = "[[devices]]\nname = \"a\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"b\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"a\"\nvariant = \"actuator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"b\"\nvariant = \"actuator\"\n";
-    let (_, r) = load_text(text);
+fn one_actuator_front_binds_both_grippers_by_element() {
+    let two = "[[devices]]\nname = \"a\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"b\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n";
+    let (_, r) = load_text(&format!(
+        "{two}[[fronts]]\nkind = \"dex1\"\nvariant = \"actuator\"\ndevices = {{ right = \"b\", left = \"a\" }}\n"
+    ));
     let l = r.unwrap();
-    let t = l.profile.fronts[0].topics(Some(&l.profile.devices[0]));
-    assert_eq!(t.cmd, Some(Topic::new("rt/unitree_actuator/cmd")));
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    let f = &plan.fronts[0];
+    assert_eq!(f.cmd_topic.as_deref(), Some("rt/unitree_actuator/cmd"));
+    assert_eq!(f.state_topic, "rt/unitree_actuator/state");
+    assert_eq!(f.name, "dex1_actuator");
+    let b: Vec<(&str, Side, usize)> = f
+        .bindings
+        .iter()
+        .map(|b| (b.device.as_str(), b.side, b.element))
+        .collect();
+    assert_eq!(b, [("b", Side::Right, 0), ("a", Side::Left, 1)]);
+    let text = render_fleet(&l.profile, &l.origin);
+    assert!(text.contains("right=b, left=a"), "{text}");
+    assert!(!text.contains("no device bound"), "{text}");
+
+    // One side bound: `handgate check` says what the other element does.
+    let (_, r) = load_text(&format!(
+        "{two}[[fronts]]\nkind = \"dex1\"\nvariant = \"actuator\"\ndevices = {{ left = \"a\" }}\n"
+    ));
+    let l = r.unwrap();
+    let text = render_fleet(&l.profile, &l.origin);
+    assert!(
+        text.contains("element 0 (right): no device bound; reported as never measured"),
+        "{text}"
+    );
+
+    // Two actuator fronts (the old one-front-per-gripper shape) would publish the same state
+    // topic: refused, naming the file and the key.
+    let (path, r) = load_text(&format!(
+        "{two}[[fronts]]\nkind = \"dex1\"\ndevice = \"a\"\nvariant = \"actuator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"b\"\nvariant = \"actuator\"\n"
+    ));
+    let lines = r.unwrap_err().lines();
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(
+        lines[0].starts_with(&format!("{}: fronts[1].cmd_topic: ", path.display())),
+        "{lines:?}"
+    );
+    assert!(
+        lines[0].contains("one actuator front serves both grippers"),
+        "{lines:?}"
+    );
+}
+
+#[test]
+fn two_fronts_publishing_one_state_topic_are_refused() {
+    let (path, r) = load_text(
+        "[[devices]]\nname = \"a\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"a\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"a\"\ncmd_topic = \"rt/other/cmd\"\n",
+    );
+    let lines = r.unwrap_err().lines();
+    let p = path.display();
+    assert_eq!(
+        lines,
+        [
+            format!("{p}: fronts[1].state_topic: state topic `rt/dex3/left/state` is already published by fronts[0]: two fronts would interleave their state on it"),
+            format!("{p}: fronts[1].lf_state_topic: state topic `rt/lf/dex3/left/state` is already published by fronts[0]: two fronts would interleave their state on it"),
+        ]
+    );
+}
+
+#[test]
+fn silence_defaults_to_the_served_service_and_watchdog_is_the_device_watchdog() {
+    use crate::plan::SilencePlan;
+    use handgate_adapters::model::SafeAction;
+    let text = "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\nwatchdog = { timeout_ms = 300, safe_action = \"limp\" }\n[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"h\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"h\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"h\"\nname = \"strict\"\nsilence = \"watchdog\"\ncmd_topic = \"rt/x/cmd\"\nstate_topic = \"rt/x/state\"\nlf_state_topic = \"rt/x/lf\"\n";
+    let (_, r) = load_text(text);
+    let plan = crate::resolve::plan(&r.unwrap().profile).unwrap();
+    let s: Vec<SilencePlan> = plan.fronts.iter().map(|f| f.bindings[0].silence).collect();
+    let ms = std::time::Duration::from_millis;
+    // Dex3 service: keeps the last target; with the RIS timeout bit, limp after 1 s.
+    assert_eq!(s[0].armed(false), None);
+    assert_eq!(s[0].armed(true), Some((ms(1000), SafeAction::Limp)));
+    // Dex1 service: brakes (hold) 1 s after the last command.
+    assert_eq!(s[1].armed(false), Some((ms(1000), SafeAction::Hold)));
+    // Canonical: the device's watchdog.
+    assert_eq!(s[2].armed(false), Some((ms(300), SafeAction::Limp)));
+    // silence = "watchdog": the device's watchdog; the timeout bit cannot lengthen it.
+    assert_eq!(s[3].armed(false), Some((ms(300), SafeAction::Limp)));
+    assert_eq!(s[3].armed(true), Some((ms(300), SafeAction::Limp)));
+    assert_eq!(plan.fronts[3].name, "strict");
+    assert_eq!(plan.fronts[0].name, "dex3_left");
+    assert_eq!(plan.fronts[2].name, "canonical_h");
 }
 
 #[test]

@@ -115,30 +115,70 @@ impl Checker {
         self.fleet_buses(p);
 
         // fronts
-        let mut cmd_topics: BTreeMap<Topic, (usize, &FrontConfig, Option<Side>)> = BTreeMap::new();
+        let mut cmd_topics: BTreeMap<Topic, usize> = BTreeMap::new();
+        let mut state_topics: BTreeMap<Topic, usize> = BTreeMap::new();
+        let mut names: BTreeMap<String, usize> = BTreeMap::new();
+        let known = || {
+            let v: Vec<&str> = p.devices.iter().map(|d| d.name.as_str()).collect();
+            if v.is_empty() {
+                "none".to_string()
+            } else {
+                v.join(", ")
+            }
+        };
         for (i, f) in p.fronts.iter().enumerate() {
             let k = root().key("fronts").index(i);
+            let mut missing = false;
+            if let Some(els) = &f.devices {
+                if !f.is_actuator() {
+                    self.err(
+                        k.key("devices"),
+                        "only an actuator dex1 front binds devices by element; use `device`",
+                    );
+                }
+                if f.device.is_some() {
+                    self.err(
+                        k.key("devices"),
+                        "give either `device` (one gripper, on the front's side) or `devices` (by element), not both",
+                    );
+                }
+                if f.side.is_some() {
+                    self.err(
+                        k.key("side"),
+                        "an actuator front bound with `devices` serves both elements (0 = right, 1 = left); drop `side`",
+                    );
+                }
+                if els.bound().is_empty() {
+                    self.err(
+                        k.key("devices"),
+                        "bind at least one element: `devices = { right = \"..\", left = \"..\" }`",
+                    );
+                }
+                if let (Some(r), Some(l)) = (&els.right, &els.left) {
+                    if r == l {
+                        self.err(k.key("devices"), format!("`{r}` is bound to both elements"));
+                    }
+                }
+                for (side, n) in els.bound() {
+                    if !by_name.contains_key(n.as_str()) {
+                        missing = true;
+                        self.err(
+                            k.key("devices").key(side.as_str()),
+                            format!("no device named `{n}` (devices: {})", known()),
+                        );
+                    }
+                }
+            }
             let dev = match &f.device {
                 Some(n) => match by_name.get(n.as_str()) {
                     Some(&di) => Some(&p.devices[di]),
                     None => {
-                        let known: Vec<&str> = p.devices.iter().map(|d| d.name.as_str()).collect();
-                        self.err(
-                            k.key("device"),
-                            format!(
-                                "no device named `{n}` (devices: {})",
-                                if known.is_empty() {
-                                    "none".to_string()
-                                } else {
-                                    known.join(", ")
-                                }
-                            ),
-                        );
+                        self.err(k.key("device"), format!("no device named `{n}` (devices: {})", known()));
                         None
                     }
                 },
                 None => {
-                    if f.kind != FrontKind::JointState {
+                    if f.kind != FrontKind::JointState && f.devices.is_none() {
                         self.err(
                             k.key("device"),
                             format!("{} front must name its device", a(f.kind.as_str())),
@@ -147,33 +187,74 @@ impl Checker {
                     None
                 }
             };
-            self.front(&k, f, dev, f.device.is_some() && dev.is_none());
-            if dev.is_none() && f.kind != FrontKind::JointState {
+            let dangling = (f.device.is_some() && dev.is_none()) || missing;
+            self.front(&k, f, dev, dangling);
+            if dev.is_none() && f.kind != FrontKind::JointState && (f.devices.is_none() || missing) {
                 // Its topics depend on a device that is not there; already reported.
                 continue;
             }
+            let name = f.display_name(dev);
+            if f.name.is_some() && !is_name(&name) {
+                self.err(
+                    k.key("name"),
+                    format!("`{name}` is not a front name (use a-z, 0-9, `_`, `-`)"),
+                );
+            }
+            match names.get(&name) {
+                // Two derived names only coincide on fronts serving the same topic: reported below.
+                Some(&j) if f.name.is_some() || p.fronts[j].name.is_some() => self.err(
+                    k.key("name"),
+                    format!("front name `{name}` is also fronts[{j}]'s; give each front its own `name`"),
+                ),
+                Some(_) => {}
+                None => {
+                    names.insert(name, i);
+                }
+            }
             let topics = f.topics(dev);
+            let mut cmd_clash = None;
             if let Some(t) = &topics.cmd {
-                let side = f.served_side(dev);
                 if t == &p.status.topic {
                     self.err(k.key("cmd_topic"), format!("command topic `{t}` is the status topic"));
                 }
                 match cmd_topics.get(t) {
-                    Some(&(j, other, other_side)) => {
-                        let actuator_pair = f.kind == FrontKind::Dex1
-                            && other.kind == FrontKind::Dex1
-                            && f.dex1_variant() == Dex1Variant::Actuator
-                            && other.dex1_variant() == Dex1Variant::Actuator
-                            && side != other_side;
-                        if !actuator_pair {
-                            self.err(
-                                k.key("cmd_topic"),
-                                format!("command topic `{t}` is already served by fronts[{j}]"),
-                            );
-                        }
+                    Some(&j) => {
+                        cmd_clash = Some(j);
+                        let why = if f.is_actuator() && p.fronts[j].is_actuator() {
+                            ": one actuator front serves both grippers, `devices = { right = \"..\", left = \"..\" }`"
+                        } else {
+                            ""
+                        };
+                        self.err(
+                            k.key("cmd_topic"),
+                            format!("command topic `{t}` is already served by fronts[{j}]{why}"),
+                        );
                     }
                     None => {
-                        cmd_topics.insert(t.clone(), (i, f, side));
+                        cmd_topics.insert(t.clone(), i);
+                    }
+                }
+            }
+            // Two publishers of one state topic would interleave two views of the fleet.
+            let state_key = if f.kind == FrontKind::JointState {
+                "topic"
+            } else {
+                "state_topic"
+            };
+            for (key, t) in [(state_key, &topics.state), ("lf_state_topic", &topics.lf_state)] {
+                let Some(t) = t else { continue };
+                if t == &p.status.topic {
+                    self.err(k.key(key), format!("state topic `{t}` is the status topic"));
+                }
+                match state_topics.get(t) {
+                    // Same pair of fronts as the command clash: one error is enough.
+                    Some(&j) if cmd_clash == Some(j) => {}
+                    Some(&j) => self.err(
+                        k.key(key),
+                        format!("state topic `{t}` is already published by fronts[{j}]: two fronts would interleave their state on it"),
+                    ),
+                    None => {
+                        state_topics.insert(t.clone(), i);
                     }
                 }
             }
@@ -675,12 +756,28 @@ impl Checker {
                 self.topic(k.key(name), t);
             }
         }
-        let (wlo, whi) = WATCHDOG_MS_RANGE;
-        if !(wlo..=whi).contains(&f.watchdog_ms.0) {
+        if kind == FrontKind::JointState && f.silence != Silence::default() {
             self.err(
-                k.key("watchdog_ms"),
-                format!("must be between {wlo} and {whi}, got {}", f.watchdog_ms.0),
+                k.key("silence"),
+                "a joint_state front takes no commands, so has no silence to handle",
             );
+        }
+        if let Some(w) = f.watchdog_ms {
+            let (wlo, whi) = WATCHDOG_MS_RANGE;
+            if !(wlo..=whi).contains(&w.0) {
+                self.err(
+                    k.key("watchdog_ms"),
+                    format!("must be between {wlo} and {whi}, got {}", w.0),
+                );
+            } else if f.silence != Silence::Watchdog {
+                self.err(
+                    k.key("watchdog_ms"),
+                    format!(
+                        "applies with silence = \"watchdog\" (this front's silence is \"{}\")",
+                        f.silence
+                    ),
+                );
+            }
         }
         if let Some(r) = f.state_hz {
             self.rate(k.key("state_hz"), r, MAX_RATE_HZ);
