@@ -81,21 +81,26 @@ fn permission_error(path: &Path, source: io::Error) -> TransportError {
             node.display()
         )
     } else {
-        let owner = match std::fs::metadata(&node) {
-            Ok(m) => format!(
-                "{} is group {} with mode {:04o}",
-                node.display(),
-                group_name(m.gid()),
-                m.mode() & 0o7777
+        let (group, mode) = match std::fs::metadata(&node) {
+            Ok(m) => (
+                Some(group_name(m.gid())),
+                format!("group {}, mode {:04o}", group_name(m.gid()), m.mode() & 0o7777),
             ),
-            Err(_) => format!("{} is not readable and writable", node.display()),
+            Err(_) => (None, "not readable and writable".to_string()),
         };
-        format!(
-            "{owner}, and handgate runs as uid {uid} without read/write access to it. Fix: make the user a \
-             member of the port's group (`sudo usermod -aG {SERIAL_GROUP} <user>` for {SERIAL_GROUP}, the \
-             usual group of ttyUSB/ttyACM, then log in again; the systemd unit has \
-             SupplementaryGroups={SERIAL_GROUP}); root is not needed"
-        )
+        let member = format!(
+            "the user a member of {SERIAL_GROUP} (`sudo usermod -aG {SERIAL_GROUP} <user>`, then log in again; \
+             the systemd unit has SupplementaryGroups={SERIAL_GROUP})"
+        );
+        let fix = if group.as_deref() == Some(SERIAL_GROUP) {
+            format!("make {member}")
+        } else {
+            format!(
+                "give the port to group {SERIAL_GROUP} (Debian's udev does for ttyUSB/ttyACM; a udev rule with \
+                 GROUP=\"{SERIAL_GROUP}\" for other adapters) and make {member}"
+            )
+        };
+        format!("{mode}; handgate runs as uid {uid}, which may not read and write it. Fix: {fix}; root is not needed")
     };
     TransportError::PermissionDenied {
         path: path.to_path_buf(),
@@ -359,8 +364,8 @@ mod tests {
         let msg = e.to_string();
         for want in [
             "permission denied opening serial port /dev/null",
-            "/dev/null is group",
-            "with mode 0666",
+            "group root, mode 0666; handgate runs as uid",
+            "give the port to group dialout",
             "usermod -aG dialout",
             "SupplementaryGroups=dialout",
         ] {
