@@ -2,7 +2,8 @@
 # Installs what handgate needs on a fresh Debian machine that has only the Rust toolchain.
 # Idempotent: every step checks first. Usage: scripts/setup.sh [--no-python]
 #   - Debian packages: cyclonedds-dev 0.10.2 (the version on Unitree robots), its tools,
-#     libclang-dev (bindgen), libusb-1.0-0-dev (rusb), pkg-config.
+#     libclang-dev (bindgen), libusb-1.0-0-dev (rusb), pkg-config; systemd (only for
+#     systemd-analyze, which checks the shipped unit; nothing is started).
 #   - .venv/ (git-ignored): cyclonedds==0.10.2 built against that library, and the official
 #     unitree-sdk2 (unitree_sdk2py) for the interop tests.
 set -euo pipefail
@@ -24,6 +25,14 @@ if [ "${#missing[@]}" -gt 0 ]; then
   echo "setup: installing Debian packages: ${missing[*]}"
   $sudo_cmd apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+# systemd-analyze checks the shipped unit (tests/tests/least_privilege.rs: offline exposure
+# <= 2.0, verify). Debian's systemd package installs cleanly in a container without an init
+# (it does not start anything); no recommends (dbus, timesyncd), only the tool is needed.
+if ! command -v systemd-analyze >/dev/null 2>&1; then
+  echo "setup: installing Debian package: systemd (for systemd-analyze)"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends systemd >/dev/null
 fi
 ver=$(dpkg-query -W -f='${Version}' cyclonedds-dev)
 case "$ver" in

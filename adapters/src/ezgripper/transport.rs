@@ -14,6 +14,18 @@ use std::time::Duration;
 pub enum TransportError {
     #[error("serial port {path} does not exist (adapter unplugged or wrong path)")]
     NotFound { path: PathBuf },
+    /// The OS refused to open the port: EACCES (file permissions: the user lacks the tty's
+    /// group, `dialout` on Debian) or EPERM (a device cgroup, e.g. systemd's DevicePolicy=).
+    /// `node` is the device node `path` resolves to (`/dev/serial/by-id/...` is a symlink);
+    /// `fix` says what to change. Never needs root.
+    #[error("permission denied opening serial port {path}{}: {fix}", node_suffix(.path, .node))]
+    PermissionDenied {
+        path: PathBuf,
+        node: PathBuf,
+        fix: String,
+        #[source]
+        source: io::Error,
+    },
     #[error("cannot open serial port {path}: {source}")]
     Open { path: PathBuf, source: io::Error },
     #[error("cannot configure serial port {path}: {source}")]
@@ -24,6 +36,78 @@ pub enum TransportError {
     Disconnected,
     #[error("serial I/O error: {0}")]
     Io(#[from] io::Error),
+}
+
+/// The group Debian gives USB serial adapters (`/dev/ttyUSB*`, `/dev/ttyACM*`) to.
+pub const SERIAL_GROUP: &str = "dialout";
+
+fn node_suffix(path: &Path, node: &Path) -> String {
+    if node == path {
+        String::new()
+    } else {
+        format!(" (-> {})", node.display())
+    }
+}
+
+/// The name of group `gid`, or its number when it has none.
+fn group_name(gid: libc::gid_t) -> String {
+    // SAFETY: struct group is plain old data; getgrgid_r fills it.
+    let mut grp: libc::group = unsafe { std::mem::zeroed() };
+    let mut buf = vec![0 as libc::c_char; 4096];
+    let mut out: *mut libc::group = std::ptr::null_mut();
+    // SAFETY: every pointer is valid for the call; buf outlives the use of grp's strings.
+    let rc = unsafe { libc::getgrgid_r(gid, &mut grp, buf.as_mut_ptr(), buf.len(), &mut out) };
+    if rc == 0 && !out.is_null() && !grp.gr_name.is_null() {
+        // SAFETY: gr_name points into buf, NUL-terminated by getgrgid_r.
+        unsafe { std::ffi::CStr::from_ptr(grp.gr_name) }
+            .to_string_lossy()
+            .into_owned()
+    } else {
+        gid.to_string()
+    }
+}
+
+/// Builds the permission error for `path`: what was refused and how to fix it without root.
+fn permission_error(path: &Path, source: io::Error) -> TransportError {
+    use std::os::unix::fs::MetadataExt;
+    let node = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    // SAFETY: geteuid cannot fail.
+    let uid = unsafe { libc::geteuid() };
+    let fix = if source.raw_os_error() == Some(libc::EPERM) {
+        format!(
+            "the device is not allowed to this process (a device cgroup: systemd's DevicePolicy=closed; the \
+             shipped unit allows char-ttyUSB and char-ttyACM only). Fix: add a `DeviceAllow=char-<driver> rw` \
+             line for {} to the unit (e.g. char-ttyS for a built-in UART), then `systemctl daemon-reload`",
+            node.display()
+        )
+    } else {
+        let (group, mode) = match std::fs::metadata(&node) {
+            Ok(m) => (
+                Some(group_name(m.gid())),
+                format!("group {}, mode {:04o}", group_name(m.gid()), m.mode() & 0o7777),
+            ),
+            Err(_) => (None, "not readable and writable".to_string()),
+        };
+        let member = format!(
+            "the user a member of {SERIAL_GROUP} (`sudo usermod -aG {SERIAL_GROUP} <user>`, then log in again; \
+             the systemd unit has SupplementaryGroups={SERIAL_GROUP})"
+        );
+        let fix = if group.as_deref() == Some(SERIAL_GROUP) {
+            format!("make {member}")
+        } else {
+            format!(
+                "give the port to group {SERIAL_GROUP} (Debian's udev does for ttyUSB/ttyACM; a udev rule with \
+                 GROUP=\"{SERIAL_GROUP}\" for other adapters) and make {member}"
+            )
+        };
+        format!("{mode}; handgate runs as uid {uid}, which may not read and write it. Fix: {fix}; root is not needed")
+    };
+    TransportError::PermissionDenied {
+        path: path.to_path_buf(),
+        node,
+        fix,
+        source,
+    }
 }
 
 /// A half-duplex byte pipe to a Dynamixel bus.
@@ -100,6 +184,8 @@ impl SerialPort {
                 TransportError::NotFound {
                     path: path.to_path_buf(),
                 }
+            } else if matches!(e.raw_os_error(), Some(libc::EACCES) | Some(libc::EPERM)) {
+                permission_error(path, e)
             } else {
                 TransportError::Open {
                     path: path.to_path_buf(),
@@ -267,6 +353,48 @@ mod tests {
         let e = SerialPort::open(Path::new("/nonexistent/ttyUSB9"), 1_000_000).unwrap_err();
         assert!(matches!(e, TransportError::NotFound { .. }), "{e}");
         assert!(e.to_string().contains("/nonexistent/ttyUSB9"));
+    }
+
+    #[test]
+    fn permission_errors_name_the_node_and_the_fix() {
+        use std::error::Error as _;
+        // Built directly: as root (CI) open() never returns EACCES. The binary-level check
+        // as an unprivileged user is tests/tests/least_privilege.rs.
+        let e = permission_error(Path::new("/dev/null"), io::Error::from_raw_os_error(libc::EACCES));
+        let msg = e.to_string();
+        for want in [
+            "permission denied opening serial port /dev/null",
+            "group root, mode 0666; handgate runs as uid",
+            "give the port to group dialout",
+            "usermod -aG dialout",
+            "SupplementaryGroups=dialout",
+        ] {
+            assert!(msg.contains(want), "missing {want:?} in: {msg}");
+        }
+        let src = e
+            .source()
+            .and_then(|s| s.downcast_ref::<io::Error>())
+            .map(|s| s.raw_os_error());
+        assert_eq!(src, Some(Some(libc::EACCES)));
+
+        let e = permission_error(Path::new("/dev/null"), io::Error::from_raw_os_error(libc::EPERM));
+        let msg = e.to_string();
+        assert!(
+            msg.contains("DevicePolicy=closed") && msg.contains("DeviceAllow=char-"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn symlinked_port_names_the_device_node() {
+        let dir = std::env::temp_dir().join(format!("handgate-perm-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let link = dir.join("by-id-link");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink("/dev/null", &link).unwrap();
+        let msg = permission_error(&link, io::Error::from_raw_os_error(libc::EACCES)).to_string();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(msg.contains(&format!("{} (-> /dev/null)", link.display())), "{msg}");
     }
 
     #[test]

@@ -15,6 +15,7 @@ use super::codec::{CMD_FRAME_LEN, STATE_FRAME_LEN};
 use super::transport::{Dex3Transport, TransportError, TransportFactory};
 use crate::dex3::Side;
 use rusb::UsbContext;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// Unitree's USB vendor id (manual).
@@ -93,13 +94,28 @@ pub fn select_bulk_endpoints(ifaces: &[InterfaceModel], interface: u8) -> Result
     Err(TransportError::NoEndpoints(interface))
 }
 
+/// The usbfs device node libusb opens for the device at `bus`/`address` on Linux.
+pub fn usb_node(bus: u8, address: u8) -> PathBuf {
+    PathBuf::from(format!("/dev/bus/usb/{bus:03}/{address:03}"))
+}
+
 /// Maps a libusb error to the transport's, naming `what` (the device) where useful.
 pub fn map_usb_error(e: rusb::Error, what: &str, timeout: Duration) -> TransportError {
+    map_usb_error_at(e, what, None, timeout)
+}
+
+/// [`map_usb_error`] for one device whose node (`/dev/bus/usb/BBB/DDD`) is known: a
+/// permission error then names the node and the fix.
+pub fn map_usb_error_at(e: rusb::Error, what: &str, node: Option<&Path>, timeout: Duration) -> TransportError {
     match e {
         rusb::Error::Timeout => TransportError::Timeout(timeout),
         rusb::Error::NoDevice => TransportError::Disconnected,
         rusb::Error::NotFound => TransportError::NotFound(what.to_string()),
-        rusb::Error::Access => TransportError::PermissionDenied(what.to_string()),
+        rusb::Error::Access => TransportError::UsbPermissionDenied {
+            device: what.to_string(),
+            node: node.map(Path::to_path_buf),
+            source: e,
+        },
         rusb::Error::Busy => TransportError::Busy(what.to_string()),
         rusb::Error::Io => TransportError::Usb(format!("{what}: input/output error (cable or hub trouble?)")),
         rusb::Error::Pipe => TransportError::Usb(format!("{what}: endpoint stalled")),
@@ -168,12 +184,14 @@ pub fn list_hands() -> Result<Vec<HandInfo>, TransportError> {
         };
         let (bus, address) = (dev.bus_number(), dev.address());
         let name = device_name(side, bus, address);
+        let node = usb_node(bus, address);
+        let problem = |e| Some(map_usb_error_at(e, &name, Some(&node), Duration::ZERO).to_string());
         let (serial, problem) = match dev.open() {
             Ok(h) => match h.read_serial_number_string_ascii(&desc) {
                 Ok(s) => (Some(s), None),
-                Err(e) => (None, Some(map_usb_error(e, &name, Duration::ZERO).to_string())),
+                Err(e) => (None, problem(e)),
             },
-            Err(e) => (None, Some(map_usb_error(e, &name, Duration::ZERO).to_string())),
+            Err(e) => (None, problem(e)),
         };
         out.push(HandInfo {
             side,
@@ -211,10 +229,11 @@ impl RusbTransport {
                 continue;
             }
             let name = device_name(side, dev.bus_number(), dev.address());
+            let node = usb_node(dev.bus_number(), dev.address());
             let handle = match dev.open() {
                 Ok(h) => h,
                 Err(e) => {
-                    last_err = Some(map_usb_error(e, &name, Duration::ZERO));
+                    last_err = Some(map_usb_error_at(e, &name, Some(&node), Duration::ZERO));
                     continue;
                 }
             };
@@ -226,12 +245,12 @@ impl RusbTransport {
                         continue;
                     }
                     Err(e) => {
-                        last_err = Some(map_usb_error(e, &name, Duration::ZERO));
+                        last_err = Some(map_usb_error_at(e, &name, Some(&node), Duration::ZERO));
                         continue;
                     }
                 }
             }
-            return Self::claim(dev, handle, name);
+            return Self::claim(dev, handle, name, node);
         }
         if let Some(e) = last_err {
             return Err(e);
@@ -258,20 +277,18 @@ impl RusbTransport {
         dev: rusb::Device<rusb::Context>,
         handle: rusb::DeviceHandle<rusb::Context>,
         name: String,
+        node: PathBuf,
     ) -> Result<Self, TransportError> {
+        let err = |e| map_usb_error_at(e, &name, Some(&node), Duration::ZERO);
         let config = dev
             .active_config_descriptor()
             .or_else(|_| dev.config_descriptor(0))
-            .map_err(|e| map_usb_error(e, &name, Duration::ZERO))?;
+            .map_err(err)?;
         let (ep_in, ep_out) = select_bulk_endpoints(&interfaces_of(&config), INTERFACE)?;
         if let Ok(true) = handle.kernel_driver_active(INTERFACE) {
-            handle
-                .detach_kernel_driver(INTERFACE)
-                .map_err(|e| map_usb_error(e, &name, Duration::ZERO))?;
+            handle.detach_kernel_driver(INTERFACE).map_err(err)?;
         }
-        handle
-            .claim_interface(INTERFACE)
-            .map_err(|e| map_usb_error(e, &name, Duration::ZERO))?;
+        handle.claim_interface(INTERFACE).map_err(err)?;
         tracing::info!("{name}: claimed interface {INTERFACE}, bulk in {ep_in:#04x} out {ep_out:#04x}");
         Ok(Self {
             handle,
@@ -430,8 +447,12 @@ mod tests {
             TransportError::Disconnected
         ));
         let perm = map_usb_error(rusb::Error::Access, "hand", t);
-        assert!(matches!(perm, TransportError::PermissionDenied(_)));
+        assert!(
+            matches!(&perm, TransportError::UsbPermissionDenied { node: None, .. }),
+            "{perm}"
+        );
         assert!(perm.to_string().contains("99-handgate-dex3.rules"), "{perm}");
+        assert!(perm.needs_reconnect());
         assert!(matches!(
             map_usb_error(rusb::Error::Busy, "h", t),
             TransportError::Busy(_)
@@ -446,6 +467,39 @@ mod tests {
             map_usb_error(rusb::Error::Pipe, "h", t),
             TransportError::Usb(_)
         ));
+    }
+
+    /// No USB hardware here: what a hand whose node handgate's user cannot open produces is
+    /// checked at the mapping (libusb reports EACCES on the node as `rusb::Error::Access`).
+    #[test]
+    fn permission_error_names_the_node_and_the_fix() {
+        use std::error::Error as _;
+        let node = usb_node(1, 5);
+        assert_eq!(node, Path::new("/dev/bus/usb/001/005"));
+        let e = map_usb_error_at(
+            rusb::Error::Access,
+            &device_name(Side::Left, 1, 5),
+            Some(&node),
+            Duration::ZERO,
+        );
+        let msg = e.to_string();
+        for want in [
+            "permission denied opening Dex3-1 left hand at USB bus 001 device 005 (/dev/bus/usb/001/005)",
+            "/etc/udev/rules.d/",
+            "99-handgate-dex3.rules",
+            "udevadm trigger",
+            "group plugdev",
+            "usermod -aG plugdev",
+            "SupplementaryGroups=plugdev",
+        ] {
+            assert!(msg.contains(want), "missing {want:?} in: {msg}");
+        }
+        let source = e.source().expect("the libusb error is the source");
+        assert_eq!(source.downcast_ref::<rusb::Error>(), Some(&rusb::Error::Access));
+        assert!(
+            e.needs_reconnect(),
+            "the loop keeps retrying: a udev fix needs no restart"
+        );
     }
 
     #[test]

@@ -3,11 +3,21 @@
 //! behind [`Dex3Transport`], exactly where the hardware would be.
 
 use super::codec::{CMD_FRAME_LEN, STATE_FRAME_LEN};
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 use thiserror::Error;
 
 /// The udev rule file shipped with handgate (mentioned in permission errors).
 pub const UDEV_RULE_PATH: &str = "profiles/udev/99-handgate-dex3.rules";
+/// The group that rule gives the hands' USB device nodes to (`GROUP=` in the rule).
+pub const UDEV_GROUP: &str = "plugdev";
+
+/// ` (/dev/bus/usb/BBB/DDD)` when the device node is known.
+fn node_suffix(node: &Option<PathBuf>) -> String {
+    node.as_deref()
+        .map(|n: &Path| format!(" ({})", n.display()))
+        .unwrap_or_default()
+}
 
 /// Errors of one exchange or of opening a transport.
 #[derive(Debug, Error)]
@@ -18,10 +28,27 @@ pub enum TransportError {
     Disconnected,
     #[error("not found: {0}")]
     NotFound(String),
+    /// libusb could not open the hand's device node (EACCES): the node is not readable and
+    /// writable by handgate's user. Never needs root: the udev rule and its group fix it.
     #[error(
-        "permission denied opening {0}: install the udev rule ({UDEV_RULE_PATH} into /etc/udev/rules.d/, then \
-         `sudo udevadm control --reload && sudo udevadm trigger` and replug) or run as a member of the group it names"
+        "permission denied opening {device}{}: handgate's user cannot read and write that USB device node. \
+         Fix: install the udev rule ({UDEV_RULE_PATH} into /etc/udev/rules.d/, then \
+         `sudo udevadm control --reload && sudo udevadm trigger` and replug the hand), which gives the node \
+         to group {UDEV_GROUP}, and run handgate as a member of {UDEV_GROUP} \
+         (`sudo usermod -aG {UDEV_GROUP} <user>` and log in again; the systemd unit has \
+         SupplementaryGroups={UDEV_GROUP}); root is not needed",
+        node_suffix(.node)
     )]
+    UsbPermissionDenied {
+        /// The hand, e.g. "Dex3-1 left hand at USB bus 001 device 005".
+        device: String,
+        /// Its usbfs node, `/dev/bus/usb/BBB/DDD`, when known.
+        node: Option<PathBuf>,
+        #[source]
+        source: rusb::Error,
+    },
+    /// Any other permission refusal (the emulator's Unix socket).
+    #[error("permission denied opening {0}")]
     PermissionDenied(String),
     #[error("{0} is busy: another process holds interface 0 (is another handgate or the vendor service running?)")]
     Busy(String),
@@ -42,6 +69,7 @@ impl TransportError {
             self,
             TransportError::Disconnected
                 | TransportError::NotFound(_)
+                | TransportError::UsbPermissionDenied { .. }
                 | TransportError::PermissionDenied(_)
                 | TransportError::Busy(_)
                 | TransportError::NoEndpoints(_)
