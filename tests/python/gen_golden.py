@@ -15,6 +15,11 @@ CDR / XCDR1, little-endian, with the 4-byte encapsulation header 00 01 00 00). I
 `<module>__<Type>__<case>.json` holding the values and the hex of those bytes. The Rust test
 tests/tests/golden_bytes.rs rebuilds each value in Rust and requires byte equality.
 
+The Inspire FTP types (inspire::inspire_hand_ctrl/state/touch, idl/inspire.idl) have no installable
+SDK: this script first regenerates their Python classes with CycloneDDS's own `idlc -l py` into
+tests/python/idl_gen/ and serialises those (cases as above; "extreme" fills each bounded sequence
+exactly to its bound, "sdk_default" is every sequence at its bound with zeros).
+
 Deterministic: values are fixed or computed from indices, JSON is written with a fixed layout,
 and files are rewritten only when their content changes. Re-running gives identical files.
 
