@@ -122,6 +122,74 @@ pub mod cdr_string {
     }
 }
 
+/// IDL bounded sequences (`sequence<T, N>`) as `Vec<T>` fields:
+/// `#[serde(serialize_with = "bounded_seq::serialize::<N, _, _>",
+/// deserialize_with = "bounded_seq::deserialize::<N, _, _>")]`.
+///
+/// Same bytes as an unbounded sequence (u32 count, then the elements); the bound is what
+/// CycloneDDS enforces: encoding more than `N` elements is an error (its `write_bound_exceeded`),
+/// and so is decoding a count above `N`, checked against the announced count before any
+/// element is read or any memory is reserved for it.
+pub mod bounded_seq {
+    use std::fmt;
+    use std::marker::PhantomData;
+
+    use serde::de::{self, Deserialize, Deserializer, SeqAccess, Visitor};
+    use serde::ser::{self, Serialize, SerializeSeq, Serializer};
+
+    /// Serialises `v` as a sequence, or fails if it holds more than `N` elements.
+    #[allow(clippy::ptr_arg)] // serde's serialize_with passes `&Vec<T>`
+    pub fn serialize<const N: usize, T: Serialize, S: Serializer>(v: &Vec<T>, s: S) -> Result<S::Ok, S::Error> {
+        if v.len() > N {
+            return Err(ser::Error::custom(format!(
+                "bounded sequence of {} elements (bound {N})",
+                v.len()
+            )));
+        }
+        let mut seq = s.serialize_seq(Some(v.len()))?;
+        for x in v {
+            seq.serialize_element(x)?;
+        }
+        seq.end()
+    }
+
+    struct BoundedVisitor<const N: usize, T>(PhantomData<T>);
+
+    impl<'de, const N: usize, T: Deserialize<'de>> Visitor<'de> for BoundedVisitor<N, T> {
+        type Value = Vec<T>;
+
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            write!(f, "a sequence of at most {N} elements")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<T>, A::Error> {
+            // The cdr crate reports the announced count here, before reading any element.
+            if let Some(n) = seq.size_hint() {
+                if n > N {
+                    return Err(de::Error::custom(format!(
+                        "bounded sequence of {n} elements (bound {N})"
+                    )));
+                }
+            }
+            let mut out = Vec::with_capacity(N.min(seq.size_hint().unwrap_or(0)));
+            while let Some(x) = seq.next_element()? {
+                if out.len() == N {
+                    return Err(de::Error::custom(format!("bounded sequence longer than {N}")));
+                }
+                out.push(x);
+            }
+            Ok(out)
+        }
+    }
+
+    /// Deserialises a sequence of at most `N` elements.
+    pub fn deserialize<'de, const N: usize, T: Deserialize<'de>, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<Vec<T>, D::Error> {
+        d.deserialize_seq(BoundedVisitor::<N, T>(PhantomData))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

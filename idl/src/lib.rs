@@ -1,6 +1,7 @@
 //! Wire types only: the DDS messages real Unitree systems exchange with hands and grippers,
 //! byte-for-byte as unitree_sdk2 (CycloneDDS idlc 0.10.2, XCDR1, FINAL, keyless) lays them out,
-//! plus handgate's own canonical messages (`idl/handgate.idl`) and the ROS 2 `JointState`.
+//! plus handgate's own canonical messages (`idl/handgate.idl`), the ROS 2 `JointState` and the
+//! Inspire FTP hand's own messages (`inspire::`, `idl/inspire.idl`).
 //!
 //! Field order is wire order. Fixed arrays are Rust arrays, IDL sequences are `Vec`s.
 //! Every type implements cyclonedds-rs [`TopicType`] with its exact DDS type name, e.g.
@@ -11,6 +12,7 @@
 
 pub mod cdr_codec;
 pub mod handgate;
+pub mod inspire;
 pub mod ros2;
 pub mod unitree_go;
 pub mod unitree_hg;

@@ -15,6 +15,11 @@ CDR / XCDR1, little-endian, with the 4-byte encapsulation header 00 01 00 00). I
 `<module>__<Type>__<case>.json` holding the values and the hex of those bytes. The Rust test
 tests/tests/golden_bytes.rs rebuilds each value in Rust and requires byte equality.
 
+The Inspire FTP types (inspire::inspire_hand_ctrl/state/touch, idl/inspire.idl) have no installable
+SDK: this script first regenerates their Python classes with CycloneDDS's own `idlc -l py` into
+tests/python/idl_gen/ and serialises those (cases as above; "extreme" fills each bounded sequence
+exactly to its bound, "sdk_default" is every sequence at its bound with zeros).
+
 Deterministic: values are fixed or computed from indices, JSON is written with a fixed layout,
 and files are rewritten only when their content changes. Re-running gives identical files.
 
@@ -40,11 +45,51 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import wire_schema as ws  # noqa: E402
-from wire_schema import f32, f32_from_bits  # noqa: E402
-
 REPO = Path(__file__).resolve().parent.parent.parent
 OUT = REPO / "tests" / "fixtures" / "golden"
+IDL_GEN = REPO / "tests" / "python" / "idl_gen"
+# IDL files whose Python classes CycloneDDS's own IDL compiler generates (idlc -l py).
+IDL_FOR_PYTHON = [REPO / "idl" / "inspire.idl"]
+
+
+def regenerate_idl_python():
+    """Runs `idlc -l py -x final` (cyclonedds-tools 0.10.2 with the Python backend that ships in
+    the venv's cyclonedds package) on IDL_FOR_PYTHON and updates tests/python/idl_gen/ where the
+    output differs. -x final states idlc 0.10's default for unannotated structs (the public
+    Inspire IDL has no annotation) and silences its warning about it."""
+    import filecmp
+    import os
+    import shutil
+    import subprocess
+    import tempfile
+
+    idlc = shutil.which("idlc")
+    if idlc is None:
+        raise SystemExit("idlc not found: run scripts/setup.sh (installs cyclonedds-tools)")
+    env = dict(os.environ)
+    # idlc's py backend runs `python3 -m cyclonedds.__idlc__`: make that the venv's Python.
+    env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
+    changed = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for idl_file in IDL_FOR_PYTHON:
+            subprocess.run([idlc, "-l", "py", "-x", "final", str(idl_file)], cwd=tmp, env=env, check=True)
+        for src in sorted(Path(tmp).rglob("*")):
+            if not src.is_file():
+                continue
+            dst = IDL_GEN / src.relative_to(tmp)
+            if dst.exists() and filecmp.cmp(src, dst, shallow=False):
+                continue
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, dst)
+            changed += 1
+    print("gen_golden: idlc -l py: %d generated file(s) updated in %s" % (changed, IDL_GEN))
+
+
+if __name__ == "__main__":
+    regenerate_idl_python()
+
+import wire_schema as ws  # noqa: E402
+from wire_schema import f32, f32_from_bits  # noqa: E402
 
 # --- typical values ---------------------------------------------------------------------------
 
@@ -154,7 +199,29 @@ def canonical_typical(key):
     raise KeyError(key)
 
 
+# Inspire FTP: register units 0..1000 (angle 1000 = finger straight/open, 0 = closed), order
+# pinky, ring, middle, index, thumb bend, thumb rotation (docs/sources.md §7).
+def inspire_typical(key):
+    c = ws.CLASSES[key]
+    if key == "inspire/inspire_hand_ctrl":
+        # Angle + force + speed (mode 0b1101): a half-closed grasp with a force limit.
+        return c(pos_set=[0] * 6, angle_set=[400, 420, 450, 500, 600, 900], force_set=[500] * 6,
+                 speed_set=[1000, 1000, 1000, 1000, 800, 800], mode=0b1101)
+    if key == "inspire/inspire_hand_state":
+        return c(pos_act=[1220, 1180, 1105, 1003, 845, 210], angle_act=[402, 421, 449, 501, 598, 899],
+                 force_act=[12, -3, 0, 47, 130, 5], current=[35, 33, 30, 41, 88, 12],
+                 err=[0, 0, 0, 0, 1, 0], status=[2, 2, 2, 3, 1, 2], temperature=[36, 36, 37, 38, 41, 35])
+    if key == "inspire/inspire_hand_touch":
+        fields = {}
+        for seg, (name, kind) in enumerate(ws.SCHEMA[key]):
+            fields[name] = [(37 * k + 101 * seg) % 4096 for k in range(kind[2])]
+        return c(**fields)
+    raise KeyError(key)
+
+
 def typical(key):
+    if key.startswith("inspire/"):
+        return inspire_typical(key)
     if not key.startswith("unitree_"):
         return canonical_typical(key)
     if key == "unitree_hg/MotorCmd_":
@@ -211,6 +278,7 @@ F64_EXTREMES = [
     0.1,
 ]
 INT_EXTREMES = {
+    "i8": [-128, 127, -1],
     "u8": [255, 0, 0x80],
     "i16": [-32768, 32767, -1],
     "i32": [-0x8000_0000, 0x7FFF_FFFF, -1],
@@ -240,6 +308,9 @@ class Filler:
                 out[name] = self.scalar(kind)
             elif kind[0] == "array":
                 out[name] = [self.scalar(kind[1]) for _ in range(kind[2])]
+            elif kind[0] == "bseq":
+                # Bounded: never more than the bound ("extreme" fills it exactly).
+                out[name] = [self.scalar(kind[1]) for _ in range(min(self.seq_len, kind[2]))]
             elif kind[0] == "seq" and "/" not in kind[1]:
                 out[name] = [self.scalar(kind[1]) for _ in range(self.seq_len)]
             elif kind[0] == "seq":
@@ -279,9 +350,17 @@ def build(key, case):
     if case == "typical":
         return typical(key)
     if case == "extreme":
+        # 32 elements; a bounded sequence gets exactly its bound.
+        if key.startswith("inspire/"):
+            return Filler(cycling_extremes(), 1 << 16).build(key)
         return Filler(cycling_extremes(), 32).build(key)
     if case == "nan":
         return Filler(nan_scalar, 2).build(key)
+    if case == "sdk_default" and key.startswith("inspire/"):
+        # What inspire_sdkpy's get_inspire_hand_ctrl/state/touch() build: every sequence at its
+        # bound, zeros, mode 0 (restated; that package is not installable here).
+        plain = {name: [0] * kind[2] if kind[0] == "bseq" else 0 for name, kind in ws.SCHEMA[key]}
+        return ws.from_plain(key, plain)
     if case == "sdk_default":
         from unitree_sdk2py.idl import default
 
@@ -294,7 +373,7 @@ def build(key, case):
 
 def cases_for(key):
     cases = ["empty", "typical", "extreme", "nan"]
-    if key in ("unitree_hg/HandCmd_", "unitree_hg/HandState_"):
+    if key in ("unitree_hg/HandCmd_", "unitree_hg/HandState_") or key.startswith("inspire/"):
         cases.append("sdk_default")
     return cases
 
@@ -319,6 +398,8 @@ GEN_SDK = ("tests/python/gen_golden.py with unitree-sdk2 1.0.1 idl classes, "
            "cyclonedds (Python) 0.10.2 IdlStruct.serialize()")
 GEN_OWN = ("tests/python/gen_golden.py with handgate's declarations in tests/python/handgate_types.py, "
            "cyclonedds (Python) 0.10.2 IdlStruct.serialize()")
+GEN_IDLC = ("tests/python/gen_golden.py with classes generated by idlc -l py (CycloneDDS 0.10.2) from "
+            "idl/inspire.idl into tests/python/idl_gen/, cyclonedds (Python) 0.10.2 IdlStruct.serialize()")
 
 
 def fixture(key, case):
@@ -344,7 +425,7 @@ def fixture(key, case):
         "case": case,
         "dds_type_name": ws.dds_type_name(key),
         "python_type_name": ws.python_type_name(key),
-        "generator": GEN_SDK if key in ws.SDK_KEYS else GEN_OWN,
+        "generator": GEN_SDK if key in ws.SDK_KEYS else GEN_IDLC if key.startswith("inspire/") else GEN_OWN,
         "encoding": "plain CDR (XCDR1), little-endian, 4-byte encapsulation header 00 01 00 00",
         "value": plain,
         "cdr_le_len": len(data),

@@ -23,7 +23,7 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
-use handgate_idl::{handgate, ros2, unitree_go, unitree_hg};
+use handgate_idl::{handgate, inspire, ros2, unitree_go, unitree_hg};
 use serde_json::Value;
 
 // ---------------------------------------------------------------------------------------------
@@ -563,7 +563,7 @@ macro_rules! plain_int {
         }
     )*};
 }
-plain_int!(u8, i16, i32, u32);
+plain_int!(i8, u8, i16, i32, u32);
 
 impl FromPlain for u64 {
     fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
@@ -808,6 +808,41 @@ plain_struct!(ros2::JointState_ {
     position,
     velocity,
     effort
+});
+plain_struct!(inspire::InspireHandCtrl {
+    pos_set,
+    angle_set,
+    force_set,
+    speed_set,
+    mode
+});
+plain_struct!(inspire::InspireHandState {
+    pos_act,
+    angle_act,
+    force_act,
+    current,
+    err,
+    status,
+    temperature
+});
+plain_struct!(inspire::InspireHandTouch {
+    fingerone_tip_touch,
+    fingerone_top_touch,
+    fingerone_palm_touch,
+    fingertwo_tip_touch,
+    fingertwo_top_touch,
+    fingertwo_palm_touch,
+    fingerthree_tip_touch,
+    fingerthree_top_touch,
+    fingerthree_palm_touch,
+    fingerfour_tip_touch,
+    fingerfour_top_touch,
+    fingerfour_palm_touch,
+    fingerfive_tip_touch,
+    fingerfive_top_touch,
+    fingerfive_middle_touch,
+    fingerfive_palm_touch,
+    palm_touch
 });
 
 /// Parses one JSON document (e.g. a line a Python helper printed) into a wire value.

@@ -14,12 +14,17 @@
 //! tests run in parallel. Every wait is on readiness with a deadline; nothing sleeps blindly.
 //! Needs `.venv` (scripts/setup.sh); without it the tests fail with that instruction.
 //! `HANDGATE_INTEROP_IFACE=lo` pins both sides to one network interface.
+//!
+//! The Inspire FTP hand's `inspire::inspire_hand_ctrl` / `inspire_hand_state` go the same way
+//! (domains 200..203): the Python side is unitree_sdk2py's ChannelPublisher/Subscriber with the
+//! classes `idlc -l py` generated from idl/inspire.idl, as the Inspire driver and
+//! xr_teleoperate's FTP controller use them.
 
 use std::fmt::Debug;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::{Node, Qos};
-use handgate_idl::{to_cdr_le, unitree_go, unitree_hg, TopicType};
+use handgate_idl::{inspire, to_cdr_le, unitree_go, unitree_hg, TopicType};
 use handgate_tests::{fixture, from_plain_json, interop_interface, FromPlain, PyError, PyProcess};
 use serde::Serialize;
 
@@ -209,4 +214,29 @@ fn motor_states_extreme_rust_to_python() {
 #[test]
 fn motor_states_extreme_python_to_rust() {
     python_to_rust::<unitree_go::MotorStates_>(25, MOTOR_STATES.0, MOTOR_STATES.1, "extreme");
+}
+
+// Inspire FTP (its own IDL, module `inspire`): typical values, right hand.
+
+const INSPIRE_CTRL: (&str, &str) = ("rt/inspire_hand/ctrl/r", "inspire/inspire_hand_ctrl");
+const INSPIRE_STATE: (&str, &str) = ("rt/inspire_hand/state/r", "inspire/inspire_hand_state");
+
+#[test]
+fn inspire_ctrl_python_to_rust() {
+    python_to_rust::<inspire::InspireHandCtrl>(200, INSPIRE_CTRL.0, INSPIRE_CTRL.1, "typical");
+}
+
+#[test]
+fn inspire_ctrl_rust_to_python() {
+    rust_to_python::<inspire::InspireHandCtrl>(201, INSPIRE_CTRL.0, INSPIRE_CTRL.1, "typical");
+}
+
+#[test]
+fn inspire_state_python_to_rust() {
+    python_to_rust::<inspire::InspireHandState>(202, INSPIRE_STATE.0, INSPIRE_STATE.1, "typical");
+}
+
+#[test]
+fn inspire_state_rust_to_python() {
+    rust_to_python::<inspire::InspireHandState>(203, INSPIRE_STATE.0, INSPIRE_STATE.1, "typical");
 }
