@@ -569,7 +569,12 @@ mod tests {
 
     #[test]
     fn tracks_q_with_default_gains_then_brakes_and_resumes() {
-        let mut core = Dex1Core::new(&Dex1Config::new(Dex1Variant::Go, Side::Left)).unwrap();
+        // Exact held values: no measurement noise.
+        let mut core = Dex1Core::new(&Dex1Config {
+            noise: Noise::OFF,
+            ..Dex1Config::new(Dex1Variant::Go, Side::Left)
+        })
+        .unwrap();
         assert!(core.grippers[0].braked, "braked before any command");
         let t0 = Instant::now();
         assert!(core.on_go(&go(&[2.0], 0.0, 0.0), t0));
@@ -600,7 +605,10 @@ mod tests {
         let mut core = Dex1Core::new(&Dex1Config::new(Dex1Variant::Go, Side::Right)).unwrap();
         let t0 = Instant::now();
         core.on_go(&go(&[9.0], 0.0, 0.0), t0);
-        assert_eq!(core.grippers[0].target.q, DEX1_OPEN_Q);
+        // The jaw's hard stop is the calibrated mechanical range, beyond the 5.4 rad clients
+        // command: an unclamped 9.0 ends there, not at 5.4.
+        assert_eq!(core.grippers[0].target.q, DEX1_CALIBRATED_RANGE);
+        assert!(DEX1_CALIBRATED_RANGE > DEX1_OPEN_Q);
         assert!(!core.on_go(&go(&[], 0.0, 0.0), t0));
         assert!(!core.on_go(&go(&[1.0, 1.0], 0.0, 0.0), t0));
         assert!(!core.on_go(&go(&[f32::NAN], 0.0, 0.0), t0));
@@ -703,7 +711,12 @@ mod tests {
     fn dds_go_variant_tracks_q_brakes_after_silence_and_resumes() {
         crate::emu_common::isolated_test_domain(36);
         let emu_node = Node::new(36, None).unwrap();
-        let emu = Dex1Emulator::start(&emu_node, Dex1Config::new(Dex1Variant::Go, Side::Left)).unwrap();
+        // Exact held values: no measurement noise.
+        let cfg = Dex1Config {
+            noise: Noise::OFF,
+            ..Dex1Config::new(Dex1Variant::Go, Side::Left)
+        };
+        let emu = Dex1Emulator::start(&emu_node, cfg).unwrap();
         let node = Node::new(36, None).unwrap();
         let mut w = node
             .writer::<MotorCmds_>("rt/dex1/left/cmd", Qos::Reliable { depth: 4 })

@@ -684,7 +684,7 @@ mod tests {
         let urdf_index0 = (-1.5708, 0.0);
         assert_eq!(Dex3Joint::Index0.limits(Side::Left), urdf_index0);
         assert_eq!(Dex3Joint::Middle1.limits(Side::Right), (0.0, 1.7453));
-        assert_eq!(Dex3Joint::Thumb1.limits(Side::Right), (-0.920, 0.7243));
+        assert_eq!(Dex3Joint::Thumb1.limits(Side::Right), (-1.0472, 0.6108));
         assert_eq!(Dex3Joint::Index1.closing_dir(Side::Left), Some(-1.0));
         assert_eq!(Dex3Joint::Index1.closing_dir(Side::Right), Some(1.0));
         assert_eq!(Dex3Joint::Thumb0.closing_dir(Side::Right), None);
@@ -951,7 +951,12 @@ mod tests {
 
     #[test]
     fn dds_left_hand_closes_negative_and_stops_at_urdf_limit() {
-        let (_emu, mut client) = setup(31, Dex3ServiceConfig::new(Side::Left));
+        // At the stop the noise would read either side of it: exact values here.
+        let config = Dex3ServiceConfig {
+            noise: Noise::OFF,
+            ..Dex3ServiceConfig::new(Side::Left)
+        };
+        let (_emu, mut client) = setup(31, config);
         let mut q = [0.0; MOTORS];
         q[Dex3Joint::Middle0.index()] = -1.0;
         q[Dex3Joint::Index0.index()] = 1.0; // outside [-1.5708, 0]: stops at 0
@@ -988,7 +993,9 @@ mod tests {
 
     #[test]
     fn dds_wrong_motor_count_is_rejected_and_counted() {
-        let (emu, mut client) = setup(33, Dex3ServiceConfig::new(Side::Left));
+        let config = Dex3ServiceConfig::new(Side::Left);
+        let initial = config.initial_q;
+        let (emu, mut client) = setup(33, config);
         let mut six = HandCmd_::with_motors(6);
         six.motor_cmd.iter_mut().for_each(|m| {
             m.mode = 0x10;
@@ -1006,7 +1013,8 @@ mod tests {
         assert!(snap
             .motors
             .iter()
-            .all(|m| m.commanded_mode.is_none() && m.applied.q == 0.0));
+            .zip(initial)
+            .all(|(m, q0)| m.commanded_mode.is_none() && m.applied.q == q0));
         let good = cmd_all(|i| 0x10 | i, [0.0; MOTORS], 1.5, 0.1);
         client.cmd.write(good).unwrap();
         wait_for(|| emu.commands_received() >= 1);
