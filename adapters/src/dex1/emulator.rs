@@ -822,4 +822,33 @@ mod tests {
         assert!(s.states[0].tau_est.abs() > 1.0, "tau_est {}", s.states[0].tau_est);
         assert!(emu.gripper(Side::Right).unwrap().contact_tau > 1.0);
     }
+
+    #[test]
+    fn rest_position_not_zero_and_the_same_seed_gives_the_same_noise() {
+        fn run(cfg: &Dex1Config) -> Vec<[f32; 3]> {
+            let mut core = Dex1Core::new(cfg).unwrap();
+            (0..20)
+                .map(|_| {
+                    let s = core.go_state().states[0].clone();
+                    [s.q, s.dq, s.tau_est]
+                })
+                .collect()
+        }
+        let cfg = Dex1Config::new(Dex1Variant::Go, Side::Left);
+        let a = run(&cfg);
+        assert_ne!(a[0][0], 0.0);
+        assert!((a[0][0] - DEX1_REST_Q).abs() <= 3.0 * cfg.noise.q + 1e-6);
+        assert_eq!(a, run(&cfg));
+        let other = Dex1Config {
+            noise: cfg.noise.with_seed(cfg.noise.seed ^ 1),
+            ..cfg.clone()
+        };
+        assert_ne!(a, run(&other));
+        let exact = run(&Dex1Config {
+            noise: Noise::OFF,
+            ..cfg.clone()
+        });
+        assert!(exact.iter().all(|s| *s == [DEX1_REST_Q, 0.0, 0.0]));
+        assert_eq!(cfg.range, (0.0, DEX1_CALIBRATED_RANGE));
+    }
 }

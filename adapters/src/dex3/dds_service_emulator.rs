@@ -1078,4 +1078,33 @@ mod tests {
         }
         assert_eq!(emu.snapshot().lf_published, 0);
     }
+
+    #[test]
+    fn rest_posture_not_all_zero_and_the_same_seed_gives_the_same_noise() {
+        fn run(cfg: &Dex3ServiceConfig) -> Vec<Vec<[f32; 3]>> {
+            let mut core = Dex3Core::new(cfg);
+            (0..20)
+                .map(|_| core.state().motor_state.iter().map(|m| [m.q, m.dq, m.tau_est]).collect())
+                .collect()
+        }
+        for side in [Side::Left, Side::Right] {
+            let cfg = Dex3ServiceConfig::new(side);
+            let a = run(&cfg);
+            assert!(a[0].iter().any(|m| m[0] != 0.0), "{side:?}: {:?}", a[0]);
+            assert_eq!(a, run(&cfg));
+            let other = Dex3ServiceConfig {
+                noise: cfg.noise.with_seed(cfg.noise.seed ^ 1),
+                ..cfg.clone()
+            };
+            assert_ne!(a, run(&other));
+            let exact = run(&Dex3ServiceConfig {
+                noise: Noise::OFF,
+                ..cfg.clone()
+            });
+            for (i, m) in exact[0].iter().enumerate() {
+                assert_eq!(m[0], crate::dex3::physical::rest_wire(side, i));
+                assert!((a[0][i][0] - m[0]).abs() <= 3.0 * cfg.noise.q + 1e-6);
+            }
+        }
+    }
 }

@@ -89,4 +89,30 @@ mod tests {
         assert!(HG_MOTOR_NOISE.validate().is_ok());
         assert!((HG_MOTOR_NOISE.q - 1.917e-4).abs() < 1e-6);
     }
+
+    /// The unitree_sdk2 example `g1_dex3_example.cpp` sweeps each joint between these bounds
+    /// (test data, docs/model.md): every pose it asks for is reachable under the default soft
+    /// limits wherever the manual's range allows it.
+    #[test]
+    fn sdk_example_poses_are_reachable_within_the_hardware_range() {
+        let sdk_left_max = [1.05, 1.05, 1.75, 0.0, 0.0, 0.0, 0.0];
+        let sdk_left_min = [-1.05, -0.724, 0.0, -1.57, -1.75, -1.57, -1.75];
+        let sdk_right_max = [1.05, 0.742, 0.0, 1.57, 1.75, 1.57, 1.75];
+        let sdk_right_min = [-1.05, -1.05, -1.75, 0.0, 0.0, 0.0, 0.0];
+        for (side, lo, hi) in [
+            (Side::Left, sdk_left_min, sdk_left_max),
+            (Side::Right, sdk_right_min, sdk_right_max),
+        ] {
+            for i in 0..7 {
+                let (hlo, hhi) = hard_stops(side, i);
+                let (slo, shi) = super::super::table::wire_limits(side, i);
+                // What the example asks, where the hardware allows it.
+                let (want_lo, want_hi) = (f32::max(lo[i], hlo), f32::min(hi[i], hhi));
+                assert!(
+                    slo <= want_lo + 1e-4 && want_hi <= shi + 1e-4,
+                    "{side:?} {i}: soft {slo}..{shi}, example within the hardware {want_lo}..{want_hi}"
+                );
+            }
+        }
+    }
 }

@@ -720,3 +720,35 @@ impl Worker {
         out
     }
 }
+
+#[cfg(test)]
+mod realism_tests {
+    use super::*;
+
+    fn readings(noise: Noise) -> Vec<[i64; 3]> {
+        let mut s = ServoSim::new(ServoSpec::new(1), noise);
+        (0..50)
+            .map(|_| {
+                s.step(0.001);
+                [
+                    get(&s.table, reg::PRESENT_POSITION),
+                    get(&s.table, reg::PRESENT_VELOCITY),
+                    get(&s.table, reg::PRESENT_CURRENT),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn present_values_are_noisy_not_zero_and_the_same_seed_gives_the_same_noise() {
+        let a = readings(MX64_NOISE);
+        let start = ServoSpec::new(1).start_ticks as i64;
+        assert!(a.iter().all(|r| r[0] != 0 && (r[0] - start).abs() <= 3), "{a:?}");
+        assert!(a.iter().any(|r| r[0] != start), "no position noise: {a:?}");
+        assert_eq!(a, readings(MX64_NOISE));
+        assert_ne!(a, readings(MX64_NOISE.with_seed(MX64_NOISE.seed ^ 1)));
+        let exact = readings(Noise::OFF);
+        assert!(exact.iter().all(|r| *r == [start, 0, 0]), "{exact:?}");
+        assert!(MX64_NOISE.validate().is_ok());
+    }
+}

@@ -737,4 +737,45 @@ mod tests {
         let mut t2 = EmulatorTransport::open(&emu).unwrap();
         t2.exchange(&cmd, &mut out, Duration::from_millis(10)).unwrap();
     }
+
+    /// The first reply is the rest posture plus noise, never all zero; the same seed gives
+    /// the same noise, another seed other noise; `Noise::OFF` reads the rest posture exactly
+    /// (to the frame's resolution).
+    #[test]
+    fn rest_posture_not_all_zero_and_the_same_seed_gives_the_same_noise() {
+        let run = |cfg: EmulatorConfig| {
+            let mut emu = Dex3Emulator::new(Side::Left, cfg);
+            // FOC with zero gains: the motors apply nothing, the joints stay at rest.
+            let c = Dex3Command::hold([0.0; MOTOR_COUNT], 0.0, 0.0);
+            (0..20)
+                .map(|_| {
+                    let m = exchange(&mut emu, &c, false);
+                    Joint::ALL.map(|j| {
+                        let s = m.motor(j);
+                        [s.q, s.dq, s.tau]
+                    })
+                })
+                .collect::<Vec<_>>()
+        };
+        let a = run(EmulatorConfig::default());
+        assert!(a[0].iter().any(|m| m[0] != 0.0), "{:?}", a[0]);
+        assert_eq!(a, run(EmulatorConfig::default()));
+        let noise = crate::dex3::physical::HG_MOTOR_NOISE;
+        let other = run(EmulatorConfig {
+            noise: noise.with_seed(noise.seed + 1),
+            ..Default::default()
+        });
+        assert_ne!(a, other);
+        let exact = run(EmulatorConfig {
+            noise: Noise::OFF,
+            ..Default::default()
+        });
+        for (i, m) in exact[0].iter().enumerate() {
+            let rest = crate::dex3::physical::rest_wire(Side::Left, i);
+            assert!((m[0] - rest).abs() < 2.0e-4, "joint {i}: {m:?} vs rest {rest}");
+            // With noise: within 3 standard deviations plus the frame's resolution.
+            assert!((a[0][i][0] - rest).abs() <= 3.0 * noise.q + 2.0e-4, "joint {i}: {:?}", a[0][i]);
+        }
+        assert!(exact.iter().all(|s| s == &exact[0]));
+    }
 }
