@@ -158,7 +158,10 @@ fn every_emulated_kind_reports_a_state_that_is_not_all_zero_with_noise_on_by_def
     for device in ["dex3_left", "dex1_left", "ez_left"] {
         let states = fresh_states(&n, device, 30, &gw);
         let first = positions(&states[0]);
-        assert!(first.iter().any(|q| *q != 0.0), "{device}: first state all zero: {first:?}");
+        assert!(
+            first.iter().any(|q| *q != 0.0),
+            "{device}: first state all zero: {first:?}"
+        );
         // Noise is on by default: the measured positions are not all one value. Not for the
         // EZGripper: after its start-up calibration it rests against the closed stop, and the
         // driver clamps the position to 0..5.4 rad (as SAKE's does), so noise past the stop
@@ -187,7 +190,10 @@ fn with_noise_off_every_emulated_kind_reports_its_rest_posture_not_zero() {
     for device in ["dex3_left", "dex1_left", "ez_left"] {
         let states = fresh_states(&n, device, 5, &gw);
         let first = positions(&states[0]);
-        assert!(first.iter().any(|q| *q != 0.0), "{device}: first state all zero: {first:?}");
+        assert!(
+            first.iter().any(|q| *q != 0.0),
+            "{device}: first state all zero: {first:?}"
+        );
         if device == "dex3_left" {
             // Canonical = the rest posture, to the USB frame's position resolution
             // (2π/32768 rad).
@@ -199,7 +205,8 @@ fn with_noise_off_every_emulated_kind_reports_its_rest_posture_not_zero() {
             assert!(states.iter().all(|s| positions(s) == first), "{states:?}");
         }
         if device == "dex1_left" {
-            let jaw = handgate_adapters::dex1::table::DEFAULT_RANGE_RAD - handgate_adapters::dex1::emulator::DEX1_REST_Q;
+            let jaw =
+                handgate_adapters::dex1::table::DEFAULT_RANGE_RAD - handgate_adapters::dex1::emulator::DEX1_REST_Q;
             assert!((first[0] - jaw).abs() < 1e-5, "dex1 jaw {first:?}, rest {jaw}");
         }
     }

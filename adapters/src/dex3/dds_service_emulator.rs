@@ -1084,7 +1084,13 @@ mod tests {
         fn run(cfg: &Dex3ServiceConfig) -> Vec<Vec<[f32; 3]>> {
             let mut core = Dex3Core::new(cfg);
             (0..20)
-                .map(|_| core.state().motor_state.iter().map(|m| [m.q, m.dq, m.tau_est]).collect())
+                .map(|_| {
+                    core.state()
+                        .motor_state
+                        .iter()
+                        .map(|m| [m.q, m.dq, m.tau_est])
+                        .collect()
+                })
                 .collect()
         }
         for side in [Side::Left, Side::Right] {

@@ -16,13 +16,13 @@ use crate::sim::Noise;
 /// excursion is positive on the left, as in the URDF and the SDK example). That mapping is
 /// the one assumption here.
 pub const MANUAL_LEFT_RANGE_DEG: [(f32, f32); 7] = [
-    (-60.0, 60.0),  // thumb_0
-    (-35.0, 60.0),  // thumb_1
-    (0.0, 100.0),   // thumb_2
-    (-90.0, 0.0),   // middle_0
-    (-100.0, 0.0),  // middle_1
-    (-90.0, 0.0),   // index_0
-    (-100.0, 0.0),  // index_1
+    (-60.0, 60.0), // thumb_0
+    (-35.0, 60.0), // thumb_1
+    (0.0, 100.0),  // thumb_2
+    (-90.0, 0.0),  // middle_0
+    (-100.0, 0.0), // middle_1
+    (-90.0, 0.0),  // index_0
+    (-100.0, 0.0), // index_1
 ];
 
 /// The manual's range of IDL joint `i` on `side`, rad (the right hand mirrors the left).
@@ -76,7 +76,10 @@ mod tests {
                 let (lo, hi) = hard_stops(side, i);
                 let (slo, shi) = super::super::table::wire_limits(side, i);
                 // 1e-5: the table's 1.0472 is the URDF's 4-decimal rounding of 60° (1.047198).
-                assert!(lo <= slo + 1e-5 && shi <= hi + 1e-5, "{side:?} {i}: soft {slo}..{shi} hard {lo}..{hi}");
+                assert!(
+                    lo <= slo + 1e-5 && shi <= hi + 1e-5,
+                    "{side:?} {i}: soft {slo}..{shi} hard {lo}..{hi}"
+                );
                 let r = rest_wire(side, i);
                 assert!(lo <= r && r <= hi, "{side:?} {i}: rest {r}");
             }

@@ -445,7 +445,12 @@ impl VirtualBus {
     pub fn start(link: impl AsRef<Path>, cfg: EmulatorConfig) -> io::Result<Self> {
         let link = link.as_ref().to_path_buf();
         let shared = Arc::new(Mutex::new(Shared {
-            servos: cfg.servos.iter().cloned().map(|s| ServoSim::new(s, cfg.noise)).collect(),
+            servos: cfg
+                .servos
+                .iter()
+                .cloned()
+                .map(|s| ServoSim::new(s, cfg.noise))
+                .collect(),
             stats: EmulatorStats::default(),
             plugged: true,
         }));

@@ -628,7 +628,11 @@ pub struct EmulatorConfig {
 impl EmulatorConfig {
     /// The noise to emulate, given the kind's default figures: off, or the defaults with
     /// this profile's overrides and seed (mixed with `device`, FNV-1a).
-    pub fn noise_for(&self, device: &str, kind_default: handgate_adapters::sim::Noise) -> handgate_adapters::sim::Noise {
+    pub fn noise_for(
+        &self,
+        device: &str,
+        kind_default: handgate_adapters::sim::Noise,
+    ) -> handgate_adapters::sim::Noise {
         use handgate_adapters::sim::Noise;
         if self.noise == Some(false) {
             return Noise::OFF;

@@ -774,7 +774,11 @@ mod tests {
             let rest = crate::dex3::physical::rest_wire(Side::Left, i);
             assert!((m[0] - rest).abs() < 2.0e-4, "joint {i}: {m:?} vs rest {rest}");
             // With noise: within 3 standard deviations plus the frame's resolution.
-            assert!((a[0][i][0] - rest).abs() <= 3.0 * noise.q + 2.0e-4, "joint {i}: {:?}", a[0][i]);
+            assert!(
+                (a[0][i][0] - rest).abs() <= 3.0 * noise.q + 2.0e-4,
+                "joint {i}: {:?}",
+                a[0][i]
+            );
         }
         assert!(exact.iter().all(|s| s == &exact[0]));
     }
