@@ -608,7 +608,7 @@ mod tests {
         // The jaw's hard stop is the calibrated mechanical range, beyond the 5.4 rad clients
         // command: an unclamped 9.0 ends there, not at 5.4.
         assert_eq!(core.grippers[0].target.q, DEX1_CALIBRATED_RANGE);
-        assert!(DEX1_CALIBRATED_RANGE > DEX1_OPEN_Q);
+        const { assert!(DEX1_CALIBRATED_RANGE > DEX1_OPEN_Q) };
         assert!(!core.on_go(&go(&[], 0.0, 0.0), t0));
         assert!(!core.on_go(&go(&[1.0, 1.0], 0.0, 0.0), t0));
         assert!(!core.on_go(&go(&[f32::NAN], 0.0, 0.0), t0));
@@ -829,7 +829,7 @@ mod tests {
             let mut core = Dex1Core::new(cfg).unwrap();
             (0..20)
                 .map(|_| {
-                    let s = core.go_state().states[0].clone();
+                    let s = core.go_state().states[0];
                     [s.q, s.dq, s.tau_est]
                 })
                 .collect()

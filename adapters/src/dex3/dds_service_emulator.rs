@@ -684,7 +684,9 @@ mod tests {
         let urdf_index0 = (-1.5708, 0.0);
         assert_eq!(Dex3Joint::Index0.limits(Side::Left), urdf_index0);
         assert_eq!(Dex3Joint::Middle1.limits(Side::Right), (0.0, 1.7453));
-        assert_eq!(Dex3Joint::Thumb1.limits(Side::Right), (-1.0472, 0.6108));
+        #[allow(clippy::approx_constant)]
+        let thumb1_right = (-1.0472, 0.6108);
+        assert_eq!(Dex3Joint::Thumb1.limits(Side::Right), thumb1_right);
         assert_eq!(Dex3Joint::Index1.closing_dir(Side::Left), Some(-1.0));
         assert_eq!(Dex3Joint::Index1.closing_dir(Side::Right), Some(1.0));
         assert_eq!(Dex3Joint::Thumb0.closing_dir(Side::Right), None);
