@@ -2,6 +2,11 @@
 //! motor law real Unitree motors run (`tau = kp*(q_des-q) + kd*(dq_des-dq) + tau_ff`), with
 //! torque saturation, viscous friction, hard position stops and an optional object that the
 //! joint closes on (contact stiffness), so grasp, pressure and current can be emulated.
+//!
+//! Also the measurement side every emulator shares: [`Noise`] (per-kind standard deviations
+//! of position, velocity and torque noise plus a seed) and [`Sensor`], which reads a
+//! [`JointModel`] the way an encoder and a current sensor would, from a small seeded PRNG
+//! ([`Prng`], SplitMix64) so runs with the same seed report the same noise.
 
 /// Per-motor setpoint in the device's own frame and units (rad, rad/s, N*m, N*m/rad, N*m*s/rad).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -130,6 +135,145 @@ impl JointModel {
     }
 }
 
+/// SplitMix64 (Steele, Lea, Flood 2014): 64 bits of state, a few operations per draw, good
+/// enough statistics for measurement noise, and deterministic for a given seed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Prng(u64);
+
+impl Prng {
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [-1, 1).
+    pub fn uniform(&mut self) -> f32 {
+        // 24 random bits: every value is exact in f32.
+        let u = (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
+        2.0 * u - 1.0
+    }
+
+    /// Zero mean, unit standard deviation, bounded to [-3, 3]: the sum of three uniforms on
+    /// [-1, 1) (Irwin-Hall; variance 3 * 1/3 = 1). Close to Gaussian without a logarithm, and
+    /// bounded, so a reading never strays more than 3 standard deviations.
+    pub fn normalish(&mut self) -> f32 {
+        self.uniform() + self.uniform() + self.uniform()
+    }
+}
+
+/// Largest standard deviations a [`Noise`] accepts: anything larger is not measurement noise
+/// of a joint encoder or current sensor any more.
+pub const NOISE_MAX_Q: f32 = 0.05;
+pub const NOISE_MAX_DQ: f32 = 5.0;
+pub const NOISE_MAX_TAU: f32 = 0.5;
+
+/// Measurement noise of an emulated device: standard deviations in the device's own units
+/// (rad, rad/s, N*m), and the PRNG seed. Each kind's default figures live with the kind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Noise {
+    pub q: f32,
+    pub dq: f32,
+    pub tau: f32,
+    pub seed: u64,
+}
+
+impl Noise {
+    /// No noise: readings are the model's exact values.
+    pub const OFF: Noise = Noise {
+        q: 0.0,
+        dq: 0.0,
+        tau: 0.0,
+        seed: 0,
+    };
+
+    /// The default seed (fixed, so runs and tests are deterministic).
+    pub const DEFAULT_SEED: u64 = 0x6861_6E64_6761_7465; // "handgate"
+
+    pub fn is_off(&self) -> bool {
+        self.q == 0.0 && self.dq == 0.0 && self.tau == 0.0
+    }
+
+    /// The same figures with another seed.
+    pub fn with_seed(self, seed: u64) -> Self {
+        Self { seed, ..self }
+    }
+
+    /// `Err` with a reason unless every deviation is finite, >= 0 and within the `NOISE_MAX_*`
+    /// bounds.
+    pub fn validate(&self) -> Result<(), String> {
+        for (what, v, max) in [
+            ("position", self.q, NOISE_MAX_Q),
+            ("velocity", self.dq, NOISE_MAX_DQ),
+            ("torque", self.tau, NOISE_MAX_TAU),
+        ] {
+            if !(v.is_finite() && (0.0..=max).contains(&v)) {
+                return Err(format!("{what} noise must be between 0 and {max}, got {v}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One reading of a joint: what the device reports.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Reading {
+    pub q: f32,
+    pub dq: f32,
+    pub tau: f32,
+}
+
+/// Reads joints with a device's measurement noise. One per emulated device; the draws come
+/// in reading order, so the same seed and the same sequence of readings give the same noise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensor {
+    noise: Noise,
+    rng: Prng,
+}
+
+impl Sensor {
+    pub fn new(noise: Noise) -> Self {
+        Self {
+            noise,
+            rng: Prng::new(noise.seed),
+        }
+    }
+
+    pub fn noise(&self) -> Noise {
+        self.noise
+    }
+
+    /// Back to the first draw of the seed (a power cycle).
+    pub fn reset(&mut self) {
+        self.rng = Prng::new(self.noise.seed);
+    }
+
+    /// `v` plus noise of standard deviation `sd` (no draw when `sd` is 0).
+    pub fn add(&mut self, v: f32, sd: f32) -> f32 {
+        if sd == 0.0 {
+            v
+        } else {
+            v + sd * self.rng.normalish()
+        }
+    }
+
+    /// The joint's position, velocity and torque as the device measures them.
+    pub fn read(&mut self, j: &JointModel) -> Reading {
+        let n = self.noise;
+        Reading {
+            q: self.add(j.q, n.q),
+            dq: self.add(j.dq, n.dq),
+            tau: self.add(j.tau, n.tau),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -202,5 +346,61 @@ mod tests {
         );
         assert!(j.q.is_finite());
         assert_eq!(j.tau, 0.0);
+    }
+
+    #[test]
+    fn prng_is_deterministic_and_normalish_is_bounded_with_unit_variance() {
+        let mut a = Prng::new(7);
+        let mut b = Prng::new(7);
+        let xs: Vec<f32> = (0..20_000).map(|_| a.normalish()).collect();
+        let ys: Vec<f32> = (0..20_000).map(|_| b.normalish()).collect();
+        assert_eq!(xs, ys);
+        assert!(xs.iter().all(|x| (-3.0..=3.0).contains(x)));
+        let mean = xs.iter().sum::<f32>() / xs.len() as f32;
+        let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f32>() / xs.len() as f32;
+        assert!(mean.abs() < 0.05, "mean {mean}");
+        assert!((var - 1.0).abs() < 0.05, "variance {var}");
+        let mut c = Prng::new(8);
+        assert_ne!(xs[..8], (0..8).map(|_| c.normalish()).collect::<Vec<_>>()[..]);
+    }
+
+    #[test]
+    fn sensor_off_reads_exact_values_and_on_reads_near_them() {
+        let mut j = JointModel::new(JointParams::dex3_finger(-1.6, 1.6), 0.3);
+        j.dq = 0.1;
+        j.tau = 0.2;
+        let mut off = Sensor::new(Noise::OFF);
+        assert_eq!(
+            off.read(&j),
+            Reading {
+                q: 0.3,
+                dq: 0.1,
+                tau: 0.2
+            }
+        );
+        let noise = Noise {
+            q: 1e-3,
+            dq: 1e-2,
+            tau: 1e-3,
+            seed: 1,
+        };
+        let mut on = Sensor::new(noise);
+        let r = on.read(&j);
+        assert_ne!(r.q, 0.3);
+        assert!((r.q - 0.3).abs() <= 3.0 * noise.q + 1e-6);
+        assert!((r.dq - 0.1).abs() <= 3.0 * noise.dq + 1e-6);
+        assert!((r.tau - 0.2).abs() <= 3.0 * noise.tau + 1e-6);
+        on.reset();
+        assert_eq!(on.read(&j), r);
+    }
+
+    #[test]
+    fn noise_validation() {
+        assert!(Noise::OFF.validate().is_ok());
+        let bad = |q, dq, tau| Noise { q, dq, tau, seed: 0 }.validate().is_err();
+        assert!(bad(-1e-3, 0.0, 0.0));
+        assert!(bad(f32::NAN, 0.0, 0.0));
+        assert!(bad(0.0, NOISE_MAX_DQ * 2.0, 0.0));
+        assert!(bad(0.0, 0.0, f32::INFINITY));
     }
 }

@@ -54,11 +54,12 @@ fn dex3_joint_order_urdf_and_mirror_signs() {
     let close = JointCommand::hold(1.0, 1.5, 0.1);
     assert!(l.joint(idx0).unwrap().to_wire(&close).q < 0.0);
     assert!(r.joint(idx0).unwrap().to_wire(&close).q > 0.0);
-    // Wire limits of each hand are the other's mirrored, exactly as the URDFs give them.
+    // Wire limits of each hand are the other's mirrored: the URDFs' except thumb_1, which is
+    // the manual's −60°..35° on the right (docs/model.md).
     #[allow(clippy::approx_constant)]
     let right_urdf: [(f32, f32); 7] = [
         (-1.0472, 1.0472),
-        (-0.920, 0.7243),
+        (-1.0472, 0.6108),
         (-1.7453, 0.0),
         (0.0, 1.5708),
         (0.0, 1.7453),

@@ -117,6 +117,13 @@ pub enum EmulateTarget {
         /// Socket path.
         #[arg(long)]
         socket: PathBuf,
+        /// Report exact joint values (no measurement noise; the default adds the HG motor's,
+        /// docs/adapters.md).
+        #[arg(long)]
+        no_noise: bool,
+        /// Seed of the measurement noise (default fixed, so runs repeat exactly).
+        #[arg(long)]
+        seed: Option<u64>,
     },
 }
 

@@ -64,9 +64,14 @@ pub fn build(
         ..base.clone()
     };
     let (device, peer): (DdsDevice, Box<dyn Send + Sync>) = match peer {
-        EmulatedPeer::Dex3Service { initial_q, timeout_bit } => {
+        EmulatedPeer::Dex3Service {
+            initial_q,
+            timeout_bit,
+            noise,
+        } => {
             let mut c = dex3::dds_service_emulator::Dex3ServiceConfig::new(p.side);
             c.initial_q = *initial_q;
+            c.noise = *noise;
             c.publish_lf = false;
             c.state_rate = Hz(p.rate_hz.min(1000.0));
             c.topics = Some((cmd_t.clone(), state_t.clone(), format!("{state_t}_lf")));
@@ -86,9 +91,14 @@ pub fn build(
                 Box::new(emu),
             )
         }
-        EmulatedPeer::Dex1Service { initial_q, object_q } => {
+        EmulatedPeer::Dex1Service {
+            initial_q,
+            object_q,
+            noise,
+        } => {
             let mut c = dex1::emulator::Dex1Config::new(Variant::Go, p.side);
             c.initial_q = *initial_q;
+            c.noise = *noise;
             c.object = *object_q;
             c.rate = Hz(p.rate_hz);
             c.topics = Some((cmd_t.clone(), state_t.clone()));

@@ -42,15 +42,20 @@ pub fn open(devices: &[DevicePlan]) -> Result<Buses, RuntimeError> {
     for (port, devs) in by_port {
         let mut ids = Vec::new();
         let (mut baud, mut emulated, mut calibrate) = (1_000_000, false, false);
+        let mut noise = None;
         for d in &devs {
             if let Transport::EzGripper {
                 servo_id,
                 baud: b,
                 emulated: e,
                 calibrate_on_start,
+                emulator_noise,
                 ..
             } = &d.transport
             {
+                if *e && noise.is_none() {
+                    noise = Some(*emulator_noise);
+                }
                 ids.push(*servo_id);
                 baud = *b;
                 emulated |= *e;
@@ -62,6 +67,9 @@ pub fn open(devices: &[DevicePlan]) -> Result<Buses, RuntimeError> {
             let link = pty_link(&port);
             let mut cfg = EmulatorConfig::with_ids(&ids);
             cfg.baud = baud;
+            if let Some(n) = noise {
+                cfg.noise = n;
+            }
             let emu = VirtualBus::start(&link, cfg).map_err(|e| err(format!("cannot start the emulated bus: {e}")))?;
             out.emulators.insert(port.clone(), emu);
             link

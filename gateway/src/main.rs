@@ -143,12 +143,25 @@ fn main() -> anyhow::Result<ExitCode> {
             print!("{}", report.wiring_template());
         }
         Command::Emulate {
-            target: handgate_gateway::cli::EmulateTarget::Dex3 { side, socket },
+            target:
+                handgate_gateway::cli::EmulateTarget::Dex3 {
+                    side,
+                    socket,
+                    no_noise,
+                    seed,
+                },
         } => {
             use handgate_adapters::dex3::usb::{run_emulator_server, EmulatorClock, EmulatorConfig};
+            use handgate_adapters::sim::Noise;
             println!("emulating a Dex3-1 {side} hand on {}", socket.display());
+            let noise = if no_noise {
+                Noise::OFF
+            } else {
+                handgate_adapters::dex3::physical::HG_MOTOR_NOISE.with_seed(seed.unwrap_or(Noise::DEFAULT_SEED))
+            };
             let cfg = EmulatorConfig {
                 clock: EmulatorClock::Wall,
+                noise,
                 ..Default::default()
             };
             run_emulator_server(&socket, side, cfg)?;

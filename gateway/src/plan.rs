@@ -42,6 +42,8 @@ pub enum Transport {
         servo_id: u8,
         force_pct: f32,
         calibrate_on_start: bool,
+        /// Measurement noise of an emulated bus (the first emulated gripper's on a shared bus).
+        emulator_noise: handgate_adapters::sim::Noise,
         zero_ticks: Option<i32>,
         response_timeout_ms: Option<u64>,
         params: handgate_adapters::ezgripper::EzGripperParams,
@@ -62,9 +64,17 @@ pub enum Transport {
 #[derive(Debug, Clone, PartialEq)]
 pub enum EmulatedPeer {
     /// A G1's resident Dex3 service.
-    Dex3Service { initial_q: [f32; 7], timeout_bit: bool },
+    Dex3Service {
+        initial_q: [f32; 7],
+        timeout_bit: bool,
+        noise: handgate_adapters::sim::Noise,
+    },
     /// dex1_1_service.
-    Dex1Service { initial_q: f32, object_q: Option<f32> },
+    Dex1Service {
+        initial_q: f32,
+        object_q: Option<f32>,
+        noise: handgate_adapters::sim::Noise,
+    },
     /// ai_sport's rt/hand_sdk blend.
     AiSport { ramp: WeightRamp, publish_hz: f64 },
 }

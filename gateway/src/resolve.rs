@@ -149,6 +149,8 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
             .map(|r| j.q_to_wire(r.0 as f32))
             .unwrap_or(default)
     };
+    let emulator = d.emulator.clone().unwrap_or_default();
+    let noise = |kind_default| emulator.noise_for(&d.name.0, kind_default);
     let ramp = |d: &DeviceConfig| {
         let h = d.hand_sdk.clone().unwrap_or_default();
         (
@@ -200,11 +202,13 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
             } else {
                 let mut q = [0.0f32; 7];
                 for j in &t.joints {
-                    // Wire 0 is inside every Dex3 joint's range: the hand starts straight.
-                    q[j.wire_index] = initial(j.name, 0.0);
+                    // Omitted joints start at the hand's rest posture.
+                    let rest = handgate_adapters::dex3::physical::rest_wire(d.side, j.wire_index);
+                    q[j.wire_index] = initial(j.name, rest);
                 }
                 UsbSource::Emulator(Box::new(EmulatorConfig {
                     initial_q: Some(q),
+                    noise: noise(handgate_adapters::dex3::physical::HG_MOTOR_NOISE),
                     ..Default::default()
                 }))
             };
@@ -226,6 +230,7 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
                 force_pct: ez.force_limit_percent.map(f32::from).unwrap_or(100.0),
                 // An emulated gripper powers up uncalibrated, like a real one: calibrate it.
                 calibrate_on_start: ez.calibrate_on_start || emulated,
+                emulator_noise: noise(handgate_adapters::ezgripper::emulator::MX64_NOISE),
                 zero_ticks: ez.zero_ticks,
                 response_timeout_ms: ez.response_timeout_ms,
                 params: handgate_adapters::ezgripper::EzGripperParams {
@@ -243,8 +248,9 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
                 .and_then(|e| e.object_at.get("jaw"))
                 .map(|r| jaw.q_to_wire(r.0 as f32));
             Transport::EmulatedDds(EmulatedPeer::Dex1Service {
-                initial_q: initial("jaw", jaw.q_to_wire(0.0)),
+                initial_q: initial("jaw", handgate_adapters::dex1::emulator::DEX1_REST_Q),
                 object_q: object,
+                noise: noise(handgate_adapters::dex3::physical::HG_MOTOR_NOISE),
             })
         }
         (DeviceKind::HandSdk, Backend::Emulator) => {

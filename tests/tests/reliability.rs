@@ -806,12 +806,14 @@ fn usb_crc_bursts_and_stalls_mark_state_stale_and_recover_without_replay() {
     })
     .expect("reconnected after a long stall");
     figure("usb_faults", "long_stall_3500ms_fresh_after_ms", ms(back));
-    // Hold: the next 300 ms of state stay near 0 (never back to 0.8).
+    // Hold: the next 300 ms of state stay near the rest posture the power cycle put the hand
+    // back at (never back to 0.8).
+    let rest = handgate_adapters::dex3::physical::REST_POSTURE[ix];
     let hold_from = Instant::now();
     let mut max_dev: f32 = 0.0;
     while hold_from.elapsed() < Duration::from_millis(300) {
         let q = st().joints[ix].q;
-        max_dev = max_dev.max(q.abs());
+        max_dev = max_dev.max((q - rest).abs());
         std::thread::sleep(Duration::from_millis(2));
     }
     assert!(
@@ -1027,7 +1029,8 @@ fn emulated_hand_process_killed_and_restarted() {
                 assert_ne!(l.1, hg::FRESH, "canonical front claimed fresh while the hand was dead");
             }
         }
-        // The new hand powered up at 0: it must hold there, not replay `target`.
+        // The new hand powered up at its rest posture: it must hold there, not replay `target`.
+        let rest = handgate_adapters::dex3::physical::rest_wire(Side::Left, INDEX_0);
         let from = hw.log.len();
         poll(DEADLINE, || {
             hw.pump();
@@ -1035,7 +1038,7 @@ fn emulated_hand_process_killed_and_restarted() {
         })
         .expect("state after restart");
         for l in &hw.log[from..] {
-            max_hold_dev = max_hold_dev.max(l.3.abs());
+            max_hold_dev = max_hold_dev.max((l.3 - rest).abs());
         }
         assert!(
             max_hold_dev < 0.1,

@@ -17,6 +17,10 @@
 //! [`Dex1Tuning::default_kd`]; dq and tau of the command are not used; the gripper starts
 //! braked (no command yet); commands with a wrong element count or a non-finite q are
 //! ignored and counted.
+//!
+//! Realism: the jaw's hard stops are the mechanism's range ([`hard_stops`]: dex1_1_service's
+//! calibrated 322°, wider than the 5.4 rad clients command), it starts at [`DEX1_REST_Q`]
+//! and its state reports q, dq and tau_est with measurement noise ([`Dex1Config::noise`]).
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -26,7 +30,7 @@ use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorState_ as HgMotorState
 
 use crate::dds::{Node, Qos, Reader, Writer};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
-use crate::sim::{Contact, JointModel, JointParams, MotorTarget};
+use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
 
 /// Nominal open position clients command (xr_teleoperate, EZGripper driver; FACTS §4), rad.
 pub const DEX1_OPEN_Q: f32 = super::table::DEFAULT_RANGE_RAD;
@@ -34,6 +38,21 @@ pub const DEX1_OPEN_Q: f32 = super::table::DEFAULT_RANGE_RAD;
 pub const DEX1_CALIBRATED_RANGE: f32 = 5.62;
 /// The seed spec's open position (2pi), rad.
 pub const SEED_SPEC_OPEN_Q: f32 = super::table::SEED_SPEC_RANGE_RAD;
+/// Where an emulated gripper starts, rad: a gripper at rest is wherever it was left, and
+/// this picks "left mostly open" (0.4 rad short of the 5.4 rad open end, so measurement
+/// noise never reads past it). An assumption; profiles set their own (`emulator.initial`).
+pub const DEX1_REST_Q: f32 = 5.0;
+
+/// The jaw's hard stops (closed, open), rad: the mechanism's range, not the range clients
+/// command. Go / Actuator: 0 .. dex1_1_service's calibrated 322° ([`DEX1_CALIBRATED_RANGE`],
+/// FACTS §4; assumed to be the mechanical range, since the service calibrates it end to end).
+/// Hg (the seed spec): 0 .. 2π, the spec's own range (assumed; nothing in the field uses it).
+pub fn hard_stops(variant: Dex1Variant) -> (f32, f32) {
+    match variant {
+        Dex1Variant::Hg => (0.0, SEED_SPEC_OPEN_Q),
+        _ => (0.0, DEX1_CALIBRATED_RANGE),
+    }
+}
 
 pub use super::adapter::Variant as Dex1Variant;
 
@@ -76,10 +95,13 @@ pub struct Dex1Config {
     pub side: Side,
     /// Loop and state rate (FACTS §4: 500 Hz).
     pub rate: Hz,
-    /// Position range (closed, open), rad: the jaw's hard stops.
+    /// Position range (closed, open), rad: the jaw's hard stops (default [`hard_stops`]).
     pub range: (f32, f32),
-    /// Jaw position at start, rad.
+    /// Jaw position at start, rad (default [`DEX1_REST_Q`]).
     pub initial_q: f32,
+    /// Measurement noise on the reported q, dq, tau_est (default the HG motor's,
+    /// [`crate::dex3::physical::HG_MOTOR_NOISE`]: dex1_1_service drives the same motor frame).
+    pub noise: Noise,
     /// Position (rad) at which the jaws meet a graspable object while closing; `None`: none.
     pub object: Option<f32>,
     pub tuning: Dex1Tuning,
@@ -90,13 +112,13 @@ pub struct Dex1Config {
 
 impl Dex1Config {
     pub fn new(variant: Dex1Variant, side: Side) -> Self {
-        let range = variant.default_range();
         Self {
             variant,
             side,
             rate: Hz(500.0),
-            range,
-            initial_q: range.1,
+            range: hard_stops(variant),
+            initial_q: DEX1_REST_Q,
+            noise: crate::dex3::physical::HG_MOTOR_NOISE,
             object: None,
             tuning: Dex1Tuning::default(),
             topics: None,
@@ -156,6 +178,7 @@ type JawCmd = (f32, f32, f32);
 pub struct Dex1Core {
     tuning: Dex1Tuning,
     grippers: Vec<Gripper>,
+    sensor: Sensor,
     last_command: Option<Dex1Command>,
     commands: u64,
     rejected: u64,
@@ -169,6 +192,7 @@ impl Dex1Core {
         }
         let t = &config.tuning;
         ensure_finite("initial_q", &[config.initial_q])?;
+        config.noise.validate().map_err(EmulatorError::InvalidConfig)?;
         ensure_finite("object", &config.object.into_iter().collect::<Vec<_>>())?;
         ensure_finite(
             "tuning",
@@ -212,6 +236,7 @@ impl Dex1Core {
         let mut core = Self {
             tuning: config.tuning.clone(),
             grippers,
+            sensor: Sensor::new(config.noise),
             last_command: None,
             commands: 0,
             rejected: 0,
@@ -302,17 +327,22 @@ impl Dex1Core {
         }
     }
 
-    /// unitree_go state: one element per gripper, q/dq/tau_est filled (FACTS §4).
-    pub fn go_state(&self) -> MotorStates_ {
+    /// unitree_go state: one element per gripper, q/dq/tau_est filled (FACTS §4), measured
+    /// (each call draws the noise once).
+    pub fn go_state(&mut self) -> MotorStates_ {
+        let sensor = &mut self.sensor;
         MotorStates_ {
             states: self
                 .grippers
                 .iter()
-                .map(|g| GoMotorState {
-                    q: g.joint.q,
-                    dq: g.joint.dq,
-                    tau_est: g.joint.tau,
-                    ..GoMotorState::default()
+                .map(|g| {
+                    let r = sensor.read(&g.joint);
+                    GoMotorState {
+                        q: r.q,
+                        dq: r.dq,
+                        tau_est: r.tau,
+                        ..GoMotorState::default()
+                    }
                 })
                 .collect(),
         }
@@ -320,18 +350,22 @@ impl Dex1Core {
 
     /// unitree_hg state as the seed spec fills it: one motor, mode 0, temperature [25, 25],
     /// vol 12, no pressure sensors, everything else zero.
-    pub fn hg_state(&self) -> HandState_ {
+    pub fn hg_state(&mut self) -> HandState_ {
+        let sensor = &mut self.sensor;
         HandState_ {
             motor_state: self
                 .grippers
                 .iter()
-                .map(|g| HgMotorState {
-                    q: g.joint.q,
-                    dq: g.joint.dq,
-                    tau_est: g.joint.tau,
-                    temperature: [25, 25],
-                    vol: 12.0,
-                    ..HgMotorState::default()
+                .map(|g| {
+                    let r = sensor.read(&g.joint);
+                    HgMotorState {
+                        q: r.q,
+                        dq: r.dq,
+                        tau_est: r.tau,
+                        temperature: [25, 25],
+                        vol: 12.0,
+                        ..HgMotorState::default()
+                    }
                 })
                 .collect(),
             ..HandState_::default()
@@ -535,7 +569,12 @@ mod tests {
 
     #[test]
     fn tracks_q_with_default_gains_then_brakes_and_resumes() {
-        let mut core = Dex1Core::new(&Dex1Config::new(Dex1Variant::Go, Side::Left)).unwrap();
+        // Exact held values: no measurement noise.
+        let mut core = Dex1Core::new(&Dex1Config {
+            noise: Noise::OFF,
+            ..Dex1Config::new(Dex1Variant::Go, Side::Left)
+        })
+        .unwrap();
         assert!(core.grippers[0].braked, "braked before any command");
         let t0 = Instant::now();
         assert!(core.on_go(&go(&[2.0], 0.0, 0.0), t0));
@@ -566,7 +605,10 @@ mod tests {
         let mut core = Dex1Core::new(&Dex1Config::new(Dex1Variant::Go, Side::Right)).unwrap();
         let t0 = Instant::now();
         core.on_go(&go(&[9.0], 0.0, 0.0), t0);
-        assert_eq!(core.grippers[0].target.q, DEX1_OPEN_Q);
+        // The jaw's hard stop is the calibrated mechanical range, beyond the 5.4 rad clients
+        // command: an unclamped 9.0 ends there, not at 5.4.
+        assert_eq!(core.grippers[0].target.q, DEX1_CALIBRATED_RANGE);
+        const { assert!(DEX1_CALIBRATED_RANGE > DEX1_OPEN_Q) };
         assert!(!core.on_go(&go(&[], 0.0, 0.0), t0));
         assert!(!core.on_go(&go(&[1.0, 1.0], 0.0, 0.0), t0));
         assert!(!core.on_go(&go(&[f32::NAN], 0.0, 0.0), t0));
@@ -669,7 +711,12 @@ mod tests {
     fn dds_go_variant_tracks_q_brakes_after_silence_and_resumes() {
         crate::emu_common::isolated_test_domain(36);
         let emu_node = Node::new(36, None).unwrap();
-        let emu = Dex1Emulator::start(&emu_node, Dex1Config::new(Dex1Variant::Go, Side::Left)).unwrap();
+        // Exact held values: no measurement noise.
+        let cfg = Dex1Config {
+            noise: Noise::OFF,
+            ..Dex1Config::new(Dex1Variant::Go, Side::Left)
+        };
+        let emu = Dex1Emulator::start(&emu_node, cfg).unwrap();
         let node = Node::new(36, None).unwrap();
         let mut w = node
             .writer::<MotorCmds_>("rt/dex1/left/cmd", Qos::Reliable { depth: 4 })
@@ -774,5 +821,34 @@ mod tests {
         assert!(s.states[0].q > 1.3, "jaws stop at the object: {}", s.states[0].q);
         assert!(s.states[0].tau_est.abs() > 1.0, "tau_est {}", s.states[0].tau_est);
         assert!(emu.gripper(Side::Right).unwrap().contact_tau > 1.0);
+    }
+
+    #[test]
+    fn rest_position_not_zero_and_the_same_seed_gives_the_same_noise() {
+        fn run(cfg: &Dex1Config) -> Vec<[f32; 3]> {
+            let mut core = Dex1Core::new(cfg).unwrap();
+            (0..20)
+                .map(|_| {
+                    let s = core.go_state().states[0];
+                    [s.q, s.dq, s.tau_est]
+                })
+                .collect()
+        }
+        let cfg = Dex1Config::new(Dex1Variant::Go, Side::Left);
+        let a = run(&cfg);
+        assert_ne!(a[0][0], 0.0);
+        assert!((a[0][0] - DEX1_REST_Q).abs() <= 3.0 * cfg.noise.q + 1e-6);
+        assert_eq!(a, run(&cfg));
+        let other = Dex1Config {
+            noise: cfg.noise.with_seed(cfg.noise.seed ^ 1),
+            ..cfg.clone()
+        };
+        assert_ne!(a, run(&other));
+        let exact = run(&Dex1Config {
+            noise: Noise::OFF,
+            ..cfg.clone()
+        });
+        assert!(exact.iter().all(|s| *s == [DEX1_REST_Q, 0.0, 0.0]));
+        assert_eq!(cfg.range, (0.0, DEX1_CALIBRATED_RANGE));
     }
 }

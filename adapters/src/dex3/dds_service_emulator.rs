@@ -10,7 +10,7 @@
 //! Behaviour per motor (message index = motor id, order thumb_0, thumb_1, thumb_2, middle_0,
 //! middle_1, index_0, index_1):
 //! - status FOC (1): the motor runs `tau = kp*(q-q_m) + kd*(dq-dq_m) + tau_ff` on a
-//!   [`JointModel`] with the side's URDF limits;
+//!   [`JointModel`] with the hardware's range as hard stops ([`crate::dex3::physical`]);
 //! - status lock (0), and any undocumented status 2..7: the motor HOLDS the position it had
 //!   when it entered lock, with [`Dex3Tuning::hold_kp`]/[`Dex3Tuning::hold_kd`] (assumption:
 //!   "lock" read as a position lock, not limp);
@@ -20,6 +20,10 @@
 //!   still set is recorded but does not clear the latch — manual: "need to send 0 to clear").
 //! - commands whose motor count is not 7 are ignored (nothing applied, the timeout clock not
 //!   reset) and counted.
+//!
+//! The hand starts at [`crate::dex3::physical::REST_POSTURE`] and its state reports q, dq
+//! and tau_est with measurement noise ([`Dex3ServiceConfig::noise`], default
+//! [`crate::dex3::physical::HG_MOTOR_NOISE`]).
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -31,7 +35,7 @@ use handgate_idl::unitree_hg::{
 use crate::dds::{Node, Qos};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
 use crate::model::Side;
-use crate::sim::{Contact, JointModel, JointParams, MotorTarget};
+use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Reading, Sensor};
 
 /// Motors per hand (FACTS §2).
 pub const MOTORS: usize = DEX3_MOTORS;
@@ -155,8 +159,11 @@ pub struct Dex3ServiceConfig {
     /// Rate of `rt/lf/dex3/{side}/state` (default 50 Hz; assumption, FACTS names no rate).
     pub lf_rate: Hz,
     pub publish_lf: bool,
-    /// Joint positions at start, rad, message order (clamped to the limits).
+    /// Joint positions at start, rad, message order (clamped to the hard stops). Default:
+    /// the rest posture ([`crate::dex3::physical::rest_wire`]).
     pub initial_q: [f32; MOTORS],
+    /// Measurement noise on the reported q, dq, tau_est ([`Noise::OFF`] for exact values).
+    pub noise: Noise,
     /// An object per finger ([`Finger::index`] order): how far (rad, >= 0) the finger's flex
     /// joints can close from 0 before they touch it. `None`: nothing to touch.
     pub objects: [Option<f32>; 3],
@@ -173,7 +180,8 @@ impl Dex3ServiceConfig {
             state_rate: Hz(500.0),
             lf_rate: Hz(50.0),
             publish_lf: true,
-            initial_q: [0.0; MOTORS],
+            initial_q: std::array::from_fn(|i| crate::dex3::physical::rest_wire(side, i)),
+            noise: crate::dex3::physical::HG_MOTOR_NOISE,
             objects: [None; 3],
             tuning: Dex3Tuning::default(),
             topics: None,
@@ -185,6 +193,7 @@ impl Dex3ServiceConfig {
         self.state_rate.period()?;
         self.lf_rate.period()?;
         ensure_finite("initial_q", &self.initial_q)?;
+        self.noise.validate().map_err(EmulatorError::InvalidConfig)?;
         ensure_finite("objects", &self.objects.iter().flatten().copied().collect::<Vec<_>>())?;
         let t = &self.tuning;
         ensure_finite(
@@ -255,6 +264,7 @@ pub struct Dex3Core {
     side: Side,
     tuning: Dex3Tuning,
     joints: [JointModel; MOTORS],
+    sensor: Sensor,
     slots: [MotorSlot; MOTORS],
     prev_dq: [f32; MOTORS],
     ddq: [f32; MOTORS],
@@ -268,7 +278,7 @@ pub struct Dex3Core {
 impl Dex3Core {
     pub fn new(config: &Dex3ServiceConfig) -> Self {
         let joints = Dex3Joint::ALL.map(|j| {
-            let (lo, hi) = j.limits(config.side);
+            let (lo, hi) = j.hard_stops(config.side);
             JointModel::new(JointParams::dex3_finger(lo, hi), config.initial_q[j.index()])
         });
         let slots = std::array::from_fn(|i| MotorSlot {
@@ -281,6 +291,7 @@ impl Dex3Core {
             side: config.side,
             tuning: config.tuning.clone(),
             joints,
+            sensor: Sensor::new(config.noise),
             slots,
             prev_dq: [0.0; MOTORS],
             ddq: [0.0; MOTORS],
@@ -401,8 +412,10 @@ impl Dex3Core {
             .fold(0.0, f32::max)
     }
 
-    /// The HandState_ the service publishes now (7 motors, 9 pads).
-    pub fn state(&self) -> HandState_ {
+    /// The HandState_ the service publishes now (7 motors, 9 pads); each call is one
+    /// measurement (one set of noise draws).
+    pub fn state(&mut self) -> HandState_ {
+        let readings: [Reading; MOTORS] = std::array::from_fn(|i| self.sensor.read(&self.joints[i]));
         let t = &self.tuning;
         let motor_state = (0..MOTORS)
             .map(|i| {
@@ -413,13 +426,13 @@ impl Dex3Core {
                     status,
                     timeout: slot.tripped,
                 };
-                let j = &self.joints[i];
+                let r = readings[i];
                 MotorState_ {
                     mode: mode.encode(),
-                    q: j.q,
-                    dq: j.dq,
+                    q: r.q,
+                    dq: r.dq,
                     ddq: self.ddq[i],
-                    tau_est: j.tau,
+                    tau_est: r.tau,
                     temperature: [t.temperature_c as i16; 2],
                     vol: t.power_v,
                     ..MotorState_::default()
@@ -671,7 +684,9 @@ mod tests {
         let urdf_index0 = (-1.5708, 0.0);
         assert_eq!(Dex3Joint::Index0.limits(Side::Left), urdf_index0);
         assert_eq!(Dex3Joint::Middle1.limits(Side::Right), (0.0, 1.7453));
-        assert_eq!(Dex3Joint::Thumb1.limits(Side::Right), (-0.920, 0.7243));
+        #[allow(clippy::approx_constant)]
+        let thumb1_right = (-1.0472, 0.6108);
+        assert_eq!(Dex3Joint::Thumb1.limits(Side::Right), thumb1_right);
         assert_eq!(Dex3Joint::Index1.closing_dir(Side::Left), Some(-1.0));
         assert_eq!(Dex3Joint::Index1.closing_dir(Side::Right), Some(1.0));
         assert_eq!(Dex3Joint::Thumb0.closing_dir(Side::Right), None);
@@ -938,7 +953,12 @@ mod tests {
 
     #[test]
     fn dds_left_hand_closes_negative_and_stops_at_urdf_limit() {
-        let (_emu, mut client) = setup(31, Dex3ServiceConfig::new(Side::Left));
+        // At the stop the noise would read either side of it: exact values here.
+        let config = Dex3ServiceConfig {
+            noise: Noise::OFF,
+            ..Dex3ServiceConfig::new(Side::Left)
+        };
+        let (_emu, mut client) = setup(31, config);
         let mut q = [0.0; MOTORS];
         q[Dex3Joint::Middle0.index()] = -1.0;
         q[Dex3Joint::Index0.index()] = 1.0; // outside [-1.5708, 0]: stops at 0
@@ -975,7 +995,9 @@ mod tests {
 
     #[test]
     fn dds_wrong_motor_count_is_rejected_and_counted() {
-        let (emu, mut client) = setup(33, Dex3ServiceConfig::new(Side::Left));
+        let config = Dex3ServiceConfig::new(Side::Left);
+        let initial = config.initial_q;
+        let (emu, mut client) = setup(33, config);
         let mut six = HandCmd_::with_motors(6);
         six.motor_cmd.iter_mut().for_each(|m| {
             m.mode = 0x10;
@@ -993,7 +1015,8 @@ mod tests {
         assert!(snap
             .motors
             .iter()
-            .all(|m| m.commanded_mode.is_none() && m.applied.q == 0.0));
+            .zip(initial)
+            .all(|(m, q0)| m.commanded_mode.is_none() && m.applied.q == q0));
         let good = cmd_all(|i| 0x10 | i, [0.0; MOTORS], 1.5, 0.1);
         client.cmd.write(good).unwrap();
         wait_for(|| emu.commands_received() >= 1);
@@ -1056,5 +1079,40 @@ mod tests {
             }
         }
         assert_eq!(emu.snapshot().lf_published, 0);
+    }
+
+    #[test]
+    fn rest_posture_not_all_zero_and_the_same_seed_gives_the_same_noise() {
+        fn run(cfg: &Dex3ServiceConfig) -> Vec<Vec<[f32; 3]>> {
+            let mut core = Dex3Core::new(cfg);
+            (0..20)
+                .map(|_| {
+                    core.state()
+                        .motor_state
+                        .iter()
+                        .map(|m| [m.q, m.dq, m.tau_est])
+                        .collect()
+                })
+                .collect()
+        }
+        for side in [Side::Left, Side::Right] {
+            let cfg = Dex3ServiceConfig::new(side);
+            let a = run(&cfg);
+            assert!(a[0].iter().any(|m| m[0] != 0.0), "{side:?}: {:?}", a[0]);
+            assert_eq!(a, run(&cfg));
+            let other = Dex3ServiceConfig {
+                noise: cfg.noise.with_seed(cfg.noise.seed ^ 1),
+                ..cfg.clone()
+            };
+            assert_ne!(a, run(&other));
+            let exact = run(&Dex3ServiceConfig {
+                noise: Noise::OFF,
+                ..cfg.clone()
+            });
+            for (i, m) in exact[0].iter().enumerate() {
+                assert_eq!(m[0], crate::dex3::physical::rest_wire(side, i));
+                assert!((a[0][i][0] - m[0]).abs() <= 3.0 * cfg.noise.q + 1e-6);
+            }
+        }
     }
 }

@@ -5,6 +5,7 @@
 
 pub mod dds_client;
 pub mod dds_service_emulator;
+pub mod physical;
 pub mod table;
 pub mod usb;
 
@@ -170,10 +171,16 @@ impl Joint {
         }
     }
 
-    /// Joint limits (rad, wire frame) from the URDFs xr_teleoperate uses (FACTS §2), via
-    /// the Dex3 table: the hands are mirror images.
+    /// Default soft limits (rad, wire frame) handgate clamps to, from the Dex3 table: the
+    /// hands are mirror images.
     pub fn limits(self, side: Side) -> (f32, f32) {
         table::wire_limits(side, self.index())
+    }
+
+    /// The hardware's range (rad, wire frame): the emulators' hard stops
+    /// ([`physical::hard_stops`], the manual's figures).
+    pub fn hard_stops(self, side: Side) -> (f32, f32) {
+        physical::hard_stops(side, self.index())
     }
 }
 

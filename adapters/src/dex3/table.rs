@@ -3,7 +3,8 @@
 //! Sources (FACTS §2): IDL order 0 thumb_0, 1 thumb_1, 2 thumb_2, 3 middle_0, 4 middle_1,
 //! 5 index_0, 6 index_1 on both hands. URDF: left `zero, one, two, five, six, three, four`
 //! → IDL 0..6 (the left URDF's three/four are the index finger, five/six the middle);
-//! right `zero..six` in order. Limits from the URDF xr_teleoperate uses. The hands are
+//! right `zero..six` in order. Limits: the hardware's range from the Dex3-1 manual (see
+//! [`LEFT_WIRE_LIMITS`]; docs/model.md compares it with the URDF's and the SDK example's). The hands are
 //! mirror images: closing a finger is negative on the left and positive on the right, so
 //! the canonical sign (positive = closing) is -1 for left fingers and +1 for right fingers.
 //! Thumb: every thumb joint's range is the mirror of the other hand's; handgate takes the
@@ -19,12 +20,24 @@ use crate::model::{DeviceKind, Side, DEX3_JOINTS};
 const URDF_LEFT: [&str; 7] = ["zero", "one", "two", "five", "six", "three", "four"];
 const URDF_RIGHT: [&str; 7] = ["zero", "one", "two", "three", "four", "five", "six"];
 
-/// Left-hand wire limits (rad) per IDL index, from the URDF (FACTS §2). These are the URDF's
-/// literal values (4 decimals), deliberately not π/3 or π/2.
+/// Left-hand wire limits (rad) per IDL index: the soft limits handgate clamps commands to by
+/// default (profiles override them with `[devices.limits.joints]`).
+///
+/// Three sources disagree on thumb_1 only (docs/model.md has the whole table): the Dex3-1
+/// manual's −35°..60° (−0.6109..1.0472), the URDF xr_teleoperate uses (−0.7243..0.920) and
+/// the unitree_sdk2 example `g1_dex3_example.cpp` (−0.724..1.05, which it sweeps end to end).
+/// Every other joint's range is the same in the manual and the URDF (60°, 90°, 100°), and
+/// the SDK example's values are those rounded to two decimals. Rule: as far as the official
+/// examples ask, but never beyond the hardware's range. So thumb_1 is the manual's
+/// −0.6109..1.0472 (rounded inward to −0.6108): the SDK example's 1.05 is reachable to within 0.003 rad (the URDF's 0.920
+/// left its thumb 0.13 rad short, xr_teleoperate #229), and its −0.724 stops at the manual's
+/// −35°. The values are written out (4 decimals, as the URDF's) rather than taken from
+/// [`super::physical`], the emulators' hard stops: the two are separate facts that happen to
+/// coincide by default.
 #[allow(clippy::approx_constant)]
 pub const LEFT_WIRE_LIMITS: [(f32, f32); 7] = [
     (-1.0472, 1.0472), // thumb_0
-    (-0.7243, 0.920),  // thumb_1
+    (-0.6108, 1.0472), // thumb_1
     (0.0, 1.7453),     // thumb_2
     (-1.5708, 0.0),    // middle_0
     (-1.7453, 0.0),    // middle_1
@@ -86,8 +99,8 @@ pub fn table(side: Side) -> DeviceTable {
     }
 }
 
-/// Wire limits (rad) of IDL index `i` on `side` (the URDF's ranges; the right hand mirrors
-/// the left).
+/// Wire limits (rad) of IDL index `i` on `side` ([`LEFT_WIRE_LIMITS`]; the right hand
+/// mirrors the left).
 pub fn wire_limits(side: Side, i: usize) -> (f32, f32) {
     let (lo, hi) = LEFT_WIRE_LIMITS[i];
     match side {

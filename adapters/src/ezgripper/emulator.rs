@@ -9,6 +9,12 @@
 //! read follow one another on the line. Rates measured against the emulator therefore
 //! include the serial line's cost; what they do not include is a USB adapter's latency
 //! (configurable, [`EmulatorConfig::usb_latency`], default zero).
+//!
+//! Realism: the jaw's hard stops are [`ServoSpec`]'s own (closed stop and travel, an
+//! assumption: SAKE publishes no tick figures), independent of the 0..5.4 rad range the
+//! driver maps to; a servo powers up where the jaw was left ([`ServoSpec::start_ticks`]), and
+//! Present Position / Velocity / Current carry measurement noise ([`EmulatorConfig::noise`],
+//! default [`MX64_NOISE`]).
 
 use std::collections::BTreeMap;
 use std::io;
@@ -18,7 +24,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use crate::sim::{Contact, JointModel, JointParams, MotorTarget};
+use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
 
 use super::control_table::{
     reg, Access, HardwareError, OperatingMode, Reg, BAUD_RATE_1M, CURRENT_MA_PER_UNIT, MX64_2_MODEL_NUMBER,
@@ -30,6 +36,18 @@ use super::pty::{replace_symlink, Pty};
 const RAD_PER_TICK: f32 = std::f32::consts::TAU / TICKS_PER_REV;
 /// MX-64 torque constant at the output, N*m/A: 6.0 N*m stall at 4.1 A (12 V) [MX64 spec].
 const TORQUE_PER_AMP: f32 = 6.0 / 4.1;
+
+/// Measurement noise of an MX-64(2.0), one standard deviation = one unit of its control
+/// table: Present Position 1 tick (2π/4096 = 1.5e-3 rad; the magnetic encoder's reading
+/// flickers by a tick at rest), Present Velocity 1 unit (0.229 rpm = 0.024 rad/s) and
+/// Present Current 1 unit (3.36 mA, 0.0049 N*m through [`TORQUE_PER_AMP`]). Assumed orders of
+/// magnitude, not measured.
+pub const MX64_NOISE: Noise = Noise {
+    q: RAD_PER_TICK,
+    dq: VELOCITY_RPM_PER_UNIT * std::f32::consts::TAU / 60.0,
+    tau: CURRENT_MA_PER_UNIT / 1000.0 * TORQUE_PER_AMP,
+    seed: Noise::DEFAULT_SEED,
+};
 
 /// One emulated servo + jaw.
 #[derive(Debug, Clone, PartialEq)]
@@ -70,6 +88,9 @@ pub struct EmulatorConfig {
     /// Echo the host's own bytes back, as a half-duplex adapter without echo suppression
     /// does (the driver must skip its instruction packets in the reply stream).
     pub echo: bool,
+    /// Measurement noise of Present Position / Velocity / Current ([`Noise::OFF`] for exact
+    /// values). Each servo draws from its own stream (the seed mixed with its id).
+    pub noise: Noise,
 }
 
 impl EmulatorConfig {
@@ -79,6 +100,7 @@ impl EmulatorConfig {
             servos: ids.iter().map(|&id| ServoSpec::new(id)).collect(),
             usb_latency: Duration::ZERO,
             echo: false,
+            noise: MX64_NOISE,
         }
     }
 }
@@ -117,6 +139,7 @@ struct ServoSim {
     spec: ServoSpec,
     table: Vec<u8>,
     joint: JointModel,
+    sensor: Sensor,
     no_reply: u32,
     bad_crc: u32,
 }
@@ -136,7 +159,7 @@ fn get(table: &[u8], r: Reg) -> i64 {
 }
 
 impl ServoSim {
-    fn new(spec: ServoSpec) -> Self {
+    fn new(spec: ServoSpec, noise: Noise) -> Self {
         let q_min = spec.closed_stop_ticks as f32 * RAD_PER_TICK;
         let q_max = (spec.closed_stop_ticks + spec.travel_ticks) as f32 * RAD_PER_TICK;
         // Output-side figures of an MX-64 with a 200:1 gear: reflected rotor inertia and a
@@ -154,10 +177,12 @@ impl ServoSim {
             dir: -1.0,
             stiffness: 300.0,
         });
+        let seed = noise.seed ^ (u64::from(spec.id) << 56);
         let mut s = Self {
             spec,
             table: vec![0; reg::TABLE_END as usize],
             joint,
+            sensor: Sensor::new(noise.with_seed(seed)),
             no_reply: 0,
             bad_crc: 0,
         };
@@ -252,9 +277,10 @@ impl ServoSim {
     }
 
     fn refresh_present(&mut self) {
-        let ticks = self.present_ticks();
-        let vel_units = (self.joint.dq * 60.0 / std::f32::consts::TAU / VELOCITY_RPM_PER_UNIT).round() as i64;
-        let cur_units = (self.joint.tau / TORQUE_PER_AMP * 1000.0 / CURRENT_MA_PER_UNIT).round() as i64;
+        let r = self.sensor.read(&self.joint);
+        let ticks = (r.q / RAD_PER_TICK).round() as i32;
+        let vel_units = (r.dq * 60.0 / std::f32::consts::TAU / VELOCITY_RPM_PER_UNIT).round() as i64;
+        let cur_units = (r.tau / TORQUE_PER_AMP * 1000.0 / CURRENT_MA_PER_UNIT).round() as i64;
         let moving = vel_units.abs() > get(&self.table, reg::MOVING_THRESHOLD);
         let temp = self.spec.temperature_c as i64;
         let t = &mut self.table;
@@ -419,7 +445,12 @@ impl VirtualBus {
     pub fn start(link: impl AsRef<Path>, cfg: EmulatorConfig) -> io::Result<Self> {
         let link = link.as_ref().to_path_buf();
         let shared = Arc::new(Mutex::new(Shared {
-            servos: cfg.servos.iter().cloned().map(ServoSim::new).collect(),
+            servos: cfg
+                .servos
+                .iter()
+                .cloned()
+                .map(|s| ServoSim::new(s, cfg.noise))
+                .collect(),
             stats: EmulatorStats::default(),
             plugged: true,
         }));
@@ -692,5 +723,37 @@ impl Worker {
             out.push((bytes, delay));
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod realism_tests {
+    use super::*;
+
+    fn readings(noise: Noise) -> Vec<[i64; 3]> {
+        let mut s = ServoSim::new(ServoSpec::new(1), noise);
+        (0..50)
+            .map(|_| {
+                s.step(0.001);
+                [
+                    get(&s.table, reg::PRESENT_POSITION),
+                    get(&s.table, reg::PRESENT_VELOCITY),
+                    get(&s.table, reg::PRESENT_CURRENT),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn present_values_are_noisy_not_zero_and_the_same_seed_gives_the_same_noise() {
+        let a = readings(MX64_NOISE);
+        let start = ServoSpec::new(1).start_ticks as i64;
+        assert!(a.iter().all(|r| r[0] != 0 && (r[0] - start).abs() <= 3), "{a:?}");
+        assert!(a.iter().any(|r| r[0] != start), "no position noise: {a:?}");
+        assert_eq!(a, readings(MX64_NOISE));
+        assert_ne!(a, readings(MX64_NOISE.with_seed(MX64_NOISE.seed ^ 1)));
+        let exact = readings(Noise::OFF);
+        assert!(exact.iter().all(|r| *r == [start, 0, 0]), "{exact:?}");
+        assert!(MX64_NOISE.validate().is_ok());
     }
 }

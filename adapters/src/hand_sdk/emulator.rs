@@ -70,6 +70,12 @@ pub fn blend(w: Weight, user: &MotorTarget, default: &MotorTarget) -> MotorTarge
     }
 }
 
+/// Where the emulated joints rest, rad (0 = open): slightly flexed, as a relaxed hand is, and
+/// what ai_sport's own command holds by default. An assumption (the motors' ranges and
+/// ai_sport's default posture are not public). The emulator publishes no state (none is
+/// documented), so it has no measurement noise to add.
+pub const HAND_SDK_REST_Q: f32 = 0.15;
+
 /// Joint models run under the blended command (positive tau closes: q grows towards closed).
 #[derive(Debug, Clone, PartialEq)]
 pub struct HandSdkModels {
@@ -89,7 +95,7 @@ impl Default for HandSdkModels {
         };
         Self {
             params: [p; HAND_SDK_MOTORS],
-            initial_q: [0.0; HAND_SDK_MOTORS],
+            initial_q: [HAND_SDK_REST_Q; HAND_SDK_MOTORS],
         }
     }
 }
@@ -102,7 +108,8 @@ pub struct HandSdkConfig {
     /// Silence after which ai_sport falls back to its own command (default 100 ms; the real
     /// value is not published).
     pub user_timeout: Duration,
-    /// ai_sport's own command per motor (default: a relaxed hold at 0 with kp 0.5, kd 0.05).
+    /// ai_sport's own command per motor (default: a relaxed hold at [`HAND_SDK_REST_Q`] with
+    /// kp 0.5, kd 0.05).
     pub defaults: [MotorTarget; HAND_SDK_MOTORS],
     /// What the motors get in the damping state (default: kp 0, kd 0.1).
     pub damping_command: [MotorTarget; HAND_SDK_MOTORS],
@@ -121,7 +128,7 @@ impl Default for HandSdkConfig {
             control_rate: Hz(500.0),
             user_timeout: Duration::from_millis(100),
             defaults: [MotorTarget {
-                q: 0.0,
+                q: HAND_SDK_REST_Q,
                 dq: 0.0,
                 tau: 0.0,
                 kp: 0.5,

@@ -619,10 +619,51 @@ impl EzGripperConfig {
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EmulatorConfig {
-    /// Joint -> initial position, rad (omitted joints start at 0, a gripper's jaw open).
+    /// Joint -> initial position, rad (omitted joints start at the kind's rest posture,
+    /// docs/adapters.md).
     pub initial: BTreeMap<String, Radians>,
     /// Joint -> position where an emulated object blocks the closing joint, rad.
     pub object_at: BTreeMap<String, Radians>,
+    /// Measurement noise on the emulated state (default true: the kind's figures,
+    /// docs/adapters.md). `false`: exact values.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise: Option<bool>,
+    /// Seed of the noise (default fixed: runs repeat exactly). Mixed with the device name, so
+    /// two devices never share a stream.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Overrides of the kind's standard deviations, in the device's wire units.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position_noise_rad: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub velocity_noise_rad_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub torque_noise_nm: Option<f64>,
+}
+
+impl EmulatorConfig {
+    /// The noise to emulate, given the kind's default figures: off, or the defaults with
+    /// this profile's overrides and seed (mixed with `device`, FNV-1a).
+    pub fn noise_for(
+        &self,
+        device: &str,
+        kind_default: handgate_adapters::sim::Noise,
+    ) -> handgate_adapters::sim::Noise {
+        use handgate_adapters::sim::Noise;
+        if self.noise == Some(false) {
+            return Noise::OFF;
+        }
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in device.bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        Noise {
+            q: self.position_noise_rad.map(|v| v as f32).unwrap_or(kind_default.q),
+            dq: self.velocity_noise_rad_s.map(|v| v as f32).unwrap_or(kind_default.dq),
+            tau: self.torque_noise_nm.map(|v| v as f32).unwrap_or(kind_default.tau),
+            seed: self.seed.unwrap_or(Noise::DEFAULT_SEED) ^ h,
+        }
+    }
 }
 
 /// The grippers of an `actuator` Dex1 front, by message element (0 = right, 1 = left).

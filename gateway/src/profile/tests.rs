@@ -856,3 +856,53 @@ fn fronts_on_missing_devices_report_only_the_missing_devices() {
         ]
     );
 }
+
+#[test]
+fn emulator_noise_keys_are_validated_and_default_on() {
+    let dev =
+        "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\n";
+    for (keys, key, fragment) in [
+        (
+            "position_noise_rad = -0.001\n",
+            "devices[0].emulator.position_noise_rad",
+            "between 0 and",
+        ),
+        (
+            "velocity_noise_rad_s = 100.0\n",
+            "devices[0].emulator.velocity_noise_rad_s",
+            "between 0 and",
+        ),
+        (
+            "torque_noise_nm = nan\n",
+            "devices[0].emulator.torque_noise_nm",
+            "between 0 and",
+        ),
+        ("noise = false\nseed = 3\n", "devices[0].emulator.noise", "no effect"),
+    ] {
+        let (_, r) = load_text(&format!("{dev}{keys}"));
+        let e = r.expect_err(keys).to_string();
+        assert!(e.contains(key) && e.contains(fragment), "{keys}: {e}");
+    }
+    let kind_default = handgate_adapters::dex3::physical::HG_MOTOR_NOISE;
+    // Default: on, the kind's figures, seeded per device.
+    let (_, r) = load_text(DEX3);
+    let p = r.unwrap().profile;
+    let e = p.devices[0].emulator.clone().unwrap_or_default();
+    let n = e.noise_for("l", kind_default);
+    assert_eq!((n.q, n.dq, n.tau), (kind_default.q, kind_default.dq, kind_default.tau));
+    assert_eq!(n, e.noise_for("l", kind_default), "deterministic");
+    assert_ne!(
+        n.seed,
+        e.noise_for("r", kind_default).seed,
+        "devices get their own stream"
+    );
+    // Off, and overrides.
+    let (_, r) = load_text(&format!("{dev}noise = false\n"));
+    let e = r.unwrap().profile.devices[0].emulator.clone().unwrap();
+    assert!(e.noise_for("l", kind_default).is_off());
+    let (_, r) = load_text(&format!("{dev}seed = 7\nposition_noise_rad = 0.001\n"));
+    let e = r.unwrap().profile.devices[0].emulator.clone().unwrap();
+    let n = e.noise_for("l", kind_default);
+    assert_eq!((n.q, n.dq), (0.001, kind_default.dq));
+    assert_ne!(n.seed, EmulatorConfig::default().noise_for("l", kind_default).seed);
+}

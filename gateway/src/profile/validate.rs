@@ -571,6 +571,40 @@ impl Checker {
                     self.position(ek.key(which).key(j.clone()), d, j, *v);
                 }
             }
+            for (key, v, max) in [
+                (
+                    "position_noise_rad",
+                    e.position_noise_rad,
+                    handgate_adapters::sim::NOISE_MAX_Q,
+                ),
+                (
+                    "velocity_noise_rad_s",
+                    e.velocity_noise_rad_s,
+                    handgate_adapters::sim::NOISE_MAX_DQ,
+                ),
+                (
+                    "torque_noise_nm",
+                    e.torque_noise_nm,
+                    handgate_adapters::sim::NOISE_MAX_TAU,
+                ),
+            ] {
+                if let Some(v) = v {
+                    if !(v.is_finite() && (0.0..=f64::from(max)).contains(&v)) {
+                        self.err(
+                            ek.key(key),
+                            format!("must be between 0 and {max} (measurement noise, one standard deviation), got {v}"),
+                        );
+                    }
+                }
+            }
+            let overrides =
+                e.position_noise_rad.is_some() || e.velocity_noise_rad_s.is_some() || e.torque_noise_nm.is_some();
+            if e.noise == Some(false) && (overrides || e.seed.is_some()) {
+                self.err(
+                    ek.key("noise"),
+                    "is false: seed and *_noise_* keys would have no effect, remove them",
+                );
+            }
         }
     }
 

@@ -3,8 +3,9 @@
 //! It parses command frames as the hand would: a frame with a bad frame CRC (or wrong length)
 //! is ignored, a motor packet with a bad CRC is ignored (that motor does not answer), a packet
 //! for id 15 is a broadcast to every motor of its bus and is not answered. Each motor runs
-//! [`crate::sim::JointModel`] under its kp/kd/tau with the Dex3 URDF limits of its side
-//! (FACTS §2). Timeout protection: a motor whose last command set the timeout bit and that gets
+//! [`crate::sim::JointModel`] under its kp/kd/tau with the hardware's range of its side as
+//! hard stops (the manual's, [`crate::dex3::physical`]), starting from the rest posture, and
+//! reports position, speed and torque with measurement noise ([`EmulatorConfig::noise`]). Timeout protection: a motor whose last command set the timeout bit and that gets
 //! no command for [`EmulatorConfig::motor_timeout`] goes limp and reports the timeout bit in its
 //! feedback, latched until a command with the bit at 0 arrives (manual, FACTS §2).
 //!
@@ -25,7 +26,7 @@ use super::scaling::Scalings;
 use super::transport::{Dex3Transport, TransportError};
 use super::wiring::{BusAddr, WiringMap};
 use crate::dex3::{Joint, MotorCommand, MotorStatus, Side, MOTOR_COUNT, PAD_COUNT, TAXELS_PER_PAD};
-use crate::sim::{Contact, JointModel, JointParams, MotorTarget};
+use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -45,8 +46,12 @@ pub struct EmulatorConfig {
     pub wiring: WiringMap,
     pub scalings: Scalings,
     pub clock: EmulatorClock,
-    /// Joint positions at power-up (IDL order); `None`: 0 clamped into the limits.
+    /// Joint positions at power-up (IDL order); `None`: the rest posture
+    /// ([`crate::dex3::physical::rest_wire`]).
     pub initial_q: Option<[f32; MOTOR_COUNT]>,
+    /// Measurement noise on the reported position, speed and torque (default
+    /// [`crate::dex3::physical::HG_MOTOR_NOISE`]; [`Noise::OFF`] for exact values).
+    pub noise: Noise,
     /// Objects in the joints' paths (IDL order).
     pub contacts: [Option<Contact>; MOTOR_COUNT],
     /// Timeout protection delay (manual: 1 s).
@@ -67,6 +72,7 @@ impl Default for EmulatorConfig {
             scalings: Scalings::default(),
             clock: EmulatorClock::PerExchange(Duration::from_millis(1)),
             initial_q: None,
+            noise: crate::dex3::physical::HG_MOTOR_NOISE,
             contacts: [None; MOTOR_COUNT],
             motor_timeout: Duration::from_secs(1),
             supply_v: 24.0,
@@ -126,6 +132,7 @@ pub struct Dex3Emulator {
     side: Side,
     cfg: EmulatorConfig,
     motors: [Motor; MOTOR_COUNT],
+    sensor: Sensor,
     now: Duration,
     last_wall: Option<Instant>,
     faults: Faults,
@@ -139,6 +146,7 @@ impl Dex3Emulator {
         let motors = Self::power_up_motors(side, &cfg);
         Self {
             side,
+            sensor: Sensor::new(cfg.noise),
             cfg,
             motors,
             now: Duration::ZERO,
@@ -151,8 +159,11 @@ impl Dex3Emulator {
     fn power_up_motors(side: Side, cfg: &EmulatorConfig) -> [Motor; MOTOR_COUNT] {
         std::array::from_fn(|i| {
             let j = Joint::ALL[i];
-            let (lo, hi) = j.limits(side);
-            let q0 = cfg.initial_q.map(|q| q[i]).unwrap_or(0.0);
+            let (lo, hi) = j.hard_stops(side);
+            let q0 = cfg
+                .initial_q
+                .map(|q| q[i])
+                .unwrap_or_else(|| crate::dex3::physical::rest_wire(side, i));
             let mut joint = JointModel::new(JointParams::dex3_finger(lo, hi), q0);
             joint.contact = cfg.contacts[i];
             Motor {
@@ -387,6 +398,7 @@ impl Dex3Emulator {
             for &i in &answered[bus.index()] {
                 let m = &self.motors[i];
                 total_tau += m.joint.tau.abs();
+                let r = self.sensor.read(&m.joint);
                 let fb = MotorFeedbackFrame {
                     mode: RisMode::new(
                         self.cfg.wiring.motors[i].id.get(),
@@ -396,9 +408,9 @@ impl Dex3Emulator {
                     temp_case: 35,
                     temp_winding: 40,
                     vol: s.encode_fb_voltage(motor_v),
-                    torque: s.encode_fb_torque(m.joint.tau),
-                    speed: s.encode_fb_speed(m.joint.dq),
-                    pos: s.encode_fb_position(m.joint.q),
+                    torque: s.encode_fb_torque(r.tau),
+                    speed: s.encode_fb_speed(r.dq),
+                    pos: s.encode_fb_position(r.q),
                     error: 0,
                     ex_sensor: [0, 0],
                 };
@@ -724,5 +736,50 @@ mod tests {
         assert!(t.exchange(&cmd, &mut out, Duration::from_millis(10)).is_err());
         let mut t2 = EmulatorTransport::open(&emu).unwrap();
         t2.exchange(&cmd, &mut out, Duration::from_millis(10)).unwrap();
+    }
+
+    /// The first reply is the rest posture plus noise, never all zero; the same seed gives
+    /// the same noise, another seed other noise; `Noise::OFF` reads the rest posture exactly
+    /// (to the frame's resolution).
+    #[test]
+    fn rest_posture_not_all_zero_and_the_same_seed_gives_the_same_noise() {
+        let run = |cfg: EmulatorConfig| {
+            let mut emu = Dex3Emulator::new(Side::Left, cfg);
+            // FOC with zero gains: the motors apply nothing, the joints stay at rest.
+            let c = Dex3Command::hold([0.0; MOTOR_COUNT], 0.0, 0.0);
+            (0..20)
+                .map(|_| {
+                    let m = exchange(&mut emu, &c, false);
+                    Joint::ALL.map(|j| {
+                        let s = m.motor(j);
+                        [s.q, s.dq, s.tau]
+                    })
+                })
+                .collect::<Vec<_>>()
+        };
+        let a = run(EmulatorConfig::default());
+        assert!(a[0].iter().any(|m| m[0] != 0.0), "{:?}", a[0]);
+        assert_eq!(a, run(EmulatorConfig::default()));
+        let noise = crate::dex3::physical::HG_MOTOR_NOISE;
+        let other = run(EmulatorConfig {
+            noise: noise.with_seed(noise.seed + 1),
+            ..Default::default()
+        });
+        assert_ne!(a, other);
+        let exact = run(EmulatorConfig {
+            noise: Noise::OFF,
+            ..Default::default()
+        });
+        for (i, m) in exact[0].iter().enumerate() {
+            let rest = crate::dex3::physical::rest_wire(Side::Left, i);
+            assert!((m[0] - rest).abs() < 2.0e-4, "joint {i}: {m:?} vs rest {rest}");
+            // With noise: within 3 standard deviations plus the frame's resolution.
+            assert!(
+                (a[0][i][0] - rest).abs() <= 3.0 * noise.q + 2.0e-4,
+                "joint {i}: {:?}",
+                a[0][i]
+            );
+        }
+        assert!(exact.iter().all(|s| s == &exact[0]));
     }
 }
