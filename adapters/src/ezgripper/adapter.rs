@@ -12,7 +12,7 @@ use std::time::{Duration, Instant, SystemTime};
 use async_trait::async_trait;
 use tokio::sync::watch;
 
-use super::driver::{EzGripperBus, GripperState};
+use super::driver::{Calibration, EzGripperBus, GripperState};
 use super::protocol::ServoId;
 use crate::control::{Active, CommandState, Counters};
 use crate::device::{Capabilities, DeviceError, DeviceInfo, DeviceStats, HandDevice};
@@ -48,6 +48,11 @@ pub fn to_hand_state(table: &DeviceTable, g: &GripperState) -> HandState {
     }
     if !g.online {
         f |= faults::LINK_DOWN;
+    }
+    // A gripper whose calibration failed has no zero: it ignores targets and reads closed,
+    // which a client must be able to tell from a gripper that closed on purpose.
+    if matches!(g.calibration, Calibration::Failed { .. }) {
+        f |= faults::HARDWARE;
     }
     let fresh = g.online && !g.stale && g.round > 0;
     HandState {
@@ -95,12 +100,21 @@ impl EzGripperDevice {
                 rt.block_on(async move {
                     let mut was_online = false;
                     let mut ever_online = false;
+                    let mut cal_failure_logged = false;
                     while !b_stop.load(Ordering::Relaxed) {
                         let changed = tokio::time::timeout(Duration::from_millis(50), rx.changed()).await;
                         if matches!(changed, Ok(Err(_))) {
                             break;
                         }
                         let g = rx.borrow_and_update().clone();
+                        match (&g.calibration, cal_failure_logged) {
+                            (Calibration::Failed { reason }, false) => {
+                                tracing::error!(%reason, "calibration failed: targets are not applied until a calibration succeeds (restart with calibrate_on_start, or set ezgripper.zero_ticks in the profile)");
+                                cal_failure_logged = true;
+                            }
+                            (Calibration::Calibrated { .. }, true) => cal_failure_logged = false,
+                            _ => {}
+                        }
                         let mut st = to_hand_state(&table, &g);
                         let online = st.freshness == Freshness::Fresh;
                         if online && !was_online && ever_online {
@@ -209,5 +223,35 @@ impl HandDevice for EzGripperDevice {
         self.bus
             .calibrate(self.id)
             .map_err(|e| DeviceError::Link(e.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Side;
+
+    fn measured(calibration: Calibration) -> GripperState {
+        GripperState {
+            online: true,
+            stale: false,
+            round: 1,
+            calibration,
+            ..GripperState::initial(ServoId::new(1).unwrap())
+        }
+    }
+
+    #[test]
+    fn a_failed_calibration_is_a_hardware_fault_not_a_closed_gripper() {
+        let t = super::super::table::table(Side::Left, 5.4, 100.0);
+        let failed = to_hand_state(
+            &t,
+            &measured(Calibration::Failed {
+                reason: "jaw did not come to rest".into(),
+            }),
+        );
+        assert_ne!(failed.faults & faults::HARDWARE, 0, "{failed:?}");
+        let ok = to_hand_state(&t, &measured(Calibration::Calibrated { zero_ticks: 100 }));
+        assert_eq!(ok.faults & faults::HARDWARE, 0, "{ok:?}");
     }
 }

@@ -186,7 +186,7 @@ pub struct GripperState {
 }
 
 impl GripperState {
-    fn initial(id: ServoId) -> Self {
+    pub(crate) fn initial(id: ServoId) -> Self {
         Self {
             id,
             position_pct: 0.0,
