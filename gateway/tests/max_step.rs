@@ -23,7 +23,9 @@ fn plan_of(name: &str, text: &str) -> handgate_gateway::plan::Plan {
 }
 
 fn profile(max_step: Option<f64>) -> String {
-    let limits = max_step.map(|s| format!("limits = {{ max_step = {s} }}\n")).unwrap_or_default();
+    let limits = max_step
+        .map(|s| format!("limits = {{ max_step = {s} }}\n"))
+        .unwrap_or_default();
     format!(
         r#"name = "max-step"
 [[devices]]
@@ -63,7 +65,12 @@ fn profile_max_step_bounds_every_device_target_relative_to_measured() {
         ];
         let far = CommandBody::Joints(
             (0..n)
-                .map(|i| (handgate_adapters::model::JointId(i as u8), JointCommand::hold(50.0, 1.0, 0.1)))
+                .map(|i| {
+                    (
+                        handgate_adapters::model::JointId(i as u8),
+                        JointCommand::hold(50.0, 1.0, 0.1),
+                    )
+                })
                 .collect(),
         );
         let out = t.resolve(&far, None, &meas).unwrap();
