@@ -258,7 +258,6 @@ mod tests {
         assert_eq!(msg.cmds.len(), 2);
         assert!((msg.cmds[0].q - 2.7).abs() < 1e-5);
         assert_eq!(msg.cmds[1].q, 4.0);
-        let _ = SafeAction::Hold;
     }
 
     #[test]
