@@ -444,3 +444,88 @@ fn a_client_command_after_the_trip_is_resolved_against_the_measured_state() {
     assert!((v[ix].q - (measured[ix].q + 0.1)).abs() < 1e-6, "{}", v[ix].q);
     assert_eq!(cs.applied(), (7, 9));
 }
+
+// ---------------------------------------------------------------------------------------------
+// The command slot's bookkeeping the status table and the reconnect logic rely on.
+
+#[test]
+fn counters_count_accepted_and_rejected_commands_and_report_the_link() {
+    use std::sync::atomic::Ordering;
+    let t = dex3(Side::Left);
+    let cs = CommandState::new(Arc::new(t));
+    let s = cs.counters.snapshot();
+    assert_eq!((s.commands, s.rejected, s.link_up), (0, 0, false));
+    let good = vec![JointCommand::hold(0.2, 1.0, 0.1); 7];
+    let mut bad = good.clone();
+    bad[3].kd = f32::NAN;
+    cs.submit(HandCommand {
+        seq: 1,
+        body: body_of(&good),
+        tag: 0,
+    })
+    .unwrap();
+    cs.submit(HandCommand {
+        seq: 2,
+        body: body_of(&good),
+        tag: 0,
+    })
+    .unwrap();
+    assert!(cs
+        .submit(HandCommand {
+            seq: 3,
+            body: body_of(&bad),
+            tag: 0,
+        })
+        .is_err());
+    cs.counters.link_up.store(1, Ordering::Relaxed);
+    cs.counters.sent.store(7, Ordering::Relaxed);
+    let s = cs.counters.snapshot();
+    assert_eq!((s.commands, s.rejected, s.sent, s.link_up), (2, 1, 7, true));
+    cs.counters.link_up.store(0, Ordering::Relaxed);
+    assert!(!cs.counters.snapshot().link_up);
+}
+
+#[test]
+fn reseed_replaces_what_was_in_force_by_a_hold_at_the_measured_state() {
+    let t = dex3(Side::Left);
+    let cs = CommandState::new(Arc::new(t.clone()));
+    let ix = t.joint_by_name("index_0").unwrap().index();
+    // Nothing commanded yet: nothing to hold, nothing counted.
+    cs.reseed(&[JointState::default(); 7]);
+    assert_eq!(cs.step(&[JointState::default(); 7]), Active::Idle);
+    assert!(!cs.is_safe());
+    assert_eq!(cs.counters.snapshot().reseeds, 0);
+    let mut far = vec![JointCommand::hold(0.0, 1.5, 0.1); 7];
+    far[ix].q = 1.5;
+    cs.submit(HandCommand {
+        seq: 1,
+        body: body_of(&far),
+        tag: 0,
+    })
+    .unwrap();
+    assert!(matches!(cs.step(&[JointState::default(); 7]), Active::Command(_)));
+    assert!(!cs.is_safe(), "a client command is not a safe state");
+    // A command submitted while the link was down is dropped by the reseed too.
+    far[ix].q = 1.0;
+    cs.submit(HandCommand {
+        seq: 2,
+        body: body_of(&far),
+        tag: 0,
+    })
+    .unwrap();
+    let mut back = vec![JointState::default(); 7];
+    back[ix].q = 0.3;
+    cs.reseed(&back);
+    let expect = t.hold_measured(&back);
+    assert_eq!(cs.step(&back), Active::Safe(SafeAction::Hold, expect.clone()));
+    assert_eq!(expect[ix].q, 0.3);
+    assert!(cs.is_safe());
+    assert_eq!(cs.counters.snapshot().reseeds, 1);
+}
+
+#[test]
+fn limits_span_is_max_minus_min() {
+    use handgate_adapters::mapping::Limits;
+    assert_eq!(Limits::new(-1.0, 2.5).span(), 3.5);
+    assert_eq!(Limits::new(0.25, 0.25).span(), 0.0);
+}
