@@ -312,6 +312,7 @@ proptest! {
             if (0.0..=t.max_kp).contains(&req.kp) { prop_assert_eq!(c.kp, req.kp); }
             if (0.0..=t.max_kd).contains(&req.kd) { prop_assert_eq!(c.kd, req.kd); }
             if req.tau.abs() <= t.max_tau { prop_assert_eq!(c.tau, req.tau); }
+            if req.dq.abs() <= 100.0 { prop_assert_eq!(c.dq, req.dq); }
         }
         for w in t.to_wire(&out) {
             prop_assert!(w.q.is_finite() && w.dq.is_finite() && w.tau.is_finite() && w.kp.is_finite() && w.kd.is_finite());
@@ -528,4 +529,81 @@ fn limits_span_is_max_minus_min() {
     use handgate_adapters::mapping::Limits;
     assert_eq!(Limits::new(-1.0, 2.5).span(), 3.5);
     assert_eq!(Limits::new(0.25, 0.25).span(), 0.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Closures: hand-level targets and the closure estimate the state reports.
+
+#[test]
+fn closure_targets_interpolate_between_the_postures() {
+    // A profile-overridden open posture that is not all zero (the defaults are, which hides
+    // the interpolation's form).
+    let params = TableParams {
+        open_posture: Some(vec![0.1, 0.1, 0.2, 0.2, 0.2, 0.2, 0.2]),
+        closed_posture: Some(vec![0.5, 0.5, 1.0, 1.0, 1.2, 1.0, 1.2]),
+        ..Default::default()
+    };
+    let t = table_for(DeviceKind::Dex3, Side::Left, &params).unwrap();
+    let half = t.closure_targets(0.5, None).unwrap();
+    let expect = [0.3, 0.3, 0.6, 0.6, 0.7, 0.6, 0.7];
+    for (i, (c, e)) in half.iter().zip(expect).enumerate() {
+        assert!(
+            (c.q - e).abs() < 1e-6,
+            "joint {i}: {} for closure 0.5, expected {e}",
+            c.q
+        );
+    }
+    assert!((t.closure_of(&expect) - 0.5).abs() < 1e-6);
+    // Out of range closures clamp to the postures.
+    assert!((t.closure_targets(3.0, None).unwrap()[2].q - 1.0).abs() < 1e-6);
+    assert!((t.closure_targets(-3.0, None).unwrap()[2].q - 0.2).abs() < 1e-6);
+    // A posture of the wrong length is refused.
+    let mut bad = t.clone();
+    if let handgate_adapters::mapping::ClosureMap::Postures { closed, .. } = &mut bad.closure {
+        closed.pop();
+    }
+    assert!(bad.closure_targets(0.5, None).is_err());
+    let mut bad = t.clone();
+    if let handgate_adapters::mapping::ClosureMap::Postures { open, .. } = &mut bad.closure {
+        open.pop();
+    }
+    assert!(bad.closure_targets(0.5, None).is_err());
+}
+
+#[test]
+fn hand_sdk_closure_torque_interpolates_from_open_to_closed() {
+    // rt/hand_sdk: -0.3 N*m opens, +0.3 closes (the unitree_sdk2 example, FACTS §6).
+    let t = table_for(DeviceKind::HandSdk, Side::Left, &TableParams::default()).unwrap();
+    for (c, tau) in [(0.0, -0.3), (0.25, -0.15), (0.5, 0.0), (1.0, 0.3)] {
+        let out = t.closure_targets(c, None).unwrap();
+        assert!(
+            out.iter().all(|j| (j.tau - tau).abs() < 1e-6 && j.kp == 0.0),
+            "closure {c}: {out:?}"
+        );
+    }
+    assert_eq!(
+        t.closure_of(&[1.0, 1.0, 1.0, 1.0]),
+        0.0,
+        "torque-mapped: no closure from q"
+    );
+}
+
+#[test]
+fn closure_of_estimates_the_mean_closure_of_the_moving_joints() {
+    let t = dex3(Side::Left);
+    // Default postures: open all 0, closed [0, 0.6, 1.0, 1.2, 1.3, 1.2, 1.3] (thumb_0 does not
+    // move, so it does not count).
+    assert_eq!(t.closure_of(&[0.0; 7]), 0.0);
+    assert!((t.closure_of(&[0.0, 0.6, 1.0, 1.2, 1.3, 1.2, 1.3]) - 1.0).abs() < 1e-6);
+    assert!((t.closure_of(&[5.0, 0.3, 0.5, 0.6, 0.65, 0.6, 0.65]) - 0.5).abs() < 1e-6);
+    // Half the joints closed, half open: 3 of 6.
+    assert!((t.closure_of(&[0.0, 0.6, 1.0, 1.2, 0.0, 0.0, 0.0]) - 0.5).abs() < 1e-6);
+    // Past the postures clamps per joint; a NaN joint is left out of the mean.
+    assert!((t.closure_of(&[0.0, 9.0, 9.0, 9.0, 9.0, 9.0, 9.0]) - 1.0).abs() < 1e-6);
+    assert!((t.closure_of(&[0.0, -9.0, 1.0, 1.2, 1.3, 1.2, 1.3]) - 5.0 / 6.0).abs() < 1e-6);
+    assert!((t.closure_of(&[0.0, f32::NAN, 1.0, 1.2, 1.3, 1.2, 1.3]) - 1.0).abs() < 1e-6);
+    // Dex1: jaw measured from open, closed at 5.4 rad.
+    let g = table_for(DeviceKind::Dex1, Side::Left, &TableParams::default()).unwrap();
+    assert!((g.closure_of(&[2.7]) - 0.5).abs() < 1e-6);
+    assert_eq!(g.closure_of(&[]), 0.0);
 }
