@@ -607,3 +607,105 @@ fn closure_of_estimates_the_mean_closure_of_the_moving_joints() {
     assert!((g.closure_of(&[2.7]) - 0.5).abs() < 1e-6);
     assert_eq!(g.closure_of(&[]), 0.0);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Partial commands, state conversion, profile postures.
+
+#[test]
+fn a_partial_command_keeps_the_other_joints_previous_targets() {
+    let t = dex3(Side::Left);
+    let ix = t.joint_by_name("index_0").unwrap();
+    let prev: Vec<JointCommand> = (0..7).map(|i| JointCommand::hold(0.1 * i as f32, 1.0, 0.1)).collect();
+    let meas = vec![
+        JointState {
+            q: 0.05,
+            ..Default::default()
+        };
+        7
+    ];
+    let body = CommandBody::Joints(vec![(ix, JointCommand::hold(0.9, 1.0, 0.1))]);
+    let out = t.resolve(&body, Some(&prev), &meas).unwrap();
+    for (i, c) in out.iter().enumerate() {
+        let want = if i == ix.index() {
+            0.9
+        } else {
+            t.joints[i].limits.clamp(prev[i].q)
+        };
+        assert!((c.q - want).abs() < 1e-6, "joint {i}: {} (previous {})", c.q, prev[i].q);
+    }
+    // No (or a wrong-length) previous: the others hold where measured.
+    for p in [None, Some(&prev[..3])] {
+        let out = t.resolve(&body, p, &meas).unwrap();
+        for (i, c) in out.iter().enumerate() {
+            let want = if i == ix.index() {
+                0.9
+            } else {
+                t.joints[i].limits.clamp(0.05)
+            };
+            assert!((c.q - want).abs() < 1e-6, "joint {i}: {}", c.q);
+            if i != ix.index() {
+                assert_eq!((c.kp, c.kd), (t.hold_kp, t.hold_kd));
+            }
+        }
+    }
+}
+
+#[test]
+fn wire_state_and_commands_convert_per_joint_with_the_sources_sign() {
+    for side in [Side::Left, Side::Right] {
+        let t = dex3(side);
+        // Wire q = closing direction * 0.4 on every joint (the sources' direction, above).
+        let wire_q: Vec<f32> = DEX3
+            .iter()
+            .map(|j| {
+                0.4 * if side == Side::Left {
+                    j.left_closing
+                } else {
+                    j.right_closing
+                }
+            })
+            .collect();
+        let wire_dq: Vec<f32> = wire_q.iter().map(|q| 2.0 * q).collect();
+        let wire_tau: Vec<f32> = wire_q.iter().map(|q| -q).collect();
+        let st = t.state_from_wire(&wire_q, &wire_dq, &wire_tau);
+        assert_eq!(st.len(), 7);
+        for (i, s) in st.iter().enumerate() {
+            assert!((s.q - 0.4).abs() < 1e-6, "{side:?} joint {i}: canonical {}", s.q);
+            assert!((s.dq - 0.8).abs() < 1e-6 && (s.tau + 0.4).abs() < 1e-6, "{s:?}");
+        }
+        let back = t.state_to_wire(&st);
+        assert_eq!(back.len(), 7);
+        for (i, (q, dq, tau)) in back.iter().enumerate() {
+            assert!((q - wire_q[i]).abs() < 1e-6 && (dq - wire_dq[i]).abs() < 1e-6 && (tau - wire_tau[i]).abs() < 1e-6);
+        }
+        // Missing wire entries: NaN position (unknown), never a made-up 0.
+        let short = t.state_from_wire(&wire_q[..2], &[], &[]);
+        assert!(short[2].q.is_nan() && short[0].q.is_finite());
+        let wire: Vec<_> = wire_q
+            .iter()
+            .map(|q| handgate_adapters::mapping::WireTarget {
+                q: *q,
+                kp: 1.0,
+                ..Default::default()
+            })
+            .collect();
+        let cmds = t.from_wire(&wire);
+        assert_eq!(cmds.len(), 7);
+        for c in &cmds {
+            assert!((c.unwrap().q - 0.4).abs() < 1e-6);
+        }
+        assert!(t.from_wire(&wire[..3])[5].is_none());
+    }
+}
+
+#[test]
+fn a_profile_posture_of_the_wrong_length_is_refused() {
+    for (open, closed) in [(Some(vec![0.0; 6]), None), (None, Some(vec![0.5; 8]))] {
+        let p = TableParams {
+            open_posture: open,
+            closed_posture: closed,
+            ..Default::default()
+        };
+        assert!(table_for(DeviceKind::Dex3, Side::Left, &p).is_err(), "{p:?}");
+    }
+}
