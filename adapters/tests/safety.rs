@@ -709,3 +709,27 @@ fn a_profile_posture_of_the_wrong_length_is_refused() {
         assert!(table_for(DeviceKind::Dex3, Side::Left, &p).is_err(), "{p:?}");
     }
 }
+
+/// `dex3::table::wire_limits` / `wire_sign` (what the emulated hand and `Joint::closing_dir`
+/// use) agree with the sources: the URDF soft limits and the closing direction per side.
+#[test]
+fn dex3_table_wire_limits_and_signs_match_the_sources() {
+    use handgate_adapters::dex3::table::{wire_limits, wire_sign};
+    for side in [Side::Left, Side::Right] {
+        for j in &DEX3 {
+            let (lo, hi) = if side == Side::Left { j.left } else { j.right };
+            let closing = if side == Side::Left {
+                j.left_closing
+            } else {
+                j.right_closing
+            };
+            let (a, b) = wire_limits(side, j.idl);
+            assert!(
+                (a - lo).abs() < 1e-4 && (b - hi).abs() < 1e-4,
+                "{side:?} {}: [{a}, {b}]",
+                j.name
+            );
+            assert_eq!(wire_sign(side, j.idl), closing, "{side:?} {}", j.name);
+        }
+    }
+}
