@@ -221,7 +221,6 @@ impl DdsCodec for Dex1HgCodec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::SafeAction;
 
     #[test]
     fn go_variant_encodes_one_element_in_radians() {
