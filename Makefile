@@ -4,13 +4,16 @@
 #   make test  - install what is missing (incl. the interop venv), then the whole suite
 #                (with the short reliability suites and a 15 s smoke run of every fuzz target)
 #   make reliability - the full reliability suites (docs/reliability.md): 10,000 malformed
-#                samples per front, every fault cycle repeated, each fuzz target 10 minutes
+#                samples per front, every fault cycle repeated, each fuzz target 10 minutes,
+#                and mutation testing of the safety core (make mutants)
+#   make mutants - cargo-mutants on the safety core (scripts/mutants.sh; hours for the gateway
+#                set); not part of make test
 #   make bench - release benchmarks (minutes); rewrites docs/benchmarks.md
 SHELL := /bin/bash
 CARGO ?= cargo
 ARGS ?=
 
-.PHONY: run test setup build lint fmt bench reliability fixtures clean-venv
+.PHONY: run test setup build lint fmt bench reliability mutants fixtures clean-venv
 
 setup:
 	@scripts/setup.sh
@@ -33,6 +36,13 @@ reliability: setup
 	$(CARGO) build -p handgate
 	HANDGATE_RELIABILITY_FULL=1 $(CARGO) test -p handgate-tests --test reliability -- --nocapture --test-threads=1
 	scripts/fuzz.sh full $(FUZZ_SECS)
+	scripts/mutants.sh all
+
+# MUTANTS_SET: adapters (minutes), gateway (hours: every mutant rebuilds the binary and runs the
+# end-to-end safety tests) or all.
+MUTANTS_SET ?= all
+mutants: setup
+	scripts/mutants.sh $(MUTANTS_SET)
 
 bench: setup
 	@scripts/bench.sh

@@ -68,5 +68,10 @@ fi
 
 "$bin/handgate-bench" machine --out "$results/machine_end.json"
 "$bin/handgate-bench" report --results "$results" --repo "$root" --out "$root/docs/benchmarks.md"
+# Keep the raw results of this run next to the report, so every figure can be re-derived.
+raw="$root/docs/benchmarks/raw"
+rm -rf "$raw"
+mkdir -p "$raw"
+cp "$results"/* "$raw"/
 echo "bench: load average at end: $(cut -d' ' -f1-3 /proc/loadavg)"
-echo "bench: wrote docs/benchmarks.md (results in $results)"
+echo "bench: wrote docs/benchmarks.md (raw results in docs/benchmarks/raw/)"

@@ -230,9 +230,23 @@ impl Drop for PyProcess {
 
 /// The `handgate` binary of this build: `target/<profile>/handgate`, next to the directory
 /// (`target/<profile>/deps/`) holding the running test executable. (Only the gateway crate's
-/// own tests get `CARGO_BIN_EXE_handgate`.) Panics with instructions when it was not built.
+/// own tests get `CARGO_BIN_EXE_handgate`.)
+///
+/// The first call in a test process runs `cargo build -p handgate` (same cargo, same target
+/// directory, same profile) so the tests always run the gateway of the current source, never
+/// one built earlier from other code; when the sources did not change that is a no-op taking
+/// well under a second. `HANDGATE_TESTS_NO_BUILD=1` skips it (the binary must then exist).
+/// Panics with cargo's output when the build fails.
 pub fn handgate_bin() -> PathBuf {
-    let exe = std::env::current_exe().expect("the test executable's path");
+    static BUILT: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
+    BUILT
+        .get_or_init(build_handgate)
+        .clone()
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn build_handgate() -> Result<PathBuf, String> {
+    let exe = std::env::current_exe().map_err(|e| format!("the test executable's path: {e}"))?;
     let profile_dir = exe
         .parent()
         .and_then(|deps| {
@@ -242,16 +256,49 @@ pub fn handgate_bin() -> PathBuf {
                 Some(deps)
             }
         })
-        .expect("the test executable lives in target/<profile>/deps")
+        .ok_or("the test executable lives in target/<profile>/deps")?
         .to_path_buf();
     let bin = profile_dir.join(format!("handgate{}", std::env::consts::EXE_SUFFIX));
-    assert!(
-        bin.exists(),
-        "{} is missing: the end-to-end tests run the real gateway binary. Run `cargo build -p \
-         handgate` (with the same CARGO_TARGET_DIR and profile) or `make test` first.",
-        bin.display()
-    );
-    bin
+    let skip = matches!(std::env::var("HANDGATE_TESTS_NO_BUILD").as_deref(), Ok(v) if !v.is_empty() && v != "0");
+    if !skip {
+        // target/<profile>: the target directory is its parent, the profile its name.
+        let profile = profile_dir.file_name().and_then(|n| n.to_str()).unwrap_or("debug");
+        let target_dir = profile_dir.parent().ok_or("target/<profile> has a parent")?;
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.current_dir(repo_root())
+            .args(["build", "--quiet", "-p", "handgate", "--target-dir"])
+            .arg(target_dir);
+        match profile {
+            "debug" => {}
+            "release" => {
+                cmd.arg("--release");
+            }
+            other => {
+                cmd.args(["--profile", other]);
+            }
+        }
+        let out = cmd
+            .stdin(Stdio::null())
+            .output()
+            .map_err(|e| format!("could not run cargo build -p handgate: {e}"))?;
+        if !out.status.success() {
+            return Err(format!(
+                "cargo build -p handgate failed ({}): the end-to-end tests run the gateway of the \
+                 current source.\n{}",
+                out.status,
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+    }
+    if !bin.exists() {
+        return Err(format!(
+            "{} is missing: the end-to-end tests run the real gateway binary. Run `cargo build -p \
+             handgate` (with the same CARGO_TARGET_DIR and profile) or `make test` first.",
+            bin.display()
+        ));
+    }
+    Ok(bin)
 }
 
 /// A Unix signal the tests send to a gateway.

@@ -221,7 +221,6 @@ impl DdsCodec for Dex1HgCodec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::SafeAction;
 
     #[test]
     fn go_variant_encodes_one_element_in_radians() {
@@ -258,7 +257,6 @@ mod tests {
         assert_eq!(msg.cmds.len(), 2);
         assert!((msg.cmds[0].q - 2.7).abs() < 1e-5);
         assert_eq!(msg.cmds[1].q, 4.0);
-        let _ = SafeAction::Hold;
     }
 
     #[test]

@@ -645,6 +645,8 @@ struct Runtime {
     id: u8,
     state: GripperState,
     initialised: bool,
+    /// Initialised at least once (a later initialisation is a re-initialisation).
+    ever_initialised: bool,
     misses: u32,
     last_init_try: Option<Instant>,
     /// Goal used while no target applies (present position at init).
@@ -692,6 +694,7 @@ impl Worker {
                 id: g.id.get(),
                 state: tx[&g.id.get()].borrow().clone(),
                 initialised: false,
+                ever_initialised: false,
                 misses: 0,
                 last_init_try: None,
                 hold_ticks: 0,
@@ -869,7 +872,7 @@ impl Worker {
 
     fn round(&mut self, l: &mut Link) -> Result<(), TransportError> {
         // Commands from the API.
-        let (cmds, targets): (Vec<Cmd>, HashMap<u8, Target>) = {
+        let (cmds, mut targets): (Vec<Cmd>, HashMap<u8, Target>) = {
             let mut sh = self.lock();
             (sh.cmds.drain(..).collect(), sh.targets.clone())
         };
@@ -896,7 +899,18 @@ impl Worker {
                 .map_or(true, |t| t.elapsed() > Duration::from_millis(200));
             if !self.rt[i].initialised && due {
                 self.init_servo(l, i)?;
-                if !self.rt[i].initialised {
+                if self.rt[i].initialised && self.rt[i].ever_initialised {
+                    // Back after an unplug, a silent spell or a reboot: whatever target was
+                    // set before or meanwhile is stale. Hold the position just measured
+                    // (`hold_ticks`) until the next set_target; never replay.
+                    let id = self.rt[i].id;
+                    targets.remove(&id);
+                    self.lock().targets.remove(&id);
+                    self.rt[i].state.target = None;
+                }
+                if self.rt[i].initialised {
+                    self.rt[i].ever_initialised = true;
+                } else {
                     self.rt[i].state.online = false;
                     self.rt[i].state.stale = true;
                     self.publish(i);

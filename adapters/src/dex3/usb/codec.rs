@@ -1012,10 +1012,27 @@ mod tests {
             prop_assert_eq!(out.counters.bad_crc as usize, kinds.len() - good);
         }
 
+        /// Arbitrary 1270-byte state frames given a valid frame CRC: every one decodes, the
+        /// bus parser runs on the arbitrary bus contents and sizes (never finding more than the
+        /// buffers hold), and the frame re-encodes to the same bytes. Any other length is refused.
         #[test]
-        fn state_decode_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..1400)) {
-            if let Ok(s) = McuToLinuxState::decode(&bytes) {
-                let _ = parse_feedback(&s);
+        fn state_decode_never_panics(
+            mut bytes in proptest::collection::vec(any::<u8>(), STATE_FRAME_LEN),
+            other_len in 0usize..1400,
+        ) {
+            let crc = crc32_words(&bytes[2..ST_CRC_OFF]);
+            bytes[ST_CRC_OFF..ST_CRC_OFF + 4].copy_from_slice(&crc.to_le_bytes());
+            let s = McuToLinuxState::decode(&bytes);
+            prop_assert!(s.is_ok(), "{:?}", s.err());
+            let s = s.unwrap();
+            let out = parse_feedback(&s);
+            let room: usize = s.state_size.iter().map(|n| (*n as usize).min(BUS_BUFFER_SIZE)).sum();
+            prop_assert!(out.motors.len() * MOTOR_FB_LEN + out.sensors.len() * SENSOR_LEN <= room);
+            prop_assert_eq!(&s.encode()[..], &bytes[..]);
+            if other_len != STATE_FRAME_LEN {
+                let mut short = bytes.clone();
+                short.resize(other_len, 0);
+                prop_assert!(McuToLinuxState::decode(&short).is_err());
             }
         }
 
