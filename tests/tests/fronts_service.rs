@@ -357,3 +357,42 @@ fn actuator_front_with_one_side_bound_reports_the_other_as_never_measured() {
     assert_eq!((s.states[0].lost, s.states[0].reserve[1]), (0xFFFF_FFFE, 1), "{s:?}");
     assert_eq!((s.states[1].lost, s.states[1].reserve[1]), (0, 0), "{s:?}");
 }
+
+/// The legacy controller itself, through the official SDK: one message for both grippers,
+/// waiting for state before it commands, each element's step clipped around that element's
+/// measured q (tests/python/xr_actuator_client.py). With one front per gripper the element
+/// of the other gripper read 0.0 and this client clipped its steps around that 0; served as
+/// one front, both elements are measured and each gripper reaches its own target.
+#[test]
+fn legacy_xr_teleoperate_actuator_client_reaches_both_targets_through_the_sdk() {
+    let _serial = serial();
+    let profile = actuator_profile("fronts-actuator-sdk", r#"{ right = "grip_r", left = "grip_l" }"#);
+    let gw = Gateway::start(165, &["--profile", profile.to_str().unwrap()]);
+    // Different targets per element (wire q: 0 closed, 5.4 open), so a swapped order fails.
+    let (right, left) = (1.0, 4.0);
+    let mut args = vec!["165".to_string(), right.to_string(), left.to_string()];
+    if let Some(i) = interop_interface() {
+        args.push(i);
+    }
+    let py = PyProcess::spawn("xr_actuator_client.py", &args).expect("python client");
+    py.wait_line("READY", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", gw.transcript()));
+    let done = json_line(&py, "DONE ", &gw);
+    let q: Vec<f64> = done["q"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(
+        (q[0] - right).abs() < TOL as f64 && (q[1] - left).abs() < TOL as f64,
+        "{done}"
+    );
+    // The element of the gripper that only had to move a little never read anywhere near
+    // closed on the way (the old per-gripper fronts reported the other element as 0.0).
+    let min_left = done["min_q_seen"][1].as_f64().unwrap();
+    assert!(
+        min_left > left - 0.5,
+        "left element read {min_left} on its way to {left}: {done}"
+    );
+}
