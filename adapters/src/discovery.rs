@@ -165,15 +165,13 @@ pub struct Participant {
 
 impl Participant {
     /// The first unicast IP in `network_addresses` (`udp/1.2.3.4:7410@3` -> `1.2.3.4`),
-    /// skipping multicast groups (224.0.0.0/4, ff00::/8).
+    /// skipping multicast groups and entries that are not IP locators (CycloneDDS reports
+    /// `localprocess` for participants of this process).
     pub fn unicast_address(&self) -> Option<&str> {
         self.network_addresses.iter().find_map(|a| {
             let ip = locator_ip(a)?;
-            let multicast = match ip.split('.').next().and_then(|o| o.parse::<u8>().ok()) {
-                Some(first) if ip.contains('.') => (224..=239).contains(&first),
-                _ => ip.to_ascii_lowercase().starts_with("ff"),
-            };
-            (!multicast).then_some(ip)
+            let parsed: std::net::IpAddr = ip.parse().ok()?;
+            (!parsed.is_multicast()).then_some(ip)
         })
     }
 }
@@ -748,9 +746,10 @@ impl Cell {
     }
 
     fn publish(&self, s: Arc<Snapshot>) {
-        *self.current.lock().unwrap_or_else(|e| e.into_inner()) = Arc::clone(&s);
+        // The watch first: whoever sees a snapshot in `current` finds it in the watch too.
+        self.watch.send_replace(Arc::clone(&s));
+        *self.current.lock().unwrap_or_else(|e| e.into_inner()) = s;
         self.changed.notify_all();
-        self.watch.send_replace(s);
     }
 }
 
@@ -1106,6 +1105,11 @@ mod tests {
         };
         assert_eq!(p.unicast_address(), Some("192.168.123.161"));
         assert_eq!(locator_ip("udp/[fe80::1]:7410@3"), Some("fe80::1"));
+        let local = Participant {
+            network_addresses: vec![Arc::from("localprocess")],
+            ..p
+        };
+        assert_eq!(local.unicast_address(), None);
     }
 
     #[test]
@@ -1114,4 +1118,51 @@ mod tests {
         assert_eq!(g.to_string(), "0110aabb:00000001:02030405:00001203");
         assert_eq!(g.participant().to_string(), "0110aabb:00000001:02030405:000001c1");
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Busy-domain helper (tests, and later the loop benchmark with a busy domain)
+// ---------------------------------------------------------------------------------------------
+
+/// Endpoints that exist only to be discovered; dropped together.
+pub struct BusyEndpoints {
+    _writers: Vec<crate::dds::Writer<handgate_idl::unitree_go::MotorCmds_>>,
+    _readers: Vec<crate::dds::Reader<handgate_idl::unitree_go::MotorCmds_>>,
+}
+
+impl fmt::Debug for BusyEndpoints {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("BusyEndpoints").field("endpoints", &self.len()).finish()
+    }
+}
+
+impl BusyEndpoints {
+    pub fn len(&self) -> usize {
+        self._writers.len() + self._readers.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Creates `k` endpoints on `node` (every other one a writer, the rest readers; unitree_go
+/// `MotorCmds_`, best effort), each on its own topic `{prefix}{i}`. Nothing is written.
+/// Run it in another participant (ideally another process, `examples/busy_domain.rs`) than
+/// the one measured.
+pub fn busy_endpoints(node: &Node, k: usize, prefix: &str) -> Result<BusyEndpoints, DdsError> {
+    let mut w = Vec::with_capacity(k.div_ceil(2));
+    let mut r = Vec::with_capacity(k / 2);
+    for i in 0..k {
+        let topic = format!("{prefix}{i}");
+        if i % 2 == 0 {
+            w.push(node.writer(&topic, crate::dds::Qos::BestEffort)?);
+        } else {
+            r.push(node.reader(&topic, crate::dds::Qos::BestEffort)?);
+        }
+    }
+    Ok(BusyEndpoints {
+        _writers: w,
+        _readers: r,
+    })
 }
