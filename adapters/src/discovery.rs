@@ -415,7 +415,7 @@ impl Tracker {
                 origin: origin_of(&p.key, Some(p)),
             })
             .collect();
-        participants.sort_by(|a, b| a.key.cmp(&b.key));
+        participants.sort_by_key(|a| a.key);
         let mut endpoints: Vec<Endpoint> = self
             .endpoints
             .values()
@@ -685,7 +685,7 @@ fn take_batch(reader: dds_entity_t, which: Builtin, tracker: &mut Tracker) -> us
     let mut cut = 0u64;
     for (ptr, info) in ptrs.iter().zip(infos.iter()).take(n) {
         let handle = info.instance_handle;
-        let alive = info.instance_state as u32 == ffi::INSTANCE_ALIVE;
+        let alive = info.instance_state == ffi::INSTANCE_ALIVE;
         if !alive {
             match which {
                 Builtin::Participant => tracker.remove_participant(handle),
@@ -974,6 +974,53 @@ fn run(ents: Entities, mut tracker: Tracker, domain: u32, cell: &Cell, stop: &At
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Busy-domain helper (tests, and later the loop benchmark with a busy domain)
+// ---------------------------------------------------------------------------------------------
+
+/// Endpoints that exist only to be discovered; dropped together.
+pub struct BusyEndpoints {
+    _writers: Vec<crate::dds::Writer<handgate_idl::unitree_go::MotorCmds_>>,
+    _readers: Vec<crate::dds::Reader<handgate_idl::unitree_go::MotorCmds_>>,
+}
+
+impl fmt::Debug for BusyEndpoints {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("BusyEndpoints").field("endpoints", &self.len()).finish()
+    }
+}
+
+impl BusyEndpoints {
+    pub fn len(&self) -> usize {
+        self._writers.len() + self._readers.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Creates `k` endpoints on `node` (every other one a writer, the rest readers; unitree_go
+/// `MotorCmds_`, best effort), each on its own topic `{prefix}{i}`. Nothing is written.
+/// Run it in another participant (ideally another process, `examples/busy_domain.rs`) than
+/// the one measured.
+pub fn busy_endpoints(node: &Node, k: usize, prefix: &str) -> Result<BusyEndpoints, DdsError> {
+    let mut w = Vec::with_capacity(k.div_ceil(2));
+    let mut r = Vec::with_capacity(k / 2);
+    for i in 0..k {
+        let topic = format!("{prefix}{i}");
+        if i % 2 == 0 {
+            w.push(node.writer(&topic, crate::dds::Qos::BestEffort)?);
+        } else {
+            r.push(node.reader(&topic, crate::dds::Qos::BestEffort)?);
+        }
+    }
+    Ok(BusyEndpoints {
+        _writers: w,
+        _readers: r,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1118,51 +1165,4 @@ mod tests {
         assert_eq!(g.to_string(), "0110aabb:00000001:02030405:00001203");
         assert_eq!(g.participant().to_string(), "0110aabb:00000001:02030405:000001c1");
     }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Busy-domain helper (tests, and later the loop benchmark with a busy domain)
-// ---------------------------------------------------------------------------------------------
-
-/// Endpoints that exist only to be discovered; dropped together.
-pub struct BusyEndpoints {
-    _writers: Vec<crate::dds::Writer<handgate_idl::unitree_go::MotorCmds_>>,
-    _readers: Vec<crate::dds::Reader<handgate_idl::unitree_go::MotorCmds_>>,
-}
-
-impl fmt::Debug for BusyEndpoints {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("BusyEndpoints").field("endpoints", &self.len()).finish()
-    }
-}
-
-impl BusyEndpoints {
-    pub fn len(&self) -> usize {
-        self._writers.len() + self._readers.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-}
-
-/// Creates `k` endpoints on `node` (every other one a writer, the rest readers; unitree_go
-/// `MotorCmds_`, best effort), each on its own topic `{prefix}{i}`. Nothing is written.
-/// Run it in another participant (ideally another process, `examples/busy_domain.rs`) than
-/// the one measured.
-pub fn busy_endpoints(node: &Node, k: usize, prefix: &str) -> Result<BusyEndpoints, DdsError> {
-    let mut w = Vec::with_capacity(k.div_ceil(2));
-    let mut r = Vec::with_capacity(k / 2);
-    for i in 0..k {
-        let topic = format!("{prefix}{i}");
-        if i % 2 == 0 {
-            w.push(node.writer(&topic, crate::dds::Qos::BestEffort)?);
-        } else {
-            r.push(node.reader(&topic, crate::dds::Qos::BestEffort)?);
-        }
-    }
-    Ok(BusyEndpoints {
-        _writers: w,
-        _readers: r,
-    })
 }

@@ -509,7 +509,7 @@ mod tests {
                 ],
                 origin,
             });
-            self.snap.participants.sort_by(|a, b| a.key.cmp(&b.key));
+            self.snap.participants.sort_by_key(|a| a.key);
             let mut key = [n; 16];
             key[15] = 0x03;
             self.snap.endpoints.push(Endpoint {
