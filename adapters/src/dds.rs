@@ -137,6 +137,13 @@ impl Node {
         self.inner.domain_id
     }
 
+    /// The participant's C entity handle, for this crate's modules that use the C API
+    /// directly (discovery). Valid as long as a clone of this `Node` is alive.
+    pub(crate) fn participant_entity(&self) -> cyclonedds_sys::dds_entity_t {
+        // SAFETY: only reads the integer handle out of the wrapper; no C call.
+        unsafe { self.inner.participant.entity().entity() }
+    }
+
     fn topic<T: TopicType>(&self, name: &str) -> Result<DdsTopic<T>, DdsError> {
         TopicBuilder::<T>::new()
             .with_name(name.to_string())

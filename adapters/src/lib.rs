@@ -8,6 +8,7 @@ pub mod dds_device;
 pub mod device;
 pub mod dex1;
 pub mod dex3;
+pub mod discovery;
 pub mod emu_common;
 pub mod ezgripper;
 pub mod hand_sdk;
