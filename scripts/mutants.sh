@@ -78,7 +78,7 @@ gateway() {
     -p handgate \
     -f 'gateway/src/fronts/*.rs' -f gateway/src/runtime.rs \
     --test-package handgate --test-package handgate-tests \
-    "${extra[@]}" -- --lib --test safety_e2e
+    "${extra[@]}" -- --lib --test front_codecs --test safety_e2e
   local rc=$?
   set -e
   summary "$dir" || true
