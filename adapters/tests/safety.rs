@@ -31,8 +31,8 @@ struct Dex3Joint {
 ///
 /// * Limits: the URDFs xr_teleoperate uses (`assets/unitree_hand/unitree_dex3_{left,right}.urdf`,
 ///   FACTS §2), literally to their 4 decimals. thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
-/// (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
-/// [−0.7243, 0.920], so the SDK example's 1.05 pose is reachable (docs/model.md, "Joint limits").
+///   (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
+///   [−0.7243, 0.920], so the SDK example's 1.05 pose is reachable (docs/model.md, "Joint limits").
 /// * Closing direction: the Dex3-1 user manual's "Angle of Joint" gives each joint's travel as
 ///   flexion from straight: thumb joint 1 −35°…60°, thumb joint 2 0…100°, index/middle
 ///   joint 0 0…90°, joint 1 0…100°. The URDF ranges place that flexion on the wire: left
