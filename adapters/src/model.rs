@@ -34,7 +34,7 @@ pub const DEX3_JOINTS: [&str; 7] = [
 ];
 /// A parallel gripper's single joint.
 pub const GRIPPER_JOINTS: [&str; 1] = ["jaw"];
-/// `rt/hand_sdk` motors. Which finger or hand each drives is unpublished (FACTS §6), so
+/// `rt/hand_sdk` motors. Which finger or hand each drives is unpublished (docs/sources.md §6), so
 /// they are named neutrally.
 pub const HAND_SDK_JOINTS: [&str; 4] = ["motor_0", "motor_1", "motor_2", "motor_3"];
 

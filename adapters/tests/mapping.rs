@@ -34,7 +34,7 @@ fn dex3_joint_order_urdf_and_mirror_signs() {
         names,
         ["thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1"]
     );
-    // The left URDF's three/four are the index finger, five/six the middle (FACTS §2).
+    // The left URDF's three/four are the index finger, five/six the middle (docs/sources.md §2).
     let idx0 = l.joint_by_name("index_0").unwrap();
     assert_eq!(l.joint(idx0).unwrap().wire_index, 5);
     assert_eq!(l.joint(idx0).unwrap().urdf, "left_hand_three_joint");

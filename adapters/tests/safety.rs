@@ -30,7 +30,7 @@ struct Dex3Joint {
 /// Written out from the sources, not from `dex3::table`:
 ///
 /// * Limits: the URDFs xr_teleoperate uses (`assets/unitree_hand/unitree_dex3_{left,right}.urdf`,
-///   FACTS §2), literally to their 4 decimals. thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
+///   docs/sources.md §2), literally to their 4 decimals. thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
 ///   (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
 ///   [−0.7243, 0.920], so the SDK example's 1.05 pose is reachable (docs/model.md, "Joint limits").
 /// * Closing direction: the Dex3-1 user manual's "Angle of Joint" gives each joint's travel as
@@ -574,7 +574,7 @@ fn closure_targets_interpolate_between_the_postures() {
 
 #[test]
 fn hand_sdk_closure_torque_interpolates_from_open_to_closed() {
-    // rt/hand_sdk: -0.3 N*m opens, +0.3 closes (the unitree_sdk2 example, FACTS §6).
+    // rt/hand_sdk: -0.3 N*m opens, +0.3 closes (the unitree_sdk2 example, docs/sources.md §6).
     let t = table_for(DeviceKind::HandSdk, Side::Left, &TableParams::default()).unwrap();
     for (c, tau) in [(0.0, -0.3), (0.25, -0.15), (0.5, 0.0), (1.0, 0.3)] {
         let out = t.closure_targets(c, None).unwrap();

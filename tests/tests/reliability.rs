@@ -354,7 +354,7 @@ fn canonical_sample(rng: &mut Rng, i: u64, names: &[&'static str]) -> (hg::HandC
 }
 
 /// Wire limits of every joint of a Dex3 side, IDL order (thumb_0, thumb_1, thumb_2, middle_0,
-/// middle_1, index_0, index_1), written out from the URDFs xr_teleoperate uses (FACTS §2), not
+/// middle_1, index_0, index_1), written out from the URDFs xr_teleoperate uses (docs/sources.md §2), not
 /// taken from the table the gateway clamps with: the flood must not move a joint past them.
 /// thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
 /// (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's

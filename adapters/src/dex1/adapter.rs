@@ -1,5 +1,5 @@
 //! Dex1-1 over DDS, as a client of dex1_1_service (or of SAKE's EZGripper driver, which
-//! presents the same interface). Three wire variants exist in the field (FACTS §4):
+//! presents the same interface). Three wire variants exist in the field (docs/sources.md §4):
 //!
 //! | variant | cmd / state topics | types | elements |
 //! |---|---|---|---|
@@ -59,7 +59,7 @@ impl Variant {
         }
     }
 
-    /// The position range this variant's clients use: 0..5.4 rad (FACTS §4), or 0..2pi for
+    /// The position range this variant's clients use: 0..5.4 rad (docs/sources.md §4), or 0..2pi for
     /// the seed spec's hg variant.
     pub fn default_range(self) -> (f32, f32) {
         match self {

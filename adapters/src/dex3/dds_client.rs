@@ -1,7 +1,7 @@
 //! Dex3-1 over DDS, as a client of a G1's resident hand service: publishes
 //! `unitree_hg::HandCmd_` (7 motors, IDL order) on `rt/dex3/{side}/cmd` with the RIS mode
 //! byte set explicitly on every motor, reads `HandState_` from `rt/dex3/{side}/state` (or the
-//! low-frequency copy `rt/lf/dex3/{side}/state`, by profile). FACTS §2.
+//! low-frequency copy `rt/lf/dex3/{side}/state`, by profile). docs/sources.md §2.
 
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorCmd_};
 

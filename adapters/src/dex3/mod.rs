@@ -1,6 +1,6 @@
 //! Unitree Dex3-1 three-finger hand. What both transports share: the RIS mode byte, the
 //! pressure encoding, and the command/measurement types of the USB device loop (in the hand's
-//! own sign convention and SI units, IDL joint order, FACTS §2); the mapping table; the USB
+//! own sign convention and SI units, IDL joint order, docs/sources.md §2); the mapping table; the USB
 //! adapter ([`usb`]); the DDS client of a G1's resident service and that service's emulator.
 
 pub mod dds_client;
@@ -12,14 +12,14 @@ pub mod usb;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// Raw pressure meaning "no reading" (manual; FACTS §2).
+/// Raw pressure meaning "no reading" (manual; docs/sources.md §2).
 pub const PRESS_NO_READING: f32 = 30_000.0;
-/// Smallest raw value of a valid reading (FACTS §2: valid readings are >= 100000).
+/// Smallest raw value of a valid reading (docs/sources.md §2: valid readings are >= 100000).
 pub const PRESS_VALID_MIN: f32 = 100_000.0;
 /// RIS mode: bit 7, the timeout flag.
 pub const RIS_TIMEOUT_BIT: u8 = 0x80;
 /// A motor whose last command set [`RIS_TIMEOUT_BIT`] stops this long after that command
-/// (FACTS §2: "motor stops after 1 s without commands").
+/// (docs/sources.md §2: "motor stops after 1 s without commands").
 pub const RIS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// Status field (bits 4-6) of the RIS mode byte (manual: 0 lock, 1 FOC).
@@ -35,7 +35,7 @@ pub enum MotorStatus {
     Undefined(u8),
 }
 
-/// The RIS mode byte of a Dex3 motor (manual "RIS_Mode_t"; FACTS §2): bits 0-3 id, 4-6
+/// The RIS mode byte of a Dex3 motor (manual "RIS_Mode_t"; docs/sources.md §2): bits 0-3 id, 4-6
 /// status, 7 timeout (GCC bit-field order on little-endian targets).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct RisMode {
@@ -100,7 +100,7 @@ impl RisMode {
 
 /// Number of motors (joints) of one hand.
 pub const MOTOR_COUNT: usize = 7;
-/// Number of pressure pads of one hand (FACTS §2: the SDK example sizes press_sensor_state to 9).
+/// Number of pressure pads of one hand (docs/sources.md §2: the SDK example sizes press_sensor_state to 9).
 pub const PAD_COUNT: usize = 9;
 /// Taxels per pressure pad (`PressSensorState_.pressure[12]`, `SensorState_t.pressure[12]`).
 pub const TAXELS_PER_PAD: usize = 12;

@@ -29,7 +29,7 @@ pub const CAPABILITIES: Capabilities = Capabilities {
     calibration: true,
 };
 
-/// SAKE's driver reports `tau_est = effort / 10` (FACTS §5); handgate keeps that scale: the
+/// SAKE's driver reports `tau_est = effort / 10` (docs/sources.md §5); handgate keeps that scale: the
 /// canonical joint torque is `effort_pct / 10` ("N·m-like", positive = squeezing).
 pub const EFFORT_PCT_PER_TAU: f32 = 10.0;
 

@@ -1,6 +1,6 @@
 //! EZGripper mapping: the same canonical `jaw` as Dex1 (so a Dex1 client drives it 1:1),
 //! wire unit = percent open as SAKE's driver uses it (0 % = closed, `max_open_percent` = open).
-//! SAKE's driver maps Dex1 0 rad → 0 % and 5.4 rad → max_open_percent (FACTS §5):
+//! SAKE's driver maps Dex1 0 rad → 0 % and 5.4 rad → max_open_percent (docs/sources.md §5):
 //! `wire_pct = max_open * (range - jaw) / range`.
 
 use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};

@@ -1,4 +1,4 @@
-//! The G1's `rt/hand_sdk` interface (FACTS §6): unitree_go MotorCmds_ with 4 entries; the
+//! The G1's `rt/hand_sdk` interface (docs/sources.md §6): unitree_go MotorCmds_ with 4 entries; the
 //! blend weight is `round(w * 100)` in `cmds[0].mode`; ai_sport blends all five fields as
 //! `w * user + (1 - w) * its own`. handgate ramps the weight up at a profile rate when a
 //! command arrives (never a step from 0 to 1), keeps publishing at the profile rate while

@@ -1,4 +1,4 @@
-//! `rt/hand_sdk` mapping (FACTS §6): 4 motors in a unitree_go MotorCmds_, positive tau closes
+//! `rt/hand_sdk` mapping (docs/sources.md §6): 4 motors in a unitree_go MotorCmds_, positive tau closes
 //! (the same sign as canonical), units as ai_sport's. Which motor drives which finger or hand,
 //! and the position range, are unpublished: the joints are `motor_0..motor_3` and the limits
 //! are wide placeholders until checked on a robot (profile-overridable).

@@ -6,7 +6,7 @@
 //!
 //! Command rules: exact element count; finite values; `mode` ignored (as dex1_1_service does);
 //! q outside [0, range] is clamped by the device table. State: q clamped to [0, range] (a
-//! client must never see q > range: FACTS §5's 5.4000001 bug), tau_est, temperature, mode =
+//! client must never see q > range: docs/sources.md §5's 5.4000001 bug), tau_est, temperature, mode =
 //! the device's status byte (EZGripper grasp state), a hardware fault gives mode 255 and
 //! lost = 0xFFFFFFFF; while the state is stale, `lost` carries the age of the last
 //! measurement in ms (saturating at 0xFFFFFFFE) and `reserve[1]` = 1.

@@ -18,9 +18,9 @@ pub const DEX1_MAX_RANGE_RAD: f64 = std::f64::consts::TAU;
 /// The hardware range `(min, max)` of a joint in canonical rad, or `None` for an unknown
 /// joint (or a Dex3 with side `center`, which does not exist).
 ///
-/// - Dex3-1: the device table's limits (xr_teleoperate's URDF, FACTS §2, in canonical sign).
+/// - Dex3-1: the device table's limits (xr_teleoperate's URDF, docs/sources.md §2, in canonical sign).
 /// - Dex1-1: 0 (open) ..= 2π, the widest range in the field.
-/// - EZGripper: 0 ..= 5.4, the SAKE driver's Dex1-equivalent range (FACTS §5).
+/// - EZGripper: 0 ..= 5.4, the SAKE driver's Dex1-equivalent range (docs/sources.md §5).
 /// - hand_sdk: the table's placeholder ±π (ASSUMPTION: the motors' ranges are not public).
 pub fn joint_range(kind: DeviceKind, side: Side, joint: &str) -> Option<(f64, f64)> {
     if kind == DeviceKind::Dex3 && side == Side::Center {

@@ -20,7 +20,7 @@ pub const MAX_STATUS_RATE_HZ: f64 = 10.0;
 /// Watchdog timeouts must lie in this range, ms.
 pub const WATCHDOG_MS_RANGE: (u32, u32) = (10, 10_000);
 /// A Dex1 front must publish state at least this fast: xr_teleoperate runs its gripper loop
-/// at 200 Hz (FACTS §4).
+/// at 200 Hz (docs/sources.md §4).
 pub const DEX1_MIN_STATE_HZ: f64 = 200.0;
 
 /// A DDS domain id (0..=232).
@@ -459,10 +459,10 @@ pub struct UsbConfig {
     pub socket: Option<std::path::PathBuf>,
     /// Set the motors' timeout-protection bit (motor stops after 1 s without commands).
     pub timeout_bit: bool,
-    /// Which bus and id each joint and pressure pad sits on; not public (FACTS §3).
+    /// Which bus and id each joint and pressure pad sits on; not public (docs/sources.md §3).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wiring: Option<WiringConfig>,
-    /// Overrides of the motor-frame scalings (FACTS §3 "scaling conflict").
+    /// Overrides of the motor-frame scalings (docs/sources.md §3 "scaling conflict").
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scalings: Option<Scalings>,
 }
@@ -479,7 +479,7 @@ impl Default for UsbConfig {
     }
 }
 
-/// Number of buses in a Dex3-1 USB frame (FACTS §3).
+/// Number of buses in a Dex3-1 USB frame (docs/sources.md §3).
 pub const DEX3_USB_BUSES: u8 = 5;
 /// Pressure pads on a Dex3-1 (user manual: 9 sensors).
 pub const DEX3_PADS: usize = 9;
