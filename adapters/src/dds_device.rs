@@ -251,3 +251,46 @@ impl HandDevice for DdsDevice {
         self.cmd.counters.snapshot()
     }
 }
+
+/// Private topics of an in-process emulated peer for `device` (the emulator backend of a
+/// DDS-client kind: the peer sits exactly where the robot's service would).
+pub fn emulator_topics(device: &str) -> (String, String) {
+    (
+        format!("rt/handgate/emu/{device}/cmd"),
+        format!("rt/handgate/emu/{device}/state"),
+    )
+}
+
+/// A DDS-client device and the emulated peer it drives; the peer lives as long as the device.
+pub struct WithPeer {
+    device: DdsDevice,
+    _peer: Box<dyn Send + Sync>,
+}
+
+impl WithPeer {
+    pub fn new(device: DdsDevice, peer: impl Send + Sync + 'static) -> Self {
+        Self {
+            device,
+            _peer: Box::new(peer),
+        }
+    }
+}
+
+#[async_trait]
+impl HandDevice for WithPeer {
+    fn info(&self) -> &DeviceInfo {
+        self.device.info()
+    }
+    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
+        self.device.command(cmd)
+    }
+    fn state(&self) -> watch::Receiver<HandState> {
+        self.device.state()
+    }
+    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
+        self.device.safe_state(action).await
+    }
+    fn stats(&self) -> DeviceStats {
+        self.device.stats()
+    }
+}

@@ -6,6 +6,8 @@ use async_trait::async_trait;
 use serde::{Deserialize, Serialize};
 use tokio::sync::watch;
 
+use crate::dds::DdsError;
+use crate::emu_common::EmulatorError;
 use crate::mapping::{DeviceTable, MappingError};
 use crate::model::{DeviceKind, HandCommand, HandState, SafeAction, Side};
 
@@ -43,19 +45,6 @@ impl Backend {
     }
 }
 
-/// What a device can report or do beyond the basics.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Capabilities {
-    /// Measured joint feedback (false for rt/hand_sdk: state is "commanded only").
-    pub feedback: bool,
-    pub pressure: bool,
-    pub imu: bool,
-    pub power: bool,
-    /// Can list the (bus, id) wiring it answers from.
-    pub discovery: bool,
-    pub calibration: bool,
-}
-
 /// Identity of a device.
 #[derive(Debug, Clone)]
 pub struct DeviceInfo {
@@ -65,7 +54,6 @@ pub struct DeviceInfo {
     pub side: Side,
     pub backend: Backend,
     pub table: Arc<DeviceTable>,
-    pub capabilities: Capabilities,
 }
 
 /// Counters a device keeps; read by the status publisher, never blocking the device loop.
@@ -87,17 +75,65 @@ pub struct DeviceStats {
     pub link_up: bool,
 }
 
-/// Device errors.
+/// Device errors. [`DeviceError::is_transient`] tells a failure the link may recover from
+/// (an unplug, a missed reply) from one that needs the profile or the setup changed.
 #[derive(Debug, thiserror::Error)]
 pub enum DeviceError {
     #[error(transparent)]
     Mapping(#[from] MappingError),
     #[error("{0} is not supported by this device")]
     Unsupported(&'static str),
-    #[error("link to the device failed: {0}")]
-    Link(String),
+    #[error("DDS: {0}")]
+    Dds(#[from] DdsError),
+    #[error("emulator: {0}")]
+    Emulator(#[from] EmulatorError),
+    /// The link to the device (a transport, a bus) failed.
+    #[error("link to the device failed: {source}")]
+    Link {
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+        /// The link may come back by itself (reconnect, retry).
+        transient: bool,
+    },
+    /// A validated profile asks for something this device cannot take.
+    #[error("invalid configuration: {0}")]
+    Config(String),
+    #[error("safe state not confirmed within {0:?}")]
+    NotConfirmed(std::time::Duration),
     #[error("the device has stopped")]
     Stopped,
+}
+
+impl DeviceError {
+    /// A link failure that needs the setup changed (wrong port, permissions...).
+    pub fn link(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        DeviceError::Link {
+            source: Box::new(e),
+            transient: false,
+        }
+    }
+
+    /// A link failure the device may recover from by itself.
+    pub fn transient(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        DeviceError::Link {
+            source: Box::new(e),
+            transient: true,
+        }
+    }
+
+    /// A configuration error from a value's own error.
+    pub fn config(e: impl std::fmt::Display) -> Self {
+        DeviceError::Config(e.to_string())
+    }
+
+    /// Whether retrying (or waiting for the link) may succeed.
+    pub fn is_transient(&self) -> bool {
+        match self {
+            DeviceError::Link { transient, .. } => *transient,
+            DeviceError::Dds(_) | DeviceError::NotConfirmed(_) => true,
+            _ => false,
+        }
+    }
 }
 
 /// One hand or gripper, whatever its transport.

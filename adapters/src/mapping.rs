@@ -121,6 +121,24 @@ pub enum ClosureMap {
     Torque { open: f32, closed: f32 },
 }
 
+/// What a profile may change on any kind's table: the per-step limit, joint limits, the
+/// closure map's ends. (A kind's own knobs, such as the Dex1 open range, are in its config:
+/// `KindFactory::table`.)
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TableOverrides {
+    /// Largest |target - measured| per command, rad.
+    pub max_step: Option<f32>,
+    /// Joint limits by canonical name.
+    pub limits: Vec<(String, Limits)>,
+    /// Closure postures (one position per joint, canonical order) replacing the table's own
+    /// (posture maps only).
+    pub open_posture: Option<Vec<f32>>,
+    pub closed_posture: Option<Vec<f32>>,
+    /// Feed-forward torque at closure 0 / 1, N*m (torque maps only).
+    pub tau_open: Option<f32>,
+    pub tau_closed: Option<f32>,
+}
+
 /// Errors mapping a command onto a device.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MappingError {
@@ -371,7 +389,38 @@ impl DeviceTable {
         Ok((a.min(b), a.max(b)))
     }
 
-    /// Overrides limits, closure postures and step limit from a profile.
+    /// The table with a profile's overrides applied. Unknown joint names are errors.
+    pub fn with_overrides(mut self, o: &TableOverrides) -> Result<Self, MappingError> {
+        self.max_step = o.max_step;
+        for (name, l) in &o.limits {
+            self = self.with_limits(name, *l)?;
+        }
+        let n = self.joints.len();
+        match &mut self.closure {
+            ClosureMap::Postures { open, closed, .. } => {
+                if let Some(p) = &o.open_posture {
+                    *open = p.clone();
+                }
+                if let Some(p) = &o.closed_posture {
+                    *closed = p.clone();
+                }
+                if open.len() != n || closed.len() != n {
+                    return Err(MappingError::ClosureShape(self.kind, n, open.len().min(closed.len())));
+                }
+            }
+            ClosureMap::Torque { open, closed } => {
+                if let Some(v) = o.tau_open {
+                    *open = v;
+                }
+                if let Some(v) = o.tau_closed {
+                    *closed = v;
+                }
+            }
+        }
+        Ok(self)
+    }
+
+    /// Overrides one joint's limits.
     pub fn with_limits(mut self, name: &str, limits: Limits) -> Result<Self, MappingError> {
         let id = self.joint_by_name(name)?;
         self.joints[id.index()].limits = limits;

@@ -81,11 +81,11 @@ pub fn route_state(front: &DeviceTable, device: &DeviceTable, joints: &[JointSta
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::{DeviceKind, Side};
-    use handgate_adapters::tables::{table_for, TableParams};
 
     fn t(kind: DeviceKind, side: Side) -> DeviceTable {
-        table_for(kind, side, &TableParams::default()).unwrap()
+        kind.table(side, &TableOverrides::default()).unwrap()
     }
 
     #[test]

@@ -7,21 +7,18 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::{DdsError, Node, Qos};
-use handgate_adapters::dds_device::{DdsDevice, DdsDeviceConfig};
-use handgate_adapters::device::{Capabilities, DeviceError, DeviceInfo, HandDevice};
-use handgate_adapters::dex1::adapter::{Dex1GoCodec, Dex1HgCodec, Variant};
-use handgate_adapters::dex3::dds_client::Dex3DdsCodec;
-use handgate_adapters::hand_sdk::adapter::HandSdkCodec;
-use handgate_adapters::mapping::{DeviceTable, MappingError};
+use handgate_adapters::device::{DeviceError, HandDevice};
+use handgate_adapters::dex1::adapter::Variant;
+use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, SafeAction, Side};
-use handgate_adapters::tables::{table_for, TableParams};
+use handgate_adapters::open::{DeviceSpec, OpenEnv, Shared};
 use handgate_idl::handgate as hgmsg;
 use handgate_idl::{ros2, unitree_go, unitree_hg};
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
 use crate::fronts::{self, FrontCommand, Rejection};
-use crate::plan::{DevicePlan, FrontKind, FrontPlan, Plan, SilencePlan, Transport};
+use crate::plan::{DevicePlan, FrontKind, FrontPlan, Plan, SilencePlan};
 use crate::router;
 use crate::ticker::Ticker;
 
@@ -31,13 +28,11 @@ pub enum RuntimeError {
     #[error("DDS: {0}")]
     Dds(#[from] DdsError),
     #[error("device {device}: {source}")]
-    Mapping {
+    Device {
         device: String,
         #[source]
-        source: MappingError,
+        source: DeviceError,
     },
-    #[error("device {0}: {1}")]
-    Device(String, String),
     #[error("front bound to unknown device {0:?}")]
     UnknownDevice(String),
 }
@@ -71,150 +66,44 @@ pub struct Runtime {
     shutdown: watch::Sender<bool>,
     tasks: Vec<tokio::task::JoinHandle<()>>,
     started: Instant,
-    /// EZGripper buses (and emulated buses), alive as long as the runtime.
-    pub buses: crate::ezbus::Buses,
+    /// What several devices share (EZGripper buses, emulated buses), alive as long as the
+    /// runtime.
+    pub shared: Shared,
 }
 
-fn table(p: &DevicePlan) -> Result<Arc<DeviceTable>, RuntimeError> {
-    table_for(p.kind, p.side, &p.table)
-        .map(Arc::new)
-        .map_err(|source| RuntimeError::Mapping {
-            device: p.name.clone(),
-            source,
+/// Opens every device of `plan` through its kind: first each kind's shared resources
+/// (`KindFactory::prepare`, with all its devices), then each device.
+pub fn open_devices(node: &Node, plan: &Plan, shared: &mut Shared) -> Result<Vec<Arc<dyn HandDevice>>, RuntimeError> {
+    let mut env = OpenEnv { node, shared };
+    for kind in DeviceKind::all() {
+        let specs: Vec<DeviceSpec<'_>> = plan
+            .devices
+            .iter()
+            .filter(|p| p.kind == *kind)
+            .map(DevicePlan::spec)
+            .collect();
+        if let Some(first) = specs.first() {
+            kind.factory()
+                .prepare(&specs, &mut env)
+                .map_err(|source| RuntimeError::Device {
+                    device: first.name.to_string(),
+                    source,
+                })?;
+        }
+    }
+    plan.devices
+        .iter()
+        .map(|p| {
+            p.kind
+                .factory()
+                .open(&p.spec(), &mut env)
+                .map(Arc::from)
+                .map_err(|source| RuntimeError::Device {
+                    device: p.name.clone(),
+                    source,
+                })
         })
-}
-
-/// Builds one device (DDS-side kinds). Other backends are added by [`build_device`].
-fn build_any_device(
-    node: &Node,
-    p: &DevicePlan,
-    table: Arc<DeviceTable>,
-    buses: &crate::ezbus::Buses,
-) -> Result<Arc<dyn HandDevice>, RuntimeError> {
-    let info = |caps: Capabilities| DeviceInfo {
-        name: p.name.clone(),
-        kind: p.kind,
-        side: p.side,
-        backend: p.backend,
-        table: table.clone(),
-        capabilities: caps,
-    };
-    let cfg = |cmd: &str, state: Option<&str>, rate: f64| DdsDeviceConfig {
-        cmd_topic: cmd.to_string(),
-        state_topic: state.map(str::to_string),
-        rate_hz: rate,
-        stale_after: p.stale_after,
-    };
-    let dev: Arc<dyn HandDevice> = match &p.transport {
-        Transport::Dex3Dds {
-            cmd_topic,
-            state_topic,
-            timeout_bit,
-        } => Arc::new(DdsDevice::start(
-            node,
-            info(Capabilities {
-                feedback: true,
-                pressure: true,
-                imu: true,
-                power: true,
-                ..Default::default()
-            }),
-            cfg(cmd_topic, Some(state_topic), p.rate_hz),
-            Dex3DdsCodec {
-                timeout_bit: *timeout_bit,
-            },
-        )?),
-        Transport::Dex1Dds {
-            variant,
-            cmd_topic,
-            state_topic,
-        } => {
-            let caps = Capabilities {
-                feedback: true,
-                ..Default::default()
-            };
-            let c = cfg(cmd_topic, Some(state_topic), p.rate_hz);
-            match variant {
-                Variant::Hg => Arc::new(DdsDevice::start(node, info(caps), c, Dex1HgCodec)?),
-                v => Arc::new(DdsDevice::start(node, info(caps), c, Dex1GoCodec::new(*v, p.side))?),
-            }
-        }
-        Transport::HandSdk {
-            topic,
-            ramp,
-            publish_hz,
-        } => Arc::new(DdsDevice::start(
-            node,
-            info(Capabilities::default()),
-            cfg(topic, None, *publish_hz),
-            HandSdkCodec::new(*ramp),
-        )?),
-        Transport::Dex3Usb {
-            source,
-            timeout_bit,
-            wiring,
-            scalings,
-        } => {
-            let config = handgate_adapters::dex3::usb::LoopConfig {
-                period: Duration::from_secs_f64(1.0 / p.rate_hz.max(1.0)),
-                timeout_bit: *timeout_bit,
-                hold_kp: table.hold_kp,
-                hold_kd: table.hold_kd,
-                wiring: *wiring,
-                scalings: *scalings,
-                // The spin before each deadline buys period jitter for real hardware; an
-                // emulated hand has no use for it, and a fleet of them would burn a core on it
-                // (docs/benchmarks.md, fleet scale).
-                spin: match source {
-                    handgate_adapters::dex3::usb::adapter::UsbSource::Emulator(_) => Duration::ZERO,
-                    _ => handgate_adapters::dex3::usb::LoopConfig::default().spin,
-                },
-                ..Default::default()
-            };
-            let dev = handgate_adapters::dex3::usb::adapter::Dex3UsbDevice::start(
-                info(handgate_adapters::dex3::usb::adapter::CAPABILITIES),
-                source.clone(),
-                config,
-            )
-            .map_err(|e| RuntimeError::Device(p.name.clone(), e.to_string()))?;
-            Arc::new(dev)
-        }
-        Transport::EzGripper {
-            port,
-            servo_id,
-            force_pct,
-            ..
-        } => {
-            let bus = buses
-                .buses
-                .get(port)
-                .cloned()
-                .ok_or_else(|| RuntimeError::Device(p.name.clone(), format!("no bus open on {port}")))?;
-            let id = handgate_adapters::ezgripper::ServoId::new(*servo_id)
-                .map_err(|e| RuntimeError::Device(p.name.clone(), e.to_string()))?;
-            let dev = handgate_adapters::ezgripper::adapter::EzGripperDevice::start(
-                info(handgate_adapters::ezgripper::adapter::CAPABILITIES),
-                bus,
-                id,
-                *force_pct,
-            )
-            .map_err(|e| RuntimeError::Device(p.name.clone(), e.to_string()))?;
-            Arc::new(dev)
-        }
-        Transport::EmulatedDds(peer) => return crate::emulated::build(node, p, peer, info(Capabilities::default())),
-    };
-    Ok(dev)
-}
-
-/// Builds any device of the plan.
-pub fn build_device(
-    node: &Node,
-    p: &DevicePlan,
-    buses: &crate::ezbus::Buses,
-) -> Result<(Arc<dyn HandDevice>, Arc<DeviceTable>), RuntimeError> {
-    let t = table(p)?;
-    let dev = build_any_device(node, p, t.clone(), buses)?;
-    Ok((dev, t))
+        .collect()
 }
 
 /// Logs at most once per second per key.
@@ -266,15 +155,15 @@ impl Runtime {
     /// Starts every device and front of `plan`. Must be called inside a tokio runtime.
     pub fn start(plan: &Plan) -> Result<Self, RuntimeError> {
         let node = Node::new(plan.domain, plan.interface.as_deref())?;
-        let buses = crate::ezbus::open(&plan.devices)?;
+        let mut shared = Shared::default();
+        let opened = open_devices(&node, plan, &mut shared)?;
         let mut devices = Vec::new();
         let mut by_name = HashMap::new();
-        for p in &plan.devices {
-            let (device, table) = build_device(&node, p, &buses)?;
+        for (p, device) in plan.devices.iter().zip(opened) {
             let slot = Arc::new(DeviceSlot {
                 plan: p.clone(),
                 device,
-                table,
+                table: p.table.clone(),
                 counters: Arc::new(FrontCounters::default()),
             });
             by_name.insert(p.name.clone(), slot.clone());
@@ -292,7 +181,7 @@ impl Runtime {
             shutdown,
             tasks,
             started: Instant::now(),
-            buses,
+            shared,
         })
     }
 
@@ -310,10 +199,10 @@ impl Runtime {
         let futs = self.devices.iter().map(|d| {
             let d = d.clone();
             async move {
-                let r = tokio::time::timeout(Duration::from_millis(500), d.device.shutdown(d.plan.safe_action)).await;
+                let r = tokio::time::timeout(SHUTDOWN_CONFIRM, d.device.shutdown(d.plan.safe_action)).await;
                 (
                     d.plan.name.clone(),
-                    r.unwrap_or(Err(DeviceError::Link("safe state not confirmed within 500 ms".into()))),
+                    r.unwrap_or(Err(DeviceError::NotConfirmed(SHUTDOWN_CONFIRM))),
                 )
             }
         });
@@ -339,25 +228,8 @@ where
     out
 }
 
-fn front_table(f: &FrontPlan, side: Side, device: &DeviceSlot) -> Result<Arc<DeviceTable>, RuntimeError> {
-    let (kind, params) = match &f.kind {
-        FrontKind::Dex3 { .. } => (DeviceKind::Dex3, TableParams::default()),
-        FrontKind::Dex1 { range_rad, .. } => (
-            DeviceKind::Dex1,
-            TableParams {
-                range_rad: *range_rad,
-                ..Default::default()
-            },
-        ),
-        FrontKind::Canonical | FrontKind::JointState { .. } => return Ok(device.table.clone()),
-    };
-    table_for(kind, side, &params)
-        .map(Arc::new)
-        .map_err(|source| RuntimeError::Mapping {
-            device: device.plan.name.clone(),
-            source,
-        })
-}
+/// How long shutdown waits for each device to confirm its safe state.
+const SHUTDOWN_CONFIRM: Duration = Duration::from_millis(500);
 
 /// Identifies the front that sent a device its last command (see [`FrontCounters::last_front`]).
 static NEXT_FRONT_ID: AtomicU64 = AtomicU64::new(1);
@@ -448,7 +320,7 @@ fn spawn_front(
             .cloned()
             .ok_or_else(|| RuntimeError::UnknownDevice(b.device.clone()))?;
         bound.push(Bound {
-            ftable: front_table(f, b.side, &slot)?,
+            ftable: b.table.clone().unwrap_or_else(|| slot.table.clone()),
             element: b.element,
             silence: b.silence,
             seq: 0,

@@ -2,6 +2,8 @@
 
 pub mod adapter;
 pub mod emulator;
+pub mod kind;
+pub mod open;
 pub mod table;
 
 /// dex1_1_service brakes (holds the measured position) this long after the last command

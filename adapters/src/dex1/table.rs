@@ -7,8 +7,10 @@
 use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
 use crate::model::{DeviceKind, Side, GRIPPER_JOINTS};
 
-/// Open position used by real systems (rad).
-pub const DEFAULT_RANGE_RAD: f32 = 5.4;
+/// Open position used by real systems (rad), as a profile states it.
+pub const DEFAULT_RANGE: f64 = 5.4;
+/// [`DEFAULT_RANGE`] as the tables use it.
+pub const DEFAULT_RANGE_RAD: f32 = DEFAULT_RANGE as f32;
 /// The seed spec's range (rad).
 pub const SEED_SPEC_RANGE_RAD: f32 = std::f32::consts::TAU;
 /// xr_teleoperate's Dex1 gains (docs/sources.md §4).

@@ -5,9 +5,16 @@
 
 pub mod dds_client;
 pub mod dds_service_emulator;
+pub mod kind;
+pub mod open;
 pub mod physical;
 pub mod table;
 pub mod usb;
+
+/// Dex3-1 joint names, canonical order (= the IDL order of `HandCmd_.motor_cmd`).
+pub const JOINTS: [&str; 7] = [
+    "thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1",
+];
 
 use serde::{Deserialize, Serialize};
 use std::time::Instant;

@@ -13,8 +13,9 @@
 //! symmetric range) follows the same mirror so one canonical posture gives mirror-image
 //! motions on both hands (docs/model.md).
 
+use super::JOINTS;
 use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
-use crate::model::{DeviceKind, Side, DEX3_JOINTS};
+use crate::model::{DeviceKind, Side};
 
 /// URDF joint suffix per IDL index, per side.
 const URDF_LEFT: [&str; 7] = ["zero", "one", "two", "five", "six", "three", "four"];
@@ -70,7 +71,7 @@ pub fn table(side: Side) -> DeviceTable {
                 _ => URDF_LEFT[i],
             };
             JointMap {
-                name: DEX3_JOINTS[i],
+                name: JOINTS[i],
                 wire_index: i,
                 urdf: format!("{}_hand_{}_joint", side.as_str(), urdf),
                 sign,

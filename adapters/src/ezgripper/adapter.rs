@@ -15,19 +15,9 @@ use tokio::sync::watch;
 use super::driver::{Calibration, EzGripperBus, GripperState};
 use super::protocol::ServoId;
 use crate::control::{Active, CommandState, Counters};
-use crate::device::{Capabilities, DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandCommand, HandState, JointState, SafeAction};
-
-/// Capabilities of an EZGripper.
-pub const CAPABILITIES: Capabilities = Capabilities {
-    feedback: true,
-    pressure: false,
-    imu: false,
-    power: false,
-    discovery: false,
-    calibration: true,
-};
 
 /// SAKE's driver reports `tau_est = effort / 10` (docs/sources.md §5); handgate keeps that scale: the
 /// canonical joint torque is `effort_pct / 10` ("N·m-like", positive = squeezing).
@@ -83,7 +73,7 @@ impl EzGripperDevice {
     /// A device for servo `id` on `bus`; `force_pct` is the grip force limit (% of the
     /// servo's current limit).
     pub fn start(info: DeviceInfo, bus: Arc<EzGripperBus>, id: ServoId, force_pct: f32) -> Result<Self, DeviceError> {
-        let mut rx = bus.subscribe(id).map_err(|e| DeviceError::Link(e.to_string()))?;
+        let mut rx = bus.subscribe(id).map_err(DeviceError::link)?;
         let table = info.table.clone();
         let cmd = CommandState::new(table.clone());
         let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
@@ -142,7 +132,7 @@ impl EzGripperDevice {
                     }
                 });
             })
-            .map_err(|e| DeviceError::Link(e.to_string()))?;
+            .map_err(DeviceError::link)?;
         Ok(Self {
             info,
             bus,
@@ -164,11 +154,8 @@ impl EzGripperDevice {
             Active::Command(t) | Active::Safe(_, t) => (t, self.force_pct),
         };
         let pct = self.info.table.to_wire(targets)[0].q;
-        let g = self
-            .bus
-            .gripper(self.id)
-            .map_err(|e| DeviceError::Link(e.to_string()))?;
-        g.set_target(pct, force).map_err(|e| DeviceError::Link(e.to_string()))?;
+        let g = self.bus.gripper(self.id).map_err(DeviceError::link)?;
+        g.set_target(pct, force).map_err(DeviceError::link)?;
         Counters::inc(&self.cmd.counters.sent);
         Ok(())
     }
@@ -220,9 +207,7 @@ impl HandDevice for EzGripperDevice {
     }
 
     async fn calibrate(&self) -> Result<(), DeviceError> {
-        self.bus
-            .calibrate(self.id)
-            .map_err(|e| DeviceError::Link(e.to_string()))
+        self.bus.calibrate(self.id).map_err(DeviceError::link)
     }
 }
 

@@ -92,12 +92,12 @@ pub fn encode_state(name: &str, device: &DeviceTable, st: &HandState) -> hg::Han
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::{DeviceKind, Side};
-    use handgate_adapters::tables::{table_for, TableParams};
 
     #[test]
     fn joints_by_name_closure_and_rejections() {
-        let t = table_for(DeviceKind::Dex3, Side::Right, &TableParams::default()).unwrap();
+        let t = DeviceKind::Dex3.table(Side::Right, &TableOverrides::default()).unwrap();
         let msg = hg::HandCmd_ {
             mode: hg::MODE_JOINTS,
             joints: vec![hg::JointCmd_ {

@@ -189,11 +189,11 @@ pub fn encode_hg(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::DeviceKind;
-    use handgate_adapters::tables::{table_for, TableParams};
 
     fn t() -> DeviceTable {
-        table_for(DeviceKind::Dex1, Side::Left, &TableParams::default()).unwrap()
+        DeviceKind::Dex1.table(Side::Left, &TableOverrides::default()).unwrap()
     }
 
     #[test]

@@ -143,12 +143,12 @@ pub fn encode_state(front: &DeviceTable, joints: &[JointState], st: &HandState) 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::{DeviceKind, Side};
-    use handgate_adapters::tables::{table_for, TableParams};
     use handgate_idl::unitree_hg::MotorCmd_;
 
     fn left() -> DeviceTable {
-        table_for(DeviceKind::Dex3, Side::Left, &TableParams::default()).unwrap()
+        DeviceKind::Dex3.table(Side::Left, &TableOverrides::default()).unwrap()
     }
 
     fn cmd() -> HandCmd_ {

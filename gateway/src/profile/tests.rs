@@ -711,11 +711,10 @@ fn usb_socket_points_the_device_at_the_emulator_process() {
     let text = "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n[devices.usb]\nsocket = \"/tmp/h.sock\"\n";
     let (_, r) = load_text(text);
     let plan = crate::resolve::plan(&r.unwrap().profile).unwrap();
-    match &plan.devices[0].transport {
-        crate::plan::Transport::Dex3Usb {
-            source: handgate_adapters::dex3::usb::adapter::UsbSource::Socket(p),
-            ..
-        } => assert_eq!(p, Path::new("/tmp/h.sock")),
+    let d = &plan.devices[0];
+    let profile = d.config.get::<handgate_adapters::dex3::kind::Dex3Profile>().unwrap();
+    match handgate_adapters::dex3::open::usb_source(&d.spec(), profile) {
+        handgate_adapters::dex3::usb::adapter::UsbSource::Socket(p) => assert_eq!(p, Path::new("/tmp/h.sock")),
         _ => panic!("usb.socket must select the socket transport"),
     }
 }
@@ -783,16 +782,9 @@ fn device_rate_defaults_per_kind() {
 
 #[test]
 fn dds_device_topics_follow_variant_and_state_source() {
-    let mut d = DeviceConfig {
-        kind: DeviceKind::Dex3,
-        side: Side::Right,
-        backend: Backend::Dds,
-        dds: Some(DeviceDdsConfig {
-            state_source: Some(StateSource::Lf),
-            ..DeviceDdsConfig::default()
-        }),
-        ..DeviceConfig::default()
-    };
+    // The kinds' own keys, as a profile sets them.
+    let device = |text: &str| load_text(text).1.unwrap().profile.devices[0].clone();
+    let d = device("[[devices]]\nname = \"d\"\nkind = \"dex3\"\nside = \"right\"\nbackend = \"dds\"\n[devices.dds]\nstate_source = \"lf\"\n");
     assert_eq!(
         d.dds_topics(),
         Some((
@@ -800,13 +792,10 @@ fn dds_device_topics_follow_variant_and_state_source() {
             Some(Topic::new("rt/lf/dex3/right/state"))
         ))
     );
-    d.kind = DeviceKind::Dex1;
-    d.dds = Some(DeviceDdsConfig {
-        variant: Some(Dex1Variant::Actuator),
-        ..DeviceDdsConfig::default()
-    });
+    let mut d = device("[[devices]]\nname = \"d\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"dds\"\n[devices.dds]\nvariant = \"actuator\"\n");
     assert_eq!(d.dds_topics().unwrap().0, Some(Topic::new("rt/unitree_actuator/cmd")));
-    assert_eq!(d.dex1_range(), Radians(5.4));
+    let dex1 = d.config.get::<handgate_adapters::dex1::kind::Dex1Profile>().unwrap();
+    assert_eq!(Radians(dex1.range_rad()), Radians(5.4));
     d.backend = Backend::Emulator;
     assert_eq!(d.dds_topics(), None);
 }
@@ -905,4 +894,48 @@ fn emulator_noise_keys_are_validated_and_default_on() {
     let n = e.noise_for("l", kind_default);
     assert_eq!((n.q, n.dq), (0.001, kind_default.dq));
     assert_ne!(n.seed, EmulatorConfig::default().noise_for("l", kind_default).seed);
+}
+
+/// The hardware range a profile's Dex3 limits are checked against (the kind's, through the
+/// registry).
+fn joint_range(kind: DeviceKind, side: Side, joint: &str) -> Option<(f64, f64)> {
+    kind.factory().hardware_range(side, joint)
+}
+
+/// Where a Dex3 joint is at closure 1 when the profile's `closure.closed` does not say: the
+/// kind's table's closed posture.
+fn dex3_closed_default(joint: &str) -> Option<f64> {
+    let id = DeviceKind::Dex3.joint(joint)?;
+    let t = DeviceKind::Dex3
+        .table(Side::Left, &handgate_adapters::mapping::TableOverrides::default())
+        .ok()?;
+    match t.closure {
+        handgate_adapters::mapping::ClosureMap::Postures { closed, .. } => closed.get(id.index()).map(|v| *v as f64),
+        _ => None,
+    }
+}
+
+#[test]
+fn dex3_ranges_are_canonical_and_equal_on_both_hands() {
+    for j in DeviceKind::Dex3.joint_names() {
+        let l = joint_range(DeviceKind::Dex3, Side::Left, j).unwrap();
+        let r = joint_range(DeviceKind::Dex3, Side::Right, j).unwrap();
+        assert_eq!(l, r, "{j}");
+        assert!(l.0 < l.1, "{j}");
+    }
+    // Fingers close positive in the canonical frame.
+    let (lo, hi) = joint_range(DeviceKind::Dex3, Side::Right, "index_1").unwrap();
+    assert!(lo.abs() < 1e-9 && (hi - 1.7453).abs() < 1e-6);
+    assert_eq!(joint_range(DeviceKind::Dex3, Side::Center, "index_1"), None);
+    assert_eq!(joint_range(DeviceKind::Dex3, Side::Left, "jaw"), None);
+}
+
+#[test]
+fn closed_default_is_inside_the_range() {
+    for j in DeviceKind::Dex3.joint_names() {
+        let c = dex3_closed_default(j).unwrap();
+        let (lo, hi) = joint_range(DeviceKind::Dex3, Side::Left, j).unwrap();
+        assert!(lo <= c && c <= hi, "{j}");
+    }
+    assert!(dex3_closed_default("index_0").unwrap() > 0.0);
 }

@@ -19,7 +19,7 @@ use super::rusb_transport::RusbTransport;
 use super::socket::UnixSocketTransport;
 use super::transport::TransportFactory;
 use crate::control::{Active, CommandState, Counters};
-use crate::device::{Capabilities, DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice};
 use crate::dex3::{Dex3Command, Dex3Measurement, MotorCommand, MotorStatus};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandCommand, HandState, Imu, JointCommand, Pad, Power, SafeAction};
@@ -230,16 +230,6 @@ fn reflected(sent: &mut VecDeque<(u64, u64, u32)>, loop_seq: u64) -> Option<(u64
     sent.drain(..n - 1);
     Some((seq, tag))
 }
-
-/// Capabilities of a Dex3 over USB.
-pub const CAPABILITIES: Capabilities = Capabilities {
-    feedback: true,
-    pressure: true,
-    imu: true,
-    power: true,
-    discovery: true,
-    calibration: false,
-};
 
 #[async_trait]
 impl HandDevice for Dex3UsbDevice {
