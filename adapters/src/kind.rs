@@ -255,6 +255,11 @@ pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
     /// anything: the place to see that every profile key reaches the device.
     fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn fmt::Debug>, DeviceError>;
 
+    /// `handgate emulate <kind>`: what this kind's emulator stands in for (the hardware at
+    /// its transport seam, or the robot's service) as a standalone process. Returns the line
+    /// to print (socket, pty or topics) and the running emulation.
+    fn emulate(&self, args: &EmulateArgs) -> Result<(String, Emulation), DeviceError>;
+
     /// Opens one device on its backend (the emulator backend included).
     fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError>;
 }
@@ -280,6 +285,69 @@ impl dyn KindFactory {
         overrides: &crate::mapping::TableOverrides,
     ) -> Result<DeviceTable, MappingError> {
         self.table(side, config).with_overrides(overrides)
+    }
+}
+
+/// Options of `handgate emulate <kind>`; each kind takes the ones it needs and refuses the
+/// others it cannot honour.
+#[derive(Debug, Clone, Default)]
+pub struct EmulateArgs {
+    pub side: Option<Side>,
+    /// Dex3: the hand's MCU behind this Unix socket (the USB frame protocol).
+    pub socket: Option<std::path::PathBuf>,
+    /// Dex3: the G1's resident hand service on DDS instead of the MCU.
+    pub service: bool,
+    /// Dex1: the wire variant (`go`, `hg`, `actuator`).
+    pub variant: Option<String>,
+    /// EZGripper: the servo ids on the emulated bus (default: the side's).
+    pub ids: Vec<u8>,
+    /// EZGripper: where to link the pseudo-terminal (default: a temporary path).
+    pub pty: Option<std::path::PathBuf>,
+    /// DDS domain and interface of a service emulator.
+    pub domain: u32,
+    pub interface: Option<String>,
+    /// Exact values instead of the kind's measurement noise.
+    pub no_noise: bool,
+    /// Seed of the measurement noise.
+    pub seed: Option<u64>,
+}
+
+impl EmulateArgs {
+    /// The measurement noise to emulate, given the kind's figures.
+    pub fn noise(&self, kind_default: crate::sim::Noise) -> crate::sim::Noise {
+        if self.no_noise {
+            crate::sim::Noise::OFF
+        } else {
+            kind_default.with_seed(self.seed.unwrap_or(crate::sim::Noise::DEFAULT_SEED))
+        }
+    }
+
+    /// The side, or an error naming the kind that needs it.
+    pub fn side(&self, kind: &str) -> Result<Side, DeviceError> {
+        self.side
+            .ok_or_else(|| DeviceError::Config(format!("emulating a {kind} needs --side left|right")))
+    }
+
+    /// A node on the emulation's domain.
+    pub fn node(&self) -> Result<crate::dds::Node, DeviceError> {
+        Ok(crate::dds::Node::new(self.domain, self.interface.as_deref())?)
+    }
+}
+
+/// A running `handgate emulate`.
+pub enum Emulation {
+    /// A server that runs until the process stops.
+    Blocking(Box<dyn FnOnce() -> Result<(), DeviceError> + Send>),
+    /// Runs in the background until this is dropped.
+    Running(Box<dyn Send>),
+}
+
+impl fmt::Debug for Emulation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Emulation::Blocking(_) => "Emulation::Blocking",
+            Emulation::Running(_) => "Emulation::Running",
+        })
     }
 }
 

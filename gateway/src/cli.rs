@@ -68,11 +68,11 @@ pub enum Command {
         #[arg(long)]
         socket: Option<PathBuf>,
     },
-    /// Run an emulator as a standalone process.
-    Emulate {
-        #[command(subcommand)]
-        target: EmulateTarget,
-    },
+    /// Run a kind's emulator as a standalone process: what stands where the hardware or the
+    /// robot's service would (`handgate emulate dex3 --side left --socket PATH`, `dex3
+    /// --service`, `dex1 --variant go|hg|actuator`, `hand_sdk`, `ezgripper --ids 1,2`), so a
+    /// profile written for a robot runs against it on any domain.
+    Emulate(EmulateCmd),
     /// Send one canonical command to a named device (bring-up).
     Send {
         /// Device name from the profile (e.g. dex3_left).
@@ -104,27 +104,61 @@ pub enum Command {
     },
 }
 
-/// What `handgate emulate` runs.
-#[derive(Debug, Subcommand)]
-pub enum EmulateTarget {
-    /// A Dex3-1's MCU behind a Unix socket, speaking the USB frame protocol. Point a device
-    /// at it with `backend = "usb"` and `usb.socket = PATH`; kill and restart it to emulate
-    /// an unplug.
-    Dex3 {
-        /// left or right.
-        #[arg(long)]
-        side: handgate_adapters::model::Side,
-        /// Socket path.
-        #[arg(long)]
-        socket: PathBuf,
-        /// Report exact joint values (no measurement noise; the default adds the HG motor's,
-        /// docs/adapters.md).
-        #[arg(long)]
-        no_noise: bool,
-        /// Seed of the measurement noise (default fixed, so runs repeat exactly).
-        #[arg(long)]
-        seed: Option<u64>,
-    },
+/// `handgate emulate <kind>`.
+#[derive(Debug, Clone, Args)]
+pub struct EmulateCmd {
+    /// A device kind (`handgate check` lists them in profiles: dex3, dex1, ezgripper, hand_sdk).
+    pub kind: String,
+    /// left or right (the emulated hand or gripper).
+    #[arg(long)]
+    pub side: Option<handgate_adapters::model::Side>,
+    /// dex3: the hand's MCU behind this Unix socket, speaking the USB frame protocol (point a
+    /// device at it with `backend = "usb"` and `usb.socket = PATH`; kill and restart it to
+    /// emulate an unplug).
+    #[arg(long)]
+    pub socket: Option<PathBuf>,
+    /// dex3: the G1's resident hand service on DDS instead of the MCU.
+    #[arg(long)]
+    pub service: bool,
+    /// dex1: the wire variant (go, hg, actuator).
+    #[arg(long)]
+    pub variant: Option<String>,
+    /// ezgripper: servo ids on the emulated bus (default: the side's).
+    #[arg(long, value_delimiter = ',')]
+    pub ids: Vec<u8>,
+    /// ezgripper: where to link the bus's pseudo-terminal (default: a temporary path).
+    #[arg(long)]
+    pub pty: Option<PathBuf>,
+    /// DDS domain of a service emulator.
+    #[arg(long, default_value_t = 1)]
+    pub domain: u32,
+    /// Network interface for DDS, e.g. eth0.
+    #[arg(long)]
+    pub interface: Option<String>,
+    /// Report exact joint values (no measurement noise; the default adds the kind's,
+    /// docs/adapters.md).
+    #[arg(long)]
+    pub no_noise: bool,
+    /// Seed of the measurement noise (default fixed, so runs repeat exactly).
+    #[arg(long)]
+    pub seed: Option<u64>,
+}
+
+impl From<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
+    fn from(c: EmulateCmd) -> Self {
+        handgate_adapters::kind::EmulateArgs {
+            side: c.side,
+            socket: c.socket,
+            service: c.service,
+            variant: c.variant,
+            ids: c.ids,
+            pty: c.pty,
+            domain: c.domain,
+            interface: c.interface,
+            no_noise: c.no_noise,
+            seed: c.seed,
+        }
+    }
 }
 
 /// `NAME=RAD` for `send --joint`.

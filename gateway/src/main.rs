@@ -142,29 +142,26 @@ fn main() -> anyhow::Result<ExitCode> {
             let report = discover(t.as_mut(), DiscoveryOptions::default(), &Scalings::default())?;
             print!("{}", report.wiring_template());
         }
-        Command::Emulate {
-            target:
-                handgate_gateway::cli::EmulateTarget::Dex3 {
-                    side,
-                    socket,
-                    no_noise,
-                    seed,
-                },
-        } => {
-            use handgate_adapters::dex3::usb::{run_emulator_server, EmulatorClock, EmulatorConfig};
-            use handgate_adapters::sim::Noise;
-            println!("emulating a Dex3-1 {side} hand on {}", socket.display());
-            let noise = if no_noise {
-                Noise::OFF
-            } else {
-                handgate_adapters::dex3::physical::HG_MOTOR_NOISE.with_seed(seed.unwrap_or(Noise::DEFAULT_SEED))
+        Command::Emulate(cmd) => {
+            use handgate_adapters::kind::{DeviceKind, Emulation};
+            let Some(kind) = DeviceKind::by_name(&cmd.kind) else {
+                anyhow::bail!(
+                    "unknown kind {:?} (kinds: {})",
+                    cmd.kind,
+                    DeviceKind::names().join(", ")
+                );
             };
-            let cfg = EmulatorConfig {
-                clock: EmulatorClock::Wall,
-                noise,
-                ..Default::default()
-            };
-            run_emulator_server(&socket, side, cfg)?;
+            let (what, emulation) = kind.factory().emulate(&cmd.into())?;
+            println!("{what}");
+            match emulation {
+                Emulation::Blocking(run) => run()?,
+                Emulation::Running(keep) => {
+                    let rt = tokio::runtime::Runtime::new()?;
+                    let sig = rt.block_on(wait_for_signal())?;
+                    tracing::info!(signal = sig, "stopping the emulator");
+                    drop(keep);
+                }
+            }
         }
         Command::Send {
             device,

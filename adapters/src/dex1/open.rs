@@ -8,6 +8,7 @@ use super::kind::Dex1Profile;
 use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer};
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::emu_common::Hz;
+use crate::kind::{EmulateArgs, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// What a Dex1 opens with: decided from the profile, before anything starts.
@@ -74,4 +75,34 @@ pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn Hand
             Box::new(WithPeer::new(device, peer))
         }
     })
+}
+
+/// `handgate emulate dex1`: dex1_1_service (or SAKE's driver) in the `--variant` wire variant
+/// on DDS.
+pub fn emulate(args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
+    let variant = match args.variant.as_deref().unwrap_or("go") {
+        "go" => Variant::Go,
+        "hg" => Variant::Hg,
+        "actuator" => Variant::Actuator,
+        other => {
+            return Err(DeviceError::Config(format!(
+                "unknown dex1 variant {other:?} (go, hg, actuator)"
+            )))
+        }
+    };
+    let side = match variant {
+        // One actuator service serves both grippers.
+        Variant::Actuator => args.side.unwrap_or(crate::model::Side::Left),
+        _ => args.side("dex1")?,
+    };
+    let node = args.node()?;
+    let mut cfg = Dex1Config::new(variant, side);
+    cfg.noise = args.noise(crate::dex3::physical::HG_MOTOR_NOISE);
+    let emu = Dex1Emulator::start(&node, cfg)?;
+    let (cmd, state) = variant.topics(side);
+    let what = format!(
+        "emulating dex1_1_service ({variant}): {cmd}, {state} on DDS domain {}",
+        args.domain
+    );
+    Ok((what, Emulation::Running(Box::new((emu, node)))))
 }

@@ -5,11 +5,13 @@
 use std::time::Duration;
 
 use super::dds_client::Dex3DdsCodec;
+use super::dds_service_emulator::{Dex3ServiceConfig, Dex3ServiceEmulator};
 use super::kind::{Dex3Profile, WiringConfig};
 use super::usb::adapter::{Dex3UsbDevice, UsbSource};
-use super::usb::{BusAddr, BusId, DeviceId, EmulatorConfig, LoopConfig, WiringMap};
+use super::usb::{run_emulator_server, BusAddr, BusId, DeviceId, EmulatorClock, EmulatorConfig, LoopConfig, WiringMap};
 use crate::dds_device::{DdsDevice, DdsDeviceConfig};
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::kind::{EmulateArgs, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// The profile's (partial) wiring over the USB adapter's default map.
@@ -125,4 +127,39 @@ pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn Hand
             Box::new(Dex3UsbDevice::start(spec.info(), source, config).map_err(DeviceError::link)?)
         }
     })
+}
+
+/// `handgate emulate dex3`: the hand's MCU on a Unix socket (`--socket`), or the G1's resident
+/// hand service on DDS (`--service`).
+pub fn emulate(args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
+    let side = args.side("dex3")?;
+    let noise = args.noise(super::physical::HG_MOTOR_NOISE);
+    match (&args.socket, args.service) {
+        (Some(socket), false) => {
+            let socket = socket.clone();
+            let what = format!("emulating a Dex3-1 {side} hand on {}", socket.display());
+            let cfg = EmulatorConfig {
+                clock: EmulatorClock::Wall,
+                noise,
+                ..Default::default()
+            };
+            let run = move || run_emulator_server(&socket, side, cfg).map_err(DeviceError::link);
+            Ok((what, Emulation::Blocking(Box::new(run))))
+        }
+        (None, true) => {
+            let node = args.node()?;
+            let mut cfg = Dex3ServiceConfig::new(side);
+            cfg.noise = noise;
+            let emu = Dex3ServiceEmulator::start(&node, cfg)?;
+            let (cmd, state) = super::dds_client::topics(side, super::dds_client::StateSource::State);
+            let what = format!(
+                "emulating the G1's Dex3-1 {side} hand service: {cmd}, {state} and its rt/lf copy on DDS domain {}",
+                args.domain
+            );
+            Ok((what, Emulation::Running(Box::new((emu, node)))))
+        }
+        _ => Err(DeviceError::Config(
+            "emulating a dex3 takes --socket PATH (the hand's MCU) or --service (the G1's hand service)".into(),
+        )),
+    }
 }

@@ -187,6 +187,10 @@ impl KindFactory for EzGripperFactory {
         Ok(Box::new(super::open::configure(spec)?))
     }
 
+    fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
+        super::open::emulate(args)
+    }
+
     fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
         super::open::open(spec, env)
     }

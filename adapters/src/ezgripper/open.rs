@@ -14,6 +14,7 @@ use super::emulator::{EmulatorConfig, VirtualBus, MX64_NOISE};
 use super::kind::{EzGripperConfig, EzProfile};
 use super::protocol::ServoId;
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::kind::{EmulateArgs, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// A measurement older than this is stale: the same bound as the DDS-side devices, so a
@@ -124,4 +125,32 @@ pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn Hand
         .cloned()
         .ok_or_else(|| DeviceError::Config(format!("no bus open on {}", c.port)))?;
     Ok(Box::new(EzGripperDevice::start(spec.info(), bus, c.id, c.force_pct)?))
+}
+
+/// `handgate emulate ezgripper`: EZGrippers on a virtual MX-64 bus behind a pseudo-terminal
+/// (`--ids`, default the side's servo id); prints the path to give as `ezgripper.port`.
+pub fn emulate(args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
+    let ids = if args.ids.is_empty() {
+        vec![super::driver::default_id(args.side.unwrap_or_default()).get()]
+    } else {
+        args.ids.clone()
+    };
+    for id in &ids {
+        ServoId::new(*id).map_err(DeviceError::config)?;
+    }
+    let link = args.pty.clone().unwrap_or_else(|| {
+        pty_link(&format!(
+            "-emulate-{}",
+            ids.iter().map(u8::to_string).collect::<Vec<_>>().join("-")
+        ))
+    });
+    let mut cfg = EmulatorConfig::with_ids(&ids);
+    cfg.noise = args.noise(MX64_NOISE);
+    let bus = VirtualBus::start(&link, cfg).map_err(DeviceError::link)?;
+    let what = format!(
+        "emulating EZGripper servo id(s) {} at 1000000 baud on {}",
+        ids.iter().map(u8::to_string).collect::<Vec<_>>().join(", "),
+        bus.path().display()
+    );
+    Ok((what, Emulation::Running(Box::new(bus))))
 }

@@ -7,6 +7,7 @@ use super::emulator::{HandSdkConfig, HandSdkEmulator};
 use super::kind::HandSdkProfile;
 use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer};
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::kind::{EmulateArgs, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// What an `rt/hand_sdk` device opens with: decided from the profile, before anything starts.
@@ -55,4 +56,16 @@ pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn Hand
             Ok(Box::new(WithPeer::new(device, peer)))
         }
     }
+}
+
+/// `handgate emulate hand_sdk`: ai_sport's `rt/hand_sdk` blend on DDS.
+pub fn emulate(args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
+    let node = args.node()?;
+    let cfg = HandSdkConfig::default();
+    let what = format!(
+        "emulating ai_sport's hand SDK blend on {} on DDS domain {}",
+        cfg.topic, args.domain
+    );
+    let emu = HandSdkEmulator::start(&node, cfg)?;
+    Ok((what, Emulation::Running(Box::new((emu, node)))))
 }
