@@ -160,18 +160,31 @@ pub trait HandDevice: Send + Sync {
         DeviceStats::default()
     }
 
-    /// Reports the wiring the device answers from (Dex3 over USB).
-    async fn discover(&self) -> Result<String, DeviceError> {
-        Err(DeviceError::Unsupported("discovery"))
+    /// Wiring discovery, when the device can report the (bus, id) slots it answers from.
+    fn discovery(&self) -> Option<&dyn Discover> {
+        None
     }
 
-    /// Runs the device's calibration (EZGripper).
-    async fn calibrate(&self) -> Result<(), DeviceError> {
-        Err(DeviceError::Unsupported("calibration"))
+    /// Calibration, when the device has one.
+    fn calibration(&self) -> Option<&dyn Calibrate> {
+        None
     }
 
     /// Safe state, then release the transport. Called once at gateway shutdown.
     async fn shutdown(&self, action: SafeAction) -> Result<(), DeviceError> {
         self.safe_state(action).await
     }
+}
+
+/// An optional ability: reporting the wiring a device answers from (a profile snippet).
+#[async_trait]
+pub trait Discover: Send + Sync {
+    async fn discover(&self) -> Result<String, DeviceError>;
+}
+
+/// An optional ability: running the device's calibration; returns what it found (for the
+/// profile).
+#[async_trait]
+pub trait Calibrate: Send + Sync {
+    async fn calibrate(&self) -> Result<String, DeviceError>;
 }

@@ -55,18 +55,28 @@ pub enum Command {
     },
     /// List the Dex3-1 hands on USB (with permission problems explained).
     List,
-    /// Report which (bus, id) a Dex3-1 on USB answers from, and print a wiring table to
-    /// paste into a profile (sends zero-gain frames only: nothing moves).
+    /// Report the wiring a device answers from (a Dex3-1 over USB: which (bus, id) each motor
+    /// and sensor answers on), as a profile snippet to paste. Opens only that device, through
+    /// its kind; sends zero-gain frames only: nothing moves.
     Discover {
-        /// left or right.
+        /// Device name in the profile.
+        device: String,
+        /// Profile (as for `run --profile`); without it: the embedded default.
         #[arg(long)]
-        side: handgate_adapters::model::Side,
-        /// USB serial number, to pick one of several hands of that side.
+        profile: Option<String>,
+        #[command(flatten)]
+        overrides: OverrideArgs,
+    },
+    /// Run a device's calibration (an EZGripper closes to its stop to find zero: it moves)
+    /// and print what to put in the profile. Opens only that device, through its kind.
+    Calibrate {
+        /// Device name in the profile.
+        device: String,
+        /// Profile (as for `run --profile`); without it: the embedded default.
         #[arg(long)]
-        serial: Option<String>,
-        /// Talk to an emulator socket (`handgate emulate dex3`) instead of USB.
-        #[arg(long)]
-        socket: Option<PathBuf>,
+        profile: Option<String>,
+        #[command(flatten)]
+        overrides: OverrideArgs,
     },
     /// Run a kind's emulator as a standalone process: what stands where the hardware or the
     /// robot's service would (`handgate emulate dex3 --side left --socket PATH`, `dex3

@@ -106,6 +106,24 @@ pub fn open_devices(node: &Node, plan: &Plan, shared: &mut Shared) -> Result<Vec
         .collect()
 }
 
+/// Opens the one device of `plan` called `name` (and what its kind shares for it), for the
+/// tools that drive a single device (`handgate discover`, `handgate calibrate`).
+pub fn open_device(
+    node: &Node,
+    plan: &Plan,
+    name: &str,
+    shared: &mut Shared,
+) -> Result<Arc<dyn HandDevice>, RuntimeError> {
+    let one = Plan {
+        devices: plan.devices.iter().filter(|d| d.name == name).cloned().collect(),
+        fronts: Vec::new(),
+        ..plan.clone()
+    };
+    open_devices(node, &one, shared)?
+        .pop()
+        .ok_or_else(|| RuntimeError::UnknownDevice(name.to_string()))
+}
+
 /// Logs at most once per second per key.
 #[derive(Debug, Default)]
 struct RateLimitedLog {

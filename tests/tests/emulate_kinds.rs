@@ -1,6 +1,6 @@
 //! `handgate emulate <kind>` for every kind (docs/adapters.md, "Emulators"): each emulator runs
 //! as a process of its own where the hardware or the robot's service would be, so a profile
-//! written for a robot runs off-robot against it, on any domain. Domains 190-195.
+//! written for a robot runs off-robot against it, on any domain. Domains 190-196.
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
@@ -165,4 +165,74 @@ fn g1_ezgripper_profile_runs_against_an_emulated_bus_on_a_pty() {
     );
     let _gw = Gateway::start(194, &["--profile", p.to_str().unwrap()]);
     wait_status(194, &["left_gripper", "right_gripper"], hg::FRESH);
+}
+
+/// `handgate <args>` to completion (bounded by `DEADLINE`): (exit success, stdout, stderr).
+fn handgate(args: &[&str]) -> (bool, String, String) {
+    let mut cmd = Command::new(handgate_bin());
+    cmd.args(args);
+    for (k, _) in std::env::vars() {
+        if k.starts_with("HANDGATE_") {
+            cmd.env_remove(k);
+        }
+    }
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("handgate starts");
+    let done = poll(DEADLINE, || child.try_wait().ok().flatten());
+    if done.is_none() {
+        let _ = child.kill();
+    }
+    let out = child.wait_with_output().expect("handgate output");
+    (
+        done.is_some() && out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn write_profile(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("handgate-emulate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn discover_and_calibrate_go_through_the_devices_abilities() {
+    let _g = serial();
+    // A Dex3 over USB, the MCU emulated behind a socket: its wiring, as a profile snippet.
+    let socket = std::env::temp_dir().join(format!("handgate-emulate-{}-dex3.sock", std::process::id()));
+    let _ = std::fs::remove_file(&socket);
+    let _mcu = Emulator::start(&["dex3", "--side", "left", "--socket", socket.to_str().unwrap()]);
+    let hand = write_profile(
+        "discover",
+        &format!(
+            "name = \"discover\"\n[dds]\ndomain = 196\n[[devices]]\nname = \"hand\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n[devices.usb]\nsocket = \"{}\"\n",
+            socket.display()
+        ),
+    );
+    let (ok, out, err) = handgate(&["discover", "hand", "--profile", hand.to_str().unwrap()]);
+    assert!(ok, "{out}{err}");
+    assert!(
+        out.contains("motors answering: 7") && out.contains("[devices.usb.wiring.joints]"),
+        "{out}"
+    );
+    // A Dex3 has no calibration: said, not silently done.
+    let (ok, _, err) = handgate(&["calibrate", "hand", "--profile", hand.to_str().unwrap()]);
+    assert!(!ok && err.contains("has no calibration"), "{err}");
+    // An emulated EZGripper powers up uncalibrated: calibrating finds its zero.
+    let grip = write_profile(
+        "calibrate",
+        "name = \"calibrate\"\n[dds]\ndomain = 196\n[[devices]]\nname = \"grip\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"emulator\"\n",
+    );
+    let (ok, out, err) = handgate(&["calibrate", "grip", "--profile", grip.to_str().unwrap()]);
+    assert!(ok, "{out}{err}");
+    assert!(out.contains("grip calibrated: zero_ticks = "), "{out}");
+    let (ok, _, err) = handgate(&["discover", "grip", "--profile", grip.to_str().unwrap()]);
+    assert!(!ok && err.contains("has no wiring discovery"), "{err}");
 }

@@ -15,7 +15,7 @@ use tokio::sync::watch;
 use super::driver::{Calibration, EzGripperBus, GripperState};
 use super::protocol::ServoId;
 use crate::control::{Active, CommandState, Counters};
-use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::device::{Calibrate, DeviceError, DeviceInfo, DeviceStats, HandDevice};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandCommand, HandState, JointState, SafeAction};
 
@@ -206,8 +206,44 @@ impl HandDevice for EzGripperDevice {
         s
     }
 
-    async fn calibrate(&self) -> Result<(), DeviceError> {
-        self.bus.calibrate(self.id).map_err(DeviceError::link)
+    fn calibration(&self) -> Option<&dyn Calibrate> {
+        Some(self)
+    }
+}
+
+/// How long a calibration may take before `calibrate` gives up waiting (the driver's own
+/// timeout, `calibration_timeout_ms`, is 6.6 s by default).
+pub const CALIBRATION_WAIT: Duration = Duration::from_secs(15);
+
+#[async_trait]
+impl Calibrate for EzGripperDevice {
+    /// Closes the gripper to its stop to find the zero (it moves), waits for the result and
+    /// returns the zero as the profile's `zero_ticks`.
+    async fn calibrate(&self) -> Result<String, DeviceError> {
+        let mut rx = self.bus.subscribe(self.id).map_err(DeviceError::link)?;
+        rx.mark_unchanged();
+        self.bus.calibrate(self.id).map_err(DeviceError::link)?;
+        let wait = async {
+            let mut started = false;
+            loop {
+                match rx.borrow_and_update().calibration.clone() {
+                    super::driver::Calibration::Running => started = true,
+                    super::driver::Calibration::Calibrated { zero_ticks } if started => {
+                        return Ok(format!("zero_ticks = {zero_ticks}"))
+                    }
+                    super::driver::Calibration::Failed { reason } if started => {
+                        return Err(DeviceError::Config(format!("calibration failed: {reason}")))
+                    }
+                    _ => {}
+                }
+                if rx.changed().await.is_err() {
+                    return Err(DeviceError::Stopped);
+                }
+            }
+        };
+        tokio::time::timeout(CALIBRATION_WAIT, wait)
+            .await
+            .map_err(|_| DeviceError::NotConfirmed(CALIBRATION_WAIT))?
     }
 }
 
