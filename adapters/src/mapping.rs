@@ -295,6 +295,45 @@ impl DeviceTable {
         }
     }
 
+    /// Whether `body` can be mapped safely, whatever the measured state: every joint id
+    /// exists, every value of every joint command is finite, a closure is finite (the same
+    /// errors [`Self::resolve`] would give, without building the targets).
+    pub fn check(&self, body: &CommandBody) -> Result<(), MappingError> {
+        match body {
+            CommandBody::Joints(list) => {
+                let mut last: Vec<Option<&JointCommand>> = vec![None; self.joints.len()];
+                for (id, c) in list {
+                    self.joint(*id)?;
+                    last[id.index()] = Some(c);
+                }
+                for (j, c) in self.joints.iter().zip(last) {
+                    if c.is_some_and(|c| !c.is_finite()) {
+                        return Err(MappingError::NonFinite(j.name));
+                    }
+                }
+                Ok(())
+            }
+            CommandBody::Closure { closure, .. } => {
+                if !closure.is_finite() {
+                    return Err(MappingError::BadClosure(*closure));
+                }
+                match &self.closure {
+                    ClosureMap::Postures { open, closed, .. }
+                        if open.len() != self.joints.len() || closed.len() != self.joints.len() =>
+                    {
+                        Err(MappingError::ClosureShape(
+                            self.kind,
+                            self.joints.len(),
+                            open.len().min(closed.len()),
+                        ))
+                    }
+                    _ => Ok(()),
+                }
+            }
+            CommandBody::Safe(_) => Ok(()),
+        }
+    }
+
     /// Resolves a command body into a full set of sanitized canonical targets, given the
     /// previous targets (joints a partial command leaves out keep them) and the measured
     /// state (for per-step limits and holds).

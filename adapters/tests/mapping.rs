@@ -237,3 +237,32 @@ fn profile_limit_override_applies_and_unknown_joint_errors() {
     };
     assert!(DeviceKind::Dex3.table(Side::Left, &bad).is_err());
 }
+
+proptest! {
+    /// `DeviceTable::check` (what `CommandState::submit` asks, without building targets)
+    /// refuses exactly what resolving the command would, with the same error.
+    #[test]
+    fn check_refuses_exactly_what_resolve_refuses(
+        t in 0usize..8,
+        entries in prop::collection::vec((0u8..9, any_f32(), any_f32(), any_f32(), any_f32(), any_f32()), 0..9),
+        closure in any_f32(),
+        as_closure in prop::bool::ANY,
+    ) {
+        let table = &all_tables()[t];
+        let body = if as_closure {
+            CommandBody::Closure { closure, stiffness: None }
+        } else {
+            CommandBody::Joints(
+                entries
+                    .iter()
+                    .map(|&(id, q, dq, tau, kp, kd)| (JointId(id), JointCommand { q, dq, tau, kp, kd }))
+                    .collect(),
+            )
+        };
+        // Compared as text: a NaN closure is in the error, and NaN != NaN.
+        prop_assert_eq!(
+            format!("{:?}", table.check(&body)),
+            format!("{:?}", table.resolve(&body, None, &[]).map(|_| ()))
+        );
+    }
+}

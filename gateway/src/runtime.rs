@@ -292,7 +292,8 @@ fn spawn_joint_state(
 struct Bound {
     slot: Arc<DeviceSlot>,
     /// The front's table for this device (its wire convention and side).
-    ftable: Arc<DeviceTable>,
+    /// The front's table and the device's, paired once at bind time.
+    route: router::Route,
     element: usize,
     silence: SilencePlan,
     seq: u64,
@@ -338,7 +339,10 @@ fn spawn_front(
             .cloned()
             .ok_or_else(|| RuntimeError::UnknownDevice(b.device.clone()))?;
         bound.push(Bound {
-            ftable: b.table.clone().unwrap_or_else(|| slot.table.clone()),
+            route: router::Route::bind(
+                b.table.clone().unwrap_or_else(|| slot.table.clone()),
+                slot.table.clone(),
+            ),
             element: b.element,
             silence: b.silence,
             seq: 0,
@@ -555,35 +559,32 @@ type Routed = (handgate_adapters::model::CommandBody, u32, bool);
 fn decode(f: &FrontPlan, bound: &[Bound], msg: &Incoming) -> Result<Vec<(usize, Routed)>, Rejection> {
     let measured = |b: &Bound| {
         let st = b.slot.device.state().borrow().clone();
-        router::route_state(&b.ftable, &b.slot.table, &st.joints, st.closure)
+        b.route.state(&st.joints, st.closure)
     };
     let only = |r: Routed| vec![(0, r)];
     let b0 = &bound[0];
     Ok(match msg {
-        Incoming::Dex3(m) => only(
-            fronts::dex3::decode_cmd(m, &b0.ftable, &measured(b0)).map(|c| routed(&b0.ftable, &b0.slot.table, c))?,
-        ),
+        Incoming::Dex3(m) => {
+            only(fronts::dex3::decode_cmd(m, &b0.route.front, &measured(b0)).map(|c| routed(&b0.route, c))?)
+        }
         Incoming::Dex1Go(m) => match &f.kind {
             FrontKind::Dex1 {
                 variant: Variant::Actuator,
                 ..
             } => {
-                let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.ftable)).collect();
+                let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.route.front)).collect();
                 fronts::dex1::decode_actuator(m, &elems)?
                     .into_iter()
                     .zip(bound)
                     .enumerate()
-                    .map(|(i, (c, b))| (i, routed(&b.ftable, &b.slot.table, c)))
+                    .map(|(i, (c, b))| (i, routed(&b.route, c)))
                     .collect()
             }
             _ => only(
-                fronts::dex1::decode_go(m, Variant::Go, Side::Left, &b0.ftable)
-                    .map(|c| routed(&b0.ftable, &b0.slot.table, c))?,
+                fronts::dex1::decode_go(m, Variant::Go, Side::Left, &b0.route.front).map(|c| routed(&b0.route, c))?,
             ),
         },
-        Incoming::Dex1Hg(m) => {
-            only(fronts::dex1::decode_hg(m, &b0.ftable).map(|c| routed(&b0.ftable, &b0.slot.table, c))?)
-        }
+        Incoming::Dex1Hg(m) => only(fronts::dex1::decode_hg(m, &b0.route.front).map(|c| routed(&b0.route, c))?),
         Incoming::Canonical(m) => {
             only(fronts::canonical::decode_cmd(m, &b0.slot.table, b0.slot.plan.safe_action).map(|b| (b, 0, false))?)
         }
@@ -594,8 +595,8 @@ fn decode(f: &FrontPlan, bound: &[Bound], msg: &Incoming) -> Result<Vec<(usize, 
 /// listening for it (the periodic state carries on regardless).
 const PROMPT_STATE_WAIT: Duration = Duration::from_millis(100);
 
-fn routed(ftable: &DeviceTable, dtable: &DeviceTable, c: FrontCommand) -> Routed {
-    (router::route_command(ftable, dtable, &c.joints), c.tag, c.timeout_bit)
+fn routed(route: &router::Route, c: FrontCommand) -> Routed {
+    (route.command(&c.joints), c.tag, c.timeout_bit)
 }
 
 /// A front's state writers.
@@ -633,14 +634,14 @@ impl FrontWriters {
         let now = Instant::now();
         let view = |b: &Bound| {
             let st = b.slot.device.state().borrow().clone();
-            let joints = router::route_state(&b.ftable, &b.slot.table, &st.joints, st.closure);
+            let joints = b.route.state(&st.joints, st.closure);
             (st, joints)
         };
         let b0 = &bound[0];
         let _ = match self {
             FrontWriters::Dex3 { state, lf: lfw } => {
                 let (st, joints) = view(b0);
-                let msg = fronts::dex3::encode_state(&b0.ftable, &joints, &st);
+                let msg = fronts::dex3::encode_state(&b0.route.front, &joints, &st);
                 match (lf, lfw) {
                     (true, Some(w)) => w.write(msg),
                     (true, None) => Ok(()),
@@ -655,22 +656,22 @@ impl FrontWriters {
                     // Every element measured: each from its own gripper; an unbound one as
                     // never measured.
                     let mut m = unitree_go::MotorStates_ {
-                        states: vec![fronts::dex1::unbound_state(&b0.ftable); f.elements()],
+                        states: vec![fronts::dex1::unbound_state(&b0.route.front); f.elements()],
                     };
                     for b in bound {
                         let (st, joints) = view(b);
-                        m.states[b.element] = fronts::dex1::go_state(&b.ftable, &joints[0], &st, now);
+                        m.states[b.element] = fronts::dex1::go_state(&b.route.front, &joints[0], &st, now);
                     }
                     w.write(m)
                 }
                 _ => {
                     let (st, joints) = view(b0);
-                    w.write(fronts::dex1::encode_go(&b0.ftable, &joints[0], &st, now))
+                    w.write(fronts::dex1::encode_go(&b0.route.front, &joints[0], &st, now))
                 }
             },
             FrontWriters::Dex1Hg(w) => {
                 let (st, joints) = view(b0);
-                w.write(fronts::dex1::encode_hg(&b0.ftable, &joints[0], &st, now))
+                w.write(fronts::dex1::encode_hg(&b0.route.front, &joints[0], &st, now))
             }
             FrontWriters::Canonical(w) => {
                 let st = b0.slot.device.state().borrow().clone();
