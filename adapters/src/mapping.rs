@@ -16,6 +16,38 @@ use crate::sim::MotorTarget;
 /// A joint command in the device's own frame and units (its wire values).
 pub type WireTarget = MotorTarget;
 
+/// The five command fields of a wire target in a unitree_go motor command (mode 0: the
+/// caller sets it where it means something).
+impl From<WireTarget> for handgate_idl::unitree_go::MotorCmd_ {
+    fn from(w: WireTarget) -> Self {
+        Self {
+            mode: 0,
+            q: w.q,
+            dq: w.dq,
+            tau: w.tau,
+            kp: w.kp,
+            kd: w.kd,
+            reserve: Default::default(),
+        }
+    }
+}
+
+/// The five command fields of a wire target in a unitree_hg motor command (mode 0: the caller
+/// sets it where it means something, e.g. the Dex3 RIS byte).
+impl From<WireTarget> for handgate_idl::unitree_hg::MotorCmd_ {
+    fn from(w: WireTarget) -> Self {
+        Self {
+            mode: 0,
+            q: w.q,
+            dq: w.dq,
+            tau: w.tau,
+            kp: w.kp,
+            kd: w.kd,
+            reserve: Default::default(),
+        }
+    }
+}
+
 /// Inclusive range in canonical units (rad, positive = closing).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Limits {

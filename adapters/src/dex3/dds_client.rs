@@ -61,12 +61,7 @@ pub fn encode_hand_cmd(table: &DeviceTable, targets: &[crate::model::JointComman
     for (i, (m, w)) in msg.motor_cmd.iter_mut().zip(&wire).enumerate() {
         *m = MotorCmd_ {
             mode: RisMode::foc(i as u8, timeout_bit).encode(),
-            q: w.q,
-            dq: w.dq,
-            tau: w.tau,
-            kp: w.kp,
-            kd: w.kd,
-            reserve: 0,
+            ..MotorCmd_::from(*w)
         };
     }
     msg

@@ -207,6 +207,20 @@ pub struct MotorCommand {
     pub status: MotorStatus,
 }
 
+/// A wire target's five fields under field-oriented control (status FOC).
+impl From<crate::mapping::WireTarget> for MotorCommand {
+    fn from(w: crate::mapping::WireTarget) -> Self {
+        Self {
+            q: w.q,
+            dq: w.dq,
+            tau: w.tau,
+            kp: w.kp,
+            kd: w.kd,
+            status: MotorStatus::Foc,
+        }
+    }
+}
+
 /// A command for the whole hand, motors in IDL order.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Dex3Command {

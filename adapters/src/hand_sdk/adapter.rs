@@ -90,15 +90,7 @@ impl DdsCodec for HandSdkCodec {
         let wire = table.to_wire(&target);
         let mut msg = unitree_go::MotorCmds_::with_len(MOTORS);
         for (m, w) in msg.cmds.iter_mut().zip(&wire) {
-            *m = unitree_go::MotorCmd_ {
-                mode: 0,
-                q: w.q,
-                dq: w.dq,
-                tau: w.tau,
-                kp: w.kp,
-                kd: w.kd,
-                reserve: [0; 3],
-            };
+            *m = (*w).into();
         }
         msg.cmds[0].mode = Self::weight_byte(self.weight);
         Some(msg)

@@ -111,6 +111,7 @@ impl fmt::Display for DeviceName {
 
 pub use handgate_adapters::device::Backend;
 pub use handgate_adapters::dex1::adapter::Variant as Dex1Variant;
+use handgate_adapters::dex3::dds_client::topics as dex3_topics;
 pub use handgate_adapters::dex3::dds_client::StateSource;
 pub use handgate_adapters::kind::{DeviceCtx, KindConfigBox, Problem, MAX_RATE_HZ};
 pub use handgate_adapters::model::{DeviceKind, SafeAction, Side};
@@ -540,14 +541,6 @@ impl DeviceConfig {
 /// A joint_state front's topic when `topic` is not set.
 pub const DEFAULT_JOINT_STATE_TOPIC: &str = "rt/joint_states";
 
-fn side_lr(side: Side) -> Option<&'static str> {
-    match side {
-        Side::Left => Some("left"),
-        Side::Right => Some("right"),
-        Side::Center => None,
-    }
-}
-
 /// Per-joint limit overrides and the per-command step limit.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -772,31 +765,31 @@ impl FrontConfig {
     /// joint_state front over every device). A default that cannot be derived (a dex3 front
     /// serving side `center`) is `None`; validation reports it.
     pub fn topics(&self, device: Option<&DeviceConfig>) -> FrontTopics {
-        let lr = self.served_side(device).and_then(side_lr);
+        // Left/right: the standard topics are per side.
+        let lr = self.served_side(device).filter(|s| *s != Side::Center);
         let dev_name = device.map(|d| d.name.as_str()).unwrap_or("all");
         let (cmd, state, lf_state) = match self.kind {
-            FrontKind::Dex3 => (
-                lr.map(|s| Topic(format!("rt/dex3/{s}/cmd"))),
-                lr.map(|s| Topic(format!("rt/dex3/{s}/state"))),
-                lr.map(|s| Topic(format!("rt/lf/dex3/{s}/state"))),
-            ),
-            FrontKind::Dex1 => match self.dex1_variant() {
-                Dex1Variant::Actuator => (
-                    Some(Topic::new("rt/unitree_actuator/cmd")),
-                    Some(Topic::new("rt/unitree_actuator/state")),
-                    None,
-                ),
-                Dex1Variant::Go | Dex1Variant::Hg => (
-                    lr.map(|s| Topic(format!("rt/dex1/{s}/cmd"))),
-                    lr.map(|s| Topic(format!("rt/dex1/{s}/state"))),
-                    None,
-                ),
-            },
-            FrontKind::Canonical => (
-                Some(Topic(format!("rt/handgate/{dev_name}/cmd"))),
-                Some(Topic(format!("rt/handgate/{dev_name}/state"))),
-                None,
-            ),
+            FrontKind::Dex3 => {
+                let std = lr.map(|s| dex3_topics(s, StateSource::State));
+                (
+                    std.as_ref().map(|t| Topic(t.0.clone())),
+                    std.map(|t| Topic(t.1)),
+                    lr.map(|s| Topic(dex3_topics(s, StateSource::Lf).1)),
+                )
+            }
+            FrontKind::Dex1 => {
+                let variant = self.dex1_variant();
+                // The actuator variant's topics carry both sides.
+                let std = (variant == Dex1Variant::Actuator)
+                    .then_some(Side::Left)
+                    .or(lr)
+                    .map(|s| variant.topics(s));
+                (std.as_ref().map(|t| Topic(t.0.clone())), std.map(|t| Topic(t.1)), None)
+            }
+            FrontKind::Canonical => {
+                let (c, s) = crate::plan::canonical_topics(dev_name);
+                (Some(Topic(c)), Some(Topic(s)), None)
+            }
             FrontKind::JointState => (
                 None,
                 Some(

@@ -20,7 +20,7 @@ use super::socket::UnixSocketTransport;
 use super::transport::TransportFactory;
 use crate::control::{Active, CommandState, Counters};
 use crate::device::{DeviceError, DeviceInfo, DeviceStats, Discover, HandDevice};
-use crate::dex3::{Dex3Command, Dex3Measurement, MotorCommand, MotorStatus};
+use crate::dex3::{Dex3Command, Dex3Measurement};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandCommand, HandState, Imu, JointCommand, Pad, Power, SafeAction};
 
@@ -39,14 +39,7 @@ pub enum UsbSource {
 pub fn to_dex3_command(table: &DeviceTable, targets: &[JointCommand]) -> Dex3Command {
     let mut c = Dex3Command::default();
     for (m, w) in c.motors.iter_mut().zip(table.to_wire(targets)) {
-        *m = MotorCommand {
-            q: w.q,
-            dq: w.dq,
-            tau: w.tau,
-            kp: w.kp,
-            kd: w.kd,
-            status: MotorStatus::Foc,
-        };
+        *m = w.into();
     }
     c
 }
