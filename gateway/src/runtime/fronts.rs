@@ -1,5 +1,4 @@
-//! The runtime: builds devices from a [`Plan`], binds fronts to them, runs watchdogs and the
-//! status publisher, and brings every device to its safe state on shutdown.
+//! Front tasks: each front's endpoints, decoding, silence handling and state publishing.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -7,122 +6,19 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::{DdsError, Node, Qos};
-use handgate_adapters::device::{DeviceError, HandDevice};
 use handgate_adapters::dex1::adapter::Variant;
 use handgate_adapters::mapping::DeviceTable;
-use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, SafeAction, Side};
-use handgate_adapters::open::{DeviceSpec, OpenEnv, Shared};
+use handgate_adapters::model::{HandCommand, HandState, SafeAction, Side};
 use handgate_idl::handgate as hgmsg;
 use handgate_idl::{ros2, unitree_go, unitree_hg};
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
+use super::{DeviceSlot, RuntimeError};
 use crate::fronts::{self, FrontCommand, Rejection};
-use crate::plan::{DevicePlan, FrontKind, FrontPlan, Plan, SilencePlan};
+use crate::plan::{FrontKind, FrontPlan, SilencePlan};
 use crate::router;
 use crate::ticker::Ticker;
-
-/// Runtime errors (start-up).
-#[derive(Debug, thiserror::Error)]
-pub enum RuntimeError {
-    #[error("DDS: {0}")]
-    Dds(#[from] DdsError),
-    #[error("device {device}: {source}")]
-    Device {
-        device: String,
-        #[source]
-        source: DeviceError,
-    },
-    #[error("front bound to unknown device {0:?}")]
-    UnknownDevice(String),
-}
-
-/// Per-device counters kept by the fronts bound to it.
-#[derive(Debug, Default)]
-pub struct FrontCounters {
-    pub accepted: AtomicU64,
-    /// Which front sent the last accepted command (a front's silence action only runs
-    /// when the device's last command was its own).
-    pub last_front: AtomicU64,
-    pub rejected: AtomicU64,
-    /// Silence actions run (`wdog` in status): watchdog trips, a service's brake or timeout.
-    pub watchdog_trips: AtomicU64,
-    /// 1 while a silence action holds the device (until the next accepted command).
-    pub tripped: AtomicU64,
-}
-
-/// A device as the runtime holds it.
-pub struct DeviceSlot {
-    pub plan: DevicePlan,
-    pub device: Arc<dyn HandDevice>,
-    pub table: Arc<DeviceTable>,
-    pub counters: Arc<FrontCounters>,
-}
-
-/// A running gateway.
-pub struct Runtime {
-    pub node: Node,
-    pub devices: Vec<Arc<DeviceSlot>>,
-    shutdown: watch::Sender<bool>,
-    tasks: Vec<tokio::task::JoinHandle<()>>,
-    started: Instant,
-    /// What several devices share (EZGripper buses, emulated buses), alive as long as the
-    /// runtime.
-    pub shared: Shared,
-}
-
-/// Opens every device of `plan` through its kind: first each kind's shared resources
-/// (`KindFactory::prepare`, with all its devices), then each device.
-pub fn open_devices(node: &Node, plan: &Plan, shared: &mut Shared) -> Result<Vec<Arc<dyn HandDevice>>, RuntimeError> {
-    let mut env = OpenEnv { node, shared };
-    for kind in DeviceKind::all() {
-        let specs: Vec<DeviceSpec<'_>> = plan
-            .devices
-            .iter()
-            .filter(|p| p.kind == *kind)
-            .map(DevicePlan::spec)
-            .collect();
-        if let Some(first) = specs.first() {
-            kind.factory()
-                .prepare(&specs, &mut env)
-                .map_err(|source| RuntimeError::Device {
-                    device: first.name.to_string(),
-                    source,
-                })?;
-        }
-    }
-    plan.devices
-        .iter()
-        .map(|p| {
-            p.kind
-                .factory()
-                .open(&p.spec(), &mut env)
-                .map(Arc::from)
-                .map_err(|source| RuntimeError::Device {
-                    device: p.name.clone(),
-                    source,
-                })
-        })
-        .collect()
-}
-
-/// Opens the one device of `plan` called `name` (and what its kind shares for it), for the
-/// tools that drive a single device (`handgate discover`, `handgate calibrate`).
-pub fn open_device(
-    node: &Node,
-    plan: &Plan,
-    name: &str,
-    shared: &mut Shared,
-) -> Result<Arc<dyn HandDevice>, RuntimeError> {
-    let one = Plan {
-        devices: plan.devices.iter().filter(|d| d.name == name).cloned().collect(),
-        fronts: Vec::new(),
-        ..plan.clone()
-    };
-    open_devices(node, &one, shared)?
-        .pop()
-        .ok_or_else(|| RuntimeError::UnknownDevice(name.to_string()))
-}
 
 /// Logs at most once per second per key.
 #[derive(Debug, Default)]
@@ -168,86 +64,6 @@ fn forward<T: Clone + handgate_idl::TopicType + 'static>(
         }
     })
 }
-
-impl Runtime {
-    /// Starts every device and front of `plan`. Must be called inside a tokio runtime.
-    pub fn start(plan: &Plan) -> Result<Self, RuntimeError> {
-        let node = Node::new(plan.domain, plan.interface.as_deref())?;
-        let mut shared = Shared::default();
-        let opened = open_devices(&node, plan, &mut shared)?;
-        let mut devices = Vec::new();
-        let mut by_name = HashMap::new();
-        for (p, device) in plan.devices.iter().zip(opened) {
-            let slot = Arc::new(DeviceSlot {
-                plan: p.clone(),
-                device,
-                table: p.table.clone(),
-                counters: Arc::new(FrontCounters::default()),
-            });
-            by_name.insert(p.name.clone(), slot.clone());
-            devices.push(slot);
-        }
-        let (shutdown, shutdown_rx) = watch::channel(false);
-        let mut tasks = Vec::new();
-        for f in &plan.fronts {
-            tasks.push(spawn_front(&node, f, &by_name, shutdown_rx.clone())?);
-        }
-        tasks.push(spawn_status(&node, plan, devices.clone(), shutdown_rx.clone())?);
-        Ok(Self {
-            node,
-            devices,
-            shutdown,
-            tasks,
-            started: Instant::now(),
-            shared,
-        })
-    }
-
-    pub fn uptime(&self) -> Duration {
-        self.started.elapsed()
-    }
-
-    /// Safe state on every device (each device's configured safe action), then stop.
-    pub async fn shutdown(self) -> Vec<(String, Result<(), DeviceError>)> {
-        let _ = self.shutdown.send(true);
-        for t in self.tasks {
-            let _ = t.await;
-        }
-        let mut out = Vec::new();
-        let futs = self.devices.iter().map(|d| {
-            let d = d.clone();
-            async move {
-                let r = tokio::time::timeout(SHUTDOWN_CONFIRM, d.device.shutdown(d.plan.safe_action)).await;
-                (
-                    d.plan.name.clone(),
-                    r.unwrap_or(Err(DeviceError::NotConfirmed(SHUTDOWN_CONFIRM))),
-                )
-            }
-        });
-        for r in futures_join_all(futs).await {
-            out.push(r);
-        }
-        out
-    }
-}
-
-async fn futures_join_all<F>(futs: impl Iterator<Item = F>) -> Vec<F::Output>
-where
-    F: std::future::Future + Send + 'static,
-    F::Output: Send + 'static,
-{
-    let handles: Vec<_> = futs.map(tokio::spawn).collect();
-    let mut out = Vec::new();
-    for h in handles {
-        if let Ok(v) = h.await {
-            out.push(v);
-        }
-    }
-    out
-}
-
-/// How long shutdown waits for each device to confirm its safe state.
-const SHUTDOWN_CONFIRM: Duration = Duration::from_millis(500);
 
 /// Identifies the front that sent a device its last command (see [`FrontCounters::last_front`]).
 static NEXT_FRONT_ID: AtomicU64 = AtomicU64::new(1);
@@ -319,7 +135,7 @@ impl Bound {
     }
 }
 
-fn spawn_front(
+pub(super) fn spawn_front(
     node: &Node,
     f: &FrontPlan,
     devices: &HashMap<String, Arc<DeviceSlot>>,
@@ -679,53 +495,4 @@ impl FrontWriters {
             }
         };
     }
-}
-
-fn spawn_status(
-    node: &Node,
-    plan: &Plan,
-    devices: Vec<Arc<DeviceSlot>>,
-    mut shutdown: watch::Receiver<bool>,
-) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
-    let mut writer = node.writer::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::Reliable { depth: 1 })?;
-    let profile = plan.profile.clone();
-    let period = Duration::from_secs_f64(1.0 / plan.status_hz.clamp(0.1, 10.0));
-    let started = Instant::now();
-    Ok(tokio::spawn(async move {
-        let mut tick = Ticker::new(period);
-        let mut prev: HashMap<String, (u64, u64, Instant)> = HashMap::new();
-        loop {
-            tokio::select! {
-                _ = tick.tick() => {
-                    let now = Instant::now();
-                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![] };
-                    for d in &devices {
-                        let s = d.device.stats();
-                        let st = d.device.state().borrow().clone();
-                        let (pc, ps, pt) = prev.get(&d.plan.name).cloned().unwrap_or((s.sent, s.state_samples, now));
-                        let dt = now.duration_since(pt).as_secs_f32();
-                        let rate = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
-                        prev.insert(d.plan.name.clone(), (s.sent, s.state_samples, now));
-                        msg.devices.push(hgmsg::DeviceStatus_ {
-                            device: d.plan.name.clone(),
-                            kind: d.plan.kind.as_str().into(),
-                            backend: d.plan.backend.as_str().into(),
-                            freshness: match st.freshness { Freshness::Fresh => hgmsg::FRESH, Freshness::Stale => hgmsg::STALE, Freshness::CommandedOnly => hgmsg::COMMANDED_ONLY },
-                            safe: d.counters.tripped.load(Ordering::Relaxed) != 0 || st.faults & handgate_adapters::model::faults::SAFE_STATE != 0,
-                            cmd_rate_hz: rate(s.sent, pc),
-                            state_rate_hz: rate(s.state_samples, ps),
-                            crc_errors: s.crc_errors,
-                            bad_input: d.counters.rejected.load(Ordering::Relaxed) + s.rejected,
-                            watchdog_trips: d.counters.watchdog_trips.load(Ordering::Relaxed),
-                            reconnects: s.reconnects,
-                            missed_cycles: s.missed_cycles,
-                            age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
-                        });
-                    }
-                    let _ = writer.write(msg);
-                }
-                _ = shutdown.changed() => break,
-            }
-        }
-    }))
 }
