@@ -116,8 +116,7 @@ impl DdsDevice {
                 let start = Instant::now();
                 let mut k: u64 = 0;
                 let mut current = HandState::empty(n);
-                let mut ever_fresh = false;
-                let mut link_was_up = false;
+                let mut link = crate::link::LinkTracker::default();
                 while !stop2.load(Ordering::Relaxed) {
                     let now = Instant::now();
                     let sample = shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
@@ -128,20 +127,16 @@ impl DdsDevice {
                             st.freshness = Freshness::Fresh;
                             st.closure = table.closure_of(&st.joints.iter().map(|j| j.q).collect::<Vec<_>>());
                             current = st;
-                            if ever_fresh && !link_was_up {
+                            if link.observe(true, &current.joints, &loop_cmd) {
                                 // The peer came back: never replay what was in force before.
                                 tracing::info!("peer back: holding the measured position until the next command");
-                                Counters::inc(&loop_cmd.counters.reconnects);
-                                loop_cmd.reseed(&current.joints);
                             }
-                            ever_fresh = true;
-                            link_was_up = true;
                         }
                     }
                     if config.state_topic.is_some() {
                         let stale = current.age(now).map(|a| a > config.stale_after).unwrap_or(true);
                         if stale {
-                            if link_was_up {
+                            if link.is_up() {
                                 tracing::warn!(
                                     stale_after_ms = config.stale_after.as_millis() as u64,
                                     "peer state stale: link down"
@@ -149,35 +144,24 @@ impl DdsDevice {
                             }
                             current.freshness = Freshness::Stale;
                             current.faults |= faults::LINK_DOWN;
-                            link_was_up = false;
+                            link.observe(false, &current.joints, &loop_cmd);
                         }
                     }
-                    loop_cmd.counters.link_up.store(link_was_up as u64, Ordering::Relaxed);
                     let active = loop_cmd.step(&current.joints);
                     // Never "hold" a position that was never measured.
-                    let blind_hold = config.state_topic.is_some()
-                        && !ever_fresh
-                        && matches!(active, Active::Safe(SafeAction::Hold, _));
-                    if blind_hold {
+                    if config.state_topic.is_some() && crate::link::blind_hold(link.ever_measured(), &active) {
                         // stay silent
                     } else if let Some(msg) = codec.encode(&active, &table, dt) {
                         if writer.write(msg).is_ok() {
                             Counters::inc(&loop_cmd.counters.sent);
                         }
                     }
-                    let (seq, tag) = loop_cmd.applied();
                     let mut out = if config.state_topic.is_none() {
                         codec.commanded_state(&table).unwrap_or_else(|| current.clone())
                     } else {
                         current.clone()
                     };
-                    out.cmd_seq = seq;
-                    out.cmd_tag = tag;
-                    if matches!(active, Active::Safe(..)) {
-                        out.faults |= faults::SAFE_STATE;
-                    } else {
-                        out.faults &= !faults::SAFE_STATE;
-                    }
+                    crate::link::stamp(&mut out, &loop_cmd, matches!(active, Active::Safe(..)), false);
                     let _ = state_tx.send(out);
                     k += 1;
                     let _ = cycle_tx.send(k);

@@ -14,6 +14,7 @@ pub mod ezgripper;
 pub mod hand_sdk;
 pub mod kind;
 pub mod kinds;
+pub mod link;
 pub mod mapping;
 pub mod model;
 pub mod open;

@@ -7,7 +7,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant, SystemTime};
+use std::time::Duration;
 
 use async_trait::async_trait;
 use tokio::sync::watch;
@@ -88,8 +88,7 @@ impl EzGripperDevice {
                     return;
                 };
                 rt.block_on(async move {
-                    let mut was_online = false;
-                    let mut ever_online = false;
+                    let mut link = crate::link::LinkTracker::default();
                     let mut cal_failure_logged = false;
                     while !b_stop.load(Ordering::Relaxed) {
                         let changed = tokio::time::timeout(Duration::from_millis(50), rx.changed()).await;
@@ -107,27 +106,14 @@ impl EzGripperDevice {
                         }
                         let mut st = to_hand_state(&table, &g);
                         let online = st.freshness == Freshness::Fresh;
-                        if online && !was_online && ever_online {
+                        if link.observe(online, &st.joints, &b_cmd) {
                             // Back after an unplug or a silent servo: never replay.
                             tracing::info!("gripper back: holding the measured position until the next command");
-                            Counters::inc(&b_cmd.counters.reconnects);
-                            b_cmd.reseed(&st.joints);
                         }
-                        ever_online |= online;
-                        was_online = online;
-                        b_cmd.counters.link_up.store(online as u64, Ordering::Relaxed);
                         if online {
                             Counters::inc(&b_cmd.counters.state_samples);
                         }
-                        let (seq, tag) = b_cmd.applied();
-                        st.cmd_seq = seq;
-                        st.cmd_tag = tag;
-                        st.measured_wall = st
-                            .measured_at
-                            .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
-                        if b_cmd.is_safe() {
-                            st.faults |= faults::SAFE_STATE;
-                        }
+                        crate::link::stamp(&mut st, &b_cmd, b_cmd.is_safe(), true);
                         let _ = tx.send(st);
                     }
                 });
@@ -191,7 +177,7 @@ impl HandDevice for EzGripperDevice {
     }
 
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if self.state_rx.borrow().measured_at.is_none() && action == SafeAction::Hold {
+        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
             return Ok(());
         }
         self.cmd.request_safe(action);

@@ -8,7 +8,6 @@ use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
-use std::time::{Instant, SystemTime};
 
 use async_trait::async_trait;
 use tokio::sync::watch;
@@ -181,13 +180,9 @@ impl Dex3UsbDevice {
             }
             b_cmd.counters.link_up.store(link.connected as u64, Ordering::Relaxed);
             echo = reflected(&mut b_sent.lock().unwrap_or_else(|p| p.into_inner()), m.cmd_seq).unwrap_or(echo);
+            crate::link::stamp(&mut st, &b_cmd, b_cmd.is_safe(), true);
+            // The echo is the command this measurement's exchange sent, not the last applied.
             (st.cmd_seq, st.cmd_tag) = echo;
-            st.measured_wall = st
-                .measured_at
-                .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
-            if b_cmd.is_safe() {
-                st.faults |= faults::SAFE_STATE;
-            }
             tx.send_replace(st);
         });
         let handle = Dex3UsbLoop::spawn_observed((self.make)(), self.config.clone(), Some(observer))?;
@@ -272,7 +267,7 @@ impl HandDevice for Dex3UsbDevice {
     }
 
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if self.state_rx.borrow().measured_at.is_none() && action == SafeAction::Hold {
+        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
             // Never "hold" a position that was never measured: the loop's own connect hold
             // (damping at the first measured state) is already in force.
             return Ok(());
