@@ -98,6 +98,12 @@ pub enum DeviceError {
     /// A validated profile asks for something this device cannot take.
     #[error("invalid configuration: {0}")]
     Config(String),
+    /// A configuration value the device cannot take (the value's own error).
+    #[error("invalid configuration: {source}")]
+    Invalid {
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     #[error("safe state not confirmed within {0:?}")]
     NotConfirmed(std::time::Duration),
     #[error("the device has stopped")]
@@ -121,9 +127,9 @@ impl DeviceError {
         }
     }
 
-    /// A configuration error from a value's own error.
-    pub fn config(e: impl std::fmt::Display) -> Self {
-        DeviceError::Config(e.to_string())
+    /// A configuration value the device cannot take, with the value's own error.
+    pub fn config(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        DeviceError::Invalid { source: Box::new(e) }
     }
 
     /// Whether retrying (or waiting for the link) may succeed.

@@ -255,6 +255,12 @@ pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
     /// anything: the place to see that every profile key reaches the device.
     fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn fmt::Debug>, DeviceError>;
 
+    /// `handgate list`: the devices of this kind attached to this machine (one line each,
+    /// with what stops handgate from opening one), for kinds that can enumerate them.
+    fn list_attached(&self) -> Option<Result<Vec<String>, DeviceError>> {
+        None
+    }
+
     /// `handgate emulate <kind>`: what this kind's emulator stands in for (the hardware at
     /// its transport seam, or the robot's service) as a standalone process. Returns the line
     /// to print (socket, pty or topics) and the running emulation.

@@ -53,7 +53,8 @@ pub enum Command {
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
     },
-    /// List the Dex3-1 hands on USB (with permission problems explained).
+    /// List the devices attached to this machine that a kind can enumerate (Dex3-1 hands on
+    /// USB, with permission problems explained).
     List,
     /// Report the wiring a device answers from (a Dex3-1 over USB: which (bus, id) each motor
     /// and sensor answers on), as a profile snippet to paste. Opens only that device, through

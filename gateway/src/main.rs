@@ -161,19 +161,11 @@ fn main() -> anyhow::Result<ExitCode> {
             }
         }
         Command::List => {
-            use handgate_adapters::dex3::usb::list_hands;
-            let hands = list_hands()?;
-            if hands.is_empty() {
-                println!("no Dex3-1 hand on USB (VID 34b7, PID 1010 left / 1011 right)");
-            }
-            for h in hands {
-                let serial = h.serial.as_deref().unwrap_or("?");
-                match h.problem {
-                    None => println!(
-                        "{} hand  serial {serial}  bus {:03} device {:03}",
-                        h.side, h.bus, h.address
-                    ),
-                    Some(p) => println!("{} hand  bus {:03} device {:03}: {p}", h.side, h.bus, h.address),
+            for kind in handgate_adapters::kind::DeviceKind::all() {
+                if let Some(found) = kind.factory().list_attached() {
+                    for line in found? {
+                        println!("{line}");
+                    }
                 }
             }
         }

@@ -195,6 +195,32 @@ impl KindFactory for Dex3Factory {
         Ok(Box::new(super::open::configure(spec)?))
     }
 
+    /// Dex3-1 hands on USB (VID 0x34B7, PID by side), with permission problems explained.
+    fn list_attached(&self) -> Option<Result<Vec<String>, DeviceError>> {
+        let hands = match super::usb::list_hands() {
+            Ok(h) => h,
+            Err(e) => return Some(Err(DeviceError::link(e))),
+        };
+        if hands.is_empty() {
+            return Some(Ok(vec![
+                "no Dex3-1 hand on USB (VID 34b7, PID 1010 left / 1011 right)".into()
+            ]));
+        }
+        Some(Ok(hands
+            .into_iter()
+            .map(|h| {
+                let serial = h.serial.as_deref().unwrap_or("?");
+                match h.problem {
+                    None => format!(
+                        "{} hand  serial {serial}  bus {:03} device {:03}",
+                        h.side, h.bus, h.address
+                    ),
+                    Some(p) => format!("{} hand  bus {:03} device {:03}: {p}", h.side, h.bus, h.address),
+                }
+            })
+            .collect()))
+    }
+
     fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
         super::open::emulate(args)
     }

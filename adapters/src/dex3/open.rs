@@ -21,8 +21,8 @@ pub fn wiring(w: Option<&WiringConfig>) -> Result<WiringMap, DeviceError> {
     let bad = |what: String| DeviceError::Config(what);
     let addr = |s: &super::kind::BusSlot| -> Result<BusAddr, DeviceError> {
         Ok(BusAddr {
-            bus: BusId::new(s.bus).map_err(|e| bad(e.to_string()))?,
-            id: DeviceId::new(s.id).map_err(|e| bad(e.to_string()))?,
+            bus: BusId::new(s.bus).map_err(DeviceError::config)?,
+            id: DeviceId::new(s.id).map_err(DeviceError::config)?,
         })
     };
     for (name, slot) in &w.joints {
@@ -39,7 +39,7 @@ pub fn wiring(w: Option<&WiringConfig>) -> Result<WiringMap, DeviceError> {
             .ok_or_else(|| bad(format!("unknown pad {name}")))?;
         *m.pads.get_mut(i).ok_or_else(|| bad(format!("unknown pad {name}")))? = addr(slot)?;
     }
-    m.validate().map_err(|e| bad(e.to_string()))?;
+    m.validate().map_err(DeviceError::config)?;
     Ok(m)
 }
 
