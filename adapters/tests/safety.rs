@@ -30,7 +30,9 @@ struct Dex3Joint {
 /// Written out from the sources, not from `dex3::table`:
 ///
 /// * Limits: the URDFs xr_teleoperate uses (`assets/unitree_hand/unitree_dex3_{left,right}.urdf`,
-///   docs/sources.md §2), literally to their 4 decimals.
+///   docs/sources.md §2), literally to their 4 decimals. thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
+///   (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
+///   [−0.7243, 0.920], so the SDK example's 1.05 pose is reachable (docs/model.md, "Joint limits").
 /// * Closing direction: the Dex3-1 user manual's "Angle of Joint" gives each joint's travel as
 ///   flexion from straight: thumb joint 1 −35°…60°, thumb joint 2 0…100°, index/middle
 ///   joint 0 0…90°, joint 1 0…100°. The URDF ranges place that flexion on the wire: left
@@ -54,9 +56,9 @@ const DEX3: [Dex3Joint; 7] = [
     Dex3Joint {
         idl: 1,
         name: "thumb_1",
-        left: (-0.7243, 0.920),
+        left: (-0.6108, 1.0472),
         left_closing: 1.0,
-        right: (-0.920, 0.7243),
+        right: (-1.0472, 0.6108),
         right_closing: -1.0,
     },
     Dex3Joint {
@@ -713,7 +715,8 @@ fn a_profile_posture_of_the_wrong_length_is_refused() {
 }
 
 /// `dex3::table::wire_limits` / `wire_sign` (what the emulated hand and `Joint::closing_dir`
-/// use) agree with the sources: the URDF soft limits and the closing direction per side.
+/// use) agree with the sources: the soft limits (URDF; thumb_1 the manual) and the closing
+/// direction per side.
 #[test]
 fn dex3_table_wire_limits_and_signs_match_the_sources() {
     use handgate_adapters::dex3::table::{wire_limits, wire_sign};

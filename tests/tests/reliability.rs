@@ -356,12 +356,15 @@ fn canonical_sample(rng: &mut Rng, i: u64, names: &[&'static str]) -> (hg::HandC
 /// Wire limits of every joint of a Dex3 side, IDL order (thumb_0, thumb_1, thumb_2, middle_0,
 /// middle_1, index_0, index_1), written out from the URDFs xr_teleoperate uses (docs/sources.md §2), not
 /// taken from the table the gateway clamps with: the flood must not move a joint past them.
+/// thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
+/// (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
+/// [−0.7243, 0.920], so the SDK example's 1.05 pose is reachable (docs/model.md, "Joint limits").
 #[allow(clippy::approx_constant)]
 fn dex3_wire_limits(side: Side) -> Vec<(f32, f32)> {
     match side {
         Side::Right => vec![
             (-1.0472, 1.0472),
-            (-0.920, 0.7243),
+            (-1.0472, 0.6108),
             (-1.7453, 0.0),
             (0.0, 1.5708),
             (0.0, 1.7453),
@@ -370,7 +373,7 @@ fn dex3_wire_limits(side: Side) -> Vec<(f32, f32)> {
         ],
         _ => vec![
             (-1.0472, 1.0472),
-            (-0.7243, 0.920),
+            (-0.6108, 1.0472),
             (0.0, 1.7453),
             (-1.5708, 0.0),
             (-1.7453, 0.0),

@@ -49,11 +49,13 @@ const STRICT_WATCHDOG: &str = r#"silence = "watchdog""#;
 
 /// The left hand's wire limits (rad) per IDL index, written out from the URDF xr_teleoperate
 /// uses (docs/sources.md §2, `left_hand_{zero..six}_joint`): thumb_0, thumb_1, thumb_2, middle_0,
-/// middle_1, index_0, index_1. Deliberately not imported from `dex3::table`.
+/// middle_1, index_0, index_1. Deliberately not imported from `dex3::table`. thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
+/// (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
+/// [−0.7243, 0.920], so the SDK example's 1.05 pose is reachable (docs/model.md, "Joint limits").
 #[allow(clippy::approx_constant)]
 const LEFT_URDF: [(f32, f32); 7] = [
     (-1.0472, 1.0472),
-    (-0.7243, 0.920),
+    (-0.6108, 1.0472),
     (0.0, 1.7453),
     (-1.5708, 0.0),
     (-1.7453, 0.0),
@@ -210,9 +212,12 @@ fn stop_while_moving(rig: &mut Rig, domain: u32) -> (f32, f32) {
     let cmd = dex3_cmd(q, gains);
     let mut status = Latest::<hg::GatewayStatus_>::new(&rig.node, "rt/handgate/status", Qos::Reliable { depth: 1 });
     let emu = rig.emu().clone();
+    // The emulated hand starts at its rest posture (slightly flexed, docs/adapters.md), not at
+    // 0: "moved 0.15 rad" is measured from where index_0 was before the client started.
+    let start = rig.q(Joint::Index0);
     assert!(
         stream_until(&mut rig.cmd, &cmd, DEADLINE, || lock(&emu).joint_q(Joint::Index0)
-            < -0.15),
+            < start - 0.15),
         "index_0 never started moving: at {}\n{}",
         rig.q(Joint::Index0),
         rig.gw.transcript()
