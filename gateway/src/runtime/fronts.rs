@@ -5,17 +5,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::{DdsError, Node, Qos};
-use handgate_adapters::dex1::adapter::Variant;
-use handgate_adapters::mapping::DeviceTable;
-use handgate_adapters::model::{HandCommand, HandState, SafeAction, Side};
-use handgate_idl::handgate as hgmsg;
-use handgate_idl::{ros2, unitree_go, unitree_hg};
+use handgate_adapters::dds::{Node, Qos};
+use handgate_adapters::model::{HandCommand, HandState, SafeAction};
+use handgate_idl::ros2;
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
 use super::{DeviceSlot, RuntimeError};
-use crate::fronts::{self, FrontCommand, Rejection};
+use crate::fronts;
 use crate::plan::{FrontKind, FrontPlan, SilencePlan};
 use crate::router;
 use crate::ticker::Ticker;
@@ -39,33 +36,7 @@ impl RateLimitedLog {
     }
 }
 
-/// What a front's reader hands its task.
-enum Incoming {
-    Dex3(unitree_hg::HandCmd_),
-    Dex1Go(unitree_go::MotorCmds_),
-    Dex1Hg(unitree_hg::HandCmd_),
-    Canonical(hgmsg::HandCmd_),
-}
-
-fn forward<T: Clone + handgate_idl::TopicType + 'static>(
-    node: &Node,
-    topic: &str,
-    tx: mpsc::Sender<Incoming>,
-    wrap: fn(T) -> Incoming,
-    dropped: Arc<AtomicU64>,
-) -> Result<handgate_adapters::dds::Reader<T>, DdsError> {
-    node.reader_with_callback::<T, _>(topic, Qos::Reliable { depth: 16 }, move |h| {
-        let mut v = Vec::new();
-        h.take_into(&mut v);
-        for s in v {
-            if tx.try_send(wrap(s)).is_err() {
-                dropped.fetch_add(1, Ordering::Relaxed);
-            }
-        }
-    })
-}
-
-/// Identifies the front that sent a device its last command (see [`FrontCounters::last_front`]).
+/// Identifies the front that sent a device its last command (see [`super::FrontCounters::last_front`]).
 static NEXT_FRONT_ID: AtomicU64 = AtomicU64::new(1);
 
 fn spawn_joint_state(
@@ -141,13 +112,19 @@ pub(super) fn spawn_front(
     devices: &HashMap<String, Arc<DeviceSlot>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
-    if let FrontKind::JointState {
-        devices: names,
-        urdf_names,
-    } = &f.kind
-    {
+    let (tx, mut rx) = mpsc::channel::<fronts::Message>(64);
+    let dropped = Arc::new(AtomicU64::new(0));
+    // The front kind's endpoints (readers and writers).
+    let Some(mut out) = fronts::open(node, f, tx, dropped.clone())? else {
+        let FrontKind::JointState {
+            devices: names,
+            urdf_names,
+        } = &f.kind
+        else {
+            unreachable!("only joint_state fronts take no commands");
+        };
         return spawn_joint_state(node, f, names, *urdf_names, devices, shutdown);
-    }
+    };
     let mut bound = Vec::new();
     for b in &f.bindings {
         let slot = devices
@@ -171,20 +148,6 @@ pub(super) fn spawn_front(
             slot,
         });
     }
-    let (tx, mut rx) = mpsc::channel::<Incoming>(64);
-    let dropped = Arc::new(AtomicU64::new(0));
-    let cmd_topic = f.cmd_topic.clone().unwrap_or_default();
-    // Readers and writers for this front.
-    let reader_keep: Box<dyn Send> = match &f.kind {
-        FrontKind::Dex3 { .. } => Box::new(forward(node, &cmd_topic, tx, Incoming::Dex3, dropped.clone())?),
-        FrontKind::Dex1 {
-            variant: Variant::Hg, ..
-        } => Box::new(forward(node, &cmd_topic, tx, Incoming::Dex1Hg, dropped.clone())?),
-        FrontKind::Dex1 { .. } => Box::new(forward(node, &cmd_topic, tx, Incoming::Dex1Go, dropped.clone())?),
-        FrontKind::Canonical => Box::new(forward(node, &cmd_topic, tx, Incoming::Canonical, dropped.clone())?),
-        FrontKind::JointState { .. } => unreachable!("JointState fronts returned above"),
-    };
-    let mut out = FrontWriters::new(node, f)?;
     let f = f.clone();
     let log = RateLimitedLog::default();
     let front_id = NEXT_FRONT_ID.fetch_add(1, Ordering::Relaxed);
@@ -197,16 +160,9 @@ pub(super) fn spawn_front(
     let span = tracing::info_span!("front", name = %f.name, devices = %devices_list);
     Ok(tokio::spawn(tracing::Instrument::instrument(
         async move {
-            let _reader = reader_keep;
             let name = f.name.clone();
             let mut state_tick = Ticker::hz(f.state_hz);
-            let lf_hz = match &f.kind {
-                FrontKind::Dex3 {
-                    lf_state_topic: Some(_),
-                    lf_state_hz,
-                } => *lf_state_hz,
-                _ => 0.0,
-            };
+            let lf_hz = out.lf_hz();
             let mut lf_tick = Ticker::hz(lf_hz);
             // Commands dropped because this front's queue was full (reported at most once a
             // second, with the running total, so a flood's losses are visible).
@@ -223,7 +179,7 @@ pub(super) fn spawn_front(
                 tokio::select! {
                     msg = rx.recv() => {
                         let Some(msg) = msg else { break };
-                        let decoded = decode(&f, &bound, &msg);
+                        let decoded = out.decode(&views(&bound), &msg);
                         match decoded {
                             Ok(cmds) => {
                                 let mut any = false;
@@ -309,7 +265,7 @@ pub(super) fn spawn_front(
                             // Superseded by another front's command, or never applied.
                             for b in bound.iter_mut() { b.awaiting = None; }
                         } else if bound.iter().all(|b| b.awaiting.is_none()) && !slot_used {
-                            out.publish(&f, &bound, false);
+                            out.publish(&views(&bound), false);
                             slot_used = true;
                         }
                     }
@@ -317,7 +273,7 @@ pub(super) fn spawn_front(
                         if std::mem::take(&mut slot_used) {
                             // This period's sample went out promptly.
                         } else {
-                            out.publish(&f, &bound, false);
+                            out.publish(&views(&bound), false);
                         }
                         let d = dropped.load(Ordering::Relaxed);
                         if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
@@ -327,7 +283,7 @@ pub(super) fn spawn_front(
                         }
                     }
                     _ = lf_tick.tick(), if lf_hz > 0.0 => {
-                        out.publish(&f, &bound, true);
+                        out.publish(&views(&bound), true);
                     }
                     _ = shutdown.changed() => break,
                 }
@@ -369,130 +325,20 @@ async fn futures_select_first<F: std::future::Future<Output = Option<usize>> + U
     .await
 }
 
-type Routed = (handgate_adapters::model::CommandBody, u32, bool);
-
-/// Decodes a front message into commands per bound device (index into `bound`).
-fn decode(f: &FrontPlan, bound: &[Bound], msg: &Incoming) -> Result<Vec<(usize, Routed)>, Rejection> {
-    let measured = |b: &Bound| {
-        let st = b.slot.device.state().borrow().clone();
-        b.route.state(&st.joints, st.closure)
-    };
-    let only = |r: Routed| vec![(0, r)];
-    let b0 = &bound[0];
-    Ok(match msg {
-        Incoming::Dex3(m) => {
-            only(fronts::dex3::decode_cmd(m, &b0.route.front, &measured(b0)).map(|c| routed(&b0.route, c))?)
-        }
-        Incoming::Dex1Go(m) => match &f.kind {
-            FrontKind::Dex1 {
-                variant: Variant::Actuator,
-                ..
-            } => {
-                let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.route.front)).collect();
-                fronts::dex1::decode_actuator(m, &elems)?
-                    .into_iter()
-                    .zip(bound)
-                    .enumerate()
-                    .map(|(i, (c, b))| (i, routed(&b.route, c)))
-                    .collect()
-            }
-            _ => only(
-                fronts::dex1::decode_go(m, Variant::Go, Side::Left, &b0.route.front).map(|c| routed(&b0.route, c))?,
-            ),
-        },
-        Incoming::Dex1Hg(m) => only(fronts::dex1::decode_hg(m, &b0.route.front).map(|c| routed(&b0.route, c))?),
-        Incoming::Canonical(m) => {
-            only(fronts::canonical::decode_cmd(m, &b0.slot.table, b0.slot.plan.safe_action).map(|b| (b, 0, false))?)
-        }
-    })
-}
-
 /// How long a front waits for the state reflecting an accepted command before it stops
 /// listening for it (the periodic state carries on regardless).
 const PROMPT_STATE_WAIT: Duration = Duration::from_millis(100);
 
-fn routed(route: &router::Route, c: FrontCommand) -> Routed {
-    (route.command(&c.joints), c.tag, c.timeout_bit)
-}
-
-/// A front's state writers.
-enum FrontWriters {
-    Dex3 {
-        state: handgate_adapters::dds::Writer<unitree_hg::HandState_>,
-        lf: Option<handgate_adapters::dds::Writer<unitree_hg::HandState_>>,
-    },
-    Dex1Go(handgate_adapters::dds::Writer<unitree_go::MotorStates_>),
-    Dex1Hg(handgate_adapters::dds::Writer<unitree_hg::HandState_>),
-    Canonical(handgate_adapters::dds::Writer<hgmsg::HandState_>),
-}
-
-impl FrontWriters {
-    fn new(node: &Node, f: &FrontPlan) -> Result<Self, DdsError> {
-        Ok(match &f.kind {
-            FrontKind::Dex3 { lf_state_topic, .. } => FrontWriters::Dex3 {
-                state: node.writer(&f.state_topic, Qos::BestEffort)?,
-                lf: lf_state_topic
-                    .as_deref()
-                    .map(|t| node.writer(t, Qos::BestEffort))
-                    .transpose()?,
-            },
-            FrontKind::Dex1 {
-                variant: Variant::Hg, ..
-            } => FrontWriters::Dex1Hg(node.writer(&f.state_topic, Qos::BestEffort)?),
-            FrontKind::Dex1 { .. } => FrontWriters::Dex1Go(node.writer(&f.state_topic, Qos::BestEffort)?),
-            FrontKind::Canonical | FrontKind::JointState { .. } => {
-                FrontWriters::Canonical(node.writer(&f.state_topic, Qos::BestEffort)?)
-            }
+/// What the front kind's codec sees of the bound devices: each route and latest state.
+fn views(bound: &[Bound]) -> Vec<fronts::Bound<'_>> {
+    bound
+        .iter()
+        .map(|b| fronts::Bound {
+            route: &b.route,
+            element: b.element,
+            device: &b.slot.plan.name,
+            safe_action: b.slot.plan.safe_action,
+            state: b.slot.device.state().borrow().clone(),
         })
-    }
-
-    fn publish(&mut self, f: &FrontPlan, bound: &[Bound], lf: bool) {
-        let now = Instant::now();
-        let view = |b: &Bound| {
-            let st = b.slot.device.state().borrow().clone();
-            let joints = b.route.state(&st.joints, st.closure);
-            (st, joints)
-        };
-        let b0 = &bound[0];
-        let _ = match self {
-            FrontWriters::Dex3 { state, lf: lfw } => {
-                let (st, joints) = view(b0);
-                let msg = fronts::dex3::encode_state(&b0.route.front, &joints, &st);
-                match (lf, lfw) {
-                    (true, Some(w)) => w.write(msg),
-                    (true, None) => Ok(()),
-                    (false, _) => state.write(msg),
-                }
-            }
-            FrontWriters::Dex1Go(w) => match &f.kind {
-                FrontKind::Dex1 {
-                    variant: Variant::Actuator,
-                    ..
-                } => {
-                    // Every element measured: each from its own gripper; an unbound one as
-                    // never measured.
-                    let mut m = unitree_go::MotorStates_ {
-                        states: vec![fronts::dex1::unbound_state(&b0.route.front); f.elements()],
-                    };
-                    for b in bound {
-                        let (st, joints) = view(b);
-                        m.states[b.element] = fronts::dex1::go_state(&b.route.front, &joints[0], &st, now);
-                    }
-                    w.write(m)
-                }
-                _ => {
-                    let (st, joints) = view(b0);
-                    w.write(fronts::dex1::encode_go(&b0.route.front, &joints[0], &st, now))
-                }
-            },
-            FrontWriters::Dex1Hg(w) => {
-                let (st, joints) = view(b0);
-                w.write(fronts::dex1::encode_hg(&b0.route.front, &joints[0], &st, now))
-            }
-            FrontWriters::Canonical(w) => {
-                let st = b0.slot.device.state().borrow().clone();
-                w.write(fronts::canonical::encode_state(&b0.slot.plan.name, &b0.slot.table, &st))
-            }
-        };
-    }
+        .collect()
 }
