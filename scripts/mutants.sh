@@ -6,7 +6,7 @@
 #                                   control.rs, tables.rs, */table.rs; each mutant runs only the
 #                                   fast table tests (adapters/tests/mapping.rs, safety.rs)
 #   scripts/mutants.sh gateway      the front decoders (gateway/src/fronts/*.rs) and the runtime
-#                                   (watchdog: gateway/src/runtime.rs); each mutant runs the
+#                                   (watchdog: gateway/src/runtime/fronts.rs); each mutant runs the
 #                                   gateway's unit tests and the end-to-end safety tests against
 #                                   the mutated binary (slow: about a minute per mutant)
 #   scripts/mutants.sh all          both
@@ -76,7 +76,7 @@ gateway() {
   set +e
   cargo mutants -j 1 --copy-target=true --no-shuffle -o "$dir" --timeout 300 --build-timeout 900 \
     -p handgate \
-    -f 'gateway/src/fronts/*.rs' -f gateway/src/runtime.rs \
+    -f 'gateway/src/fronts/*.rs' -f gateway/src/runtime/fronts.rs \
     --test-package handgate --test-package handgate-tests \
     "${extra[@]}" -- --lib --test front_codecs --test safety_e2e
   local rc=$?

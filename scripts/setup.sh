@@ -68,7 +68,7 @@ if ! "$vpy" -m pip show -q unitree-sdk2 >/dev/null 2>&1; then
   "$vpy" -m pip install -q "unitree-sdk2==1.0.1"
 fi
 # unitree-sdk2 1.0.1's __init__ imports a subpackage `b2` that the wheel does not ship
-# (FACTS §8). Give it an empty one inside our venv so `import unitree_sdk2py` works.
+# (docs/sources.md §8). Give it an empty one inside our venv so `import unitree_sdk2py` works.
 site=$("$vpy" -c "import sysconfig; print(sysconfig.get_paths()['purelib'])")
 if [ ! -e "$site/unitree_sdk2py/b2/__init__.py" ]; then
   mkdir -p "$site/unitree_sdk2py/b2"

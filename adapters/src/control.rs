@@ -94,11 +94,11 @@ impl CommandState {
         self.inner.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// Accepts a client command (latest wins). It is checked now against the table with no
-    /// measured state so a bad command is refused immediately and nothing changes; the final
-    /// clamp against measured state happens in [`Self::step`].
+    /// Accepts a client command (latest wins). It is checked now against the table
+    /// ([`DeviceTable::check`]) so a bad command is refused immediately and nothing changes;
+    /// it is resolved once, against the measured state, in [`Self::step`].
     pub fn submit(&self, cmd: HandCommand) -> Result<(), MappingError> {
-        if let Err(e) = self.table.resolve(&cmd.body, None, &[]) {
+        if let Err(e) = self.table.check(&cmd.body) {
             Counters::inc(&self.counters.rejected);
             return Err(e);
         }

@@ -116,8 +116,7 @@ impl DdsDevice {
                 let start = Instant::now();
                 let mut k: u64 = 0;
                 let mut current = HandState::empty(n);
-                let mut ever_fresh = false;
-                let mut link_was_up = false;
+                let mut link = crate::link::LinkTracker::default();
                 while !stop2.load(Ordering::Relaxed) {
                     let now = Instant::now();
                     let sample = shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
@@ -128,20 +127,16 @@ impl DdsDevice {
                             st.freshness = Freshness::Fresh;
                             st.closure = table.closure_of(&st.joints.iter().map(|j| j.q).collect::<Vec<_>>());
                             current = st;
-                            if ever_fresh && !link_was_up {
+                            if link.observe(true, &current.joints, &loop_cmd) {
                                 // The peer came back: never replay what was in force before.
                                 tracing::info!("peer back: holding the measured position until the next command");
-                                Counters::inc(&loop_cmd.counters.reconnects);
-                                loop_cmd.reseed(&current.joints);
                             }
-                            ever_fresh = true;
-                            link_was_up = true;
                         }
                     }
                     if config.state_topic.is_some() {
                         let stale = current.age(now).map(|a| a > config.stale_after).unwrap_or(true);
                         if stale {
-                            if link_was_up {
+                            if link.is_up() {
                                 tracing::warn!(
                                     stale_after_ms = config.stale_after.as_millis() as u64,
                                     "peer state stale: link down"
@@ -149,35 +144,24 @@ impl DdsDevice {
                             }
                             current.freshness = Freshness::Stale;
                             current.faults |= faults::LINK_DOWN;
-                            link_was_up = false;
+                            link.observe(false, &current.joints, &loop_cmd);
                         }
                     }
-                    loop_cmd.counters.link_up.store(link_was_up as u64, Ordering::Relaxed);
                     let active = loop_cmd.step(&current.joints);
                     // Never "hold" a position that was never measured.
-                    let blind_hold = config.state_topic.is_some()
-                        && !ever_fresh
-                        && matches!(active, Active::Safe(SafeAction::Hold, _));
-                    if blind_hold {
+                    if config.state_topic.is_some() && crate::link::blind_hold(link.ever_measured(), &active) {
                         // stay silent
                     } else if let Some(msg) = codec.encode(&active, &table, dt) {
                         if writer.write(msg).is_ok() {
                             Counters::inc(&loop_cmd.counters.sent);
                         }
                     }
-                    let (seq, tag) = loop_cmd.applied();
                     let mut out = if config.state_topic.is_none() {
                         codec.commanded_state(&table).unwrap_or_else(|| current.clone())
                     } else {
                         current.clone()
                     };
-                    out.cmd_seq = seq;
-                    out.cmd_tag = tag;
-                    if matches!(active, Active::Safe(..)) {
-                        out.faults |= faults::SAFE_STATE;
-                    } else {
-                        out.faults &= !faults::SAFE_STATE;
-                    }
+                    crate::link::stamp(&mut out, &loop_cmd, matches!(active, Active::Safe(..)), false);
                     let _ = state_tx.send(out);
                     k += 1;
                     let _ = cycle_tx.send(k);
@@ -249,5 +233,48 @@ impl HandDevice for DdsDevice {
 
     fn stats(&self) -> DeviceStats {
         self.cmd.counters.snapshot()
+    }
+}
+
+/// Private topics of an in-process emulated peer for `device` (the emulator backend of a
+/// DDS-client kind: the peer sits exactly where the robot's service would).
+pub fn emulator_topics(device: &str) -> (String, String) {
+    (
+        format!("rt/handgate/emu/{device}/cmd"),
+        format!("rt/handgate/emu/{device}/state"),
+    )
+}
+
+/// A DDS-client device and the emulated peer it drives; the peer lives as long as the device.
+pub struct WithPeer {
+    device: DdsDevice,
+    _peer: Box<dyn Send + Sync>,
+}
+
+impl WithPeer {
+    pub fn new(device: DdsDevice, peer: impl Send + Sync + 'static) -> Self {
+        Self {
+            device,
+            _peer: Box::new(peer),
+        }
+    }
+}
+
+#[async_trait]
+impl HandDevice for WithPeer {
+    fn info(&self) -> &DeviceInfo {
+        self.device.info()
+    }
+    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
+        self.device.command(cmd)
+    }
+    fn state(&self) -> watch::Receiver<HandState> {
+        self.device.state()
+    }
+    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
+        self.device.safe_state(action).await
+    }
+    fn stats(&self) -> DeviceStats {
+        self.device.stats()
     }
 }

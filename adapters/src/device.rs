@@ -6,6 +6,8 @@ use async_trait::async_trait;
 use serde::{Deserialize, Serialize};
 use tokio::sync::watch;
 
+use crate::dds::DdsError;
+use crate::emu_common::EmulatorError;
 use crate::mapping::{DeviceTable, MappingError};
 use crate::model::{DeviceKind, HandCommand, HandState, SafeAction, Side};
 
@@ -43,19 +45,6 @@ impl Backend {
     }
 }
 
-/// What a device can report or do beyond the basics.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Capabilities {
-    /// Measured joint feedback (false for rt/hand_sdk: state is "commanded only").
-    pub feedback: bool,
-    pub pressure: bool,
-    pub imu: bool,
-    pub power: bool,
-    /// Can list the (bus, id) wiring it answers from.
-    pub discovery: bool,
-    pub calibration: bool,
-}
-
 /// Identity of a device.
 #[derive(Debug, Clone)]
 pub struct DeviceInfo {
@@ -65,7 +54,6 @@ pub struct DeviceInfo {
     pub side: Side,
     pub backend: Backend,
     pub table: Arc<DeviceTable>,
-    pub capabilities: Capabilities,
 }
 
 /// Counters a device keeps; read by the status publisher, never blocking the device loop.
@@ -87,17 +75,71 @@ pub struct DeviceStats {
     pub link_up: bool,
 }
 
-/// Device errors.
+/// Device errors. [`DeviceError::is_transient`] tells a failure the link may recover from
+/// (an unplug, a missed reply) from one that needs the profile or the setup changed.
 #[derive(Debug, thiserror::Error)]
 pub enum DeviceError {
     #[error(transparent)]
     Mapping(#[from] MappingError),
     #[error("{0} is not supported by this device")]
     Unsupported(&'static str),
-    #[error("link to the device failed: {0}")]
-    Link(String),
+    #[error("DDS: {0}")]
+    Dds(#[from] DdsError),
+    #[error("emulator: {0}")]
+    Emulator(#[from] EmulatorError),
+    /// The link to the device (a transport, a bus) failed.
+    #[error("link to the device failed: {source}")]
+    Link {
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+        /// The link may come back by itself (reconnect, retry).
+        transient: bool,
+    },
+    /// A validated profile asks for something this device cannot take.
+    #[error("invalid configuration: {0}")]
+    Config(String),
+    /// A configuration value the device cannot take (the value's own error).
+    #[error("invalid configuration: {source}")]
+    Invalid {
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    #[error("safe state not confirmed within {0:?}")]
+    NotConfirmed(std::time::Duration),
     #[error("the device has stopped")]
     Stopped,
+}
+
+impl DeviceError {
+    /// A link failure that needs the setup changed (wrong port, permissions...).
+    pub fn link(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        DeviceError::Link {
+            source: Box::new(e),
+            transient: false,
+        }
+    }
+
+    /// A link failure the device may recover from by itself.
+    pub fn transient(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        DeviceError::Link {
+            source: Box::new(e),
+            transient: true,
+        }
+    }
+
+    /// A configuration value the device cannot take, with the value's own error.
+    pub fn config(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        DeviceError::Invalid { source: Box::new(e) }
+    }
+
+    /// Whether retrying (or waiting for the link) may succeed.
+    pub fn is_transient(&self) -> bool {
+        match self {
+            DeviceError::Link { transient, .. } => *transient,
+            DeviceError::Dds(_) | DeviceError::NotConfirmed(_) => true,
+            _ => false,
+        }
+    }
 }
 
 /// One hand or gripper, whatever its transport.
@@ -124,18 +166,31 @@ pub trait HandDevice: Send + Sync {
         DeviceStats::default()
     }
 
-    /// Reports the wiring the device answers from (Dex3 over USB).
-    async fn discover(&self) -> Result<String, DeviceError> {
-        Err(DeviceError::Unsupported("discovery"))
+    /// Wiring discovery, when the device can report the (bus, id) slots it answers from.
+    fn discovery(&self) -> Option<&dyn Discover> {
+        None
     }
 
-    /// Runs the device's calibration (EZGripper).
-    async fn calibrate(&self) -> Result<(), DeviceError> {
-        Err(DeviceError::Unsupported("calibration"))
+    /// Calibration, when the device has one.
+    fn calibration(&self) -> Option<&dyn Calibrate> {
+        None
     }
 
     /// Safe state, then release the transport. Called once at gateway shutdown.
     async fn shutdown(&self, action: SafeAction) -> Result<(), DeviceError> {
         self.safe_state(action).await
     }
+}
+
+/// An optional ability: reporting the wiring a device answers from (a profile snippet).
+#[async_trait]
+pub trait Discover: Send + Sync {
+    async fn discover(&self) -> Result<String, DeviceError>;
+}
+
+/// An optional ability: running the device's calibration; returns what it found (for the
+/// profile).
+#[async_trait]
+pub trait Calibrate: Send + Sync {
+    async fn calibrate(&self) -> Result<String, DeviceError>;
 }

@@ -1,6 +1,7 @@
 //! handgate adapters: the [`HandDevice`](device::HandDevice) trait, the canonical command
-//! model, the table-driven mapping, and one folder per device kind (codec, transport,
-//! emulator, adapter).
+//! model, the table-driven mapping, the device-kind registry ([`kind`], [`kinds::KINDS`]) and
+//! one folder per device kind (its factory and profile keys, codec, transport, emulator,
+//! adapter).
 
 pub mod control;
 pub mod dds;
@@ -12,7 +13,10 @@ pub mod discovery;
 pub mod emu_common;
 pub mod ezgripper;
 pub mod hand_sdk;
+pub mod kind;
+pub mod kinds;
+pub mod link;
 pub mod mapping;
 pub mod model;
+pub mod open;
 pub mod sim;
-pub mod tables;

@@ -16,6 +16,38 @@ use crate::sim::MotorTarget;
 /// A joint command in the device's own frame and units (its wire values).
 pub type WireTarget = MotorTarget;
 
+/// The five command fields of a wire target in a unitree_go motor command (mode 0: the
+/// caller sets it where it means something).
+impl From<WireTarget> for handgate_idl::unitree_go::MotorCmd_ {
+    fn from(w: WireTarget) -> Self {
+        Self {
+            mode: 0,
+            q: w.q,
+            dq: w.dq,
+            tau: w.tau,
+            kp: w.kp,
+            kd: w.kd,
+            reserve: Default::default(),
+        }
+    }
+}
+
+/// The five command fields of a wire target in a unitree_hg motor command (mode 0: the caller
+/// sets it where it means something, e.g. the Dex3 RIS byte).
+impl From<WireTarget> for handgate_idl::unitree_hg::MotorCmd_ {
+    fn from(w: WireTarget) -> Self {
+        Self {
+            mode: 0,
+            q: w.q,
+            dq: w.dq,
+            tau: w.tau,
+            kp: w.kp,
+            kd: w.kd,
+            reserve: Default::default(),
+        }
+    }
+}
+
 /// Inclusive range in canonical units (rad, positive = closing).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Limits {
@@ -119,6 +151,24 @@ pub enum ClosureMap {
     },
     /// Feed-forward torque only, the same on every joint (rt/hand_sdk: +tau closes).
     Torque { open: f32, closed: f32 },
+}
+
+/// What a profile may change on any kind's table: the per-step limit, joint limits, the
+/// closure map's ends. (A kind's own knobs, such as the Dex1 open range, are in its config:
+/// `KindFactory::table`.)
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TableOverrides {
+    /// Largest |target - measured| per command, rad.
+    pub max_step: Option<f32>,
+    /// Joint limits by canonical name.
+    pub limits: Vec<(String, Limits)>,
+    /// Closure postures (one position per joint, canonical order) replacing the table's own
+    /// (posture maps only).
+    pub open_posture: Option<Vec<f32>>,
+    pub closed_posture: Option<Vec<f32>>,
+    /// Feed-forward torque at closure 0 / 1, N*m (torque maps only).
+    pub tau_open: Option<f32>,
+    pub tau_closed: Option<f32>,
 }
 
 /// Errors mapping a command onto a device.
@@ -277,6 +327,45 @@ impl DeviceTable {
         }
     }
 
+    /// Whether `body` can be mapped safely, whatever the measured state: every joint id
+    /// exists, every value of every joint command is finite, a closure is finite (the same
+    /// errors [`Self::resolve`] would give, without building the targets).
+    pub fn check(&self, body: &CommandBody) -> Result<(), MappingError> {
+        match body {
+            CommandBody::Joints(list) => {
+                let mut last: Vec<Option<&JointCommand>> = vec![None; self.joints.len()];
+                for (id, c) in list {
+                    self.joint(*id)?;
+                    last[id.index()] = Some(c);
+                }
+                for (j, c) in self.joints.iter().zip(last) {
+                    if c.is_some_and(|c| !c.is_finite()) {
+                        return Err(MappingError::NonFinite(j.name));
+                    }
+                }
+                Ok(())
+            }
+            CommandBody::Closure { closure, .. } => {
+                if !closure.is_finite() {
+                    return Err(MappingError::BadClosure(*closure));
+                }
+                match &self.closure {
+                    ClosureMap::Postures { open, closed, .. }
+                        if open.len() != self.joints.len() || closed.len() != self.joints.len() =>
+                    {
+                        Err(MappingError::ClosureShape(
+                            self.kind,
+                            self.joints.len(),
+                            open.len().min(closed.len()),
+                        ))
+                    }
+                    _ => Ok(()),
+                }
+            }
+            CommandBody::Safe(_) => Ok(()),
+        }
+    }
+
     /// Resolves a command body into a full set of sanitized canonical targets, given the
     /// previous targets (joints a partial command leaves out keep them) and the measured
     /// state (for per-step limits and holds).
@@ -371,7 +460,38 @@ impl DeviceTable {
         Ok((a.min(b), a.max(b)))
     }
 
-    /// Overrides limits, closure postures and step limit from a profile.
+    /// The table with a profile's overrides applied. Unknown joint names are errors.
+    pub fn with_overrides(mut self, o: &TableOverrides) -> Result<Self, MappingError> {
+        self.max_step = o.max_step;
+        for (name, l) in &o.limits {
+            self = self.with_limits(name, *l)?;
+        }
+        let n = self.joints.len();
+        match &mut self.closure {
+            ClosureMap::Postures { open, closed, .. } => {
+                if let Some(p) = &o.open_posture {
+                    *open = p.clone();
+                }
+                if let Some(p) = &o.closed_posture {
+                    *closed = p.clone();
+                }
+                if open.len() != n || closed.len() != n {
+                    return Err(MappingError::ClosureShape(self.kind, n, open.len().min(closed.len())));
+                }
+            }
+            ClosureMap::Torque { open, closed } => {
+                if let Some(v) = o.tau_open {
+                    *open = v;
+                }
+                if let Some(v) = o.tau_closed {
+                    *closed = v;
+                }
+            }
+        }
+        Ok(self)
+    }
+
+    /// Overrides one joint's limits.
     pub fn with_limits(mut self, name: &str, limits: Limits) -> Result<Self, MappingError> {
         let id = self.joint_by_name(name)?;
         self.joints[id.index()].limits = limits;

@@ -1,6 +1,6 @@
 //! The canonical model: one way to command and observe any hand.
 //!
-//! - Joints are named per device kind ([`DeviceKind::joint_names`]) and addressed by
+//! - Joints are named per device kind ([`DeviceKind::joint_names`], from its folder) and addressed by
 //!   [`JointId`] (an index into that list).
 //! - Units are SI: rad, rad/s, N*m, N*m/rad, N*m*s/rad.
 //! - Sign: **positive = closing** for every joint of every hand, left or right
@@ -13,80 +13,11 @@ use std::time::{Duration, Instant, SystemTime};
 
 use serde::{Deserialize, Serialize};
 
-/// What a device is. Each kind has one folder in `adapters/src/` and one mapping table.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum DeviceKind {
-    #[default]
-    /// Unitree Dex3-1, 7 joints (USB or through a G1's resident service over DDS).
-    Dex3,
-    /// Unitree Dex1-1 parallel gripper (through dex1_1_service over DDS).
-    Dex1,
-    /// SAKE EZGripper (Dynamixel MX-64 over serial).
-    Ezgripper,
-    /// The G1's `rt/hand_sdk` interface to an internally wired hand (4 motors).
-    HandSdk,
-}
+pub use crate::kind::DeviceKind;
 
-/// Dex3-1 joint names, canonical order (= the IDL order of `HandCmd_.motor_cmd`).
-pub const DEX3_JOINTS: [&str; 7] = [
-    "thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1",
-];
-/// A parallel gripper's single joint.
+/// A parallel gripper's single joint (the Dex1-1's and the EZGripper's: a gripper front
+/// drives any gripper joint-for-joint).
 pub const GRIPPER_JOINTS: [&str; 1] = ["jaw"];
-/// `rt/hand_sdk` motors. Which finger or hand each drives is unpublished (FACTS §6), so
-/// they are named neutrally.
-pub const HAND_SDK_JOINTS: [&str; 4] = ["motor_0", "motor_1", "motor_2", "motor_3"];
-
-impl DeviceKind {
-    pub const ALL: [DeviceKind; 4] = [
-        DeviceKind::Dex3,
-        DeviceKind::Dex1,
-        DeviceKind::Ezgripper,
-        DeviceKind::HandSdk,
-    ];
-
-    /// Canonical joint names of this kind, in canonical order.
-    pub fn joint_names(self) -> &'static [&'static str] {
-        match self {
-            DeviceKind::Dex3 => &DEX3_JOINTS,
-            DeviceKind::Dex1 | DeviceKind::Ezgripper => &GRIPPER_JOINTS,
-            DeviceKind::HandSdk => &HAND_SDK_JOINTS,
-        }
-    }
-
-    pub fn joint_count(self) -> usize {
-        self.joint_names().len()
-    }
-
-    /// The joint called `name`, if this kind has one.
-    pub fn joint(self, name: &str) -> Option<JointId> {
-        self.joint_names()
-            .iter()
-            .position(|n| *n == name)
-            .map(|i| JointId(i as u8))
-    }
-
-    /// Grippers share one joint set, so a gripper front can drive any gripper joint-for-joint.
-    pub fn is_gripper(self) -> bool {
-        matches!(self, DeviceKind::Dex1 | DeviceKind::Ezgripper)
-    }
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            DeviceKind::Dex3 => "dex3",
-            DeviceKind::Dex1 => "dex1",
-            DeviceKind::Ezgripper => "ezgripper",
-            DeviceKind::HandSdk => "hand_sdk",
-        }
-    }
-}
-
-impl fmt::Display for DeviceKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
 
 /// Which hand.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]

@@ -8,15 +8,15 @@ use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::Node;
 use handgate_adapters::dds_device::{DdsDevice, DdsDeviceConfig};
-use handgate_adapters::device::{Backend, Capabilities, DeviceInfo, HandDevice};
+use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
 use handgate_adapters::dex1::adapter::{Dex1GoCodec, Variant};
 use handgate_adapters::dex1::emulator::{Dex1Command, Dex1Config, Dex1Emulator};
 use handgate_adapters::dex3::dds_client::Dex3DdsCodec;
 use handgate_adapters::dex3::dds_service_emulator::{Dex3ServiceConfig, Dex3ServiceEmulator};
 use handgate_adapters::hand_sdk::adapter::{HandSdkCodec, WeightRamp};
 use handgate_adapters::hand_sdk::emulator::{HandSdkConfig, HandSdkEmulator};
+use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{CommandBody, DeviceKind, Freshness, HandCommand, JointCommand, SafeAction, Side};
-use handgate_adapters::tables::{table_for, TableParams};
 
 const DEADLINE: Duration = Duration::from_secs(10);
 
@@ -34,11 +34,7 @@ fn info(kind: DeviceKind, side: Side) -> DeviceInfo {
         kind,
         side,
         backend: Backend::Dds,
-        table: Arc::new(table_for(kind, side, &TableParams::default()).unwrap()),
-        capabilities: Capabilities {
-            feedback: kind != DeviceKind::HandSdk,
-            ..Default::default()
-        },
+        table: Arc::new(kind.table(side, &TableOverrides::default()).unwrap()),
     }
 }
 

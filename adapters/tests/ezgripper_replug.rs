@@ -9,12 +9,12 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
-use handgate_adapters::ezgripper::adapter::{EzGripperDevice, CAPABILITIES};
+use handgate_adapters::ezgripper::adapter::EzGripperDevice;
 use handgate_adapters::ezgripper::control_table::reg;
 use handgate_adapters::ezgripper::emulator::{EmulatorConfig, VirtualBus};
 use handgate_adapters::ezgripper::{BusConfig, EzError, EzGripperBus, GripperConfig, ServoId};
+use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{CommandBody, DeviceKind, HandCommand, JointCommand, JointId, Side};
-use handgate_adapters::tables::{table_for, TableParams};
 
 const DEADLINE: Duration = Duration::from_secs(30);
 /// Zero (closed) position of the servo, ticks; open is positive, 2500 ticks = 100 % (the
@@ -70,14 +70,17 @@ fn a_target_set_while_unplugged_or_before_is_never_sent_after_the_replug() {
         })
         .expect("the bus opens");
     let bus = Arc::new(bus);
-    let table = Arc::new(table_for(DeviceKind::Ezgripper, Side::Left, &TableParams::default()).unwrap());
+    let table = Arc::new(
+        DeviceKind::Ezgripper
+            .table(Side::Left, &TableOverrides::default())
+            .unwrap(),
+    );
     let info = DeviceInfo {
         name: "grip".into(),
         kind: DeviceKind::Ezgripper,
         side: Side::Left,
         backend: Backend::Serial,
         table,
-        capabilities: CAPABILITIES,
     };
     let dev = EzGripperDevice::start(info, bus.clone(), id, 50.0).unwrap();
     let pos = || emu.position_ticks(1).unwrap();

@@ -1,15 +1,15 @@
 //! Properties of the table-driven mapping for every device kind and side.
 
+use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::mapping::{DeviceTable, Limits, WireTarget};
 use handgate_adapters::model::{CommandBody, DeviceKind, JointCommand, JointId, JointState, SafeAction, Side};
-use handgate_adapters::tables::{table_for, TableParams};
 use proptest::prelude::*;
 
 fn all_tables() -> Vec<DeviceTable> {
     let mut v = Vec::new();
     for kind in DeviceKind::ALL {
         for side in [Side::Left, Side::Right] {
-            v.push(table_for(kind, side, &TableParams::default()).unwrap());
+            v.push(kind.table(side, &TableOverrides::default()).unwrap());
         }
     }
     v
@@ -27,14 +27,14 @@ fn any_f32() -> impl Strategy<Value = f32> {
 
 #[test]
 fn dex3_joint_order_urdf_and_mirror_signs() {
-    let l = table_for(DeviceKind::Dex3, Side::Left, &TableParams::default()).unwrap();
-    let r = table_for(DeviceKind::Dex3, Side::Right, &TableParams::default()).unwrap();
+    let l = DeviceKind::Dex3.table(Side::Left, &TableOverrides::default()).unwrap();
+    let r = DeviceKind::Dex3.table(Side::Right, &TableOverrides::default()).unwrap();
     let names: Vec<_> = l.joints.iter().map(|j| j.name).collect();
     assert_eq!(
         names,
         ["thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1"]
     );
-    // The left URDF's three/four are the index finger, five/six the middle (FACTS §2).
+    // The left URDF's three/four are the index finger, five/six the middle (docs/sources.md §2).
     let idx0 = l.joint_by_name("index_0").unwrap();
     assert_eq!(l.joint(idx0).unwrap().wire_index, 5);
     assert_eq!(l.joint(idx0).unwrap().urdf, "left_hand_three_joint");
@@ -82,19 +82,17 @@ fn dex3_joint_order_urdf_and_mirror_signs() {
 
 #[test]
 fn gripper_ranges_match_the_field() {
-    let dex1 = table_for(DeviceKind::Dex1, Side::Left, &TableParams::default()).unwrap();
+    let dex1 = DeviceKind::Dex1.table(Side::Left, &TableOverrides::default()).unwrap();
     let jaw = &dex1.joints[0];
     assert_eq!(jaw.q_to_wire(0.0), 5.4, "canonical open = 5.4 rad on the wire");
     assert_eq!(jaw.q_to_wire(5.4), 0.0, "canonical closed = 0 rad on the wire");
     let closed = dex1.closure_targets(1.0, None).unwrap();
     assert_eq!(dex1.to_wire(&closed)[0].q, 0.0);
-    let seed = TableParams {
-        range_rad: std::f32::consts::TAU,
-        ..Default::default()
-    };
-    let dex1_seed = table_for(DeviceKind::Dex1, Side::Left, &seed).unwrap();
+    let dex1_seed = handgate_adapters::dex1::table::table(Side::Left, std::f32::consts::TAU);
     assert!((dex1_seed.joints[0].q_to_wire(0.0) - std::f32::consts::TAU).abs() < 1e-6);
-    let ez = table_for(DeviceKind::Ezgripper, Side::Right, &TableParams::default()).unwrap();
+    let ez = DeviceKind::Ezgripper
+        .table(Side::Right, &TableOverrides::default())
+        .unwrap();
     assert!((ez.joints[0].q_to_wire(5.4) - 0.0).abs() < 1e-4, "5.4 rad closed = 0 %");
     assert!(
         (ez.joints[0].q_to_wire(0.0) - 100.0).abs() < 1e-4,
@@ -108,7 +106,9 @@ fn gripper_ranges_match_the_field() {
 
 #[test]
 fn hand_sdk_closure_is_torque_with_positive_closing() {
-    let t = table_for(DeviceKind::HandSdk, Side::Left, &TableParams::default()).unwrap();
+    let t = DeviceKind::HandSdk
+        .table(Side::Left, &TableOverrides::default())
+        .unwrap();
     let c = t.closure_targets(1.0, None).unwrap();
     assert!(c.iter().all(|j| j.tau > 0.0 && j.kp == 0.0));
     let w = t.to_wire(&c);
@@ -160,8 +160,8 @@ proptest! {
 
     #[test]
     fn dex3_is_mirror_symmetric(q in proptest::collection::vec(-2.0f32..2.0, 7)) {
-        let l = table_for(DeviceKind::Dex3, Side::Left, &TableParams::default()).unwrap();
-        let r = table_for(DeviceKind::Dex3, Side::Right, &TableParams::default()).unwrap();
+        let l = DeviceKind::Dex3.table(Side::Left, &TableOverrides::default()).unwrap();
+        let r = DeviceKind::Dex3.table(Side::Right, &TableOverrides::default()).unwrap();
         for (i, qi) in q.iter().enumerate() {
             let c = JointCommand::hold(*qi, 1.0, 0.1);
             let wl = l.joints[i].to_wire(&c);
@@ -217,11 +217,11 @@ proptest! {
 
 #[test]
 fn profile_limit_override_applies_and_unknown_joint_errors() {
-    let p = TableParams {
+    let p = TableOverrides {
         limits: vec![("index_0".into(), Limits::new(0.0, 0.5))],
         ..Default::default()
     };
-    let t = table_for(DeviceKind::Dex3, Side::Left, &p).unwrap();
+    let t = DeviceKind::Dex3.table(Side::Left, &p).unwrap();
     let id = t.joint_by_name("index_0").unwrap();
     let out = t
         .resolve(
@@ -231,9 +231,38 @@ fn profile_limit_override_applies_and_unknown_joint_errors() {
         )
         .unwrap();
     assert_eq!(out[id.index()].q, 0.5);
-    let bad = TableParams {
+    let bad = TableOverrides {
         limits: vec![("pinky".into(), Limits::new(0.0, 0.5))],
         ..Default::default()
     };
-    assert!(table_for(DeviceKind::Dex3, Side::Left, &bad).is_err());
+    assert!(DeviceKind::Dex3.table(Side::Left, &bad).is_err());
+}
+
+proptest! {
+    /// `DeviceTable::check` (what `CommandState::submit` asks, without building targets)
+    /// refuses exactly what resolving the command would, with the same error.
+    #[test]
+    fn check_refuses_exactly_what_resolve_refuses(
+        t in 0usize..8,
+        entries in prop::collection::vec((0u8..9, any_f32(), any_f32(), any_f32(), any_f32(), any_f32()), 0..9),
+        closure in any_f32(),
+        as_closure in prop::bool::ANY,
+    ) {
+        let table = &all_tables()[t];
+        let body = if as_closure {
+            CommandBody::Closure { closure, stiffness: None }
+        } else {
+            CommandBody::Joints(
+                entries
+                    .iter()
+                    .map(|&(id, q, dq, tau, kp, kd)| (JointId(id), JointCommand { q, dq, tau, kp, kd }))
+                    .collect(),
+            )
+        };
+        // Compared as text: a NaN closure is in the error, and NaN != NaN.
+        prop_assert_eq!(
+            format!("{:?}", table.check(&body)),
+            format!("{:?}", table.resolve(&body, None, &[]).map(|_| ()))
+        );
+    }
 }

@@ -9,10 +9,10 @@
 
 use handgate_adapters::control::{Active, CommandState};
 use handgate_adapters::mapping::DeviceTable;
+use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{
     CommandBody, DeviceKind, HandCommand, JointCommand, JointId, JointState, SafeAction, Side,
 };
-use handgate_adapters::tables::{table_for, TableParams};
 use proptest::prelude::*;
 use std::sync::Arc;
 
@@ -30,7 +30,7 @@ struct Dex3Joint {
 /// Written out from the sources, not from `dex3::table`:
 ///
 /// * Limits: the URDFs xr_teleoperate uses (`assets/unitree_hand/unitree_dex3_{left,right}.urdf`,
-///   FACTS §2), literally to their 4 decimals. thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
+///   docs/sources.md §2), literally to their 4 decimals. thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
 ///   (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
 ///   [−0.7243, 0.920], so the SDK example's 1.05 pose is reachable (docs/model.md, "Joint limits").
 /// * Closing direction: the Dex3-1 user manual's "Angle of Joint" gives each joint's travel as
@@ -104,7 +104,7 @@ const DEX3: [Dex3Joint; 7] = [
 ];
 
 fn dex3(side: Side) -> DeviceTable {
-    table_for(DeviceKind::Dex3, side, &TableParams::default()).unwrap()
+    DeviceKind::Dex3.table(side, &TableOverrides::default()).unwrap()
 }
 
 /// The wire targets a full-hand command resolves to.
@@ -206,7 +206,7 @@ fn dex3_commands_far_outside_are_clamped_to_the_urdf_limits_on_the_wire() {
 fn any_table() -> impl Strategy<Value = DeviceTable> {
     (0usize..4, prop::bool::ANY, prop::option::of(0.01f32..0.5)).prop_map(|(k, right, step)| {
         let side = if right { Side::Right } else { Side::Left };
-        let mut t = table_for(DeviceKind::ALL[k], side, &TableParams::default()).unwrap();
+        let mut t = DeviceKind::ALL[k].table(side, &TableOverrides::default()).unwrap();
         t.max_step = step;
         t
     })
@@ -540,12 +540,12 @@ fn limits_span_is_max_minus_min() {
 fn closure_targets_interpolate_between_the_postures() {
     // A profile-overridden open posture that is not all zero (the defaults are, which hides
     // the interpolation's form).
-    let params = TableParams {
+    let params = TableOverrides {
         open_posture: Some(vec![0.1, 0.1, 0.2, 0.2, 0.2, 0.2, 0.2]),
         closed_posture: Some(vec![0.5, 0.5, 1.0, 1.0, 1.2, 1.0, 1.2]),
         ..Default::default()
     };
-    let t = table_for(DeviceKind::Dex3, Side::Left, &params).unwrap();
+    let t = DeviceKind::Dex3.table(Side::Left, &params).unwrap();
     let half = t.closure_targets(0.5, None).unwrap();
     let expect = [0.3, 0.3, 0.6, 0.6, 0.7, 0.6, 0.7];
     for (i, (c, e)) in half.iter().zip(expect).enumerate() {
@@ -574,8 +574,10 @@ fn closure_targets_interpolate_between_the_postures() {
 
 #[test]
 fn hand_sdk_closure_torque_interpolates_from_open_to_closed() {
-    // rt/hand_sdk: -0.3 N*m opens, +0.3 closes (the unitree_sdk2 example, FACTS §6).
-    let t = table_for(DeviceKind::HandSdk, Side::Left, &TableParams::default()).unwrap();
+    // rt/hand_sdk: -0.3 N*m opens, +0.3 closes (the unitree_sdk2 example, docs/sources.md §6).
+    let t = DeviceKind::HandSdk
+        .table(Side::Left, &TableOverrides::default())
+        .unwrap();
     for (c, tau) in [(0.0, -0.3), (0.25, -0.15), (0.5, 0.0), (1.0, 0.3)] {
         let out = t.closure_targets(c, None).unwrap();
         assert!(
@@ -605,7 +607,7 @@ fn closure_of_estimates_the_mean_closure_of_the_moving_joints() {
     assert!((t.closure_of(&[0.0, -9.0, 1.0, 1.2, 1.3, 1.2, 1.3]) - 5.0 / 6.0).abs() < 1e-6);
     assert!((t.closure_of(&[0.0, f32::NAN, 1.0, 1.2, 1.3, 1.2, 1.3]) - 1.0).abs() < 1e-6);
     // Dex1: jaw measured from open, closed at 5.4 rad.
-    let g = table_for(DeviceKind::Dex1, Side::Left, &TableParams::default()).unwrap();
+    let g = DeviceKind::Dex1.table(Side::Left, &TableOverrides::default()).unwrap();
     assert!((g.closure_of(&[2.7]) - 0.5).abs() < 1e-6);
     assert_eq!(g.closure_of(&[]), 0.0);
 }
@@ -703,12 +705,12 @@ fn wire_state_and_commands_convert_per_joint_with_the_sources_sign() {
 #[test]
 fn a_profile_posture_of_the_wrong_length_is_refused() {
     for (open, closed) in [(Some(vec![0.0; 6]), None), (None, Some(vec![0.5; 8]))] {
-        let p = TableParams {
+        let p = TableOverrides {
             open_posture: open,
             closed_posture: closed,
             ..Default::default()
         };
-        assert!(table_for(DeviceKind::Dex3, Side::Left, &p).is_err(), "{p:?}");
+        assert!(DeviceKind::Dex3.table(Side::Left, &p).is_err(), "{p:?}");
     }
 }
 

@@ -53,26 +53,37 @@ pub enum Command {
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
     },
-    /// List the Dex3-1 hands on USB (with permission problems explained).
+    /// List the devices attached to this machine that a kind can enumerate (Dex3-1 hands on
+    /// USB, with permission problems explained).
     List,
-    /// Report which (bus, id) a Dex3-1 on USB answers from, and print a wiring table to
-    /// paste into a profile (sends zero-gain frames only: nothing moves).
+    /// Report the wiring a device answers from (a Dex3-1 over USB: which (bus, id) each motor
+    /// and sensor answers on), as a profile snippet to paste. Opens only that device, through
+    /// its kind; sends zero-gain frames only: nothing moves.
     Discover {
-        /// left or right.
+        /// Device name in the profile.
+        device: String,
+        /// Profile (as for `run --profile`); without it: the embedded default.
         #[arg(long)]
-        side: handgate_adapters::model::Side,
-        /// USB serial number, to pick one of several hands of that side.
-        #[arg(long)]
-        serial: Option<String>,
-        /// Talk to an emulator socket (`handgate emulate dex3`) instead of USB.
-        #[arg(long)]
-        socket: Option<PathBuf>,
+        profile: Option<String>,
+        #[command(flatten)]
+        overrides: OverrideArgs,
     },
-    /// Run an emulator as a standalone process.
-    Emulate {
-        #[command(subcommand)]
-        target: EmulateTarget,
+    /// Run a device's calibration (an EZGripper closes to its stop to find zero: it moves)
+    /// and print what to put in the profile. Opens only that device, through its kind.
+    Calibrate {
+        /// Device name in the profile.
+        device: String,
+        /// Profile (as for `run --profile`); without it: the embedded default.
+        #[arg(long)]
+        profile: Option<String>,
+        #[command(flatten)]
+        overrides: OverrideArgs,
     },
+    /// Run a kind's emulator as a standalone process: what stands where the hardware or the
+    /// robot's service would (`handgate emulate dex3 --side left --socket PATH`, `dex3
+    /// --service`, `dex1 --variant go|hg|actuator`, `hand_sdk`, `ezgripper --ids 1,2`), so a
+    /// profile written for a robot runs against it on any domain.
+    Emulate(EmulateCmd),
     /// Send one canonical command to a named device (bring-up).
     Send {
         /// Device name from the profile (e.g. dex3_left).
@@ -104,27 +115,61 @@ pub enum Command {
     },
 }
 
-/// What `handgate emulate` runs.
-#[derive(Debug, Subcommand)]
-pub enum EmulateTarget {
-    /// A Dex3-1's MCU behind a Unix socket, speaking the USB frame protocol. Point a device
-    /// at it with `backend = "usb"` and `usb.socket = PATH`; kill and restart it to emulate
-    /// an unplug.
-    Dex3 {
-        /// left or right.
-        #[arg(long)]
-        side: handgate_adapters::model::Side,
-        /// Socket path.
-        #[arg(long)]
-        socket: PathBuf,
-        /// Report exact joint values (no measurement noise; the default adds the HG motor's,
-        /// docs/adapters.md).
-        #[arg(long)]
-        no_noise: bool,
-        /// Seed of the measurement noise (default fixed, so runs repeat exactly).
-        #[arg(long)]
-        seed: Option<u64>,
-    },
+/// `handgate emulate <kind>`.
+#[derive(Debug, Clone, Args)]
+pub struct EmulateCmd {
+    /// A device kind (`handgate check` lists them in profiles: dex3, dex1, ezgripper, hand_sdk).
+    pub kind: String,
+    /// left or right (the emulated hand or gripper).
+    #[arg(long)]
+    pub side: Option<handgate_adapters::model::Side>,
+    /// dex3: the hand's MCU behind this Unix socket, speaking the USB frame protocol (point a
+    /// device at it with `backend = "usb"` and `usb.socket = PATH`; kill and restart it to
+    /// emulate an unplug).
+    #[arg(long)]
+    pub socket: Option<PathBuf>,
+    /// dex3: the G1's resident hand service on DDS instead of the MCU.
+    #[arg(long)]
+    pub service: bool,
+    /// dex1: the wire variant (go, hg, actuator).
+    #[arg(long)]
+    pub variant: Option<String>,
+    /// ezgripper: servo ids on the emulated bus (default: the side's).
+    #[arg(long, value_delimiter = ',')]
+    pub ids: Vec<u8>,
+    /// ezgripper: where to link the bus's pseudo-terminal (default: a temporary path).
+    #[arg(long)]
+    pub pty: Option<PathBuf>,
+    /// DDS domain of a service emulator.
+    #[arg(long, default_value_t = 1)]
+    pub domain: u32,
+    /// Network interface for DDS, e.g. eth0.
+    #[arg(long)]
+    pub interface: Option<String>,
+    /// Report exact joint values (no measurement noise; the default adds the kind's,
+    /// docs/adapters.md).
+    #[arg(long)]
+    pub no_noise: bool,
+    /// Seed of the measurement noise (default fixed, so runs repeat exactly).
+    #[arg(long)]
+    pub seed: Option<u64>,
+}
+
+impl From<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
+    fn from(c: EmulateCmd) -> Self {
+        handgate_adapters::kind::EmulateArgs {
+            side: c.side,
+            socket: c.socket,
+            service: c.service,
+            variant: c.variant,
+            ids: c.ids,
+            pty: c.pty,
+            domain: c.domain,
+            interface: c.interface,
+            no_noise: c.no_noise,
+            seed: c.seed,
+        }
+    }
 }
 
 /// `NAME=RAD` for `send --joint`.

@@ -1,8 +1,6 @@
 //! handgate gateway: router, fronts, profiles, runtime and CLI.
 
 pub mod cli;
-pub mod emulated;
-pub mod ezbus;
 pub mod fronts;
 pub mod plan;
 pub mod profile;

@@ -24,6 +24,52 @@ fn load(profile: Option<String>, overrides: handgate_gateway::cli::OverrideArgs)
     })
 }
 
+/// Loads `profile`, opens its device `name` alone and runs `f` on it (then moves it to its
+/// safe state). `Err(code)` when the profile is invalid.
+fn with_device<F, Fut>(
+    profile: Option<String>,
+    overrides: handgate_gateway::cli::OverrideArgs,
+    name: &str,
+    f: F,
+) -> anyhow::Result<Result<String, ExitCode>>
+where
+    F: FnOnce(std::sync::Arc<dyn handgate_adapters::device::HandDevice>) -> Fut,
+    Fut: std::future::Future<Output = anyhow::Result<String>>,
+{
+    let l = match load(profile, overrides) {
+        Ok(l) => l,
+        Err(code) => return Ok(Err(code)),
+    };
+    let plan = match resolve::plan(&l.profile) {
+        Ok(p) => p,
+        Err(errors) => {
+            for e in errors {
+                eprintln!("{}: {e}", l.origin);
+            }
+            return Ok(Err(ExitCode::from(EXIT_INVALID)));
+        }
+    };
+    let Some(safe) = plan.devices.iter().find(|d| d.name == name).map(|d| d.safe_action) else {
+        let names: Vec<&str> = plan.devices.iter().map(|d| d.name.as_str()).collect();
+        anyhow::bail!(
+            "no device named {name} in profile {} (devices: {})",
+            plan.profile,
+            names.join(", ")
+        );
+    };
+    let rt = tokio::runtime::Runtime::new()?;
+    let out = rt.block_on(async {
+        let node = handgate_adapters::dds::Node::new(plan.domain, plan.interface.as_deref())?;
+        let mut shared = handgate_adapters::open::Shared::default();
+        let device = runtime::open_device(&node, &plan, name, &mut shared)?;
+        let out = f(device.clone()).await;
+        let _ = device.shutdown(safe).await;
+        out
+    });
+    rt.shutdown_timeout(Duration::from_millis(200));
+    Ok(Ok(out?))
+}
+
 fn init_logging(level: &str, format: LogFormat) {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
@@ -115,56 +161,66 @@ fn main() -> anyhow::Result<ExitCode> {
             }
         }
         Command::List => {
-            use handgate_adapters::dex3::usb::list_hands;
-            let hands = list_hands()?;
-            if hands.is_empty() {
-                println!("no Dex3-1 hand on USB (VID 34b7, PID 1010 left / 1011 right)");
-            }
-            for h in hands {
-                let serial = h.serial.as_deref().unwrap_or("?");
-                match h.problem {
-                    None => println!(
-                        "{} hand  serial {serial}  bus {:03} device {:03}",
-                        h.side, h.bus, h.address
-                    ),
-                    Some(p) => println!("{} hand  bus {:03} device {:03}: {p}", h.side, h.bus, h.address),
+            for kind in handgate_adapters::kind::DeviceKind::all() {
+                if let Some(found) = kind.factory().list_attached() {
+                    for line in found? {
+                        println!("{line}");
+                    }
                 }
             }
         }
-        Command::Discover { side, serial, socket } => {
-            use handgate_adapters::dex3::usb::{
-                discover, DiscoveryOptions, RusbTransport, Scalings, UnixSocketTransport,
-            };
-            let mut t: Box<dyn handgate_adapters::dex3::usb::Dex3Transport> = match socket {
-                Some(p) => Box::new(UnixSocketTransport::connect(&p)?),
-                None => Box::new(RusbTransport::open(side, serial.as_deref())?),
-            };
-            let report = discover(t.as_mut(), DiscoveryOptions::default(), &Scalings::default())?;
-            print!("{}", report.wiring_template());
-        }
-        Command::Emulate {
-            target:
-                handgate_gateway::cli::EmulateTarget::Dex3 {
-                    side,
-                    socket,
-                    no_noise,
-                    seed,
-                },
+        Command::Discover {
+            device,
+            profile,
+            overrides,
         } => {
-            use handgate_adapters::dex3::usb::{run_emulator_server, EmulatorClock, EmulatorConfig};
-            use handgate_adapters::sim::Noise;
-            println!("emulating a Dex3-1 {side} hand on {}", socket.display());
-            let noise = if no_noise {
-                Noise::OFF
-            } else {
-                handgate_adapters::dex3::physical::HG_MOTOR_NOISE.with_seed(seed.unwrap_or(Noise::DEFAULT_SEED))
+            let out = match with_device(profile, overrides, &device, |d| async move {
+                let Some(ability) = d.discovery() else {
+                    anyhow::bail!("device {} ({}) has no wiring discovery", d.info().name, d.info().kind);
+                };
+                Ok(ability.discover().await?)
+            })? {
+                Ok(out) => out,
+                Err(code) => return Ok(code),
             };
-            let cfg = EmulatorConfig {
-                clock: EmulatorClock::Wall,
-                noise,
-                ..Default::default()
+            print!("{out}");
+        }
+        Command::Calibrate {
+            device,
+            profile,
+            overrides,
+        } => {
+            let out = match with_device(profile, overrides, &device, |d| async move {
+                let Some(ability) = d.calibration() else {
+                    anyhow::bail!("device {} ({}) has no calibration", d.info().name, d.info().kind);
+                };
+                Ok(ability.calibrate().await?)
+            })? {
+                Ok(out) => out,
+                Err(code) => return Ok(code),
             };
-            run_emulator_server(&socket, side, cfg)?;
+            println!("{device} calibrated: {out}");
+        }
+        Command::Emulate(cmd) => {
+            use handgate_adapters::kind::{DeviceKind, Emulation};
+            let Some(kind) = DeviceKind::by_name(&cmd.kind) else {
+                anyhow::bail!(
+                    "unknown kind {:?} (kinds: {})",
+                    cmd.kind,
+                    DeviceKind::names().join(", ")
+                );
+            };
+            let (what, emulation) = kind.factory().emulate(&cmd.into())?;
+            println!("{what}");
+            match emulation {
+                Emulation::Blocking(run) => run()?,
+                Emulation::Running(keep) => {
+                    let rt = tokio::runtime::Runtime::new()?;
+                    let sig = rt.block_on(wait_for_signal())?;
+                    tracing::info!(signal = sig, "stopping the emulator");
+                    drop(keep);
+                }
+            }
         }
         Command::Send {
             device,

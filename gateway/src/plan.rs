@@ -4,93 +4,48 @@
 
 use std::time::Duration;
 
+use std::sync::Arc;
+
 use handgate_adapters::device::Backend;
 use handgate_adapters::dex1::adapter::Variant;
-use handgate_adapters::dex3::dds_client::StateSource;
-use handgate_adapters::hand_sdk::adapter::WeightRamp;
+use handgate_adapters::kind::KindConfigBox;
+use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::{DeviceKind, SafeAction, Side};
-use handgate_adapters::tables::TableParams;
+use handgate_adapters::open::{DeviceSpec, EmulatorSection};
 
-/// How a device is reached.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Transport {
-    /// Dex3-1 through a G1's resident service.
-    Dex3Dds {
-        cmd_topic: String,
-        state_topic: String,
-        timeout_bit: bool,
-    },
-    /// Dex1-1 through dex1_1_service / the EZGripper driver.
-    Dex1Dds {
-        variant: Variant,
-        cmd_topic: String,
-        state_topic: String,
-    },
-    /// Dex3-1 over USB (a real hand, or the MCU emulator at the transport seam).
-    Dex3Usb {
-        source: handgate_adapters::dex3::usb::adapter::UsbSource,
-        timeout_bit: bool,
-        wiring: handgate_adapters::dex3::usb::WiringMap,
-        scalings: handgate_adapters::dex3::usb::Scalings,
-    },
-    /// An EZGripper on a Dynamixel bus (`port` is shared by every gripper on it).
-    EzGripper {
-        /// Serial port, or for an emulated bus the key grippers on the same virtual bus share.
-        port: String,
-        emulated: bool,
-        baud: u32,
-        servo_id: u8,
-        force_pct: f32,
-        calibrate_on_start: bool,
-        /// Measurement noise of an emulated bus (the first emulated gripper's on a shared bus).
-        emulator_noise: handgate_adapters::sim::Noise,
-        zero_ticks: Option<i32>,
-        response_timeout_ms: Option<u64>,
-        params: handgate_adapters::ezgripper::EzGripperParams,
-    },
-    /// G1 rt/hand_sdk.
-    HandSdk {
-        topic: String,
-        ramp: WeightRamp,
-        publish_hz: f64,
-    },
-    /// A DDS peer emulator started in-process on private topics
-    /// ([`emulator_topics`]), driven by the same DDS adapter a real peer would get: the
-    /// emulator sits exactly where the robot's service would.
-    EmulatedDds(EmulatedPeer),
-}
-
-/// Which peer to emulate, with its initial state (wire units).
-#[derive(Debug, Clone, PartialEq)]
-pub enum EmulatedPeer {
-    /// A G1's resident Dex3 service.
-    Dex3Service {
-        initial_q: [f32; 7],
-        timeout_bit: bool,
-        noise: handgate_adapters::sim::Noise,
-    },
-    /// dex1_1_service.
-    Dex1Service {
-        initial_q: f32,
-        object_q: Option<f32>,
-        noise: handgate_adapters::sim::Noise,
-    },
-    /// ai_sport's rt/hand_sdk blend.
-    AiSport { ramp: WeightRamp, publish_hz: f64 },
-}
-
-/// One device.
+/// One device: everything its kind needs to open it, decided here once.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DevicePlan {
     pub name: String,
     pub kind: DeviceKind,
     pub side: Side,
     pub backend: Backend,
-    pub table: TableParams,
+    /// The device's table: its kind's, with the profile's limits, step limit and closure.
+    pub table: Arc<DeviceTable>,
     pub rate_hz: f64,
     pub stale_after: Duration,
     pub safe_action: SafeAction,
-    pub transport: Transport,
+    /// `[devices.emulator]` (defaults when absent).
+    pub emulator: EmulatorSection,
+    /// The kind's own profile keys.
+    pub config: KindConfigBox,
+}
+
+impl DevicePlan {
+    /// What the device's kind opens it from.
+    pub fn spec(&self) -> DeviceSpec<'_> {
+        DeviceSpec {
+            name: &self.name,
+            kind: self.kind,
+            side: self.side,
+            backend: self.backend,
+            rate_hz: self.rate_hz,
+            stale_after: self.stale_after,
+            table: &self.table,
+            emulator: &self.emulator,
+            config: &*self.config,
+        }
+    }
 }
 
 /// What a front speaks.
@@ -102,7 +57,6 @@ pub enum FrontKind {
     },
     Dex1 {
         variant: Variant,
-        range_rad: f32,
     },
     Canonical,
     JointState {
@@ -169,6 +123,9 @@ pub struct Binding {
     /// otherwise 0).
     pub element: usize,
     pub silence: SilencePlan,
+    /// The front's table for this device (the wire convention it speaks, for its side);
+    /// `None`: the device's own (canonical and joint_state fronts).
+    pub table: Option<Arc<DeviceTable>>,
 }
 
 /// One front, bound to its devices (one, except an actuator front's two grippers; a
@@ -210,38 +167,10 @@ pub struct Plan {
     pub fronts: Vec<FrontPlan>,
 }
 
-/// Standard topics.
-pub fn dex3_topics(side: Side) -> (String, String, String) {
-    let s = side.as_str();
-    (
-        format!("rt/dex3/{s}/cmd"),
-        format!("rt/dex3/{s}/state"),
-        format!("rt/lf/dex3/{s}/state"),
-    )
-}
-
-/// Standard Dex1 topics for a variant.
-pub fn dex1_topics(variant: Variant, side: Side) -> (String, String) {
-    handgate_adapters::dex1::adapter::topics(variant, side)
-}
-
 /// The canonical front's topics for a device.
 pub fn canonical_topics(device: &str) -> (String, String) {
     (
         format!("rt/handgate/{device}/cmd"),
         format!("rt/handgate/{device}/state"),
     )
-}
-
-/// Private topics of an in-process emulated peer for `device`.
-pub fn emulator_topics(device: &str) -> (String, String) {
-    (
-        format!("rt/handgate/emu/{device}/cmd"),
-        format!("rt/handgate/emu/{device}/state"),
-    )
-}
-
-/// The Dex3 resident service's state source → topic.
-pub fn dex3_state_topic(side: Side, source: StateSource) -> String {
-    handgate_adapters::dex3::dds_client::topics(side, source).1
 }

@@ -8,8 +8,37 @@
 //!   Dex3 front → gripper: the mean closure of the hand's joints closes the gripper), and the
 //!   device's estimated closure comes back as the front's posture at that closure.
 
+use std::sync::Arc;
+
 use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::{CommandBody, JointCommand, JointId, JointState};
+
+/// A front bound to a device, decided once at bind time: the front's table (the wire
+/// convention it speaks), the device's table and how the two are paired.
+#[derive(Debug, Clone)]
+pub struct Route {
+    pub front: Arc<DeviceTable>,
+    pub device: Arc<DeviceTable>,
+    pub pairing: Pairing,
+}
+
+impl Route {
+    /// Binds `front` to `device`.
+    pub fn bind(front: Arc<DeviceTable>, device: Arc<DeviceTable>) -> Self {
+        let pairing = pairing(&front, &device);
+        Self { front, device, pairing }
+    }
+
+    /// A command the front decoded (the FRONT's canonical order) as the device's.
+    pub fn command(&self, cmds: &[Option<JointCommand>]) -> CommandBody {
+        command_for(self.pairing, &self.front, cmds)
+    }
+
+    /// The device's state in the FRONT's canonical joint order.
+    pub fn state(&self, joints: &[JointState], closure: f32) -> Vec<JointState> {
+        state_for(self.pairing, &self.front, joints, closure)
+    }
+}
 
 /// How a front and a device are paired.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -36,7 +65,11 @@ pub fn pairing(front: &DeviceTable, device: &DeviceTable) -> Pairing {
 /// A command the front decoded: canonical commands in the FRONT's canonical order
 /// (None = the front message did not set that joint).
 pub fn route_command(front: &DeviceTable, device: &DeviceTable, cmds: &[Option<JointCommand>]) -> CommandBody {
-    match pairing(front, device) {
+    command_for(pairing(front, device), front, cmds)
+}
+
+fn command_for(pairing: Pairing, front: &DeviceTable, cmds: &[Option<JointCommand>]) -> CommandBody {
+    match pairing {
         Pairing::JointForJoint => CommandBody::Joints(
             cmds.iter()
                 .enumerate()
@@ -55,7 +88,11 @@ pub fn route_command(front: &DeviceTable, device: &DeviceTable, cmds: &[Option<J
 
 /// The device's state in the FRONT's canonical joint order.
 pub fn route_state(front: &DeviceTable, device: &DeviceTable, joints: &[JointState], closure: f32) -> Vec<JointState> {
-    match pairing(front, device) {
+    state_for(pairing(front, device), front, joints, closure)
+}
+
+fn state_for(pairing: Pairing, front: &DeviceTable, joints: &[JointState], closure: f32) -> Vec<JointState> {
+    match pairing {
         Pairing::JointForJoint => joints.to_vec(),
         Pairing::Closure => {
             let temp = joints
@@ -81,11 +118,11 @@ pub fn route_state(front: &DeviceTable, device: &DeviceTable, joints: &[JointSta
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::{DeviceKind, Side};
-    use handgate_adapters::tables::{table_for, TableParams};
 
     fn t(kind: DeviceKind, side: Side) -> DeviceTable {
-        table_for(kind, side, &TableParams::default()).unwrap()
+        kind.table(side, &TableOverrides::default()).unwrap()
     }
 
     #[test]

@@ -1,11 +1,9 @@
 //! A profile's `limits.max_step` reaches the device: profile text → validated profile → plan →
-//! the device table the runtime builds (`table_for(kind, side, &plan.table)`, as
-//! `runtime::table` does) → what a far command resolves to against a measured position.
+//! the device table the plan carries for the runtime (`plan.table`) → what a far command resolves to against a measured position.
 
 use std::path::Path;
 
 use handgate_adapters::model::{CommandBody, DeviceKind, JointCommand, JointState};
-use handgate_adapters::tables::table_for;
 use handgate_gateway::profile::{load, CliOverrides, EnvLayer, LoadOptions};
 use handgate_gateway::resolve::plan;
 
@@ -52,7 +50,7 @@ fn profile_max_step_bounds_every_device_target_relative_to_measured() {
     let p = plan_of("max-step.toml", &profile(Some(0.07)));
     for d in &p.devices {
         assert_eq!(d.table.max_step, Some(0.07), "{}: plan", d.name);
-        let t = table_for(d.kind, d.side, &d.table).unwrap();
+        let t = (*d.table).clone();
         assert_eq!(t.max_step, Some(0.07), "{}: device table", d.name);
         // Every joint measured at 0.3 (canonical), commanded far closed.
         let n = t.joint_count();
@@ -93,6 +91,6 @@ fn profile_max_step_bounds_every_device_target_relative_to_measured() {
     // Without the key there is no per-step limit.
     let p = plan_of("no-max-step.toml", &profile(None));
     for d in &p.devices {
-        assert_eq!(table_for(d.kind, d.side, &d.table).unwrap().max_step, None);
+        assert_eq!(d.table.max_step, None);
     }
 }

@@ -1,5 +1,5 @@
 //! `unitree_hg::msg::dds_` (humanoid: G1, H1-2): the Dex3-1 hand messages.
-//! Layout as in unitree_sdk2 since Dec 2024 / Feb 2025 (FACTS §1), not the older seed page.
+//! Layout as in unitree_sdk2 since Dec 2024 / Feb 2025 (docs/sources.md §1), not the older seed page.
 
 use crate::keyless_topic_type;
 use serde::{Deserialize, Serialize};

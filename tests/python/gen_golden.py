@@ -93,7 +93,7 @@ from wire_schema import f32, f32_from_bits  # noqa: E402
 
 # --- typical values ---------------------------------------------------------------------------
 
-# Left Dex3-1 joint targets (rad) inside the URDF limits of FACTS §2, message order
+# Left Dex3-1 joint targets (rad) inside the URDF limits of docs/sources.md §2, message order
 # thumb_0, thumb_1, thumb_2, middle_0, middle_1, index_0, index_1.
 LEFT_Q = [0.25, -0.35, 1.2, -0.9, -1.1, -0.75, -1.3]
 
@@ -114,7 +114,7 @@ def hg_motor_state_typical(i):
 
 
 def hg_press_typical(pad):
-    # Raw readings: >= 100000 is a valid contact reading, 30000 means "no reading" (FACTS §2).
+    # Raw readings: >= 100000 is a valid contact reading, 30000 means "no reading" (docs/sources.md §2).
     pressure = [f32(100000.0 + 1250.5 * pad + 731.25 * k) for k in range(12)]
     pressure[11] = f32(30000.0)
     temperature = [f32(30.5 + 0.25 * k + 0.5 * pad) for k in range(12)]

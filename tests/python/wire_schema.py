@@ -1,7 +1,7 @@
 """Shared by gen_golden.py, interop_sub.py and interop_pub.py.
 
 Maps handgate's fixture JSON ("plain" values) to and from the official unitree_sdk2py message
-classes. The field lists below restate the layouts of FACTS §1 (unitree_sdk2 / unitree_sdk2py
+classes. The field lists below restate the layouts of docs/sources.md §1 (unitree_sdk2 / unitree_sdk2py
 idl, wire order); `check_schema()` asserts they equal the SDK classes' own field order, so a
 drift in the installed SDK fails loudly instead of producing wrong fixtures.
 

@@ -19,12 +19,12 @@ use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::{Node, Qos};
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
-use handgate_adapters::dex3::usb::adapter::{Dex3UsbDevice, UsbSource, CAPABILITIES};
+use handgate_adapters::dex3::usb::adapter::{Dex3UsbDevice, UsbSource};
 use handgate_adapters::dex3::usb::LoopConfig;
 use handgate_adapters::dex3::RisMode;
 use handgate_adapters::mapping::DeviceTable;
+use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{faults, CommandBody, DeviceKind, Freshness, HandCommand, JointCommand, JointId, Side};
-use handgate_adapters::tables::{table_for, TableParams};
 use handgate_idl::handgate as hg;
 use handgate_idl::{unitree_go, unitree_hg};
 use handgate_tests::{
@@ -354,7 +354,7 @@ fn canonical_sample(rng: &mut Rng, i: u64, names: &[&'static str]) -> (hg::HandC
 }
 
 /// Wire limits of every joint of a Dex3 side, IDL order (thumb_0, thumb_1, thumb_2, middle_0,
-/// middle_1, index_0, index_1), written out from the URDFs xr_teleoperate uses (FACTS §2), not
+/// middle_1, index_0, index_1), written out from the URDFs xr_teleoperate uses (docs/sources.md §2), not
 /// taken from the table the gateway clamps with: the flood must not move a joint past them.
 /// thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
 /// (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
@@ -684,14 +684,13 @@ fn unpaced_flood_is_counted_or_reported_dropped() {
 // Faults on the Dex3 USB link, in process: CRC bursts and stalls (Dex3UsbDevice's emulator).
 
 fn usb_device(side: Side) -> (Dex3UsbDevice, std::sync::Arc<DeviceTable>) {
-    let table = std::sync::Arc::new(table_for(DeviceKind::Dex3, side, &TableParams::default()).unwrap());
+    let table = std::sync::Arc::new(DeviceKind::Dex3.table(side, &TableOverrides::default()).unwrap());
     let info = DeviceInfo {
         name: "rel".into(),
         kind: DeviceKind::Dex3,
         side,
         backend: Backend::Emulator,
         table: table.clone(),
-        capabilities: CAPABILITIES,
     };
     let dev =
         Dex3UsbDevice::start(info, UsbSource::Emulator(Box::default()), LoopConfig::default()).expect("device starts");
@@ -1124,7 +1123,7 @@ fn client_killed_mid_stream_trips_the_watchdog_and_hand_holds() {
             .spawn()
             .expect("handgate send starts");
         let ix = canon_index(
-            &table_for(DeviceKind::Dex3, Side::Left, &TableParams::default()).unwrap(),
+            &DeviceKind::Dex3.table(Side::Left, &TableOverrides::default()).unwrap(),
             "index_0",
         );
         let at = poll(DEADLINE, || {

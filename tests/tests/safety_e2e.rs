@@ -48,7 +48,7 @@ const TOL: f32 = 0.03;
 const STRICT_WATCHDOG: &str = r#"silence = "watchdog""#;
 
 /// The left hand's wire limits (rad) per IDL index, written out from the URDF xr_teleoperate
-/// uses (FACTS §2, `left_hand_{zero..six}_joint`): thumb_0, thumb_1, thumb_2, middle_0,
+/// uses (docs/sources.md §2, `left_hand_{zero..six}_joint`): thumb_0, thumb_1, thumb_2, middle_0,
 /// middle_1, index_0, index_1. Deliberately not imported from `dex3::table`. thumb_1 is the exception: handgate's default is the Dex3-1 manual's −35°…60°
 /// (rounded inward to [−0.6108, 1.0472] on the left, mirrored on the right), not the URDF's
 /// [−0.7243, 0.920], so the SDK example's 1.05 pose is reachable (docs/model.md, "Joint limits").

@@ -1,5 +1,5 @@
 //! Dex1-1 over DDS, as a client of dex1_1_service (or of SAKE's EZGripper driver, which
-//! presents the same interface). Three wire variants exist in the field (FACTS §4):
+//! presents the same interface). Three wire variants exist in the field (docs/sources.md §4):
 //!
 //! | variant | cmd / state topics | types | elements |
 //! |---|---|---|---|
@@ -59,7 +59,7 @@ impl Variant {
         }
     }
 
-    /// The position range this variant's clients use: 0..5.4 rad (FACTS §4), or 0..2pi for
+    /// The position range this variant's clients use: 0..5.4 rad (docs/sources.md §4), or 0..2pi for
     /// the seed spec's hg variant.
     pub fn default_range(self) -> (f32, f32) {
         match self {
@@ -82,16 +82,9 @@ pub const LOST_FAULT: u32 = 0xFFFF_FFFF;
 /// `mode` the EZGripper driver reports on a hardware fault.
 pub const MODE_FAULT: u8 = 255;
 
+/// `mode` 0: dex1_1_service ignores it.
 fn go_cmd(w: &crate::mapping::WireTarget) -> unitree_go::MotorCmd_ {
-    unitree_go::MotorCmd_ {
-        mode: 0,
-        q: w.q,
-        dq: w.dq,
-        tau: w.tau,
-        kp: w.kp,
-        kd: w.kd,
-        reserve: [0; 3],
-    }
+    (*w).into()
 }
 
 /// Codec for the `unitree_go` variants (Go and Actuator).
@@ -192,15 +185,7 @@ impl DdsCodec for Dex1HgCodec {
     fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
         let w = table.to_wire(targets(active)?);
         let mut msg = unitree_hg::HandCmd_::with_motors(1);
-        msg.motor_cmd[0] = unitree_hg::MotorCmd_ {
-            mode: 0,
-            q: w[0].q,
-            dq: w[0].dq,
-            tau: w[0].tau,
-            kp: w[0].kp,
-            kd: w[0].kd,
-            reserve: 0,
-        };
+        msg.motor_cmd[0] = w[0].into();
         Some(msg)
     }
 

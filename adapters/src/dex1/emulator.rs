@@ -1,6 +1,6 @@
 //! Emulator of `dex1_1_service`, the DDS peer a Dex1-1 gripper adapter talks to.
 //!
-//! Three wire variants exist in the field (shared FACTS §4), chosen by [`Dex1Variant`]:
+//! Three wire variants exist in the field (docs/sources.md §4), chosen by [`Dex1Variant`]:
 //! - [`Dex1Variant::Go`] (default, what dex1_1_service and current xr_teleoperate
 //!   use): `unitree_go::msg::dds_::MotorCmds_` with 1 element on `rt/dex1/{side}/cmd`,
 //!   `MotorStates_` with 1 element on `rt/dex1/{side}/state`;
@@ -9,7 +9,7 @@
 //! - [`Dex1Variant::Actuator`] (older xr_teleoperate): `rt/unitree_actuator/{cmd,state}`
 //!   with 2 elements, index 0 = right, 1 = left; one emulator serves both grippers.
 //!
-//! Behaviour (FACTS §4 unless marked): 500 Hz loop; mode ignored; q = 0 closed .. ~5.4 open;
+//! Behaviour (docs/sources.md §4 unless marked): 500 Hz loop; mode ignored; q = 0 closed .. ~5.4 open;
 //! after 1000 ms without a command the gripper brakes (holds its position, keeps reporting
 //! it; see [`GripperView::braked`]) and resumes on the next command; state carries q, dq,
 //! tau_est. Assumed (the real service's control law is not public): the commanded q is
@@ -32,9 +32,9 @@ use crate::dds::{Node, Qos, Reader, Writer};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
 
-/// Nominal open position clients command (xr_teleoperate, EZGripper driver; FACTS §4), rad.
+/// Nominal open position clients command (xr_teleoperate, EZGripper driver; docs/sources.md §4), rad.
 pub const DEX1_OPEN_Q: f32 = super::table::DEFAULT_RANGE_RAD;
-/// The range dex1_1_service calibrates (322 degrees; FACTS §4), rad.
+/// The range dex1_1_service calibrates (322 degrees; docs/sources.md §4), rad.
 pub const DEX1_CALIBRATED_RANGE: f32 = 5.62;
 /// The seed spec's open position (2pi), rad.
 pub const SEED_SPEC_OPEN_Q: f32 = super::table::SEED_SPEC_RANGE_RAD;
@@ -45,7 +45,7 @@ pub const DEX1_REST_Q: f32 = 5.0;
 
 /// The jaw's hard stops (closed, open), rad: the mechanism's range, not the range clients
 /// command. Go / Actuator: 0 .. dex1_1_service's calibrated 322° ([`DEX1_CALIBRATED_RANGE`],
-/// FACTS §4; assumed to be the mechanical range, since the service calibrates it end to end).
+/// docs/sources.md §4; assumed to be the mechanical range, since the service calibrates it end to end).
 /// Hg (the seed spec): 0 .. 2π, the spec's own range (assumed; nothing in the field uses it).
 pub fn hard_stops(variant: Dex1Variant) -> (f32, f32) {
     match variant {
@@ -60,7 +60,7 @@ pub use super::adapter::Variant as Dex1Variant;
 /// overridable table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dex1Tuning {
-    /// Silence after which the gripper brakes (FACTS §4: 1000 ms).
+    /// Silence after which the gripper brakes (docs/sources.md §4: 1000 ms).
     pub brake_after: Duration,
     /// Gains used when a command's kp / kd is zero (assumption: xr_teleoperate's 5.0 / 0.05).
     pub default_kp: f32,
@@ -93,7 +93,7 @@ pub struct Dex1Config {
     pub variant: Dex1Variant,
     /// The gripper served (ignored by [`Dex1Variant::Actuator`], which serves both).
     pub side: Side,
-    /// Loop and state rate (FACTS §4: 500 Hz).
+    /// Loop and state rate (docs/sources.md §4: 500 Hz).
     pub rate: Hz,
     /// Position range (closed, open), rad: the jaw's hard stops (default [`hard_stops`]).
     pub range: (f32, f32),
@@ -327,7 +327,7 @@ impl Dex1Core {
         }
     }
 
-    /// unitree_go state: one element per gripper, q/dq/tau_est filled (FACTS §4), measured
+    /// unitree_go state: one element per gripper, q/dq/tau_est filled (docs/sources.md §4), measured
     /// (each call draws the noise once).
     pub fn go_state(&mut self) -> MotorStates_ {
         let sensor = &mut self.sensor;

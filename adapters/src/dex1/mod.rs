@@ -2,8 +2,10 @@
 
 pub mod adapter;
 pub mod emulator;
+pub mod kind;
+pub mod open;
 pub mod table;
 
 /// dex1_1_service brakes (holds the measured position) this long after the last command
-/// (FACTS §4: "brakes after 1000 ms without a command").
+/// (docs/sources.md §4: "brakes after 1000 ms without a command").
 pub const SERVICE_BRAKE_AFTER: std::time::Duration = std::time::Duration::from_millis(1000);

@@ -1,17 +1,19 @@
 //! Dex1-1 gripper mapping: one canonical joint `jaw` measured from open, positive = closing.
 //!
-//! Wire: 0.0 rad = closed, `range` rad = open (FACTS §4: about 5.4 rad in xr_teleoperate, the
+//! Wire: 0.0 rad = closed, `range` rad = open (docs/sources.md §4: about 5.4 rad in xr_teleoperate, the
 //! EZGripper driver and dex1_1_service's internal branch; dex1_1_service calibrates 5.62 rad;
 //! the seed spec says 2π). So `wire_q = range - jaw`, and a closure c maps to `jaw = c * range`.
 
 use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
 use crate::model::{DeviceKind, Side, GRIPPER_JOINTS};
 
-/// Open position used by real systems (rad).
-pub const DEFAULT_RANGE_RAD: f32 = 5.4;
+/// Open position used by real systems (rad), as a profile states it.
+pub const DEFAULT_RANGE: f64 = 5.4;
+/// [`DEFAULT_RANGE`] as the tables use it.
+pub const DEFAULT_RANGE_RAD: f32 = DEFAULT_RANGE as f32;
 /// The seed spec's range (rad).
 pub const SEED_SPEC_RANGE_RAD: f32 = std::f32::consts::TAU;
-/// xr_teleoperate's Dex1 gains (FACTS §4).
+/// xr_teleoperate's Dex1 gains (docs/sources.md §4).
 pub const KP: f32 = 5.0;
 pub const KD: f32 = 0.05;
 /// xr_teleoperate clips each step to ±0.18 rad of the measured position; handgate offers it

@@ -1,7 +1,7 @@
 //! Dex3-1 over DDS, as a client of a G1's resident hand service: publishes
 //! `unitree_hg::HandCmd_` (7 motors, IDL order) on `rt/dex3/{side}/cmd` with the RIS mode
 //! byte set explicitly on every motor, reads `HandState_` from `rt/dex3/{side}/state` (or the
-//! low-frequency copy `rt/lf/dex3/{side}/state`, by profile). FACTS §2.
+//! low-frequency copy `rt/lf/dex3/{side}/state`, by profile). docs/sources.md §2.
 
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorCmd_};
 
@@ -61,12 +61,7 @@ pub fn encode_hand_cmd(table: &DeviceTable, targets: &[crate::model::JointComman
     for (i, (m, w)) in msg.motor_cmd.iter_mut().zip(&wire).enumerate() {
         *m = MotorCmd_ {
             mode: RisMode::foc(i as u8, timeout_bit).encode(),
-            q: w.q,
-            dq: w.dq,
-            tau: w.tau,
-            kp: w.kp,
-            kd: w.kd,
-            reserve: 0,
+            ..MotorCmd_::from(*w)
         };
     }
     msg

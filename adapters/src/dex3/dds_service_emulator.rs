@@ -3,7 +3,7 @@
 //! It subscribes `unitree_hg::msg::dds_::HandCmd_` on `rt/dex3/{side}/cmd` and publishes
 //! `HandState_` on `rt/dex3/{side}/state` (default 500 Hz) and, optionally, the low-frequency
 //! copy on `rt/lf/dex3/{side}/state` (default on, 50 Hz). Topics, joint order, the RIS mode
-//! byte, URDF limits and pressure encoding follow shared FACTS §1-§2 and the Dex3-1 user
+//! byte, URDF limits and pressure encoding follow docs/sources.md §1-§2 and the Dex3-1 user
 //! manual; everything else is an assumption kept in [`Dex3Tuning`] (see `docs/adapters.md`,
 //! "Emulators").
 //!
@@ -37,9 +37,9 @@ use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
 use crate::model::Side;
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Reading, Sensor};
 
-/// Motors per hand (FACTS §2).
+/// Motors per hand (docs/sources.md §2).
 pub const MOTORS: usize = DEX3_MOTORS;
-/// Pressure pads per hand (FACTS §2, SDK C++ example; manual: 9 sensors, 33 points).
+/// Pressure pads per hand (docs/sources.md §2, SDK C++ example; manual: 9 sensors, 33 points).
 pub const PADS: usize = DEX3_PRESS_SENSORS;
 /// Values in one `PressSensorState_::pressure` array.
 pub const PAD_POINTS: usize = 12;
@@ -156,7 +156,7 @@ pub struct Dex3ServiceConfig {
     pub side: Side,
     /// Rate of `rt/dex3/{side}/state` and of the emulated control loop (default 500 Hz).
     pub state_rate: Hz,
-    /// Rate of `rt/lf/dex3/{side}/state` (default 50 Hz; assumption, FACTS names no rate).
+    /// Rate of `rt/lf/dex3/{side}/state` (default 50 Hz; assumption, docs/sources.md names no rate).
     pub lf_rate: Hz,
     pub publish_lf: bool,
     /// Joint positions at start, rad, message order (clamped to the hard stops). Default:

@@ -1,25 +1,32 @@
 //! Unitree Dex3-1 three-finger hand. What both transports share: the RIS mode byte, the
 //! pressure encoding, and the command/measurement types of the USB device loop (in the hand's
-//! own sign convention and SI units, IDL joint order, FACTS §2); the mapping table; the USB
+//! own sign convention and SI units, IDL joint order, docs/sources.md §2); the mapping table; the USB
 //! adapter ([`usb`]); the DDS client of a G1's resident service and that service's emulator.
 
 pub mod dds_client;
 pub mod dds_service_emulator;
+pub mod kind;
+pub mod open;
 pub mod physical;
 pub mod table;
 pub mod usb;
 
+/// Dex3-1 joint names, canonical order (= the IDL order of `HandCmd_.motor_cmd`).
+pub const JOINTS: [&str; 7] = [
+    "thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1",
+];
+
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// Raw pressure meaning "no reading" (manual; FACTS §2).
+/// Raw pressure meaning "no reading" (manual; docs/sources.md §2).
 pub const PRESS_NO_READING: f32 = 30_000.0;
-/// Smallest raw value of a valid reading (FACTS §2: valid readings are >= 100000).
+/// Smallest raw value of a valid reading (docs/sources.md §2: valid readings are >= 100000).
 pub const PRESS_VALID_MIN: f32 = 100_000.0;
 /// RIS mode: bit 7, the timeout flag.
 pub const RIS_TIMEOUT_BIT: u8 = 0x80;
 /// A motor whose last command set [`RIS_TIMEOUT_BIT`] stops this long after that command
-/// (FACTS §2: "motor stops after 1 s without commands").
+/// (docs/sources.md §2: "motor stops after 1 s without commands").
 pub const RIS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// Status field (bits 4-6) of the RIS mode byte (manual: 0 lock, 1 FOC).
@@ -35,7 +42,7 @@ pub enum MotorStatus {
     Undefined(u8),
 }
 
-/// The RIS mode byte of a Dex3 motor (manual "RIS_Mode_t"; FACTS §2): bits 0-3 id, 4-6
+/// The RIS mode byte of a Dex3 motor (manual "RIS_Mode_t"; docs/sources.md §2): bits 0-3 id, 4-6
 /// status, 7 timeout (GCC bit-field order on little-endian targets).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct RisMode {
@@ -100,7 +107,7 @@ impl RisMode {
 
 /// Number of motors (joints) of one hand.
 pub const MOTOR_COUNT: usize = 7;
-/// Number of pressure pads of one hand (FACTS §2: the SDK example sizes press_sensor_state to 9).
+/// Number of pressure pads of one hand (docs/sources.md §2: the SDK example sizes press_sensor_state to 9).
 pub const PAD_COUNT: usize = 9;
 /// Taxels per pressure pad (`PressSensorState_.pressure[12]`, `SensorState_t.pressure[12]`).
 pub const TAXELS_PER_PAD: usize = 12;
@@ -198,6 +205,20 @@ pub struct MotorCommand {
     /// Damping, N·m·s/rad.
     pub kd: f32,
     pub status: MotorStatus,
+}
+
+/// A wire target's five fields under field-oriented control (status FOC).
+impl From<crate::mapping::WireTarget> for MotorCommand {
+    fn from(w: crate::mapping::WireTarget) -> Self {
+        Self {
+            q: w.q,
+            dq: w.dq,
+            tau: w.tau,
+            kp: w.kp,
+            kd: w.kd,
+            status: MotorStatus::Foc,
+        }
+    }
 }
 
 /// A command for the whole hand, motors in IDL order.

@@ -1,6 +1,6 @@
 //! Dex3-1 mapping table: canonical joint ↔ IDL index ↔ URDF joint, sign and limits.
 //!
-//! Sources (FACTS §2): IDL order 0 thumb_0, 1 thumb_1, 2 thumb_2, 3 middle_0, 4 middle_1,
+//! Sources (docs/sources.md §2): IDL order 0 thumb_0, 1 thumb_1, 2 thumb_2, 3 middle_0, 4 middle_1,
 //! 5 index_0, 6 index_1 on both hands. URDF: left `zero, one, two, five, six, three, four`
 //! → IDL 0..6 (the left URDF's three/four are the index finger, five/six the middle);
 //! right `zero..six` in order. Limits: the hardware's range from the Dex3-1 manual (see
@@ -13,8 +13,9 @@
 //! symmetric range) follows the same mirror so one canonical posture gives mirror-image
 //! motions on both hands (docs/model.md).
 
+use super::JOINTS;
 use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
-use crate::model::{DeviceKind, Side, DEX3_JOINTS};
+use crate::model::{DeviceKind, Side};
 
 /// URDF joint suffix per IDL index, per side.
 const URDF_LEFT: [&str; 7] = ["zero", "one", "two", "five", "six", "three", "four"];
@@ -53,7 +54,7 @@ pub const LEFT_SIGNS: [f32; 7] = [1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0];
 pub const OPEN_POSTURE: [f32; 7] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
 pub const CLOSED_POSTURE: [f32; 7] = [0.0, 0.6, 1.0, 1.2, 1.3, 1.2, 1.3];
 
-/// Gains xr_teleoperate uses for Dex3 (FACTS §2).
+/// Gains xr_teleoperate uses for Dex3 (docs/sources.md §2).
 pub const CLOSURE_KP: f32 = 1.5;
 pub const CLOSURE_KD: f32 = 0.2;
 
@@ -70,7 +71,7 @@ pub fn table(side: Side) -> DeviceTable {
                 _ => URDF_LEFT[i],
             };
             JointMap {
-                name: DEX3_JOINTS[i],
+                name: JOINTS[i],
                 wire_index: i,
                 urdf: format!("{}_hand_{}_joint", side.as_str(), urdf),
                 sign,

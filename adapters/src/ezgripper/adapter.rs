@@ -7,7 +7,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant, SystemTime};
+use std::time::Duration;
 
 use async_trait::async_trait;
 use tokio::sync::watch;
@@ -15,21 +15,11 @@ use tokio::sync::watch;
 use super::driver::{Calibration, EzGripperBus, GripperState};
 use super::protocol::ServoId;
 use crate::control::{Active, CommandState, Counters};
-use crate::device::{Capabilities, DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::device::{Calibrate, DeviceError, DeviceInfo, DeviceStats, HandDevice};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandCommand, HandState, JointState, SafeAction};
 
-/// Capabilities of an EZGripper.
-pub const CAPABILITIES: Capabilities = Capabilities {
-    feedback: true,
-    pressure: false,
-    imu: false,
-    power: false,
-    discovery: false,
-    calibration: true,
-};
-
-/// SAKE's driver reports `tau_est = effort / 10` (FACTS §5); handgate keeps that scale: the
+/// SAKE's driver reports `tau_est = effort / 10` (docs/sources.md §5); handgate keeps that scale: the
 /// canonical joint torque is `effort_pct / 10` ("N·m-like", positive = squeezing).
 pub const EFFORT_PCT_PER_TAU: f32 = 10.0;
 
@@ -83,7 +73,7 @@ impl EzGripperDevice {
     /// A device for servo `id` on `bus`; `force_pct` is the grip force limit (% of the
     /// servo's current limit).
     pub fn start(info: DeviceInfo, bus: Arc<EzGripperBus>, id: ServoId, force_pct: f32) -> Result<Self, DeviceError> {
-        let mut rx = bus.subscribe(id).map_err(|e| DeviceError::Link(e.to_string()))?;
+        let mut rx = bus.subscribe(id).map_err(DeviceError::link)?;
         let table = info.table.clone();
         let cmd = CommandState::new(table.clone());
         let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
@@ -98,8 +88,7 @@ impl EzGripperDevice {
                     return;
                 };
                 rt.block_on(async move {
-                    let mut was_online = false;
-                    let mut ever_online = false;
+                    let mut link = crate::link::LinkTracker::default();
                     let mut cal_failure_logged = false;
                     while !b_stop.load(Ordering::Relaxed) {
                         let changed = tokio::time::timeout(Duration::from_millis(50), rx.changed()).await;
@@ -117,32 +106,19 @@ impl EzGripperDevice {
                         }
                         let mut st = to_hand_state(&table, &g);
                         let online = st.freshness == Freshness::Fresh;
-                        if online && !was_online && ever_online {
+                        if link.observe(online, &st.joints, &b_cmd) {
                             // Back after an unplug or a silent servo: never replay.
                             tracing::info!("gripper back: holding the measured position until the next command");
-                            Counters::inc(&b_cmd.counters.reconnects);
-                            b_cmd.reseed(&st.joints);
                         }
-                        ever_online |= online;
-                        was_online = online;
-                        b_cmd.counters.link_up.store(online as u64, Ordering::Relaxed);
                         if online {
                             Counters::inc(&b_cmd.counters.state_samples);
                         }
-                        let (seq, tag) = b_cmd.applied();
-                        st.cmd_seq = seq;
-                        st.cmd_tag = tag;
-                        st.measured_wall = st
-                            .measured_at
-                            .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
-                        if b_cmd.is_safe() {
-                            st.faults |= faults::SAFE_STATE;
-                        }
+                        crate::link::stamp(&mut st, &b_cmd, b_cmd.is_safe(), true);
                         let _ = tx.send(st);
                     }
                 });
             })
-            .map_err(|e| DeviceError::Link(e.to_string()))?;
+            .map_err(DeviceError::link)?;
         Ok(Self {
             info,
             bus,
@@ -164,11 +140,8 @@ impl EzGripperDevice {
             Active::Command(t) | Active::Safe(_, t) => (t, self.force_pct),
         };
         let pct = self.info.table.to_wire(targets)[0].q;
-        let g = self
-            .bus
-            .gripper(self.id)
-            .map_err(|e| DeviceError::Link(e.to_string()))?;
-        g.set_target(pct, force).map_err(|e| DeviceError::Link(e.to_string()))?;
+        let g = self.bus.gripper(self.id).map_err(DeviceError::link)?;
+        g.set_target(pct, force).map_err(DeviceError::link)?;
         Counters::inc(&self.cmd.counters.sent);
         Ok(())
     }
@@ -204,7 +177,7 @@ impl HandDevice for EzGripperDevice {
     }
 
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if self.state_rx.borrow().measured_at.is_none() && action == SafeAction::Hold {
+        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
             return Ok(());
         }
         self.cmd.request_safe(action);
@@ -219,10 +192,44 @@ impl HandDevice for EzGripperDevice {
         s
     }
 
-    async fn calibrate(&self) -> Result<(), DeviceError> {
-        self.bus
-            .calibrate(self.id)
-            .map_err(|e| DeviceError::Link(e.to_string()))
+    fn calibration(&self) -> Option<&dyn Calibrate> {
+        Some(self)
+    }
+}
+
+/// How long a calibration may take before `calibrate` gives up waiting (the driver's own
+/// timeout, `calibration_timeout_ms`, is 6.6 s by default).
+pub const CALIBRATION_WAIT: Duration = Duration::from_secs(15);
+
+#[async_trait]
+impl Calibrate for EzGripperDevice {
+    /// Closes the gripper to its stop to find the zero (it moves), waits for the result and
+    /// returns the zero as the profile's `zero_ticks`.
+    async fn calibrate(&self) -> Result<String, DeviceError> {
+        let mut rx = self.bus.subscribe(self.id).map_err(DeviceError::link)?;
+        rx.mark_unchanged();
+        self.bus.calibrate(self.id).map_err(DeviceError::link)?;
+        let wait = async {
+            let mut started = false;
+            loop {
+                match rx.borrow_and_update().calibration.clone() {
+                    super::driver::Calibration::Running => started = true,
+                    super::driver::Calibration::Calibrated { zero_ticks } if started => {
+                        return Ok(format!("zero_ticks = {zero_ticks}"))
+                    }
+                    super::driver::Calibration::Failed { reason } if started => {
+                        return Err(DeviceError::Config(format!("calibration failed: {reason}")))
+                    }
+                    _ => {}
+                }
+                if rx.changed().await.is_err() {
+                    return Err(DeviceError::Stopped);
+                }
+            }
+        };
+        tokio::time::timeout(CALIBRATION_WAIT, wait)
+            .await
+            .map_err(|_| DeviceError::NotConfirmed(CALIBRATION_WAIT))?
     }
 }
 

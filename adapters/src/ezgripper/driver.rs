@@ -23,7 +23,7 @@ use super::transport::{Connector, SerialConnector, Transport, TransportError};
 
 pub use crate::model::Side;
 
-/// Default servo id by side: 1 left, 2 right, 3 center (FACTS.md section 5).
+/// Default servo id by side: 1 left, 2 right, 3 center (docs/sources.md §5).
 pub fn default_id(side: Side) -> ServoId {
     let id = match side {
         Side::Left => 1,

@@ -12,6 +12,8 @@ pub mod adapter;
 pub mod control_table;
 pub mod driver;
 pub mod emulator;
+pub mod kind;
+pub mod open;
 pub mod protocol;
 pub mod pty;
 pub mod table;

@@ -1,13 +1,14 @@
 //! EZGripper mapping: the same canonical `jaw` as Dex1 (so a Dex1 client drives it 1:1),
 //! wire unit = percent open as SAKE's driver uses it (0 % = closed, `max_open_percent` = open).
-//! SAKE's driver maps Dex1 0 rad → 0 % and 5.4 rad → max_open_percent (FACTS §5):
+//! SAKE's driver maps Dex1 0 rad → 0 % and 5.4 rad → max_open_percent (docs/sources.md §5):
 //! `wire_pct = max_open * (range - jaw) / range`.
 
 use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
 use crate::model::{DeviceKind, Side, GRIPPER_JOINTS};
 
-/// Dex1-equivalent range of the jaw (rad) the SAKE driver assumes.
-pub const DEFAULT_RANGE_RAD: f32 = 5.4;
+/// Dex1-equivalent range of the jaw (rad) the SAKE driver assumes: the Dex1's open position,
+/// since its driver maps Dex1 radians onto the EZGripper (docs/sources.md §5).
+pub const DEFAULT_RANGE_RAD: f32 = crate::dex1::table::DEFAULT_RANGE_RAD;
 /// SAKE driver default.
 pub const DEFAULT_MAX_OPEN_PERCENT: f32 = 100.0;
 

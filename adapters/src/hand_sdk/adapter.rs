@@ -1,4 +1,4 @@
-//! The G1's `rt/hand_sdk` interface (FACTS §6): unitree_go MotorCmds_ with 4 entries; the
+//! The G1's `rt/hand_sdk` interface (docs/sources.md §6): unitree_go MotorCmds_ with 4 entries; the
 //! blend weight is `round(w * 100)` in `cmds[0].mode`; ai_sport blends all five fields as
 //! `w * user + (1 - w) * its own`. handgate ramps the weight up at a profile rate when a
 //! command arrives (never a step from 0 to 1), keeps publishing at the profile rate while
@@ -90,15 +90,7 @@ impl DdsCodec for HandSdkCodec {
         let wire = table.to_wire(&target);
         let mut msg = unitree_go::MotorCmds_::with_len(MOTORS);
         for (m, w) in msg.cmds.iter_mut().zip(&wire) {
-            *m = unitree_go::MotorCmd_ {
-                mode: 0,
-                q: w.q,
-                dq: w.dq,
-                tau: w.tau,
-                kp: w.kp,
-                kd: w.kd,
-                reserve: [0; 3],
-            };
+            *m = (*w).into();
         }
         msg.cmds[0].mode = Self::weight_byte(self.weight);
         Some(msg)

@@ -5,7 +5,7 @@
 //! weight is `cmds[0].mode / 100` (the other entries' mode is unused). Every control tick it
 //! sends each motor, for all five fields (q, dq, tau, kp, kd),
 //! `weight * user + (1 - weight) * default`, where default is ai_sport's own command
-//! (g1-hand-sdk-interface.txt; shared FACTS §6). It publishes nothing: no state topic is
+//! (g1-hand-sdk-interface.txt; docs/sources.md §6). It publishes nothing: no state topic is
 //! documented. Tests inspect what it would send to the motors.
 //!
 //! Documented behaviour reproduced: all five fields blended; auto-fallback to ai_sport's own

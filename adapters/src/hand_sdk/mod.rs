@@ -2,4 +2,10 @@
 
 pub mod adapter;
 pub mod emulator;
+pub mod kind;
+pub mod open;
 pub mod table;
+
+/// `rt/hand_sdk` motors. Which finger or hand each drives is unpublished (docs/sources.md §6),
+/// so they are named neutrally.
+pub const JOINTS: [&str; 4] = ["motor_0", "motor_1", "motor_2", "motor_3"];

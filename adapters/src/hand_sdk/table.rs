@@ -1,10 +1,11 @@
-//! `rt/hand_sdk` mapping (FACTS §6): 4 motors in a unitree_go MotorCmds_, positive tau closes
+//! `rt/hand_sdk` mapping (docs/sources.md §6): 4 motors in a unitree_go MotorCmds_, positive tau closes
 //! (the same sign as canonical), units as ai_sport's. Which motor drives which finger or hand,
 //! and the position range, are unpublished: the joints are `motor_0..motor_3` and the limits
 //! are wide placeholders until checked on a robot (profile-overridable).
 
+use super::JOINTS;
 use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
-use crate::model::{DeviceKind, Side, HAND_SDK_JOINTS};
+use crate::model::{DeviceKind, Side};
 
 /// The unitree_sdk2 example toggles tau between these to close and open.
 pub const EXAMPLE_TAU_CLOSE: f32 = 0.3;
@@ -13,7 +14,7 @@ pub const EXAMPLE_TAU_OPEN: f32 = -0.3;
 pub const PLACEHOLDER_LIMIT: f32 = std::f32::consts::PI;
 
 pub fn table(side: Side) -> DeviceTable {
-    let joints = HAND_SDK_JOINTS
+    let joints = JOINTS
         .iter()
         .enumerate()
         .map(|(i, name)| JointMap {

@@ -89,15 +89,56 @@ pub fn encode_state(name: &str, device: &DeviceTable, st: &HandState) -> hg::Han
     }
 }
 
+/// The canonical front's endpoints: handgate's own `HandCmd_` in, `HandState_` out.
+pub struct CanonicalIo {
+    _reader: handgate_adapters::dds::Reader<hg::HandCmd_>,
+    state: handgate_adapters::dds::Writer<hg::HandState_>,
+}
+
+impl CanonicalIo {
+    pub fn open(
+        node: &handgate_adapters::dds::Node,
+        cmd_topic: &str,
+        state_topic: &str,
+        tx: tokio::sync::mpsc::Sender<super::Message>,
+        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    ) -> Result<Self, handgate_adapters::dds::DdsError> {
+        Ok(Self {
+            _reader: super::reader(node, cmd_topic, tx, dropped)?,
+            state: node.writer(state_topic, handgate_adapters::dds::Qos::BestEffort)?,
+        })
+    }
+}
+
+impl super::FrontIo for CanonicalIo {
+    fn decode(
+        &self,
+        bound: &[super::Bound<'_>],
+        msg: &super::Message,
+    ) -> Result<Vec<(usize, super::Routed)>, Rejection> {
+        let Some(m) = msg.downcast_ref::<hg::HandCmd_>() else {
+            return Ok(Vec::new());
+        };
+        let b0 = &bound[0];
+        // The device's own names and table: no front table in between.
+        Ok(vec![(0, (decode_cmd(m, &b0.route.device, b0.safe_action)?, 0, false))])
+    }
+
+    fn publish(&mut self, bound: &[super::Bound<'_>], _lf: bool) {
+        let b0 = &bound[0];
+        let _ = self.state.write(encode_state(b0.device, &b0.route.device, &b0.state));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::{DeviceKind, Side};
-    use handgate_adapters::tables::{table_for, TableParams};
 
     #[test]
     fn joints_by_name_closure_and_rejections() {
-        let t = table_for(DeviceKind::Dex3, Side::Right, &TableParams::default()).unwrap();
+        let t = DeviceKind::Dex3.table(Side::Right, &TableOverrides::default()).unwrap();
         let msg = hg::HandCmd_ {
             mode: hg::MODE_JOINTS,
             joints: vec![hg::JointCmd_ {

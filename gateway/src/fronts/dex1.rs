@@ -6,7 +6,7 @@
 //!
 //! Command rules: exact element count; finite values; `mode` ignored (as dex1_1_service does);
 //! q outside [0, range] is clamped by the device table. State: q clamped to [0, range] (a
-//! client must never see q > range: FACTS §5's 5.4000001 bug), tau_est, temperature, mode =
+//! client must never see q > range: docs/sources.md §5's 5.4000001 bug), tau_est, temperature, mode =
 //! the device's status byte (EZGripper grasp state), a hardware fault gives mode 255 and
 //! lost = 0xFFFFFFFF; while the state is stale, `lost` carries the age of the last
 //! measurement in ms (saturating at 0xFFFFFFFE) and `reserve[1]` = 1.
@@ -186,14 +186,107 @@ pub fn encode_hg(
     out
 }
 
+/// The Dex1 front's state writer, of the variant's type.
+enum Dex1Writer {
+    Go(handgate_adapters::dds::Writer<unitree_go::MotorStates_>),
+    Hg(handgate_adapters::dds::Writer<unitree_hg::HandState_>),
+}
+
+/// The Dex1 front's endpoints in its wire variant.
+pub struct Dex1Io {
+    variant: Variant,
+    /// Elements of its messages (the actuator variant: 2).
+    elements: usize,
+    /// The command reader, of the variant's type (kept alive).
+    _reader: Box<dyn Send>,
+    writer: Dex1Writer,
+}
+
+impl Dex1Io {
+    pub fn open(
+        node: &handgate_adapters::dds::Node,
+        variant: Variant,
+        cmd_topic: &str,
+        state_topic: &str,
+        elements: usize,
+        tx: tokio::sync::mpsc::Sender<super::Message>,
+        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    ) -> Result<Self, handgate_adapters::dds::DdsError> {
+        use handgate_adapters::dds::Qos;
+        let (reader, writer): (Box<dyn Send>, _) = match variant {
+            Variant::Hg => (
+                Box::new(super::reader::<unitree_hg::HandCmd_>(node, cmd_topic, tx, dropped)?),
+                Dex1Writer::Hg(node.writer(state_topic, Qos::BestEffort)?),
+            ),
+            Variant::Go | Variant::Actuator => (
+                Box::new(super::reader::<unitree_go::MotorCmds_>(node, cmd_topic, tx, dropped)?),
+                Dex1Writer::Go(node.writer(state_topic, Qos::BestEffort)?),
+            ),
+        };
+        Ok(Self {
+            variant,
+            elements,
+            _reader: reader,
+            writer,
+        })
+    }
+}
+
+impl super::FrontIo for Dex1Io {
+    fn decode(
+        &self,
+        bound: &[super::Bound<'_>],
+        msg: &super::Message,
+    ) -> Result<Vec<(usize, super::Routed)>, Rejection> {
+        let b0 = &bound[0];
+        if let Some(m) = msg.downcast_ref::<unitree_hg::HandCmd_>() {
+            return Ok(vec![(0, super::routed(b0.route, decode_hg(m, &b0.route.front)?))]);
+        }
+        let Some(m) = msg.downcast_ref::<unitree_go::MotorCmds_>() else {
+            return Ok(Vec::new());
+        };
+        if self.variant == Variant::Actuator {
+            let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.route.front)).collect();
+            return Ok(decode_actuator(m, &elems)?
+                .into_iter()
+                .zip(bound)
+                .enumerate()
+                .map(|(i, (c, b))| (i, super::routed(b.route, c)))
+                .collect());
+        }
+        let c = decode_go(m, Variant::Go, Side::Left, &b0.route.front)?;
+        Ok(vec![(0, super::routed(b0.route, c))])
+    }
+
+    fn publish(&mut self, bound: &[super::Bound<'_>], _lf: bool) {
+        let now = std::time::Instant::now();
+        let b0 = &bound[0];
+        let _ = match &mut self.writer {
+            Dex1Writer::Go(w) if self.variant == Variant::Actuator => {
+                // Every element measured: each from its own gripper; an unbound one as never
+                // measured.
+                let mut m = unitree_go::MotorStates_ {
+                    states: vec![unbound_state(&b0.route.front); self.elements],
+                };
+                for b in bound {
+                    m.states[b.element] = go_state(&b.route.front, &b.routed_state()[0], &b.state, now);
+                }
+                w.write(m)
+            }
+            Dex1Writer::Go(w) => w.write(encode_go(&b0.route.front, &b0.routed_state()[0], &b0.state, now)),
+            Dex1Writer::Hg(w) => w.write(encode_hg(&b0.route.front, &b0.routed_state()[0], &b0.state, now)),
+        };
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::DeviceKind;
-    use handgate_adapters::tables::{table_for, TableParams};
 
     fn t() -> DeviceTable {
-        table_for(DeviceKind::Dex1, Side::Left, &TableParams::default()).unwrap()
+        DeviceKind::Dex1.table(Side::Left, &TableOverrides::default()).unwrap()
     }
 
     #[test]

@@ -140,15 +140,71 @@ pub fn encode_state(front: &DeviceTable, joints: &[JointState], st: &HandState) 
     out
 }
 
+/// The Dex3 front's endpoints: `HandCmd_` in, `HandState_` out (and its low-frequency copy).
+pub struct Dex3Io {
+    _reader: handgate_adapters::dds::Reader<HandCmd_>,
+    state: handgate_adapters::dds::Writer<HandState_>,
+    lf: Option<(handgate_adapters::dds::Writer<HandState_>, f64)>,
+}
+
+impl Dex3Io {
+    pub fn open(
+        node: &handgate_adapters::dds::Node,
+        cmd_topic: &str,
+        state_topic: &str,
+        lf: Option<(&str, f64)>,
+        tx: tokio::sync::mpsc::Sender<super::Message>,
+        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    ) -> Result<Self, handgate_adapters::dds::DdsError> {
+        use handgate_adapters::dds::Qos;
+        Ok(Self {
+            _reader: super::reader(node, cmd_topic, tx, dropped)?,
+            state: node.writer(state_topic, Qos::BestEffort)?,
+            lf: lf
+                .map(|(t, hz)| node.writer(t, Qos::BestEffort).map(|w| (w, hz)))
+                .transpose()?,
+        })
+    }
+}
+
+impl super::FrontIo for Dex3Io {
+    fn decode(
+        &self,
+        bound: &[super::Bound<'_>],
+        msg: &super::Message,
+    ) -> Result<Vec<(usize, super::Routed)>, Rejection> {
+        let Some(m) = msg.downcast_ref::<HandCmd_>() else {
+            return Ok(Vec::new());
+        };
+        let b0 = &bound[0];
+        let c = decode_cmd(m, &b0.route.front, &b0.routed_state())?;
+        Ok(vec![(0, super::routed(b0.route, c))])
+    }
+
+    fn publish(&mut self, bound: &[super::Bound<'_>], lf: bool) {
+        let b0 = &bound[0];
+        let msg = encode_state(&b0.route.front, &b0.routed_state(), &b0.state);
+        let _ = match (lf, &mut self.lf) {
+            (true, Some((w, _))) => w.write(msg),
+            (true, None) => Ok(()),
+            (false, _) => self.state.write(msg),
+        };
+    }
+
+    fn lf_hz(&self) -> f64 {
+        self.lf.as_ref().map_or(0.0, |(_, hz)| *hz)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::{DeviceKind, Side};
-    use handgate_adapters::tables::{table_for, TableParams};
     use handgate_idl::unitree_hg::MotorCmd_;
 
     fn left() -> DeviceTable {
-        table_for(DeviceKind::Dex3, Side::Left, &TableParams::default()).unwrap()
+        DeviceKind::Dex3.table(Side::Left, &TableOverrides::default()).unwrap()
     }
 
     fn cmd() -> HandCmd_ {

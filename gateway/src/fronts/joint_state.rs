@@ -38,12 +38,12 @@ pub fn header(now: std::time::SystemTime, frame_id: &str) -> JointState_ {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use handgate_adapters::mapping::TableOverrides;
     use handgate_adapters::model::{DeviceKind, JointState, Side};
-    use handgate_adapters::tables::{table_for, TableParams};
 
     #[test]
     fn urdf_names_and_wire_frame() {
-        let t = table_for(DeviceKind::Dex3, Side::Left, &TableParams::default()).unwrap();
+        let t = DeviceKind::Dex3.table(Side::Left, &TableOverrides::default()).unwrap();
         let mut st = HandState::empty(7);
         st.joints[t.joint_by_name("index_0").unwrap().index()] = JointState {
             q: 1.0,

@@ -1,6 +1,8 @@
-//! Fronts: the DDS interfaces clients already speak. Each module here is a pure codec
-//! (front wire message ⇄ canonical), validated by the rules in docs/fronts.md; the runtime
-//! (`crate::runtime`) binds them to DDS endpoints and devices.
+//! Fronts: the DDS interfaces clients already speak. Each module here is a front kind: a pure
+//! codec (front wire message ⇄ canonical, validated by the rules in docs/fronts.md, unit
+//! tested) and its endpoints ([`FrontIo`]: the command reader, decode through the routes bound
+//! at start, the state writers). The runtime (`crate::runtime`) runs every front kind through
+//! [`open`] and one task (queue, silence, prompt state, deadlines).
 //!
 //! Bad input rule, for every front: a message with the wrong entry count, a non-finite value,
 //! an unknown mode/status, a wrong motor id or an unknown joint name is **rejected whole**
@@ -12,8 +14,17 @@ pub mod dex1;
 pub mod dex3;
 pub mod joint_state;
 
+use std::any::Any;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+use handgate_adapters::dds::{DdsError, Node, Qos, Reader};
 use handgate_adapters::mapping::WireTarget;
-use handgate_adapters::model::JointCommand;
+use handgate_adapters::model::{CommandBody, HandState, JointCommand, SafeAction};
+use tokio::sync::mpsc;
+
+use crate::plan::{FrontKind, FrontPlan};
+use crate::router::Route;
 
 /// Why a front rejected a message.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -67,4 +78,108 @@ fn checked_target(index: usize, [q, dq, tau, kp, kd]: [f32; 5]) -> Result<WireTa
     } else {
         Err(Rejection::NonFinite(index))
     }
+}
+
+/// One device a running front drives, as its codec sees it: the route bound once, the
+/// device's latest state.
+#[derive(Debug)]
+pub struct Bound<'a> {
+    pub route: &'a Route,
+    /// Element of the front's messages that carries this device.
+    pub element: usize,
+    /// The device's name (the canonical front's state names it).
+    pub device: &'a str,
+    /// The device's safe action (a canonical `safe` command).
+    pub safe_action: SafeAction,
+    pub state: HandState,
+}
+
+impl Bound<'_> {
+    /// The device's state in the front's canonical joint order.
+    pub fn routed_state(&self) -> Vec<handgate_adapters::model::JointState> {
+        self.route.state(&self.state.joints, self.state.closure)
+    }
+}
+
+/// A command for one bound device: the body, the client's tag, whether it set the Dex3 RIS
+/// timeout bit.
+pub type Routed = (CommandBody, u32, bool);
+
+/// A message a front's reader took, for that front's own decode.
+pub type Message = Box<dyn Any + Send>;
+
+/// A running front's wire side: its reader (kept alive), decoding and state writers. The
+/// runtime's one front task (queue, silence, prompt state, deadlines) drives every front
+/// kind through it.
+pub trait FrontIo: Send {
+    /// Decodes a message into commands per bound device (index into `bound`), or the reason
+    /// it is rejected whole.
+    fn decode(&self, bound: &[Bound<'_>], msg: &Message) -> Result<Vec<(usize, Routed)>, Rejection>;
+
+    /// Publishes the bound devices' state (`lf`: the low-frequency copy, where there is one).
+    fn publish(&mut self, bound: &[Bound<'_>], lf: bool);
+
+    /// Rate of the low-frequency copy, Hz (0: none).
+    fn lf_hz(&self) -> f64 {
+        0.0
+    }
+}
+
+/// A command reader on `topic` handing every sample to the front's task as a [`Message`];
+/// a sample that finds the queue full is dropped and counted in `dropped`.
+pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
+    node: &Node,
+    topic: &str,
+    tx: mpsc::Sender<Message>,
+    dropped: Arc<AtomicU64>,
+) -> Result<Reader<T>, DdsError> {
+    node.reader_with_callback::<T, _>(topic, Qos::Reliable { depth: 16 }, move |h| {
+        let mut v = Vec::new();
+        h.take_into(&mut v);
+        for s in v {
+            if tx.try_send(Box::new(s)).is_err() {
+                dropped.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    })
+}
+
+/// The command and state endpoints of front `f` (the one place that picks a front kind's
+/// I/O); `None` for a front that takes no commands (joint_state, run by its own task).
+pub fn open(
+    node: &Node,
+    f: &FrontPlan,
+    tx: mpsc::Sender<Message>,
+    dropped: Arc<AtomicU64>,
+) -> Result<Option<Box<dyn FrontIo>>, DdsError> {
+    let cmd = f.cmd_topic.clone().unwrap_or_default();
+    Ok(Some(match &f.kind {
+        FrontKind::Dex3 {
+            lf_state_topic,
+            lf_state_hz,
+        } => Box::new(dex3::Dex3Io::open(
+            node,
+            &cmd,
+            &f.state_topic,
+            lf_state_topic.as_deref().map(|t| (t, *lf_state_hz)),
+            tx,
+            dropped,
+        )?),
+        FrontKind::Dex1 { variant } => Box::new(dex1::Dex1Io::open(
+            node,
+            *variant,
+            &cmd,
+            &f.state_topic,
+            f.elements(),
+            tx,
+            dropped,
+        )?),
+        FrontKind::Canonical => Box::new(canonical::CanonicalIo::open(node, &cmd, &f.state_topic, tx, dropped)?),
+        FrontKind::JointState { .. } => return Ok(None),
+    }))
+}
+
+/// A decoded front command routed to the device of `route`.
+pub fn routed(route: &Route, c: FrontCommand) -> Routed {
+    (route.command(&c.joints), c.tag, c.timeout_bit)
 }

@@ -16,7 +16,6 @@
 //! See `docs/profiles.md` for the reference.
 
 mod error;
-pub mod hardware;
 mod render;
 mod schema;
 mod validate;
@@ -293,6 +292,22 @@ fn layer_of(fig: &Figment, key: &KeyPath) -> Layer {
     }
 }
 
+/// Parses every `[[devices]]` table of `raw` (common keys, then the kind's own), each error
+/// naming the device's key path and the layer that set it.
+fn devices(fig: &Figment, raw: &RawProfile, base: &Origin) -> Result<Vec<DeviceConfig>, ProfileError> {
+    raw.devices
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            DeviceConfig::from_value(v).map_err(|mut e| {
+                e.path.splice(0..0, ["devices".to_string(), i.to_string()]);
+                let layer = layer_of(fig, &KeyPath::root().key("devices").index(i));
+                ProfileError::Invalid(figment_issues(*e, layer, base))
+            })
+        })
+        .collect()
+}
+
 /// Loads, layers and validates a profile. On failure every problem found is reported; a
 /// file that does not parse stops before the semantic checks.
 pub fn load(opts: &LoadOptions) -> Result<Loaded, ProfileError> {
@@ -303,17 +318,23 @@ pub fn load(opts: &LoadOptions) -> Result<Loaded, ProfileError> {
     // attributed to the layer that introduced it: figment tags a merged table with the
     // layer that created it, not the one that added the bad key.
     let mut fig = Figment::from(Toml::string(&text));
-    fig.extract::<Profile>()
+    let raw = fig
+        .extract::<RawProfile>()
         .map_err(|e| ProfileError::Invalid(figment_issues(e, Layer::Base, &base)))?;
+    // Each device's table: the common keys and its kind's own (structural errors of the
+    // base layer before the next layer's).
+    devices(&fig, &raw, &base)?;
     if opts.env == EnvLayer::Process {
         fig = fig.merge(env_provider());
-        fig.extract::<Profile>()
+        fig.extract::<RawProfile>()
             .map_err(|e| ProfileError::Invalid(figment_issues(e, Layer::Env, &base)))?;
     }
     fig = fig.merge(opts.overrides.clone());
-    let mut profile: Profile = fig
+    let raw: RawProfile = fig
         .extract()
         .map_err(|e| ProfileError::Invalid(figment_issues(e, Layer::Cli, &base)))?;
+    let devices = devices(&fig, &raw, &base)?;
+    let mut profile = raw.into_profile(devices);
 
     let issues: Vec<Issue> = validate(&profile)
         .into_iter()

@@ -42,15 +42,8 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
                 state.map(|t| t.0).unwrap_or_else(|| "-".into())
             );
         }
-        if d.kind == DeviceKind::Dex1 && d.backend == Backend::Dds {
-            let _ = write!(s, " ({})", d.dex1_variant());
-        }
-        if let Some(e) = &d.ezgripper {
-            let _ = write!(s, ", {} @ {} baud id {}", e.port, e.baud, e.servo_id_for(d.side));
-        }
-        if let Some(u) = d.usb.as_ref().and_then(|u| u.serial.as_ref()) {
-            let _ = write!(s, ", usb serial {u}");
-        }
+        // What the kind adds: its variant, bus, serial.
+        s.push_str(&d.config.describe(&d.ctx()));
         s.push('\n');
     }
     let _ = writeln!(s, "fronts ({}):", p.fronts.len());

@@ -13,14 +13,12 @@ use serde::{Deserialize, Serialize};
 
 /// Highest DDS domain id the standard RTPS port mapping allows (7400 + 250 * 232 + 1 < 65535).
 pub const MAX_DOMAIN_ID: u32 = 232;
-/// Highest rate any loop or publisher may be configured to, Hz.
-pub const MAX_RATE_HZ: f64 = 2000.0;
 /// Highest status publish rate, Hz (the status topic is a slow heartbeat).
 pub const MAX_STATUS_RATE_HZ: f64 = 10.0;
 /// Watchdog timeouts must lie in this range, ms.
 pub const WATCHDOG_MS_RANGE: (u32, u32) = (10, 10_000);
 /// A Dex1 front must publish state at least this fast: xr_teleoperate runs its gripper loop
-/// at 200 Hz (FACTS §4).
+/// at 200 Hz (docs/sources.md §4).
 pub const DEX1_MIN_STATE_HZ: f64 = 200.0;
 
 /// A DDS domain id (0..=232).
@@ -113,8 +111,12 @@ impl fmt::Display for DeviceName {
 
 pub use handgate_adapters::device::Backend;
 pub use handgate_adapters::dex1::adapter::Variant as Dex1Variant;
+use handgate_adapters::dex3::dds_client::topics as dex3_topics;
 pub use handgate_adapters::dex3::dds_client::StateSource;
+pub use handgate_adapters::kind::{DeviceCtx, KindConfigBox, Problem, MAX_RATE_HZ};
 pub use handgate_adapters::model::{DeviceKind, SafeAction, Side};
+
+use figment::value::{Dict, Value};
 
 macro_rules! snake_enum {
     ($(#[$m:meta])* $name:ident { $($(#[$vm:meta])* $v:ident => $s:literal),+ $(,)? } default $d:ident) => {
@@ -177,8 +179,7 @@ snake_enum!(
 );
 
 /// The whole profile.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Profile {
     /// Short name, shown by `handgate check`.
     pub name: String,
@@ -189,6 +190,35 @@ pub struct Profile {
     pub status: StatusConfig,
     pub devices: Vec<DeviceConfig>,
     pub fronts: Vec<FrontConfig>,
+}
+
+/// The profile as deserialized: each `[[devices]]` table still a raw value, parsed by
+/// [`DeviceConfig::from_value`] (its common keys, then its kind's own).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawProfile {
+    pub name: String,
+    pub description: String,
+    pub dds: DdsConfig,
+    pub log: LogConfig,
+    pub status: StatusConfig,
+    pub devices: Vec<Value>,
+    pub fronts: Vec<FrontConfig>,
+}
+
+impl RawProfile {
+    /// The profile with its devices parsed.
+    pub fn into_profile(self, devices: Vec<DeviceConfig>) -> Profile {
+        Profile {
+            name: self.name,
+            description: self.description,
+            dds: self.dds,
+            log: self.log,
+            status: self.status,
+            devices,
+            fronts: self.fronts,
+        }
+    }
 }
 
 /// DDS participant settings.
@@ -264,133 +294,252 @@ impl fmt::Display for DeviceRate {
     }
 }
 
-/// One device of the fleet.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// One device of the fleet: the keys every device has, and its kind's own keys
+/// ([`DeviceConfig::config`], the kind folder's typed struct, e.g. `[devices.usb]`).
+#[derive(Debug, Clone, PartialEq)]
 pub struct DeviceConfig {
     pub name: DeviceName,
     pub kind: DeviceKind,
     pub side: Side,
     pub backend: Backend,
     /// Device loop / publish rate; `None` = the kind's default (see [`DeviceConfig::rate`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rate_hz: Option<RateHz>,
-    #[serde(default)]
     pub limits: LimitsConfig,
-    #[serde(default)]
     pub watchdog: WatchdogConfig,
-    #[serde(default)]
     pub closure: ClosureConfig,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub usb: Option<UsbConfig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub dds: Option<DeviceDdsConfig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub hand_sdk: Option<HandSdkConfig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ezgripper: Option<EzGripperConfig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub emulator: Option<EmulatorConfig>,
+    /// The kind's own keys, parsed by the kind (`KindFactory::parse`).
+    pub config: KindConfigBox,
+    /// Keys this device's table sets that belong to another kind or backend (found while
+    /// parsing; `validate` reports them with the other semantic errors).
+    pub misplaced: Vec<Problem>,
+}
+
+/// The keys every `[[devices]]` table may have; the others are the kind's.
+pub const COMMON_DEVICE_KEYS: &[&str] = &[
+    "name", "kind", "side", "backend", "rate_hz", "limits", "watchdog", "closure", "emulator",
+];
+
+/// The common keys as deserialized.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DeviceCommon {
+    name: DeviceName,
+    kind: DeviceKind,
+    side: Side,
+    backend: Backend,
+    #[serde(default)]
+    rate_hz: Option<RateHz>,
+    #[serde(default)]
+    limits: LimitsConfig,
+    #[serde(default)]
+    watchdog: WatchdogConfig,
+    #[serde(default)]
+    closure: ClosureConfig,
+    #[serde(default)]
+    emulator: Option<EmulatorConfig>,
 }
 
 impl Default for DeviceConfig {
-    /// An emulated left Dex3 called `hand`.
+    /// An emulated left device called `hand`, of the first registered kind.
     fn default() -> Self {
+        let kind = DeviceKind::default();
         DeviceConfig {
             name: DeviceName("hand".into()),
-            kind: DeviceKind::Dex3,
+            kind,
             side: Side::Left,
             backend: Backend::Emulator,
             rate_hz: None,
             limits: LimitsConfig::default(),
             watchdog: WatchdogConfig::default(),
             closure: ClosureConfig::default(),
-            usb: None,
-            dds: None,
-            hand_sdk: None,
-            ezgripper: None,
             emulator: None,
+            config: KindConfigBox(kind.factory().default_config()),
+            misplaced: Vec::new(),
         }
     }
 }
 
+/// `"a dex3 or dex1"`: `kinds` named with one article.
+fn kinds_phrase(kinds: &[DeviceKind]) -> String {
+    let names: Vec<&str> = kinds.iter().map(|k| k.as_str()).collect();
+    handgate_adapters::kind::a(&names.join(" or "))
+}
+
+/// Removes the value at `path` from `dict` (nested tables).
+fn remove_path(dict: &mut Dict, path: &[String]) {
+    match path {
+        [] => {}
+        [k] => {
+            dict.remove(k);
+        }
+        [k, rest @ ..] => {
+            if let Some(Value::Dict(_, d)) = dict.get_mut(k) {
+                remove_path(d, rest);
+            }
+        }
+    }
+}
+
+/// A table holding only the value at `path` of `dict`.
+fn subtree(dict: &Dict, path: &[String]) -> Option<Value> {
+    let (k, rest) = path.split_first()?;
+    let v = dict.get(k)?;
+    let inner = if rest.is_empty() {
+        v.clone()
+    } else {
+        match v {
+            Value::Dict(_, d) => subtree(d, rest)?,
+            _ => return None,
+        }
+    };
+    let mut out = Dict::new();
+    out.insert(k.clone(), inner);
+    Some(Value::from(out))
+}
+
 impl DeviceConfig {
-    /// The device loop rate: `rate_hz` if set, else the kind's default:
-    /// Dex3 1000 Hz over USB (and its emulator), 500 Hz over DDS; Dex1 500 Hz
-    /// (dex1_1_service's loop); EZGripper as fast as the bus; hand_sdk 200 Hz.
+    /// Parses one `[[devices]]` table: the common keys here, the rest by the device's kind.
+    /// Errors keep figment's path (relative to the table). A key that belongs to another
+    /// kind or backend is not an error here: it is kept in [`DeviceConfig::misplaced`].
+    pub fn from_value(v: &Value) -> Result<Self, Box<figment::Error>> {
+        let dict: Dict = v.deserialize().map_err(Box::new)?;
+        let (common, mut rest): (Dict, Dict) = dict
+            .into_iter()
+            .partition(|(k, _)| COMMON_DEVICE_KEYS.contains(&k.as_str()));
+        let c: DeviceCommon = Value::from(common).deserialize().map_err(Box::new)?;
+        let kind = c.kind;
+        let mut misplaced = Vec::new();
+        // Sections of another backend of this kind, or of other kinds.
+        for key in rest.keys().cloned().collect::<Vec<_>>() {
+            if kind
+                .factory()
+                .sections()
+                .iter()
+                .any(|s| s.key == key && s.backends.contains(&c.backend))
+            {
+                continue;
+            }
+            let owners: Vec<DeviceKind> = DeviceKind::all()
+                .iter()
+                .copied()
+                .filter(|k| k.factory().sections().iter().any(|s| s.key == key))
+                .collect();
+            if owners.is_empty() {
+                continue; // unknown everywhere: the kind's parse reports it
+            }
+            let backends: Vec<&str> = Backend::ALL
+                .iter()
+                .filter(|b| {
+                    owners.iter().any(|k| {
+                        k.factory()
+                            .sections()
+                            .iter()
+                            .any(|s| s.key == key && s.backends.contains(b))
+                    })
+                })
+                .map(|b| b.as_str())
+                .collect();
+            misplaced.push(Problem::new(
+                &[&key],
+                format!(
+                    "[{key}] applies to {} on backend {}, this is {} on backend {}",
+                    kinds_phrase(&owners),
+                    backends.join(" or "),
+                    handgate_adapters::kind::a(kind.as_str()),
+                    c.backend
+                ),
+            ));
+            rest.remove(&key);
+        }
+        let config = loop {
+            let e = match kind.factory().parse(&Value::from(rest.clone())) {
+                Ok(cfg) => break cfg,
+                Err(e) => e,
+            };
+            let figment::error::Kind::UnknownField(field, _) = &e.kind else {
+                return Err(e);
+            };
+            let mut path = e.path.clone();
+            if path.last() != Some(field) {
+                path.push(field.clone());
+            }
+            if path.len() == 1 {
+                let mut keys: Vec<&str> = COMMON_DEVICE_KEYS.to_vec();
+                keys.extend(kind.factory().sections().iter().map(|s| s.key));
+                return Err(Box::new(
+                    figment::Error::from(format!("unknown key (expected one of: {})", keys.join(", ")))
+                        .with_path(field),
+                ));
+            }
+            // A key of this kind's section that another kind's section has.
+            let owners: Vec<DeviceKind> = subtree(&rest, &path)
+                .map(|sub| {
+                    DeviceKind::all()
+                        .iter()
+                        .copied()
+                        .filter(|k| *k != kind && k.factory().parse(&sub).is_ok())
+                        .collect()
+                })
+                .unwrap_or_default();
+            if owners.is_empty() {
+                return Err(e);
+            }
+            misplaced.push(Problem {
+                key: path.clone(),
+                message: format!("only {} has `{field}`", kinds_phrase(&owners)),
+            });
+            remove_path(&mut rest, &path);
+        };
+        Ok(DeviceConfig {
+            name: c.name,
+            kind,
+            side: c.side,
+            backend: c.backend,
+            rate_hz: c.rate_hz,
+            limits: c.limits,
+            watchdog: c.watchdog,
+            closure: c.closure,
+            emulator: c.emulator,
+            config: KindConfigBox(config),
+            misplaced,
+        })
+    }
+
+    /// What the kind's own rules see of this device.
+    pub fn ctx(&self) -> DeviceCtx<'_> {
+        DeviceCtx {
+            name: self.name.as_str(),
+            side: self.side,
+            backend: self.backend,
+        }
+    }
+
+    /// The device loop rate: `rate_hz` if set, else the kind's default for the backend.
     pub fn rate(&self) -> DeviceRate {
         if let Some(r) = self.rate_hz {
             return DeviceRate::Hz(r);
         }
-        match (self.kind, self.backend) {
-            (DeviceKind::Dex3, Backend::Dds) => DeviceRate::Hz(RateHz(500.0)),
-            (DeviceKind::Dex3, _) => DeviceRate::Hz(RateHz(1000.0)),
-            (DeviceKind::Dex1, _) => DeviceRate::Hz(RateHz(500.0)),
-            (DeviceKind::Ezgripper, _) => DeviceRate::AsFastAsBus,
-            (DeviceKind::HandSdk, _) => DeviceRate::Hz(RateHz(200.0)),
+        match self.kind.factory().default_rate_hz(self.backend) {
+            Some(hz) => DeviceRate::Hz(RateHz(hz)),
+            None => DeviceRate::AsFastAsBus,
         }
-    }
-
-    /// The Dex1 wire variant of a DDS-backed Dex1 (default `go`).
-    pub fn dex1_variant(&self) -> Dex1Variant {
-        self.dds.as_ref().and_then(|d| d.variant).unwrap_or_default()
-    }
-
-    /// The Dex1 open position (`dds.range_rad`, default 5.4 rad).
-    pub fn dex1_range(&self) -> Radians {
-        self.dds
-            .as_ref()
-            .and_then(|d| d.range_rad)
-            .unwrap_or(Radians(DEX1_DEFAULT_RANGE_RAD))
     }
 
     /// The topics handgate uses to reach a DDS-backed device: (command topic it publishes,
     /// state topic it subscribes). `None` for other backends, or where the default cannot be
-    /// derived (a Dex3/Dex1 with side `center` and no override).
+    /// derived (side `center` and no override).
     pub fn dds_topics(&self) -> Option<(Option<Topic>, Option<Topic>)> {
         if self.backend != Backend::Dds {
             return None;
         }
-        let dds = self.dds.clone().unwrap_or_default();
-        let lr = side_lr(self.side);
-        let (cmd, state) = match self.kind {
-            DeviceKind::Dex3 => (
-                lr.map(|s| Topic(format!("rt/dex3/{s}/cmd"))),
-                lr.map(|s| match dds.state_source.unwrap_or_default() {
-                    StateSource::State => Topic(format!("rt/dex3/{s}/state")),
-                    StateSource::Lf => Topic(format!("rt/lf/dex3/{s}/state")),
-                }),
-            ),
-            DeviceKind::Dex1 => match self.dex1_variant() {
-                Dex1Variant::Actuator => (
-                    Some(Topic::new("rt/unitree_actuator/cmd")),
-                    Some(Topic::new("rt/unitree_actuator/state")),
-                ),
-                Dex1Variant::Go | Dex1Variant::Hg => (
-                    lr.map(|s| Topic(format!("rt/dex1/{s}/cmd"))),
-                    lr.map(|s| Topic(format!("rt/dex1/{s}/state"))),
-                ),
-            },
-            DeviceKind::HandSdk => (Some(self.hand_sdk.clone().unwrap_or_default().topic), None),
-            DeviceKind::Ezgripper => (None, None),
-        };
-        Some((dds.cmd_topic.or(cmd), dds.state_topic.or(state)))
+        let (cmd, state) = self.config.dds_topics(&self.ctx())?;
+        Some((cmd.map(Topic), state.map(Topic)))
     }
 }
 
 /// A joint_state front's topic when `topic` is not set.
 pub const DEFAULT_JOINT_STATE_TOPIC: &str = "rt/joint_states";
-
-/// Dex1 open position when `dds.range_rad` is not set (xr_teleoperate, EZGripper driver).
-pub const DEX1_DEFAULT_RANGE_RAD: f64 = 5.4;
-
-fn side_lr(side: Side) -> Option<&'static str> {
-    match side {
-        Side::Left => Some("left"),
-        Side::Right => Some("right"),
-        Side::Center => None,
-    }
-}
 
 /// Per-joint limit overrides and the per-command step limit.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -446,225 +595,8 @@ pub struct ClosureConfig {
     pub tau_closed: Option<f64>,
 }
 
-/// Dex3 over USB (also read by the Dex3 emulator, which speaks the same protocol).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct UsbConfig {
-    /// USB serial number, to tell two hands of the same side apart.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub serial: Option<String>,
-    /// Talk to a Dex3-1 MCU emulator process (`handgate emulate dex3 --socket PATH`) over this
-    /// Unix socket instead of USB (backend `usb` only): tests kill and restart "the hand".
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub socket: Option<std::path::PathBuf>,
-    /// Set the motors' timeout-protection bit (motor stops after 1 s without commands).
-    pub timeout_bit: bool,
-    /// Which bus and id each joint and pressure pad sits on; not public (FACTS §3).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub wiring: Option<WiringConfig>,
-    /// Overrides of the motor-frame scalings (FACTS §3 "scaling conflict").
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub scalings: Option<Scalings>,
-}
-
-impl Default for UsbConfig {
-    fn default() -> Self {
-        UsbConfig {
-            serial: None,
-            socket: None,
-            timeout_bit: true,
-            wiring: None,
-            scalings: None,
-        }
-    }
-}
-
-/// Number of buses in a Dex3-1 USB frame (FACTS §3).
-pub const DEX3_USB_BUSES: u8 = 5;
-/// Pressure pads on a Dex3-1 (user manual: 9 sensors).
-pub const DEX3_PADS: usize = 9;
-
-/// Where a motor or a pressure pad sits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BusSlot {
-    /// Bus index, 0..=4.
-    pub bus: u8,
-    /// Id on that bus: motors 0..=15, sensors 0..=14 (15 is broadcast).
-    pub id: u8,
-}
-
-/// Dex3 USB wiring: joint -> slot and pad (`pad_0`..`pad_8`) -> slot.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct WiringConfig {
-    pub joints: BTreeMap<String, BusSlot>,
-    pub pads: BTreeMap<String, BusSlot>,
-}
-
-/// Motor-frame scalings: the USB adapter's one table (`handgate_adapters::dex3::usb::Scalings`,
-/// docs/dex3-usb.md); every key a profile leaves out keeps its built-in value.
-pub use handgate_adapters::dex3::usb::Scalings;
-
-/// A DDS-backed device: topic overrides and wire variant.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DeviceDdsConfig {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<Topic>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<Topic>,
-    /// Dex3 only: read `rt/dex3/{side}/state` (`state`) or `rt/lf/dex3/{side}/state` (`lf`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_source: Option<StateSource>,
-    /// Dex1 only: wire variant (default `go`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub variant: Option<Dex1Variant>,
-    /// Dex1 only: open position, rad (default 5.4).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub range_rad: Option<Radians>,
-}
-
-/// The G1 `rt/hand_sdk` blend interface.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct HandSdkConfig {
-    pub topic: Topic,
-    /// Target blend weight 0..=1 (sent as `cmds[0].mode = weight * 100`).
-    pub weight: f64,
-    /// How fast the weight ramps towards its target, per second.
-    pub ramp_per_s: f64,
-    /// Publish rate; `None` = the device rate.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub publish_hz: Option<RateHz>,
-}
-
-impl Default for HandSdkConfig {
-    fn default() -> Self {
-        HandSdkConfig {
-            topic: Topic::new("rt/hand_sdk"),
-            weight: 1.0,
-            ramp_per_s: 0.5,
-            publish_hz: None,
-        }
-    }
-}
-
-/// Dynamixel baud rates an MX-64 accepts under Protocol 2.0 (ROBOTIS e-manual, Baud Rate(8)).
-pub const DYNAMIXEL_BAUDS: &[u32] = &[
-    9_600, 57_600, 115_200, 1_000_000, 2_000_000, 3_000_000, 4_000_000, 4_500_000,
-];
-
-/// A SAKE EZGripper on a Dynamixel bus.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct EzGripperConfig {
-    pub port: String,
-    pub baud: u32,
-    /// Servo id on the bus; `None` = by side: 1 left, 2 right, 3 center (SAKE driver).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub servo_id: Option<u8>,
-    /// Opening at 5.4 rad (Dex1 "open"), percent, 1..=100.
-    pub max_open_percent: u8,
-    /// Grip force limit, percent 1..=100; `None` = leave the servo's current limit alone.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub force_limit_percent: Option<u8>,
-    /// Run the closing calibration at start (moves the gripper).
-    pub calibrate_on_start: bool,
-    /// A known calibration zero (raw ticks at the closed stop), e.g. from a previous run
-    /// (SAKE's `/tmp/ezgripper_device_config.json`); a calibration replaces it at run time.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub zero_ticks: Option<i32>,
-    /// Grace for a reply beyond its wire time, ms (USB-serial adapter latency; SAKE's
-    /// `communication.timeout`). Default 20.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub response_timeout_ms: Option<u64>,
-    /// The driver's constants (MX-64 settings, calibration, grasp detection; docs/ezgripper.md),
-    /// every key optional.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub params: Option<EzGripperParams>,
-}
-
-/// The EZGripper driver's constants: the adapter's one table.
-pub use handgate_adapters::ezgripper::EzGripperParams;
-
-impl Default for EzGripperConfig {
-    fn default() -> Self {
-        EzGripperConfig {
-            port: "/dev/ttyUSB0".into(),
-            baud: 1_000_000,
-            servo_id: None,
-            max_open_percent: 100,
-            force_limit_percent: None,
-            calibrate_on_start: false,
-            zero_ticks: None,
-            response_timeout_ms: None,
-            params: None,
-        }
-    }
-}
-
-impl EzGripperConfig {
-    /// The servo id: `servo_id` or 1 left / 2 right / 3 center.
-    pub fn servo_id_for(&self, side: Side) -> u8 {
-        self.servo_id.unwrap_or(match side {
-            Side::Left => 1,
-            Side::Right => 2,
-            Side::Center => 3,
-        })
-    }
-}
-
-/// Options for an emulated device.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct EmulatorConfig {
-    /// Joint -> initial position, rad (omitted joints start at the kind's rest posture,
-    /// docs/adapters.md).
-    pub initial: BTreeMap<String, Radians>,
-    /// Joint -> position where an emulated object blocks the closing joint, rad.
-    pub object_at: BTreeMap<String, Radians>,
-    /// Measurement noise on the emulated state (default true: the kind's figures,
-    /// docs/adapters.md). `false`: exact values.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub noise: Option<bool>,
-    /// Seed of the noise (default fixed: runs repeat exactly). Mixed with the device name, so
-    /// two devices never share a stream.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub seed: Option<u64>,
-    /// Overrides of the kind's standard deviations, in the device's wire units.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub position_noise_rad: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub velocity_noise_rad_s: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub torque_noise_nm: Option<f64>,
-}
-
-impl EmulatorConfig {
-    /// The noise to emulate, given the kind's default figures: off, or the defaults with
-    /// this profile's overrides and seed (mixed with `device`, FNV-1a).
-    pub fn noise_for(
-        &self,
-        device: &str,
-        kind_default: handgate_adapters::sim::Noise,
-    ) -> handgate_adapters::sim::Noise {
-        use handgate_adapters::sim::Noise;
-        if self.noise == Some(false) {
-            return Noise::OFF;
-        }
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in device.bytes() {
-            h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        Noise {
-            q: self.position_noise_rad.map(|v| v as f32).unwrap_or(kind_default.q),
-            dq: self.velocity_noise_rad_s.map(|v| v as f32).unwrap_or(kind_default.dq),
-            tau: self.torque_noise_nm.map(|v| v as f32).unwrap_or(kind_default.tau),
-            seed: self.seed.unwrap_or(Noise::DEFAULT_SEED) ^ h,
-        }
-    }
-}
+/// Options for an emulated device (`[devices.emulator]`, every kind): the adapters' section.
+pub use handgate_adapters::open::EmulatorSection as EmulatorConfig;
 
 /// The grippers of an `actuator` Dex1 front, by message element (0 = right, 1 = left).
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -833,31 +765,31 @@ impl FrontConfig {
     /// joint_state front over every device). A default that cannot be derived (a dex3 front
     /// serving side `center`) is `None`; validation reports it.
     pub fn topics(&self, device: Option<&DeviceConfig>) -> FrontTopics {
-        let lr = self.served_side(device).and_then(side_lr);
+        // Left/right: the standard topics are per side.
+        let lr = self.served_side(device).filter(|s| *s != Side::Center);
         let dev_name = device.map(|d| d.name.as_str()).unwrap_or("all");
         let (cmd, state, lf_state) = match self.kind {
-            FrontKind::Dex3 => (
-                lr.map(|s| Topic(format!("rt/dex3/{s}/cmd"))),
-                lr.map(|s| Topic(format!("rt/dex3/{s}/state"))),
-                lr.map(|s| Topic(format!("rt/lf/dex3/{s}/state"))),
-            ),
-            FrontKind::Dex1 => match self.dex1_variant() {
-                Dex1Variant::Actuator => (
-                    Some(Topic::new("rt/unitree_actuator/cmd")),
-                    Some(Topic::new("rt/unitree_actuator/state")),
-                    None,
-                ),
-                Dex1Variant::Go | Dex1Variant::Hg => (
-                    lr.map(|s| Topic(format!("rt/dex1/{s}/cmd"))),
-                    lr.map(|s| Topic(format!("rt/dex1/{s}/state"))),
-                    None,
-                ),
-            },
-            FrontKind::Canonical => (
-                Some(Topic(format!("rt/handgate/{dev_name}/cmd"))),
-                Some(Topic(format!("rt/handgate/{dev_name}/state"))),
-                None,
-            ),
+            FrontKind::Dex3 => {
+                let std = lr.map(|s| dex3_topics(s, StateSource::State));
+                (
+                    std.as_ref().map(|t| Topic(t.0.clone())),
+                    std.map(|t| Topic(t.1)),
+                    lr.map(|s| Topic(dex3_topics(s, StateSource::Lf).1)),
+                )
+            }
+            FrontKind::Dex1 => {
+                let variant = self.dex1_variant();
+                // The actuator variant's topics carry both sides.
+                let std = (variant == Dex1Variant::Actuator)
+                    .then_some(Side::Left)
+                    .or(lr)
+                    .map(|s| variant.topics(s));
+                (std.as_ref().map(|t| Topic(t.0.clone())), std.map(|t| Topic(t.1)), None)
+            }
+            FrontKind::Canonical => {
+                let (c, s) = crate::plan::canonical_topics(dev_name);
+                (Some(Topic(c)), Some(Topic(s)), None)
+            }
             FrontKind::JointState => (
                 None,
                 Some(

@@ -711,11 +711,10 @@ fn usb_socket_points_the_device_at_the_emulator_process() {
     let text = "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n[devices.usb]\nsocket = \"/tmp/h.sock\"\n";
     let (_, r) = load_text(text);
     let plan = crate::resolve::plan(&r.unwrap().profile).unwrap();
-    match &plan.devices[0].transport {
-        crate::plan::Transport::Dex3Usb {
-            source: handgate_adapters::dex3::usb::adapter::UsbSource::Socket(p),
-            ..
-        } => assert_eq!(p, Path::new("/tmp/h.sock")),
+    let d = &plan.devices[0];
+    let profile = d.config.get::<handgate_adapters::dex3::kind::Dex3Profile>().unwrap();
+    match handgate_adapters::dex3::open::usb_source(&d.spec(), profile) {
+        handgate_adapters::dex3::usb::adapter::UsbSource::Socket(p) => assert_eq!(p, Path::new("/tmp/h.sock")),
         _ => panic!("usb.socket must select the socket transport"),
     }
 }
@@ -783,16 +782,9 @@ fn device_rate_defaults_per_kind() {
 
 #[test]
 fn dds_device_topics_follow_variant_and_state_source() {
-    let mut d = DeviceConfig {
-        kind: DeviceKind::Dex3,
-        side: Side::Right,
-        backend: Backend::Dds,
-        dds: Some(DeviceDdsConfig {
-            state_source: Some(StateSource::Lf),
-            ..DeviceDdsConfig::default()
-        }),
-        ..DeviceConfig::default()
-    };
+    // The kinds' own keys, as a profile sets them.
+    let device = |text: &str| load_text(text).1.unwrap().profile.devices[0].clone();
+    let d = device("[[devices]]\nname = \"d\"\nkind = \"dex3\"\nside = \"right\"\nbackend = \"dds\"\n[devices.dds]\nstate_source = \"lf\"\n");
     assert_eq!(
         d.dds_topics(),
         Some((
@@ -800,13 +792,10 @@ fn dds_device_topics_follow_variant_and_state_source() {
             Some(Topic::new("rt/lf/dex3/right/state"))
         ))
     );
-    d.kind = DeviceKind::Dex1;
-    d.dds = Some(DeviceDdsConfig {
-        variant: Some(Dex1Variant::Actuator),
-        ..DeviceDdsConfig::default()
-    });
+    let mut d = device("[[devices]]\nname = \"d\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"dds\"\n[devices.dds]\nvariant = \"actuator\"\n");
     assert_eq!(d.dds_topics().unwrap().0, Some(Topic::new("rt/unitree_actuator/cmd")));
-    assert_eq!(d.dex1_range(), Radians(5.4));
+    let dex1 = d.config.get::<handgate_adapters::dex1::kind::Dex1Profile>().unwrap();
+    assert_eq!(Radians(dex1.range_rad()), Radians(5.4));
     d.backend = Backend::Emulator;
     assert_eq!(d.dds_topics(), None);
 }
@@ -905,4 +894,416 @@ fn emulator_noise_keys_are_validated_and_default_on() {
     let n = e.noise_for("l", kind_default);
     assert_eq!((n.q, n.dq), (0.001, kind_default.dq));
     assert_ne!(n.seed, EmulatorConfig::default().noise_for("l", kind_default).seed);
+}
+
+/// The hardware range a profile's Dex3 limits are checked against (the kind's, through the
+/// registry).
+fn joint_range(kind: DeviceKind, side: Side, joint: &str) -> Option<(f64, f64)> {
+    kind.factory().hardware_range(side, joint)
+}
+
+/// Where a Dex3 joint is at closure 1 when the profile's `closure.closed` does not say: the
+/// kind's table's closed posture.
+fn dex3_closed_default(joint: &str) -> Option<f64> {
+    let id = DeviceKind::Dex3.joint(joint)?;
+    let t = DeviceKind::Dex3
+        .table(Side::Left, &handgate_adapters::mapping::TableOverrides::default())
+        .ok()?;
+    match t.closure {
+        handgate_adapters::mapping::ClosureMap::Postures { closed, .. } => closed.get(id.index()).map(|v| *v as f64),
+        _ => None,
+    }
+}
+
+#[test]
+fn dex3_ranges_are_canonical_and_equal_on_both_hands() {
+    for j in DeviceKind::Dex3.joint_names() {
+        let l = joint_range(DeviceKind::Dex3, Side::Left, j).unwrap();
+        let r = joint_range(DeviceKind::Dex3, Side::Right, j).unwrap();
+        assert_eq!(l, r, "{j}");
+        assert!(l.0 < l.1, "{j}");
+    }
+    // Fingers close positive in the canonical frame.
+    let (lo, hi) = joint_range(DeviceKind::Dex3, Side::Right, "index_1").unwrap();
+    assert!(lo.abs() < 1e-9 && (hi - 1.7453).abs() < 1e-6);
+    assert_eq!(joint_range(DeviceKind::Dex3, Side::Center, "index_1"), None);
+    assert_eq!(joint_range(DeviceKind::Dex3, Side::Left, "jaw"), None);
+}
+
+#[test]
+fn closed_default_is_inside_the_range() {
+    for j in DeviceKind::Dex3.joint_names() {
+        let c = dex3_closed_default(j).unwrap();
+        let (lo, hi) = joint_range(DeviceKind::Dex3, Side::Left, j).unwrap();
+        assert!(lo <= c && c <= hi, "{j}");
+    }
+    assert!(dex3_closed_default("index_0").unwrap() > 0.0);
+}
+
+/// The key column of every table of docs/profiles.md under `[[devices]]` and `[[fronts]]`,
+/// as `devices.usb.timeout_bit`, `fronts.variant`, `devices.limits.joints.NAME` (rows that
+/// only name sub-tables are left out: their keys have rows of their own).
+fn documented_device_and_front_keys() -> Vec<String> {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/profiles.md")).unwrap();
+    let mut out = Vec::new();
+    let mut section: Option<String> = None;
+    for line in doc.lines() {
+        if line.starts_with('#') {
+            section = match line.split('`').nth(1) {
+                Some("[[devices]]") => Some("devices".into()),
+                Some("[[fronts]]") => Some("fronts".into()),
+                Some(s) if s.starts_with("[devices.") => Some(s.trim_matches(['[', ']']).to_string()),
+                _ => None,
+            };
+            continue;
+        }
+        let Some(sec) = &section else { continue };
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if cells.len() < 4 || !cells[1].starts_with('`') || cells[1].contains(',') {
+            continue;
+        }
+        if (cells[2] == "table" || cells[2] == "tables") && !cells[1].contains('.') {
+            continue;
+        }
+        out.push(format!("{sec}.{}", cells[1].trim_matches('`')));
+    }
+    out
+}
+
+/// One device named `d` of `kind` (its table ends the text, so `extra` may open sub-tables).
+fn one_device(kind: &str, side: &str, backend: &str, extra: &str) -> String {
+    format!("[[devices]]\nname = \"d\"\nkind = \"{kind}\"\nside = \"{side}\"\nbackend = \"{backend}\"\n{extra}\n")
+}
+
+/// What the fleet of `text` is built with: each device's plan and what its kind opens it
+/// with (`KindFactory::configured`), and each front's plan.
+fn built(text: &str) -> String {
+    let (path, r) = load_text(text);
+    let l = r.unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()));
+    let plan = crate::resolve::plan(&l.profile).unwrap_or_else(|e| panic!("{e:?}"));
+    let mut out = String::new();
+    for d in &plan.devices {
+        // Not the parsed keys themselves (`config`, `emulator`): what is built from them.
+        let opened = d
+            .kind
+            .factory()
+            .configured(&d.spec())
+            .unwrap_or_else(|e| panic!("{e}\n{text}"));
+        out.push_str(&format!(
+            "{} {} {} {} {:?} {} {:?} {}\n{opened:?}\n",
+            d.name, d.kind, d.side, d.backend, d.table, d.rate_hz, d.stale_after, d.safe_action
+        ));
+    }
+    for f in &plan.fronts {
+        out.push_str(&format!("{f:?}\n"));
+    }
+    out
+}
+
+#[test]
+fn every_documented_device_and_front_key_changes_what_is_built() {
+    let dex3 = |backend: &str, extra: &str| one_device("dex3", "left", backend, extra);
+    let dex1 = |backend: &str, extra: &str| one_device("dex1", "left", backend, extra);
+    let ez = |extra: &str| one_device("ezgripper", "left", "serial", extra);
+    let sdk = |extra: &str| one_device("hand_sdk", "center", "dds", extra);
+    let front = |extra: &str| {
+        format!(
+            "{}[[fronts]]\nkind = \"dex3\"\ndevice = \"d\"\n{extra}\n",
+            dex3("emulator", "")
+        )
+    };
+    let dex1_front = |extra: &str| {
+        format!(
+            "{}[[fronts]]\nkind = \"dex1\"\ndevice = \"d\"\n{extra}\n",
+            dex1("emulator", "")
+        )
+    };
+    let pair = "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"h\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\nvariant = \"actuator\"\n";
+    let js = |extra: &str| format!("{}[[fronts]]\nkind = \"joint_state\"\n{extra}\n", dex3("emulator", ""));
+    let canonical = |extra: &str| {
+        format!(
+            "{}[[fronts]]\nkind = \"canonical\"\ndevice = \"d\"\n",
+            dex3("emulator", extra)
+        )
+    };
+    // (documented key, a profile without it, the same profile setting it)
+    let cases: Vec<(&str, String, String)> = vec![
+        (
+            "devices.name",
+            dex3("emulator", ""),
+            dex3("emulator", "").replace("\"d\"", "\"e\""),
+        ),
+        ("devices.kind", dex3("emulator", ""), dex1("emulator", "")),
+        (
+            "devices.side",
+            dex3("emulator", ""),
+            one_device("dex3", "right", "emulator", ""),
+        ),
+        ("devices.backend", dex3("emulator", ""), dex3("usb", "")),
+        (
+            "devices.rate_hz",
+            dex3("emulator", ""),
+            dex3("emulator", "rate_hz = 700"),
+        ),
+        (
+            "devices.limits.max_step",
+            dex3("emulator", ""),
+            dex3("emulator", "limits = { max_step = 0.1 }"),
+        ),
+        (
+            "devices.limits.joints.NAME",
+            dex3("emulator", ""),
+            dex3("emulator", "limits = { joints = { index_0 = { max = 1.0 } } }"),
+        ),
+        (
+            "devices.watchdog.timeout_ms",
+            canonical(""),
+            canonical("watchdog = { timeout_ms = 300 }"),
+        ),
+        (
+            "devices.watchdog.safe_action",
+            dex3("emulator", ""),
+            dex3("emulator", "watchdog = { safe_action = \"limp\" }"),
+        ),
+        (
+            "devices.closure.open",
+            dex3("emulator", ""),
+            dex3("emulator", "closure = { open = { index_0 = 0.2 } }"),
+        ),
+        (
+            "devices.closure.closed",
+            dex3("emulator", ""),
+            dex3("emulator", "closure = { closed = { index_0 = 1.0 } }"),
+        ),
+        (
+            "devices.closure.tau_open",
+            sdk(""),
+            sdk("closure = { tau_open = -0.5 }"),
+        ),
+        (
+            "devices.closure.tau_closed",
+            sdk(""),
+            sdk("closure = { tau_closed = 0.5 }"),
+        ),
+        (
+            "devices.usb.serial",
+            dex3("usb", ""),
+            dex3("usb", "[devices.usb]\nserial = \"X1\""),
+        ),
+        (
+            "devices.usb.socket",
+            dex3("usb", ""),
+            dex3("usb", "[devices.usb]\nsocket = \"/tmp/x.sock\""),
+        ),
+        (
+            "devices.usb.timeout_bit",
+            dex3("usb", ""),
+            dex3("usb", "[devices.usb]\ntimeout_bit = false"),
+        ),
+        (
+            "devices.usb.wiring.joints.NAME",
+            dex3("usb", ""),
+            dex3("usb", "[devices.usb.wiring.joints]\nthumb_0 = { bus = 3, id = 5 }"),
+        ),
+        (
+            "devices.usb.wiring.pads.pad_N",
+            dex3("usb", ""),
+            dex3("usb", "[devices.usb.wiring.pads]\npad_0 = { bus = 4, id = 5 }"),
+        ),
+        (
+            "devices.usb.scalings.KEY",
+            dex3("usb", ""),
+            dex3("usb", "[devices.usb.scalings]\ncmd_kp_per_unit = 100.0"),
+        ),
+        (
+            "devices.dds.cmd_topic",
+            dex3("dds", ""),
+            dex3("dds", "[devices.dds]\ncmd_topic = \"rt/x/cmd\""),
+        ),
+        (
+            "devices.dds.state_topic",
+            dex3("dds", ""),
+            dex3("dds", "[devices.dds]\nstate_topic = \"rt/x/state\""),
+        ),
+        (
+            "devices.dds.state_source",
+            dex3("dds", ""),
+            dex3("dds", "[devices.dds]\nstate_source = \"lf\""),
+        ),
+        (
+            "devices.dds.variant",
+            dex1("dds", ""),
+            dex1("dds", "[devices.dds]\nvariant = \"hg\""),
+        ),
+        (
+            "devices.dds.range_rad",
+            dex1("dds", ""),
+            dex1("dds", "[devices.dds]\nrange_rad = 6.0"),
+        ),
+        (
+            "devices.hand_sdk.topic",
+            sdk(""),
+            sdk("[devices.hand_sdk]\ntopic = \"rt/x\""),
+        ),
+        (
+            "devices.hand_sdk.weight",
+            sdk(""),
+            sdk("[devices.hand_sdk]\nweight = 0.5"),
+        ),
+        (
+            "devices.hand_sdk.ramp_per_s",
+            sdk(""),
+            sdk("[devices.hand_sdk]\nramp_per_s = 2.0"),
+        ),
+        (
+            "devices.hand_sdk.publish_hz",
+            sdk(""),
+            sdk("[devices.hand_sdk]\npublish_hz = 100"),
+        ),
+        (
+            "devices.ezgripper.port",
+            ez(""),
+            ez("[devices.ezgripper]\nport = \"/dev/ttyUSB1\""),
+        ),
+        (
+            "devices.ezgripper.baud",
+            ez(""),
+            ez("[devices.ezgripper]\nbaud = 57600"),
+        ),
+        (
+            "devices.ezgripper.servo_id",
+            ez(""),
+            ez("[devices.ezgripper]\nservo_id = 7"),
+        ),
+        (
+            "devices.ezgripper.max_open_percent",
+            ez(""),
+            ez("[devices.ezgripper]\nmax_open_percent = 80"),
+        ),
+        (
+            "devices.ezgripper.force_limit_percent",
+            ez(""),
+            ez("[devices.ezgripper]\nforce_limit_percent = 50"),
+        ),
+        (
+            "devices.ezgripper.calibrate_on_start",
+            ez(""),
+            ez("[devices.ezgripper]\ncalibrate_on_start = true"),
+        ),
+        (
+            "devices.ezgripper.zero_ticks",
+            ez(""),
+            ez("[devices.ezgripper]\nzero_ticks = 1234"),
+        ),
+        (
+            "devices.ezgripper.response_timeout_ms",
+            ez(""),
+            ez("[devices.ezgripper]\nresponse_timeout_ms = 40"),
+        ),
+        (
+            "devices.ezgripper.params.KEY",
+            ez(""),
+            ez("[devices.ezgripper.params]\ngrip_max_ticks = 2400"),
+        ),
+        (
+            "devices.emulator.initial",
+            dex3("emulator", ""),
+            dex3("emulator", "[devices.emulator]\ninitial = { index_0 = 0.5 }"),
+        ),
+        (
+            "devices.emulator.object_at",
+            dex1("emulator", ""),
+            dex1("emulator", "[devices.emulator]\nobject_at = { jaw = 2.0 }"),
+        ),
+        (
+            "devices.emulator.noise",
+            dex3("emulator", ""),
+            dex3("emulator", "[devices.emulator]\nnoise = false"),
+        ),
+        (
+            "devices.emulator.seed",
+            dex3("emulator", ""),
+            dex3("emulator", "[devices.emulator]\nseed = 9"),
+        ),
+        (
+            "devices.emulator.position_noise_rad",
+            dex3("emulator", ""),
+            dex3("emulator", "[devices.emulator]\nposition_noise_rad = 0.001"),
+        ),
+        (
+            "devices.emulator.velocity_noise_rad_s",
+            dex3("emulator", ""),
+            dex3("emulator", "[devices.emulator]\nvelocity_noise_rad_s = 0.01"),
+        ),
+        (
+            "devices.emulator.torque_noise_nm",
+            dex3("emulator", ""),
+            dex3("emulator", "[devices.emulator]\ntorque_noise_nm = 0.01"),
+        ),
+        (
+            "fronts.kind",
+            front(""),
+            front("").replace("kind = \"dex3\"\ndevice", "kind = \"canonical\"\ndevice"),
+        ),
+        ("fronts.name", front(""), front("name = \"x\"")),
+        (
+            "fronts.device",
+            format!(
+                "{}{}",
+                one_device("dex3", "left", "emulator", "").replace("\"d\"", "\"e\""),
+                front("")
+            ),
+            format!(
+                "{}{}",
+                one_device("dex3", "left", "emulator", "").replace("\"d\"", "\"e\""),
+                front("").replace("device = \"d\"", "device = \"e\"")
+            ),
+        ),
+        (
+            "fronts.devices",
+            format!("{pair}devices = {{ left = \"g\" }}\n"),
+            format!("{pair}devices = {{ left = \"g\", right = \"h\" }}\n"),
+        ),
+        ("fronts.side", front(""), front("side = \"right\"")),
+        ("fronts.cmd_topic", front(""), front("cmd_topic = \"rt/x/cmd\"")),
+        ("fronts.state_topic", front(""), front("state_topic = \"rt/x/state\"")),
+        (
+            "fronts.lf_state_topic",
+            front(""),
+            front("lf_state_topic = \"rt/x/lf\""),
+        ),
+        ("fronts.state_hz", front(""), front("state_hz = 400")),
+        ("fronts.lf_state_hz", front(""), front("lf_state_hz = 20")),
+        ("fronts.variant", dex1_front(""), dex1_front("variant = \"hg\"")),
+        ("fronts.silence", front(""), front("silence = \"watchdog\"")),
+        (
+            "fronts.watchdog_ms",
+            front("silence = \"watchdog\""),
+            front("silence = \"watchdog\"\nwatchdog_ms = 50"),
+        ),
+        ("fronts.topic", js(""), js("topic = \"rt/x/joints\"")),
+        ("fronts.urdf_names", js(""), js("urdf_names = false")),
+    ];
+    let documented = documented_device_and_front_keys();
+    assert!(
+        documented.len() > 40,
+        "docs/profiles.md tables not found: {documented:?}"
+    );
+    for key in &documented {
+        assert!(
+            cases.iter().any(|(k, _, _)| k == key),
+            "docs/profiles.md documents `{key}`: add a case that sets it"
+        );
+    }
+    for (key, without, with) in &cases {
+        assert!(
+            documented.contains(&key.to_string()),
+            "`{key}` is not documented in docs/profiles.md"
+        );
+        assert_ne!(
+            built(without),
+            built(with),
+            "setting `{key}` changes nothing the device or front is built with\n{with}"
+        );
+    }
 }

@@ -3,8 +3,8 @@
 use std::collections::{BTreeMap, HashMap};
 
 use super::error::KeyPath;
-use super::hardware::{joint_names, joint_range};
 use super::schema::*;
+use handgate_adapters::kind::{a, check_rate, check_topic, FleetMember};
 
 /// A problem found by [`validate`]: key path and message (the loader adds the origin).
 pub type Problem = (KeyPath, String);
@@ -25,14 +25,10 @@ fn root() -> KeyPath {
     KeyPath::root()
 }
 
-/// "a dex3", "an ezgripper".
-fn a(word: &str) -> String {
-    let article = if word.starts_with(['a', 'e', 'i', 'o', 'u']) {
-        "an"
-    } else {
-        "a"
-    };
-    format!("{article} {word}")
+/// `"a dex3 or dex1"`: `kinds` named with one article.
+fn names_phrase(kinds: &[DeviceKind]) -> String {
+    let names: Vec<&str> = kinds.iter().map(|k| k.as_str()).collect();
+    a(&names.join(" or "))
 }
 
 fn is_name(s: &str) -> bool {
@@ -47,18 +43,14 @@ impl Checker {
     }
 
     fn rate(&mut self, key: KeyPath, r: RateHz, max: f64) {
-        if !(r.0.is_finite() && r.0 > 0.0 && r.0 <= max) {
-            self.err(key, format!("must be a rate above 0 and at most {max} Hz, got {}", r.0));
+        if let Err(m) = check_rate(r.0, max) {
+            self.err(key, m);
         }
     }
 
     fn topic(&mut self, key: KeyPath, t: &Topic) {
-        let s = t.as_str();
-        if s.is_empty() || s.chars().any(char::is_whitespace) || s.starts_with('/') || s.ends_with('/') {
-            self.err(
-                key,
-                format!("`{s}` is not a topic name (non-empty, no spaces, no leading or trailing `/`)"),
-            );
+        if let Err(m) = check_topic(t.as_str()) {
+            self.err(key, m);
         }
     }
 
@@ -112,7 +104,7 @@ impl Checker {
             }
             self.device(&k, d);
         }
-        self.fleet_buses(p);
+        self.fleet(p);
 
         // fronts
         let mut cmd_topics: BTreeMap<Topic, usize> = BTreeMap::new();
@@ -278,19 +270,25 @@ impl Checker {
         }
     }
 
+    /// `key` extended by a kind's relative key segments.
+    fn under(key: &KeyPath, rel: &[String]) -> KeyPath {
+        rel.iter().fold(key.clone(), |k, s| k.key(s.clone()))
+    }
+
     fn joint(&mut self, key: KeyPath, d: &DeviceConfig, joint: &str) -> Option<(f64, f64)> {
-        if !joint_names(d.kind).contains(&joint) {
+        let names = d.kind.joint_names();
+        if !names.contains(&joint) {
             self.err(
                 key,
                 format!(
                     "unknown joint `{joint}` for {} (joints: {})",
                     a(d.kind.as_str()),
-                    joint_names(d.kind).join(", ")
+                    names.join(", ")
                 ),
             );
             return None;
         }
-        joint_range(d.kind, d.side, joint)
+        d.kind.factory().hardware_range(d.side, joint)
     }
 
     fn position(&mut self, key: KeyPath, d: &DeviceConfig, joint: &str, v: Radians) {
@@ -308,14 +306,8 @@ impl Checker {
     }
 
     fn device(&mut self, k: &KeyPath, d: &DeviceConfig) {
-        use Backend::*;
-        use DeviceKind::*;
-        let ok_backends: &[Backend] = match d.kind {
-            Dex3 => &[Usb, Dds, Emulator],
-            Dex1 => &[Dds, Emulator],
-            Ezgripper => &[Serial, Emulator],
-            HandSdk => &[Dds, Emulator],
-        };
+        let kind = d.kind.factory();
+        let ok_backends = kind.backends();
         if !ok_backends.contains(&d.backend) {
             let names: Vec<&str> = ok_backends.iter().map(|b| b.as_str()).collect();
             self.err(
@@ -328,8 +320,8 @@ impl Checker {
                 ),
             );
         }
-        if d.kind == Dex3 && d.side == Side::Center {
-            self.err(k.key("side"), "a dex3 is a left or a right hand, not center");
+        if let Err(m) = kind.check_side(d.side) {
+            self.err(k.key("side"), m);
         }
         if let Some(r) = d.rate_hz {
             self.rate(k.key("rate_hz"), r, MAX_RATE_HZ);
@@ -376,31 +368,44 @@ impl Checker {
             );
         }
 
-        // closure
+        // closure: postures where the kind has configurable ones, torques where its closure
+        // maps to torque.
         let ck = k.key("closure");
-        if d.kind == Dex3 {
-            for (which, m) in [("open", &d.closure.open), ("closed", &d.closure.closed)] {
+        let posture_kinds: Vec<DeviceKind> = DeviceKind::all()
+            .iter()
+            .copied()
+            .filter(|k| k.factory().closure_postures_configurable())
+            .collect();
+        let torque_kinds: Vec<DeviceKind> = DeviceKind::all()
+            .iter()
+            .copied()
+            .filter(|k| k.factory().closure_is_torque())
+            .collect();
+        for (which, m) in [("open", &d.closure.open), ("closed", &d.closure.closed)] {
+            if posture_kinds.contains(&d.kind) {
                 for (j, v) in m {
                     self.position(ck.key(which).key(j.clone()), d, j, *v);
                 }
-            }
-        } else {
-            for (which, m) in [("open", &d.closure.open), ("closed", &d.closure.closed)] {
-                if !m.is_empty() {
-                    self.err(
-                        ck.key(which),
-                        format!("only a dex3 has closure postures, this is {}", a(d.kind.as_str())),
-                    );
-                }
-            }
-        }
-        for (which, v) in [("tau_open", d.closure.tau_open), ("tau_closed", d.closure.tau_closed)] {
-            let Some(v) = v else { continue };
-            if d.kind != HandSdk {
+            } else if !m.is_empty() {
                 self.err(
                     ck.key(which),
                     format!(
-                        "only a hand_sdk device maps closure to torque, this is {}",
+                        "only {} has closure postures, this is {}",
+                        names_phrase(&posture_kinds),
+                        a(d.kind.as_str())
+                    ),
+                );
+            }
+        }
+        let torque = torque_kinds.contains(&d.kind);
+        for (which, v) in [("tau_open", d.closure.tau_open), ("tau_closed", d.closure.tau_closed)] {
+            let Some(v) = v else { continue };
+            if !torque {
+                self.err(
+                    ck.key(which),
+                    format!(
+                        "only {} device maps closure to torque, this is {}",
+                        names_phrase(&torque_kinds),
                         a(d.kind.as_str())
                     ),
                 );
@@ -408,7 +413,7 @@ impl Checker {
                 self.err(ck.key(which), format!("must be a torque within +-5 N*m, got {v}"));
             }
         }
-        if let (HandSdk, Some(o), Some(c)) = (d.kind, d.closure.tau_open, d.closure.tau_closed) {
+        if let (true, Some(o), Some(c)) = (torque, d.closure.tau_open, d.closure.tau_closed) {
             if o >= c {
                 self.err(
                     ck.key("tau_open"),
@@ -417,306 +422,67 @@ impl Checker {
             }
         }
 
-        // sections that must match kind and backend
-        let section = |this: &mut Self, name: &str, present: bool, ok: bool, why: &str| {
-            if present && !ok {
-                this.err(
-                    k.key(name),
-                    format!(
-                        "[{name}] {why}, this is {} on backend {}",
-                        a(d.kind.as_str()),
-                        d.backend
-                    ),
-                );
-            }
-        };
-        section(
-            self,
-            "usb",
-            d.usb.is_some(),
-            d.kind == Dex3 && matches!(d.backend, Usb | Emulator),
-            "applies to a dex3 on backend usb or emulator",
-        );
-        section(
-            self,
-            "dds",
-            d.dds.is_some(),
-            matches!(d.kind, Dex3 | Dex1) && d.backend == Dds,
-            "applies to a dex3 or dex1 on backend dds",
-        );
-        section(
-            self,
-            "hand_sdk",
-            d.hand_sdk.is_some(),
-            d.kind == HandSdk,
-            "applies to a hand_sdk device",
-        );
-        section(
-            self,
-            "ezgripper",
-            d.ezgripper.is_some(),
-            d.kind == Ezgripper && matches!(d.backend, Serial | Emulator),
-            "applies to an ezgripper on backend serial or emulator",
-        );
-        section(
-            self,
-            "emulator",
-            d.emulator.is_some(),
-            d.backend == Emulator,
-            "applies to backend emulator",
-        );
-
-        if let Some(u) = &d.usb {
-            self.usb(&k.key("usb"), d, u);
+        // keys of another kind or backend, then the kind's own rules
+        for p in &d.misplaced {
+            self.err(Self::under(k, &p.key), p.message.clone());
         }
-        if let Some(x) = &d.dds {
-            let xk = k.key("dds");
-            if let Some(t) = &x.cmd_topic {
-                self.topic(xk.key("cmd_topic"), t);
-            }
-            if let Some(t) = &x.state_topic {
-                self.topic(xk.key("state_topic"), t);
-            }
-            if x.state_source.is_some() && d.kind != Dex3 {
-                self.err(xk.key("state_source"), "only a dex3 has a low-frequency state topic");
-            }
-            if x.variant.is_some() && d.kind != Dex1 {
-                self.err(xk.key("variant"), "only a dex1 has wire variants");
-            }
-            if let Some(r) = x.range_rad {
-                if d.kind != Dex1 {
-                    self.err(xk.key("range_rad"), "only a dex1 has an open range");
-                } else if !(r.0.is_finite() && r.0 > 0.0 && r.0 <= std::f64::consts::TAU) {
-                    self.err(
-                        xk.key("range_rad"),
-                        format!("must be above 0 and at most 2pi rad, got {}", r.0),
-                    );
-                }
-            }
-        }
-        if d.backend == Dds && matches!(d.kind, Dex3 | Dex1) && d.side == Side::Center {
-            if let Some((cmd, state)) = d.dds_topics() {
-                if cmd.is_none() || state.is_none() {
-                    self.err(
-                        k.key("side"),
-                        format!(
-                            "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
-                            a(d.kind.as_str())
-                        ),
-                    );
-                }
-            }
-        }
-        if d.kind == Dex1 && d.backend == Dds && d.dex1_variant() == Dex1Variant::Actuator && d.side == Side::Center {
+        if d.emulator.is_some() && d.backend != Backend::Emulator {
             self.err(
-                k.key("side"),
-                "the actuator variant addresses element 0 = right, 1 = left: side must be left or right",
+                k.key("emulator"),
+                format!(
+                    "[emulator] applies to backend emulator, this is {} on backend {}",
+                    a(d.kind.as_str()),
+                    d.backend
+                ),
             );
         }
-        if let Some(h) = &d.hand_sdk {
-            let hk = k.key("hand_sdk");
-            self.topic(hk.key("topic"), &h.topic);
-            if !(h.weight.is_finite() && (0.0..=1.0).contains(&h.weight)) {
-                self.err(hk.key("weight"), format!("must be between 0 and 1, got {}", h.weight));
-            }
-            if !(h.ramp_per_s.is_finite() && h.ramp_per_s > 0.0 && h.ramp_per_s <= 100.0) {
-                self.err(
-                    hk.key("ramp_per_s"),
-                    format!("must be above 0 and at most 100 per second, got {}", h.ramp_per_s),
-                );
-            }
-            if let Some(r) = h.publish_hz {
-                self.rate(hk.key("publish_hz"), r, MAX_RATE_HZ);
-            }
-        }
-        if let Some(e) = &d.ezgripper {
-            let ek = k.key("ezgripper");
-            if e.port.trim().is_empty() {
-                self.err(ek.key("port"), "must name a serial port, e.g. /dev/ttyUSB0");
-            }
-            if !DYNAMIXEL_BAUDS.contains(&e.baud) {
-                let v: Vec<String> = DYNAMIXEL_BAUDS.iter().map(|b| b.to_string()).collect();
-                self.err(
-                    ek.key("baud"),
-                    format!("{} is not a Dynamixel baud rate ({})", e.baud, v.join(", ")),
-                );
-            }
-            if let Some(id) = e.servo_id {
-                if id > 252 {
-                    self.err(
-                        ek.key("servo_id"),
-                        format!("must be between 0 and 252 (253+ are reserved/broadcast), got {id}"),
-                    );
-                }
-            }
-            if !(1..=100).contains(&e.max_open_percent) {
-                self.err(
-                    ek.key("max_open_percent"),
-                    format!("must be between 1 and 100, got {}", e.max_open_percent),
-                );
-            }
-            if let Some(f) = e.force_limit_percent {
-                if !(1..=100).contains(&f) {
-                    self.err(
-                        ek.key("force_limit_percent"),
-                        format!("must be between 1 and 100, got {f}"),
-                    );
-                }
-            }
+        for p in d.config.validate(&d.ctx()) {
+            self.err(Self::under(k, &p.key), p.message);
         }
         if let Some(e) = &d.emulator {
             let ek = k.key("emulator");
             for (which, m) in [("initial", &e.initial), ("object_at", &e.object_at)] {
                 for (j, v) in m {
-                    self.position(ek.key(which).key(j.clone()), d, j, *v);
+                    self.position(ek.key(which).key(j.clone()), d, j, Radians(*v));
                 }
             }
-            for (key, v, max) in [
-                (
-                    "position_noise_rad",
-                    e.position_noise_rad,
-                    handgate_adapters::sim::NOISE_MAX_Q,
-                ),
-                (
-                    "velocity_noise_rad_s",
-                    e.velocity_noise_rad_s,
-                    handgate_adapters::sim::NOISE_MAX_DQ,
-                ),
-                (
-                    "torque_noise_nm",
-                    e.torque_noise_nm,
-                    handgate_adapters::sim::NOISE_MAX_TAU,
-                ),
-            ] {
-                if let Some(v) = v {
-                    if !(v.is_finite() && (0.0..=f64::from(max)).contains(&v)) {
-                        self.err(
-                            ek.key(key),
-                            format!("must be between 0 and {max} (measurement noise, one standard deviation), got {v}"),
-                        );
-                    }
-                }
-            }
-            let overrides =
-                e.position_noise_rad.is_some() || e.velocity_noise_rad_s.is_some() || e.torque_noise_nm.is_some();
-            if e.noise == Some(false) && (overrides || e.seed.is_some()) {
-                self.err(
-                    ek.key("noise"),
-                    "is false: seed and *_noise_* keys would have no effect, remove them",
-                );
+            for p in e.validate() {
+                self.err(Self::under(k, &p.key), p.message);
             }
         }
     }
 
-    fn usb(&mut self, uk: &KeyPath, d: &DeviceConfig, u: &UsbConfig) {
-        if let Some(s) = &u.serial {
-            if s.trim().is_empty() {
-                self.err(
-                    uk.key("serial"),
-                    "must not be empty (omit it to take any hand of this side)",
-                );
-            }
-        }
-        if let Some(w) = &u.wiring {
-            let wk = uk.key("wiring");
-            let mut used: HashMap<(u8, u8, bool), String> = HashMap::new();
-            for (j, slot) in &w.joints {
-                let jk = wk.key("joints").key(j.clone());
-                self.joint(jk.clone(), d, j);
-                self.slot(&jk, *slot, 15);
-                if let Some(o) = used.insert((slot.bus, slot.id, true), j.clone()) {
-                    self.err(jk, format!("bus {} id {} is also wired to {o}", slot.bus, slot.id));
-                }
-            }
-            for (pad, slot) in &w.pads {
-                let pk = wk.key("pads").key(pad.clone());
-                let valid = pad
-                    .strip_prefix("pad_")
-                    .and_then(|n| n.parse::<usize>().ok())
-                    .is_some_and(|n| n < DEX3_PADS && pad == &format!("pad_{n}"));
-                if !valid {
-                    self.err(
-                        pk.clone(),
-                        format!("unknown pad `{pad}` (pads: pad_0 .. pad_{})", DEX3_PADS - 1),
-                    );
-                }
-                self.slot(&pk, *slot, 14);
-                if let Some(o) = used.insert((slot.bus, slot.id, false), pad.clone()) {
-                    self.err(pk, format!("bus {} id {} is also wired to {o}", slot.bus, slot.id));
-                }
-            }
-        }
-        if let Some(s) = &u.scalings {
-            if let Err(e) = s.validate() {
-                self.err(
-                    uk.key("scalings").key(e.field),
-                    format!("must be a finite number above 0, got {}", e.value),
-                );
-            }
-        }
-    }
-
-    fn slot(&mut self, k: &KeyPath, s: BusSlot, max_id: u8) {
-        if s.bus >= DEX3_USB_BUSES {
-            self.err(
-                k.key("bus"),
-                format!("must be between 0 and {}, got {}", DEX3_USB_BUSES - 1, s.bus),
-            );
-        }
-        if s.id > max_id {
-            self.err(k.key("id"), format!("must be between 0 and {max_id}, got {}", s.id));
-        }
-    }
-
-    /// Checks across devices that share hardware: two USB hands of one side need serials,
-    /// EZGrippers on one port need distinct ids and one baud.
-    fn fleet_buses(&mut self, p: &Profile) {
-        let mut usb_sides: HashMap<(Side, Option<String>), usize> = HashMap::new();
-        let mut ports: HashMap<String, (usize, u32)> = HashMap::new();
-        let mut servo_ids: HashMap<(String, u8), usize> = HashMap::new();
+    /// Checks across devices: two devices commanding one DDS topic, and each kind's rules
+    /// across its devices (shared buses, USB serials).
+    fn fleet(&mut self, p: &Profile) {
         let mut dds_cmd: HashMap<Topic, usize> = HashMap::new();
         for (i, d) in p.devices.iter().enumerate() {
-            let k = root().key("devices").index(i);
             if let Some((Some(cmd), _)) = d.dds_topics() {
                 if let Some(j) = dds_cmd.insert(cmd.clone(), i) {
                     self.err(
-                        k.key("dds"),
+                        root().key("devices").index(i).key("dds"),
                         format!("devices[{j}] also sends commands on `{cmd}`: two devices would fight over one"),
                     );
                 }
             }
-            if d.kind == DeviceKind::Dex3 && d.backend == Backend::Usb {
-                let serial = d.usb.as_ref().and_then(|u| u.serial.clone());
-                if let Some(j) = usb_sides.insert((d.side, serial.clone()), i) {
-                    self.err(
-                        k.key("usb").key("serial"),
-                        format!(
-                            "devices[{j}] is also a {} dex3 on usb{}: give each hand its USB serial",
-                            d.side,
-                            serial.map(|s| format!(" with serial {s}")).unwrap_or_default()
-                        ),
-                    );
-                }
+        }
+        for kind in DeviceKind::all() {
+            let members: Vec<FleetMember<'_>> = p
+                .devices
+                .iter()
+                .enumerate()
+                .filter(|(_, d)| d.kind == *kind)
+                .map(|(index, d)| FleetMember {
+                    index,
+                    ctx: d.ctx(),
+                    config: &*d.config,
+                })
+                .collect();
+            if members.is_empty() {
+                continue;
             }
-            if d.kind == DeviceKind::Ezgripper && d.backend == Backend::Serial {
-                let e = d.ezgripper.clone().unwrap_or_default();
-                match ports.get(&e.port) {
-                    Some(&(j, baud)) if baud != e.baud => self.err(
-                        k.key("ezgripper").key("baud"),
-                        format!("devices[{j}] uses {} at {baud} baud; one bus has one baud rate", e.port),
-                    ),
-                    Some(_) => {}
-                    None => {
-                        ports.insert(e.port.clone(), (i, e.baud));
-                    }
-                }
-                let id = e.servo_id_for(d.side);
-                if let Some(j) = servo_ids.insert((e.port.clone(), id), i) {
-                    self.err(
-                        k.key("ezgripper").key("servo_id"),
-                        format!("servo id {id} on {} is also devices[{j}]", e.port),
-                    );
-                }
+            for (i, p) in kind.factory().validate_fleet(&members) {
+                self.err(Self::under(&root().key("devices").index(i), &p.key), p.message);
             }
         }
     }

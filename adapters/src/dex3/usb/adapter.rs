@@ -8,7 +8,6 @@ use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
-use std::time::{Instant, SystemTime};
 
 use async_trait::async_trait;
 use tokio::sync::watch;
@@ -19,8 +18,8 @@ use super::rusb_transport::RusbTransport;
 use super::socket::UnixSocketTransport;
 use super::transport::TransportFactory;
 use crate::control::{Active, CommandState, Counters};
-use crate::device::{Capabilities, DeviceError, DeviceInfo, DeviceStats, HandDevice};
-use crate::dex3::{Dex3Command, Dex3Measurement, MotorCommand, MotorStatus};
+use crate::device::{DeviceError, DeviceInfo, DeviceStats, Discover, HandDevice};
+use crate::dex3::{Dex3Command, Dex3Measurement};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandCommand, HandState, Imu, JointCommand, Pad, Power, SafeAction};
 
@@ -39,14 +38,7 @@ pub enum UsbSource {
 pub fn to_dex3_command(table: &DeviceTable, targets: &[JointCommand]) -> Dex3Command {
     let mut c = Dex3Command::default();
     for (m, w) in c.motors.iter_mut().zip(table.to_wire(targets)) {
-        *m = MotorCommand {
-            q: w.q,
-            dq: w.dq,
-            tau: w.tau,
-            kp: w.kp,
-            kd: w.kd,
-            status: MotorStatus::Foc,
-        };
+        *m = w.into();
     }
     c
 }
@@ -102,6 +94,9 @@ pub fn to_hand_state(table: &DeviceTable, m: &Dex3Measurement, connected: bool) 
     }
 }
 
+/// Opens the transport again (after a disconnect, or for discovery).
+type MakeFactory = Arc<dyn Fn() -> TransportFactory + Send + Sync>;
+
 /// A Dex3-1 over USB (or its emulator at the same seam).
 pub struct Dex3UsbDevice {
     info: DeviceInfo,
@@ -110,7 +105,12 @@ pub struct Dex3UsbDevice {
     /// first: the loop-thread observer tags a measurement with the client command its exchange sent.
     sent: Arc<Mutex<VecDeque<(u64, u64, u32)>>>,
     handle: Arc<Mutex<Option<Dex3UsbHandle>>>,
+    state_tx: Arc<watch::Sender<HandState>>,
     state_rx: watch::Receiver<HandState>,
+    /// How the loop's transport is opened, and the loop's settings (to restart it after
+    /// discovery, which needs the transport to itself).
+    make: MakeFactory,
+    config: LoopConfig,
     /// The in-process emulator, when that is the source (tests inject faults through it).
     pub emulator: Option<SharedEmulator>,
 }
@@ -119,26 +119,47 @@ impl Dex3UsbDevice {
     /// Starts the loop on `source`, turning each measurement into state on the loop thread.
     pub fn start(info: DeviceInfo, source: UsbSource, config: LoopConfig) -> Result<Self, LoopError> {
         let side = info.side;
-        let (factory, emulator): (TransportFactory, Option<SharedEmulator>) = match source {
-            UsbSource::Hardware { serial } => (RusbTransport::factory(side, serial), None),
+        let (make, emulator): (MakeFactory, Option<SharedEmulator>) = match source {
+            UsbSource::Hardware { serial } => (Arc::new(move || RusbTransport::factory(side, serial.clone())), None),
             UsbSource::Emulator(cfg) => {
                 let cfg = EmulatorConfig {
                     clock: EmulatorClock::Wall,
                     ..*cfg
                 };
                 let emu: SharedEmulator = Arc::new(Mutex::new(Dex3Emulator::new(side, cfg)));
-                (EmulatorTransport::factory(emu.clone()), Some(emu))
+                let e = emu.clone();
+                (Arc::new(move || EmulatorTransport::factory(e.clone())), Some(emu))
             }
-            UsbSource::Socket(path) => (UnixSocketTransport::factory(path), None),
+            UsbSource::Socket(path) => (Arc::new(move || UnixSocketTransport::factory(path.clone())), None),
         };
         let table = info.table.clone();
         let cmd = CommandState::new(table.clone());
         let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
-        let sent: Arc<Mutex<VecDeque<(u64, u64, u32)>>> = Arc::default();
-        // Measurement -> canonical state, on the loop thread after every cycle (no second
-        // thread woken per cycle and device).
-        let (b_cmd, b_sent) = (cmd.clone(), sent.clone());
-        let name = info.name.clone();
+        let device = Self {
+            info,
+            cmd,
+            sent: Arc::default(),
+            handle: Arc::new(Mutex::new(None)),
+            state_tx: Arc::new(tx),
+            state_rx,
+            make,
+            config,
+            emulator,
+        };
+        device.spawn_loop()?;
+        Ok(device)
+    }
+
+    /// Starts the device loop, its measurements turned into canonical state on the loop thread
+    /// after every cycle (no second thread woken per cycle and device).
+    fn spawn_loop(&self) -> Result<(), LoopError> {
+        let (table, b_cmd, b_sent, tx) = (
+            self.info.table.clone(),
+            self.cmd.clone(),
+            self.sent.clone(),
+            self.state_tx.clone(),
+        );
+        let name = self.info.name.clone();
         let mut last_connects = 0;
         // (client seq, tag) of the newest command a measurement reflects.
         let mut echo = (0u64, 0u32);
@@ -159,25 +180,14 @@ impl Dex3UsbDevice {
             }
             b_cmd.counters.link_up.store(link.connected as u64, Ordering::Relaxed);
             echo = reflected(&mut b_sent.lock().unwrap_or_else(|p| p.into_inner()), m.cmd_seq).unwrap_or(echo);
+            crate::link::stamp(&mut st, &b_cmd, b_cmd.is_safe(), true);
+            // The echo is the command this measurement's exchange sent, not the last applied.
             (st.cmd_seq, st.cmd_tag) = echo;
-            st.measured_wall = st
-                .measured_at
-                .map(|t| SystemTime::now() - Instant::now().saturating_duration_since(t));
-            if b_cmd.is_safe() {
-                st.faults |= faults::SAFE_STATE;
-            }
             tx.send_replace(st);
         });
-        let handle = Dex3UsbLoop::spawn_observed(factory, config, Some(observer))?;
-        let handle = Arc::new(Mutex::new(Some(handle)));
-        Ok(Self {
-            info,
-            cmd,
-            sent,
-            handle,
-            state_rx,
-            emulator,
-        })
+        let handle = Dex3UsbLoop::spawn_observed((self.make)(), self.config.clone(), Some(observer))?;
+        *self.handle.lock().unwrap_or_else(|p| p.into_inner()) = Some(handle);
+        Ok(())
     }
 
     /// Folds the pending command into targets against the latest measurement and hands the
@@ -231,16 +241,6 @@ fn reflected(sent: &mut VecDeque<(u64, u64, u32)>, loop_seq: u64) -> Option<(u64
     Some((seq, tag))
 }
 
-/// Capabilities of a Dex3 over USB.
-pub const CAPABILITIES: Capabilities = Capabilities {
-    feedback: true,
-    pressure: true,
-    imu: true,
-    power: true,
-    discovery: true,
-    calibration: false,
-};
-
 #[async_trait]
 impl HandDevice for Dex3UsbDevice {
     fn info(&self) -> &DeviceInfo {
@@ -267,7 +267,7 @@ impl HandDevice for Dex3UsbDevice {
     }
 
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if self.state_rx.borrow().measured_at.is_none() && action == SafeAction::Hold {
+        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
             // Never "hold" a position that was never measured: the loop's own connect hold
             // (damping at the first measured state) is already in force.
             return Ok(());
@@ -275,6 +275,10 @@ impl HandDevice for Dex3UsbDevice {
         self.cmd.request_safe(action);
         self.apply();
         Ok(())
+    }
+
+    fn discovery(&self) -> Option<&dyn Discover> {
+        Some(self)
     }
 
     fn stats(&self) -> DeviceStats {
@@ -288,5 +292,29 @@ impl HandDevice for Dex3UsbDevice {
             s.link_up = l.connected;
         }
         s
+    }
+}
+
+#[async_trait]
+impl Discover for Dex3UsbDevice {
+    /// Stops the device loop (discovery needs the transport to itself: it sends zero-gain
+    /// frames, nothing moves), asks every (bus, id) which motor or sensor answers, prints the
+    /// `[devices.usb.wiring]` template, and restarts the loop (which holds the first measured
+    /// position after its connect, as after any reconnect).
+    async fn discover(&self) -> Result<String, DeviceError> {
+        let handle = self.handle.lock().unwrap_or_else(|p| p.into_inner()).take();
+        let (make, scalings) = (self.make.clone(), self.config.scalings);
+        let report = tokio::task::spawn_blocking(move || {
+            if let Some(h) = handle {
+                h.stop();
+            }
+            let mut t = (make())().map_err(DeviceError::link)?;
+            super::discovery::discover(t.as_mut(), super::discovery::DiscoveryOptions::default(), &scalings)
+                .map_err(DeviceError::link)
+        })
+        .await
+        .map_err(|_| DeviceError::Stopped)?;
+        self.spawn_loop().map_err(DeviceError::link)?;
+        Ok(report?.wiring_template())
     }
 }

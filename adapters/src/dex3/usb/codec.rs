@@ -1,5 +1,5 @@
 //! Byte codec of the Dex3-1 USB bulk protocol (user manual, "Introduction to Send and Receive
-//! Structures"; sizes and CRC coverage settled in shared FACTS §3). Pure functions over bytes:
+//! Structures"; sizes and CRC coverage settled in docs/sources.md §3). Pure functions over bytes:
 //! every structure is packed (1-byte aligned) and little-endian.
 //!
 //! | structure | size | head | CRC coverage |
@@ -18,7 +18,7 @@ use thiserror::Error;
 pub const BUS_COUNT: usize = 5;
 /// Per-bus buffer size in BOTH directions. The manual's header says 140 for the send buffer
 /// ([`HEADER_SEND_BUFFER_SIZE`]) but then `LinuxToMcuCmd_t` would be 734 bytes, not the 1234 the
-/// manual's specifications state; 240 fits both stated sizes (FACTS §3).
+/// manual's specifications state; 240 fits both stated sizes (docs/sources.md §3).
 pub const BUS_BUFFER_SIZE: usize = 240;
 /// The manual header's `SUPPORTED_SEND_BUFFER_SIZE`; documented only, it does NOT match 1234.
 pub const HEADER_SEND_BUFFER_SIZE: usize = 140;
@@ -687,7 +687,7 @@ mod tests {
     fn sizes_follow_facts() {
         assert_eq!(CMD_FRAME_LEN, 1234);
         assert_eq!(STATE_FRAME_LEN, 1270);
-        // The header's 140 would give 734 (FACTS §3).
+        // The header's 140 would give 734 (docs/sources.md §3).
         assert_eq!(2 + 4 + 4 * BUS_COUNT + BUS_COUNT * HEADER_SEND_BUFFER_SIZE + 4 + 4, 734);
     }
 

@@ -2,7 +2,7 @@
 //!
 //! The user manual gives a table-driven routine that walks `u32` words and feeds each word's
 //! bytes most-significant first into a non-reflected CRC-32 with polynomial 0x04C11DB7, initial
-//! value 0xFFFFFFFF and no final xor. That is exactly CRC-32/MPEG-2 (shared FACTS §3; the same
+//! value 0xFFFFFFFF and no final xor. That is exactly CRC-32/MPEG-2 (docs/sources.md §3; the same
 //! result as `crc32_core` in unitreerobotics/dex1_1_service) over the byte stream in which every
 //! little-endian word is byte-reversed. We run the `crc` crate's CRC-32/MPEG-2 over that stream.
 //!

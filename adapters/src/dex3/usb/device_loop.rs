@@ -57,7 +57,7 @@ impl Default for LoopConfig {
             period: Duration::from_millis(1),
             exchange_timeout: Duration::from_millis(20),
             timeout_bit: true,
-            // unitree_sdk2's Dex3 example sweeps with kp 0.5 / kd 0.1 (FACTS §2).
+            // unitree_sdk2's Dex3 example sweeps with kp 0.5 / kd 0.1 (docs/sources.md §2).
             hold_kp: 0.5,
             hold_kd: 0.1,
             spin: Duration::from_micros(100),

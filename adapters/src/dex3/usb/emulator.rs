@@ -7,7 +7,7 @@
 //! hard stops (the manual's, [`crate::dex3::physical`]), starting from the rest posture, and
 //! reports position, speed and torque with measurement noise ([`EmulatorConfig::noise`]). Timeout protection: a motor whose last command set the timeout bit and that gets
 //! no command for [`EmulatorConfig::motor_timeout`] goes limp and reports the timeout bit in its
-//! feedback, latched until a command with the bit at 0 arrives (manual, FACTS §2).
+//! feedback, latched until a command with the bit at 0 arrives (manual, docs/sources.md §2).
 //!
 //! ASSUMPTIONS (not public, see docs/dex3-usb.md): the MCU still replies with a state frame
 //! when it ignores a bad command frame; a motor answers only when addressed; every sensor of a

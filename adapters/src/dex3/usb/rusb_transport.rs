@@ -3,7 +3,7 @@
 //! Opens the hand by VID 0x34B7 / PID 0x1010 (left) or 0x1011 (right) (manual "USB Device ID"),
 //! optionally by serial number when several hands are plugged in; reads the bulk IN/OUT
 //! endpoints of interface 0 from the descriptors (an unofficial source says 0x02 out / 0x81 in:
-//! FACTS §3 says read them instead); detaches a kernel driver and claims interface 0.
+//! docs/sources.md §3 says read them instead); detaches a kernel driver and claims interface 0.
 //!
 //! Reconnect after an unplug is the device loop's job: the transport reports
 //! [`TransportError::Disconnected`] and the loop calls the factory again with backoff.

@@ -1,6 +1,6 @@
 //! Unit scalings of the Dex3-1 USB frames: ONE table, every entry named with its source.
 //!
-//! Two sources disagree (shared FACTS §3):
+//! Two sources disagree (docs/sources.md §3):
 //! - the Dex3-1 user manual (`MotorCmd_t` / `MotorState_t` comments): torque 256 = 1 mN·m,
 //!   speed 256/2π = 100 rad/s, position 32768/2π = 1 rad, k_pos 1280 = 1 mN·m/rad,
 //!   k_spd 1280 = 1 mN·m/(100 rad/s), voltage 255 = 127.5 V;

@@ -1,6 +1,6 @@
 //! Which (bus, id) is which joint and which pressure pad.
 //!
-//! NOT PUBLIC (FACTS §3): the manual's bus figure is an image that did not survive. Every
+//! NOT PUBLIC (docs/sources.md §3): the manual's bus figure is an image that did not survive. Every
 //! feedback packet carries its id, so the real map can be learned with
 //! [`super::discovery::discover`]. Until then [`WiringMap::default`] is an ASSUMPTION:
 //!

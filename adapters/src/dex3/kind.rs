@@ -1,0 +1,370 @@
+//! The Dex3-1 as a registered device kind: its profile keys (`[devices.usb]` for the USB
+//! backend and its emulator, `[devices.dds]` for a G1's resident service), their rules, its
+//! default rates and table.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use super::dds_client::{self, StateSource};
+use super::usb::codec::BUS_COUNT;
+use super::usb::Scalings;
+use super::{JOINTS, PAD_COUNT};
+use crate::device::{Backend, DeviceError, HandDevice};
+use crate::kind::{
+    a, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, FleetMember, FleetProblem, KindConfig,
+    KindFactory, Problem, SectionSpec,
+};
+use crate::mapping::DeviceTable;
+use crate::model::Side;
+use crate::open::{DeviceSpec, OpenEnv};
+
+impl DeviceKind {
+    /// Unitree Dex3-1, 7 joints (USB, or through a G1's resident service over DDS).
+    #[allow(non_upper_case_globals)]
+    pub const Dex3: DeviceKind = DeviceKind::of(&Dex3Factory);
+}
+
+/// The Dex3-1's factory.
+#[derive(Debug, Clone, Copy)]
+pub struct Dex3Factory;
+
+const NAME: &str = "dex3";
+
+/// Where a motor or a pressure pad sits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusSlot {
+    /// Bus index, 0..=4.
+    pub bus: u8,
+    /// Id on that bus: motors 0..=15, sensors 0..=14 (15 is broadcast).
+    pub id: u8,
+}
+
+/// Dex3 USB wiring: joint -> slot and pad (`pad_0`..`pad_8`) -> slot.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WiringConfig {
+    pub joints: BTreeMap<String, BusSlot>,
+    pub pads: BTreeMap<String, BusSlot>,
+}
+
+/// `[devices.usb]`: Dex3 over USB (also read by the emulator backend, which speaks the same
+/// protocol).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct UsbConfig {
+    /// USB serial number, to tell two hands of the same side apart.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub serial: Option<String>,
+    /// Talk to a Dex3-1 MCU emulator process (`handgate emulate dex3 --socket PATH`) over this
+    /// Unix socket instead of USB (backend `usb` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub socket: Option<PathBuf>,
+    /// Set the motors' timeout-protection bit (motor stops after 1 s without commands).
+    pub timeout_bit: bool,
+    /// Which bus and id each joint and pressure pad sits on; not public (docs/sources.md §3).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wiring: Option<WiringConfig>,
+    /// Overrides of the motor-frame scalings (docs/sources.md §3, "scaling conflict").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scalings: Option<Scalings>,
+}
+
+impl Default for UsbConfig {
+    fn default() -> Self {
+        UsbConfig {
+            serial: None,
+            socket: None,
+            timeout_bit: true,
+            wiring: None,
+            scalings: None,
+        }
+    }
+}
+
+/// `[devices.dds]` of a Dex3: topic overrides and which state topic to read.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DdsConfig {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cmd_topic: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub state_topic: Option<String>,
+    /// Read `rt/dex3/{side}/state` (`state`) or `rt/lf/dex3/{side}/state` (`lf`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub state_source: Option<StateSource>,
+}
+
+/// A Dex3's own profile keys.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Dex3Profile {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub usb: Option<UsbConfig>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dds: Option<DdsConfig>,
+}
+
+impl Dex3Profile {
+    /// The timeout bit: `usb.timeout_bit` (default on).
+    pub fn timeout_bit(&self) -> bool {
+        self.usb.as_ref().map(|u| u.timeout_bit).unwrap_or(true)
+    }
+}
+
+impl KindFactory for Dex3Factory {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn joints(&self) -> &'static [&'static str] {
+        &JOINTS
+    }
+
+    fn backends(&self) -> &'static [Backend] {
+        &[Backend::Usb, Backend::Dds, Backend::Emulator]
+    }
+
+    fn check_side(&self, side: Side) -> Result<(), String> {
+        match side {
+            Side::Center => Err("a dex3 is a left or a right hand, not center".into()),
+            _ => Ok(()),
+        }
+    }
+
+    /// 1000 Hz over USB and its emulator (the frame loop); 500 Hz over DDS (assumption).
+    fn default_rate_hz(&self, backend: Backend) -> Option<f64> {
+        Some(if backend == Backend::Dds { 500.0 } else { 1000.0 })
+    }
+
+    fn sections(&self) -> &'static [SectionSpec] {
+        &[
+            SectionSpec {
+                key: "usb",
+                backends: &[Backend::Usb, Backend::Emulator],
+            },
+            SectionSpec {
+                key: "dds",
+                backends: &[Backend::Dds],
+            },
+        ]
+    }
+
+    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError> {
+        Ok(Box::new(value.deserialize::<Dex3Profile>().map_err(Box::new)?))
+    }
+
+    fn default_config(&self) -> Box<dyn KindConfig> {
+        Box::new(Dex3Profile::default())
+    }
+
+    fn table(&self, side: Side, _config: &dyn KindConfig) -> DeviceTable {
+        super::table::table(side)
+    }
+
+    fn closure_postures_configurable(&self) -> bool {
+        true
+    }
+
+    /// Two hands of one side on USB need their serials.
+    fn validate_fleet(&self, members: &[FleetMember<'_>]) -> Vec<FleetProblem> {
+        let mut out = Vec::new();
+        let mut seen: HashMap<(Side, Option<String>), usize> = HashMap::new();
+        for m in members.iter().filter(|m| m.ctx.backend == Backend::Usb) {
+            let serial = config(m.config).usb.as_ref().and_then(|u| u.serial.clone());
+            if let Some(j) = seen.insert((m.ctx.side, serial.clone()), m.index) {
+                out.push((
+                    m.index,
+                    Problem::new(
+                        &["usb", "serial"],
+                        format!(
+                            "devices[{j}] is also a {} dex3 on usb{}: give each hand its USB serial",
+                            m.ctx.side,
+                            serial.map(|s| format!(" with serial {s}")).unwrap_or_default()
+                        ),
+                    ),
+                ));
+            }
+        }
+        out
+    }
+
+    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn std::fmt::Debug>, DeviceError> {
+        Ok(Box::new(super::open::configure(spec)?))
+    }
+
+    /// Dex3-1 hands on USB (VID 0x34B7, PID by side), with permission problems explained.
+    fn list_attached(&self) -> Option<Result<Vec<String>, DeviceError>> {
+        let hands = match super::usb::list_hands() {
+            Ok(h) => h,
+            Err(e) => return Some(Err(DeviceError::link(e))),
+        };
+        if hands.is_empty() {
+            return Some(Ok(vec![
+                "no Dex3-1 hand on USB (VID 34b7, PID 1010 left / 1011 right)".into()
+            ]));
+        }
+        Some(Ok(hands
+            .into_iter()
+            .map(|h| {
+                let serial = h.serial.as_deref().unwrap_or("?");
+                match h.problem {
+                    None => format!(
+                        "{} hand  serial {serial}  bus {:03} device {:03}",
+                        h.side, h.bus, h.address
+                    ),
+                    Some(p) => format!("{} hand  bus {:03} device {:03}: {p}", h.side, h.bus, h.address),
+                }
+            })
+            .collect()))
+    }
+
+    fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
+        super::open::emulate(args)
+    }
+
+    fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
+        super::open::open(spec, env)
+    }
+}
+
+fn config(c: &dyn KindConfig) -> &Dex3Profile {
+    c.as_any()
+        .downcast_ref::<Dex3Profile>()
+        .expect("a dex3 device has a Dex3Profile")
+}
+
+/// (command, state) topics of a Dex3 on backend dds: `dds.cmd_topic` / `dds.state_topic`,
+/// else the resident service's for the side and `dds.state_source`; `None` where the side
+/// (center) gives no default.
+pub fn dds_topics(p: &Dex3Profile, side: Side) -> (Option<String>, Option<String>) {
+    let dds = p.dds.clone().unwrap_or_default();
+    let std = (side != Side::Center).then(|| dds_client::topics(side, dds.state_source.unwrap_or_default()));
+    (
+        dds.cmd_topic.or_else(|| std.as_ref().map(|t| t.0.clone())),
+        dds.state_topic.or_else(|| std.map(|t| t.1)),
+    )
+}
+
+impl KindConfig for Dex3Profile {
+    fn validate(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem> {
+        let mut out = Vec::new();
+        if let Some(u) = &self.usb {
+            validate_usb(u, &mut out);
+        }
+        if let Some(x) = &self.dds {
+            for (key, t) in [("cmd_topic", &x.cmd_topic), ("state_topic", &x.state_topic)] {
+                if let Some(Err(e)) = t.as_deref().map(check_topic) {
+                    out.push(Problem::new(&["dds", key], e));
+                }
+            }
+        }
+        if ctx.backend == Backend::Dds && ctx.side == Side::Center {
+            if let Some((cmd, state)) = self.dds_topics(ctx) {
+                if cmd.is_none() || state.is_none() {
+                    out.push(Problem::new(
+                        &["side"],
+                        format!(
+                            "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
+                            a(NAME)
+                        ),
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    fn dds_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
+        Some(dds_topics(self, ctx.side))
+    }
+
+    fn describe(&self, _ctx: &DeviceCtx<'_>) -> String {
+        match self.usb.as_ref().and_then(|u| u.serial.as_ref()) {
+            Some(s) => format!(", usb serial {s}"),
+            None => String::new(),
+        }
+    }
+
+    crate::kind_config_plumbing!();
+}
+
+fn validate_usb(u: &UsbConfig, out: &mut Vec<Problem>) {
+    if let Some(s) = &u.serial {
+        if s.trim().is_empty() {
+            out.push(Problem::new(
+                &["usb", "serial"],
+                "must not be empty (omit it to take any hand of this side)",
+            ));
+        }
+    }
+    if let Some(w) = &u.wiring {
+        let mut used: HashMap<(u8, u8, bool), String> = HashMap::new();
+        for (j, slot) in &w.joints {
+            let key = ["usb", "wiring", "joints", j.as_str()];
+            if !JOINTS.contains(&j.as_str()) {
+                out.push(Problem::new(
+                    &key,
+                    format!("unknown joint `{j}` for {} (joints: {})", a(NAME), JOINTS.join(", ")),
+                ));
+            }
+            slot_rules(&key, *slot, 15, out);
+            if let Some(o) = used.insert((slot.bus, slot.id, true), j.clone()) {
+                out.push(Problem::new(
+                    &key,
+                    format!("bus {} id {} is also wired to {o}", slot.bus, slot.id),
+                ));
+            }
+        }
+        for (pad, slot) in &w.pads {
+            let key = ["usb", "wiring", "pads", pad.as_str()];
+            let valid = pad
+                .strip_prefix("pad_")
+                .and_then(|n| n.parse::<usize>().ok())
+                .is_some_and(|n| n < PAD_COUNT && pad == &format!("pad_{n}"));
+            if !valid {
+                out.push(Problem::new(
+                    &key,
+                    format!("unknown pad `{pad}` (pads: pad_0 .. pad_{})", PAD_COUNT - 1),
+                ));
+            }
+            slot_rules(&key, *slot, 14, out);
+            if let Some(o) = used.insert((slot.bus, slot.id, false), pad.clone()) {
+                out.push(Problem::new(
+                    &key,
+                    format!("bus {} id {} is also wired to {o}", slot.bus, slot.id),
+                ));
+            }
+        }
+    }
+    if let Some(s) = &u.scalings {
+        if let Err(e) = s.validate() {
+            out.push(Problem::new(
+                &["usb", "scalings", e.field],
+                format!("must be a finite number above 0, got {}", e.value),
+            ));
+        }
+    }
+}
+
+fn slot_rules(key: &[&str], s: BusSlot, max_id: u8, out: &mut Vec<Problem>) {
+    let sub = |k: &str| {
+        let mut v: Vec<&str> = key.to_vec();
+        v.push(k);
+        v.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+    };
+    if usize::from(s.bus) >= BUS_COUNT {
+        out.push(Problem {
+            key: sub("bus"),
+            message: format!("must be between 0 and {}, got {}", BUS_COUNT - 1, s.bus),
+        });
+    }
+    if s.id > max_id {
+        out.push(Problem {
+            key: sub("id"),
+            message: format!("must be between 0 and {max_id}, got {}", s.id),
+        });
+    }
+}

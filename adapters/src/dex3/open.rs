@@ -1,0 +1,165 @@
+//! Opening a Dex3-1: over DDS as a client of a G1's resident service, over USB (a real hand
+//! or the MCU emulator process behind `usb.socket`), or on the emulator backend (the MCU
+//! emulator in-process, at the USB transport seam).
+
+use std::time::Duration;
+
+use super::dds_client::Dex3DdsCodec;
+use super::dds_service_emulator::{Dex3ServiceConfig, Dex3ServiceEmulator};
+use super::kind::{Dex3Profile, WiringConfig};
+use super::usb::adapter::{Dex3UsbDevice, UsbSource};
+use super::usb::{run_emulator_server, BusAddr, BusId, DeviceId, EmulatorClock, EmulatorConfig, LoopConfig, WiringMap};
+use crate::dds_device::{DdsDevice, DdsDeviceConfig};
+use crate::device::{Backend, DeviceError, HandDevice};
+use crate::kind::{EmulateArgs, Emulation};
+use crate::open::{DeviceSpec, OpenEnv};
+
+/// The profile's (partial) wiring over the USB adapter's default map.
+pub fn wiring(w: Option<&WiringConfig>) -> Result<WiringMap, DeviceError> {
+    let mut m = WiringMap::default();
+    let Some(w) = w else { return Ok(m) };
+    let bad = |what: String| DeviceError::Config(what);
+    let addr = |s: &super::kind::BusSlot| -> Result<BusAddr, DeviceError> {
+        Ok(BusAddr {
+            bus: BusId::new(s.bus).map_err(DeviceError::config)?,
+            id: DeviceId::new(s.id).map_err(DeviceError::config)?,
+        })
+    };
+    for (name, slot) in &w.joints {
+        let j = super::JOINTS
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| bad(format!("unknown joint {name}")))?;
+        m.motors[j] = addr(slot)?;
+    }
+    for (name, slot) in &w.pads {
+        let i: usize = name
+            .strip_prefix("pad_")
+            .and_then(|n| n.parse().ok())
+            .ok_or_else(|| bad(format!("unknown pad {name}")))?;
+        *m.pads.get_mut(i).ok_or_else(|| bad(format!("unknown pad {name}")))? = addr(slot)?;
+    }
+    m.validate().map_err(DeviceError::config)?;
+    Ok(m)
+}
+
+/// Where a Dex3 on backend usb or emulator sends its frames: `usb.socket` (the MCU emulator
+/// in another process), the hand on USB (by `usb.serial`), or the emulator in-process.
+pub fn usb_source(spec: &DeviceSpec<'_>, profile: &Dex3Profile) -> UsbSource {
+    let usb = profile.usb.clone().unwrap_or_default();
+    if spec.backend == Backend::Usb {
+        return match usb.socket {
+            Some(path) => UsbSource::Socket(path),
+            None => UsbSource::Hardware { serial: usb.serial },
+        };
+    }
+    let mut q = [0.0f32; super::MOTOR_COUNT];
+    for j in &spec.table.joints {
+        // Joints the profile does not place start at the hand's rest posture.
+        let rest = super::physical::rest_wire(spec.side, j.wire_index);
+        q[j.wire_index] = spec.initial_wire(j.name, rest);
+    }
+    UsbSource::Emulator(Box::new(EmulatorConfig {
+        initial_q: Some(q),
+        noise: spec.emulator.noise_for(spec.name, super::physical::HG_MOTOR_NOISE),
+        ..Default::default()
+    }))
+}
+
+/// What a Dex3 opens with: decided from the profile, before anything starts.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Dex3Open {
+    /// A client of a G1's resident service.
+    Dds { config: DdsDeviceConfig, timeout_bit: bool },
+    /// The USB frame loop on `source` (a hand, the MCU emulator process or in-process).
+    Usb { source: UsbSource, config: LoopConfig },
+}
+
+/// What `spec` opens with.
+pub fn configure(spec: &DeviceSpec<'_>) -> Result<Dex3Open, DeviceError> {
+    let profile = spec.config::<Dex3Profile>().cloned().unwrap_or_default();
+    let timeout_bit = profile.timeout_bit();
+    if spec.backend == Backend::Dds {
+        let (Some(cmd_topic), Some(state_topic)) = super::kind::dds_topics(&profile, spec.side) else {
+            return Err(DeviceError::Config(
+                "no dds topics (side center without dds.cmd_topic / state_topic)".into(),
+            ));
+        };
+        let config = DdsDeviceConfig {
+            cmd_topic,
+            state_topic: Some(state_topic),
+            rate_hz: spec.rate_hz,
+            stale_after: spec.stale_after,
+        };
+        return Ok(Dex3Open::Dds { config, timeout_bit });
+    }
+    let usb = profile.usb.clone().unwrap_or_default();
+    let source = usb_source(spec, &profile);
+    let config = LoopConfig {
+        period: Duration::from_secs_f64(1.0 / spec.rate_hz.max(1.0)),
+        timeout_bit,
+        hold_kp: spec.table.hold_kp,
+        hold_kd: spec.table.hold_kd,
+        wiring: wiring(usb.wiring.as_ref())?,
+        scalings: usb.scalings.unwrap_or_default(),
+        // The spin before each deadline buys period jitter for real hardware; an emulated
+        // hand has no use for it, and a fleet of them would burn a core on it
+        // (docs/benchmarks.md, fleet scale).
+        spin: match source {
+            UsbSource::Emulator(_) => Duration::ZERO,
+            _ => LoopConfig::default().spin,
+        },
+        ..Default::default()
+    };
+    Ok(Dex3Open::Usb { source, config })
+}
+
+/// Opens a Dex3 on its backend.
+pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
+    Ok(match configure(spec)? {
+        Dex3Open::Dds { config, timeout_bit } => Box::new(DdsDevice::start(
+            env.node,
+            spec.info(),
+            config,
+            Dex3DdsCodec { timeout_bit },
+        )?),
+        Dex3Open::Usb { source, config } => {
+            Box::new(Dex3UsbDevice::start(spec.info(), source, config).map_err(DeviceError::link)?)
+        }
+    })
+}
+
+/// `handgate emulate dex3`: the hand's MCU on a Unix socket (`--socket`), or the G1's resident
+/// hand service on DDS (`--service`).
+pub fn emulate(args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
+    let side = args.side("dex3")?;
+    let noise = args.noise(super::physical::HG_MOTOR_NOISE);
+    match (&args.socket, args.service) {
+        (Some(socket), false) => {
+            let socket = socket.clone();
+            let what = format!("emulating a Dex3-1 {side} hand on {}", socket.display());
+            let cfg = EmulatorConfig {
+                clock: EmulatorClock::Wall,
+                noise,
+                ..Default::default()
+            };
+            let run = move || run_emulator_server(&socket, side, cfg).map_err(DeviceError::link);
+            Ok((what, Emulation::Blocking(Box::new(run))))
+        }
+        (None, true) => {
+            let node = args.node()?;
+            let mut cfg = Dex3ServiceConfig::new(side);
+            cfg.noise = noise;
+            let emu = Dex3ServiceEmulator::start(&node, cfg)?;
+            let (cmd, state) = super::dds_client::topics(side, super::dds_client::StateSource::State);
+            let what = format!(
+                "emulating the G1's Dex3-1 {side} hand service: {cmd}, {state} and its rt/lf copy on DDS domain {}",
+                args.domain
+            );
+            Ok((what, Emulation::Running(Box::new((emu, node)))))
+        }
+        _ => Err(DeviceError::Config(
+            "emulating a dex3 takes --socket PATH (the hand's MCU) or --service (the G1's hand service)".into(),
+        )),
+    }
+}

@@ -1,0 +1,156 @@
+//! Opening EZGrippers: every gripper on one port shares one [`EzGripperBus`] (one thread,
+//! sync read/write for all its servos), opened once for all of them before any device
+//! (`prepare`) and kept in the open environment under its port. On the emulator backend the
+//! bus is a virtual MX-64 bus on a pseudo-terminal ([`VirtualBus`]) that the driver opens like
+//! a real /dev/ttyUSB0.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use super::adapter::EzGripperDevice;
+use super::driver::{BusConfig, EzGripperBus, GripperConfig};
+use super::emulator::{EmulatorConfig, VirtualBus, MX64_NOISE};
+use super::kind::{EzGripperConfig, EzProfile};
+use super::protocol::ServoId;
+use crate::device::{Backend, DeviceError, HandDevice};
+use crate::kind::{EmulateArgs, Emulation};
+use crate::open::{DeviceSpec, OpenEnv};
+
+/// A measurement older than this is stale: the same bound as the DDS-side devices, so a
+/// loaded host does not look like an unplug.
+pub const STALE_AFTER_MS: u64 = 200;
+
+/// The pseudo-terminal an emulated bus keyed `key` is linked at.
+fn pty_link(key: &str) -> PathBuf {
+    let safe: String = key
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    std::env::temp_dir().join(format!("handgate-{}-ezgripper{safe}", std::process::id()))
+}
+
+fn section(spec: &DeviceSpec<'_>) -> EzGripperConfig {
+    spec.config::<EzProfile>().map(EzProfile::section).unwrap_or_default()
+}
+
+/// The bus configuration for the grippers on one port (`devices`, all on that port). Bus-wide
+/// keys (baud, response timeout, the driver's constants) come from the first gripper; the
+/// validator makes every gripper on a serial port agree on the baud.
+pub fn bus_config(devices: &[DeviceSpec<'_>]) -> Result<BusConfig, DeviceError> {
+    let first = section(&devices[0]);
+    let mut grippers = Vec::new();
+    for d in devices {
+        let s = section(d);
+        let id = ServoId::new(s.servo_id_for(d.side)).map_err(DeviceError::config)?;
+        grippers.push(GripperConfig {
+            id,
+            zero_ticks: s.zero_ticks,
+        });
+    }
+    let defaults = BusConfig::default();
+    Ok(BusConfig {
+        baud: first.baud,
+        grippers,
+        // An emulated gripper powers up uncalibrated, like a real one: calibrate it.
+        calibrate_on_start: devices
+            .iter()
+            .any(|d| section(d).calibrate_on_start || d.backend == Backend::Emulator),
+        response_timeout_ms: first.response_timeout_ms.unwrap_or(defaults.response_timeout_ms),
+        stale_after_ms: STALE_AFTER_MS,
+        ezgripper: super::EzGripperParams {
+            // The profile's max_open_percent is both the Dex1 scale and the clamp.
+            max_open_pct: f32::from(first.max_open_percent),
+            ..first.params.clone().unwrap_or_default()
+        },
+        ..defaults
+    })
+}
+
+/// Opens one bus per port for `devices` (every EZGripper of the fleet).
+pub fn prepare(devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
+    let mut by_port: BTreeMap<String, Vec<DeviceSpec<'_>>> = BTreeMap::new();
+    for d in devices {
+        by_port.entry(section(d).port).or_default().push(*d);
+    }
+    for (port, devs) in by_port {
+        let cfg = bus_config(&devs)?;
+        let path = if devs.iter().any(|d| d.backend == Backend::Emulator) {
+            let link = pty_link(&port);
+            let ids: Vec<u8> = cfg.grippers.iter().map(|g| g.id.get()).collect();
+            let mut emu = EmulatorConfig::with_ids(&ids);
+            emu.baud = cfg.baud;
+            emu.noise = devs[0].emulator.noise_for(devs[0].name, MX64_NOISE);
+            let bus = VirtualBus::start(&link, emu).map_err(DeviceError::link)?;
+            env.shared.insert(&port, Arc::new(bus));
+            link
+        } else {
+            PathBuf::from(&port)
+        };
+        let bus = EzGripperBus::open(&path, cfg).map_err(DeviceError::link)?;
+        env.shared.insert(&port, Arc::new(bus));
+    }
+    Ok(())
+}
+
+/// What one EZGripper opens with: decided from the profile, before anything starts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EzOpen {
+    /// The port (or, emulated, the virtual bus's key) its bus is kept under.
+    pub port: String,
+    /// Its bus's configuration were it alone on it (`prepare` merges the grippers of a port).
+    pub bus: BusConfig,
+    pub id: ServoId,
+    /// Grip force limit, % of the servo's current limit.
+    pub force_pct: f32,
+}
+
+/// What `spec` opens with.
+pub fn configure(spec: &DeviceSpec<'_>) -> Result<EzOpen, DeviceError> {
+    let s = section(spec);
+    Ok(EzOpen {
+        bus: bus_config(std::slice::from_ref(spec))?,
+        id: ServoId::new(s.servo_id_for(spec.side)).map_err(DeviceError::config)?,
+        force_pct: s.force_limit_percent.map(f32::from).unwrap_or(100.0),
+        port: s.port,
+    })
+}
+
+/// Opens one EZGripper on the bus `prepare` opened for its port.
+pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
+    let c = configure(spec)?;
+    let bus = env
+        .shared
+        .get::<Arc<EzGripperBus>>(&c.port)
+        .cloned()
+        .ok_or_else(|| DeviceError::Config(format!("no bus open on {}", c.port)))?;
+    Ok(Box::new(EzGripperDevice::start(spec.info(), bus, c.id, c.force_pct)?))
+}
+
+/// `handgate emulate ezgripper`: EZGrippers on a virtual MX-64 bus behind a pseudo-terminal
+/// (`--ids`, default the side's servo id); prints the path to give as `ezgripper.port`.
+pub fn emulate(args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
+    let ids = if args.ids.is_empty() {
+        vec![super::driver::default_id(args.side.unwrap_or_default()).get()]
+    } else {
+        args.ids.clone()
+    };
+    for id in &ids {
+        ServoId::new(*id).map_err(DeviceError::config)?;
+    }
+    let link = args.pty.clone().unwrap_or_else(|| {
+        pty_link(&format!(
+            "-emulate-{}",
+            ids.iter().map(u8::to_string).collect::<Vec<_>>().join("-")
+        ))
+    });
+    let mut cfg = EmulatorConfig::with_ids(&ids);
+    cfg.noise = args.noise(MX64_NOISE);
+    let bus = VirtualBus::start(&link, cfg).map_err(DeviceError::link)?;
+    let what = format!(
+        "emulating EZGripper servo id(s) {} at 1000000 baud on {}",
+        ids.iter().map(u8::to_string).collect::<Vec<_>>().join(", "),
+        bus.path().display()
+    );
+    Ok((what, Emulation::Running(Box::new(bus))))
+}

@@ -1,0 +1,459 @@
+//! Device kinds: what every kind of hand or gripper tells handgate about itself, through one
+//! factory per kind folder (the shape of probe-rs's `ProbeFactory` + `DRIVERS`). The static
+//! list of every kind is [`crate::kinds::KINDS`]; nothing outside a kind's folder and that
+//! list names a kind.
+//!
+//! A kind owns: its name and canonical joints, its mapping table per side, the backends it
+//! supports and their default loop rates, its own profile keys (a typed struct parsed from
+//! the `[[devices]]` table, unknown keys refused), their validation rules, and how a device
+//! is opened on each backend (docs/adapters.md, "Adding a device kind").
+
+use std::any::Any;
+use std::fmt;
+use std::hash::{Hash, Hasher};
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use crate::device::{Backend, DeviceError, HandDevice};
+use crate::mapping::{ClosureMap, DeviceTable, MappingError};
+use crate::model::{JointId, Side};
+use crate::open::{DeviceSpec, OpenEnv};
+
+/// A profile value as the loader holds it (a figment value: deserialising it keeps the path
+/// of a bad key, so errors still name the file and the key).
+pub type ConfigValue = figment::value::Value;
+/// A structural error in a kind's profile keys (path relative to the device's table).
+pub type ConfigError = Box<figment::Error>;
+
+/// A registered device kind: a handle to its factory. Copy; compared, ordered, hashed and
+/// printed by name; (de)serialised as its name (an unknown name is an unknown variant
+/// listing the registered ones).
+#[derive(Clone, Copy)]
+pub struct DeviceKind(&'static dyn KindFactory);
+
+impl DeviceKind {
+    /// The handle of `factory` (each kind folder defines its constant with it).
+    pub const fn of(factory: &'static dyn KindFactory) -> Self {
+        DeviceKind(factory)
+    }
+
+    /// Every registered kind, in registry order.
+    pub const ALL: &'static [DeviceKind] = crate::kinds::KINDS;
+
+    /// Every registered kind, in registry order.
+    pub fn all() -> &'static [DeviceKind] {
+        Self::ALL
+    }
+
+    /// The kind called `name`.
+    pub fn by_name(name: &str) -> Option<DeviceKind> {
+        Self::all().iter().copied().find(|k| k.as_str() == name)
+    }
+
+    /// The registered names, in registry order.
+    pub fn names() -> &'static [&'static str] {
+        static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
+        NAMES.get_or_init(|| Self::all().iter().map(|k| k.as_str()).collect())
+    }
+
+    pub fn factory(self) -> &'static dyn KindFactory {
+        self.0
+    }
+
+    pub fn as_str(self) -> &'static str {
+        self.0.name()
+    }
+
+    /// Canonical joint names of this kind, in canonical order.
+    pub fn joint_names(self) -> &'static [&'static str] {
+        self.0.joints()
+    }
+
+    pub fn joint_count(self) -> usize {
+        self.joint_names().len()
+    }
+
+    /// The kind's table for `side` with its default configuration and `overrides`.
+    pub fn table(self, side: Side, overrides: &crate::mapping::TableOverrides) -> Result<DeviceTable, MappingError> {
+        self.0.table_with(side, &*self.0.default_config(), overrides)
+    }
+
+    /// The joint called `name`, if this kind has one.
+    pub fn joint(self, name: &str) -> Option<JointId> {
+        self.joint_names()
+            .iter()
+            .position(|n| *n == name)
+            .map(|i| JointId(i as u8))
+    }
+}
+
+impl Default for DeviceKind {
+    /// The first registered kind.
+    fn default() -> Self {
+        Self::all()[0]
+    }
+}
+
+impl PartialEq for DeviceKind {
+    fn eq(&self, other: &Self) -> bool {
+        self.as_str() == other.as_str()
+    }
+}
+impl Eq for DeviceKind {}
+
+impl Hash for DeviceKind {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        self.as_str().hash(state)
+    }
+}
+
+impl PartialOrd for DeviceKind {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for DeviceKind {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.as_str().cmp(other.as_str())
+    }
+}
+
+impl fmt::Debug for DeviceKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl fmt::Display for DeviceKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl Serialize for DeviceKind {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+impl<'de> Deserialize<'de> for DeviceKind {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        DeviceKind::by_name(&s).ok_or_else(|| serde::de::Error::unknown_variant(&s, DeviceKind::names()))
+    }
+}
+
+/// A profile key of a `[[devices]]` table that a kind reads besides the common ones, and
+/// the backends it applies to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SectionSpec {
+    pub key: &'static str,
+    pub backends: &'static [Backend],
+}
+
+/// One problem found by a kind's validation: key segments relative to the device's table
+/// (`["usb", "wiring", "joints", "thumb_0", "bus"]`) and the message.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Problem {
+    pub key: Vec<String>,
+    pub message: String,
+}
+
+impl Problem {
+    pub fn new(key: &[&str], message: impl Into<String>) -> Self {
+        Self {
+            key: key.iter().map(|s| s.to_string()).collect(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Highest rate a device loop or publisher may be configured to, Hz.
+pub const MAX_RATE_HZ: f64 = 2000.0;
+
+/// What a kind's validation may look at besides its own keys.
+#[derive(Debug, Clone, Copy)]
+pub struct DeviceCtx<'a> {
+    pub name: &'a str,
+    pub side: Side,
+    pub backend: Backend,
+}
+
+/// A device of some kind in the fleet, for the rules across devices (`validate_fleet`).
+#[derive(Debug, Clone, Copy)]
+pub struct FleetMember<'a> {
+    /// Index in the profile's `devices`.
+    pub index: usize,
+    pub ctx: DeviceCtx<'a>,
+    pub config: &'a dyn KindConfig,
+}
+
+/// A problem found across devices: the device index, then as [`Problem`].
+pub type FleetProblem = (usize, Problem);
+
+/// What a kind tells handgate about itself. Each kind folder exports one unit struct
+/// implementing it; [`crate::kinds::KINDS`] lists them.
+pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
+    /// The kind's name in profiles (`kind = "..."`), logs and status.
+    fn name(&self) -> &'static str;
+
+    /// Canonical joint names, canonical order.
+    fn joints(&self) -> &'static [&'static str];
+
+    /// The backends a device of this kind can use.
+    fn backends(&self) -> &'static [Backend];
+
+    /// `Err(message)` when a device of this kind cannot have `side`.
+    fn check_side(&self, _side: Side) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// The device loop rate when the profile sets none: `Some(Hz)`, or `None` for "as fast
+    /// as the bus answers".
+    fn default_rate_hz(&self, backend: Backend) -> Option<f64>;
+
+    /// The profile keys this kind reads in a `[[devices]]` table besides the common ones.
+    fn sections(&self) -> &'static [SectionSpec];
+
+    /// Parses those keys (`value` is a table holding only them; absent keys take defaults).
+    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError>;
+
+    /// The configuration of a device that sets none of the kind's keys.
+    fn default_config(&self) -> Box<dyn KindConfig>;
+
+    /// The kind's mapping table for `side` with its own configuration applied (the profile's
+    /// common overrides come on top: [`crate::mapping::TableOverrides`]).
+    fn table(&self, side: Side, config: &dyn KindConfig) -> DeviceTable;
+
+    /// Whether `closure.open` / `closure.closed` postures may be set in a profile.
+    fn closure_postures_configurable(&self) -> bool {
+        false
+    }
+
+    /// The widest canonical range (rad) a profile may give `joint` (limits, closure
+    /// postures, emulator positions); `None` for an unknown joint or an impossible side.
+    fn hardware_range(&self, side: Side, joint: &str) -> Option<(f64, f64)> {
+        self.check_side(side).ok()?;
+        let t = self.table(side, &*self.default_config());
+        let id = t.joint_by_name(joint).ok()?;
+        let l = t.joints[id.index()].limits;
+        Some((l.min as f64, l.max as f64))
+    }
+
+    /// Rules across the fleet's devices of this kind (`members`: those devices).
+    fn validate_fleet(&self, _members: &[FleetMember<'_>]) -> Vec<FleetProblem> {
+        Vec::new()
+    }
+
+    /// Called once with every device of this kind before any of them is opened: opens what
+    /// several devices share (one bus per port) into `env.shared`.
+    fn prepare(&self, _devices: &[DeviceSpec<'_>], _env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
+        Ok(())
+    }
+
+    /// What `open` would build for `spec` (transport, loop, peer settings), without starting
+    /// anything: the place to see that every profile key reaches the device.
+    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn fmt::Debug>, DeviceError>;
+
+    /// `handgate list`: the devices of this kind attached to this machine (one line each,
+    /// with what stops handgate from opening one), for kinds that can enumerate them.
+    fn list_attached(&self) -> Option<Result<Vec<String>, DeviceError>> {
+        None
+    }
+
+    /// `handgate emulate <kind>`: what this kind's emulator stands in for (the hardware at
+    /// its transport seam, or the robot's service) as a standalone process. Returns the line
+    /// to print (socket, pty or topics) and the running emulation.
+    fn emulate(&self, args: &EmulateArgs) -> Result<(String, Emulation), DeviceError>;
+
+    /// Opens one device on its backend (the emulator backend included).
+    fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError>;
+}
+
+impl dyn KindFactory {
+    /// Whether closure maps to torque on this kind (`closure.tau_open` / `tau_closed`).
+    pub fn closure_is_torque(&self) -> bool {
+        let side = [Side::Left, Side::Right, Side::Center]
+            .into_iter()
+            .find(|s| self.check_side(*s).is_ok())
+            .unwrap_or_default();
+        matches!(
+            self.table(side, &*self.default_config()).closure,
+            ClosureMap::Torque { .. }
+        )
+    }
+
+    /// The device table for `side`: the kind's table with the profile's common overrides.
+    pub fn table_with(
+        &self,
+        side: Side,
+        config: &dyn KindConfig,
+        overrides: &crate::mapping::TableOverrides,
+    ) -> Result<DeviceTable, MappingError> {
+        self.table(side, config).with_overrides(overrides)
+    }
+}
+
+/// Options of `handgate emulate <kind>`; each kind takes the ones it needs and refuses the
+/// others it cannot honour.
+#[derive(Debug, Clone, Default)]
+pub struct EmulateArgs {
+    pub side: Option<Side>,
+    /// Dex3: the hand's MCU behind this Unix socket (the USB frame protocol).
+    pub socket: Option<std::path::PathBuf>,
+    /// Dex3: the G1's resident hand service on DDS instead of the MCU.
+    pub service: bool,
+    /// Dex1: the wire variant (`go`, `hg`, `actuator`).
+    pub variant: Option<String>,
+    /// EZGripper: the servo ids on the emulated bus (default: the side's).
+    pub ids: Vec<u8>,
+    /// EZGripper: where to link the pseudo-terminal (default: a temporary path).
+    pub pty: Option<std::path::PathBuf>,
+    /// DDS domain and interface of a service emulator.
+    pub domain: u32,
+    pub interface: Option<String>,
+    /// Exact values instead of the kind's measurement noise.
+    pub no_noise: bool,
+    /// Seed of the measurement noise.
+    pub seed: Option<u64>,
+}
+
+impl EmulateArgs {
+    /// The measurement noise to emulate, given the kind's figures.
+    pub fn noise(&self, kind_default: crate::sim::Noise) -> crate::sim::Noise {
+        if self.no_noise {
+            crate::sim::Noise::OFF
+        } else {
+            kind_default.with_seed(self.seed.unwrap_or(crate::sim::Noise::DEFAULT_SEED))
+        }
+    }
+
+    /// The side, or an error naming the kind that needs it.
+    pub fn side(&self, kind: &str) -> Result<Side, DeviceError> {
+        self.side
+            .ok_or_else(|| DeviceError::Config(format!("emulating a {kind} needs --side left|right")))
+    }
+
+    /// A node on the emulation's domain.
+    pub fn node(&self) -> Result<crate::dds::Node, DeviceError> {
+        Ok(crate::dds::Node::new(self.domain, self.interface.as_deref())?)
+    }
+}
+
+/// A running `handgate emulate`.
+pub enum Emulation {
+    /// A server that runs until the process stops.
+    Blocking(Box<dyn FnOnce() -> Result<(), DeviceError> + Send>),
+    /// Runs in the background until this is dropped.
+    Running(Box<dyn Send>),
+}
+
+impl fmt::Debug for Emulation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Emulation::Blocking(_) => "Emulation::Blocking",
+            Emulation::Running(_) => "Emulation::Running",
+        })
+    }
+}
+
+/// A kind's parsed profile keys.
+pub trait KindConfig: Any + fmt::Debug + Send + Sync {
+    /// Semantic checks of the kind's keys (keys relative to the device's table).
+    fn validate(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem>;
+
+    /// Topics a device on backend dds uses to reach its peer: (command topic it publishes,
+    /// state topic it reads). `None` where the kind has no such peer; an inner `None` where
+    /// the default cannot be derived (side center without overrides).
+    fn dds_topics(&self, _ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
+        None
+    }
+
+    /// What `handgate check` adds after the device's rate and watchdog (starting with `, `
+    /// or ` `), empty when nothing.
+    fn describe(&self, _ctx: &DeviceCtx<'_>) -> String {
+        String::new()
+    }
+
+    fn as_any(&self) -> &dyn Any;
+    fn clone_box(&self) -> Box<dyn KindConfig>;
+    fn eq_dyn(&self, other: &dyn KindConfig) -> bool;
+}
+
+/// Implements the object plumbing of [`KindConfig`] (`as_any`, `clone_box`, `eq_dyn`) for a
+/// `Clone + PartialEq` type.
+#[macro_export]
+macro_rules! kind_config_plumbing {
+    () => {
+        fn as_any(&self) -> &dyn ::std::any::Any {
+            self
+        }
+        fn clone_box(&self) -> ::std::boxed::Box<dyn $crate::kind::KindConfig> {
+            ::std::boxed::Box::new(self.clone())
+        }
+        fn eq_dyn(&self, other: &dyn $crate::kind::KindConfig) -> bool {
+            other.as_any().downcast_ref::<Self>().is_some_and(|o| o == self)
+        }
+    };
+}
+
+/// A boxed [`KindConfig`] that is `Clone`, `PartialEq` and `Debug`.
+#[derive(Debug)]
+pub struct KindConfigBox(pub Box<dyn KindConfig>);
+
+impl KindConfigBox {
+    /// The config as its concrete type (for the kind's own code).
+    pub fn get<T: KindConfig>(&self) -> Option<&T> {
+        self.0.as_any().downcast_ref::<T>()
+    }
+}
+
+impl std::ops::Deref for KindConfigBox {
+    type Target = dyn KindConfig;
+    fn deref(&self) -> &Self::Target {
+        &*self.0
+    }
+}
+
+impl Clone for KindConfigBox {
+    fn clone(&self) -> Self {
+        KindConfigBox(self.0.clone_box())
+    }
+}
+
+impl PartialEq for KindConfigBox {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.eq_dyn(&*other.0)
+    }
+}
+
+/// `"a dex3"`, `"an ezgripper"`.
+pub fn a(word: &str) -> String {
+    let article = if word.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    };
+    format!("{article} {word}")
+}
+
+/// `Err(message)` unless `s` is a topic name: non-empty, no whitespace, no leading or
+/// trailing `/`.
+pub fn check_topic(s: &str) -> Result<(), String> {
+    if s.is_empty() || s.chars().any(char::is_whitespace) || s.starts_with('/') || s.ends_with('/') {
+        Err(format!(
+            "`{s}` is not a topic name (non-empty, no spaces, no leading or trailing `/`)"
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+/// `Err(message)` unless `r` is a rate above 0 and at most `max` Hz.
+pub fn check_rate(r: f64, max: f64) -> Result<(), String> {
+    if r.is_finite() && r > 0.0 && r <= max {
+        Ok(())
+    } else {
+        Err(format!("must be a rate above 0 and at most {max} Hz, got {r}"))
+    }
+}

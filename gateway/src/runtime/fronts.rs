@@ -1,0 +1,344 @@
+//! Front tasks: each front's endpoints, decoding, silence handling and state publishing.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use handgate_adapters::dds::{Node, Qos};
+use handgate_adapters::model::{HandCommand, HandState, SafeAction};
+use handgate_idl::ros2;
+use tokio::sync::{mpsc, watch};
+use tracing::{info, warn};
+
+use super::{DeviceSlot, RuntimeError};
+use crate::fronts;
+use crate::plan::{FrontKind, FrontPlan, SilencePlan};
+use crate::router;
+use crate::ticker::Ticker;
+
+/// Logs at most once per second per key.
+#[derive(Debug, Default)]
+struct RateLimitedLog {
+    last: Mutex<HashMap<&'static str, (Instant, u64)>>,
+}
+
+impl RateLimitedLog {
+    fn warn(&self, front: &str, key: &'static str, msg: &dyn std::fmt::Display) {
+        let mut g = self.last.lock().unwrap_or_else(|p| p.into_inner());
+        let now = Instant::now();
+        let e = g.entry(key).or_insert((now - Duration::from_secs(2), 0));
+        e.1 += 1;
+        if now.duration_since(e.0) >= Duration::from_secs(1) {
+            warn!(front, reason = key, suppressed = e.1 - 1, "rejected command: {msg}");
+            *e = (now, 0);
+        }
+    }
+}
+
+/// Identifies the front that sent a device its last command (see [`super::FrontCounters::last_front`]).
+static NEXT_FRONT_ID: AtomicU64 = AtomicU64::new(1);
+
+fn spawn_joint_state(
+    node: &Node,
+    f: &FrontPlan,
+    names: &[String],
+    urdf: bool,
+    devices: &HashMap<String, Arc<DeviceSlot>>,
+    mut shutdown: watch::Receiver<bool>,
+) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
+    let slots: Vec<Arc<DeviceSlot>> = names
+        .iter()
+        .map(|n| {
+            devices
+                .get(n)
+                .cloned()
+                .ok_or_else(|| RuntimeError::UnknownDevice(n.clone()))
+        })
+        .collect::<Result<_, _>>()?;
+    let mut writer = node.writer::<ros2::JointState_>(&f.state_topic, Qos::BestEffort)?;
+    let mut tick = Ticker::hz(f.state_hz);
+    Ok(tokio::spawn(async move {
+        loop {
+            tokio::select! {
+                _ = tick.tick() => {
+                    let mut msg = fronts::joint_state::header(std::time::SystemTime::now(), "");
+                    for s in &slots {
+                        let st = s.device.state().borrow().clone();
+                        fronts::joint_state::append(&mut msg, &s.table, &st, urdf, &format!("{}/", s.plan.name));
+                    }
+                    let _ = writer.write(msg);
+                }
+                _ = shutdown.changed() => break,
+            }
+        }
+    }))
+}
+
+/// One device a front drives, with the front's view of its silence.
+struct Bound {
+    slot: Arc<DeviceSlot>,
+    /// The front's table for this device (its wire convention and side).
+    /// The front's table and the device's, paired once at bind time.
+    route: router::Route,
+    element: usize,
+    silence: SilencePlan,
+    seq: u64,
+    /// When this front last had a command for the device accepted.
+    last_valid: Option<Instant>,
+    /// The silence action the last accepted command armed (timeout, action).
+    armed: Option<(Duration, SafeAction)>,
+    /// The silence action has run since the last accepted command.
+    acted: bool,
+    /// The state reflecting this accepted command (`cmd_seq`) is awaited for a prompt publish.
+    awaiting: Option<u64>,
+    state_rx: watch::Receiver<HandState>,
+    /// The silence action, running in its own task.
+    pending_safe: Option<tokio::task::JoinHandle<()>>,
+}
+
+impl Bound {
+    fn silence_due(&self) -> Option<Instant> {
+        match (self.last_valid, self.armed, self.acted) {
+            (Some(t), Some((after, _)), false) => Some(t + after),
+            _ => None,
+        }
+    }
+}
+
+pub(super) fn spawn_front(
+    node: &Node,
+    f: &FrontPlan,
+    devices: &HashMap<String, Arc<DeviceSlot>>,
+    mut shutdown: watch::Receiver<bool>,
+) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
+    let (tx, mut rx) = mpsc::channel::<fronts::Message>(64);
+    let dropped = Arc::new(AtomicU64::new(0));
+    // The front kind's endpoints (readers and writers).
+    let Some(mut out) = fronts::open(node, f, tx, dropped.clone())? else {
+        let FrontKind::JointState {
+            devices: names,
+            urdf_names,
+        } = &f.kind
+        else {
+            unreachable!("only joint_state fronts take no commands");
+        };
+        return spawn_joint_state(node, f, names, *urdf_names, devices, shutdown);
+    };
+    let mut bound = Vec::new();
+    for b in &f.bindings {
+        let slot = devices
+            .get(&b.device)
+            .cloned()
+            .ok_or_else(|| RuntimeError::UnknownDevice(b.device.clone()))?;
+        bound.push(Bound {
+            route: router::Route::bind(
+                b.table.clone().unwrap_or_else(|| slot.table.clone()),
+                slot.table.clone(),
+            ),
+            element: b.element,
+            silence: b.silence,
+            seq: 0,
+            last_valid: None,
+            armed: None,
+            acted: false,
+            awaiting: None,
+            state_rx: slot.device.state(),
+            pending_safe: None,
+            slot,
+        });
+    }
+    let f = f.clone();
+    let log = RateLimitedLog::default();
+    let front_id = NEXT_FRONT_ID.fetch_add(1, Ordering::Relaxed);
+    let devices_list = f
+        .bindings
+        .iter()
+        .map(|b| b.device.as_str())
+        .collect::<Vec<_>>()
+        .join(",");
+    let span = tracing::info_span!("front", name = %f.name, devices = %devices_list);
+    Ok(tokio::spawn(tracing::Instrument::instrument(
+        async move {
+            let name = f.name.clone();
+            let mut state_tick = Ticker::hz(f.state_hz);
+            let lf_hz = out.lf_hz();
+            let mut lf_tick = Ticker::hz(lf_hz);
+            // Commands dropped because this front's queue was full (reported at most once a
+            // second, with the running total, so a flood's losses are visible).
+            let mut dropped_reported = (0u64, Instant::now() - Duration::from_secs(2));
+            // Prompt state: after a command is accepted, the first state that reflects it on
+            // every device it went to (`cmd_seq`) is published at once instead of at the next
+            // deadline. Each period carries one publish: a prompt one stands in for the
+            // periodic one due at the end of its period, so the rate stays the nominal one.
+            let mut prompt_since: Option<Instant> = None;
+            let mut slot_used = false;
+            loop {
+                let silence_due = bound.iter().filter_map(Bound::silence_due).min();
+                let awaiting = bound.iter().any(|b| b.awaiting.is_some());
+                tokio::select! {
+                    msg = rx.recv() => {
+                        let Some(msg) = msg else { break };
+                        let decoded = out.decode(&views(&bound), &msg);
+                        match decoded {
+                            Ok(cmds) => {
+                                let mut any = false;
+                                for (i, (body, tag, timeout_bit)) in cmds {
+                                    let b = &mut bound[i];
+                                    if let Some(h) = b.pending_safe.take() {
+                                        let _ = h.await;
+                                    }
+                                    b.seq += 1;
+                                    match b.slot.device.command(HandCommand { seq: b.seq, body, tag }) {
+                                        Ok(()) => {
+                                            any = true;
+                                            let counters = &b.slot.counters;
+                                            counters.accepted.fetch_add(1, Ordering::Relaxed);
+                                            counters.last_front.store(front_id, Ordering::Relaxed);
+                                            b.last_valid = Some(Instant::now());
+                                            b.armed = b.silence.armed(timeout_bit);
+                                            b.state_rx.mark_unchanged();
+                                            b.awaiting = Some(b.seq);
+                                            if counters.tripped.swap(0, Ordering::Relaxed) != 0 {
+                                                info!(front = %name, device = %b.slot.plan.name, "commands resumed after the silence action");
+                                            }
+                                            b.acted = false;
+                                        }
+                                        Err(e) => {
+                                            b.slot.counters.rejected.fetch_add(1, Ordering::Relaxed);
+                                            log.warn(&name, "device_rejected", &e);
+                                        }
+                                    }
+                                }
+                                if any {
+                                    prompt_since = Some(Instant::now());
+                                }
+                            }
+                            Err(r) => {
+                                for b in &bound {
+                                    b.slot.counters.rejected.fetch_add(1, Ordering::Relaxed);
+                                }
+                                log.warn(&name, r.reason(), &r);
+                            }
+                        }
+                    }
+                    _ = sleep_until_opt(silence_due), if silence_due.is_some() => {
+                        let now = Instant::now();
+                        for b in bound.iter_mut() {
+                            if !b.silence_due().is_some_and(|t| t <= now) {
+                                continue;
+                            }
+                            b.acted = true;
+                            let (after, action) = b.armed.expect("armed when due");
+                            let counters = &b.slot.counters;
+                            // Another front commanded the device since: its silence, not ours.
+                            if counters.last_front.load(Ordering::Relaxed) != front_id {
+                                continue;
+                            }
+                            counters.watchdog_trips.fetch_add(1, Ordering::Relaxed);
+                            counters.tripped.store(1, Ordering::Relaxed);
+                            warn!(front = %name, device = %b.slot.plan.name, silence = %b.silence.mode,
+                                timeout_ms = after.as_millis() as u64, action = ?action,
+                                "no command: moving the device to its silence action");
+                            // In a task of its own: the front keeps publishing on its
+                            // deadlines while the device confirms its safe state.
+                            // A command for the device waits for it (`pending_safe`), so the
+                            // safe state never lands after a newer command.
+                            let dev = b.slot.device.clone();
+                            b.pending_safe = Some(tokio::spawn(async move {
+                                let _ = dev.safe_state(action).await;
+                            }));
+                        }
+                    }
+                    changed = first_change(&mut bound), if awaiting => {
+                        let Some(i) = changed else {
+                            for b in bound.iter_mut() { b.awaiting = None; }
+                            continue;
+                        };
+                        let b = &mut bound[i];
+                        let st = b.state_rx.borrow_and_update().clone();
+                        if b.awaiting == Some(st.cmd_seq) {
+                            b.awaiting = None;
+                        }
+                        let expired = prompt_since.is_some_and(|t| t.elapsed() > PROMPT_STATE_WAIT);
+                        if expired {
+                            // Superseded by another front's command, or never applied.
+                            for b in bound.iter_mut() { b.awaiting = None; }
+                        } else if bound.iter().all(|b| b.awaiting.is_none()) && !slot_used {
+                            out.publish(&views(&bound), false);
+                            slot_used = true;
+                        }
+                    }
+                    _ = state_tick.tick() => {
+                        if std::mem::take(&mut slot_used) {
+                            // This period's sample went out promptly.
+                        } else {
+                            out.publish(&views(&bound), false);
+                        }
+                        let d = dropped.load(Ordering::Relaxed);
+                        if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
+                            warn!(front = %name, dropped = d - dropped_reported.0,
+                                queue_full_total = d, "front queue full: commands dropped unprocessed");
+                            dropped_reported = (d, Instant::now());
+                        }
+                    }
+                    _ = lf_tick.tick(), if lf_hz > 0.0 => {
+                        out.publish(&views(&bound), true);
+                    }
+                    _ = shutdown.changed() => break,
+                }
+            }
+        },
+        span,
+    )))
+}
+
+async fn sleep_until_opt(t: Option<Instant>) {
+    if let Some(t) = t {
+        tokio::time::sleep_until(t.into()).await;
+    }
+}
+
+/// Waits until one of the bound devices awaiting a prompt publish reports a new state;
+/// `None` when a device's state channel closed.
+async fn first_change(bound: &mut [Bound]) -> Option<usize> {
+    let futs = bound
+        .iter_mut()
+        .enumerate()
+        .filter(|(_, b)| b.awaiting.is_some())
+        .map(|(i, b)| Box::pin(async move { b.state_rx.changed().await.ok().map(|_| i) }));
+    futures_select_first(futs.collect()).await
+}
+
+/// The output of whichever future finishes first.
+async fn futures_select_first<F: std::future::Future<Output = Option<usize>> + Unpin>(
+    mut futs: Vec<F>,
+) -> Option<usize> {
+    std::future::poll_fn(move |cx| {
+        for f in futs.iter_mut() {
+            if let std::task::Poll::Ready(v) = std::future::Future::poll(std::pin::Pin::new(f), cx) {
+                return std::task::Poll::Ready(v);
+            }
+        }
+        std::task::Poll::Pending
+    })
+    .await
+}
+
+/// How long a front waits for the state reflecting an accepted command before it stops
+/// listening for it (the periodic state carries on regardless).
+const PROMPT_STATE_WAIT: Duration = Duration::from_millis(100);
+
+/// What the front kind's codec sees of the bound devices: each route and latest state.
+fn views(bound: &[Bound]) -> Vec<fronts::Bound<'_>> {
+    bound
+        .iter()
+        .map(|b| fronts::Bound {
+            route: &b.route,
+            element: b.element,
+            device: &b.slot.plan.name,
+            safe_action: b.slot.plan.safe_action,
+            state: b.slot.device.state().borrow().clone(),
+        })
+        .collect()
+}

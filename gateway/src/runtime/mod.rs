@@ -1,0 +1,152 @@
+//! The runtime: starts the devices of a [`Plan`] through their kinds, binds fronts to them,
+//! runs the status publisher, and brings every device to its safe state on shutdown. Split
+//! along its reasons to change: device start-up ([`devices`]), front tasks ([`fronts`]),
+//! status publishing ([`status`]).
+
+mod devices;
+mod fronts;
+mod status;
+
+use std::collections::HashMap;
+use std::sync::atomic::AtomicU64;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use handgate_adapters::dds::{DdsError, Node};
+use handgate_adapters::device::{DeviceError, HandDevice};
+use handgate_adapters::mapping::DeviceTable;
+use handgate_adapters::open::Shared;
+use tokio::sync::watch;
+
+use crate::plan::{DevicePlan, Plan};
+
+pub use devices::{open_device, open_devices};
+
+/// Runtime errors (start-up).
+#[derive(Debug, thiserror::Error)]
+pub enum RuntimeError {
+    #[error("DDS: {0}")]
+    Dds(#[from] DdsError),
+    #[error("device {device}: {source}")]
+    Device {
+        device: String,
+        #[source]
+        source: DeviceError,
+    },
+    #[error("front bound to unknown device {0:?}")]
+    UnknownDevice(String),
+}
+
+/// Per-device counters kept by the fronts bound to it.
+#[derive(Debug, Default)]
+pub struct FrontCounters {
+    pub accepted: AtomicU64,
+    /// Which front sent the last accepted command (a front's silence action only runs
+    /// when the device's last command was its own).
+    pub last_front: AtomicU64,
+    pub rejected: AtomicU64,
+    /// Silence actions run (`wdog` in status): watchdog trips, a service's brake or timeout.
+    pub watchdog_trips: AtomicU64,
+    /// 1 while a silence action holds the device (until the next accepted command).
+    pub tripped: AtomicU64,
+}
+
+/// A device as the runtime holds it.
+pub struct DeviceSlot {
+    pub plan: DevicePlan,
+    pub device: Arc<dyn HandDevice>,
+    pub table: Arc<DeviceTable>,
+    pub counters: Arc<FrontCounters>,
+}
+
+/// A running gateway.
+pub struct Runtime {
+    pub node: Node,
+    pub devices: Vec<Arc<DeviceSlot>>,
+    shutdown: watch::Sender<bool>,
+    tasks: Vec<tokio::task::JoinHandle<()>>,
+    started: Instant,
+    /// What several devices share (EZGripper buses, emulated buses), alive as long as the
+    /// runtime.
+    pub shared: Shared,
+}
+
+impl Runtime {
+    /// Starts every device and front of `plan`. Must be called inside a tokio runtime.
+    pub fn start(plan: &Plan) -> Result<Self, RuntimeError> {
+        let node = Node::new(plan.domain, plan.interface.as_deref())?;
+        let mut shared = Shared::default();
+        let opened = open_devices(&node, plan, &mut shared)?;
+        let mut devices = Vec::new();
+        let mut by_name = HashMap::new();
+        for (p, device) in plan.devices.iter().zip(opened) {
+            let slot = Arc::new(DeviceSlot {
+                plan: p.clone(),
+                device,
+                table: p.table.clone(),
+                counters: Arc::new(FrontCounters::default()),
+            });
+            by_name.insert(p.name.clone(), slot.clone());
+            devices.push(slot);
+        }
+        let (shutdown, shutdown_rx) = watch::channel(false);
+        let mut tasks = Vec::new();
+        for f in &plan.fronts {
+            tasks.push(fronts::spawn_front(&node, f, &by_name, shutdown_rx.clone())?);
+        }
+        tasks.push(status::spawn_status(&node, plan, devices.clone(), shutdown_rx.clone())?);
+        Ok(Self {
+            node,
+            devices,
+            shutdown,
+            tasks,
+            started: Instant::now(),
+            shared,
+        })
+    }
+
+    pub fn uptime(&self) -> Duration {
+        self.started.elapsed()
+    }
+
+    /// Safe state on every device (each device's configured safe action), then stop.
+    pub async fn shutdown(self) -> Vec<(String, Result<(), DeviceError>)> {
+        let _ = self.shutdown.send(true);
+        for t in self.tasks {
+            let _ = t.await;
+        }
+        let mut out = Vec::new();
+        let futs = self.devices.iter().map(|d| {
+            let d = d.clone();
+            async move {
+                let r = tokio::time::timeout(SHUTDOWN_CONFIRM, d.device.shutdown(d.plan.safe_action)).await;
+                (
+                    d.plan.name.clone(),
+                    r.unwrap_or(Err(DeviceError::NotConfirmed(SHUTDOWN_CONFIRM))),
+                )
+            }
+        });
+        for r in futures_join_all(futs).await {
+            out.push(r);
+        }
+        out
+    }
+}
+
+async fn futures_join_all<F>(futs: impl Iterator<Item = F>) -> Vec<F::Output>
+where
+    F: std::future::Future + Send + 'static,
+    F::Output: Send + 'static,
+{
+    let handles: Vec<_> = futs.map(tokio::spawn).collect();
+    let mut out = Vec::new();
+    for h in handles {
+        if let Ok(v) = h.await {
+            out.push(v);
+        }
+    }
+    out
+}
+
+/// How long shutdown waits for each device to confirm its safe state.
+const SHUTDOWN_CONFIRM: Duration = Duration::from_millis(500);

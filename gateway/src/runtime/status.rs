@@ -1,0 +1,65 @@
+//! The gateway's status heartbeat (`rt/handgate/status`): per device, freshness, rates and
+//! counters.
+
+use std::collections::HashMap;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use handgate_adapters::dds::{Node, Qos};
+use handgate_adapters::model::Freshness;
+use handgate_idl::handgate as hgmsg;
+use tokio::sync::watch;
+
+use super::{DeviceSlot, RuntimeError};
+use crate::plan::Plan;
+use crate::ticker::Ticker;
+
+pub(super) fn spawn_status(
+    node: &Node,
+    plan: &Plan,
+    devices: Vec<Arc<DeviceSlot>>,
+    mut shutdown: watch::Receiver<bool>,
+) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
+    let mut writer = node.writer::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::Reliable { depth: 1 })?;
+    let profile = plan.profile.clone();
+    let period = Duration::from_secs_f64(1.0 / plan.status_hz.clamp(0.1, 10.0));
+    let started = Instant::now();
+    Ok(tokio::spawn(async move {
+        let mut tick = Ticker::new(period);
+        let mut prev: HashMap<String, (u64, u64, Instant)> = HashMap::new();
+        loop {
+            tokio::select! {
+                _ = tick.tick() => {
+                    let now = Instant::now();
+                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![] };
+                    for d in &devices {
+                        let s = d.device.stats();
+                        let st = d.device.state().borrow().clone();
+                        let (pc, ps, pt) = prev.get(&d.plan.name).cloned().unwrap_or((s.sent, s.state_samples, now));
+                        let dt = now.duration_since(pt).as_secs_f32();
+                        let rate = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
+                        prev.insert(d.plan.name.clone(), (s.sent, s.state_samples, now));
+                        msg.devices.push(hgmsg::DeviceStatus_ {
+                            device: d.plan.name.clone(),
+                            kind: d.plan.kind.as_str().into(),
+                            backend: d.plan.backend.as_str().into(),
+                            freshness: match st.freshness { Freshness::Fresh => hgmsg::FRESH, Freshness::Stale => hgmsg::STALE, Freshness::CommandedOnly => hgmsg::COMMANDED_ONLY },
+                            safe: d.counters.tripped.load(Ordering::Relaxed) != 0 || st.faults & handgate_adapters::model::faults::SAFE_STATE != 0,
+                            cmd_rate_hz: rate(s.sent, pc),
+                            state_rate_hz: rate(s.state_samples, ps),
+                            crc_errors: s.crc_errors,
+                            bad_input: d.counters.rejected.load(Ordering::Relaxed) + s.rejected,
+                            watchdog_trips: d.counters.watchdog_trips.load(Ordering::Relaxed),
+                            reconnects: s.reconnects,
+                            missed_cycles: s.missed_cycles,
+                            age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
+                        });
+                    }
+                    let _ = writer.write(msg);
+                }
+                _ = shutdown.changed() => break,
+            }
+        }
+    }))
+}
