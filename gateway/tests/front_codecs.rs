@@ -9,15 +9,15 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use handgate_adapters::dex1::adapter::Variant;
 use handgate_adapters::mapping::DeviceTable;
+use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{
     faults, CommandBody, DeviceKind, Freshness, HandState, JointState, Pad, Power, SafeAction, Side,
 };
-use handgate_adapters::tables::{table_for, TableParams};
 use handgate_gateway::fronts::{canonical, dex1, dex3, joint_state, Rejection};
 use handgate_idl::{handgate as hg, unitree_go, unitree_hg};
 
 fn table(kind: DeviceKind, side: Side) -> DeviceTable {
-    table_for(kind, side, &TableParams::default()).unwrap()
+    kind.table(side, &TableOverrides::default()).unwrap()
 }
 
 fn close(a: f32, b: f32) -> bool {
