@@ -22,7 +22,7 @@ use handgate_adapters::dex3::usb::wiring::WiringMap;
 use handgate_adapters::dex3::{Dex3Measurement, Joint};
 use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::{DeviceKind, JointState, SafeAction, Side};
-use handgate_adapters::tables::{table_for, TableParams};
+use handgate_adapters::mapping::TableOverrides;
 use handgate_gateway::fronts;
 use handgate_gateway::router;
 use handgate_idl::{from_cdr, handgate as hg, ros2, to_cdr_be, to_cdr_le, unitree_go, unitree_hg};
@@ -290,14 +290,14 @@ pub fn front_decode(data: &[u8]) {
     };
     let dkind = KINDS[(sel as usize >> 3) % KINDS.len()];
     let dside = side_of(sel >> 5);
-    let Ok(dtable) = table_for(dkind, dside, &TableParams::default()) else {
+    let Ok(dtable) = dkind.table(dside, &TableOverrides::default()) else {
         return;
     };
     let front = sel & 7;
     let side = side_of(front);
     let (fkind, params) = match front {
-        0 | 1 => (DeviceKind::Dex3, TableParams::default()),
-        2..=6 => (DeviceKind::Dex1, TableParams::default()),
+        0 | 1 => (DeviceKind::Dex3, TableOverrides::default()),
+        2..=6 => (DeviceKind::Dex1, TableOverrides::default()),
         _ => {
             let Ok(m) = from_cdr::<hg::HandCmd_>(body) else { return };
             if let Ok(b) = fronts::canonical::decode_cmd(&m, &dtable, SafeAction::Hold) {
@@ -306,7 +306,7 @@ pub fn front_decode(data: &[u8]) {
             return;
         }
     };
-    let Ok(ftable) = table_for(fkind, side, &params) else {
+    let Ok(ftable) = fkind.table(side, &params) else {
         return;
     };
     let measured = vec![JointState::default(); ftable.joint_count()];
