@@ -82,7 +82,12 @@ pub fn emulator_config(devs: &[DeviceSpec<'_>], cfg: &BusConfig) -> Result<Emula
     for d in devs.iter().filter(|d| d.backend == Backend::Emulator) {
         let c = configure(d)?;
         if let Some(servo) = emu.servos.iter_mut().find(|v| v.id == c.id.get()) {
-            servo.object_at_ticks = c.emulated.and_then(|e| e.object_at_ticks);
+            if let Some(e) = c.emulated {
+                servo.object_at_ticks = e.object_at_ticks;
+                if let Some(t) = e.start_ticks {
+                    servo.start_ticks = servo.closed_stop_ticks + t;
+                }
+            }
         }
     }
     Ok(emu)
@@ -132,17 +137,24 @@ pub struct EmulatedServo {
     /// `object_at.jaw`: an object between the fingers, ticks above the closed stop (the jaw
     /// position as percent open, scaled by the driver's `grip_max_ticks`).
     pub object_at_ticks: Option<i32>,
+    /// `initial.jaw`: where the jaw is at power-up, ticks above the closed stop (same
+    /// scaling); `None`: the emulator's default.
+    pub start_ticks: Option<i32>,
 }
 
 /// What `spec` opens with.
 pub fn configure(spec: &DeviceSpec<'_>) -> Result<EzOpen, DeviceError> {
     let s = section(spec);
     let bus = bus_config(std::slice::from_ref(spec))?;
+    let ticks = |pct: f32| (pct.clamp(0.0, 100.0) / 100.0 * bus.ezgripper.grip_max_ticks as f32).round() as i32;
     let emulated = (spec.backend == Backend::Emulator).then(|| EmulatedServo {
         noise: spec.emulator.noise_for(spec.name, MX64_NOISE),
-        object_at_ticks: spec
-            .object_wire("jaw")
-            .map(|pct| (pct.clamp(0.0, 100.0) / 100.0 * bus.ezgripper.grip_max_ticks as f32).round() as i32),
+        object_at_ticks: spec.object_wire("jaw").map(ticks),
+        start_ticks: spec
+            .emulator
+            .initial
+            .contains_key("jaw")
+            .then(|| ticks(spec.initial_wire("jaw", 0.0))),
     });
     Ok(EzOpen {
         emulated,
