@@ -240,6 +240,13 @@ pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
         Some((l.min as f64, l.max as f64))
     }
 
+    /// Rules of this kind for its `[devices.emulator]` section (keys relative to the device's
+    /// table, e.g. `["emulator", "noise"]`): a key the kind's emulator cannot honour is
+    /// refused here rather than accepted and ignored.
+    fn validate_emulator(&self, _ctx: &DeviceCtx<'_>, _section: &crate::open::EmulatorSection) -> Vec<Problem> {
+        Vec::new()
+    }
+
     /// Rules across the fleet's devices of this kind (`members`: those devices).
     fn validate_fleet(&self, _members: &[FleetMember<'_>]) -> Vec<FleetProblem> {
         Vec::new()

@@ -62,6 +62,25 @@ impl EmulatorSection {
         }
     }
 
+    /// The keys this section sets (in documentation order).
+    pub fn keys_set(&self) -> Vec<&'static str> {
+        let mut out = Vec::new();
+        for (key, set) in [
+            ("initial", !self.initial.is_empty()),
+            ("object_at", !self.object_at.is_empty()),
+            ("noise", self.noise.is_some()),
+            ("seed", self.seed.is_some()),
+            ("position_noise_rad", self.position_noise_rad.is_some()),
+            ("velocity_noise_rad_s", self.velocity_noise_rad_s.is_some()),
+            ("torque_noise_nm", self.torque_noise_nm.is_some()),
+        ] {
+            if set {
+                out.push(key);
+            }
+        }
+        out
+    }
+
     /// Checks the noise keys (positions are checked against the kind's joints by the profile).
     pub fn validate(&self) -> Vec<Problem> {
         let mut out = Vec::new();

@@ -167,6 +167,11 @@ pub struct Dex3ServiceConfig {
     /// An object per finger ([`Finger::index`] order): how far (rad, >= 0) the finger's flex
     /// joints can close from 0 before they touch it. `None`: nothing to touch.
     pub objects: [Option<f32>; 3],
+    /// An object per joint (message order): the wire position (rad) where it blocks the
+    /// joint closing (closing direction: the table's wire sign for the joint and side,
+    /// [`crate::dex3::table::wire_sign`]); what the profile's `[devices.emulator] object_at`
+    /// places. Applied after `objects` (a joint set here takes this one). `None`: nothing.
+    pub object_at: [Option<f32>; MOTORS],
     pub tuning: Dex3Tuning,
     /// (command, state, low-frequency state) topics; `None` = the standard ones. The
     /// gateway's emulator backend puts the service on private topics.
@@ -183,6 +188,7 @@ impl Dex3ServiceConfig {
             initial_q: std::array::from_fn(|i| crate::dex3::physical::rest_wire(side, i)),
             noise: crate::dex3::physical::HG_MOTOR_NOISE,
             objects: [None; 3],
+            object_at: [None; MOTORS],
             tuning: Dex3Tuning::default(),
             topics: None,
         }
@@ -195,6 +201,10 @@ impl Dex3ServiceConfig {
         ensure_finite("initial_q", &self.initial_q)?;
         self.noise.validate().map_err(EmulatorError::InvalidConfig)?;
         ensure_finite("objects", &self.objects.iter().flatten().copied().collect::<Vec<_>>())?;
+        ensure_finite(
+            "object_at",
+            &self.object_at.iter().flatten().copied().collect::<Vec<_>>(),
+        )?;
         let t = &self.tuning;
         ensure_finite(
             "tuning",
@@ -304,7 +314,22 @@ impl Dex3Core {
         for f in Finger::ALL {
             core.set_object(f, config.objects[f.index()]);
         }
+        for j in Dex3Joint::ALL {
+            if let Some(at) = config.object_at[j.index()] {
+                core.set_joint_object(j, Some(at));
+            }
+        }
         core
+    }
+
+    /// Places (or removes) an object blocking `joint` at wire position `at` (rad) in its
+    /// closing direction (the table's wire sign for the joint and side).
+    pub fn set_joint_object(&mut self, joint: Dex3Joint, at: Option<f32>) {
+        let i = joint.index();
+        self.joints[i].contact = at.filter(|a| a.is_finite()).map(|at| crate::sim::Contact {
+            stiffness: self.tuning.contact_stiffness,
+            ..crate::dex3::open::object_contact(self.side, i, at)
+        });
     }
 
     /// Places (or removes) the object a finger closes on.
@@ -854,6 +879,57 @@ mod tests {
             } else {
                 assert!(p.pressure.iter().all(|&v| v == PRESS_NO_READING), "pad {i}");
             }
+        }
+    }
+
+    /// `object_at` on one joint: closing it toward a far target stops at the object, with
+    /// contact torque and pressure on that finger's pads; the same command without the object
+    /// closes to the target.
+    #[test]
+    fn object_at_blocks_the_closing_joint_with_pressure() {
+        for side in [Side::Left, Side::Right] {
+            let run = |object: Option<f32>| {
+                let mut cfg = Dex3ServiceConfig {
+                    noise: Noise::OFF,
+                    ..Dex3ServiceConfig::new(side)
+                };
+                let i = Dex3Joint::Middle0.index();
+                let dir = crate::dex3::table::wire_sign(side, i);
+                cfg.object_at[i] = object.map(|o| dir * o);
+                let mut core = Dex3Core::new(&cfg);
+                let mut q = cfg.initial_q;
+                q[i] = dir * 1.4; // far into the closing range
+                let t0 = Instant::now();
+                core.on_command(&cmd_all(|m| 0x10 | m, q, 1.5, 0.1), t0);
+                for k in 0..2000 {
+                    core.step(t0 + Duration::from_millis(k), 0.001);
+                }
+                let s = core.state();
+                let middle_pressure = core
+                    .tuning
+                    .pads
+                    .iter()
+                    .zip(&s.press_sensor_state)
+                    .filter(|(p, _)| p.finger == Some(Finger::Middle))
+                    .map(|(p, st)| st.pressure[..p.points].iter().copied().fold(0.0, f32::max))
+                    .fold(0.0, f32::max);
+                (
+                    s.motor_state[i].q * dir,
+                    core.snapshot().motors[i].contact_tau,
+                    middle_pressure,
+                )
+            };
+            let (q, tau, press) = run(Some(0.5));
+            assert!((0.5..0.65).contains(&q), "{side:?}: stopped at the object, q = {q}");
+            assert!(tau > 0.3, "{side:?}: contact torque {tau}");
+            assert!(press > PRESS_VALID_MIN, "{side:?}: pressure {press}");
+            let (q, tau, press) = run(None);
+            assert!(q > 1.3, "{side:?}: without the object it closes, q = {q}");
+            assert_eq!(tau, 0.0);
+            assert!(
+                press < PRESS_VALID_MIN,
+                "{side:?}: no pressure without the object: {press}"
+            );
         }
     }
 

@@ -54,16 +54,32 @@ pub fn usb_source(spec: &DeviceSpec<'_>, profile: &Dex3Profile) -> UsbSource {
         };
     }
     let mut q = [0.0f32; super::MOTOR_COUNT];
+    let mut contacts = [None; super::MOTOR_COUNT];
     for j in &spec.table.joints {
         // Joints the profile does not place start at the hand's rest posture.
         let rest = super::physical::rest_wire(spec.side, j.wire_index);
         q[j.wire_index] = spec.initial_wire(j.name, rest);
+        contacts[j.wire_index] = spec
+            .object_wire(j.name)
+            .map(|at| object_contact(spec.side, j.wire_index, at));
     }
     UsbSource::Emulator(Box::new(EmulatorConfig {
         initial_q: Some(q),
         noise: spec.emulator.noise_for(spec.name, super::physical::HG_MOTOR_NOISE),
+        contacts,
         ..Default::default()
     }))
+}
+
+/// An emulated object blocking motor `i` (IDL order) of a `side` hand at wire position `at`:
+/// it pushes back once the joint passes `at` in its closing direction (the table's wire sign
+/// for the joint and side), with the service emulator's contact stiffness.
+pub fn object_contact(side: crate::model::Side, i: usize, at: f32) -> crate::sim::Contact {
+    crate::sim::Contact {
+        at,
+        dir: super::table::wire_sign(side, i),
+        stiffness: super::dds_service_emulator::Dex3Tuning::default().contact_stiffness,
+    }
 }
 
 /// What a Dex3 opens with: decided from the profile, before anything starts.

@@ -199,6 +199,73 @@ fn ezgripper_tracks_position_targets() {
     assert!(matches!(bus.gripper(id(9)), Err(EzError::UnknownGripper(9))));
 }
 
+/// `[devices.emulator] object_at = { jaw = 3.0 }` (44 % open) reaches the virtual bus the
+/// emulator backend opens: closing stops at the object and the driver reports grasping;
+/// without it the same close ends idle near 0 %.
+#[test]
+fn profile_object_at_stops_the_jaw_and_grasps() {
+    use crate::device::Backend;
+    use crate::kind::DeviceKind;
+    use crate::model::Side;
+    use crate::open::{DeviceSpec, EmulatorSection};
+    let run = |name: &str, object: Option<f64>| {
+        let profile = super::kind::EzProfile::default();
+        let table = std::sync::Arc::new(DeviceKind::Ezgripper.table(Side::Left, &Default::default()).unwrap());
+        let mut section = EmulatorSection::default();
+        if let Some(o) = object {
+            section.object_at.insert("jaw".into(), o);
+        }
+        let spec = DeviceSpec {
+            name: "g",
+            kind: DeviceKind::Ezgripper,
+            side: Side::Left,
+            backend: Backend::Emulator,
+            rate_hz: 100.0,
+            stale_after: Duration::from_millis(200),
+            table: &table,
+            emulator: &section,
+            config: &profile,
+        };
+        let specs = [spec];
+        let mut bc = super::open::bus_config(&specs).unwrap();
+        let emu = VirtualBus::start(link(name), super::open::emulator_config(&specs, &bc).unwrap()).unwrap();
+        bc.response_timeout_ms = 100;
+        let bus = open(&emu, bc);
+        let gid = super::open::configure(&spec).unwrap().id;
+        let g = bus.gripper(gid).unwrap();
+        fresh(&bus, gid.get(), |s| {
+            matches!(s.calibration, Calibration::Calibrated { .. })
+        });
+        g.set_target(80.0, 40.0).unwrap();
+        fresh(&bus, gid.get(), |s| {
+            s.grasp == GraspState::Idle && s.position_pct > 75.0
+        });
+        let mut rx = g.subscribe();
+        g.set_target(0.0, 40.0).unwrap();
+        let mut seen_moving = false;
+        wait_for("the close to end", || {
+            if rx.has_changed().unwrap_or(false) {
+                let s = rx.borrow_and_update().clone();
+                seen_moving |= s.grasp == GraspState::Moving;
+                let done = s.grasp == GraspState::Grasping || (seen_moving && s.grasp == GraspState::Idle);
+                return done.then_some(s);
+            }
+            None
+        })
+    };
+    let pct = 100.0 * (5.4 - 3.0) / 5.4;
+    let s = run("profile-object", Some(3.0));
+    assert_eq!(s.grasp, GraspState::Grasping, "{s:?}");
+    assert!(
+        (s.position_pct - pct).abs() < 3.0,
+        "stopped by the object at {pct} %: {s:?}"
+    );
+    assert!(s.effort_pct > 20.0, "pressing on the object: {s:?}");
+    let s = run("profile-no-object", None);
+    assert_eq!(s.grasp, GraspState::Idle, "{s:?}");
+    assert!(s.position_pct < 3.0, "closed: {s:?}");
+}
+
 #[test]
 fn ezgripper_detects_contact_and_grasp() {
     let mut ec = EmulatorConfig::with_ids(&[1]);

@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use super::adapter::EzGripperDevice;
 use super::driver::{BusConfig, EzGripperBus, GripperConfig};
-use super::emulator::{EmulatorConfig, VirtualBus, MX64_NOISE};
+use super::emulator::{EmulatorConfig, ServoSpec, VirtualBus, MX64_NOISE};
 use super::kind::{EzGripperConfig, EzProfile};
 use super::protocol::ServoId;
 use crate::device::{Backend, DeviceError, HandDevice};
@@ -43,10 +43,15 @@ pub fn bus_config(devices: &[DeviceSpec<'_>]) -> Result<BusConfig, DeviceError> 
     for d in devices {
         let s = section(d);
         let id = ServoId::new(s.servo_id_for(d.side)).map_err(DeviceError::config)?;
-        grippers.push(GripperConfig {
-            id,
-            zero_ticks: s.zero_ticks,
-        });
+        // An emulated gripper with an object between its fingers would calibrate onto the
+        // object: unless the profile gives a zero, it gets the emulated servo's closed stop.
+        let zero_ticks = match s.zero_ticks {
+            None if d.backend == Backend::Emulator && d.object_wire("jaw").is_some() => {
+                Some(ServoSpec::new(id.get()).closed_stop_ticks)
+            }
+            z => z,
+        };
+        grippers.push(GripperConfig { id, zero_ticks });
     }
     let defaults = BusConfig::default();
     Ok(BusConfig {
@@ -67,6 +72,27 @@ pub fn bus_config(devices: &[DeviceSpec<'_>]) -> Result<BusConfig, DeviceError> 
     })
 }
 
+/// The virtual bus emulating the grippers `devs` on one port (`cfg`: their bus): one servo
+/// per gripper, each with its `[devices.emulator]` object; the first gripper's noise.
+pub fn emulator_config(devs: &[DeviceSpec<'_>], cfg: &BusConfig) -> Result<EmulatorConfig, DeviceError> {
+    let ids: Vec<u8> = cfg.grippers.iter().map(|g| g.id.get()).collect();
+    let mut emu = EmulatorConfig::with_ids(&ids);
+    emu.baud = cfg.baud;
+    emu.noise = devs[0].emulator.noise_for(devs[0].name, MX64_NOISE);
+    for d in devs.iter().filter(|d| d.backend == Backend::Emulator) {
+        let c = configure(d)?;
+        if let Some(servo) = emu.servos.iter_mut().find(|v| v.id == c.id.get()) {
+            if let Some(e) = c.emulated {
+                servo.object_at_ticks = e.object_at_ticks;
+                if let Some(t) = e.start_ticks {
+                    servo.start_ticks = servo.closed_stop_ticks + t;
+                }
+            }
+        }
+    }
+    Ok(emu)
+}
+
 /// Opens one bus per port for `devices` (every EZGripper of the fleet).
 pub fn prepare(devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
     let mut by_port: BTreeMap<String, Vec<DeviceSpec<'_>>> = BTreeMap::new();
@@ -77,11 +103,7 @@ pub fn prepare(devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), 
         let cfg = bus_config(&devs)?;
         let path = if devs.iter().any(|d| d.backend == Backend::Emulator) {
             let link = pty_link(&port);
-            let ids: Vec<u8> = cfg.grippers.iter().map(|g| g.id.get()).collect();
-            let mut emu = EmulatorConfig::with_ids(&ids);
-            emu.baud = cfg.baud;
-            emu.noise = devs[0].emulator.noise_for(devs[0].name, MX64_NOISE);
-            let bus = VirtualBus::start(&link, emu).map_err(DeviceError::link)?;
+            let bus = VirtualBus::start(&link, emulator_config(&devs, &cfg)?).map_err(DeviceError::link)?;
             env.shared.insert(&port, Arc::new(bus));
             link
         } else {
@@ -103,13 +125,40 @@ pub struct EzOpen {
     pub id: ServoId,
     /// Grip force limit, % of the servo's current limit.
     pub force_pct: f32,
+    /// Emulator backend: what its emulated servo gets from `[devices.emulator]`.
+    pub emulated: Option<EmulatedServo>,
+}
+
+/// What `[devices.emulator]` sets on an emulated EZGripper's servo.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmulatedServo {
+    /// Measurement noise (on a shared bus the first gripper's applies to the bus).
+    pub noise: crate::sim::Noise,
+    /// `object_at.jaw`: an object between the fingers, ticks above the closed stop (the jaw
+    /// position as percent open, scaled by the driver's `grip_max_ticks`).
+    pub object_at_ticks: Option<i32>,
+    /// `initial.jaw`: where the jaw is at power-up, ticks above the closed stop (same
+    /// scaling); `None`: the emulator's default.
+    pub start_ticks: Option<i32>,
 }
 
 /// What `spec` opens with.
 pub fn configure(spec: &DeviceSpec<'_>) -> Result<EzOpen, DeviceError> {
     let s = section(spec);
+    let bus = bus_config(std::slice::from_ref(spec))?;
+    let ticks = |pct: f32| (pct.clamp(0.0, 100.0) / 100.0 * bus.ezgripper.grip_max_ticks as f32).round() as i32;
+    let emulated = (spec.backend == Backend::Emulator).then(|| EmulatedServo {
+        noise: spec.emulator.noise_for(spec.name, MX64_NOISE),
+        object_at_ticks: spec.object_wire("jaw").map(ticks),
+        start_ticks: spec
+            .emulator
+            .initial
+            .contains_key("jaw")
+            .then(|| ticks(spec.initial_wire("jaw", 0.0))),
+    });
     Ok(EzOpen {
-        bus: bus_config(std::slice::from_ref(spec))?,
+        emulated,
+        bus,
         id: ServoId::new(s.servo_id_for(spec.side)).map_err(DeviceError::config)?,
         force_pct: s.force_limit_percent.map(f32::from).unwrap_or(100.0),
         port: s.port,

@@ -114,6 +114,23 @@ impl KindFactory for HandSdkFactory {
         Ok(Box::new(super::open::configure(spec)?))
     }
 
+    /// The emulated ai_sport blend publishes no state and the adapter reads none: no
+    /// `[devices.emulator]` key (initial posture, object, noise) could change what handgate
+    /// sees, so each one set is refused.
+    fn validate_emulator(&self, _ctx: &DeviceCtx<'_>, section: &crate::open::EmulatorSection) -> Vec<Problem> {
+        section
+            .keys_set()
+            .into_iter()
+            .map(|key| {
+                Problem::new(
+                    &["emulator", key],
+                    "has no effect on a hand_sdk: its emulator (the ai_sport blend) publishes no state \
+                     (no position, torque or noise to emulate), remove it",
+                )
+            })
+            .collect()
+    }
+
     fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
         super::open::emulate(args)
     }

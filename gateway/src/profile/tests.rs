@@ -77,6 +77,12 @@ const BAD: &[(&str, &str, &str, &str)] = &[
     ),
     ("domain too high", "[dds]\ndomain = 233\n", "dds.domain", "between 0 and 232"),
     (
+        "emulator noise on a kind that publishes no state",
+        "[[devices]]\nname = \"s\"\nkind = \"hand_sdk\"\nside = \"center\"\nbackend = \"emulator\"\n[devices.emulator]\nposition_noise_rad = 0.001\n",
+        "devices[0].emulator.position_noise_rad",
+        "has no effect on a hand_sdk: its emulator (the ai_sport blend) publishes no state",
+    ),
+    (
         "unknown device in a front",
         "[[fronts]]\nkind = \"canonical\"\ndevice = \"nope\"\n",
         "fronts[0].device",
@@ -998,6 +1004,86 @@ fn built(text: &str) -> String {
         out.push_str(&format!("{f:?}\n"));
     }
     out
+}
+
+/// Every documented `[devices.emulator]` key, on every kind's emulated device: either it
+/// changes what the device is built with (its emulator's settings), or the kind refuses it
+/// with one error naming the file and the key. A kind that accepts a key and ignores it
+/// fails here; so does a documented emulator key without a sample value below.
+#[test]
+fn every_emulator_key_changes_each_kind_or_is_refused() {
+    let documented: Vec<String> = documented_device_and_front_keys()
+        .into_iter()
+        .filter_map(|k| k.strip_prefix("devices.emulator.").map(str::to_string))
+        .collect();
+    assert!(documented.len() >= 7, "{documented:?}");
+    // (kind, the keys it refuses): the rest must change what is built.
+    let refused: &[(&str, &[&str])] = &[(
+        "hand_sdk",
+        &[
+            "initial",
+            "object_at",
+            "noise",
+            "seed",
+            "position_noise_rad",
+            "velocity_noise_rad_s",
+            "torque_noise_nm",
+        ],
+    )];
+    for kind in DeviceKind::all() {
+        let f = kind.factory();
+        if !f.backends().contains(&handgate_adapters::device::Backend::Emulator) {
+            continue;
+        }
+        let side = [Side::Left, Side::Right, Side::Center]
+            .into_iter()
+            .find(|s| f.check_side(*s).is_ok())
+            .unwrap();
+        let joint = kind.joint_names()[0];
+        let (lo, hi) = f.hardware_range(side, joint).unwrap();
+        let at = |frac: f64| lo + frac * (hi - lo);
+        let device = |extra: &str| one_device(kind.as_str(), side.as_str(), "emulator", extra);
+        for key in &documented {
+            let value = match key.as_str() {
+                "initial" => format!("{{ {joint} = {} }}", at(0.3)),
+                "object_at" => format!("{{ {joint} = {} }}", at(0.6)),
+                "noise" => "false".into(),
+                "seed" => "9".into(),
+                "position_noise_rad" => "0.001".into(),
+                "velocity_noise_rad_s" => "0.01".into(),
+                "torque_noise_nm" => "0.01".into(),
+                other => panic!("docs/profiles.md documents devices.emulator.{other}: add a sample value here"),
+            };
+            let with = device(&format!("[devices.emulator]\n{key} = {value}"));
+            let refuses = refused
+                .iter()
+                .any(|(k, keys)| *k == kind.as_str() && keys.contains(&key.as_str()));
+            let (path, r) = load_text(&with);
+            if refuses {
+                let lines = match r {
+                    Ok(_) => panic!("a {kind} accepted emulator.{key}, which it cannot honour\n{with}"),
+                    Err(e) => e.lines(),
+                };
+                assert_eq!(lines.len(), 1, "{kind} {key}: {lines:#?}");
+                let prefix = format!("{}: devices[0].emulator.{key}: ", path.display());
+                assert!(
+                    lines[0].starts_with(&prefix),
+                    "{kind}: `{}` does not name {prefix}",
+                    lines[0]
+                );
+                assert!(lines[0].contains("no effect"), "{kind}: `{}` says why", lines[0]);
+            } else {
+                if let Err(e) = r {
+                    panic!("{kind}: emulator.{key} refused: {e}\n{with}");
+                }
+                assert_ne!(
+                    built(&device("")),
+                    built(&with),
+                    "a {kind} ignores emulator.{key}: it changes nothing its emulator is built with\n{with}"
+                );
+            }
+        }
+    }
 }
 
 #[test]

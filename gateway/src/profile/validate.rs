@@ -446,7 +446,11 @@ impl Checker {
                     self.position(ek.key(which).key(j.clone()), d, j, Radians(*v));
                 }
             }
-            for p in e.validate() {
+            for p in e
+                .validate()
+                .into_iter()
+                .chain(d.kind.factory().validate_emulator(&d.ctx(), e))
+            {
                 self.err(Self::under(k, &p.key), p.message);
             }
         }

@@ -716,6 +716,62 @@ mod tests {
         assert_eq!(m.pads[0].pressure[0], 0.0);
     }
 
+    /// `[devices.emulator] object_at` reaches the MCU emulator the emulator backend opens:
+    /// closing index_1 toward a far target stops at the object (canonical 0.5 rad, either
+    /// side), with contact torque and pressure on the index pads; without it the joint closes.
+    #[test]
+    fn profile_object_at_stops_the_closing_joint_with_pressure() {
+        use crate::device::Backend;
+        use crate::dex3::kind::Dex3Profile;
+        use crate::kind::DeviceKind;
+        use crate::open::{DeviceSpec, EmulatorSection};
+        for side in [Side::Left, Side::Right] {
+            let run = |object: Option<f64>| {
+                let table = std::sync::Arc::new(crate::dex3::table::table(side));
+                let mut section = EmulatorSection {
+                    noise: Some(false),
+                    ..Default::default()
+                };
+                if let Some(o) = object {
+                    section.object_at.insert("index_1".into(), o);
+                }
+                let profile = Dex3Profile::default();
+                let spec = DeviceSpec {
+                    name: "d",
+                    kind: DeviceKind::Dex3,
+                    side,
+                    backend: Backend::Emulator,
+                    rate_hz: 500.0,
+                    stale_after: Duration::from_millis(100),
+                    table: &table,
+                    emulator: &section,
+                    config: &profile,
+                };
+                let crate::dex3::usb::adapter::UsbSource::Emulator(cfg) =
+                    crate::dex3::open::usb_source(&spec, &profile)
+                else {
+                    panic!("the emulator backend opens the MCU emulator")
+                };
+                let mut emu = Dex3Emulator::new(side, *cfg);
+                let dir = crate::dex3::table::wire_sign(side, Joint::Index1.index());
+                let c = target(Joint::Index1, dir * 1.6);
+                let mut m = exchange(&mut emu, &c, true);
+                for _ in 0..2000 {
+                    m = exchange(&mut emu, &c, true);
+                }
+                let j = m.motor(Joint::Index1);
+                (j.q * dir, j.tau * dir, m.pads[2].pressure[0].max(m.pads[3].pressure[0]))
+            };
+            let (q, tau, press) = run(Some(0.5));
+            assert!((0.5..0.65).contains(&q), "{side:?}: stopped at the object, q = {q}");
+            assert!(tau > 0.3, "{side:?}: pressing on it, tau = {tau}");
+            assert!(press > 0.0, "{side:?}: pressure {press}");
+            let (q, _, press) = run(None);
+            assert!(q > 1.4, "{side:?}: without the object it closes, q = {q}");
+            assert_eq!(press, 0.0, "{side:?}");
+        }
+    }
+
     #[test]
     fn unplug_disconnects_open_links() {
         let emu: SharedEmulator = Arc::new(Mutex::new(Dex3Emulator::new(Side::Left, EmulatorConfig::default())));
