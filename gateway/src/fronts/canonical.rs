@@ -6,6 +6,7 @@ use handgate_adapters::model::{CommandBody, Freshness, HandState, JointCommand, 
 use handgate_idl::handgate as hg;
 
 use super::Rejection;
+use crate::profile::{Silence, Topic};
 
 /// Decodes a canonical command against the bound device's table.
 pub fn decode_cmd(msg: &hg::HandCmd_, device: &DeviceTable, safe: SafeAction) -> Result<CommandBody, Rejection> {
@@ -189,4 +190,67 @@ mod tests {
             Err(Rejection::UnknownMode(9))
         );
     }
+}
+
+/// The canonical front's topics for a device.
+pub fn topics(device: &str) -> (String, String) {
+    (
+        format!("rt/handgate/{device}/cmd"),
+        format!("rt/handgate/{device}/state"),
+    )
+}
+
+/// handgate's own interface: the bound device's table, its watchdog as silence.
+#[derive(Debug)]
+pub struct CanonicalFront;
+
+impl super::kind::FrontFactory for CanonicalFront {
+    fn name(&self) -> &'static str {
+        "canonical"
+    }
+    fn default_topics(
+        &self,
+        _f: &crate::profile::FrontConfig,
+        _lr: Option<handgate_adapters::model::Side>,
+        device: &str,
+    ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
+        let (c, s) = topics(device);
+        (Some(Topic(c)), Some(Topic(s)), None)
+    }
+    fn default_state_hz(&self, device_hz: Option<f64>) -> f64 {
+        device_hz.map_or(100.0, |d| d.min(100.0))
+    }
+    fn default_name(&self, f: &crate::profile::FrontConfig, _side: &str) -> String {
+        format!("canonical_{}", f.device.as_ref().map_or("?", |d| d.as_str()))
+    }
+    fn silence(&self, _mode: Silence, dog: (std::time::Duration, SafeAction)) -> crate::plan::SilencePlan {
+        // handgate's own interface: its service semantics are the strict watchdog.
+        crate::plan::SilencePlan {
+            mode: Silence::Watchdog,
+            after: Some(dog),
+            timeout_bit: None,
+        }
+    }
+    fn open(
+        &self,
+        node: &handgate_adapters::dds::Node,
+        f: &crate::plan::FrontPlan,
+        tx: tokio::sync::mpsc::Sender<super::Message>,
+        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    ) -> Result<Option<Box<dyn super::FrontIo>>, handgate_adapters::dds::DdsError> {
+        let cmd = f.cmd_topic.clone().unwrap_or_default();
+        Ok(Some(Box::new(CanonicalIo::open(
+            node,
+            &cmd,
+            &f.state_topic,
+            tx,
+            dropped,
+        )?)))
+    }
+}
+
+impl super::FrontKind {
+    /// handgate's own canonical messages (`rt/handgate/{device}/*`).
+    #[allow(non_upper_case_globals)]
+    pub const Canonical: super::FrontKind = super::FrontKind::of(&CanonicalFront);
 }

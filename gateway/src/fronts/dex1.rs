@@ -17,6 +17,7 @@ use handgate_adapters::model::{faults, Freshness, HandState, JointState, Side};
 use handgate_idl::{unitree_go, unitree_hg};
 
 use super::{checked_target, FrontCommand, Rejection};
+use crate::profile::Topic;
 
 fn one(front: &DeviceTable, w: WireTarget, tag: u32) -> FrontCommand {
     FrontCommand {
@@ -371,4 +372,134 @@ mod tests {
         let s = go_state(&f, &JointState::default(), &bad, now);
         assert_eq!((s.mode, s.lost), (255, 0xFFFF_FFFF));
     }
+}
+
+/// A Dex1 front must publish state at least this fast: xr_teleoperate runs its gripper loop
+/// at 200 Hz (docs/sources.md §4).
+pub const MIN_STATE_HZ: f64 = 200.0;
+
+/// The Dex1-1 service interface, in its wire variants.
+#[derive(Debug)]
+pub struct Dex1Front;
+
+impl super::kind::FrontFactory for Dex1Front {
+    fn name(&self) -> &'static str {
+        "dex1"
+    }
+    fn speaks(&self) -> Option<handgate_adapters::model::DeviceKind> {
+        Some(handgate_adapters::model::DeviceKind::Dex1)
+    }
+    fn keys(&self) -> &'static [&'static str] {
+        &["side", "variant"]
+    }
+    fn default_topics(
+        &self,
+        f: &crate::profile::FrontConfig,
+        lr: Option<Side>,
+        _device: &str,
+    ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
+        let variant = f.dex1_variant();
+        // The actuator variant's topics carry both sides.
+        let std = (variant == Variant::Actuator)
+            .then_some(Side::Left)
+            .or(lr)
+            .map(|s| variant.topics(s));
+        (std.as_ref().map(|t| Topic(t.0.clone())), std.map(|t| Topic(t.1)), None)
+    }
+    fn default_state_hz(&self, _device_hz: Option<f64>) -> f64 {
+        500.0
+    }
+    fn default_name(&self, f: &crate::profile::FrontConfig, side: &str) -> String {
+        if f.dex1_variant() == Variant::Actuator {
+            "dex1_actuator".into()
+        } else {
+            format!("dex1_{side}")
+        }
+    }
+    fn silence(
+        &self,
+        mode: crate::profile::Silence,
+        dog: (std::time::Duration, handgate_adapters::model::SafeAction),
+    ) -> crate::plan::SilencePlan {
+        let after = match mode {
+            crate::profile::Silence::Watchdog => dog,
+            // dex1_1_service brakes: holds the measured position 1 s after the last command.
+            crate::profile::Silence::Service => (
+                handgate_adapters::dex1::SERVICE_BRAKE_AFTER,
+                handgate_adapters::model::SafeAction::Hold,
+            ),
+        };
+        crate::plan::SilencePlan {
+            mode,
+            after: Some(after),
+            timeout_bit: None,
+        }
+    }
+    fn elements(&self, f: &crate::profile::FrontConfig) -> usize {
+        if f.dex1_variant() == Variant::Actuator {
+            2
+        } else {
+            1
+        }
+    }
+    fn element(&self, f: &crate::profile::FrontConfig, side: Side) -> usize {
+        if f.dex1_variant() == Variant::Actuator {
+            actuator_index(side)
+        } else {
+            0
+        }
+    }
+    fn validate(
+        &self,
+        f: &crate::profile::FrontConfig,
+        served: Option<Side>,
+        dangling: bool,
+    ) -> Vec<(&'static str, String)> {
+        let mut out = vec![];
+        if let Some(r) = f.state_hz {
+            if r.0.is_finite() && r.0 < MIN_STATE_HZ {
+                out.push((
+                    "state_hz",
+                    format!("a dex1 front publishes state at {MIN_STATE_HZ} Hz or faster (xr_teleoperate's loop rate), got {}", r.0),
+                ));
+            }
+        }
+        if !dangling {
+            let given = f.cmd_topic.is_some() && f.state_topic.is_some();
+            out.extend(super::dex3::side_rule(
+                "dex1",
+                served,
+                given,
+                f.dex1_variant() == Variant::Actuator,
+            ));
+        }
+        out
+    }
+    fn describe(&self, f: &crate::profile::FrontConfig) -> Option<String> {
+        Some(format!(" ({})", f.dex1_variant()))
+    }
+    fn open(
+        &self,
+        node: &handgate_adapters::dds::Node,
+        f: &crate::plan::FrontPlan,
+        tx: tokio::sync::mpsc::Sender<super::Message>,
+        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    ) -> Result<Option<Box<dyn super::FrontIo>>, handgate_adapters::dds::DdsError> {
+        let cmd = f.cmd_topic.clone().unwrap_or_default();
+        Ok(Some(Box::new(Dex1Io::open(
+            node,
+            f.config.dex1_variant(),
+            &cmd,
+            &f.state_topic,
+            f.elements(),
+            tx,
+            dropped,
+        )?)))
+    }
+}
+
+impl super::FrontKind {
+    /// The Dex1-1 DDS interface (`rt/dex1/{side}/*` or `rt/unitree_actuator/*`).
+    #[allow(non_upper_case_globals)]
+    pub const Dex1: super::FrontKind = super::FrontKind::of(&Dex1Front);
 }

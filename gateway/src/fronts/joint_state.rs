@@ -6,6 +6,8 @@ use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::HandState;
 use handgate_idl::ros2::{Header_, JointState_, Time_};
 
+use crate::profile::Topic;
+
 /// Appends one device's joints to `out` (a JointState front may carry several devices).
 pub fn append(out: &mut JointState_, device: &DeviceTable, st: &HandState, urdf_names: bool, prefix: &str) {
     for (m, j) in device.joints.iter().zip(&st.joints) {
@@ -55,4 +57,63 @@ mod tests {
         assert_eq!(m.position[i], -1.0);
         assert_eq!(m.name.len(), 7);
     }
+}
+
+/// A joint_state front's topic when `topic` is not set.
+pub const DEFAULT_TOPIC: &str = "rt/joint_states";
+
+/// ROS 2 JointState over the bound device, or every device: state only.
+#[derive(Debug)]
+pub struct JointStateFront;
+
+impl super::kind::FrontFactory for JointStateFront {
+    fn name(&self) -> &'static str {
+        "joint_state"
+    }
+    fn takes_commands(&self) -> bool {
+        false
+    }
+    fn keys(&self) -> &'static [&'static str] {
+        &["topic", "urdf_names"]
+    }
+    fn state_topic_key(&self) -> &'static str {
+        "topic"
+    }
+    fn default_topics(
+        &self,
+        f: &crate::profile::FrontConfig,
+        _lr: Option<handgate_adapters::model::Side>,
+        _device: &str,
+    ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
+        (
+            None,
+            Some(f.topic.clone().unwrap_or_else(|| Topic::new(DEFAULT_TOPIC))),
+            None,
+        )
+    }
+    fn default_state_hz(&self, device_hz: Option<f64>) -> f64 {
+        device_hz.map_or(100.0, |d| d.min(100.0))
+    }
+    fn default_name(&self, f: &crate::profile::FrontConfig, _side: &str) -> String {
+        match &f.topic {
+            Some(t) if t.as_str() != DEFAULT_TOPIC => t.0.clone(),
+            _ => "joint_state".into(),
+        }
+    }
+    fn open(
+        &self,
+        _node: &handgate_adapters::dds::Node,
+        _f: &crate::plan::FrontPlan,
+        _tx: tokio::sync::mpsc::Sender<super::Message>,
+        _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    ) -> Result<Option<Box<dyn super::FrontIo>>, handgate_adapters::dds::DdsError> {
+        // Publishes only: run by the runtime's state-only task.
+        Ok(None)
+    }
+}
+
+impl super::FrontKind {
+    /// ROS 2 sensor_msgs/JointState.
+    #[allow(non_upper_case_globals)]
+    pub const JointState: super::FrontKind = super::FrontKind::of(&JointStateFront);
 }

@@ -13,6 +13,17 @@ pub mod canonical;
 pub mod dex1;
 pub mod dex3;
 pub mod joint_state;
+pub mod kind;
+
+pub use kind::{FrontFactory, FrontKind};
+
+/// Every front kind handgate serves, in the order `handgate check` and errors list them.
+pub static FRONTS: &[FrontKind] = &[
+    FrontKind::Dex3,
+    FrontKind::Dex1,
+    FrontKind::Canonical,
+    FrontKind::JointState,
+];
 
 use std::any::Any;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -23,7 +34,7 @@ use handgate_adapters::mapping::WireTarget;
 use handgate_adapters::model::{CommandBody, HandState, JointCommand, SafeAction};
 use tokio::sync::mpsc;
 
-use crate::plan::{FrontKind, FrontPlan};
+use crate::plan::FrontPlan;
 use crate::router::Route;
 
 /// Why a front rejected a message.
@@ -144,39 +155,15 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
     })
 }
 
-/// The command and state endpoints of front `f` (the one place that picks a front kind's
-/// I/O); `None` for a front that takes no commands (joint_state, run by its own task).
+/// The command and state endpoints of front `f`, opened by its kind; `None` for a front that
+/// takes no commands (run by the runtime's state-only task).
 pub fn open(
     node: &Node,
     f: &FrontPlan,
     tx: mpsc::Sender<Message>,
     dropped: Arc<AtomicU64>,
 ) -> Result<Option<Box<dyn FrontIo>>, DdsError> {
-    let cmd = f.cmd_topic.clone().unwrap_or_default();
-    Ok(Some(match &f.kind {
-        FrontKind::Dex3 {
-            lf_state_topic,
-            lf_state_hz,
-        } => Box::new(dex3::Dex3Io::open(
-            node,
-            &cmd,
-            &f.state_topic,
-            lf_state_topic.as_deref().map(|t| (t, *lf_state_hz)),
-            tx,
-            dropped,
-        )?),
-        FrontKind::Dex1 { variant } => Box::new(dex1::Dex1Io::open(
-            node,
-            *variant,
-            &cmd,
-            &f.state_topic,
-            f.elements(),
-            tx,
-            dropped,
-        )?),
-        FrontKind::Canonical => Box::new(canonical::CanonicalIo::open(node, &cmd, &f.state_topic, tx, dropped)?),
-        FrontKind::JointState { .. } => return Ok(None),
-    }))
+    f.kind.factory().open(node, f, tx, dropped)
 }
 
 /// A decoded front command routed to the device of `route`.

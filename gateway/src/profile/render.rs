@@ -76,10 +76,10 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
         if let (Some(lf), Some(hz)) = (&t.lf_state, t.lf_state_hz) {
             let _ = write!(s, " lf {lf} at {hz}");
         }
-        if f.kind == FrontKind::Dex1 {
-            let _ = write!(s, " ({})", f.dex1_variant());
+        if let Some(d) = f.kind.factory().describe(f) {
+            s.push_str(&d);
         }
-        if f.kind != FrontKind::JointState {
+        if f.kind.takes_commands() {
             let plans: Vec<(String, String)> = f
                 .bindings(lookup)
                 .into_iter()

@@ -13,7 +13,7 @@ use tracing::{info, warn};
 
 use super::{DeviceSlot, RuntimeError};
 use crate::fronts;
-use crate::plan::{FrontKind, FrontPlan, SilencePlan};
+use crate::plan::{FrontPlan, SilencePlan};
 use crate::router;
 use crate::ticker::Ticker;
 
@@ -116,14 +116,14 @@ pub(super) fn spawn_front(
     let dropped = Arc::new(AtomicU64::new(0));
     // The front kind's endpoints (readers and writers).
     let Some(mut out) = fronts::open(node, f, tx, dropped.clone())? else {
-        let FrontKind::JointState {
-            devices: names,
-            urdf_names,
-        } = &f.kind
-        else {
-            unreachable!("only joint_state fronts take no commands");
-        };
-        return spawn_joint_state(node, f, names, *urdf_names, devices, shutdown);
+        return spawn_joint_state(
+            node,
+            f,
+            &f.devices,
+            f.config.urdf_names.unwrap_or(true),
+            devices,
+            shutdown,
+        );
     };
     let mut bound = Vec::new();
     for b in &f.bindings {
