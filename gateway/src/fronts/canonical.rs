@@ -237,9 +237,9 @@ impl super::kind::FrontFactory for CanonicalFront {
         f: &crate::plan::FrontPlan,
         tx: tokio::sync::mpsc::Sender<super::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<Option<Box<dyn super::FrontIo>>, handgate_adapters::dds::DdsError> {
+    ) -> Result<super::Endpoints, handgate_adapters::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_default();
-        Ok(Some(Box::new(CanonicalIo::open(
+        Ok(super::Endpoints::Commands(Box::new(CanonicalIo::open(
             node,
             &cmd,
             &f.state_topic,

@@ -442,6 +442,9 @@ impl super::kind::FrontFactory for Dex1Front {
             1
         }
     }
+    fn binds_elements(&self) -> Option<&'static str> {
+        Some("an actuator dex1 front")
+    }
     fn element(&self, f: &crate::profile::FrontConfig, side: Side) -> usize {
         if f.dex1_variant() == Variant::Actuator {
             actuator_index(side)
@@ -484,9 +487,9 @@ impl super::kind::FrontFactory for Dex1Front {
         f: &crate::plan::FrontPlan,
         tx: tokio::sync::mpsc::Sender<super::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<Option<Box<dyn super::FrontIo>>, handgate_adapters::dds::DdsError> {
+    ) -> Result<super::Endpoints, handgate_adapters::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_default();
-        Ok(Some(Box::new(Dex1Io::open(
+        Ok(super::Endpoints::Commands(Box::new(Dex1Io::open(
             node,
             f.config.dex1_variant(),
             &cmd,

@@ -393,10 +393,10 @@ impl super::kind::FrontFactory for Dex3Front {
         f: &crate::plan::FrontPlan,
         tx: tokio::sync::mpsc::Sender<super::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<Option<Box<dyn super::FrontIo>>, handgate_adapters::dds::DdsError> {
+    ) -> Result<super::Endpoints, handgate_adapters::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_default();
         let lf = f.lf_state.as_ref().map(|(t, hz)| (t.as_str(), *hz));
-        Ok(Some(Box::new(Dex3Io::open(
+        Ok(super::Endpoints::Commands(Box::new(Dex3Io::open(
             node,
             &cmd,
             &f.state_topic,

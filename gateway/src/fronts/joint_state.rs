@@ -102,13 +102,31 @@ impl super::kind::FrontFactory for JointStateFront {
     }
     fn open(
         &self,
-        _node: &handgate_adapters::dds::Node,
-        _f: &crate::plan::FrontPlan,
+        node: &handgate_adapters::dds::Node,
+        f: &crate::plan::FrontPlan,
         _tx: tokio::sync::mpsc::Sender<super::Message>,
         _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<Option<Box<dyn super::FrontIo>>, handgate_adapters::dds::DdsError> {
-        // Publishes only: run by the runtime's state-only task.
-        Ok(None)
+    ) -> Result<super::Endpoints, handgate_adapters::dds::DdsError> {
+        Ok(super::Endpoints::StateOnly(Box::new(JointStateIo {
+            writer: node.writer(&f.state_topic, handgate_adapters::dds::Qos::BestEffort)?,
+            urdf_names: f.config.urdf_names.unwrap_or(true),
+        })))
+    }
+}
+
+/// The joint_state front's writer.
+pub struct JointStateIo {
+    writer: handgate_adapters::dds::Writer<JointState_>,
+    urdf_names: bool,
+}
+
+impl super::StateIo for JointStateIo {
+    fn publish(&mut self, devices: &[super::Published<'_>]) {
+        let mut msg = header(std::time::SystemTime::now(), "");
+        for d in devices {
+            append(&mut msg, d.table, &d.state, self.urdf_names, &format!("{}/", d.device));
+        }
+        let _ = self.writer.write(msg);
     }
 }
 

@@ -14,7 +14,7 @@ use handgate_adapters::model::{DeviceKind, SafeAction, Side};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use tokio::sync::mpsc;
 
-use super::{FrontIo, Message};
+use super::{Endpoints, Message};
 use crate::plan::{FrontPlan, SilencePlan};
 use crate::profile::{FrontConfig, Silence, Topic};
 
@@ -77,6 +77,11 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
     fn elements(&self, _f: &FrontConfig) -> usize {
         1
     }
+    /// Which of this kind's fronts bind devices by element (`devices = { right, left }`), as
+    /// errors name them (`an actuator dex1 front`); `None`: none do.
+    fn binds_elements(&self) -> Option<&'static str> {
+        None
+    }
     /// The element carrying the device served on `side`.
     fn element(&self, _f: &FrontConfig, _side: Side) -> usize {
         0
@@ -90,14 +95,14 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
     fn describe(&self, _f: &FrontConfig) -> Option<String> {
         None
     }
-    /// The front's endpoints; `None` for a front that takes no commands.
+    /// The front's endpoints.
     fn open(
         &self,
         node: &Node,
         plan: &FrontPlan,
         tx: mpsc::Sender<Message>,
         dropped: Arc<AtomicU64>,
-    ) -> Result<Option<Box<dyn FrontIo>>, DdsError>;
+    ) -> Result<Endpoints, DdsError>;
 }
 
 /// A registered front kind: a handle to its factory. Copy; compared and printed by name;
@@ -136,6 +141,15 @@ impl FrontKind {
             .map(|k| k.as_str())
             .collect();
         v.join(" and ")
+    }
+
+    /// The fronts that bind devices by element, as errors name them (`an actuator dex1 front`).
+    pub fn binding_elements() -> String {
+        let v: Vec<&str> = Self::all()
+            .iter()
+            .filter_map(|k| k.factory().binds_elements())
+            .collect();
+        v.join(" or ")
     }
 
     pub fn factory(self) -> &'static dyn FrontFactory {

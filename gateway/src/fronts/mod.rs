@@ -136,6 +136,28 @@ pub trait FrontIo: Send {
     }
 }
 
+/// One device a state-only front publishes: its name, table and latest state.
+#[derive(Debug)]
+pub struct Published<'a> {
+    pub device: &'a str,
+    pub table: &'a handgate_adapters::mapping::DeviceTable,
+    pub state: HandState,
+}
+
+/// A running state-only front's wire side (no command reader): its state writer.
+pub trait StateIo: Send {
+    /// Publishes one message over `devices`.
+    fn publish(&mut self, devices: &[Published<'_>]);
+}
+
+/// A running front's endpoints, as its kind opened them.
+pub enum Endpoints {
+    /// A front taking commands, run by the runtime's front task.
+    Commands(Box<dyn FrontIo>),
+    /// A front publishing state only, run by the runtime's state-only task.
+    StateOnly(Box<dyn StateIo>),
+}
+
 /// A command reader on `topic` handing every sample to the front's task as a [`Message`];
 /// a sample that finds the queue full is dropped and counted in `dropped`.
 pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
@@ -155,14 +177,13 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
     })
 }
 
-/// The command and state endpoints of front `f`, opened by its kind; `None` for a front that
-/// takes no commands (run by the runtime's state-only task).
+/// The endpoints of front `f`, opened by its kind.
 pub fn open(
     node: &Node,
     f: &FrontPlan,
     tx: mpsc::Sender<Message>,
     dropped: Arc<AtomicU64>,
-) -> Result<Option<Box<dyn FrontIo>>, DdsError> {
+) -> Result<Endpoints, DdsError> {
     f.kind.factory().open(node, f, tx, dropped)
 }
 

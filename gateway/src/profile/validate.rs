@@ -125,7 +125,10 @@ impl Checker {
                 if !f.is_actuator() {
                     self.err(
                         k.key("devices"),
-                        "only an actuator dex1 front binds devices by element; use `device`",
+                        format!(
+                            "only {} binds devices by element; use `device`",
+                            FrontKind::binding_elements()
+                        ),
                     );
                 }
                 if f.device.is_some() {
