@@ -106,6 +106,11 @@ impl super::FrontIo for Dex1Io {
     }
 }
 
+/// The wire variant of Dex1 front `f` (default `go`).
+fn variant(f: &crate::profile::FrontConfig) -> Variant {
+    f.variant.unwrap_or_default()
+}
+
 /// The Dex1-1 service interface, in its wire variants.
 #[derive(Debug)]
 pub struct Dex1Front;
@@ -126,7 +131,7 @@ impl super::kind::FrontFactory for Dex1Front {
         lr: Option<Side>,
         _device: &str,
     ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
-        let variant = f.dex1_variant();
+        let variant = variant(f);
         // The actuator variant's topics carry both sides.
         let std = (variant == Variant::Actuator)
             .then_some(Side::Left)
@@ -138,7 +143,7 @@ impl super::kind::FrontFactory for Dex1Front {
         500.0
     }
     fn default_name(&self, f: &crate::profile::FrontConfig, side: &str) -> String {
-        if f.dex1_variant() == Variant::Actuator {
+        if variant(f) == Variant::Actuator {
             "dex1_actuator".into()
         } else {
             format!("dex1_{side}")
@@ -164,7 +169,7 @@ impl super::kind::FrontFactory for Dex1Front {
         }
     }
     fn elements(&self, f: &crate::profile::FrontConfig) -> usize {
-        if f.dex1_variant() == Variant::Actuator {
+        if variant(f) == Variant::Actuator {
             2
         } else {
             1
@@ -174,7 +179,7 @@ impl super::kind::FrontFactory for Dex1Front {
         Some("an actuator dex1 front")
     }
     fn element(&self, f: &crate::profile::FrontConfig, side: Side) -> usize {
-        if f.dex1_variant() == Variant::Actuator {
+        if variant(f) == Variant::Actuator {
             actuator_index(side)
         } else {
             0
@@ -201,13 +206,32 @@ impl super::kind::FrontFactory for Dex1Front {
                 "dex1",
                 served,
                 given,
-                f.dex1_variant() == Variant::Actuator,
+                variant(f) == Variant::Actuator,
             ));
         }
         out
     }
+    fn describe_unbound(&self, f: &crate::profile::FrontConfig, bound: &[Side]) -> Vec<String> {
+        if variant(f) != Variant::Actuator {
+            return vec![];
+        }
+        [(0, Side::Right), (1, Side::Left)]
+            .into_iter()
+            .filter(|(_, side)| !bound.contains(side))
+            .map(|(element, side)| {
+                format!("element {element} ({side}): no device bound; reported as never measured (lost 0xFFFFFFFE, reserve[1] = 1) at the open position, its commands ignored")
+            })
+            .collect()
+    }
+    fn clash_hint(&self, f: &crate::profile::FrontConfig, other: &crate::profile::FrontConfig) -> &'static str {
+        if variant(f) == Variant::Actuator && other.kind == f.kind && variant(other) == Variant::Actuator {
+            ": one actuator front serves both grippers, `devices = { right = \"..\", left = \"..\" }`"
+        } else {
+            ""
+        }
+    }
     fn describe(&self, f: &crate::profile::FrontConfig) -> Option<String> {
-        Some(format!(" ({})", f.dex1_variant()))
+        Some(format!(" ({})", variant(f)))
     }
     fn open(
         &self,
@@ -219,7 +243,7 @@ impl super::kind::FrontFactory for Dex1Front {
         let cmd = f.cmd_topic.clone().unwrap_or_default();
         Ok(super::Endpoints::Commands(Box::new(Dex1Io::open(
             node,
-            f.config.dex1_variant(),
+            variant(&f.config),
             &cmd,
             &f.state_topic,
             f.elements(),

@@ -95,6 +95,15 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
     fn describe(&self, _f: &FrontConfig) -> Option<String> {
         None
     }
+    /// Lines `handgate check` prints under this front about what it serves with no device
+    /// (`bound`: the sides of its bound devices).
+    fn describe_unbound(&self, _f: &FrontConfig, _bound: &[Side]) -> Vec<String> {
+        vec![]
+    }
+    /// Why two fronts of this kind on one command topic is wrong, beyond the clash itself.
+    fn clash_hint(&self, _f: &FrontConfig, _other: &FrontConfig) -> &'static str {
+        ""
+    }
     /// The front's endpoints.
     fn open(
         &self,

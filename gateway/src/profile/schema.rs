@@ -693,13 +693,9 @@ impl FrontConfig {
         self.side.or(device.map(|d| d.side))
     }
 
-    /// The Dex1 variant (dex1 fronts; default `go`).
-    pub fn dex1_variant(&self) -> Dex1Variant {
-        self.variant.unwrap_or_default()
-    }
-
-    /// An `actuator` dex1 front (one topic pair, element 0 right, 1 left).
-    pub fn is_actuator(&self) -> bool {
+    /// A front whose messages carry several devices, bound by element (`devices`), like the
+    /// Dex1 `actuator` variant (one topic pair, element 0 right, 1 left).
+    pub fn by_element(&self) -> bool {
         self.kind.factory().elements(self) > 1
     }
 

@@ -122,7 +122,7 @@ impl Checker {
             let k = root().key("fronts").index(i);
             let mut missing = false;
             if let Some(els) = &f.devices {
-                if !f.is_actuator() {
+                if !f.by_element() {
                     self.err(
                         k.key("devices"),
                         format!(
@@ -215,11 +215,7 @@ impl Checker {
                 match cmd_topics.get(t) {
                     Some(&j) => {
                         cmd_clash = Some(j);
-                        let why = if f.is_actuator() && p.fronts[j].is_actuator() {
-                            ": one actuator front serves both grippers, `devices = { right = \"..\", left = \"..\" }`"
-                        } else {
-                            ""
-                        };
+                        let why = f.kind.factory().clash_hint(f, &p.fronts[j]);
                         self.err(
                             k.key("cmd_topic"),
                             format!("command topic `{t}` is already served by fronts[{j}]{why}"),
