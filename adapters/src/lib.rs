@@ -12,6 +12,7 @@ pub mod dex3;
 pub mod discovery;
 pub mod emu_common;
 pub mod ezgripper;
+pub mod front;
 pub mod hand_sdk;
 pub mod kind;
 pub mod kinds;

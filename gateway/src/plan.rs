@@ -7,11 +7,13 @@ use std::time::Duration;
 use std::sync::Arc;
 
 use handgate_adapters::device::Backend;
-use handgate_adapters::dex1::adapter::Variant;
 use handgate_adapters::kind::KindConfigBox;
 use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::{DeviceKind, SafeAction, Side};
 use handgate_adapters::open::{DeviceSpec, EmulatorSection};
+
+pub use crate::fronts::FrontKind;
+use crate::profile::FrontConfig;
 
 /// One device: everything its kind needs to open it, decided here once.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,29 +50,12 @@ impl DevicePlan {
     }
 }
 
-/// What a front speaks.
-#[derive(Debug, Clone, PartialEq)]
-pub enum FrontKind {
-    Dex3 {
-        lf_state_topic: Option<String>,
-        lf_state_hz: f64,
-    },
-    Dex1 {
-        variant: Variant,
-    },
-    Canonical,
-    JointState {
-        devices: Vec<String>,
-        urdf_names: bool,
-    },
-}
-
 /// What a front does when its client goes silent, resolved for one bound device
 /// (docs/fronts.md, "Silence").
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SilencePlan {
-    /// The semantics in effect (for logs and `handgate check`): the profile's choice, except
-    /// that a canonical front's service semantics are the watchdog's.
+    /// The semantics in effect (for logs and `handgate check`): the profile's choice, or what
+    /// the front kind makes of it.
     pub mode: crate::profile::Silence,
     /// After this long without a command, this action; `None`: the last target is kept.
     pub after: Option<(Duration, SafeAction)>,
@@ -124,18 +109,24 @@ pub struct Binding {
     pub element: usize,
     pub silence: SilencePlan,
     /// The front's table for this device (the wire convention it speaks, for its side);
-    /// `None`: the device's own (canonical and joint_state fronts).
+    /// `None`: the device's own (fronts that speak no device kind's convention).
     pub table: Option<Arc<DeviceTable>>,
 }
 
-/// One front, bound to its devices (one, except an actuator front's two grippers; a
-/// JointState front lists its devices in its kind instead).
+/// One front, bound to its devices (one, except a front whose messages carry several, like
+/// the Dex1 actuator variant; a state-only front lists its devices in `devices` instead).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrontPlan {
     /// The name logs use (profile `name`, or derived).
     pub name: String,
     pub kind: FrontKind,
+    /// The front's profile table (its kind's own keys, for its kind to open it).
+    pub config: FrontConfig,
     pub bindings: Vec<Binding>,
+    /// The low-frequency state copy (topic, Hz), where the kind has one.
+    pub lf_state: Option<(String, f64)>,
+    /// The devices a state-only front publishes (its device, or every device).
+    pub devices: Vec<String>,
     pub cmd_topic: Option<String>,
     pub state_topic: String,
     pub state_hz: f64,
@@ -145,13 +136,7 @@ impl FrontPlan {
     /// Number of elements in this front's messages that carry a device (2 for an actuator
     /// front, else 1).
     pub fn elements(&self) -> usize {
-        match self.kind {
-            FrontKind::Dex1 {
-                variant: Variant::Actuator,
-                ..
-            } => 2,
-            _ => 1,
-        }
+        self.kind.factory().elements(&self.config)
     }
 }
 
@@ -165,12 +150,4 @@ pub struct Plan {
     pub status_hz: f64,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
-}
-
-/// The canonical front's topics for a device.
-pub fn canonical_topics(device: &str) -> (String, String) {
-    (
-        format!("rt/handgate/{device}/cmd"),
-        format!("rt/handgate/{device}/state"),
-    )
 }

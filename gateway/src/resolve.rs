@@ -5,17 +5,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use handgate_adapters::mapping::{ClosureMap, Limits, MappingError, TableOverrides};
-use handgate_adapters::model::DeviceKind;
 
-use handgate_adapters::dex1::adapter::actuator_index;
-use handgate_adapters::dex1::SERVICE_BRAKE_AFTER;
-use handgate_adapters::dex3::RIS_TIMEOUT;
-use handgate_adapters::model::SafeAction;
-
-use crate::plan::{canonical_topics, Binding, DevicePlan, FrontKind, FrontPlan, Plan, SilencePlan};
-use crate::profile::{
-    DeviceConfig, DeviceRate, FrontConfig, FrontKind as ProfileFrontKind, Profile, Radians, Silence, Topic,
-};
+use crate::plan::{Binding, DevicePlan, FrontPlan, Plan, SilencePlan};
+use crate::profile::{DeviceConfig, DeviceRate, FrontConfig, Profile, Radians, Topic};
 
 /// Why a profile could not become a plan (after validation these indicate a gap between the
 /// validator and the runtime; they are reported like validation errors).
@@ -114,28 +106,7 @@ pub fn silence_plan(f: &FrontConfig, d: &DeviceConfig) -> SilencePlan {
         let t = f.watchdog_ms.map_or(t, |w| t.min(w.as_duration()));
         (t, d.watchdog.safe_action)
     };
-    let (after, timeout_bit) = match (f.silence, f.kind) {
-        // The Dex3 front honours the RIS timeout bit either way: in watchdog mode it shortens
-        // the watchdog to at most the motors' own timeout, as before.
-        (Silence::Watchdog, ProfileFrontKind::Dex3) => (Some(dog), Some((dog.0.min(RIS_TIMEOUT), dog.1))),
-        (Silence::Watchdog, _) => (Some(dog), None),
-        // The G1 Dex3 service forwards commands to motors that keep their last target; a
-        // motor whose last command set the timeout bit stops (goes limp) 1 s later.
-        (Silence::Service, ProfileFrontKind::Dex3) => (None, Some((RIS_TIMEOUT, SafeAction::Limp))),
-        // dex1_1_service brakes: holds the measured position 1 s after the last command.
-        (Silence::Service, ProfileFrontKind::Dex1) => (Some((SERVICE_BRAKE_AFTER, SafeAction::Hold)), None),
-        // handgate's own interface: its service semantics are the strict watchdog.
-        (Silence::Service, _) => (Some(dog), None),
-    };
-    SilencePlan {
-        mode: if f.kind == ProfileFrontKind::Canonical {
-            Silence::Watchdog
-        } else {
-            f.silence
-        },
-        after,
-        timeout_bit,
-    }
+    f.kind.factory().silence(f.silence, dog)
 }
 
 /// The table of the wire convention front `f` speaks to device `d` on `side`: the served
@@ -147,11 +118,7 @@ fn front_table(
     side: handgate_adapters::model::Side,
     d: &DeviceConfig,
 ) -> Option<Arc<handgate_adapters::mapping::DeviceTable>> {
-    let served = match f.kind {
-        ProfileFrontKind::Dex3 => DeviceKind::Dex3,
-        ProfileFrontKind::Dex1 => DeviceKind::Dex1,
-        ProfileFrontKind::Canonical | ProfileFrontKind::JointState => return None,
-    };
+    let served = f.kind.factory().speaks()?;
     let k = served.factory();
     let table = if d.kind == served {
         k.table(side, &*d.config)
@@ -169,31 +136,14 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
         t.map(|t| t.0)
             .ok_or_else(|| ResolveError::Front(i, format!("no {what} topic (side center?)")))
     };
-    let kind = match f.kind {
-        ProfileFrontKind::Dex3 => FrontKind::Dex3 {
-            lf_state_topic: topics.lf_state.clone().map(|t| t.0),
-            lf_state_hz: topics.lf_state_hz.map(|r| r.0).unwrap_or(50.0),
-        },
-        ProfileFrontKind::Dex1 => FrontKind::Dex1 {
-            variant: f.dex1_variant(),
-        },
-        ProfileFrontKind::Canonical => FrontKind::Canonical,
-        ProfileFrontKind::JointState => FrontKind::JointState {
-            devices: match dev {
-                Some(d) => vec![d.name.to_string()],
-                None => p.devices.iter().map(|d| d.name.to_string()).collect(),
-            },
-            urdf_names: f.urdf_names.unwrap_or(true),
-        },
-    };
     let mut bindings = Vec::new();
-    if f.kind != ProfileFrontKind::JointState {
+    if f.kind.takes_commands() {
         for (side, n) in f.bindings(lookup) {
             let d = lookup(n).ok_or_else(|| ResolveError::Front(i, format!("no device named {n}")))?;
             bindings.push(Binding {
                 device: n.to_string(),
                 side,
-                element: if f.is_actuator() { actuator_index(side) } else { 0 },
+                element: f.kind.factory().element(f, side),
                 silence: silence_plan(f, d),
                 table: front_table(f, side, d),
             });
@@ -202,21 +152,22 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
             return Err(ResolveError::Front(i, "a device is required".into()));
         }
     }
-    let (cmd_topic, state_topic) = match f.kind {
-        ProfileFrontKind::JointState => (None, need(topics.state, "state")?),
-        ProfileFrontKind::Canonical => {
-            let (c, s) = canonical_topics(&bindings[0].device);
-            (
-                Some(topics.cmd.map(|t| t.0).unwrap_or(c)),
-                topics.state.map(|t| t.0).unwrap_or(s),
-            )
-        }
-        _ => (Some(need(topics.cmd, "command")?), need(topics.state, "state")?),
+    let (cmd_topic, state_topic) = if f.kind.takes_commands() {
+        (Some(need(topics.cmd, "command")?), need(topics.state, "state")?)
+    } else {
+        (None, need(topics.state, "state")?)
+    };
+    let devices = match dev {
+        Some(d) => vec![d.name.to_string()],
+        None => p.devices.iter().map(|d| d.name.to_string()).collect(),
     };
     Ok(FrontPlan {
         name: f.display_name(dev),
-        kind,
+        kind: f.kind,
+        config: f.clone(),
         bindings,
+        lf_state: topics.lf_state.map(|t| t.0).zip(topics.lf_state_hz.map(|r| r.0)),
+        devices,
         cmd_topic,
         state_topic,
         state_hz: topics.state_hz.0,

@@ -72,7 +72,7 @@ pub fn status_once(node: &Node, topic: &str, timeout: Duration) -> Result<hg::Ga
 /// matched, repeating it at 50 Hz for `hold` (the front's watchdog holds the device once the
 /// stream stops). Returns how many samples were written.
 pub fn send(node: &Node, device: &str, cmd: hg::HandCmd_, timeout: Duration, hold: Duration) -> Result<u64, DdsError> {
-    let (topic, _) = crate::plan::canonical_topics(device);
+    let (topic, _) = crate::fronts::canonical::topics(device);
     let mut w = node.writer::<hg::HandCmd_>(&topic, Qos::Reliable { depth: 1 })?;
     w.wait_matched(1, timeout)?;
     let start = std::time::Instant::now();

@@ -1,4 +1,4 @@
-//! The front codecs (`handgate_gateway::fronts`) through their public API: what docs/fronts.md
+//! The front codecs (`handgate_adapters::front`, `handgate_adapters::{dex3,dex1}::front`) through their public API: what docs/fronts.md
 //! ("Bad input", "Dex3 front specifics", "Dex1 front specifics"), idl/handgate.idl and
 //! docs/wire-types.md promise a client sees. Expected values are written out from those docs
 //! (and docs/model.md's tables), never computed by the code under test. Written for the
@@ -8,12 +8,13 @@
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use handgate_adapters::dex1::adapter::Variant;
+use handgate_adapters::front::{canonical, joint_state, Rejection};
 use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{
     faults, CommandBody, DeviceKind, Freshness, HandState, JointState, Pad, Power, SafeAction, Side,
 };
-use handgate_gateway::fronts::{canonical, dex1, dex3, joint_state, Rejection};
+use handgate_adapters::{dex1::front as dex1, dex3::front as dex3};
 use handgate_idl::{handgate as hg, unitree_go, unitree_hg};
 
 fn table(kind: DeviceKind, side: Side) -> DeviceTable {

@@ -2,6 +2,7 @@
 
 pub mod adapter;
 pub mod emulator;
+pub mod front;
 pub mod kind;
 pub mod open;
 pub mod table;

@@ -5,6 +5,7 @@
 
 pub mod dds_client;
 pub mod dds_service_emulator;
+pub mod front;
 pub mod kind;
 pub mod open;
 pub mod physical;

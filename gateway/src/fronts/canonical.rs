@@ -1,93 +1,13 @@
-//! The canonical front: `rt/handgate/{device}/cmd` and `/state` with handgate's own IDL
-//! (`idl/handgate.idl`): named joints or a closure, for any device.
+//! The canonical front's registry entry and endpoints; its codec is
+//! `handgate_adapters::front::canonical`.
 
-use handgate_adapters::mapping::DeviceTable;
-use handgate_adapters::model::{CommandBody, Freshness, HandState, JointCommand, SafeAction};
+pub use handgate_adapters::front::canonical::topics;
+use handgate_adapters::front::canonical::{decode_cmd, encode_state};
+use handgate_adapters::model::SafeAction;
 use handgate_idl::handgate as hg;
 
 use super::Rejection;
-
-/// Decodes a canonical command against the bound device's table.
-pub fn decode_cmd(msg: &hg::HandCmd_, device: &DeviceTable, safe: SafeAction) -> Result<CommandBody, Rejection> {
-    match msg.mode {
-        hg::MODE_JOINTS => {
-            let mut out = Vec::with_capacity(msg.joints.len());
-            for (i, j) in msg.joints.iter().enumerate() {
-                let id = device
-                    .joint_by_name(&j.name)
-                    .map_err(|_| Rejection::UnknownJoint(j.name.clone()))?;
-                let c = JointCommand {
-                    q: j.q,
-                    dq: j.dq,
-                    tau: j.tau,
-                    kp: j.kp,
-                    kd: j.kd,
-                };
-                if !c.is_finite() {
-                    return Err(Rejection::NonFinite(i));
-                }
-                out.push((id, c));
-            }
-            Ok(CommandBody::Joints(out))
-        }
-        hg::MODE_CLOSURE => {
-            if !msg.closure.is_finite() || !msg.stiffness.is_finite() {
-                return Err(Rejection::BadClosure(msg.closure));
-            }
-            let stiffness = (msg.stiffness > 0.0).then_some(msg.stiffness);
-            Ok(CommandBody::Closure {
-                closure: msg.closure.clamp(0.0, 1.0),
-                stiffness,
-            })
-        }
-        hg::MODE_SAFE => Ok(CommandBody::Safe(safe)),
-        m => Err(Rejection::UnknownMode(m)),
-    }
-}
-
-/// Encodes a device's canonical state.
-pub fn encode_state(name: &str, device: &DeviceTable, st: &HandState) -> hg::HandState_ {
-    let stamp_ns = st
-        .measured_wall
-        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-        .map(|d| d.as_nanos().min(u64::MAX as u128) as u64)
-        .unwrap_or(0);
-    hg::HandState_ {
-        device: name.to_string(),
-        kind: device.kind.as_str().to_string(),
-        side: device.side.as_str().to_string(),
-        cmd_seq: st.cmd_seq,
-        stamp_ns,
-        freshness: match st.freshness {
-            Freshness::Fresh => hg::FRESH,
-            Freshness::Stale => hg::STALE,
-            Freshness::CommandedOnly => hg::COMMANDED_ONLY,
-        },
-        closure: st.closure,
-        joints: device
-            .joints
-            .iter()
-            .zip(&st.joints)
-            .map(|(m, j)| hg::JointState_ {
-                name: m.name.to_string(),
-                q: j.q,
-                dq: j.dq,
-                tau: j.tau,
-                temperature: j.temperature.unwrap_or(f32::NAN),
-            })
-            .collect(),
-        pressure: st
-            .pads
-            .iter()
-            .map(|p| p.pressure.iter().cloned().fold(f32::NAN, f32::max))
-            .collect(),
-        accelerometer: st.imu.map(|i| i.accelerometer).unwrap_or_default(),
-        gyroscope: st.imu.map(|i| i.gyroscope).unwrap_or_default(),
-        power_v: st.power.map(|p| p.voltage).unwrap_or(f32::NAN),
-        power_a: st.power.map(|p| p.current).unwrap_or(f32::NAN),
-        faults: st.faults,
-    }
-}
+use crate::profile::{Silence, Topic};
 
 /// The canonical front's endpoints: handgate's own `HandCmd_` in, `HandState_` out.
 pub struct CanonicalIo {
@@ -130,63 +50,57 @@ impl super::FrontIo for CanonicalIo {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use handgate_adapters::mapping::TableOverrides;
-    use handgate_adapters::model::{DeviceKind, Side};
+/// handgate's own interface: the bound device's table, its watchdog as silence.
+#[derive(Debug)]
+pub struct CanonicalFront;
 
-    #[test]
-    fn joints_by_name_closure_and_rejections() {
-        let t = DeviceKind::Dex3.table(Side::Right, &TableOverrides::default()).unwrap();
-        let msg = hg::HandCmd_ {
-            mode: hg::MODE_JOINTS,
-            joints: vec![hg::JointCmd_ {
-                name: "index_1".into(),
-                q: 0.5,
-                kp: 1.0,
-                ..Default::default()
-            }],
-            ..Default::default()
-        };
-        match decode_cmd(&msg, &t, SafeAction::Hold).unwrap() {
-            CommandBody::Joints(v) => assert_eq!(v[0].0, t.joint_by_name("index_1").unwrap()),
-            b => panic!("{b:?}"),
-        }
-        let mut bad = msg.clone();
-        bad.joints[0].name = "pinky".into();
-        assert_eq!(
-            decode_cmd(&bad, &t, SafeAction::Hold),
-            Err(Rejection::UnknownJoint("pinky".into()))
-        );
-        let c = hg::HandCmd_ {
-            mode: hg::MODE_CLOSURE,
-            closure: 2.0,
-            ..Default::default()
-        };
-        assert_eq!(
-            decode_cmd(&c, &t, SafeAction::Hold),
-            Ok(CommandBody::Closure {
-                closure: 1.0,
-                stiffness: None
-            })
-        );
-        let n = hg::HandCmd_ {
-            mode: hg::MODE_CLOSURE,
-            closure: f32::NAN,
-            ..Default::default()
-        };
-        assert!(decode_cmd(&n, &t, SafeAction::Hold).is_err());
-        assert_eq!(
-            decode_cmd(
-                &hg::HandCmd_ {
-                    mode: 9,
-                    ..Default::default()
-                },
-                &t,
-                SafeAction::Hold
-            ),
-            Err(Rejection::UnknownMode(9))
-        );
+impl super::kind::FrontFactory for CanonicalFront {
+    fn name(&self) -> &'static str {
+        "canonical"
     }
+    fn default_topics(
+        &self,
+        _f: &crate::profile::FrontConfig,
+        _lr: Option<handgate_adapters::model::Side>,
+        device: &str,
+    ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
+        let (c, s) = topics(device);
+        (Some(Topic(c)), Some(Topic(s)), None)
+    }
+    fn default_state_hz(&self, device_hz: Option<f64>) -> f64 {
+        device_hz.map_or(100.0, |d| d.min(100.0))
+    }
+    fn default_name(&self, f: &crate::profile::FrontConfig, _side: &str) -> String {
+        format!("canonical_{}", f.device.as_ref().map_or("?", |d| d.as_str()))
+    }
+    fn silence(&self, _mode: Silence, dog: (std::time::Duration, SafeAction)) -> crate::plan::SilencePlan {
+        // handgate's own interface: its service semantics are the strict watchdog.
+        crate::plan::SilencePlan {
+            mode: Silence::Watchdog,
+            after: Some(dog),
+            timeout_bit: None,
+        }
+    }
+    fn open(
+        &self,
+        node: &handgate_adapters::dds::Node,
+        f: &crate::plan::FrontPlan,
+        tx: tokio::sync::mpsc::Sender<super::Message>,
+        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    ) -> Result<super::Endpoints, handgate_adapters::dds::DdsError> {
+        let cmd = f.cmd_topic.clone().unwrap_or_default();
+        Ok(super::Endpoints::Commands(Box::new(CanonicalIo::open(
+            node,
+            &cmd,
+            &f.state_topic,
+            tx,
+            dropped,
+        )?)))
+    }
+}
+
+impl super::FrontKind {
+    /// handgate's own canonical messages (`rt/handgate/{device}/*`).
+    #[allow(non_upper_case_globals)]
+    pub const Canonical: super::FrontKind = super::FrontKind::of(&CanonicalFront);
 }

@@ -1,84 +1,42 @@
-//! Fronts: the DDS interfaces clients already speak. Each module here is a front kind: a pure
-//! codec (front wire message ⇄ canonical, validated by the rules in docs/fronts.md, unit
-//! tested) and its endpoints ([`FrontIo`]: the command reader, decode through the routes bound
-//! at start, the state writers). The runtime (`crate::runtime`) runs every front kind through
-//! [`open`] and one task (queue, silence, prompt state, deadlines).
-//!
-//! Bad input rule, for every front: a message with the wrong entry count, a non-finite value,
-//! an unknown mode/status, a wrong motor id or an unknown joint name is **rejected whole**
-//! (nothing moves, it is counted by reason and logged at most once per second per front);
-//! finite values outside a joint's limits are **clamped** by the device's table (counted).
+//! Fronts: the DDS interfaces clients already speak, as a registry ([`FRONTS`], one factory
+//! per front kind, [`FrontFactory`]). Each module here is a front kind's registry entry (its
+//! topics, rates, silence, profile keys and rules) and its endpoints ([`FrontIo`]: the command
+//! reader, decode through the routes bound at start, the state writers; or a state-only
+//! [`StateIo`]). The pure wire codecs (wire message ⇄ canonical, with the bad-input rules of
+//! docs/fronts.md, unit tested) live in the adapters: `handgate_adapters::{dex3,dex1}::front`
+//! for the service fronts of those kinds, `handgate_adapters::front::{canonical,joint_state}`
+//! for handgate's own. The runtime (`crate::runtime`) runs every front through [`open`] and
+//! one task (queue, silence, prompt state, deadlines).
 
 pub mod canonical;
 pub mod dex1;
 pub mod dex3;
 pub mod joint_state;
+pub mod kind;
+
+pub use kind::{FrontFactory, FrontKind};
+
+/// Every front kind handgate serves, in the order `handgate check` and errors list them.
+pub static FRONTS: &[FrontKind] = &[
+    FrontKind::Dex3,
+    FrontKind::Dex1,
+    FrontKind::Canonical,
+    FrontKind::JointState,
+];
 
 use std::any::Any;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use handgate_adapters::dds::{DdsError, Node, Qos, Reader};
-use handgate_adapters::mapping::WireTarget;
-use handgate_adapters::model::{CommandBody, HandState, JointCommand, SafeAction};
+
+use handgate_adapters::model::{CommandBody, HandState, SafeAction};
 use tokio::sync::mpsc;
 
-use crate::plan::{FrontKind, FrontPlan};
+use crate::plan::FrontPlan;
 use crate::router::Route;
 
-/// Why a front rejected a message.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum Rejection {
-    #[error("expected {want} entries, got {got}")]
-    WrongCount { got: usize, want: usize },
-    #[error("non-finite value in entry {0}")]
-    NonFinite(usize),
-    #[error("entry {index} carries motor id {id}")]
-    WrongId { index: usize, id: u8 },
-    #[error("entry {index} has unknown motor status {status}")]
-    UnknownStatus { index: usize, status: u8 },
-    #[error("unknown command mode {0}")]
-    UnknownMode(u8),
-    #[error("unknown joint {0:?}")]
-    UnknownJoint(String),
-    #[error("closure {0} is not finite")]
-    BadClosure(f32),
-}
-
-impl Rejection {
-    /// A short stable reason key for counters and logs.
-    pub fn reason(&self) -> &'static str {
-        match self {
-            Rejection::WrongCount { .. } => "wrong_count",
-            Rejection::NonFinite(_) => "non_finite",
-            Rejection::WrongId { .. } => "wrong_id",
-            Rejection::UnknownStatus { .. } => "unknown_status",
-            Rejection::UnknownMode(_) => "unknown_mode",
-            Rejection::UnknownJoint(_) => "unknown_joint",
-            Rejection::BadClosure(_) => "bad_closure",
-        }
-    }
-}
-
-/// A decoded front command, in the front table's canonical order.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FrontCommand {
-    pub joints: Vec<Option<JointCommand>>,
-    /// The client asked for the motors' 1 s timeout protection (Dex3 RIS bit 7).
-    pub timeout_bit: bool,
-    /// Client tag echoed back in state (HandCmd_.reserve[0]).
-    pub tag: u32,
-}
-
-/// Entry `index`'s five command fields as a wire target, refused whole when any of them is
-/// not finite.
-fn checked_target(index: usize, [q, dq, tau, kp, kd]: [f32; 5]) -> Result<WireTarget, Rejection> {
-    if [q, dq, tau, kp, kd].iter().all(|x| x.is_finite()) {
-        Ok(WireTarget { q, dq, tau, kp, kd })
-    } else {
-        Err(Rejection::NonFinite(index))
-    }
-}
+pub use handgate_adapters::front::{FrontCommand, Rejection};
 
 /// One device a running front drives, as its codec sees it: the route bound once, the
 /// device's latest state.
@@ -125,6 +83,28 @@ pub trait FrontIo: Send {
     }
 }
 
+/// One device a state-only front publishes: its name, table and latest state.
+#[derive(Debug)]
+pub struct Published<'a> {
+    pub device: &'a str,
+    pub table: &'a handgate_adapters::mapping::DeviceTable,
+    pub state: HandState,
+}
+
+/// A running state-only front's wire side (no command reader): its state writer.
+pub trait StateIo: Send {
+    /// Publishes one message over `devices`.
+    fn publish(&mut self, devices: &[Published<'_>]);
+}
+
+/// A running front's endpoints, as its kind opened them.
+pub enum Endpoints {
+    /// A front taking commands, run by the runtime's front task.
+    Commands(Box<dyn FrontIo>),
+    /// A front publishing state only, run by the runtime's state-only task.
+    StateOnly(Box<dyn StateIo>),
+}
+
 /// A command reader on `topic` handing every sample to the front's task as a [`Message`];
 /// a sample that finds the queue full is dropped and counted in `dropped`.
 pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
@@ -144,39 +124,14 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
     })
 }
 
-/// The command and state endpoints of front `f` (the one place that picks a front kind's
-/// I/O); `None` for a front that takes no commands (joint_state, run by its own task).
+/// The endpoints of front `f`, opened by its kind.
 pub fn open(
     node: &Node,
     f: &FrontPlan,
     tx: mpsc::Sender<Message>,
     dropped: Arc<AtomicU64>,
-) -> Result<Option<Box<dyn FrontIo>>, DdsError> {
-    let cmd = f.cmd_topic.clone().unwrap_or_default();
-    Ok(Some(match &f.kind {
-        FrontKind::Dex3 {
-            lf_state_topic,
-            lf_state_hz,
-        } => Box::new(dex3::Dex3Io::open(
-            node,
-            &cmd,
-            &f.state_topic,
-            lf_state_topic.as_deref().map(|t| (t, *lf_state_hz)),
-            tx,
-            dropped,
-        )?),
-        FrontKind::Dex1 { variant } => Box::new(dex1::Dex1Io::open(
-            node,
-            *variant,
-            &cmd,
-            &f.state_topic,
-            f.elements(),
-            tx,
-            dropped,
-        )?),
-        FrontKind::Canonical => Box::new(canonical::CanonicalIo::open(node, &cmd, &f.state_topic, tx, dropped)?),
-        FrontKind::JointState { .. } => return Ok(None),
-    }))
+) -> Result<Endpoints, DdsError> {
+    f.kind.factory().open(node, f, tx, dropped)
 }
 
 /// A decoded front command routed to the device of `route`.

@@ -76,10 +76,10 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
         if let (Some(lf), Some(hz)) = (&t.lf_state, t.lf_state_hz) {
             let _ = write!(s, " lf {lf} at {hz}");
         }
-        if f.kind == FrontKind::Dex1 {
-            let _ = write!(s, " ({})", f.dex1_variant());
+        if let Some(d) = f.kind.factory().describe(f) {
+            s.push_str(&d);
         }
-        if f.kind != FrontKind::JointState {
+        if f.kind.takes_commands() {
             let plans: Vec<(String, String)> = f
                 .bindings(lookup)
                 .into_iter()
@@ -96,16 +96,9 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
             }
         }
         s.push('\n');
-        if f.is_actuator() {
-            let bound: Vec<Side> = f.bindings(lookup).into_iter().map(|(side, _)| side).collect();
-            for (element, side) in [(0, Side::Right), (1, Side::Left)] {
-                if !bound.contains(&side) {
-                    let _ = writeln!(
-                        s,
-                        "    element {element} ({side}): no device bound; reported as never measured (lost 0xFFFFFFFE, reserve[1] = 1) at the open position, its commands ignored"
-                    );
-                }
-            }
+        let bound: Vec<Side> = f.bindings(lookup).into_iter().map(|(side, _)| side).collect();
+        for line in f.kind.factory().describe_unbound(f, &bound) {
+            let _ = writeln!(s, "    {line}");
         }
     }
     s

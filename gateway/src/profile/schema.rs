@@ -17,9 +17,6 @@ pub const MAX_DOMAIN_ID: u32 = 232;
 pub const MAX_STATUS_RATE_HZ: f64 = 10.0;
 /// Watchdog timeouts must lie in this range, ms.
 pub const WATCHDOG_MS_RANGE: (u32, u32) = (10, 10_000);
-/// A Dex1 front must publish state at least this fast: xr_teleoperate runs its gripper loop
-/// at 200 Hz (docs/sources.md §4).
-pub const DEX1_MIN_STATE_HZ: f64 = 200.0;
 
 /// A DDS domain id (0..=232).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -111,8 +108,6 @@ impl fmt::Display for DeviceName {
 
 pub use handgate_adapters::device::Backend;
 pub use handgate_adapters::dex1::adapter::Variant as Dex1Variant;
-use handgate_adapters::dex3::dds_client::topics as dex3_topics;
-pub use handgate_adapters::dex3::dds_client::StateSource;
 pub use handgate_adapters::kind::{DeviceCtx, KindConfigBox, Problem, MAX_RATE_HZ};
 pub use handgate_adapters::model::{DeviceKind, SafeAction, Side};
 
@@ -164,19 +159,8 @@ snake_enum!(
     } default Service
 );
 
-snake_enum!(
-    /// Which interface a front serves to clients.
-    FrontKind {
-        /// The Dex3-1 DDS interface (`rt/dex3/{side}/*`).
-        Dex3 => "dex3",
-        /// The Dex1-1 DDS interface (`rt/dex1/{side}/*` or `rt/unitree_actuator/*`).
-        Dex1 => "dex1",
-        /// handgate's own canonical messages (`rt/handgate/{device}/*`).
-        Canonical => "canonical",
-        /// ROS 2 sensor_msgs/JointState.
-        JointState => "joint_state",
-    } default Canonical
-);
+/// Which interface a front serves to clients: a handle into the front registry.
+pub use crate::fronts::FrontKind;
 
 /// The whole profile.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -538,9 +522,6 @@ impl DeviceConfig {
     }
 }
 
-/// A joint_state front's topic when `topic` is not set.
-pub const DEFAULT_JOINT_STATE_TOPIC: &str = "rt/joint_states";
-
 /// Per-joint limit overrides and the per-command step limit.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -674,7 +655,7 @@ impl Default for FrontConfig {
     /// A canonical front with no device (a profile must name one).
     fn default() -> Self {
         FrontConfig {
-            kind: FrontKind::Canonical,
+            kind: FrontKind::default(),
             name: None,
             device: None,
             devices: None,
@@ -712,14 +693,10 @@ impl FrontConfig {
         self.side.or(device.map(|d| d.side))
     }
 
-    /// The Dex1 variant (dex1 fronts; default `go`).
-    pub fn dex1_variant(&self) -> Dex1Variant {
-        self.variant.unwrap_or_default()
-    }
-
-    /// An `actuator` dex1 front (one topic pair, element 0 right, 1 left).
-    pub fn is_actuator(&self) -> bool {
-        self.kind == FrontKind::Dex1 && self.dex1_variant() == Dex1Variant::Actuator
+    /// A front whose messages carry several devices, bound by element (`devices`), like the
+    /// Dex1 `actuator` variant (one topic pair, element 0 right, 1 left).
+    pub fn by_element(&self) -> bool {
+        self.kind.factory().elements(self) > 1
     }
 
     /// The devices this front drives, with the side whose wire convention each is served in:
@@ -746,19 +723,11 @@ impl FrontConfig {
         if let Some(n) = &self.name {
             return n.clone();
         }
-        if let (Some(t), false) = (&self.cmd_topic, self.kind == FrontKind::JointState) {
+        if let (Some(t), true) = (&self.cmd_topic, self.kind.takes_commands()) {
             return t.0.clone();
         }
         let side = self.served_side(device).map_or("?", |s| s.as_str());
-        match self.kind {
-            FrontKind::Dex1 if self.is_actuator() => "dex1_actuator".into(),
-            FrontKind::Dex3 | FrontKind::Dex1 => format!("{}_{side}", self.kind.as_str()),
-            FrontKind::Canonical => format!("canonical_{}", self.device.as_ref().map_or("?", |d| d.as_str())),
-            FrontKind::JointState => match &self.topic {
-                Some(t) if t.as_str() != DEFAULT_JOINT_STATE_TOPIC => t.0.clone(),
-                _ => "joint_state".into(),
-            },
-        }
+        self.kind.factory().default_name(self, side)
     }
 
     /// Topics and rates with defaults applied. `device` is the bound device (`None` for a
@@ -768,66 +737,32 @@ impl FrontConfig {
         // Left/right: the standard topics are per side.
         let lr = self.served_side(device).filter(|s| *s != Side::Center);
         let dev_name = device.map(|d| d.name.as_str()).unwrap_or("all");
-        let (cmd, state, lf_state) = match self.kind {
-            FrontKind::Dex3 => {
-                let std = lr.map(|s| dex3_topics(s, StateSource::State));
-                (
-                    std.as_ref().map(|t| Topic(t.0.clone())),
-                    std.map(|t| Topic(t.1)),
-                    lr.map(|s| Topic(dex3_topics(s, StateSource::Lf).1)),
-                )
-            }
-            FrontKind::Dex1 => {
-                let variant = self.dex1_variant();
-                // The actuator variant's topics carry both sides.
-                let std = (variant == Dex1Variant::Actuator)
-                    .then_some(Side::Left)
-                    .or(lr)
-                    .map(|s| variant.topics(s));
-                (std.as_ref().map(|t| Topic(t.0.clone())), std.map(|t| Topic(t.1)), None)
-            }
-            FrontKind::Canonical => {
-                let (c, s) = crate::plan::canonical_topics(dev_name);
-                (Some(Topic(c)), Some(Topic(s)), None)
-            }
-            FrontKind::JointState => (
-                None,
-                Some(
-                    self.topic
-                        .clone()
-                        .unwrap_or_else(|| Topic::new(DEFAULT_JOINT_STATE_TOPIC)),
-                ),
-                None,
-            ),
-        };
+        let k = self.kind.factory();
+        let (cmd, state, lf_state) = k.default_topics(self, lr, dev_name);
         let device_hz = device.and_then(|d| match d.rate() {
             DeviceRate::Hz(r) => Some(r.0),
             DeviceRate::AsFastAsBus => None,
         });
-        let default_state_hz = match self.kind {
-            FrontKind::Dex3 => device_hz.map_or(500.0, |d| d.min(500.0)),
-            FrontKind::Dex1 => 500.0,
-            FrontKind::Canonical | FrontKind::JointState => device_hz.map_or(100.0, |d| d.min(100.0)),
-        };
-        let is_dex3 = self.kind == FrontKind::Dex3;
+        let default_state_hz = k.default_state_hz(device_hz);
+        let lf_hz = k.default_lf_state_hz();
         FrontTopics {
-            cmd: if self.kind == FrontKind::JointState {
-                None
-            } else {
+            cmd: if k.takes_commands() {
                 self.cmd_topic.clone().or(cmd)
-            },
-            state: if self.kind == FrontKind::JointState {
-                state
             } else {
-                self.state_topic.clone().or(state)
+                None
             },
-            lf_state: if is_dex3 {
+            state: if k.state_topic_key() == "state_topic" {
+                self.state_topic.clone().or(state)
+            } else {
+                state
+            },
+            lf_state: if lf_hz.is_some() {
                 self.lf_state_topic.clone().or(lf_state)
             } else {
                 None
             },
             state_hz: self.state_hz.unwrap_or(RateHz(default_state_hz)),
-            lf_state_hz: is_dex3.then(|| self.lf_state_hz.unwrap_or(RateHz(50.0))),
+            lf_state_hz: lf_hz.map(|d| self.lf_state_hz.unwrap_or(RateHz(d))),
         }
     }
 }

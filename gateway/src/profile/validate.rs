@@ -122,10 +122,13 @@ impl Checker {
             let k = root().key("fronts").index(i);
             let mut missing = false;
             if let Some(els) = &f.devices {
-                if !f.is_actuator() {
+                if !f.by_element() {
                     self.err(
                         k.key("devices"),
-                        "only an actuator dex1 front binds devices by element; use `device`",
+                        format!(
+                            "only {} binds devices by element; use `device`",
+                            FrontKind::binding_elements()
+                        ),
                     );
                 }
                 if f.device.is_some() {
@@ -170,7 +173,7 @@ impl Checker {
                     }
                 },
                 None => {
-                    if f.kind != FrontKind::JointState && f.devices.is_none() {
+                    if f.kind.takes_commands() && f.devices.is_none() {
                         self.err(
                             k.key("device"),
                             format!("{} front must name its device", a(f.kind.as_str())),
@@ -181,7 +184,7 @@ impl Checker {
             };
             let dangling = (f.device.is_some() && dev.is_none()) || missing;
             self.front(&k, f, dev, dangling);
-            if dev.is_none() && f.kind != FrontKind::JointState && (f.devices.is_none() || missing) {
+            if dev.is_none() && f.kind.takes_commands() && (f.devices.is_none() || missing) {
                 // Its topics depend on a device that is not there; already reported.
                 continue;
             }
@@ -212,11 +215,7 @@ impl Checker {
                 match cmd_topics.get(t) {
                     Some(&j) => {
                         cmd_clash = Some(j);
-                        let why = if f.is_actuator() && p.fronts[j].is_actuator() {
-                            ": one actuator front serves both grippers, `devices = { right = \"..\", left = \"..\" }`"
-                        } else {
-                            ""
-                        };
+                        let why = f.kind.factory().clash_hint(f, &p.fronts[j]);
                         self.err(
                             k.key("cmd_topic"),
                             format!("command topic `{t}` is already served by fronts[{j}]{why}"),
@@ -228,11 +227,7 @@ impl Checker {
                 }
             }
             // Two publishers of one state topic would interleave two views of the fleet.
-            let state_key = if f.kind == FrontKind::JointState {
-                "topic"
-            } else {
-                "state_topic"
-            };
+            let state_key = f.kind.factory().state_topic_key();
             for (key, t) in [(state_key, &topics.state), ("lf_state_topic", &topics.lf_state)] {
                 let Some(t) = t else { continue };
                 if t == &p.status.topic {
@@ -498,56 +493,47 @@ impl Checker {
                 this.err(k.key(name), format!("only {what}, this is {} front", a(kind.as_str())));
             }
         };
-        let dex = matches!(kind, FrontKind::Dex3 | FrontKind::Dex1);
-        only(self, "side", f.side.is_some(), dex, "dex3 and dex1 fronts serve a side");
-        only(
-            self,
-            "lf_state_topic",
-            f.lf_state_topic.is_some(),
-            kind == FrontKind::Dex3,
-            "dex3 fronts have a low-frequency state topic",
-        );
-        only(
-            self,
-            "lf_state_hz",
-            f.lf_state_hz.is_some(),
-            kind == FrontKind::Dex3,
-            "dex3 fronts have a low-frequency state topic",
-        );
-        only(
-            self,
-            "variant",
-            f.variant.is_some(),
-            kind == FrontKind::Dex1,
-            "dex1 fronts have wire variants",
-        );
-        only(
-            self,
-            "topic",
-            f.topic.is_some(),
-            kind == FrontKind::JointState,
-            "joint_state fronts take `topic`",
-        );
-        only(
-            self,
-            "urdf_names",
-            f.urdf_names.is_some(),
-            kind == FrontKind::JointState,
-            "joint_state fronts take `urdf_names`",
-        );
+        let takes = |key: &str| kind.factory().keys().contains(&key);
+        let what = |key: &str| match key {
+            "side" => format!("{} fronts serve a side", FrontKind::taking(key)),
+            "lf_state_topic" | "lf_state_hz" => {
+                format!("{} fronts have a low-frequency state topic", FrontKind::taking(key))
+            }
+            "variant" => format!("{} fronts have wire variants", FrontKind::taking(key)),
+            _ => format!("{} fronts take `{key}`", FrontKind::taking(key)),
+        };
+        for (key, present) in [
+            ("side", f.side.is_some()),
+            ("lf_state_topic", f.lf_state_topic.is_some()),
+            ("lf_state_hz", f.lf_state_hz.is_some()),
+            ("variant", f.variant.is_some()),
+            ("topic", f.topic.is_some()),
+            ("urdf_names", f.urdf_names.is_some()),
+        ] {
+            only(self, key, present, takes(key), &what(key));
+        }
         only(
             self,
             "cmd_topic",
             f.cmd_topic.is_some(),
-            kind != FrontKind::JointState,
+            kind.takes_commands(),
             "fronts that take commands have a command topic",
         );
+        let state_only: Vec<&str> = FrontKind::all()
+            .iter()
+            .filter(|k| k.factory().state_topic_key() != "state_topic")
+            .map(|k| k.as_str())
+            .collect();
         only(
             self,
             "state_topic",
             f.state_topic.is_some(),
-            kind != FrontKind::JointState,
-            "non-joint_state fronts take `state_topic` (joint_state: `topic`)",
+            kind.factory().state_topic_key() == "state_topic",
+            &format!(
+                "non-{} fronts take `state_topic` ({}: `topic`)",
+                state_only.join("/"),
+                state_only.join("/")
+            ),
         );
 
         for (name, t) in [
@@ -560,10 +546,13 @@ impl Checker {
                 self.topic(k.key(name), t);
             }
         }
-        if kind == FrontKind::JointState && f.silence != Silence::default() {
+        if !kind.takes_commands() && f.silence != Silence::default() {
             self.err(
                 k.key("silence"),
-                "a joint_state front takes no commands, so has no silence to handle",
+                format!(
+                    "{} front takes no commands, so has no silence to handle",
+                    a(kind.as_str())
+                ),
             );
         }
         if let Some(w) = f.watchdog_ms {
@@ -585,40 +574,12 @@ impl Checker {
         }
         if let Some(r) = f.state_hz {
             self.rate(k.key("state_hz"), r, MAX_RATE_HZ);
-            if kind == FrontKind::Dex1 && r.0.is_finite() && r.0 < DEX1_MIN_STATE_HZ {
-                self.err(
-                    k.key("state_hz"),
-                    format!("a dex1 front publishes state at {DEX1_MIN_STATE_HZ} Hz or faster (xr_teleoperate's loop rate), got {}", r.0),
-                );
-            }
         }
         if let Some(r) = f.lf_state_hz {
             self.rate(k.key("lf_state_hz"), r, MAX_RATE_HZ);
         }
-        if dangling {
-            return;
-        }
-        // A dex3/dex1 front needs a left/right side unless every topic is overridden.
-        if dex {
-            let side = f.served_side(dev);
-            let actuator = kind == FrontKind::Dex1 && f.dex1_variant() == Dex1Variant::Actuator;
-            let topics_given = f.cmd_topic.is_some()
-                && f.state_topic.is_some()
-                && (kind != FrontKind::Dex3 || f.lf_state_topic.is_some());
-            if side == Some(Side::Center) && (actuator || !topics_given) {
-                let why = if actuator {
-                    "the actuator variant addresses element 0 = right, 1 = left"
-                } else {
-                    "its topics are rt/.../{left,right}/...; set the topics explicitly to serve another"
-                };
-                self.err(
-                    k.key("side"),
-                    format!(
-                        "{} front serves side left or right ({why}); set `side` (the device's side is center)",
-                        a(kind.as_str())
-                    ),
-                );
-            }
+        for (key, msg) in kind.factory().validate(f, f.served_side(dev), dangling) {
+            self.err(k.key(key), msg);
         }
     }
 }

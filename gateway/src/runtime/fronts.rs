@@ -5,15 +5,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::{Node, Qos};
+use handgate_adapters::dds::Node;
 use handgate_adapters::model::{HandCommand, HandState, SafeAction};
-use handgate_idl::ros2;
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
 use super::{DeviceSlot, RuntimeError};
 use crate::fronts;
-use crate::plan::{FrontKind, FrontPlan, SilencePlan};
+use crate::plan::{FrontPlan, SilencePlan};
 use crate::router;
 use crate::ticker::Ticker;
 
@@ -39,15 +38,15 @@ impl RateLimitedLog {
 /// Identifies the front that sent a device its last command (see [`super::FrontCounters::last_front`]).
 static NEXT_FRONT_ID: AtomicU64 = AtomicU64::new(1);
 
-fn spawn_joint_state(
-    node: &Node,
+/// A front that publishes state only: its writer over its devices, at its rate.
+fn spawn_state_only(
+    mut out: Box<dyn fronts::StateIo>,
     f: &FrontPlan,
-    names: &[String],
-    urdf: bool,
     devices: &HashMap<String, Arc<DeviceSlot>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
-    let slots: Vec<Arc<DeviceSlot>> = names
+    let slots: Vec<Arc<DeviceSlot>> = f
+        .devices
         .iter()
         .map(|n| {
             devices
@@ -56,18 +55,18 @@ fn spawn_joint_state(
                 .ok_or_else(|| RuntimeError::UnknownDevice(n.clone()))
         })
         .collect::<Result<_, _>>()?;
-    let mut writer = node.writer::<ros2::JointState_>(&f.state_topic, Qos::BestEffort)?;
     let mut tick = Ticker::hz(f.state_hz);
     Ok(tokio::spawn(async move {
         loop {
             tokio::select! {
                 _ = tick.tick() => {
-                    let mut msg = fronts::joint_state::header(std::time::SystemTime::now(), "");
-                    for s in &slots {
-                        let st = s.device.state().borrow().clone();
-                        fronts::joint_state::append(&mut msg, &s.table, &st, urdf, &format!("{}/", s.plan.name));
-                    }
-                    let _ = writer.write(msg);
+                    let states: Vec<_> = slots.iter().map(|s| s.device.state().borrow().clone()).collect();
+                    let published: Vec<fronts::Published<'_>> = slots
+                        .iter()
+                        .zip(states)
+                        .map(|(s, state)| fronts::Published { device: &s.plan.name, table: &s.table, state })
+                        .collect();
+                    out.publish(&published);
                 }
                 _ = shutdown.changed() => break,
             }
@@ -115,15 +114,9 @@ pub(super) fn spawn_front(
     let (tx, mut rx) = mpsc::channel::<fronts::Message>(64);
     let dropped = Arc::new(AtomicU64::new(0));
     // The front kind's endpoints (readers and writers).
-    let Some(mut out) = fronts::open(node, f, tx, dropped.clone())? else {
-        let FrontKind::JointState {
-            devices: names,
-            urdf_names,
-        } = &f.kind
-        else {
-            unreachable!("only joint_state fronts take no commands");
-        };
-        return spawn_joint_state(node, f, names, *urdf_names, devices, shutdown);
+    let mut out = match fronts::open(node, f, tx, dropped.clone())? {
+        fronts::Endpoints::Commands(out) => out,
+        fronts::Endpoints::StateOnly(out) => return spawn_state_only(out, f, devices, shutdown),
     };
     let mut bound = Vec::new();
     for b in &f.bindings {

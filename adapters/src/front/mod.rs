@@ -1,0 +1,71 @@
+//! The fronts' wire codecs that belong to no device kind (handgate's own `canonical` messages,
+//! ROS 2 `joint_state`) and what every front codec shares: the rejection reasons and the
+//! decoded command. The Dex3 and Dex1 service fronts' codecs live in their kind folders
+//! (`dex3::front`, `dex1::front`). Pure functions (wire message ⇄ canonical, validated by the
+//! rules in docs/fronts.md); the gateway's front registry (`handgate_gateway::fronts`) opens
+//! their endpoints and runs them.
+//!
+//! Bad input rule, for every front: a message with the wrong entry count, a non-finite value,
+//! an unknown mode/status, a wrong motor id or an unknown joint name is **rejected whole**
+//! (nothing moves, it is counted by reason and logged at most once per second per front);
+//! finite values outside a joint's limits are **clamped** by the device's table (counted).
+
+pub mod canonical;
+pub mod joint_state;
+
+use crate::mapping::WireTarget;
+use crate::model::JointCommand;
+
+/// Why a front rejected a message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Rejection {
+    #[error("expected {want} entries, got {got}")]
+    WrongCount { got: usize, want: usize },
+    #[error("non-finite value in entry {0}")]
+    NonFinite(usize),
+    #[error("entry {index} carries motor id {id}")]
+    WrongId { index: usize, id: u8 },
+    #[error("entry {index} has unknown motor status {status}")]
+    UnknownStatus { index: usize, status: u8 },
+    #[error("unknown command mode {0}")]
+    UnknownMode(u8),
+    #[error("unknown joint {0:?}")]
+    UnknownJoint(String),
+    #[error("closure {0} is not finite")]
+    BadClosure(f32),
+}
+
+impl Rejection {
+    /// A short stable reason key for counters and logs.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            Rejection::WrongCount { .. } => "wrong_count",
+            Rejection::NonFinite(_) => "non_finite",
+            Rejection::WrongId { .. } => "wrong_id",
+            Rejection::UnknownStatus { .. } => "unknown_status",
+            Rejection::UnknownMode(_) => "unknown_mode",
+            Rejection::UnknownJoint(_) => "unknown_joint",
+            Rejection::BadClosure(_) => "bad_closure",
+        }
+    }
+}
+
+/// A decoded front command, in the front table's canonical order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrontCommand {
+    pub joints: Vec<Option<JointCommand>>,
+    /// The client asked for the motors' 1 s timeout protection (Dex3 RIS bit 7).
+    pub timeout_bit: bool,
+    /// Client tag echoed back in state (HandCmd_.reserve[0]).
+    pub tag: u32,
+}
+
+/// Entry `index`'s five command fields as a wire target, refused whole when any of them is
+/// not finite.
+pub fn checked_target(index: usize, [q, dq, tau, kp, kd]: [f32; 5]) -> Result<WireTarget, Rejection> {
+    if [q, dq, tau, kp, kd].iter().all(|x| x.is_finite()) {
+        Ok(WireTarget { q, dq, tau, kp, kd })
+    } else {
+        Err(Rejection::NonFinite(index))
+    }
+}
