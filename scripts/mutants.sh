@@ -5,11 +5,14 @@
 #   scripts/mutants.sh adapters     the mapping, command slot and tables: adapters/src/mapping.rs,
 #                                   control.rs, tables.rs, */table.rs; each mutant runs only the
 #                                   fast table tests (adapters/tests/mapping.rs, safety.rs)
-#   scripts/mutants.sh gateway      the front decoders (gateway/src/fronts/*.rs) and the runtime
-#                                   (watchdog: gateway/src/runtime/fronts.rs); each mutant runs the
-#                                   gateway's unit tests and the end-to-end safety tests against
-#                                   the mutated binary (slow: about a minute per mutant)
-#   scripts/mutants.sh all          both
+#   scripts/mutants.sh fronts       the front wire codecs (adapters/src/dex3/front.rs,
+#                                   dex1/front.rs, front/*.rs); each mutant runs the front codec
+#                                   tests (gateway/tests/front_codecs.rs): seconds per mutant
+#   scripts/mutants.sh gateway      the runtime's front tasks (watchdog and silence:
+#                                   gateway/src/runtime/fronts.rs); each mutant runs the gateway's
+#                                   unit tests and the end-to-end safety tests against the mutated
+#                                   binary (slow: about a minute per mutant)
+#   scripts/mutants.sh all          all three
 #   scripts/mutants.sh summary DIR  caught / missed / unviable / timeout per file of a finished run
 #
 # Each run works on a copy of the tree (cargo-mutants' default; the copy includes target/ so
@@ -76,9 +79,25 @@ gateway() {
   set +e
   cargo mutants -j 1 --copy-target=true --no-shuffle -o "$dir" --timeout 300 --build-timeout 900 \
     -p handgate \
-    -f 'gateway/src/fronts/*.rs' -f gateway/src/runtime/fronts.rs \
+    -f gateway/src/runtime/fronts.rs \
     --test-package handgate --test-package handgate-tests \
-    "${extra[@]}" -- --lib --test front_codecs --test safety_e2e
+    "${extra[@]}" -- --lib --test safety_e2e
+  local rc=$?
+  set -e
+  summary "$dir" || true
+  return $rc
+}
+
+fronts() {
+  install
+  local dir=target/mutants/fronts
+  mkdir -p "$dir"
+  set +e
+  cargo mutants -j 1 --copy-target=true --no-shuffle -o "$dir" --timeout 120 --build-timeout 600 \
+    -p handgate-adapters \
+    -f adapters/src/dex3/front.rs -f adapters/src/dex1/front.rs -f 'adapters/src/front/*.rs' \
+    --test-package handgate \
+    "${extra[@]}" -- --test front_codecs
   local rc=$?
   set -e
   summary "$dir" || true
@@ -88,8 +107,9 @@ gateway() {
 case "${1:-}" in
   install) install ;;
   adapters) adapters ;;
+  fronts) fronts ;;
   gateway) gateway ;;
-  all) rc=0; adapters || rc=$?; gateway || rc=$?; exit $rc ;;
+  all) rc=0; adapters || rc=$?; fronts || rc=$?; gateway || rc=$?; exit $rc ;;
   summary) [ $# -ge 2 ] || { echo "usage: $0 summary DIR" >&2; exit 2; }; summary "$2" ;;
-  *) sed -n '2,21p' "$0"; exit 2 ;;
+  *) sed -n '2,24p' "$0"; exit 2 ;;
 esac

@@ -23,7 +23,6 @@ use handgate_adapters::dex3::{Dex3Measurement, Joint};
 use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::{DeviceKind, JointState, SafeAction, Side};
 use handgate_adapters::mapping::TableOverrides;
-use handgate_gateway::fronts;
 use handgate_gateway::router;
 use handgate_idl::{from_cdr, handgate as hg, ros2, to_cdr_be, to_cdr_le, unitree_go, unitree_hg};
 use serde::{de::DeserializeOwned, Serialize};
@@ -300,7 +299,7 @@ pub fn front_decode(data: &[u8]) {
         2..=6 => (DeviceKind::Dex1, TableOverrides::default()),
         _ => {
             let Ok(m) = from_cdr::<hg::HandCmd_>(body) else { return };
-            if let Ok(b) = fronts::canonical::decode_cmd(&m, &dtable, SafeAction::Hold) {
+            if let Ok(b) = handgate_adapters::front::canonical::decode_cmd(&m, &dtable, SafeAction::Hold) {
                 check_targets(&dtable, &b);
             }
             return;
@@ -313,16 +312,16 @@ pub fn front_decode(data: &[u8]) {
     let decoded = match front {
         0 | 1 => from_cdr::<unitree_hg::HandCmd_>(body)
             .ok()
-            .map(|m| fronts::dex3::decode_cmd(&m, &ftable, &measured)),
+            .map(|m| handgate_adapters::dex3::front::decode_cmd(&m, &ftable, &measured)),
         2 | 3 => from_cdr::<unitree_go::MotorCmds_>(body)
             .ok()
-            .map(|m| fronts::dex1::decode_go(&m, Variant::Go, side, &ftable)),
+            .map(|m| handgate_adapters::dex1::front::decode_go(&m, Variant::Go, side, &ftable)),
         4 | 5 => from_cdr::<unitree_go::MotorCmds_>(body)
             .ok()
-            .map(|m| fronts::dex1::decode_go(&m, Variant::Actuator, side, &ftable)),
+            .map(|m| handgate_adapters::dex1::front::decode_go(&m, Variant::Actuator, side, &ftable)),
         _ => from_cdr::<unitree_hg::HandCmd_>(body)
             .ok()
-            .map(|m| fronts::dex1::decode_hg(&m, &ftable)),
+            .map(|m| handgate_adapters::dex1::front::decode_hg(&m, &ftable)),
     };
     if let Some(Ok(c)) = decoded {
         let body = router::route_command(&ftable, &dtable, &c.joints);
