@@ -6,8 +6,9 @@
 #                                   control.rs, tables.rs, */table.rs; each mutant runs only the
 #                                   fast table tests (adapters/tests/mapping.rs, safety.rs)
 #   scripts/mutants.sh fronts       the front wire codecs (adapters/src/dex3/front.rs,
-#                                   dex1/front.rs, front/*.rs); each mutant runs the front codec
-#                                   tests (gateway/tests/front_codecs.rs): seconds per mutant
+#                                   dex1/front.rs, front/*.rs); each mutant runs the adapters'
+#                                   unit tests and the front codec tests
+#                                   (adapters/tests/front_codecs.rs): seconds per mutant
 #   scripts/mutants.sh gateway      the runtime's front tasks (watchdog and silence:
 #                                   gateway/src/runtime/fronts.rs); each mutant runs the gateway's
 #                                   unit tests and the end-to-end safety tests against the mutated
@@ -96,8 +97,8 @@ fronts() {
   cargo mutants -j 1 --copy-target=true --no-shuffle -o "$dir" --timeout 120 --build-timeout 600 \
     -p handgate-adapters \
     -f adapters/src/dex3/front.rs -f adapters/src/dex1/front.rs -f 'adapters/src/front/*.rs' \
-    --test-package handgate \
-    "${extra[@]}" -- --test front_codecs
+    --test-package handgate-adapters \
+    "${extra[@]}" -- --lib --test front_codecs
   local rc=$?
   set -e
   summary "$dir" || true
