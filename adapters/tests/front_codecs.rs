@@ -472,3 +472,20 @@ fn joint_state_header_is_stamped_with_the_given_time_and_frame() {
     let m = joint_state::header(wall, "");
     assert!((i64::from(m.header.stamp.sec) - secs).abs() <= 1);
 }
+
+/// The canonical front's topics, written out from docs/fronts.md's table:
+/// `rt/handgate/{device}/cmd` and `rt/handgate/{device}/state`.
+#[test]
+fn canonical_topics_are_the_documented_ones() {
+    assert_eq!(
+        canonical::topics("dex3_left"),
+        (
+            "rt/handgate/dex3_left/cmd".to_string(),
+            "rt/handgate/dex3_left/state".to_string()
+        )
+    );
+    assert_eq!(
+        canonical::topics("grip"),
+        ("rt/handgate/grip/cmd".to_string(), "rt/handgate/grip/state".to_string())
+    );
+}
