@@ -376,6 +376,14 @@ pub trait KindConfig: Any + fmt::Debug + Send + Sync {
         None
     }
 
+    /// For a command topic that carries several devices in one message (the Dex1 `actuator`
+    /// variant, Inspire DFX's 12 entries for both hands): the element this device writes.
+    /// Two devices on one command topic are refused unless both name an element and the
+    /// elements differ. `None`: the device owns the whole message.
+    fn dds_command_element(&self, _ctx: &DeviceCtx<'_>) -> Option<usize> {
+        None
+    }
+
     /// What `handgate check` adds after the device's rate and watchdog (starting with `, `
     /// or ` `), empty when nothing.
     fn describe(&self, _ctx: &DeviceCtx<'_>) -> String {

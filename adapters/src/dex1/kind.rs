@@ -178,6 +178,12 @@ impl KindConfig for Dex1Profile {
         Some(dds_topics(self, ctx.side))
     }
 
+    /// The actuator variant's message carries both grippers: element 0 right, 1 left.
+    fn dds_command_element(&self, ctx: &DeviceCtx<'_>) -> Option<usize> {
+        (self.variant() == Variant::Actuator && ctx.side != Side::Center)
+            .then(|| super::adapter::actuator_index(ctx.side))
+    }
+
     fn describe(&self, ctx: &DeviceCtx<'_>) -> String {
         if ctx.backend == Backend::Dds {
             format!(" ({})", self.variant())

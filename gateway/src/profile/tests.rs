@@ -672,6 +672,27 @@ fn one_actuator_front_binds_both_grippers_by_element() {
 }
 
 #[test]
+fn devices_sharing_one_command_message_by_element_are_accepted_same_element_refused() {
+    // The Dex1 actuator variant carries both grippers in one message (0 right, 1 left): a
+    // left and a right device share `rt/unitree_actuator/cmd`, each writing its element.
+    let dev = |name: &str, side: &str| {
+        format!("[[devices]]\nname = \"{name}\"\nkind = \"dex1\"\nside = \"{side}\"\nbackend = \"dds\"\n[devices.dds]\nvariant = \"actuator\"\n")
+    };
+    let (_, r) = load_text(&format!("{}{}", dev("l", "left"), dev("r", "right")));
+    r.unwrap();
+    // Two on the same element would fight over it.
+    let (path, r) = load_text(&format!("{}{}", dev("l", "left"), dev("l2", "left")));
+    let lines = r.unwrap_err().lines();
+    assert_eq!(
+        lines,
+        [format!(
+            "{}: devices[1].dds: devices[0] also sends commands on `rt/unitree_actuator/cmd`: two devices would fight over one",
+            path.display()
+        )]
+    );
+}
+
+#[test]
 fn two_fronts_publishing_one_state_topic_are_refused() {
     let (path, r) = load_text(
         "[[devices]]\nname = \"a\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"a\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"a\"\ncmd_topic = \"rt/other/cmd\"\n",

@@ -454,15 +454,23 @@ impl Checker {
     /// Checks across devices: two devices commanding one DDS topic, and each kind's rules
     /// across its devices (shared buses, USB serials).
     fn fleet(&mut self, p: &Profile) {
-        let mut dds_cmd: HashMap<Topic, usize> = HashMap::new();
+        // Devices on one command topic: allowed only when each writes its own element of a
+        // message carrying several (`KindConfig::dds_command_element`).
+        let mut dds_cmd: HashMap<Topic, Vec<(usize, Option<usize>)>> = HashMap::new();
         for (i, d) in p.devices.iter().enumerate() {
             if let Some((Some(cmd), _)) = d.dds_topics() {
-                if let Some(j) = dds_cmd.insert(cmd.clone(), i) {
+                let element = d.config.dds_command_element(&d.ctx());
+                let others = dds_cmd.entry(cmd.clone()).or_default();
+                if let Some((j, _)) = others
+                    .iter()
+                    .find(|(_, e)| e.is_none() || element.is_none() || *e == element)
+                {
                     self.err(
                         root().key("devices").index(i).key("dds"),
                         format!("devices[{j}] also sends commands on `{cmd}`: two devices would fight over one"),
                     );
                 }
+                others.push((i, element));
             }
         }
         for kind in DeviceKind::all() {
