@@ -81,7 +81,7 @@ gateway() {
   cargo mutants -j 1 --copy-target=true --no-shuffle -o "$dir" --timeout 300 --build-timeout 900 \
     -p handgate \
     -f gateway/src/runtime/fronts.rs \
-    --test-package handgate --test-package handgate-tests \
+    --test-package handgate,handgate-tests \
     "${extra[@]}" -- --lib --test safety_e2e
   local rc=$?
   set -e

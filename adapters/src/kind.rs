@@ -203,6 +203,13 @@ pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
     /// The backends a device of this kind can use.
     fn backends(&self) -> &'static [Backend];
 
+    /// The fronts serving this kind's own interface (its service's topics, so an unmodified
+    /// client of this hand can drive any device): registered with the kind
+    /// ([`crate::fronts::all`]).
+    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
+        &[]
+    }
+
     /// `Err(message)` when a device of this kind cannot have `side`.
     fn check_side(&self, _side: Side) -> Result<(), String> {
         Ok(())

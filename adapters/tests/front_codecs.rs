@@ -2,7 +2,7 @@
 //! ("Bad input", "Dex3 front specifics", "Dex1 front specifics"), idl/handgate.idl and
 //! docs/wire-types.md promise a client sees. Expected values are written out from those docs
 //! (and docs/model.md's tables), never computed by the code under test. Written for the
-//! mutation run on `gateway/src/fronts/*.rs` (docs/reliability.md, section 5): each test
+//! mutation run on the fronts when they lived in `gateway/src/fronts/*.rs` (docs/reliability.md, section 5): each test
 //! names the promise it checks.
 
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};

@@ -23,7 +23,7 @@ use handgate_adapters::dex3::{Dex3Measurement, Joint};
 use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::model::{DeviceKind, JointState, SafeAction, Side};
 use handgate_adapters::mapping::TableOverrides;
-use handgate_gateway::router;
+use handgate_adapters::route as router;
 use handgate_idl::{from_cdr, handgate as hg, ros2, to_cdr_be, to_cdr_le, unitree_go, unitree_hg};
 use serde::{de::DeserializeOwned, Serialize};
 

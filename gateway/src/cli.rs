@@ -53,10 +53,10 @@ pub enum Command {
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
     },
-    /// List the devices attached to this machine that a kind can enumerate (Dex3-1 hands on
-    /// USB, with permission problems explained).
+    /// List the devices attached to this machine that a kind can enumerate (hands on USB,
+    /// with permission problems explained).
     List,
-    /// Report the wiring a device answers from (a Dex3-1 over USB: which (bus, id) each motor
+    /// Report the wiring a device answers from (for a hand on USB: which (bus, id) each motor
     /// and sensor answers on), as a profile snippet to paste. Opens only that device, through
     /// its kind; sends zero-gain frames only: nothing moves.
     Discover {
@@ -68,7 +68,7 @@ pub enum Command {
         #[command(flatten)]
         overrides: OverrideArgs,
     },
-    /// Run a device's calibration (an EZGripper closes to its stop to find zero: it moves)
+    /// Run a device's calibration (a gripper may close to its stop to find zero: it moves)
     /// and print what to put in the profile. Opens only that device, through its kind.
     Calibrate {
         /// Device name in the profile.
@@ -80,13 +80,14 @@ pub enum Command {
         overrides: OverrideArgs,
     },
     /// Run a kind's emulator as a standalone process: what stands where the hardware or the
-    /// robot's service would (`handgate emulate dex3 --side left --socket PATH`, `dex3
-    /// --service`, `dex1 --variant go|hg|actuator`, `hand_sdk`, `ezgripper --ids 1,2`), so a
-    /// profile written for a robot runs against it on any domain.
+    /// robot's service would (each kind takes the options below it needs and refuses the
+    /// others; docs/adapters.md lists them per kind), so a profile written for a robot runs
+    /// against it on any domain.
     Emulate(EmulateCmd),
-    /// Send one canonical command to a named device (bring-up).
+    /// Send one command in the canonical model to a named device (bring-up), on handgate's
+    /// own interface `rt/handgate/{device}/cmd`.
     Send {
-        /// Device name from the profile (e.g. dex3_left).
+        /// Device name from the profile (e.g. left_hand).
         device: String,
         #[command(flatten)]
         dds: DdsArgs,
@@ -118,26 +119,26 @@ pub enum Command {
 /// `handgate emulate <kind>`.
 #[derive(Debug, Clone, Args)]
 pub struct EmulateCmd {
-    /// A device kind (`handgate check` lists them in profiles: dex3, dex1, ezgripper, hand_sdk).
+    /// A registered device kind (an unknown one lists them).
     pub kind: String,
     /// left or right (the emulated hand or gripper).
     #[arg(long)]
     pub side: Option<handgate_adapters::model::Side>,
-    /// dex3: the hand's MCU behind this Unix socket, speaking the USB frame protocol (point a
+    /// Hardware behind a Unix socket, speaking the kind's USB frame protocol (point a
     /// device at it with `backend = "usb"` and `usb.socket = PATH`; kill and restart it to
     /// emulate an unplug).
     #[arg(long)]
     pub socket: Option<PathBuf>,
-    /// dex3: the G1's resident hand service on DDS instead of the MCU.
+    /// The robot's resident hand service on DDS instead of the hardware.
     #[arg(long)]
     pub service: bool,
-    /// dex1: the wire variant (go, hg, actuator).
+    /// The service's wire variant, for kinds with several.
     #[arg(long)]
     pub variant: Option<String>,
-    /// ezgripper: servo ids on the emulated bus (default: the side's).
+    /// Servo ids on an emulated bus (default: the side's).
     #[arg(long, value_delimiter = ',')]
     pub ids: Vec<u8>,
-    /// ezgripper: where to link the bus's pseudo-terminal (default: a temporary path).
+    /// Where to link an emulated bus's pseudo-terminal (default: a temporary path).
     #[arg(long)]
     pub pty: Option<PathBuf>,
     /// DDS domain of a service emulator.

@@ -1,11 +1,9 @@
 //! handgate gateway: router, fronts, profiles, runtime and CLI.
 
 pub mod cli;
-pub mod fronts;
 pub mod plan;
 pub mod profile;
 pub mod resolve;
-pub mod router;
 pub mod runtime;
 pub mod ticker;
 pub mod tools;

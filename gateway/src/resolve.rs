@@ -7,7 +7,7 @@ use std::time::Duration;
 use handgate_adapters::mapping::{ClosureMap, Limits, MappingError, TableOverrides};
 
 use crate::plan::{Binding, DevicePlan, FrontPlan, Plan, SilencePlan};
-use crate::profile::{DeviceConfig, DeviceRate, FrontConfig, Profile, Radians, Topic};
+use crate::profile::{DeviceConfig, DeviceRate, FrontConfig, FrontConfigExt, Profile, Radians, Topic};
 
 /// Why a profile could not become a plan (after validation these indicate a gap between the
 /// validator and the runtime; they are reported like validation errors).
@@ -111,8 +111,8 @@ pub fn silence_plan(f: &FrontConfig, d: &DeviceConfig) -> SilencePlan {
 
 /// The table of the wire convention front `f` speaks to device `d` on `side`: the served
 /// kind's table (with the device's own configuration when the device is of that kind, so a
-/// Dex1 front on a Dex1 with another open range pairs joint for joint); `None` for fronts
-/// that speak the device's own table (canonical, joint_state).
+/// front on a device of its own kind pairs joint for joint whatever the device's profile
+/// keys); `None` for fronts that speak the device's own table (`FrontFactory::speaks`).
 fn front_table(
     f: &FrontConfig,
     side: handgate_adapters::model::Side,

@@ -1,5 +1,5 @@
 //! Bring-up tools behind the CLI: `handgate status` (a live table from the gateway's status
-//! topic) and `handgate send` (one canonical command to a named device).
+//! topic) and `handgate send` (one command in the canonical model to a named device).
 
 use std::fmt::Write as _;
 use std::time::Duration;
@@ -68,11 +68,11 @@ pub fn status_once(node: &Node, topic: &str, timeout: Duration) -> Result<hg::Ga
     Ok(v.pop().expect("wait_take returns at least one sample"))
 }
 
-/// Publishes a canonical command to `rt/handgate/{device}/cmd` after the gateway's reader has
+/// Publishes a command to handgate's own interface `rt/handgate/{device}/cmd` after the gateway's reader has
 /// matched, repeating it at 50 Hz for `hold` (the front's watchdog holds the device once the
 /// stream stops). Returns how many samples were written.
 pub fn send(node: &Node, device: &str, cmd: hg::HandCmd_, timeout: Duration, hold: Duration) -> Result<u64, DdsError> {
-    let (topic, _) = crate::fronts::canonical::topics(device);
+    let (topic, _) = handgate_adapters::fronts::own_topics(device);
     let mut w = node.writer::<hg::HandCmd_>(&topic, Qos::Reliable { depth: 1 })?;
     w.wait_matched(1, timeout)?;
     let start = std::time::Instant::now();

@@ -70,6 +70,10 @@ impl KindFactory for Dex1Factory {
         &GRIPPER_JOINTS
     }
 
+    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
+        &[crate::front::kind::FrontKind::Dex1]
+    }
+
     fn backends(&self) -> &'static [Backend] {
         &[Backend::Dds, Backend::Emulator]
     }

@@ -5,6 +5,7 @@ pub mod emulator;
 pub mod front;
 pub mod kind;
 pub mod open;
+pub mod serve;
 pub mod table;
 
 /// dex1_1_service brakes (holds the measured position) this long after the last command

@@ -123,6 +123,10 @@ impl KindFactory for Dex3Factory {
         &JOINTS
     }
 
+    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
+        &[crate::front::kind::FrontKind::Dex3]
+    }
+
     fn backends(&self) -> &'static [Backend] {
         &[Backend::Usb, Backend::Dds, Backend::Emulator]
     }

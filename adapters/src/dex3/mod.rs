@@ -9,6 +9,7 @@ pub mod front;
 pub mod kind;
 pub mod open;
 pub mod physical;
+pub mod serve;
 pub mod table;
 pub mod usb;
 

@@ -11,7 +11,13 @@
 //! finite values outside a joint's limits are **clamped** by the device's table (counted).
 
 pub mod canonical;
+pub mod canonical_serve;
+pub mod config;
 pub mod joint_state;
+pub mod joint_state_serve;
+pub mod kind;
+pub mod plan;
+pub mod serve;
 
 use crate::mapping::WireTarget;
 use crate::model::JointCommand;

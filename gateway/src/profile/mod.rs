@@ -35,17 +35,9 @@ pub use render::render_fleet;
 pub use schema::*;
 pub use validate::{validate, Problem};
 
-/// Profiles compiled into the binary: (name, TOML text). `default` is the base when no
-/// profile is named.
-pub const SHIPPED: &[(&str, &str)] = &[
-    ("default", include_str!("../../../profiles/default.toml")),
-    ("dex3-usb-lab", include_str!("../../../profiles/dex3-usb-lab.toml")),
-    ("ezgripper-sim", include_str!("../../../profiles/ezgripper-sim.toml")),
-    ("g1-dex3", include_str!("../../../profiles/g1-dex3.toml")),
-    ("g1-ezgripper", include_str!("../../../profiles/g1-ezgripper.toml")),
-    ("g1-hand-sdk", include_str!("../../../profiles/g1-hand-sdk.toml")),
-    ("mixed-lab", include_str!("../../../profiles/mixed-lab.toml")),
-];
+/// Profiles compiled into the binary: (name, TOML text), every file of `profiles/` in name
+/// order (listed by `gateway/build.rs`). `default` is the base when no profile is named.
+pub const SHIPPED: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/shipped_profiles.rs"));
 
 /// Environment variable naming an extra directory searched for `NAME.toml` first.
 pub const PROFILE_DIR_ENV: &str = "HANDGATE_PROFILE_DIR";

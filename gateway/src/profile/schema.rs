@@ -7,7 +7,6 @@
 
 use std::collections::BTreeMap;
 use std::fmt;
-use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
@@ -23,91 +22,9 @@ pub const WATCHDOG_MS_RANGE: (u32, u32) = (10, 10_000);
 #[serde(transparent)]
 pub struct DomainId(pub u32);
 
-/// A rate in Hz.
-#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize)]
-#[serde(transparent)]
-pub struct RateHz(pub f64);
-
-impl RateHz {
-    /// The period of one cycle (`None` for a non-positive or non-finite rate).
-    pub fn period(self) -> Option<Duration> {
-        (self.0.is_finite() && self.0 > 0.0).then(|| Duration::from_secs_f64(1.0 / self.0))
-    }
-}
-
-impl fmt::Display for RateHz {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} Hz", self.0)
-    }
-}
-
-/// A duration in milliseconds.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(transparent)]
-pub struct Millis(pub u32);
-
-impl Millis {
-    pub fn as_duration(self) -> Duration {
-        Duration::from_millis(u64::from(self.0))
-    }
-}
-
-impl fmt::Display for Millis {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} ms", self.0)
-    }
-}
-
-/// An angle in radians.
-#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize)]
-#[serde(transparent)]
-pub struct Radians(pub f64);
-
-impl fmt::Display for Radians {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} rad", self.0)
-    }
-}
-
-/// A DDS topic name, e.g. `rt/dex3/left/cmd`.
-#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(transparent)]
-pub struct Topic(pub String);
-
-impl Topic {
-    pub fn new(s: impl Into<String>) -> Self {
-        Topic(s.into())
-    }
-    pub fn as_str(&self) -> &str {
-        &self.0
-    }
-}
-
-impl fmt::Display for Topic {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-/// A device's name in the profile (`[a-z0-9_-]+`, unique in the fleet).
-#[derive(Debug, Clone, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(transparent)]
-pub struct DeviceName(pub String);
-
-impl DeviceName {
-    pub fn as_str(&self) -> &str {
-        &self.0
-    }
-}
-
-impl fmt::Display for DeviceName {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
+pub use handgate_adapters::units::{DeviceName, Millis, Radians, RateHz, Topic};
 
 pub use handgate_adapters::device::Backend;
-pub use handgate_adapters::dex1::adapter::Variant as Dex1Variant;
 pub use handgate_adapters::kind::{DeviceCtx, KindConfigBox, Problem, MAX_RATE_HZ};
 pub use handgate_adapters::model::{DeviceKind, SafeAction, Side};
 
@@ -146,21 +63,10 @@ snake_enum!(
     LogFormat { Human => "human", Json => "json" } default Human
 );
 
-snake_enum!(
-    /// What a front does when its client goes silent (docs/fronts.md, "Silence").
-    Silence {
-        /// What the served interface's real service does: the Dex3 service keeps the last
-        /// target (the motors stop 1 s after the last command only when it set the RIS
-        /// timeout bit), dex1_1_service brakes (holds the measured position) after 1 s, and
-        /// handgate's canonical interface is the strict watchdog below.
-        Service => "service",
-        /// After the bound device's `watchdog.timeout_ms`, its `watchdog.safe_action`.
-        Watchdog => "watchdog",
-    } default Service
-);
+pub use handgate_adapters::front::config::Silence;
 
 /// Which interface a front serves to clients: a handle into the front registry.
-pub use crate::fronts::FrontKind;
+pub use handgate_adapters::front::kind::FrontKind;
 
 /// The whole profile.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -265,7 +171,7 @@ impl Default for StatusConfig {
 pub enum DeviceRate {
     /// A fixed loop rate.
     Hz(RateHz),
-    /// As fast as the bus answers (EZGripper on a serial Dynamixel bus).
+    /// As fast as the bus answers (a kind with no default rate: `KindFactory::default_rate_hz`).
     AsFastAsBus,
 }
 
@@ -344,7 +250,7 @@ impl Default for DeviceConfig {
     }
 }
 
-/// `"a dex3 or dex1"`: `kinds` named with one article.
+/// `"a K1 or K2"`: `kinds` named with one article.
 fn kinds_phrase(kinds: &[DeviceKind]) -> String {
     let names: Vec<&str> = kinds.iter().map(|k| k.as_str()).collect();
     handgate_adapters::kind::a(&names.join(" or "))
@@ -564,14 +470,17 @@ impl Default for WatchdogConfig {
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ClosureConfig {
-    /// Dex3: joint -> rad at closure 0 (omitted joints: 0 rad).
+    /// Kinds whose postures are configurable (`KindFactory::closure_postures_configurable`):
+    /// joint -> rad at closure 0 (omitted joints: 0 rad).
     pub open: BTreeMap<String, Radians>,
-    /// Dex3: joint -> rad at closure 1 (omitted joints: the Dex3 table's default posture, `hardware::dex3_closed_default`).
+    /// The same kinds: joint -> rad at closure 1 (omitted joints: the kind table's default
+    /// closed posture).
     pub closed: BTreeMap<String, Radians>,
-    /// hand_sdk: feed-forward torque at closure 0 (negative opens), N*m.
+    /// Kinds whose closure is a torque (`closure_is_torque`): feed-forward torque at closure
+    /// 0 (negative opens), N*m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tau_open: Option<f64>,
-    /// hand_sdk: feed-forward torque at closure 1 (positive closes), N*m.
+    /// The same kinds: feed-forward torque at closure 1 (positive closes), N*m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tau_closed: Option<f64>,
 }
@@ -579,133 +488,34 @@ pub struct ClosureConfig {
 /// Options for an emulated device (`[devices.emulator]`, every kind): the adapters' section.
 pub use handgate_adapters::open::EmulatorSection as EmulatorConfig;
 
-/// The grippers of an `actuator` Dex1 front, by message element (0 = right, 1 = left).
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ElementDevices {
-    /// Element 0.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub right: Option<DeviceName>,
-    /// Element 1.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub left: Option<DeviceName>,
+pub use handgate_adapters::front::config::{ElementDevices, FrontConfig, FrontTopics};
+
+/// What the profile derives for a front from its bound device (its side, name, topics and
+/// rates): the front kind's defaults applied to the device's configuration.
+pub trait FrontConfigExt {
+    fn served_side(&self, device: Option<&DeviceConfig>) -> Option<Side>;
+    fn by_element(&self) -> bool;
+    fn bindings<'a>(&'a self, lookup: impl Fn(&DeviceName) -> Option<&'a DeviceConfig>) -> Vec<(Side, &'a DeviceName)>;
+    fn display_name(&self, device: Option<&DeviceConfig>) -> String;
+    fn topics(&self, device: Option<&DeviceConfig>) -> FrontTopics;
 }
 
-impl ElementDevices {
-    /// (side, device) for every bound element, in element order.
-    pub fn bound(&self) -> Vec<(Side, &DeviceName)> {
-        [(Side::Right, &self.right), (Side::Left, &self.left)]
-            .into_iter()
-            .filter_map(|(s, d)| d.as_ref().map(|d| (s, d)))
-            .collect()
-    }
-}
-
-/// One front: an interface handgate serves to clients, bound to a device.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FrontConfig {
-    pub kind: FrontKind,
-    /// Name used in logs (`[a-z0-9_-]+`, unique among fronts); default derived from the kind
-    /// and what it serves ([`FrontConfig::display_name`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub name: Option<String>,
-    /// The device this front drives. Required, except for `joint_state` where omitting it
-    /// publishes every device, and for an `actuator` dex1 front bound with `devices`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub device: Option<DeviceName>,
-    /// `actuator` dex1 fronts: the gripper of each element, `{ right = "..", left = ".." }`;
-    /// an element left out is not driven and reports no measurement.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub devices: Option<ElementDevices>,
-    /// dex3/dex1 fronts: which topic side to serve (default: the device's side).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub side: Option<Side>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<Topic>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<Topic>,
-    /// dex3 fronts: the low-frequency state copy.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lf_state_topic: Option<Topic>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub state_hz: Option<RateHz>,
-    /// dex3 fronts: rate of the low-frequency copy (default 50).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lf_state_hz: Option<RateHz>,
-    /// dex1 fronts: wire variant (default `go`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub variant: Option<Dex1Variant>,
-    /// What silence from the client means (default `service`).
-    #[serde(default)]
-    pub silence: Silence,
-    /// `silence = "watchdog"`: a per-front timeout, shorter than the device's
-    /// `watchdog.timeout_ms` (the smaller of the two applies); default: the device's.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub watchdog_ms: Option<Millis>,
-    /// joint_state fronts: topic (default `rt/joint_states`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub topic: Option<Topic>,
-    /// joint_state fronts: name joints as in the URDF (default true).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub urdf_names: Option<bool>,
-}
-
-impl Default for FrontConfig {
-    /// A canonical front with no device (a profile must name one).
-    fn default() -> Self {
-        FrontConfig {
-            kind: FrontKind::default(),
-            name: None,
-            device: None,
-            devices: None,
-            side: None,
-            cmd_topic: None,
-            state_topic: None,
-            lf_state_topic: None,
-            state_hz: None,
-            lf_state_hz: None,
-            variant: None,
-            silence: Silence::default(),
-            watchdog_ms: None,
-            topic: None,
-            urdf_names: None,
-        }
-    }
-}
-
-/// A front's topics and rates after defaults are applied.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FrontTopics {
-    /// Topic the front takes commands on (`None` for joint_state).
-    pub cmd: Option<Topic>,
-    /// Topic the front publishes state on.
-    pub state: Option<Topic>,
-    /// dex3: the low-frequency state copy.
-    pub lf_state: Option<Topic>,
-    pub state_hz: RateHz,
-    pub lf_state_hz: Option<RateHz>,
-}
-
-impl FrontConfig {
-    /// The topic side this dex3/dex1 front serves: `side` or the bound device's.
-    pub fn served_side(&self, device: Option<&DeviceConfig>) -> Option<Side> {
+impl FrontConfigExt for FrontConfig {
+    /// The topic side a front with per-side topics serves: `side` or the bound device's.
+    fn served_side(&self, device: Option<&DeviceConfig>) -> Option<Side> {
         self.side.or(device.map(|d| d.side))
     }
 
-    /// A front whose messages carry several devices, bound by element (`devices`), like the
-    /// Dex1 `actuator` variant (one topic pair, element 0 right, 1 left).
-    pub fn by_element(&self) -> bool {
+    /// A front whose messages carry several devices, bound by element (`devices`: one topic
+    /// pair, element 0 right, 1 left; `FrontFactory::elements`).
+    fn by_element(&self) -> bool {
         self.kind.factory().elements(self) > 1
     }
 
     /// The devices this front drives, with the side whose wire convention each is served in:
-    /// an actuator front's elements (`devices`, or `device` on the served side), otherwise
+    /// a by-element front's elements (`devices`, or `device` on the served side), otherwise
     /// `device` on the served side. Names only; `lookup` finds a device's config.
-    pub fn bindings<'a>(
-        &'a self,
-        lookup: impl Fn(&DeviceName) -> Option<&'a DeviceConfig>,
-    ) -> Vec<(Side, &'a DeviceName)> {
+    fn bindings<'a>(&'a self, lookup: impl Fn(&DeviceName) -> Option<&'a DeviceConfig>) -> Vec<(Side, &'a DeviceName)> {
         if let Some(d) = &self.devices {
             return d.bound();
         }
@@ -716,10 +526,10 @@ impl FrontConfig {
     }
 
     /// The name logs use: `name`, else derived from what the front serves: an overridden
-    /// command topic as it is, else `dex3_<side>` / `dex1_<side>` (the served side),
-    /// `dex1_actuator`, `canonical_<device>`, `joint_state` (or its topic when not the
-    /// default). Two fronts cannot derive the same name: they would serve the same topic.
-    pub fn display_name(&self, device: Option<&DeviceConfig>) -> String {
+    /// command topic as it is, else the kind's (`FrontFactory::default_name`: e.g. the kind
+    /// and the served side). Two fronts cannot derive the same name: they would serve the
+    /// same topic.
+    fn display_name(&self, device: Option<&DeviceConfig>) -> String {
         if let Some(n) = &self.name {
             return n.clone();
         }
@@ -731,9 +541,9 @@ impl FrontConfig {
     }
 
     /// Topics and rates with defaults applied. `device` is the bound device (`None` for a
-    /// joint_state front over every device). A default that cannot be derived (a dex3 front
-    /// serving side `center`) is `None`; validation reports it.
-    pub fn topics(&self, device: Option<&DeviceConfig>) -> FrontTopics {
+    /// state-only front over every device). A default that cannot be derived (per-side
+    /// topics for a device of side `center`) is `None`; validation reports it.
+    fn topics(&self, device: Option<&DeviceConfig>) -> FrontTopics {
         // Left/right: the standard topics are per side.
         let lr = self.served_side(device).filter(|s| *s != Side::Center);
         let dev_name = device.map(|d| d.name.as_str()).unwrap_or("all");

@@ -383,6 +383,10 @@ fn every_shipped_profile_validates_embedded_and_on_disk() {
 
 #[test]
 fn every_file_in_profiles_is_shipped() {
+    assert!(
+        SHIPPED.iter().any(|(n, _)| *n == "default"),
+        "the default profile is shipped"
+    );
     for e in std::fs::read_dir(repo_profiles_dir()).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "toml") {

@@ -25,7 +25,7 @@ fn root() -> KeyPath {
     KeyPath::root()
 }
 
-/// `"a dex3 or dex1"`: `kinds` named with one article.
+/// `"a K1 or K2"`: `kinds` named with one article.
 fn names_phrase(kinds: &[DeviceKind]) -> String {
     let names: Vec<&str> = kinds.iter().map(|k| k.as_str()).collect();
     a(&names.join(" or "))
@@ -138,9 +138,10 @@ impl Checker {
                     );
                 }
                 if f.side.is_some() {
+                    let what = f.kind.factory().binds_elements().unwrap_or("this front");
                     self.err(
                         k.key("side"),
-                        "an actuator front bound with `devices` serves both elements (0 = right, 1 = left); drop `side`",
+                        format!("{what} bound with `devices` serves both elements (0 = right, 1 = left); drop `side`"),
                     );
                 }
                 if els.bound().is_empty() {

@@ -11,10 +11,10 @@ use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
 use super::{DeviceSlot, RuntimeError};
-use crate::fronts;
 use crate::plan::{FrontPlan, SilencePlan};
-use crate::router;
 use crate::ticker::Ticker;
+use handgate_adapters::front::serve as fronts;
+use handgate_adapters::route as router;
 
 /// Logs at most once per second per key.
 #[derive(Debug, Default)]

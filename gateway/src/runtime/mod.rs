@@ -66,7 +66,7 @@ pub struct Runtime {
     shutdown: watch::Sender<bool>,
     tasks: Vec<tokio::task::JoinHandle<()>>,
     started: Instant,
-    /// What several devices share (EZGripper buses, emulated buses), alive as long as the
+    /// What several devices share (a bus per port, an emulated service), alive as long as the
     /// runtime.
     pub shared: Shared,
 }

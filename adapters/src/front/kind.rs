@@ -1,5 +1,5 @@
 //! The front registry: one factory per front kind (in that front's module), one static list
-//! ([`super::FRONTS`]). A front kind owns its topics, its rates, its silence defaults, the
+//! ([`crate::fronts`]). A front kind owns its topics, its rates, its silence defaults, the
 //! profile keys only it takes, its own validation rules, its `handgate check` suffix and its
 //! endpoints; the profile, the resolver and the runtime ask it instead of matching on a kind.
 
@@ -9,24 +9,15 @@ use std::sync::atomic::AtomicU64;
 use std::sync::Arc;
 use std::time::Duration;
 
-use handgate_adapters::dds::{DdsError, Node};
-use handgate_adapters::model::{DeviceKind, SafeAction, Side};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use tokio::sync::mpsc;
 
-use super::{Endpoints, Message};
-use crate::plan::{FrontPlan, SilencePlan};
-use crate::profile::{FrontConfig, Silence, Topic};
-
-/// Profile keys of a `[[fronts]]` table that only some front kinds take.
-pub const KIND_KEYS: &[&str] = &[
-    "side",
-    "lf_state_topic",
-    "lf_state_hz",
-    "variant",
-    "topic",
-    "urdf_names",
-];
+use super::config::{FrontConfig, Silence};
+use super::plan::{FrontPlan, SilencePlan};
+use super::serve::{Endpoints, Message};
+use crate::dds::{DdsError, Node};
+use crate::model::{DeviceKind, SafeAction, Side};
+use crate::units::Topic;
 
 /// A registered front kind.
 pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
@@ -41,7 +32,7 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
     fn takes_commands(&self) -> bool {
         true
     }
-    /// Which of [`KIND_KEYS`] this kind takes.
+    /// Which of [`super::config::KIND_KEYS`] this kind takes.
     fn keys(&self) -> &'static [&'static str] {
         &[]
     }
@@ -128,7 +119,7 @@ impl FrontKind {
 
     /// Every registered front kind, in registry order.
     pub fn all() -> &'static [FrontKind] {
-        super::FRONTS
+        crate::fronts::all()
     }
 
     /// The kind called `name`.

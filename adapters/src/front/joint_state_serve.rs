@@ -1,16 +1,16 @@
 //! The joint_state front's registry entry and writer; its codec is
-//! `handgate_adapters::front::joint_state`.
+//! `crate::front::joint_state`.
 
-use handgate_adapters::front::joint_state::{append, header, DEFAULT_TOPIC};
+use crate::front::joint_state::{append, header, DEFAULT_TOPIC};
 use handgate_idl::ros2::JointState_;
 
-use crate::profile::Topic;
+use crate::units::Topic;
 
 /// ROS 2 JointState over the bound device, or every device: state only.
 #[derive(Debug)]
 pub struct JointStateFront;
 
-impl super::kind::FrontFactory for JointStateFront {
+impl crate::front::kind::FrontFactory for JointStateFront {
     fn name(&self) -> &'static str {
         "joint_state"
     }
@@ -25,8 +25,8 @@ impl super::kind::FrontFactory for JointStateFront {
     }
     fn default_topics(
         &self,
-        f: &crate::profile::FrontConfig,
-        _lr: Option<handgate_adapters::model::Side>,
+        f: &crate::front::config::FrontConfig,
+        _lr: Option<crate::model::Side>,
         _device: &str,
     ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
         (
@@ -38,7 +38,7 @@ impl super::kind::FrontFactory for JointStateFront {
     fn default_state_hz(&self, device_hz: Option<f64>) -> f64 {
         device_hz.map_or(100.0, |d| d.min(100.0))
     }
-    fn default_name(&self, f: &crate::profile::FrontConfig, _side: &str) -> String {
+    fn default_name(&self, f: &crate::front::config::FrontConfig, _side: &str) -> String {
         match &f.topic {
             Some(t) if t.as_str() != DEFAULT_TOPIC => t.0.clone(),
             _ => "joint_state".into(),
@@ -46,13 +46,13 @@ impl super::kind::FrontFactory for JointStateFront {
     }
     fn open(
         &self,
-        node: &handgate_adapters::dds::Node,
-        f: &crate::plan::FrontPlan,
-        _tx: tokio::sync::mpsc::Sender<super::Message>,
+        node: &crate::dds::Node,
+        f: &crate::front::plan::FrontPlan,
+        _tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
         _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<super::Endpoints, handgate_adapters::dds::DdsError> {
-        Ok(super::Endpoints::StateOnly(Box::new(JointStateIo {
-            writer: node.writer(&f.state_topic, handgate_adapters::dds::Qos::BestEffort)?,
+    ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
+        Ok(crate::front::serve::Endpoints::StateOnly(Box::new(JointStateIo {
+            writer: node.writer(&f.state_topic, crate::dds::Qos::BestEffort)?,
             urdf_names: f.config.urdf_names.unwrap_or(true),
         })))
     }
@@ -60,12 +60,12 @@ impl super::kind::FrontFactory for JointStateFront {
 
 /// The joint_state front's writer.
 pub struct JointStateIo {
-    writer: handgate_adapters::dds::Writer<JointState_>,
+    writer: crate::dds::Writer<JointState_>,
     urdf_names: bool,
 }
 
-impl super::StateIo for JointStateIo {
-    fn publish(&mut self, devices: &[super::Published<'_>]) {
+impl crate::front::serve::StateIo for JointStateIo {
+    fn publish(&mut self, devices: &[crate::front::serve::Published<'_>]) {
         let mut msg = header(std::time::SystemTime::now(), "");
         for d in devices {
             append(&mut msg, d.table, &d.state, self.urdf_names, &format!("{}/", d.device));
@@ -74,8 +74,8 @@ impl super::StateIo for JointStateIo {
     }
 }
 
-impl super::FrontKind {
+impl crate::front::kind::FrontKind {
     /// ROS 2 sensor_msgs/JointState.
     #[allow(non_upper_case_globals)]
-    pub const JointState: super::FrontKind = super::FrontKind::of(&JointStateFront);
+    pub const JointState: crate::front::kind::FrontKind = crate::front::kind::FrontKind::of(&JointStateFront);
 }

@@ -1,42 +1,21 @@
-//! Fronts: the DDS interfaces clients already speak, as a registry ([`FRONTS`], one factory
-//! per front kind, [`FrontFactory`]). Each module here is a front kind's registry entry (its
-//! topics, rates, silence, profile keys and rules) and its endpoints ([`FrontIo`]: the command
-//! reader, decode through the routes bound at start, the state writers; or a state-only
-//! [`StateIo`]). The pure wire codecs (wire message ⇄ canonical, with the bad-input rules of
-//! docs/fronts.md, unit tested) live in the adapters: `handgate_adapters::{dex3,dex1}::front`
-//! for the service fronts of those kinds, `handgate_adapters::front::{canonical,joint_state}`
-//! for handgate's own. The runtime (`crate::runtime`) runs every front through [`open`] and
-//! one task (queue, silence, prompt state, deadlines).
-
-pub mod canonical;
-pub mod dex1;
-pub mod dex3;
-pub mod joint_state;
-pub mod kind;
-
-pub use kind::{FrontFactory, FrontKind};
-
-/// Every front kind handgate serves, in the order `handgate check` and errors list them.
-pub static FRONTS: &[FrontKind] = &[
-    FrontKind::Dex3,
-    FrontKind::Dex1,
-    FrontKind::Canonical,
-    FrontKind::JointState,
-];
+//! A running front's wire side, for every front kind: its endpoints ([`FrontIo`]: the
+//! command reader, decode through the routes bound at start, the state writers; or a
+//! state-only [`StateIo`]), opened by its kind's factory ([`super::kind::FrontFactory::open`]).
+//! The gateway's runtime drives them all through one front task (queue, silence, prompt
+//! state, deadlines).
 
 use std::any::Any;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
-use handgate_adapters::dds::{DdsError, Node, Qos, Reader};
+use crate::dds::{DdsError, Node, Qos, Reader};
 
-use handgate_adapters::model::{CommandBody, HandState, SafeAction};
+use crate::model::{CommandBody, HandState, SafeAction};
 use tokio::sync::mpsc;
 
-use crate::plan::FrontPlan;
-use crate::router::Route;
-
-pub use handgate_adapters::front::{FrontCommand, Rejection};
+use super::plan::FrontPlan;
+use super::{FrontCommand, Rejection};
+use crate::route::Route;
 
 /// One device a running front drives, as its codec sees it: the route bound once, the
 /// device's latest state.
@@ -54,7 +33,7 @@ pub struct Bound<'a> {
 
 impl Bound<'_> {
     /// The device's state in the front's canonical joint order.
-    pub fn routed_state(&self) -> Vec<handgate_adapters::model::JointState> {
+    pub fn routed_state(&self) -> Vec<crate::model::JointState> {
         self.route.state(&self.state.joints, self.state.closure)
     }
 }
@@ -87,7 +66,7 @@ pub trait FrontIo: Send {
 #[derive(Debug)]
 pub struct Published<'a> {
     pub device: &'a str,
-    pub table: &'a handgate_adapters::mapping::DeviceTable,
+    pub table: &'a crate::mapping::DeviceTable,
     pub state: HandState,
 }
 

@@ -10,8 +10,8 @@
 
 use std::sync::Arc;
 
-use handgate_adapters::mapping::DeviceTable;
-use handgate_adapters::model::{CommandBody, JointCommand, JointId, JointState};
+use crate::mapping::DeviceTable;
+use crate::model::{CommandBody, JointCommand, JointId, JointState};
 
 /// A front bound to a device, decided once at bind time: the front's table (the wire
 /// convention it speaks), the device's table and how the two are paired.
@@ -118,8 +118,8 @@ fn state_for(pairing: Pairing, front: &DeviceTable, joints: &[JointState], closu
 #[cfg(test)]
 mod tests {
     use super::*;
-    use handgate_adapters::mapping::TableOverrides;
-    use handgate_adapters::model::{DeviceKind, Side};
+    use crate::mapping::TableOverrides;
+    use crate::model::{DeviceKind, Side};
 
     fn t(kind: DeviceKind, side: Side) -> DeviceTable {
         kind.table(side, &TableOverrides::default()).unwrap()
@@ -131,7 +131,7 @@ mod tests {
         let d = t(DeviceKind::Ezgripper, Side::Left);
         assert_eq!(pairing(&f, &d), Pairing::JointForJoint);
         // A Dex1 client sends q = 2.7 rad (half open): canonical jaw = 2.7, EZGripper 50 %.
-        let c = f.joints[0].from_wire(&handgate_adapters::mapping::WireTarget {
+        let c = f.joints[0].from_wire(&crate::mapping::WireTarget {
             q: 2.7,
             kp: 5.0,
             ..Default::default()
@@ -146,7 +146,7 @@ mod tests {
         let f = t(DeviceKind::Dex1, Side::Right);
         let d = t(DeviceKind::Dex3, Side::Right);
         assert_eq!(pairing(&f, &d), Pairing::Closure);
-        let closed = f.joints[0].from_wire(&handgate_adapters::mapping::WireTarget {
+        let closed = f.joints[0].from_wire(&crate::mapping::WireTarget {
             q: 0.0,
             ..Default::default()
         });

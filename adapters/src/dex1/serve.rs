@@ -1,22 +1,20 @@
 //! The Dex1 service front's registry entry and endpoints; its codec is
-//! `handgate_adapters::dex1::front`.
+//! `crate::dex1::front`.
 
-use handgate_adapters::dex1::adapter::{actuator_index, Variant};
-pub use handgate_adapters::dex1::front::MIN_STATE_HZ;
-use handgate_adapters::dex1::front::{
-    decode_actuator, decode_go, decode_hg, encode_go, encode_hg, go_state, unbound_state,
-};
-use handgate_adapters::mapping::DeviceTable;
-use handgate_adapters::model::Side;
+use crate::dex1::adapter::{actuator_index, Variant};
+pub use crate::dex1::front::MIN_STATE_HZ;
+use crate::dex1::front::{decode_actuator, decode_go, decode_hg, encode_go, encode_hg, go_state, unbound_state};
+use crate::mapping::DeviceTable;
+use crate::model::Side;
 use handgate_idl::{unitree_go, unitree_hg};
 
-use super::Rejection;
-use crate::profile::Topic;
+use crate::front::Rejection;
+use crate::units::Topic;
 
 /// The Dex1 front's state writer, of the variant's type.
 enum Dex1Writer {
-    Go(handgate_adapters::dds::Writer<unitree_go::MotorStates_>),
-    Hg(handgate_adapters::dds::Writer<unitree_hg::HandState_>),
+    Go(crate::dds::Writer<unitree_go::MotorStates_>),
+    Hg(crate::dds::Writer<unitree_hg::HandState_>),
 }
 
 /// The Dex1 front's endpoints in its wire variant.
@@ -31,22 +29,26 @@ pub struct Dex1Io {
 
 impl Dex1Io {
     pub fn open(
-        node: &handgate_adapters::dds::Node,
+        node: &crate::dds::Node,
         variant: Variant,
         cmd_topic: &str,
         state_topic: &str,
         elements: usize,
-        tx: tokio::sync::mpsc::Sender<super::Message>,
+        tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<Self, handgate_adapters::dds::DdsError> {
-        use handgate_adapters::dds::Qos;
+    ) -> Result<Self, crate::dds::DdsError> {
+        use crate::dds::Qos;
         let (reader, writer): (Box<dyn Send>, _) = match variant {
             Variant::Hg => (
-                Box::new(super::reader::<unitree_hg::HandCmd_>(node, cmd_topic, tx, dropped)?),
+                Box::new(crate::front::serve::reader::<unitree_hg::HandCmd_>(
+                    node, cmd_topic, tx, dropped,
+                )?),
                 Dex1Writer::Hg(node.writer(state_topic, Qos::BestEffort)?),
             ),
             Variant::Go | Variant::Actuator => (
-                Box::new(super::reader::<unitree_go::MotorCmds_>(node, cmd_topic, tx, dropped)?),
+                Box::new(crate::front::serve::reader::<unitree_go::MotorCmds_>(
+                    node, cmd_topic, tx, dropped,
+                )?),
                 Dex1Writer::Go(node.writer(state_topic, Qos::BestEffort)?),
             ),
         };
@@ -59,15 +61,18 @@ impl Dex1Io {
     }
 }
 
-impl super::FrontIo for Dex1Io {
+impl crate::front::serve::FrontIo for Dex1Io {
     fn decode(
         &self,
-        bound: &[super::Bound<'_>],
-        msg: &super::Message,
-    ) -> Result<Vec<(usize, super::Routed)>, Rejection> {
+        bound: &[crate::front::serve::Bound<'_>],
+        msg: &crate::front::serve::Message,
+    ) -> Result<Vec<(usize, crate::front::serve::Routed)>, Rejection> {
         let b0 = &bound[0];
         if let Some(m) = msg.downcast_ref::<unitree_hg::HandCmd_>() {
-            return Ok(vec![(0, super::routed(b0.route, decode_hg(m, &b0.route.front)?))]);
+            return Ok(vec![(
+                0,
+                crate::front::serve::routed(b0.route, decode_hg(m, &b0.route.front)?),
+            )]);
         }
         let Some(m) = msg.downcast_ref::<unitree_go::MotorCmds_>() else {
             return Ok(Vec::new());
@@ -78,14 +83,14 @@ impl super::FrontIo for Dex1Io {
                 .into_iter()
                 .zip(bound)
                 .enumerate()
-                .map(|(i, (c, b))| (i, super::routed(b.route, c)))
+                .map(|(i, (c, b))| (i, crate::front::serve::routed(b.route, c)))
                 .collect());
         }
         let c = decode_go(m, Variant::Go, Side::Left, &b0.route.front)?;
-        Ok(vec![(0, super::routed(b0.route, c))])
+        Ok(vec![(0, crate::front::serve::routed(b0.route, c))])
     }
 
-    fn publish(&mut self, bound: &[super::Bound<'_>], _lf: bool) {
+    fn publish(&mut self, bound: &[crate::front::serve::Bound<'_>], _lf: bool) {
         let now = std::time::Instant::now();
         let b0 = &bound[0];
         let _ = match &mut self.writer {
@@ -107,7 +112,7 @@ impl super::FrontIo for Dex1Io {
 }
 
 /// The wire variant of Dex1 front `f` (default `go`).
-fn variant(f: &crate::profile::FrontConfig) -> Variant {
+fn variant(f: &crate::front::config::FrontConfig) -> Variant {
     f.variant.unwrap_or_default()
 }
 
@@ -115,19 +120,19 @@ fn variant(f: &crate::profile::FrontConfig) -> Variant {
 #[derive(Debug)]
 pub struct Dex1Front;
 
-impl super::kind::FrontFactory for Dex1Front {
+impl crate::front::kind::FrontFactory for Dex1Front {
     fn name(&self) -> &'static str {
         "dex1"
     }
-    fn speaks(&self) -> Option<handgate_adapters::model::DeviceKind> {
-        Some(handgate_adapters::model::DeviceKind::Dex1)
+    fn speaks(&self) -> Option<crate::model::DeviceKind> {
+        Some(crate::model::DeviceKind::Dex1)
     }
     fn keys(&self) -> &'static [&'static str] {
         &["side", "variant"]
     }
     fn default_topics(
         &self,
-        f: &crate::profile::FrontConfig,
+        f: &crate::front::config::FrontConfig,
         lr: Option<Side>,
         _device: &str,
     ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
@@ -142,7 +147,7 @@ impl super::kind::FrontFactory for Dex1Front {
     fn default_state_hz(&self, _device_hz: Option<f64>) -> f64 {
         500.0
     }
-    fn default_name(&self, f: &crate::profile::FrontConfig, side: &str) -> String {
+    fn default_name(&self, f: &crate::front::config::FrontConfig, side: &str) -> String {
         if variant(f) == Variant::Actuator {
             "dex1_actuator".into()
         } else {
@@ -151,24 +156,23 @@ impl super::kind::FrontFactory for Dex1Front {
     }
     fn silence(
         &self,
-        mode: crate::profile::Silence,
-        dog: (std::time::Duration, handgate_adapters::model::SafeAction),
-    ) -> crate::plan::SilencePlan {
+        mode: crate::front::config::Silence,
+        dog: (std::time::Duration, crate::model::SafeAction),
+    ) -> crate::front::plan::SilencePlan {
         let after = match mode {
-            crate::profile::Silence::Watchdog => dog,
+            crate::front::config::Silence::Watchdog => dog,
             // dex1_1_service brakes: holds the measured position 1 s after the last command.
-            crate::profile::Silence::Service => (
-                handgate_adapters::dex1::SERVICE_BRAKE_AFTER,
-                handgate_adapters::model::SafeAction::Hold,
-            ),
+            crate::front::config::Silence::Service => {
+                (crate::dex1::SERVICE_BRAKE_AFTER, crate::model::SafeAction::Hold)
+            }
         };
-        crate::plan::SilencePlan {
+        crate::front::plan::SilencePlan {
             mode,
             after: Some(after),
             timeout_bit: None,
         }
     }
-    fn elements(&self, f: &crate::profile::FrontConfig) -> usize {
+    fn elements(&self, f: &crate::front::config::FrontConfig) -> usize {
         if variant(f) == Variant::Actuator {
             2
         } else {
@@ -178,7 +182,7 @@ impl super::kind::FrontFactory for Dex1Front {
     fn binds_elements(&self) -> Option<&'static str> {
         Some("an actuator dex1 front")
     }
-    fn element(&self, f: &crate::profile::FrontConfig, side: Side) -> usize {
+    fn element(&self, f: &crate::front::config::FrontConfig, side: Side) -> usize {
         if variant(f) == Variant::Actuator {
             actuator_index(side)
         } else {
@@ -187,7 +191,7 @@ impl super::kind::FrontFactory for Dex1Front {
     }
     fn validate(
         &self,
-        f: &crate::profile::FrontConfig,
+        f: &crate::front::config::FrontConfig,
         served: Option<Side>,
         dangling: bool,
     ) -> Vec<(&'static str, String)> {
@@ -202,7 +206,7 @@ impl super::kind::FrontFactory for Dex1Front {
         }
         if !dangling {
             let given = f.cmd_topic.is_some() && f.state_topic.is_some();
-            out.extend(super::dex3::side_rule(
+            out.extend(crate::dex3::serve::side_rule(
                 "dex1",
                 served,
                 given,
@@ -211,7 +215,7 @@ impl super::kind::FrontFactory for Dex1Front {
         }
         out
     }
-    fn describe_unbound(&self, f: &crate::profile::FrontConfig, bound: &[Side]) -> Vec<String> {
+    fn describe_unbound(&self, f: &crate::front::config::FrontConfig, bound: &[Side]) -> Vec<String> {
         if variant(f) != Variant::Actuator {
             return vec![];
         }
@@ -223,25 +227,29 @@ impl super::kind::FrontFactory for Dex1Front {
             })
             .collect()
     }
-    fn clash_hint(&self, f: &crate::profile::FrontConfig, other: &crate::profile::FrontConfig) -> &'static str {
+    fn clash_hint(
+        &self,
+        f: &crate::front::config::FrontConfig,
+        other: &crate::front::config::FrontConfig,
+    ) -> &'static str {
         if variant(f) == Variant::Actuator && other.kind == f.kind && variant(other) == Variant::Actuator {
             ": one actuator front serves both grippers, `devices = { right = \"..\", left = \"..\" }`"
         } else {
             ""
         }
     }
-    fn describe(&self, f: &crate::profile::FrontConfig) -> Option<String> {
+    fn describe(&self, f: &crate::front::config::FrontConfig) -> Option<String> {
         Some(format!(" ({})", variant(f)))
     }
     fn open(
         &self,
-        node: &handgate_adapters::dds::Node,
-        f: &crate::plan::FrontPlan,
-        tx: tokio::sync::mpsc::Sender<super::Message>,
+        node: &crate::dds::Node,
+        f: &crate::front::plan::FrontPlan,
+        tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<super::Endpoints, handgate_adapters::dds::DdsError> {
+    ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_default();
-        Ok(super::Endpoints::Commands(Box::new(Dex1Io::open(
+        Ok(crate::front::serve::Endpoints::Commands(Box::new(Dex1Io::open(
             node,
             variant(&f.config),
             &cmd,
@@ -253,8 +261,8 @@ impl super::kind::FrontFactory for Dex1Front {
     }
 }
 
-impl super::FrontKind {
+impl crate::front::kind::FrontKind {
     /// The Dex1-1 DDS interface (`rt/dex1/{side}/*` or `rt/unitree_actuator/*`).
     #[allow(non_upper_case_globals)]
-    pub const Dex1: super::FrontKind = super::FrontKind::of(&Dex1Front);
+    pub const Dex1: crate::front::kind::FrontKind = crate::front::kind::FrontKind::of(&Dex1Front);
 }

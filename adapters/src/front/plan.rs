@@ -1,0 +1,100 @@
+//! A front as the runtime opens it: bound to its devices, its silence resolved, its topics
+//! and rates decided (the gateway's resolver builds it from the profile, once).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use super::config::{FrontConfig, Silence};
+use super::kind::FrontKind;
+use crate::mapping::DeviceTable;
+use crate::model::{SafeAction, Side};
+
+/// What a front does when its client goes silent, resolved for one bound device
+/// (docs/fronts.md, "Silence").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SilencePlan {
+    /// The semantics in effect (for logs and `handgate check`): the profile's choice, or what
+    /// the front kind makes of it.
+    pub mode: Silence,
+    /// After this long without a command, this action; `None`: the last target is kept.
+    pub after: Option<(Duration, SafeAction)>,
+    /// After a command that set the Dex3 RIS timeout bit (bit 7): this long, this action.
+    pub timeout_bit: Option<(Duration, SafeAction)>,
+}
+
+impl SilencePlan {
+    /// The silence action armed by a command (whether it set the RIS timeout bit): the
+    /// earlier of the two, or `None` when silence keeps the last target.
+    pub fn armed(&self, timeout_bit: bool) -> Option<(Duration, SafeAction)> {
+        let bit = self.timeout_bit.filter(|_| timeout_bit);
+        match (self.after, bit) {
+            (Some(a), Some(b)) => Some(if b.0 < a.0 { b } else { a }),
+            (a, b) => a.or(b),
+        }
+    }
+}
+
+impl std::fmt::Display for SilencePlan {
+    /// E.g. `service: keeps the last target (limp 1000 ms after a command with the RIS
+    /// timeout bit)`, `watchdog: hold after 200 ms`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: ", self.mode)?;
+        match (self.after, self.timeout_bit) {
+            (Some((t, a)), None) => write!(f, "{a} after {} ms", t.as_millis()),
+            (Some((t, a)), Some((tb, ab))) => write!(
+                f,
+                "{a} after {} ms ({ab} after {} ms after a command with the RIS timeout bit)",
+                t.as_millis(),
+                tb.min(t).as_millis()
+            ),
+            (None, Some((tb, ab))) => write!(
+                f,
+                "keeps the last target ({ab} {} ms after a command with the RIS timeout bit)",
+                tb.as_millis()
+            ),
+            (None, None) => f.write_str("keeps the last target"),
+        }
+    }
+}
+
+/// One device a front drives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Binding {
+    pub device: String,
+    /// The side whose wire convention the front speaks for this device.
+    pub side: Side,
+    /// Element of the front's messages that carries this device (actuator: 0 right, 1 left;
+    /// otherwise 0).
+    pub element: usize,
+    pub silence: SilencePlan,
+    /// The front's table for this device (the wire convention it speaks, for its side);
+    /// `None`: the device's own (fronts that speak no device kind's convention).
+    pub table: Option<Arc<DeviceTable>>,
+}
+
+/// One front, bound to its devices (one, except a front whose messages carry several, like
+/// the Dex1 actuator variant; a state-only front lists its devices in `devices` instead).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrontPlan {
+    /// The name logs use (profile `name`, or derived).
+    pub name: String,
+    pub kind: FrontKind,
+    /// The front's profile table (its kind's own keys, for its kind to open it).
+    pub config: FrontConfig,
+    pub bindings: Vec<Binding>,
+    /// The low-frequency state copy (topic, Hz), where the kind has one.
+    pub lf_state: Option<(String, f64)>,
+    /// The devices a state-only front publishes (its device, or every device).
+    pub devices: Vec<String>,
+    pub cmd_topic: Option<String>,
+    pub state_topic: String,
+    pub state_hz: f64,
+}
+
+impl FrontPlan {
+    /// Number of elements in this front's messages that carry a device (2 for an actuator
+    /// front, else 1).
+    pub fn elements(&self) -> usize {
+        self.kind.factory().elements(&self.config)
+    }
+}
