@@ -50,10 +50,11 @@ const SETTLE: f32 = 0.5 / REGISTER_COUNTS;
 /// span, so here the hardware's stops and the table's limits coincide.
 pub const HARD_STOPS: (f32, f32) = (0.0, 1.0);
 
-/// Measurement noise: σ of one ANGLE_ACT count (1/1000 of the range) on `q`; the service
-/// reports no velocity or torque. An assumption (an encoder-derived angle flickers by a count).
+/// Measurement noise: σ of half an ANGLE_ACT count (1/1000 of the range) on `q`, then
+/// quantised to whole counts; the service reports no velocity or torque. An assumption (an
+/// angle read from the actuator flickers by a count at rest, as the EZGripper's half-tick σ).
 pub const DFX_NOISE: Noise = Noise {
-    q: 1.0e-3,
+    q: 5.0e-4,
     dq: 0.0,
     tau: 0.0,
     seed: Noise::DEFAULT_SEED,

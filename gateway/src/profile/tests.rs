@@ -1039,18 +1039,22 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
         .collect();
     assert!(documented.len() >= 7, "{documented:?}");
     // (kind, the keys it refuses): the rest must change what is built.
-    let refused: &[(&str, &[&str])] = &[(
-        "hand_sdk",
-        &[
-            "initial",
-            "object_at",
-            "noise",
-            "seed",
-            "position_noise_rad",
-            "velocity_noise_rad_s",
-            "torque_noise_nm",
-        ],
-    )];
+    let refused: &[(&str, &[&str])] = &[
+        (
+            "hand_sdk",
+            &[
+                "initial",
+                "object_at",
+                "noise",
+                "seed",
+                "position_noise_rad",
+                "velocity_noise_rad_s",
+                "torque_noise_nm",
+            ],
+        ),
+        // DFX_inspire_service reports only q (docs/sources.md §7).
+        ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm"]),
+    ];
     for kind in DeviceKind::all() {
         let f = kind.factory();
         if !f.backends().contains(&handgate_adapters::device::Backend::Emulator) {
