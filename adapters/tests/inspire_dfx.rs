@@ -1,7 +1,9 @@
 //! The Inspire DFX kind (docs/sources.md §7 "Inspire DFX"): (a) its table against an
 //! independent oracle written out from the source, (b) the DDS-client codec (layout, the other
 //! hand held at its last measurement, silent until measured, lost/stale rules), (c) the
-//! emulated DFX_inspire_service over real CycloneDDS (domains 230 and 231).
+//! emulated DFX_inspire_service over real CycloneDDS (domain 230: the two DDS tests use
+//! different topics, so they never see each other; the range's 233 and 234 are unusable,
+//! since RTPS's default port mapping 7400 + 250·domain leaves 0..65535 above domain 232).
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -37,6 +39,12 @@ fn wait_for<T>(what: &str, mut f: impl FnMut() -> Option<T>) -> T {
 /// Makes DDS domain `id` private to this process (a Discovery/Tag unique to it), so two runs
 /// of these tests at once (two worktrees) never see each other's services.
 fn isolated_domain(id: u32) {
+    static CREATED: std::sync::Mutex<Vec<u32>> = std::sync::Mutex::new(Vec::new());
+    let mut created = CREATED.lock().unwrap_or_else(|e| e.into_inner());
+    if created.contains(&id) {
+        return;
+    }
+    created.push(id);
     let cfg = format!(
         "<CycloneDDS><Domain Id=\"any\"><Discovery><Tag>handgate-dfx-test-{}-{id}</Tag></Discovery></Domain></CycloneDDS>",
         std::process::id()
@@ -281,6 +289,9 @@ fn c_service_starts_at_rest_follows_a_client_stops_at_hard_stops_and_goes_quiet_
     assert!(emu.snapshot().timed_out);
 }
 
+/// The second DDS test's private topics (it shares domain 230 with the first).
+const PAIR_TOPICS: (&str, &str) = ("rt/test_dfx_pair/cmd", "rt/test_dfx_pair/state");
+
 fn device(node: &Node, side: Side, name: &str) -> DdsDevice {
     let info = DeviceInfo {
         name: name.into(),
@@ -290,8 +301,8 @@ fn device(node: &Node, side: Side, name: &str) -> DdsDevice {
         table: Arc::new(table(side)),
     };
     let cfg = DdsDeviceConfig {
-        cmd_topic: "rt/inspire/cmd".into(),
-        state_topic: Some("rt/inspire/state".into()),
+        cmd_topic: PAIR_TOPICS.0.into(),
+        state_topic: Some(PAIR_TOPICS.1.into()),
         rate_hz: 100.0,
         stale_after: Duration::from_millis(200),
     };
@@ -300,10 +311,17 @@ fn device(node: &Node, side: Side, name: &str) -> DdsDevice {
 
 #[test]
 fn c_a_left_and_a_right_device_share_the_service_without_disturbing_each_other() {
-    isolated_domain(231);
-    let emu_node = Node::new(231, None).unwrap();
-    let emu = DfxEmulator::start(&emu_node, DfxConfig::default()).unwrap();
-    let node = Node::new(231, None).unwrap();
+    isolated_domain(230);
+    let emu_node = Node::new(230, None).unwrap();
+    let emu = DfxEmulator::start(
+        &emu_node,
+        DfxConfig {
+            topics: Some((PAIR_TOPICS.0.into(), PAIR_TOPICS.1.into())),
+            ..DfxConfig::default()
+        },
+    )
+    .unwrap();
+    let node = Node::new(230, None).unwrap();
     let right = device(&node, Side::Right, "right");
     let left = device(&node, Side::Left, "left");
     let rs = right.state();
