@@ -243,7 +243,7 @@ impl DfxCore {
     pub fn step(&mut self, now: Instant, dt: f32) {
         self.timed_out = self
             .last_cmd_at
-            .is_none_or(|t| now.saturating_duration_since(t) >= self.tuning.timeout);
+            .map_or(true, |t| now.saturating_duration_since(t) >= self.tuning.timeout);
         if !self.timed_out {
             if let Some(latest) = self.latest {
                 for (f, q) in self.fingers.iter_mut().zip(latest) {

@@ -30,7 +30,7 @@ pub enum DfxOpen {
     Emulated {
         config: DdsDeviceConfig,
         element: usize,
-        service: DfxConfig,
+        service: Box<DfxConfig>,
     },
 }
 
@@ -80,7 +80,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<DfxOpen, DeviceError> {
     Ok(DfxOpen::Emulated {
         config: cfg(emulator_topics(EMULATED_SERVICE)),
         element,
-        service: service_config(std::slice::from_ref(spec))?,
+        service: Box::new(service_config(std::slice::from_ref(spec))?),
     })
 }
 
