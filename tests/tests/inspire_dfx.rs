@@ -284,6 +284,12 @@ fn check_accepts_one_hand_per_side_on_the_service_topic_and_refuses_two_on_one_s
     assert!(!bad.status.success());
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(err.contains("rt/inspire/cmd"), "{err}");
+    // Emulated hands share one emulated service: one per side there too.
+    let emulated = |name: &str, side: &str| one(name, side).replace("\"dds\"", "\"emulator\"");
+    let two_emulated = run(emulated("a", "left") + &emulated("b", "left"), "dfx-two-emulated-left");
+    assert!(!two_emulated.status.success());
+    let err = String::from_utf8_lossy(&two_emulated.stderr);
+    assert!(err.contains("devices[1].side") && err.contains("one per side"), "{err}");
     let center = run(one("c", "center"), "dfx-center");
     assert!(!center.status.success(), "a center DFX hand");
 }

@@ -1117,6 +1117,7 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
     let dex1 = |backend: &str, extra: &str| one_device("dex1", "left", backend, extra);
     let ez = |extra: &str| one_device("ezgripper", "left", "serial", extra);
     let sdk = |extra: &str| one_device("hand_sdk", "center", "dds", extra);
+    let dfx = |extra: &str| one_device("inspire_dfx", "left", "dds", extra);
     let front = |extra: &str| {
         format!(
             "{}[[fronts]]\nkind = \"dex3\"\ndevice = \"d\"\n{extra}\n",
@@ -1235,6 +1236,16 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "devices.dds.state_topic",
             dex3("dds", ""),
             dex3("dds", "[devices.dds]\nstate_topic = \"rt/x/state\""),
+        ),
+        (
+            "devices.dds.cmd_topic",
+            dfx(""),
+            dfx("[devices.dds]\ncmd_topic = \"rt/inspire_b/cmd\""),
+        ),
+        (
+            "devices.dds.state_topic",
+            dfx(""),
+            dfx("[devices.dds]\nstate_topic = \"rt/inspire_b/state\""),
         ),
         (
             "devices.dds.state_source",
