@@ -15,6 +15,7 @@ pub mod ezgripper;
 pub mod front;
 pub mod fronts;
 pub mod hand_sdk;
+pub mod inspire_dfx;
 pub mod kind;
 pub mod kinds;
 pub mod link;

@@ -1043,18 +1043,22 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
         .collect();
     assert!(documented.len() >= 7, "{documented:?}");
     // (kind, the keys it refuses): the rest must change what is built.
-    let refused: &[(&str, &[&str])] = &[(
-        "hand_sdk",
-        &[
-            "initial",
-            "object_at",
-            "noise",
-            "seed",
-            "position_noise_rad",
-            "velocity_noise_rad_s",
-            "torque_noise_nm",
-        ],
-    )];
+    let refused: &[(&str, &[&str])] = &[
+        (
+            "hand_sdk",
+            &[
+                "initial",
+                "object_at",
+                "noise",
+                "seed",
+                "position_noise_rad",
+                "velocity_noise_rad_s",
+                "torque_noise_nm",
+            ],
+        ),
+        // DFX_inspire_service reports only q (docs/sources.md §7).
+        ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm"]),
+    ];
     for kind in DeviceKind::all() {
         let f = kind.factory();
         if !f.backends().contains(&handgate_adapters::device::Backend::Emulator) {
@@ -1117,6 +1121,7 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
     let dex1 = |backend: &str, extra: &str| one_device("dex1", "left", backend, extra);
     let ez = |extra: &str| one_device("ezgripper", "left", "serial", extra);
     let sdk = |extra: &str| one_device("hand_sdk", "center", "dds", extra);
+    let dfx = |extra: &str| one_device("inspire_dfx", "left", "dds", extra);
     let front = |extra: &str| {
         format!(
             "{}[[fronts]]\nkind = \"dex3\"\ndevice = \"d\"\n{extra}\n",
@@ -1235,6 +1240,16 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "devices.dds.state_topic",
             dex3("dds", ""),
             dex3("dds", "[devices.dds]\nstate_topic = \"rt/x/state\""),
+        ),
+        (
+            "devices.dds.cmd_topic",
+            dfx(""),
+            dfx("[devices.dds]\ncmd_topic = \"rt/inspire_b/cmd\""),
+        ),
+        (
+            "devices.dds.state_topic",
+            dfx(""),
+            dfx("[devices.dds]\nstate_topic = \"rt/inspire_b/state\""),
         ),
         (
             "devices.dds.state_source",

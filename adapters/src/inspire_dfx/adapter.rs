@@ -1,0 +1,124 @@
+//! Inspire DFX over DDS, as a client of `DFX_inspire_service` (docs/sources.md §7 "Inspire
+//! DFX"): unitree_go `MotorCmds_` on `rt/inspire/cmd`, `MotorStates_` on `rt/inspire/state`,
+//! always 12 entries, 0–5 the right hand, 6–11 the left, only `q` meaningful (1 = open).
+//!
+//! One message carries both hands, and each hand is its own handgate device. So a device
+//! never disturbs the other hand's six entries: it fills them with the other hand's **last
+//! measured** `q` (what the service just reported), and sends nothing at all until that hand
+//! has been measured once (the pattern of the Dex1 `actuator` variant). Two devices (or two
+//! clients) on one service therefore interleave whole messages; each message holds the other
+//! hand at its last measurement, which is where that hand's own device last saw it.
+//!
+//! State: `q` per entry (the hand's ANGLE_ACT / 1000); `lost` counts failed serial reads per
+//! entry: a hand whose `lost` grew since the previous sample was not read this cycle
+//! (fault `HARDWARE` on that sample; **inference**, the service keeps the last value).
+
+use handgate_idl::unitree_go;
+
+use super::{ENTRIES, HAND_ENTRIES};
+use crate::control::Active;
+use crate::dds_device::DdsCodec;
+use crate::mapping::DeviceTable;
+use crate::model::{faults, HandState, SafeAction, Side};
+
+/// The DDS-client codec of one hand.
+#[derive(Debug, Clone)]
+pub struct DfxCodec {
+    /// This hand's element: 0 right, 1 left.
+    element: usize,
+    /// The other hand's last measured wire q (entries in its order), so our messages hold
+    /// it where it is instead of commanding it anywhere.
+    other_q: Option<[f32; HAND_ENTRIES]>,
+    /// This hand's `lost` counters in the previous sample.
+    last_lost: Option<[u32; HAND_ENTRIES]>,
+}
+
+impl DfxCodec {
+    /// The codec of `side`'s hand (`None` for a center side: the message has no such hand).
+    pub fn new(side: Side) -> Option<Self> {
+        Some(Self {
+            element: super::element(side)?,
+            other_q: None,
+            last_lost: None,
+        })
+    }
+
+    /// Entries of this hand in the 12-entry message.
+    pub fn own_range(&self) -> std::ops::Range<usize> {
+        self.element * HAND_ENTRIES..(self.element + 1) * HAND_ENTRIES
+    }
+
+    fn other_range(&self) -> std::ops::Range<usize> {
+        (1 - self.element) * HAND_ENTRIES..(2 - self.element) * HAND_ENTRIES
+    }
+
+    /// The other hand's last measured wire q, if it was measured.
+    pub fn other_q(&self) -> Option<[f32; HAND_ENTRIES]> {
+        self.other_q
+    }
+}
+
+/// A command entry as the service reads it: `q` only, every other field zero (as
+/// xr_teleoperate sends it).
+fn entry(q: f32) -> unitree_go::MotorCmd_ {
+    unitree_go::MotorCmd_ {
+        q,
+        ..Default::default()
+    }
+}
+
+impl DdsCodec for DfxCodec {
+    type Cmd = unitree_go::MotorCmds_;
+    type State = unitree_go::MotorStates_;
+
+    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
+        let targets = match active {
+            Active::Idle => return None,
+            // The service has no limp: it only writes angles. Stay silent; after its 1 s
+            // timeout it stops writing and the hand holds its last target (docs/sources.md §7).
+            Active::Safe(SafeAction::Limp, _) => return None,
+            Active::Command(t) | Active::Safe(_, t) => t,
+        };
+        // Without the other hand's position we cannot hold it: stay silent.
+        let other = self.other_q?;
+        let w = table.to_wire(targets);
+        let mut msg = unitree_go::MotorCmds_::with_len(ENTRIES);
+        for (i, e) in self.own_range().enumerate() {
+            msg.cmds[e] = entry(w.get(i).map_or(f32::NAN, |w| w.q));
+        }
+        for (i, e) in self.other_range().enumerate() {
+            msg.cmds[e] = entry(other[i]);
+        }
+        // A table always covers its six entries; a NaN here would be a table bug: say nothing.
+        msg.cmds.iter().all(|c| c.q.is_finite()).then_some(msg)
+    }
+
+    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
+        if s.states.len() != ENTRIES {
+            return None;
+        }
+        let other: Vec<f32> = s.states[self.other_range()].iter().map(|m| m.q).collect();
+        if other.iter().all(|q| q.is_finite()) {
+            let mut o = [0.0; HAND_ENTRIES];
+            o.copy_from_slice(&other);
+            self.other_q = Some(o);
+        }
+        let own = &s.states[self.own_range()];
+        let q: Vec<f32> = own.iter().map(|m| m.q).collect();
+        let dq: Vec<f32> = own.iter().map(|m| m.dq).collect();
+        let tau: Vec<f32> = own.iter().map(|m| m.tau_est).collect();
+        let mut lost = [0u32; HAND_ENTRIES];
+        for (l, m) in lost.iter_mut().zip(own) {
+            *l = m.lost;
+        }
+        let missed = self
+            .last_lost
+            .is_some_and(|prev| prev.iter().zip(&lost).any(|(p, l)| l > p));
+        self.last_lost = Some(lost);
+        Some(HandState {
+            joints: table.state_from_wire(&q, &dq, &tau),
+            faults: if missed { faults::HARDWARE } else { 0 },
+            ..Default::default()
+        })
+    }
+}

@@ -1,0 +1,364 @@
+//! The Inspire DFX kind (docs/sources.md §7 "Inspire DFX"): (a) its table against an
+//! independent oracle written out from the source, (b) the DDS-client codec (layout, the other
+//! hand held at its last measurement, silent until measured, lost/stale rules), (c) the
+//! emulated DFX_inspire_service over real CycloneDDS (domain 230: the two DDS tests use
+//! different topics, so they never see each other; the range's 233 and 234 are unusable,
+//! since RTPS's default port mapping 7400 + 250·domain leaves 0..65535 above domain 232).
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use handgate_adapters::control::Active;
+use handgate_adapters::dds::{Node, Qos};
+use handgate_adapters::dds_device::{DdsCodec, DdsDevice, DdsDeviceConfig};
+use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
+use handgate_adapters::inspire_dfx::adapter::DfxCodec;
+use handgate_adapters::inspire_dfx::emulator::{DfxConfig, DfxEmulator, DFX_REST_Q};
+use handgate_adapters::mapping::{DeviceTable, TableOverrides};
+use handgate_adapters::model::{faults, DeviceKind, Freshness, HandCommand, JointCommand, SafeAction, Side};
+use handgate_adapters::sim::Noise;
+use handgate_idl::unitree_go::{MotorCmd_, MotorCmds_, MotorStates_};
+
+const DEADLINE: Duration = Duration::from_secs(20);
+
+fn table(side: Side) -> DeviceTable {
+    DeviceKind::InspireDfx.table(side, &TableOverrides::default()).unwrap()
+}
+
+fn wait_for<T>(what: &str, mut f: impl FnMut() -> Option<T>) -> T {
+    let end = Instant::now() + DEADLINE;
+    loop {
+        if let Some(v) = f() {
+            return v;
+        }
+        assert!(Instant::now() < end, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// Makes DDS domain `id` private to this process (a Discovery/Tag unique to it), so two runs
+/// of these tests at once (two worktrees) never see each other's services.
+fn isolated_domain(id: u32) {
+    static CREATED: std::sync::Mutex<Vec<u32>> = std::sync::Mutex::new(Vec::new());
+    let mut created = CREATED.lock().unwrap_or_else(|e| e.into_inner());
+    if created.contains(&id) {
+        return;
+    }
+    created.push(id);
+    let cfg = format!(
+        "<CycloneDDS><Domain Id=\"any\"><Discovery><Tag>handgate-dfx-test-{}-{id}</Tag></Discovery></Domain></CycloneDDS>",
+        std::process::id()
+    );
+    let domain = cyclonedds_rs::dds_domain::DdsDomain::create(id, Some(&cfg)).expect("create an isolated domain");
+    std::mem::forget(domain);
+}
+
+// ---- (a) the table against docs/sources.md §7, literal numbers ----
+
+/// (canonical joint, URDF suffix, URDF min, URDF max), in the service's order within a hand:
+/// 0 pinky, 1 ring, 2 middle, 3 index, 4 thumb bend, 5 thumb rotation (docs/sources.md §7).
+const ORACLE: [(&str, &str, f32, f32); 6] = [
+    ("pinky", "pinky_proximal_joint", 0.0, 1.7),
+    ("ring", "ring_proximal_joint", 0.0, 1.7),
+    ("middle", "middle_proximal_joint", 0.0, 1.7),
+    ("index", "index_proximal_joint", 0.0, 1.7),
+    ("thumb_bend", "thumb_proximal_pitch_joint", 0.0, 0.5),
+    ("thumb_rotate", "thumb_proximal_yaw_joint", -0.1, 1.3),
+];
+
+#[test]
+fn a_table_names_order_limits_and_urdf_joints_per_side() {
+    for (side, prefix) in [(Side::Right, "R_"), (Side::Left, "L_")] {
+        let t = table(side);
+        assert_eq!(t.joints.len(), 6);
+        for (i, (name, urdf, min, max)) in ORACLE.iter().enumerate() {
+            let j = &t.joints[i];
+            assert_eq!(j.name, *name);
+            assert_eq!(j.wire_index, i, "{side} {name}: the service's order within a hand");
+            assert_eq!(j.urdf, format!("{prefix}{urdf}"));
+            assert_eq!((j.limits.min, j.limits.max), (*min, *max), "{side} {name}");
+        }
+    }
+}
+
+#[test]
+fn a_xr_teleoperate_sends_1_for_open_and_0_for_closed_on_every_finger_of_both_hands() {
+    // xr_teleoperate starts from all q = 1.0 (open); q = clip((max − rad) / (max − min), 0, 1)
+    // (docs/sources.md §7). Canonical closure 0 → wire 1.0, closure 1 → wire 0.0.
+    for side in [Side::Right, Side::Left] {
+        let t = table(side);
+        let open = t.to_wire(&t.closure_targets(0.0, None).unwrap());
+        let closed = t.to_wire(&t.closure_targets(1.0, None).unwrap());
+        for i in 0..6 {
+            assert!((open[i].q - 1.0).abs() < 1e-6, "{side} entry {i} open: {}", open[i].q);
+            assert!(closed[i].q.abs() < 1e-6, "{side} entry {i} closed: {}", closed[i].q);
+        }
+    }
+}
+
+#[test]
+fn a_positive_canonical_closes_every_joint_to_the_documented_wire_values() {
+    // (joint index, canonical rad, wire q): rad = max − q·(max − min), worked by hand.
+    let cases: [(usize, f32, f32); 9] = [
+        (0, 0.85, 0.5), // pinky half way
+        (1, 1.7, 0.0),  // ring fully bent
+        (2, 0.0, 1.0),  // middle straight
+        (3, 0.425, 0.75),
+        (4, 0.25, 0.5), // thumb bend half way of [0, 0.5]
+        (4, 0.5, 0.0),
+        (5, -0.1, 1.0), // thumb rotation at q = 1 sits at −0.1 rad
+        (5, 0.6, 0.5),
+        (5, 1.3, 0.0),
+    ];
+    for side in [Side::Right, Side::Left] {
+        let t = table(side);
+        for (i, rad, wire) in cases {
+            let j = &t.joints[i];
+            assert!((j.q_to_wire(rad) - wire).abs() < 1e-5, "{side} {} {rad} rad", j.name);
+            assert!(
+                (j.q_from_wire(wire) - rad).abs() < 1e-5,
+                "{side} {} wire {wire}",
+                j.name
+            );
+            // Closing (more canonical) is a smaller wire q, on both hands: no mirror image.
+            assert!(j.q_to_wire(rad + 0.01) < j.q_to_wire(rad), "{side} {}", j.name);
+        }
+    }
+}
+
+// ---- (b) the DDS-client codec ----
+
+fn targets(t: &DeviceTable, closure: f32) -> Active {
+    Active::Command(t.closure_targets(closure, None).unwrap())
+}
+
+fn state12(q: [f32; 12]) -> MotorStates_ {
+    let mut s = MotorStates_::with_len(12);
+    for (m, q) in s.states.iter_mut().zip(q) {
+        m.q = q;
+    }
+    s
+}
+
+#[test]
+fn b_silent_until_the_other_hand_is_measured_then_holds_it_at_its_measurement() {
+    let r = table(Side::Right);
+    let mut c = DfxCodec::new(Side::Right).unwrap();
+    assert!(c.encode(&Active::Idle, &r, 0.01).is_none());
+    assert!(
+        c.encode(&targets(&r, 1.0), &r, 0.01).is_none(),
+        "other hand never measured"
+    );
+    // Right entries 0-5 at 0.9, left 6-11 at 0.1 .. 0.6.
+    let s = c
+        .decode(
+            &state12([0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6]),
+            &r,
+        )
+        .unwrap();
+    // The right hand's own entries: wire 0.9 → pinky 1.7 − 0.9·1.7 = 0.17 rad.
+    assert!((s.joints[0].q - 0.17).abs() < 1e-5, "{}", s.joints[0].q);
+    assert!((s.joints[5].q - 0.04).abs() < 1e-5, "thumb rotate 1.3 − 0.9·1.4");
+    assert_eq!(s.faults, 0);
+    let msg = c.encode(&targets(&r, 1.0), &r, 0.01).unwrap();
+    assert_eq!(msg.cmds.len(), 12);
+    for i in 0..6 {
+        assert!(msg.cmds[i].q.abs() < 1e-6, "right entry {i} closed: {}", msg.cmds[i].q);
+        let m = &msg.cmds[i];
+        assert_eq!(
+            (m.dq, m.tau, m.kp, m.kd, m.mode),
+            (0.0, 0.0, 0.0, 0.0, 0),
+            "only q is set"
+        );
+    }
+    let left: Vec<f32> = msg.cmds[6..].iter().map(|m| m.q).collect();
+    assert_eq!(left, vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6], "left held where measured");
+    // A limp safe state cannot be expressed to the service: it stays silent.
+    let limp = Active::Safe(SafeAction::Limp, vec![JointCommand::default(); 6]);
+    assert!(c.encode(&limp, &r, 0.01).is_none());
+    let open = Active::Safe(SafeAction::Open, r.closure_targets(0.0, None).unwrap());
+    assert!((c.encode(&open, &r, 0.01).unwrap().cmds[0].q - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn b_the_left_hand_writes_entries_6_to_11() {
+    let l = table(Side::Left);
+    let mut c = DfxCodec::new(Side::Left).unwrap();
+    assert!(DfxCodec::new(Side::Center).is_none());
+    c.decode(&state12([0.25; 12]), &l).unwrap();
+    let msg = c.encode(&targets(&l, 0.0), &l, 0.01).unwrap();
+    assert!(msg.cmds[..6].iter().all(|m| m.q == 0.25), "right held");
+    assert!(msg.cmds[6..].iter().all(|m| (m.q - 1.0).abs() < 1e-6), "left open");
+}
+
+#[test]
+fn b_wrong_sizes_are_not_this_hand_and_a_growing_lost_count_is_a_fault() {
+    let r = table(Side::Right);
+    let mut c = DfxCodec::new(Side::Right).unwrap();
+    assert!(c.decode(&MotorStates_::with_len(6), &r).is_none());
+    assert!(c.decode(&MotorStates_::with_len(13), &r).is_none());
+    assert!(c.other_q().is_none());
+    let mut s = state12([0.5; 12]);
+    s.states[2].lost = 4;
+    assert_eq!(c.decode(&s, &r).unwrap().faults, 0, "first sample: nothing to compare");
+    assert_eq!(c.decode(&s, &r).unwrap().faults, 0, "count unchanged");
+    s.states[2].lost = 5;
+    assert_ne!(c.decode(&s, &r).unwrap().faults & faults::HARDWARE, 0, "a read failed");
+    // The other hand's failed reads are not this hand's fault.
+    s.states[8].lost = 9;
+    assert_eq!(c.decode(&s, &r).unwrap().faults, 0);
+}
+
+// ---- (c) over DDS: the emulated service, and devices driving it ----
+
+fn cmd12(q: [f32; 12]) -> MotorCmds_ {
+    MotorCmds_ {
+        cmds: q
+            .iter()
+            .map(|&q| MotorCmd_ {
+                q,
+                ..MotorCmd_::default()
+            })
+            .collect(),
+    }
+}
+
+#[test]
+fn c_service_starts_at_rest_follows_a_client_stops_at_hard_stops_and_goes_quiet_after_1_s() {
+    isolated_domain(230);
+    let emu_node = Node::new(230, None).unwrap();
+    let emu = DfxEmulator::start(
+        &emu_node,
+        DfxConfig {
+            noise: Noise::OFF,
+            ..DfxConfig::default()
+        },
+    )
+    .unwrap();
+    let node = Node::new(230, None).unwrap();
+    let mut w = node
+        .writer::<MotorCmds_>("rt/inspire/cmd", Qos::Reliable { depth: 4 })
+        .unwrap();
+    let r = node
+        .reader::<MotorStates_>("rt/inspire/state", Qos::BestEffort)
+        .unwrap();
+    w.wait_matched(1, DEADLINE).unwrap();
+    r.wait_matched(1, DEADLINE).unwrap();
+    // Start-up: 12 entries at the rest posture, nothing commanded.
+    let s = r.wait_take(DEADLINE).unwrap().pop().unwrap();
+    assert_eq!(s.states.len(), 12);
+    assert!(s.states.iter().all(|m| m.q == DFX_REST_Q), "{s:?}");
+    let snap = emu.snapshot();
+    assert!(snap.timed_out && snap.angle_set_writes == 0);
+    // Right hand toward 0.3 (closing), left past both stops: -1 closes fully, 2 opens fully.
+    let q = [0.3, 0.3, 0.3, 0.3, 0.3, 0.3, -1.0, -1.0, -1.0, 2.0, 2.0, 2.0];
+    let mut seen_between = false;
+    let end = Instant::now() + DEADLINE;
+    let last_write = loop {
+        let written = Instant::now();
+        w.write(cmd12(q)).unwrap();
+        let s = r.wait_take(DEADLINE).unwrap().pop().unwrap();
+        let right = s.states[0].q;
+        seen_between |= right < DFX_REST_Q && right > 0.3 + 1e-3;
+        if (right - 0.3).abs() < 1e-6 && s.states[6].q == 0.0 && s.states[9].q == 1.0 {
+            break written;
+        }
+        assert!(Instant::now() < end, "never reached the targets: {s:?}");
+    };
+    assert!(seen_between, "the fingers move through intermediate positions");
+    let snap = emu.snapshot();
+    assert!(!snap.timed_out && snap.angle_set_writes > 0);
+    assert_eq!(snap.fingers[6].target, Some(0.0), "a negative q is the closed end");
+    // Silence: the service stops writing after 1 s and keeps publishing; the hand holds.
+    let writes = wait_for("the service's timeout", || {
+        let s = emu.snapshot();
+        s.timed_out.then_some(s.angle_set_writes)
+    });
+    assert!(last_write.elapsed() >= Duration::from_secs(1));
+    let published = emu.snapshot().states_published;
+    let s = wait_for("more state after the timeout", || {
+        let s = r.take().pop()?;
+        (emu.snapshot().states_published > published + 5).then_some(s)
+    });
+    assert_eq!(emu.snapshot().angle_set_writes, writes, "no writes while timed out");
+    assert_eq!(s.states[0].q, 0.3);
+    assert_eq!((s.states[6].q, s.states[9].q), (0.0, 1.0), "hard stops hold");
+    // A malformed command is ignored and counted; it does not end the silence.
+    w.write(MotorCmds_::with_len(6)).unwrap();
+    wait_for("the rejection", || (emu.snapshot().rejected >= 1).then_some(()));
+    assert!(emu.snapshot().timed_out);
+}
+
+/// The second DDS test's private topics (it shares domain 230 with the first).
+const PAIR_TOPICS: (&str, &str) = ("rt/test_dfx_pair/cmd", "rt/test_dfx_pair/state");
+
+fn device(node: &Node, side: Side, name: &str) -> DdsDevice {
+    let info = DeviceInfo {
+        name: name.into(),
+        kind: DeviceKind::InspireDfx,
+        side,
+        backend: Backend::Dds,
+        table: Arc::new(table(side)),
+    };
+    let cfg = DdsDeviceConfig {
+        cmd_topic: PAIR_TOPICS.0.into(),
+        state_topic: Some(PAIR_TOPICS.1.into()),
+        rate_hz: 100.0,
+        stale_after: Duration::from_millis(200),
+    };
+    DdsDevice::start(node, info, cfg, DfxCodec::new(side).unwrap()).unwrap()
+}
+
+#[test]
+fn c_a_left_and_a_right_device_share_the_service_without_disturbing_each_other() {
+    isolated_domain(230);
+    let emu_node = Node::new(230, None).unwrap();
+    let emu = DfxEmulator::start(
+        &emu_node,
+        DfxConfig {
+            topics: Some((PAIR_TOPICS.0.into(), PAIR_TOPICS.1.into())),
+            ..DfxConfig::default()
+        },
+    )
+    .unwrap();
+    let node = Node::new(230, None).unwrap();
+    let right = device(&node, Side::Right, "right");
+    let left = device(&node, Side::Left, "left");
+    let rs = right.state();
+    wait_for("a fresh right state", || {
+        (rs.borrow().freshness == Freshness::Fresh).then_some(())
+    });
+    // Left closes half way; the right device has no command and sends nothing.
+    left.command(HandCommand::closure(1, 0.5)).unwrap();
+    wait_for("left at half closure", || {
+        let f = emu.snapshot().fingers;
+        f[6..].iter().all(|f| (f.q - 0.5).abs() < 2e-3).then_some(())
+    });
+    // The left device holds the right hand at its last measurement: within the measurement
+    // noise (a few register counts) of where it rests.
+    for f in &emu.snapshot().fingers[..6] {
+        assert!((f.q - DFX_REST_Q).abs() < 6e-3, "the right hand moved: {f:?}");
+    }
+    // Now the right hand closes; the left device goes away (no more left commands).
+    drop(left);
+    right.command(HandCommand::closure(2, 1.0)).unwrap();
+    wait_for("right closed", || {
+        let f = emu.snapshot().fingers;
+        f[..6].iter().all(|f| f.q < 2e-3).then_some(())
+    });
+    // The right device held the left hand at its last measurement (noise: a few counts).
+    let snap = emu.snapshot();
+    for f in &snap.fingers[6..] {
+        assert!((f.q - 0.5).abs() < 6e-3, "left hand disturbed: {f:?}");
+        assert!((f.target.unwrap() - 0.5).abs() < 6e-3, "left target {f:?}");
+    }
+    let st = rs.borrow().clone();
+    assert!(st.joints[0].q > 1.69, "canonical pinky closed: {}", st.joints[0].q);
+    assert!(st.closure > 0.99);
+    // The service goes away: the device's state turns stale with the link-down fault.
+    drop(emu);
+    wait_for("stale state", || {
+        let s = rs.borrow().clone();
+        (s.freshness == Freshness::Stale && s.faults & faults::LINK_DOWN != 0).then_some(())
+    });
+}
