@@ -6,15 +6,16 @@
 #   3. hop        end-to-end HandCmd_ -> HandState_ through handgate vs a Rust echo (floor) and a
 #                 unitree_sdk2py relay, at 200 Hz and 1 kHz
 #   4. fleet      16 Dex3 + 16 Dex1 emulated in one gateway, 30 s
+#   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop hop fleet" to run a subset (the report keeps only what this run made).
+# BENCH_ONLY="codec loop hop fleet simall" to run a subset (the report keeps only what this run made).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop hop fleet"}
+only=${BENCH_ONLY:-"codec loop hop fleet simall"}
 quick=${BENCH_QUICK:-0}
 
 loop_secs=60; fleet_secs=30; samples=2000
@@ -64,6 +65,11 @@ fi
 if want fleet; then
   echo "bench: 4. fleet scale (${fleet_secs} s)"
   "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --out "$results/fleet.json"
+fi
+
+if want simall; then
+  echo "bench: 4b. sim-all, every kind at its own rates (${fleet_secs} s)"
+  "$bin/handgate-bench" profile --handgate "$bin/handgate" --profile sim-all --secs "$fleet_secs" --out "$results/simall.json"
 fi
 
 "$bin/handgate-bench" machine --out "$results/machine_end.json"

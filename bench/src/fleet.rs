@@ -157,3 +157,115 @@ pub fn write_profile(path: &Path, n3: usize, n1: usize) -> anyhow::Result<()> {
     std::fs::write(path, profile(n3, n1))?;
     Ok(())
 }
+
+/// One kind's devices in a measured profile.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct KindRow {
+    pub kind: String,
+    pub devices: usize,
+    /// Per-device mean state rate over the window (status topic), Hz.
+    pub state_hz: Option<Summary>,
+    /// Cycles missed during the window, summed over the kind's devices.
+    pub missed: u64,
+}
+
+/// A shipped profile (every kind at its own rates: `sim-all`) measured as it runs.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ProfileResult {
+    pub profile: String,
+    pub domain: u32,
+    pub secs: f64,
+    /// Gateway CPU over the window, % of one core.
+    pub cpu_pct: f64,
+    pub rss_mb: f64,
+    pub peak_rss_mb: f64,
+    pub threads: f64,
+    pub devices_seen: usize,
+    pub kinds: Vec<KindRow>,
+}
+
+/// Measures a running gateway (`pid`) on profile `profile` for `secs`: waits until its status
+/// reports every device fresh, then CPU, RSS and each kind's state rates and missed cycles.
+pub fn measure_profile(
+    node: &Node,
+    pid: u32,
+    profile: &str,
+    secs: f64,
+    warm: Duration,
+) -> anyhow::Result<ProfileResult> {
+    let reader = node.reader::<GatewayStatus_>("rt/handgate/status", Qos::Reliable { depth: 1 })?;
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        if let Some(s) = reader.take().pop() {
+            if !s.devices.is_empty() && s.devices.iter().all(|d| d.freshness == 0) {
+                break;
+            }
+        }
+        anyhow::ensure!(
+            Instant::now() < deadline,
+            "profile {profile}: not every device reported fresh within 60 s"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(warm);
+    let _ = reader.take();
+    let first = reader.wait_take(Duration::from_secs(5))?.pop().expect("one sample");
+    let c0 = cpu_seconds(pid).unwrap_or(f64::NAN);
+    let t0 = Instant::now();
+    let mut rates: HashMap<String, Vec<f64>> = HashMap::new();
+    let mut last = first.clone();
+    while t0.elapsed().as_secs_f64() < secs {
+        for s in reader.take() {
+            for d in &s.devices {
+                rates
+                    .entry(d.device.clone())
+                    .or_default()
+                    .push(f64::from(d.state_rate_hz));
+            }
+            last = s;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    let c1 = cpu_seconds(pid).unwrap_or(f64::NAN);
+    let missed0: HashMap<&str, u64> = first
+        .devices
+        .iter()
+        .map(|d| (d.device.as_str(), d.missed_cycles))
+        .collect();
+    let mean = |v: &Vec<f64>| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let mut kinds: Vec<String> = last.devices.iter().map(|d| d.kind.clone()).collect();
+    kinds.sort();
+    kinds.dedup();
+    let kinds = kinds
+        .into_iter()
+        .map(|kind| {
+            let devs: Vec<_> = last.devices.iter().filter(|d| d.kind == kind).collect();
+            let means: Vec<f64> = devs.iter().filter_map(|d| rates.get(&d.device).map(mean)).collect();
+            let missed = devs
+                .iter()
+                .map(|d| {
+                    d.missed_cycles
+                        .saturating_sub(*missed0.get(d.device.as_str()).unwrap_or(&0))
+                })
+                .sum();
+            KindRow {
+                devices: devs.len(),
+                state_hz: Summary::of(&means),
+                missed,
+                kind,
+            }
+        })
+        .collect();
+    Ok(ProfileResult {
+        profile: profile.to_string(),
+        domain: node.domain_id(),
+        secs: wall,
+        cpu_pct: 100.0 * (c1 - c0) / wall,
+        rss_mb: status_kb(pid, "VmRSS").unwrap_or(f64::NAN) / 1024.0,
+        peak_rss_mb: status_kb(pid, "VmHWM").unwrap_or(f64::NAN) / 1024.0,
+        threads: status_kb(pid, "Threads").unwrap_or(f64::NAN),
+        devices_seen: last.devices.len(),
+        kinds,
+    })
+}

@@ -96,6 +96,20 @@ enum Cmd {
         #[arg(long)]
         out: PathBuf,
     },
+    /// A shipped profile as it runs (default `sim-all`: every kind emulated at its own
+    /// rates): CPU, RSS, each kind's state rate and missed cycles.
+    Profile {
+        #[arg(long)]
+        handgate: PathBuf,
+        #[arg(long, default_value = "sim-all")]
+        profile: String,
+        #[arg(long, default_value_t = 30.0)]
+        secs: f64,
+        #[arg(long, default_value_t = 111)]
+        domain: u32,
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Criterion samples written since a time (epoch seconds).
     Criterion {
         #[arg(long)]
@@ -275,6 +289,21 @@ fn main() -> anyhow::Result<()> {
             gw.stop();
             let r = r?;
             eprintln!("fleet: {r:?}");
+            save(&out, &r)?;
+        }
+        Cmd::Profile {
+            handgate,
+            profile,
+            secs,
+            domain,
+            out,
+        } => {
+            let gw = gateway(&handgate, domain, None, Some(std::path::Path::new(&profile)))?;
+            let node = Node::new(domain, None)?;
+            let r = fleet::measure_profile(&node, gw.pid(), &profile, secs, Duration::from_secs(3));
+            gw.stop();
+            let r = r?;
+            eprintln!("profile: {r:?}");
             save(&out, &r)?;
         }
         Cmd::Criterion { dir, since, out } => save(&out, &criterion::collect(&dir, since)?)?,

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::criterion::CodecResult;
 use crate::device_loop::LoopResult;
-use crate::fleet::FleetResult;
+use crate::fleet::{FleetResult, ProfileResult};
 use crate::hop::HopResult;
 use crate::stats::{cpu_model, loadavg, nproc, Summary};
 
@@ -336,6 +336,48 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     }
     notes(repo, "fleet", &mut body);
 
+    // 4b. Every kind at its own rates
+    body.push_str("\n### 4b. Every kind at its own rates (`sim-all`)\n\n");
+    match read::<ProfileResult>(results, "simall.json") {
+        Some(p) => {
+            let _ = writeln!(
+                body,
+                "`handgate-bench profile`: one release gateway on the shipped profile `{}` (every device kind \
+                 emulated, every front at its standard topic, no client attached) on private DDS domain {}. \
+                 Measured over {:.0} s after every device reported fresh, as above. Nominal rates are each \
+                 kind's default (docs/adapters.md); a kind whose emulated service publishes slower than the \
+                 device loop shows the service's rate.\n",
+                p.profile, p.domain, p.secs
+            );
+            body.push_str("| figure | value |\n|---|---|\n");
+            let _ = writeln!(body, "| CPU | {:.0} % of one core |", p.cpu_pct);
+            let _ = writeln!(body, "| RSS (end) | {:.1} MB |", p.rss_mb);
+            let _ = writeln!(body, "| peak RSS (VmHWM) | {:.1} MB |", p.peak_rss_mb);
+            let _ = writeln!(body, "| threads | {:.0} |", p.threads);
+            let _ = writeln!(body, "| devices in status | {} |", p.devices_seen);
+            body.push_str("\n| kind | devices | state rate per device (min / median / max) | missed cycles |\n|---|---|---|---|\n");
+            for k in &p.kinds {
+                let rate = k.state_hz.as_ref().map_or("—".to_string(), |s| {
+                    format!("{:.0} / {:.0} / {:.0} Hz", s.min, s.median, s.max)
+                });
+                let _ = writeln!(body, "| {} | {} | {rate} | {} |", k.kind, k.devices, k.missed);
+            }
+            summary.push((
+                format!("{} ({} devices): CPU", p.profile, p.devices_seen),
+                format!("{:.0} % of one core", p.cpu_pct),
+                "no target".into(),
+                "measured",
+            ));
+            summary.push((
+                format!("{} ({} devices): RSS", p.profile, p.devices_seen),
+                format!("{:.1} MB", p.rss_mb),
+                "no target".into(),
+                "measured",
+            ));
+        }
+        None => body.push_str("Not measured in this run.\n"),
+    }
+
     // 5. EZGripper
     body.push_str("\n## 5. EZGripper (Dynamixel)\n\n");
     // Only the Dynamixel ids: criterion's directory also holds the Dex3 results of this run.
@@ -398,7 +440,7 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
          The harness: `scripts/bench.sh` builds the release binaries, runs each benchmark, writes JSON results \
          to `$CARGO_TARGET_DIR/bench-results/` (default `target/`), then `handgate-bench report` writes this file \
          and the script copies the results to `docs/benchmarks/raw/` (commit them with this file). \
-         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 110 (fleet).\n",
+         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 110 (fleet), 111 (sim-all).\n",
     );
     std::fs::write(out_path, o)?;
     Ok(())
