@@ -125,6 +125,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::approx_constant)] // the URDF's literal figures
     fn closed_wire_is_the_urdf_upper_limit_and_open_is_zero() {
         let f = t(Side::Left);
         let d = decode(&msg([1.0; 6], 1.0), &f).unwrap();

@@ -32,6 +32,8 @@ pub const URDF_JOINTS: [&str; 6] = [
 
 /// Upper URDF limit of each entry's joint, rad (lower limit 0 for all; docs/sources.md §7:
 /// thumb [0, 1.5184], thumb aux [0, 1.0472], fingers [0, 1.4661]).
+/// The URDF's literal figures (1.0472 is its value, not π/3).
+#[allow(clippy::approx_constant)]
 pub const URDF_MAX_RAD: [f32; 6] = [1.5184, 1.0472, 1.4661, 1.4661, 1.4661, 1.4661];
 
 /// Gains of closure and hold targets. `brainco_hand_service` ignores kp and kd (docs/sources.md
