@@ -41,6 +41,7 @@ pub const SHIPPED: &[(&str, &str)] = &[
     ("default", include_str!("../../../profiles/default.toml")),
     ("dex3-usb-lab", include_str!("../../../profiles/dex3-usb-lab.toml")),
     ("ezgripper-sim", include_str!("../../../profiles/ezgripper-sim.toml")),
+    ("g1-brainco", include_str!("../../../profiles/g1-brainco.toml")),
     ("g1-dex3", include_str!("../../../profiles/g1-dex3.toml")),
     ("g1-ezgripper", include_str!("../../../profiles/g1-ezgripper.toml")),
     ("g1-hand-sdk", include_str!("../../../profiles/g1-hand-sdk.toml")),
