@@ -136,6 +136,7 @@ fn drive(
 }
 
 /// URDF upper limits (docs/sources.md §7): thumb, thumb aux, then the four fingers.
+#[allow(clippy::approx_constant)] // the URDF's literal 1.0472
 const CLOSED_RAD: [f32; 6] = [1.5184, 1.0472, 1.4661, 1.4661, 1.4661, 1.4661];
 
 fn assert_closed_positive(s: &hg::HandState_) {
