@@ -41,13 +41,14 @@ pub const BRAINCO_REST_Q: [f32; WIRE_LEN] = [0.10, 0.05, 0.15, 0.15, 0.15, 0.15]
 /// One count of the hand's 0–1000 registers, as the service reports it (docs/sources.md §7).
 pub const REGISTER_STEP: f32 = 0.001;
 
-/// Default measurement noise, in wire units: one register count of position and speed,
-/// 10 mA of current (assumptions: the hand reports integers, and a current sensor flickers
-/// by a few mA).
+/// Default measurement noise, in wire units: half a register count of position and speed
+/// (after rounding to whole counts a reading at rest flickers by a count now and then, as the
+/// EZGripper's half-tick figure), 5 mA of current (assumptions: the hand reports integers, and
+/// a current sensor flickers by a few mA).
 pub const BRAINCO_NOISE: Noise = Noise {
-    q: 0.001,
-    dq: 0.001,
-    tau: 0.01,
+    q: 0.0005,
+    dq: 0.0005,
+    tau: 0.005,
     seed: Noise::DEFAULT_SEED,
 };
 
