@@ -5,10 +5,11 @@
 //! with the other fronts' factories).
 //!
 //! Command rules (docs/fronts.md "Bad input"): exactly 6 entries in the driver's order
-//! (thumb, thumb aux, index, middle, ring, pinky), else rejected whole; a non-finite `q` or
-//! `dq` in any entry rejects the message whole; `q` and `dq` outside [0, 1] are clamped to it
+//! (thumb, thumb aux, index, middle, ring, pinky), else rejected whole; a non-finite value in
+//! any of an entry's five fields rejects the message whole (the rule of every front, though
+//! the service itself only reads `q` and `dq`); `q` and `dq` outside [0, 1] are clamped to it
 //! as the service clamps them ([`out_of_range`] counts them for the front's counters);
-//! `tau`, `kp`, `kd` and `mode` are ignored as the service ignores them. `q` becomes the
+//! finite `tau`, `kp`, `kd` and `mode` are ignored as the service ignores them. `q` becomes the
 //! joint's canonical radians through the front table; the speed `dq` has no canonical
 //! counterpart (canonical `dq` is a velocity target) and is not forwarded: the device runs at
 //! its own configured speed. `cmds[0].reserve[0]` is the client's tag.
@@ -23,7 +24,7 @@
 use handgate_idl::unitree_go;
 
 use super::WIRE_LEN;
-use crate::front::{FrontCommand, Rejection};
+use crate::front::{checked_target, FrontCommand, Rejection};
 use crate::mapping::DeviceTable;
 use crate::model::{Freshness, HandState, JointCommand, JointState};
 
@@ -38,8 +39,8 @@ pub fn decode(msg: &unitree_go::MotorCmds_, front: &DeviceTable) -> Result<Front
             want: WIRE_LEN,
         });
     }
-    if let Some(i) = msg.cmds.iter().position(|c| !(c.q.is_finite() && c.dq.is_finite())) {
-        return Err(Rejection::NonFinite(i));
+    for (i, c) in msg.cmds.iter().enumerate() {
+        checked_target(i, [c.q, c.dq, c.tau, c.kp, c.kd])?;
     }
     let joints = front
         .joints
@@ -153,10 +154,16 @@ mod tests {
         let mut m = msg([0.5; 6], 1.0);
         m.cmds[4].dq = f32::INFINITY;
         assert_eq!(decode(&m, &f), Err(Rejection::NonFinite(4)));
-        // tau / kp / kd are ignored by the service, NaN included.
+        // Any field, even one the service ignores (docs/fronts.md: any non-finite value).
         let mut m = msg([0.5; 6], 1.0);
         m.cmds[0].kp = f32::NAN;
-        assert!(decode(&m, &f).is_ok());
+        assert_eq!(decode(&m, &f), Err(Rejection::NonFinite(0)));
+        // Finite values of the ignored fields change nothing.
+        let mut m = msg([0.5; 6], 1.0);
+        m.cmds[1].kp = 40.0;
+        m.cmds[1].tau = -3.0;
+        m.cmds[1].mode = 9;
+        assert_eq!(decode(&m, &f), decode(&msg([0.5; 6], 1.0), &f));
         let m = msg([1.7, -0.2, 0.5, 0.5, 0.5, 0.5], 3.0);
         assert_eq!(out_of_range(&m), 2 + 6);
         let d = decode(&m, &f).unwrap();
