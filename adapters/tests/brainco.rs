@@ -1,6 +1,7 @@
 //! The BrainCo Revo2 kind (docs/sources.md §7 "BrainCo Revo2"): its table against an oracle
 //! written out from §7, the DDS-client codec, the service emulator over real CycloneDDS, and
-//! closure pairing of a BrainCo front with a Dex3 hand. DDS domains 240 and 241 (the e2e
+//! closure pairing of a BrainCo front with a Dex3 hand, and the registry opening an emulated
+//! hand. DDS domains 240, 241 and 244 (the e2e
 //! tests in `tests/tests/brainco_e2e.rs` use 242 and 243).
 
 use std::sync::Arc;
@@ -382,4 +383,68 @@ fn the_service_opens_the_hand_from_its_rest_posture_at_start_up() {
     let snap = emu.snapshot();
     assert_eq!(snap.commands, 0, "opened without any command");
     assert!(snap.fingers.iter().all(|f| f.target_q == 0.0 && f.target_speed == 1.0));
+}
+
+// ---- the registry: the emulator backend as the gateway opens it ----
+
+#[test]
+fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
+    use handgate_adapters::brainco::open::BraincoOpen;
+    use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
+
+    dds_env();
+    // Same process (same discovery tag) as the start-up test on 244, on private topics.
+    let node = Node::new(244, None).unwrap();
+    let kind = DeviceKind::by_name("brainco").expect("registered");
+    let f = kind.factory();
+    let table = Arc::new(table(Side::Left));
+    let mut emulator = EmulatorSection {
+        noise: Some(false),
+        ..Default::default()
+    };
+    emulator.initial.insert("thumb".into(), 0.7592);
+    emulator.object_at.insert("index".into(), 0.73305);
+    let config = f.default_config();
+    let spec = DeviceSpec {
+        name: "reg_left",
+        kind,
+        side: Side::Left,
+        backend: Backend::Emulator,
+        rate_hz: 100.0,
+        stale_after: Duration::from_millis(200),
+        table: &table,
+        emulator: &emulator,
+        config: &*config,
+    };
+    match handgate_adapters::brainco::open::configure(&spec).unwrap() {
+        BraincoOpen::Emulated { peer, config, speed } => {
+            assert!((peer.initial[0] - 0.5).abs() < 1e-4, "thumb 0.7592 rad = wire 0.5");
+            assert!(
+                (peer.object[2].unwrap() - 0.5).abs() < 1e-4,
+                "index 0.73305 rad = wire 0.5"
+            );
+            assert!(peer.noise.is_off());
+            assert_eq!(peer.topics.as_ref().unwrap().0, "rt/handgate/emu/reg_left/cmd");
+            assert_eq!(config.cmd_topic, "rt/handgate/emu/reg_left/cmd");
+            assert_eq!(speed, 1.0);
+        }
+        other => panic!("{other:?}"),
+    }
+    let mut shared = Shared::default();
+    let mut env = OpenEnv {
+        node: &node,
+        shared: &mut shared,
+    };
+    let dev = f.open(&spec, &mut env).unwrap();
+    let mut rx = dev.state();
+    wait_for("fresh state", || rx.borrow_and_update().freshness == Freshness::Fresh);
+    dev.command(HandCommand::closure(1, 1.0)).unwrap();
+    // Every finger closes but the index, which stops on the object at half its travel.
+    wait_for("closed on the object", || {
+        let s = rx.borrow_and_update();
+        (s.joints[3].q - 1.4661).abs() < 0.01 && (s.joints[0].q - 1.5184).abs() < 0.01
+    });
+    let s = rx.borrow().clone();
+    assert!((s.joints[2].q - 0.73305).abs() < 0.01, "index on the object: {s:?}");
+    assert!(s.joints[2].tau > s.joints[3].tau, "pressing draws more current: {s:?}");
 }
