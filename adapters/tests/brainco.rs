@@ -448,3 +448,16 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
     assert!((s.joints[2].q - 0.73305).abs() < 0.01, "index on the object: {s:?}");
     assert!(s.joints[2].tau > s.joints[3].tau, "pressing draws more current: {s:?}");
 }
+
+#[test]
+fn joint_states_carry_the_brainco_urdf_names() {
+    use handgate_adapters::front::joint_state;
+    for side in [Side::Left, Side::Right] {
+        let t = table(side);
+        let st = handgate_adapters::model::HandState::empty(6);
+        let mut out = joint_state::header(std::time::SystemTime::now(), "");
+        joint_state::append(&mut out, &t, &st, true, "");
+        let want: Vec<String> = ORACLE.iter().map(|(_, _, urdf, _)| format!("{side}_{urdf}")).collect();
+        assert_eq!(out.name, want);
+    }
+}
