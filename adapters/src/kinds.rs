@@ -11,4 +11,5 @@ pub const KINDS: &[DeviceKind] = &[
     DeviceKind::Ezgripper,
     DeviceKind::HandSdk,
     DeviceKind::InspireDfx,
+    DeviceKind::Brainco,
 ];

@@ -3,6 +3,7 @@
 //! one folder per device kind (its factory and profile keys, codec, transport, emulator,
 //! adapter).
 
+pub mod brainco;
 pub mod control;
 pub mod dds;
 pub mod dds_device;

@@ -1267,6 +1267,11 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             dex1("dds", "[devices.dds]\nrange_rad = 6.0"),
         ),
         (
+            "devices.dds.speed",
+            one_device("brainco", "left", "dds", ""),
+            one_device("brainco", "left", "dds", "[devices.dds]\nspeed = 0.5"),
+        ),
+        (
             "devices.hand_sdk.topic",
             sdk(""),
             sdk("[devices.hand_sdk]\ntopic = \"rt/x\""),
