@@ -9,7 +9,7 @@
 //!   emulated Inspire DFX hand, and this front closes and opens an emulated Dex3 hand;
 //! - `handgate check` on its binding rules.
 //!
-//! Domains 80-83 (docs/development.md). Tests take turns ([`serial`]); every wait is on
+//! Domains 80-82 (docs/development.md). Tests take turns ([`serial`]); every wait is on
 //! readiness with a deadline. Needs the binary (`cargo build -p handgate`) and `.venv`.
 
 use std::path::PathBuf;
