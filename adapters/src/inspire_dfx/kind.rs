@@ -67,6 +67,11 @@ impl KindFactory for InspireDfxFactory {
         &super::table::JOINTS
     }
 
+    /// DFX_inspire_service's own interface (`rt/inspire/*`, both hands): `super::serve`.
+    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
+        &[crate::front::kind::FrontKind::InspireDfx]
+    }
+
     fn backends(&self) -> &'static [Backend] {
         &[Backend::Dds, Backend::Emulator]
     }

@@ -6,13 +6,15 @@
 //! - `adapter`: the DDS-client codec (handgate drives the real service as a client);
 //! - `emulator`: the service's emulator (both hands, one loop);
 //! - `kind` / `open`: the registry entry and how a device opens on each backend;
-//! - `front`: the pure codec of the service's own interface (a front serving `rt/inspire/*`).
+//! - `front`: the pure codec of the service's own interface (a front serving `rt/inspire/*`);
+//! - `serve`: that front's registry entry (`FrontKind::InspireDfx`) and endpoints.
 
 pub mod adapter;
 pub mod emulator;
 pub mod front;
 pub mod kind;
 pub mod open;
+pub mod serve;
 pub mod table;
 
 use crate::model::Side;
