@@ -204,6 +204,19 @@ pub struct DeviceTable {
     pub max_kd: f32,
     /// Largest |feed-forward torque|, N*m.
     pub max_tau: f32,
+    /// The frame of the URDF joint angles `rt/joint_states` publishes.
+    pub urdf_frame: UrdfFrame,
+}
+
+/// Which of a table's frames the kind's URDF joint angles are in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum UrdfFrame {
+    /// The wire value is the URDF angle (Dex3: the service's q is the joint angle).
+    #[default]
+    Wire,
+    /// The canonical value is the URDF angle (hands whose wire is a normalised 0..1 while the
+    /// table's canonical radians are the URDF's: Inspire, BrainCo).
+    Canonical,
 }
 
 impl DeviceTable {

@@ -74,6 +74,7 @@ pub fn table(side: Side) -> DeviceTable {
         max_kp: 50.0,
         max_kd: 5.0,
         max_tau: 5.0,
+        urdf_frame: crate::mapping::UrdfFrame::Canonical,
     }
 }
 

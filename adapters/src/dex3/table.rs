@@ -97,6 +97,7 @@ pub fn table(side: Side) -> DeviceTable {
         max_kp: 10.0,
         max_kd: 1.0,
         max_tau: 1.5,
+        urdf_frame: crate::mapping::UrdfFrame::Wire,
     }
 }
 

@@ -40,5 +40,6 @@ pub fn table(side: Side, range: f32, max_open_percent: f32) -> DeviceTable {
         max_kp: 50.0,
         max_kd: 5.0,
         max_tau: 5.0,
+        urdf_frame: crate::mapping::UrdfFrame::Wire,
     }
 }

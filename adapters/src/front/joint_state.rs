@@ -1,8 +1,9 @@
 //! ROS 2 `sensor_msgs/msg/JointState` (as `sensor_msgs::msg::dds_::JointState_` on
-//! `rt/<topic>`), with URDF joint names and positions in the URDF (= wire) frame, so
-//! robot_state_publisher and rviz see the hands without a bridge.
+//! `rt/<topic>`), with URDF joint names and positions in the URDF's frame (the table's wire
+//! or canonical frame, `DeviceTable::urdf_frame`), so robot_state_publisher and rviz see the
+//! hands without a bridge.
 
-use crate::mapping::DeviceTable;
+use crate::mapping::{DeviceTable, UrdfFrame};
 use crate::model::HandState;
 use handgate_idl::ros2::{Header_, JointState_, Time_};
 
@@ -14,9 +15,13 @@ pub fn append(out: &mut JointState_, device: &DeviceTable, st: &HandState, urdf_
         } else {
             format!("{prefix}{}", m.name)
         });
-        out.position.push(m.q_to_wire(j.q) as f64);
-        out.velocity.push(m.rate_to_wire(j.dq) as f64);
-        out.effort.push(m.tau_to_wire(j.tau) as f64);
+        let (q, dq, tau) = match device.urdf_frame {
+            UrdfFrame::Wire => (m.q_to_wire(j.q), m.rate_to_wire(j.dq), m.tau_to_wire(j.tau)),
+            UrdfFrame::Canonical => (j.q, j.dq, j.tau),
+        };
+        out.position.push(q as f64);
+        out.velocity.push(dq as f64);
+        out.effort.push(tau as f64);
     }
 }
 
@@ -57,5 +62,32 @@ mod tests {
         let i = m.name.iter().position(|n| n == "left_hand_three_joint").unwrap();
         assert_eq!(m.position[i], -1.0);
         assert_eq!(m.name.len(), 7);
+    }
+
+    /// Hands whose wire is a normalised 0..1 publish URDF radians, not wire values
+    /// (docs/sources.md §7: an Inspire finger open at its URDF lower limit, the thumb rotation
+    /// at -0.1 rad when open; a BrainCo finger closed at its URDF upper limit, 1.4661 rad).
+    #[test]
+    fn normalised_hands_publish_urdf_radians() {
+        let dfx = crate::inspire_dfx::table::table(Side::Right);
+        let mut st = HandState::empty(6);
+        for (m, j) in dfx.joints.iter().zip(st.joints.iter_mut()) {
+            j.q = m.q_from_wire(1.0); // the service's q = 1: open
+        }
+        let mut m = header(std::time::SystemTime::now(), "");
+        append(&mut m, &dfx, &st, true, "");
+        let at = |m: &JointState_, n: &str| m.position[m.name.iter().position(|x| x == n).unwrap()];
+        assert!((at(&m, "R_pinky_proximal_joint") - 0.0).abs() < 1e-6, "{m:?}");
+        assert!((at(&m, "R_thumb_proximal_yaw_joint") + 0.1).abs() < 1e-6, "{m:?}");
+
+        let bc = crate::brainco::table::table(Side::Left);
+        let mut st = HandState::empty(6);
+        for (m, j) in bc.joints.iter().zip(st.joints.iter_mut()) {
+            j.q = m.q_from_wire(1.0); // the service's q = 1: closed
+        }
+        let mut m = header(std::time::SystemTime::now(), "");
+        append(&mut m, &bc, &st, true, "");
+        assert!((at(&m, "left_index_proximal_joint") - 1.4661).abs() < 1e-4, "{m:?}");
+        assert!((at(&m, "left_thumb_metacarpal_joint") - 1.5184).abs() < 1e-4, "{m:?}");
     }
 }

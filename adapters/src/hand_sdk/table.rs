@@ -41,5 +41,6 @@ pub fn table(side: Side) -> DeviceTable {
         max_kp: 10.0,
         max_kd: 1.0,
         max_tau: 1.0,
+        urdf_frame: crate::mapping::UrdfFrame::Wire,
     }
 }

@@ -78,5 +78,6 @@ pub fn table(side: Side) -> DeviceTable {
         max_kp: 50.0,
         max_kd: 5.0,
         max_tau: 1.0,
+        urdf_frame: crate::mapping::UrdfFrame::Canonical,
     }
 }
