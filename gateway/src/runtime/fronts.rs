@@ -24,13 +24,24 @@ struct RateLimitedLog {
 
 impl RateLimitedLog {
     fn warn(&self, front: &str, key: &'static str, msg: &dyn std::fmt::Display) {
+        if let Some(suppressed) = self.admit(key, Instant::now()) {
+            warn!(front, reason = key, suppressed, "rejected command: {msg}");
+        }
+    }
+
+    /// Whether an event of `key` at `now` is logged: `Some(n)`, the number of events of `key`
+    /// suppressed since the last one logged, when a second has passed since then (or none was
+    /// logged yet); `None` otherwise.
+    fn admit(&self, key: &'static str, now: Instant) -> Option<u64> {
         let mut g = self.last.lock().unwrap_or_else(|p| p.into_inner());
-        let now = Instant::now();
         let e = g.entry(key).or_insert((now - Duration::from_secs(2), 0));
         e.1 += 1;
         if now.duration_since(e.0) >= Duration::from_secs(1) {
-            warn!(front, reason = key, suppressed = e.1 - 1, "rejected command: {msg}");
+            let suppressed = e.1 - 1;
             *e = (now, 0);
+            Some(suppressed)
+        } else {
+            None
         }
     }
 }
@@ -334,4 +345,31 @@ fn views(bound: &[Bound]) -> Vec<fronts::Bound<'_>> {
             state: b.slot.device.state().borrow().clone(),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejections_are_logged_once_per_second_per_reason_with_the_suppressed_count() {
+        let log = RateLimitedLog::default();
+        let t0 = Instant::now();
+        let ms = |n: u64| t0 + Duration::from_millis(n);
+        assert_eq!(log.admit("non_finite", t0), Some(0), "the first one is logged");
+        assert_eq!(log.admit("non_finite", ms(10)), None);
+        assert_eq!(log.admit("non_finite", ms(999)), None);
+        assert_eq!(
+            log.admit("wrong_count", ms(500)),
+            Some(0),
+            "each reason has its own second"
+        );
+        assert_eq!(
+            log.admit("non_finite", ms(1000)),
+            Some(2),
+            "a second later, with the two suppressed"
+        );
+        assert_eq!(log.admit("non_finite", ms(1500)), None);
+        assert_eq!(log.admit("non_finite", ms(2100)), Some(1));
+    }
 }
