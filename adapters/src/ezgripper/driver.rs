@@ -761,6 +761,7 @@ impl Worker {
             match res {
                 Ok(()) => {}
                 Err(e) => {
+                    tracing::warn!(error = %e, "Dynamixel bus lost; reconnecting");
                     self.note_error(&e.to_string());
                     link = None;
                     {
