@@ -450,3 +450,63 @@ fn canonical_closing_arrives_on_the_wire_with_the_sources_sign() {
         rig.gw.transcript()
     );
 }
+
+/// The first state that reflects an accepted command is published at once, not at the next
+/// periodic deadline (docs/fronts.md: a client waits for its command's effect, not for the
+/// next tick): with the front's periodic state every 10 s (the slowest the ticker runs, its
+/// first sample 10 s after start), the state echoing the command's tag still arrives within
+/// 4 s of the command (in practice milliseconds after the hand applied it). Guards the front task's prompt publish (`first_change`), which no watchdog
+/// test sees. Domain 176.
+#[test]
+fn the_state_reflecting_a_command_is_published_at_once_not_at_the_next_tick() {
+    let _serial = serial();
+    let dir = std::env::temp_dir().join(format!("handgate-safety-e2e-prompt-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("profile.toml");
+    std::fs::write(
+        &profile,
+        r#"name = "safety-e2e-prompt"
+[[devices]]
+name = "hand"
+kind = "dex3"
+side = "left"
+backend = "emulator"
+
+[[fronts]]
+kind = "dex3"
+device = "hand"
+state_hz = 0.1
+"#,
+    )
+    .unwrap();
+    let gw = Gateway::start(176, &["--profile", profile.to_str().unwrap()]);
+    let n = node(176);
+    let mut state = Latest::<unitree_hg::HandState_>::new(&n, "rt/dex3/left/state", Qos::BestEffort);
+    let mut cmd = n
+        .writer::<unitree_hg::HandCmd_>("rt/dex3/left/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    cmd.wait_matched(1, DEADLINE).unwrap();
+    let mut c = unitree_hg::HandCmd_::sdk_default();
+    for (i, m) in c.motor_cmd.iter_mut().enumerate() {
+        *m = unitree_hg::MotorCmd_ {
+            mode: 0x10 | i as u8,
+            q: 0.0,
+            kp: 1.5,
+            kd: 0.1,
+            ..Default::default()
+        };
+    }
+    c.reserve[0] = 4242;
+    cmd.write(c).unwrap();
+    let echoed = poll(Duration::from_secs(4), || {
+        state.update().filter(|s| s.reserve[0] == 4242).cloned()
+    });
+    assert!(
+        echoed.is_some(),
+        "no state echoing the command within 4 s (periodic state every 10 s, the first 10 s after start): {:?}\n{}",
+        state.last,
+        gw.transcript()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

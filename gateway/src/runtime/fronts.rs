@@ -372,4 +372,19 @@ mod tests {
         assert_eq!(log.admit("non_finite", ms(1500)), None);
         assert_eq!(log.admit("non_finite", ms(2100)), Some(1));
     }
+
+    /// The silence branch of the front task sleeps until the earliest device's deadline (it
+    /// would spin the task otherwise: the action itself is guarded per device).
+    #[test]
+    fn the_silence_wait_sleeps_until_the_deadline() {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_time()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            let t0 = Instant::now();
+            sleep_until_opt(Some(t0 + Duration::from_millis(50))).await;
+            assert!(t0.elapsed() >= Duration::from_millis(50), "{:?}", t0.elapsed());
+        });
+    }
 }
