@@ -10,4 +10,5 @@ pub const KINDS: &[DeviceKind] = &[
     DeviceKind::Dex1,
     DeviceKind::Ezgripper,
     DeviceKind::HandSdk,
+    DeviceKind::InspireFtp,
 ];

@@ -14,6 +14,7 @@ pub mod emu_common;
 pub mod ezgripper;
 pub mod front;
 pub mod hand_sdk;
+pub mod inspire_ftp;
 pub mod kind;
 pub mod kinds;
 pub mod link;
