@@ -11,13 +11,21 @@
 //! A sample whose `angle_act` does not have 6 entries is not this hand's state and is ignored
 //! (the device goes stale as for any missing state, `DdsDevice`). dq and tau are not measured
 //! (0): the hand reports no velocity and its force is in its own units.
+//!
+//! Touch: where the profile says the hand is on Modbus TCP (`dds.touch`, default true), the
+//! client also reads `inspire_hand_touch` from `rt/inspire_hand/touch/{l,r}` and carries the
+//! latest one in the state's pads, one named pad per segment (`front::pads_from_touch`). Over
+//! RS-485 there is no touch topic and the state has no pads.
 
-use handgate_idl::inspire::{InspireHandCtrl, InspireHandState, ACTUATORS, MODE_ANGLE, MODE_FORCE, MODE_SPEED};
+use handgate_idl::inspire::{
+    InspireHandCtrl, InspireHandState, InspireHandTouch, ACTUATORS, MODE_ANGLE, MODE_FORCE, MODE_SPEED,
+};
 
 use crate::control::Active;
+use crate::dds::Reader;
 use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
-use crate::model::{faults, HandState};
+use crate::model::{faults, HandState, Pad};
 
 use super::front::{ERR_MOTOR_FAULT, STATUS_ACTUATOR_FAULT};
 
@@ -115,6 +123,43 @@ impl DdsCodec for FtpCodec {
             mode,
             ..Default::default()
         })
+    }
+}
+
+/// The device-side codec: [`FtpCodec`] plus, over Modbus TCP, the touch reader whose latest
+/// sample rides along in every decoded state.
+pub struct FtpClient {
+    pub codec: FtpCodec,
+    touch: Option<Reader<InspireHandTouch>>,
+    pads: Vec<Pad>,
+}
+
+impl FtpClient {
+    /// `touch`: the reader of the hand's touch topic (None over RS-485).
+    pub fn new(codec: FtpCodec, touch: Option<Reader<InspireHandTouch>>) -> Self {
+        Self {
+            codec,
+            touch,
+            pads: Vec::new(),
+        }
+    }
+}
+
+impl DdsCodec for FtpClient {
+    type Cmd = InspireHandCtrl;
+    type State = InspireHandState;
+
+    fn encode(&mut self, active: &Active, table: &DeviceTable, dt: f32) -> Option<Self::Cmd> {
+        self.codec.encode(active, table, dt)
+    }
+
+    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
+        if let Some(t) = self.touch.as_ref().and_then(|r| r.take().pop()) {
+            self.pads = super::front::pads_from_touch(&t);
+        }
+        let mut st = self.codec.decode(s, table)?;
+        st.pads = self.pads.clone();
+        Some(st)
     }
 }
 

@@ -18,7 +18,7 @@
 //!   ([`FtpConfig::initial`], default [`REST_ANGLE`]).
 //!
 //! Model (assumed): each actuator follows its angle target with a first-order lag
-//! ([`FtpTuning::time_constant_s`]) at most at `speed_set / 1000 ·` [`FtpTuning::max_speed`]
+//! ([`FtpTuning::time_constant_s`], settling on the target once within one unit) at most at `speed_set / 1000 ·` [`FtpTuning::max_speed`]
 //! angle units per second, between the hard stops 0 and 1000 (the register's range, which is
 //! the whole mechanical range: the URDF's limits are its ends). An object placed at an angle
 //! ([`FtpConfig::object`]) blocks the closing finger there: the finger presses into it with a
@@ -31,13 +31,14 @@ use std::time::Duration;
 
 use handgate_idl::inspire::{
     InspireHandCtrl, InspireHandState, InspireHandTouch, ACTUATORS, MODE_ANGLE, MODE_FORCE, MODE_POS, MODE_SPEED,
-    TOUCH_PAD, TOUCH_PALM, TOUCH_THUMB_MIDDLE, TOUCH_TIP, TOUCH_TOP, UNITS_MAX,
+    UNITS_MAX,
 };
 
 use crate::dds::{Node, Qos, Reader, Writer};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
 use crate::sim::{Noise, Sensor};
 
+use super::front::{touch_fields_mut, SEGMENTS};
 use super::table::URDF_RANGE;
 
 /// Where an emulated hand starts, angle units per actuator: the linear actuators are
@@ -364,6 +365,11 @@ impl FtpCore {
             let vmax = t.max_speed * f32::from(a.speed_set) / MAX;
             let want = ((a.target - a.angle) / t.time_constant_s).clamp(-vmax, vmax);
             let mut next = (a.angle + want * dt).clamp(0.0, MAX);
+            // The hand's position loop settles on the register value within one unit (its
+            // resolution; assumed), so a reached target reads exactly.
+            if (a.target - next).abs() < 1.0 {
+                next = a.target;
+            }
             // Closing = decreasing angle. Pressing into an object raises the force; the
             // finger stops where the force reaches force_set.
             let mut at_force = false;
@@ -431,51 +437,31 @@ impl FtpCore {
     pub fn touch(&mut self) -> InspireHandTouch {
         let mut out = InspireHandTouch::sdk_default();
         let f: [f32; 5] = std::array::from_fn(|i| self.act[i].force * self.tuning.touch_per_force);
-        let fill = |core: &mut Self, arr: &mut Vec<i16>, rows: usize, cols: usize, peak: f32| {
+        let sd = self.tuning.touch_noise;
+        for (&(name, rows, cols), arr) in SEGMENTS.iter().zip(touch_fields_mut(&mut out)) {
+            let (finger, part) = name.split_once('_').unwrap_or((name, ""));
+            let force = match finger {
+                "pinky" => f[0],
+                "ring" => f[1],
+                "middle" => f[2],
+                "index" => f[3],
+                "thumb" => f[4],
+                _ => 0.0,
+            };
+            let peak = match part {
+                "top" => force,
+                "tip" => force / 3.0,
+                _ => force / 5.0,
+            };
+            let (rows, cols) = (f32::from(rows), f32::from(cols));
+            let (cr, cc) = ((rows - 1.0) / 2.0, (cols - 1.0) / 2.0);
             for (k, v) in arr.iter_mut().enumerate() {
-                let (r, c) = ((k / cols) as f32, (k % cols) as f32);
-                let (cr, cc) = ((rows as f32 - 1.0) / 2.0, (cols as f32 - 1.0) / 2.0);
-                let d2 = ((r - cr) / (rows as f32 / 2.0)).powi(2) + ((c - cc) / (cols as f32 / 2.0)).powi(2);
+                let (r, c) = ((k as f32 / cols).floor(), k as f32 % cols);
+                let d2 = ((r - cr) / (rows / 2.0)).powi(2) + ((c - cc) / (cols / 2.0)).powi(2);
                 let x = peak * (-2.0 * d2).exp();
-                let sd = core.tuning.touch_noise;
-                *v = to_reg(core.noise(x, sd).abs(), 0.0, f32::from(i16::MAX));
+                *v = to_reg(self.noise(x, sd).abs(), 0.0, f32::from(i16::MAX));
             }
-        };
-        let fingers: [[&mut Vec<i16>; 3]; 4] = [
-            [
-                &mut out.fingerone_tip_touch,
-                &mut out.fingerone_top_touch,
-                &mut out.fingerone_palm_touch,
-            ],
-            [
-                &mut out.fingertwo_tip_touch,
-                &mut out.fingertwo_top_touch,
-                &mut out.fingertwo_palm_touch,
-            ],
-            [
-                &mut out.fingerthree_tip_touch,
-                &mut out.fingerthree_top_touch,
-                &mut out.fingerthree_palm_touch,
-            ],
-            [
-                &mut out.fingerfour_tip_touch,
-                &mut out.fingerfour_top_touch,
-                &mut out.fingerfour_palm_touch,
-            ],
-        ];
-        for (i, [tip, top, pad]) in fingers.into_iter().enumerate() {
-            debug_assert_eq!((tip.len(), top.len(), pad.len()), (TOUCH_TIP, TOUCH_TOP, TOUCH_PAD));
-            fill(self, tip, 3, 3, f[i] / 3.0);
-            fill(self, top, 12, 8, f[i]);
-            fill(self, pad, 10, 8, f[i] / 5.0);
         }
-        debug_assert_eq!(out.fingerfive_middle_touch.len(), TOUCH_THUMB_MIDDLE);
-        fill(self, &mut out.fingerfive_tip_touch, 3, 3, f[4] / 3.0);
-        fill(self, &mut out.fingerfive_top_touch, 12, 8, f[4]);
-        fill(self, &mut out.fingerfive_middle_touch, 3, 3, f[4] / 5.0);
-        fill(self, &mut out.fingerfive_palm_touch, 12, 8, f[4] / 5.0);
-        debug_assert_eq!(out.palm_touch.len(), TOUCH_PALM);
-        fill(self, &mut out.palm_touch, 14, 8, 0.0);
         out
     }
 

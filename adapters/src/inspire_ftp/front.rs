@@ -23,14 +23,21 @@
 //! (communication) while the device's state is stale; `status` 2 (stopped at position), 7
 //! (actuator fault) on a hardware fault. `force_act` and `current` are 0: the canonical state
 //! carries neither.
+//!
+//! Touch (`inspire_hand_touch`): the 17 tactile segments are the device's canonical pads, one
+//! per segment, named as [`SEGMENTS`] (`pinky_tip`, `pinky_top`, `pinky_pad`, …, `thumb_middle`,
+//! `thumb_pad`, `palm`) with their rows × cols. [`encode_touch`] rebuilds the message from the
+//! pads of a device that has them (values rounded and clamped to int16, a missing segment all
+//! zeros) and gives `None` for a device without any of them (nothing to publish).
 
 use handgate_idl::inspire::{
-    InspireHandCtrl, InspireHandState, ACTUATORS, MODE_ANGLE, MODE_FORCE, MODE_POS, MODE_SPEED, UNITS_MAX,
+    InspireHandCtrl, InspireHandState, InspireHandTouch, ACTUATORS, MODE_ANGLE, MODE_FORCE, MODE_POS, MODE_SPEED,
+    UNITS_MAX,
 };
 
 use crate::front::{FrontCommand, Rejection};
 use crate::mapping::DeviceTable;
-use crate::model::{faults, Freshness, HandState, JointCommand, JointState, Side};
+use crate::model::{faults, Freshness, HandState, JointCommand, JointState, Pad, Side};
 
 /// Command topic of a hand: `{CTRL_TOPIC_PREFIX}/{l,r}` (the driver subscribes).
 pub const CTRL_TOPIC_PREFIX: &str = "rt/inspire_hand/ctrl";
@@ -47,6 +54,110 @@ pub const ERR_COMMUNICATION: u8 = 1 << 4;
 pub const STATUS_AT_POSITION: u8 = 2;
 /// `status`: actuator fault.
 pub const STATUS_ACTUATOR_FAULT: u8 = 7;
+
+/// The 17 tactile segments in `inspire_hand_touch` field order: (canonical pad name, rows,
+/// cols). Finger one = pinky … five = thumb; `tip` = fingertip end (3×3), `top` = fingertip pad
+/// (12×8), `pad` = the finger pad (the IDL's `*_palm_touch`: 10×8, the thumb's 12×8),
+/// `thumb_middle` (3×3), `palm` (14×8): 1062 taxels (docs/sources.md §7, docs/wire-types.md).
+pub const SEGMENTS: [(&str, u16, u16); 17] = [
+    ("pinky_tip", 3, 3),
+    ("pinky_top", 12, 8),
+    ("pinky_pad", 10, 8),
+    ("ring_tip", 3, 3),
+    ("ring_top", 12, 8),
+    ("ring_pad", 10, 8),
+    ("middle_tip", 3, 3),
+    ("middle_top", 12, 8),
+    ("middle_pad", 10, 8),
+    ("index_tip", 3, 3),
+    ("index_top", 12, 8),
+    ("index_pad", 10, 8),
+    ("thumb_tip", 3, 3),
+    ("thumb_top", 12, 8),
+    ("thumb_middle", 3, 3),
+    ("thumb_pad", 12, 8),
+    ("palm", 14, 8),
+];
+
+/// The message's 17 arrays in [`SEGMENTS`] order.
+pub fn touch_fields(t: &InspireHandTouch) -> [&Vec<i16>; 17] {
+    [
+        &t.fingerone_tip_touch,
+        &t.fingerone_top_touch,
+        &t.fingerone_palm_touch,
+        &t.fingertwo_tip_touch,
+        &t.fingertwo_top_touch,
+        &t.fingertwo_palm_touch,
+        &t.fingerthree_tip_touch,
+        &t.fingerthree_top_touch,
+        &t.fingerthree_palm_touch,
+        &t.fingerfour_tip_touch,
+        &t.fingerfour_top_touch,
+        &t.fingerfour_palm_touch,
+        &t.fingerfive_tip_touch,
+        &t.fingerfive_top_touch,
+        &t.fingerfive_middle_touch,
+        &t.fingerfive_palm_touch,
+        &t.palm_touch,
+    ]
+}
+
+/// The message's 17 arrays in [`SEGMENTS`] order, to fill.
+pub fn touch_fields_mut(t: &mut InspireHandTouch) -> [&mut Vec<i16>; 17] {
+    [
+        &mut t.fingerone_tip_touch,
+        &mut t.fingerone_top_touch,
+        &mut t.fingerone_palm_touch,
+        &mut t.fingertwo_tip_touch,
+        &mut t.fingertwo_top_touch,
+        &mut t.fingertwo_palm_touch,
+        &mut t.fingerthree_tip_touch,
+        &mut t.fingerthree_top_touch,
+        &mut t.fingerthree_palm_touch,
+        &mut t.fingerfour_tip_touch,
+        &mut t.fingerfour_top_touch,
+        &mut t.fingerfour_palm_touch,
+        &mut t.fingerfive_tip_touch,
+        &mut t.fingerfive_top_touch,
+        &mut t.fingerfive_middle_touch,
+        &mut t.fingerfive_palm_touch,
+        &mut t.palm_touch,
+    ]
+}
+
+/// The canonical pads of a touch message: one per segment, raw values, no temperature.
+pub fn pads_from_touch(t: &InspireHandTouch) -> Vec<Pad> {
+    SEGMENTS
+        .iter()
+        .zip(touch_fields(t))
+        .map(|(&(name, rows, cols), v)| Pad {
+            name: name.to_string(),
+            rows,
+            cols,
+            pressure: v.iter().map(|x| f32::from(*x)).collect(),
+            temperature: Vec::new(),
+        })
+        .collect()
+}
+
+/// `inspire_hand_touch` from a device's pads, `None` when it has none of the segments.
+pub fn encode_touch(pads: &[Pad]) -> Option<InspireHandTouch> {
+    let mut out = InspireHandTouch::sdk_default();
+    let mut any = false;
+    for ((name, _, _), arr) in SEGMENTS.iter().zip(touch_fields_mut(&mut out)) {
+        if let Some(p) = pads.iter().find(|p| p.name == *name) {
+            any = true;
+            for (slot, v) in arr.iter_mut().zip(&p.pressure) {
+                *slot = if v.is_finite() {
+                    v.round().clamp(f32::from(i16::MIN), f32::from(i16::MAX)) as i16
+                } else {
+                    0
+                };
+            }
+        }
+    }
+    any.then_some(out)
+}
 
 /// The driver's `LR` argument: `l` or `r` (its default, also for a side-less device).
 pub fn side_suffix(side: Side) -> &'static str {
@@ -247,6 +358,7 @@ mod tests {
         let s = encode_state(&f, &joints, &bad);
         assert_eq!(s.err[5], ERR_MOTOR_FAULT | ERR_COMMUNICATION);
         assert_eq!(s.status[5], STATUS_ACTUATOR_FAULT);
+        assert_eq!(encode_touch(&[]), None);
         assert_eq!(
             topics(Side::Right),
             (
@@ -255,5 +367,28 @@ mod tests {
                 "rt/inspire_hand/touch/r".into()
             )
         );
+    }
+
+    #[test]
+    fn touch_segments_round_trip_as_named_pads() {
+        let mut t = InspireHandTouch::sdk_default();
+        t.fingerfour_top_touch[10] = 1234;
+        t.palm_touch[111] = -7;
+        t.fingerfive_middle_touch[8] = 9;
+        let pads = pads_from_touch(&t);
+        assert_eq!(pads.len(), 17);
+        let total: usize = pads.iter().map(|p| p.pressure.len()).sum();
+        assert_eq!(total, 1062);
+        let top = pads.iter().find(|p| p.name == "index_top").unwrap();
+        assert_eq!((top.rows, top.cols, top.pressure[10]), (12, 8, 1234.0));
+        for p in &pads {
+            assert_eq!(p.pressure.len(), usize::from(p.rows * p.cols), "{}", p.name);
+        }
+        assert_eq!(encode_touch(&pads), Some(t));
+        // Out of int16 range clamps; a missing segment reads zeros.
+        let mut one = vec![pads[16].clone()];
+        one[0].pressure[0] = 1e9;
+        let e = encode_touch(&one).unwrap();
+        assert_eq!((e.palm_touch[0], e.fingerone_tip_touch[0]), (i16::MAX, 0));
     }
 }

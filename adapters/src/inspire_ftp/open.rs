@@ -1,10 +1,11 @@
 //! Opening an Inspire FTP hand: over DDS as a client of Inspire's DDS driver, or on the
 //! emulator backend: the driver's emulator on private topics driven by the very same codec.
 
-use super::adapter::FtpCodec;
+use super::adapter::{FtpClient, FtpCodec};
 use super::emulator::{FtpConfig, FtpEmulator, FtpTransport, ANGLE_NOISE, REST_ANGLE};
 use super::kind::{FtpTopics, InspireFtpProfile};
 use super::table::JOINTS;
+use crate::dds::{Node, Qos};
 use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer};
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{EmulateArgs, Emulation};
@@ -78,15 +79,31 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<FtpOpen, DeviceError> {
     })
 }
 
+/// The client of the driver (and its touch reader when the topics have one).
+fn client(node: &Node, codec: FtpCodec, topics: &FtpTopics) -> Result<FtpClient, DeviceError> {
+    let touch = match &topics.touch {
+        Some(t) => Some(node.reader(t, Qos::BestEffort)?),
+        None => None,
+    };
+    Ok(FtpClient::new(codec, touch))
+}
+
 /// Opens an Inspire FTP hand on its backend.
 pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
     Ok(match configure(spec)? {
-        FtpOpen::Dds { config, codec, .. } => Box::new(DdsDevice::start(env.node, spec.info(), config, codec)?),
+        FtpOpen::Dds { config, codec, topics } => {
+            let c = client(env.node, codec, &topics)?;
+            Box::new(DdsDevice::start(env.node, spec.info(), config, c)?)
+        }
         FtpOpen::Emulated {
-            peer, config, codec, ..
+            peer,
+            config,
+            codec,
+            topics,
         } => {
             let peer = FtpEmulator::start(env.node, peer)?;
-            let device = DdsDevice::start(env.node, spec.info(), config, codec)?;
+            let c = client(env.node, codec, &topics)?;
+            let device = DdsDevice::start(env.node, spec.info(), config, c)?;
             Box::new(WithPeer::new(device, peer))
         }
     })
