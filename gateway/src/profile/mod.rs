@@ -44,6 +44,7 @@ pub const SHIPPED: &[(&str, &str)] = &[
     ("g1-dex3", include_str!("../../../profiles/g1-dex3.toml")),
     ("g1-ezgripper", include_str!("../../../profiles/g1-ezgripper.toml")),
     ("g1-hand-sdk", include_str!("../../../profiles/g1-hand-sdk.toml")),
+    ("g1-inspire-ftp", include_str!("../../../profiles/g1-inspire-ftp.toml")),
     ("mixed-lab", include_str!("../../../profiles/mixed-lab.toml")),
 ];
 

@@ -1039,18 +1039,22 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
         .collect();
     assert!(documented.len() >= 7, "{documented:?}");
     // (kind, the keys it refuses): the rest must change what is built.
-    let refused: &[(&str, &[&str])] = &[(
-        "hand_sdk",
-        &[
-            "initial",
-            "object_at",
-            "noise",
-            "seed",
-            "position_noise_rad",
-            "velocity_noise_rad_s",
-            "torque_noise_nm",
-        ],
-    )];
+    let refused: &[(&str, &[&str])] = &[
+        (
+            "hand_sdk",
+            &[
+                "initial",
+                "object_at",
+                "noise",
+                "seed",
+                "position_noise_rad",
+                "velocity_noise_rad_s",
+                "torque_noise_nm",
+            ],
+        ),
+        // Inspire's driver reports no velocity and no torque in N·m.
+        ("inspire_ftp", &["velocity_noise_rad_s", "torque_noise_nm"]),
+    ];
     for kind in DeviceKind::all() {
         let f = kind.factory();
         if !f.backends().contains(&handgate_adapters::device::Backend::Emulator) {
@@ -1113,6 +1117,7 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
     let dex1 = |backend: &str, extra: &str| one_device("dex1", "left", backend, extra);
     let ez = |extra: &str| one_device("ezgripper", "left", "serial", extra);
     let sdk = |extra: &str| one_device("hand_sdk", "center", "dds", extra);
+    let ftp = |extra: &str| one_device("inspire_ftp", "left", "dds", extra);
     let front = |extra: &str| {
         format!(
             "{}[[fronts]]\nkind = \"dex3\"\ndevice = \"d\"\n{extra}\n",
@@ -1247,6 +1252,18 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             dex1("dds", ""),
             dex1("dds", "[devices.dds]\nrange_rad = 6.0"),
         ),
+        ("devices.dds.touch", ftp(""), ftp("[devices.dds]\ntouch = false")),
+        (
+            "devices.dds.touch_topic",
+            ftp(""),
+            ftp("[devices.dds]\ntouch_topic = \"rt/x/touch\""),
+        ),
+        (
+            "devices.dds.force_limit",
+            ftp(""),
+            ftp("[devices.dds]\nforce_limit = 300"),
+        ),
+        ("devices.dds.speed", ftp(""), ftp("[devices.dds]\nspeed = 500")),
         (
             "devices.hand_sdk.topic",
             sdk(""),
