@@ -276,7 +276,7 @@ fn c_raw_client_sees_startup_modes_silence_and_hard_stops() {
     c.angle_set = vec![-500, 2000, 300, 300, 300, 300];
     w.write(c).unwrap();
     let reached = |s: &InspireHandState| {
-        (s.angle_act[0] - 0).abs() <= 6 && (s.angle_act[1] - 1000).abs() <= 6 && (s.angle_act[3] - 300).abs() <= 6
+        s.angle_act[0].abs() <= 6 && (s.angle_act[1] - 1000).abs() <= 6 && (s.angle_act[3] - 300).abs() <= 6
     };
     let mut n = 0;
     loop {

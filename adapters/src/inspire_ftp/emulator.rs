@@ -411,9 +411,8 @@ impl FtpCore {
         let t = self.tuning.clone();
         let mut s = InspireHandState::sdk_default();
         let q_sd = self.sensor.noise().q;
-        for i in 0..ACTUATORS {
+        for (i, (lo, hi)) in URDF_RANGE.into_iter().enumerate() {
             let a = self.act[i];
-            let (lo, hi) = URDF_RANGE[i];
             let angle_sd = q_sd * MAX / (hi - lo);
             let angle = self.sensor.add(a.angle, angle_sd);
             s.angle_act[i] = to_reg(angle, 0.0, MAX);

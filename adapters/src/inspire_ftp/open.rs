@@ -22,7 +22,7 @@ pub enum FtpOpen {
     },
     /// The driver's emulator (`peer`, on private topics) and the client of it.
     Emulated {
-        peer: FtpConfig,
+        peer: Box<FtpConfig>,
         config: DdsDeviceConfig,
         codec: FtpCodec,
         topics: FtpTopics,
@@ -72,7 +72,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<FtpOpen, DeviceError> {
         topics.touch.clone().unwrap_or_default(),
     ));
     Ok(FtpOpen::Emulated {
-        peer,
+        peer: Box::new(peer),
         config: cfg(&topics),
         codec,
         topics,
@@ -101,7 +101,7 @@ pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn Hand
             codec,
             topics,
         } => {
-            let peer = FtpEmulator::start(env.node, peer)?;
+            let peer = FtpEmulator::start(env.node, *peer)?;
             let c = client(env.node, codec, &topics)?;
             let device = DdsDevice::start(env.node, spec.info(), config, c)?;
             Box::new(WithPeer::new(device, peer))
