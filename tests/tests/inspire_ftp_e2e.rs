@@ -5,12 +5,15 @@
 //! registry, as the gateway opens it); `handgate check` on the shipped profile and on a fleet
 //! of two emulated hands with a canonical front.
 //!
-//! What does not run here: a *gateway* on these domains. This kind's test domains are
-//! 235–239 and the gateway refuses a domain above 232 (`profile::MAX_DOMAIN_ID`: the standard
-//! RTPS port mapping, 7400 + 250 · id, overflows 16 bits there), so the two-hand profile
-//! through the canonical front and a dds-backend profile against the emulate process cannot
-//! be started on them. The emulate process and this test share a CycloneDDS configuration
-//! (`CYCLONEDDS_URI`) with a domain gain of 200 and a discovery tag unique to this run.
+//! What does not run here: a *gateway process* on these domains. This kind's test domains are
+//! 235–239 and `handgate run` refuses a domain above 232 (`profile::MAX_DOMAIN_ID`: the
+//! standard RTPS port mapping, 7400 + 250 · id, overflows 16 bits there). Instead, the
+//! gateway's own runtime (`handgate_gateway::runtime::Runtime`, what `handgate run` starts)
+//! runs in this process from a loaded and resolved profile whose domain is then set to one
+//! of ours: two emulated hands driven through their canonical fronts, and a dds-backend hand
+//! against the `handgate emulate` process. The emulate process and this test share a
+//! CycloneDDS configuration (`CYCLONEDDS_URI`) with a domain gain of 200 and a discovery tag
+//! unique to this run.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -18,12 +21,14 @@ use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::Node;
+use handgate_adapters::dds::Qos;
 use handgate_adapters::device::{Backend, HandDevice};
 use handgate_adapters::inspire_ftp::kind::{DdsConfig, InspireFtpProfile};
 use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, Side};
 use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
-use handgate_tests::{handgate_bin, serial};
+use handgate_idl::handgate as hg;
+use handgate_tests::{handgate_bin, serial, stream_until, Latest};
 
 const DEADLINE: Duration = Duration::from_secs(30);
 
@@ -36,10 +41,57 @@ fn dds_config(id: u32) -> String {
     )
 }
 
+/// Creates domain `id` with [`dds_config`] once per process (kept for the process's life).
+fn domain(id: u32) {
+    static CREATED: std::sync::Mutex<Vec<u32>> = std::sync::Mutex::new(Vec::new());
+    let mut created = CREATED.lock().unwrap_or_else(|e| e.into_inner());
+    if !created.contains(&id) {
+        let d = cyclonedds_rs::dds_domain::DdsDomain::create(id, Some(&dds_config(id))).expect("domain");
+        std::mem::forget(d);
+        created.push(id);
+    }
+}
+
 fn node(id: u32) -> Node {
-    let d = cyclonedds_rs::dds_domain::DdsDomain::create(id, Some(&dds_config(id))).expect("domain");
-    std::mem::forget(d);
+    domain(id);
     Node::new(id, None).expect("participant")
+}
+
+/// The gateway's runtime for the profile in `text` (its own domain replaced by `id`).
+fn gateway(id: u32, text: &str, rt: &tokio::runtime::Runtime) -> handgate_gateway::runtime::Runtime {
+    use handgate_gateway::profile::{load, EnvLayer, LoadOptions};
+    let dir = std::env::temp_dir().join(format!("handgate-ftp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(format!("gw-{id}.toml"));
+    std::fs::write(&p, text).unwrap();
+    let loaded = load(&LoadOptions {
+        profile: Some(p.display().to_string()),
+        env: EnvLayer::Ignore,
+        ..Default::default()
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut plan = handgate_gateway::resolve::plan(&loaded.profile).unwrap_or_else(|e| panic!("{e:?}"));
+    plan.domain = id;
+    domain(id);
+    let _in_rt = rt.enter();
+    handgate_gateway::runtime::Runtime::start(&plan).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The newest canonical state on `r` that satisfies `ok`, while `cmd` streams on `w`.
+fn drive(
+    w: &mut handgate_adapters::dds::Writer<hg::HandCmd_>,
+    r: &mut Latest<hg::HandState_>,
+    cmd: &hg::HandCmd_,
+    what: &str,
+    mut ok: impl FnMut(&hg::HandState_) -> bool,
+) -> hg::HandState_ {
+    let reached = stream_until(w, cmd, DEADLINE, || r.update().is_some_and(&mut ok));
+    assert!(reached, "{what}: last {:?}", r.last);
+    r.last.clone().unwrap()
+}
+
+fn q(s: &hg::HandState_, joint: &str) -> f32 {
+    s.joints.iter().find(|j| j.name == joint).map_or(f32::NAN, |j| j.q)
 }
 
 /// `handgate emulate <args>`, killed on drop.
@@ -243,4 +295,110 @@ fn check_describes_the_shipped_profile_and_a_two_hand_emulated_fleet() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("emulator.object_at.thumb_rotate"));
+}
+
+/// Two emulated hands, each driven through its canonical front by the gateway's runtime: one
+/// joint by name on the left (positive closes: the index goes to 1.2 rad, the others keep
+/// their rest), a closure on the right (the fist); the state comes back measured, with the 17
+/// tactile pads' peaks.
+#[test]
+fn two_emulated_hands_through_their_canonical_fronts() {
+    let _g = serial();
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let gw = gateway(
+        238,
+        "name = \"ftp-pair\"\n\
+         [[devices]]\nname = \"l\"\nkind = \"inspire_ftp\"\nside = \"left\"\nbackend = \"emulator\"\n\
+         [devices.watchdog]\ntimeout_ms = 2000\n\
+         [[devices]]\nname = \"r\"\nkind = \"inspire_ftp\"\nside = \"right\"\nbackend = \"emulator\"\n\
+         [devices.watchdog]\ntimeout_ms = 2000\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"r\"\n",
+        &rt,
+    );
+    let n = node(238);
+    let mut wl = n
+        .writer::<hg::HandCmd_>("rt/handgate/l/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    let mut wr = n
+        .writer::<hg::HandCmd_>("rt/handgate/r/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    let mut sl: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/l/state", Qos::BestEffort);
+    let mut sr: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/r/state", Qos::BestEffort);
+    wl.wait_matched(1, DEADLINE).unwrap();
+    wr.wait_matched(1, DEADLINE).unwrap();
+    // A partial command resolves the joints it does not name against the measured state, so
+    // command once the hand has been measured (its canonical state is fresh).
+    let fresh = handgate_tests::poll(DEADLINE, || {
+        sl.update().filter(|s| s.freshness == hg::FRESH).map(|s| q(s, "middle"))
+    })
+    .expect("a fresh left state");
+    assert!((fresh - 0.17).abs() < 0.01, "the rest posture: {fresh}");
+    let left = hg::HandCmd_ {
+        seq: 1,
+        mode: hg::MODE_JOINTS,
+        joints: vec![hg::JointCmd_ {
+            name: "index".into(),
+            q: 1.2,
+            ..Default::default()
+        }],
+        ..Default::default()
+    };
+    let s = drive(&mut wl, &mut sl, &left, "left index at 1.2 rad", |s| {
+        s.freshness == hg::FRESH && (q(s, "index") - 1.2).abs() < 0.01
+    });
+    assert_eq!((s.kind.as_str(), s.side.as_str()), ("inspire_ftp", "left"));
+    assert!(
+        (q(&s, "middle") - 0.17).abs() < 0.01,
+        "the middle keeps its rest: {s:?}"
+    );
+    assert_eq!(s.pressure.len(), 17, "one peak per tactile segment");
+    let right = hg::HandCmd_ {
+        seq: 1,
+        mode: hg::MODE_CLOSURE,
+        closure: 1.0,
+        ..Default::default()
+    };
+    let s = drive(&mut wr, &mut sr, &right, "the right fist", |s| {
+        s.freshness == hg::FRESH && ["pinky", "ring", "middle", "index"].iter().all(|j| q(s, j) > 1.68)
+    });
+    assert!(
+        q(&s, "thumb_bend").abs() < 0.02,
+        "the fist keeps the thumb straight: {s:?}"
+    );
+    assert!((s.closure - 1.0).abs() < 0.02);
+    rt.block_on(gw.shutdown());
+}
+
+/// A hand on backend dds in the gateway's runtime reaches the `handgate emulate` process on
+/// the driver's standard topics, and a closure through the canonical front moves it.
+#[test]
+fn dds_backend_hand_in_the_gateway_drives_the_emulate_process() {
+    let _g = serial();
+    let _emu = Emulate::start(239, &["inspire_ftp", "--side", "right", "--seed", "5"]);
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let gw = gateway(
+        239,
+        "name = \"ftp-client\"\n\
+         [[devices]]\nname = \"hand\"\nkind = \"inspire_ftp\"\nside = \"right\"\nbackend = \"dds\"\n\
+         [devices.watchdog]\ntimeout_ms = 2000\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n",
+        &rt,
+    );
+    let n = node(239);
+    let mut w = n
+        .writer::<hg::HandCmd_>("rt/handgate/hand/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    let mut s: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/hand/state", Qos::BestEffort);
+    w.wait_matched(1, DEADLINE).unwrap();
+    let half = hg::HandCmd_ {
+        seq: 1,
+        mode: hg::MODE_CLOSURE,
+        closure: 0.5,
+        ..Default::default()
+    };
+    let st = drive(&mut w, &mut s, &half, "half closed", |s| {
+        s.freshness == hg::FRESH && (q(s, "index") - 0.85).abs() < 0.02 && s.pressure.len() == 17
+    });
+    assert!(st.closure > 0.45 && st.closure < 0.55, "{st:?}");
+    rt.block_on(gw.shutdown());
 }
