@@ -12,4 +12,5 @@ pub const KINDS: &[DeviceKind] = &[
     DeviceKind::HandSdk,
     DeviceKind::InspireDfx,
     DeviceKind::Brainco,
+    DeviceKind::InspireFtp,
 ];

@@ -17,6 +17,7 @@ pub mod front;
 pub mod fronts;
 pub mod hand_sdk;
 pub mod inspire_dfx;
+pub mod inspire_ftp;
 pub mod kind;
 pub mod kinds;
 pub mod link;

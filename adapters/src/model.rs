@@ -217,12 +217,36 @@ pub struct Power {
     pub current: f32,
 }
 
-/// One tactile pad.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// One tactile pad of any size: a name, a rows × cols shape and its taxels row by row.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Pad {
-    /// Raw taxel values as the device reports them (Dex3: 30000 = no reading).
-    pub pressure: [f32; 12],
-    pub temperature: [f32; 12],
+    /// The device's name for the pad (`pad_0` … on a Dex3; `index_top` … on an Inspire FTP).
+    pub name: String,
+    /// Shape: `rows × cols` taxels (a Dex3 pad is 1 × 12: twelve slots, geometry unpublished).
+    pub rows: u16,
+    pub cols: u16,
+    /// Raw taxel values as the device reports them, row by row (Dex3: 30000 = no reading).
+    pub pressure: Vec<f32>,
+    /// Per-taxel temperature where the device reports one (Dex3), else empty.
+    pub temperature: Vec<f32>,
+}
+
+impl Pad {
+    /// A Dex3 pad (`pad_{index}`, 1 × 12 taxels with their temperatures).
+    pub fn dex3(index: usize, pressure: [f32; 12], temperature: [f32; 12]) -> Self {
+        Self {
+            name: format!("pad_{index}"),
+            rows: 1,
+            cols: 12,
+            pressure: pressure.to_vec(),
+            temperature: temperature.to_vec(),
+        }
+    }
+
+    /// The first `N` values of `v`, `fill` where `v` is shorter (a fixed-size wire array).
+    pub fn fixed<const N: usize>(v: &[f32], fill: f32) -> [f32; N] {
+        std::array::from_fn(|i| v.get(i).copied().unwrap_or(fill))
+    }
 }
 
 /// Fault bits in [`HandState::faults`].

@@ -181,10 +181,7 @@ fn dex3_state_power_and_pads() {
         voltage: 24.5,
         current: 0.75,
     });
-    st.pads = vec![Pad {
-        pressure: [100_000.0; 12],
-        temperature: [30.0; 12],
-    }];
+    st.pads = vec![Pad::dex3(0, [100_000.0; 12], [30.0; 12])];
     let out = dex3::encode_state(&left, &joints, &st);
     assert_eq!((out.power_v, out.power_a), (24.5, 0.75));
     assert!(out.motor_state.iter().all(|m| m.vol == 24.5));
@@ -423,7 +420,7 @@ fn canonical_state_carries_identity_seq_stamp_freshness_joints_and_faults() {
         voltage: 24.0,
         current: 1.5,
     });
-    let mut pad = Pad::default();
+    let mut pad = Pad::dex3(0, [0.0; 12], [0.0; 12]);
     pad.pressure[3] = 120_000.0;
     st.pads = vec![pad];
     let out = canonical::encode_state("right_hand", &t, &st);

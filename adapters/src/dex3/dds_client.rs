@@ -93,10 +93,8 @@ pub fn decode_hand_state(s: &HandState_, table: &DeviceTable) -> Option<HandStat
     let pads = s
         .press_sensor_state
         .iter()
-        .map(|p| Pad {
-            pressure: p.pressure,
-            temperature: p.temperature,
-        })
+        .enumerate()
+        .map(|(i, p)| Pad::dex3(i, p.pressure, p.temperature))
         .collect();
     Some(HandState {
         joints,

@@ -106,8 +106,8 @@ pub fn encode_state(front: &DeviceTable, joints: &[JointState], st: &HandState) 
         .iter()
         .take(DEX3_PRESS_SENSORS)
         .map(|p| PressSensorState_ {
-            pressure: p.pressure,
-            temperature: p.temperature,
+            pressure: crate::model::Pad::fixed(&p.pressure, PRESS_NO_READING),
+            temperature: crate::model::Pad::fixed(&p.temperature, 0.0),
             lost: 0,
             reserve: 0,
         })

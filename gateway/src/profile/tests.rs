@@ -1058,6 +1058,8 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
         ),
         // DFX_inspire_service reports only q (docs/sources.md §7).
         ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm"]),
+        // Inspire's driver reports no velocity and no torque in N·m.
+        ("inspire_ftp", &["velocity_noise_rad_s", "torque_noise_nm"]),
     ];
     for kind in DeviceKind::all() {
         let f = kind.factory();
@@ -1122,6 +1124,7 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
     let ez = |extra: &str| one_device("ezgripper", "left", "serial", extra);
     let sdk = |extra: &str| one_device("hand_sdk", "center", "dds", extra);
     let dfx = |extra: &str| one_device("inspire_dfx", "left", "dds", extra);
+    let ftp = |extra: &str| one_device("inspire_ftp", "left", "dds", extra);
     let front = |extra: &str| {
         format!(
             "{}[[fronts]]\nkind = \"dex3\"\ndevice = \"d\"\n{extra}\n",
@@ -1266,6 +1269,18 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             dex1("dds", ""),
             dex1("dds", "[devices.dds]\nrange_rad = 6.0"),
         ),
+        ("devices.dds.touch", ftp(""), ftp("[devices.dds]\ntouch = false")),
+        (
+            "devices.dds.touch_topic",
+            ftp(""),
+            ftp("[devices.dds]\ntouch_topic = \"rt/x/touch\""),
+        ),
+        (
+            "devices.dds.force_limit",
+            ftp(""),
+            ftp("[devices.dds]\nforce_limit = 300"),
+        ),
+        ("devices.dds.speed", ftp(""), ftp("[devices.dds]\nspeed = 500")),
         (
             "devices.dds.speed",
             one_device("brainco", "left", "dds", ""),

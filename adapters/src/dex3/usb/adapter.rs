@@ -73,10 +73,8 @@ pub fn to_hand_state(table: &DeviceTable, m: &Dex3Measurement, connected: bool) 
         pads: m
             .pads
             .iter()
-            .map(|p| Pad {
-                pressure: p.pressure,
-                temperature: p.temperature,
-            })
+            .enumerate()
+            .map(|(i, p)| Pad::dex3(i, p.pressure, p.temperature))
             .collect(),
         imu: Some(Imu {
             quaternion: [1.0, 0.0, 0.0, 0.0],

@@ -1,0 +1,404 @@
+//! The Inspire FTP kind through the real `handgate` binary. Domains 238 and 239.
+//!
+//! What runs: `handgate emulate inspire_ftp` as a process of its own where Inspire's DDS driver
+//! would be, driven across the process boundary by the kind's own device (opened through the
+//! registry, as the gateway opens it); `handgate check` on the shipped profile and on a fleet
+//! of two emulated hands with a canonical front.
+//!
+//! What does not run here: a *gateway process* on these domains. This kind's test domains are
+//! 235–239 and `handgate run` refuses a domain above 232 (`profile::MAX_DOMAIN_ID`: the
+//! standard RTPS port mapping, 7400 + 250 · id, overflows 16 bits there). Instead, the
+//! gateway's own runtime (`handgate_gateway::runtime::Runtime`, what `handgate run` starts)
+//! runs in this process from a loaded and resolved profile whose domain is then set to one
+//! of ours: two emulated hands driven through their canonical fronts, and a dds-backend hand
+//! against the `handgate emulate` process. The emulate process and this test share a
+//! CycloneDDS configuration (`CYCLONEDDS_URI`) with a domain gain of 200 and a discovery tag
+//! unique to this run.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::sync::{mpsc, Arc};
+use std::time::{Duration, Instant};
+
+use handgate_adapters::dds::Node;
+use handgate_adapters::dds::Qos;
+use handgate_adapters::device::{Backend, HandDevice};
+use handgate_adapters::inspire_ftp::kind::{DdsConfig, InspireFtpProfile};
+use handgate_adapters::mapping::TableOverrides;
+use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, Side};
+use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
+use handgate_idl::handgate as hg;
+use handgate_tests::{handgate_bin, serial, stream_until, Latest};
+
+const DEADLINE: Duration = Duration::from_secs(30);
+
+/// The CycloneDDS configuration of domain `id` for this run (also the child's `CYCLONEDDS_URI`).
+fn dds_config(id: u32) -> String {
+    format!(
+        "<CycloneDDS><Domain Id=\"{id}\"><Discovery><Tag>handgate-ftp-e2e-{}-{id}</Tag>\
+         <Ports><DomainGain>200</DomainGain></Ports></Discovery></Domain></CycloneDDS>",
+        std::process::id()
+    )
+}
+
+/// Creates domain `id` with [`dds_config`] once per process (kept for the process's life).
+fn domain(id: u32) {
+    static CREATED: std::sync::Mutex<Vec<u32>> = std::sync::Mutex::new(Vec::new());
+    let mut created = CREATED.lock().unwrap_or_else(|e| e.into_inner());
+    if !created.contains(&id) {
+        let d = cyclonedds_rs::dds_domain::DdsDomain::create(id, Some(&dds_config(id))).expect("domain");
+        std::mem::forget(d);
+        created.push(id);
+    }
+}
+
+fn node(id: u32) -> Node {
+    domain(id);
+    Node::new(id, None).expect("participant")
+}
+
+/// The gateway's runtime for the profile in `text` (its own domain replaced by `id`).
+fn gateway(id: u32, text: &str, rt: &tokio::runtime::Runtime) -> handgate_gateway::runtime::Runtime {
+    use handgate_gateway::profile::{load, EnvLayer, LoadOptions};
+    let dir = std::env::temp_dir().join(format!("handgate-ftp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(format!("gw-{id}.toml"));
+    std::fs::write(&p, text).unwrap();
+    let loaded = load(&LoadOptions {
+        profile: Some(p.display().to_string()),
+        env: EnvLayer::Ignore,
+        ..Default::default()
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut plan = handgate_gateway::resolve::plan(&loaded.profile).unwrap_or_else(|e| panic!("{e:?}"));
+    plan.domain = id;
+    domain(id);
+    let _in_rt = rt.enter();
+    handgate_gateway::runtime::Runtime::start(&plan).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The newest canonical state on `r` that satisfies `ok`, while `cmd` streams on `w`.
+fn drive(
+    w: &mut handgate_adapters::dds::Writer<hg::HandCmd_>,
+    r: &mut Latest<hg::HandState_>,
+    cmd: &hg::HandCmd_,
+    what: &str,
+    mut ok: impl FnMut(&hg::HandState_) -> bool,
+) -> hg::HandState_ {
+    let reached = stream_until(w, cmd, DEADLINE, || r.update().is_some_and(&mut ok));
+    assert!(reached, "{what}: last {:?}", r.last);
+    r.last.clone().unwrap()
+}
+
+fn q(s: &hg::HandState_, joint: &str) -> f32 {
+    s.joints.iter().find(|j| j.name == joint).map_or(f32::NAN, |j| j.q)
+}
+
+/// `handgate emulate <args>`, killed on drop.
+struct Emulate {
+    child: Child,
+    line: String,
+}
+
+impl Emulate {
+    fn start(domain: u32, args: &[&str]) -> Emulate {
+        let mut cmd = Command::new(handgate_bin());
+        cmd.arg("emulate").args(args).args(["--domain", &domain.to_string()]);
+        for (k, _) in std::env::vars() {
+            if k.starts_with("HANDGATE_") {
+                cmd.env_remove(k);
+            }
+        }
+        cmd.env("CYCLONEDDS_URI", dds_config(domain));
+        let mut child = cmd
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("handgate emulate starts");
+        let out = child.stdout.take().unwrap();
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            let mut lines = BufReader::new(out).lines();
+            if let Some(Ok(l)) = lines.next() {
+                let _ = tx.send(l);
+            }
+            for _ in lines {}
+        });
+        let line = rx.recv_timeout(DEADLINE).expect("handgate emulate printed its topics");
+        Emulate { child, line }
+    }
+}
+
+impl Drop for Emulate {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Opens an inspire_ftp device on backend dds through the registry, as the gateway does.
+fn open(node: &Node, name: &str, side: Side, dds: DdsConfig) -> Box<dyn HandDevice> {
+    let kind = DeviceKind::by_name("inspire_ftp").expect("registered");
+    let table = Arc::new(kind.table(side, &TableOverrides::default()).unwrap());
+    let emulator = EmulatorSection::default();
+    let config = InspireFtpProfile { dds: Some(dds) };
+    let spec = DeviceSpec {
+        name,
+        kind,
+        side,
+        backend: Backend::Dds,
+        rate_hz: 100.0,
+        stale_after: Duration::from_millis(300),
+        table: &table,
+        emulator: &emulator,
+        config: &config,
+    };
+    let mut shared = Shared::default();
+    kind.factory()
+        .open(
+            &spec,
+            &mut OpenEnv {
+                node,
+                shared: &mut shared,
+            },
+        )
+        .expect("opens")
+}
+
+fn wait_state(dev: &dyn HandDevice, what: &str, mut ok: impl FnMut(&HandState) -> bool) -> HandState {
+    let mut rx = dev.state();
+    let end = Instant::now() + DEADLINE;
+    loop {
+        let s = rx.borrow_and_update().clone();
+        if ok(&s) {
+            return s;
+        }
+        assert!(Instant::now() < end, "{what}: last {s:?}");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+#[test]
+fn emulated_driver_process_is_driven_by_the_kind_over_dds_with_touch() {
+    let _g = serial();
+    let emu = Emulate::start(238, &["inspire_ftp", "--side", "left", "--no-noise"]);
+    assert!(
+        emu.line.contains("rt/inspire_hand/ctrl/l") && emu.line.contains("rt/inspire_hand/touch/l"),
+        "{}",
+        emu.line
+    );
+    let node = node(238);
+    let dev = open(&node, "left_hand", Side::Left, DdsConfig::default());
+    // The driver's start-up state: where the hand was left, 900 = 0.17 rad on a finger.
+    let s = wait_state(&*dev, "a fresh state with the tactile pads", |s| {
+        s.freshness == Freshness::Fresh && s.pads.len() == 17
+    });
+    assert!((s.joints[0].q - 0.17).abs() < 1e-4, "{:?}", s.joints[0]);
+    // Closure 1: the fingers close (positive), the thumb stays straight.
+    dev.command(HandCommand::closure(1, 1.0)).unwrap();
+    let s = wait_state(&*dev, "the fist", |s| s.joints.iter().take(4).all(|j| j.q > 1.69));
+    assert!(s.joints[4].q.abs() < 1e-3);
+    // Closure 0: back open (canonical 0, the thumb rotation at its −0.1 end).
+    dev.command(HandCommand::closure(2, 0.0)).unwrap();
+    let s = wait_state(&*dev, "open", |s| s.joints.iter().take(4).all(|j| j.q < 0.01));
+    assert!((s.joints[5].q + 0.1).abs() < 1e-3, "{:?}", s.joints[5]);
+}
+
+#[test]
+fn rs485_driver_process_has_no_touch_and_unknown_transport_is_refused() {
+    let _g = serial();
+    let emu = Emulate::start(239, &["inspire_ftp", "--side", "right", "--variant", "rs485"]);
+    assert!(
+        emu.line.contains("RS-485") && !emu.line.contains("touch/r"),
+        "{}",
+        emu.line
+    );
+    let node = node(239);
+    let dev = open(
+        &node,
+        "right_hand",
+        Side::Right,
+        DdsConfig {
+            touch: Some(false),
+            ..Default::default()
+        },
+    );
+    let s = wait_state(&*dev, "a fresh state", |s| s.freshness == Freshness::Fresh);
+    assert!(s.pads.is_empty(), "no touch over RS-485");
+    dev.command(HandCommand::closure(1, 0.5)).unwrap();
+    wait_state(&*dev, "half closed", |s| (s.closure - 0.5).abs() < 0.02);
+    let out = Command::new(handgate_bin())
+        .args([
+            "emulate",
+            "inspire_ftp",
+            "--side",
+            "left",
+            "--variant",
+            "can",
+            "--domain",
+            "239",
+        ])
+        .env("CYCLONEDDS_URI", dds_config(239))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("rs485"));
+}
+
+#[test]
+fn check_describes_the_shipped_profile_and_a_two_hand_emulated_fleet() {
+    let out = Command::new(handgate_bin())
+        .args(["check", "g1-inspire-ftp"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(
+        text.contains(
+            "via rt/inspire_hand/ctrl/l / rt/inspire_hand/state/l (Modbus TCP: touch on rt/inspire_hand/touch/l)"
+        ),
+        "{text}"
+    );
+    let dir = std::env::temp_dir().join(format!("handgate-ftp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("ftp-sim.toml");
+    std::fs::write(
+        &p,
+        "name = \"ftp-sim\"\n\
+         [[devices]]\nname = \"l\"\nkind = \"inspire_ftp\"\nside = \"left\"\nbackend = \"emulator\"\n\
+         [devices.emulator]\nobject_at = { index = 1.0 }\n\
+         [[devices]]\nname = \"r\"\nkind = \"inspire_ftp\"\nside = \"right\"\nbackend = \"emulator\"\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"r\"\n",
+    )
+    .unwrap();
+    let out = Command::new(handgate_bin())
+        .args(["check", p.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        text.contains("inspire_ftp left   emulator") && text.contains("inspire_ftp right  emulator"),
+        "{text}"
+    );
+    // A thumb rotation never closes on an object: refused, naming the key.
+    std::fs::write(
+        &p,
+        "[[devices]]\nname = \"l\"\nkind = \"inspire_ftp\"\nside = \"left\"\nbackend = \"emulator\"\n\
+         [devices.emulator]\nobject_at = { thumb_rotate = 1.0 }\n",
+    )
+    .unwrap();
+    let out = Command::new(handgate_bin())
+        .args(["check", p.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("emulator.object_at.thumb_rotate"));
+}
+
+/// Two emulated hands, each driven through its canonical front by the gateway's runtime: one
+/// joint by name on the left (positive closes: the index goes to 1.2 rad, the others keep
+/// their rest), a closure on the right (the fist); the state comes back measured, with the 17
+/// tactile pads' peaks.
+#[test]
+fn two_emulated_hands_through_their_canonical_fronts() {
+    let _g = serial();
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let gw = gateway(
+        238,
+        "name = \"ftp-pair\"\n\
+         [[devices]]\nname = \"l\"\nkind = \"inspire_ftp\"\nside = \"left\"\nbackend = \"emulator\"\n\
+         [devices.watchdog]\ntimeout_ms = 2000\n\
+         [[devices]]\nname = \"r\"\nkind = \"inspire_ftp\"\nside = \"right\"\nbackend = \"emulator\"\n\
+         [devices.watchdog]\ntimeout_ms = 2000\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"r\"\n",
+        &rt,
+    );
+    let n = node(238);
+    let mut wl = n
+        .writer::<hg::HandCmd_>("rt/handgate/l/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    let mut wr = n
+        .writer::<hg::HandCmd_>("rt/handgate/r/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    let mut sl: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/l/state", Qos::BestEffort);
+    let mut sr: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/r/state", Qos::BestEffort);
+    wl.wait_matched(1, DEADLINE).unwrap();
+    wr.wait_matched(1, DEADLINE).unwrap();
+    // A partial command resolves the joints it does not name against the measured state, so
+    // command once the hand has been measured (its canonical state is fresh).
+    let fresh = handgate_tests::poll(DEADLINE, || {
+        sl.update().filter(|s| s.freshness == hg::FRESH).map(|s| q(s, "middle"))
+    })
+    .expect("a fresh left state");
+    assert!((fresh - 0.17).abs() < 0.01, "the rest posture: {fresh}");
+    let left = hg::HandCmd_ {
+        seq: 1,
+        mode: hg::MODE_JOINTS,
+        joints: vec![hg::JointCmd_ {
+            name: "index".into(),
+            q: 1.2,
+            ..Default::default()
+        }],
+        ..Default::default()
+    };
+    let s = drive(&mut wl, &mut sl, &left, "left index at 1.2 rad", |s| {
+        s.freshness == hg::FRESH && (q(s, "index") - 1.2).abs() < 0.01
+    });
+    assert_eq!((s.kind.as_str(), s.side.as_str()), ("inspire_ftp", "left"));
+    assert!(
+        (q(&s, "middle") - 0.17).abs() < 0.01,
+        "the middle keeps its rest: {s:?}"
+    );
+    assert_eq!(s.pressure.len(), 17, "one peak per tactile segment");
+    let right = hg::HandCmd_ {
+        seq: 1,
+        mode: hg::MODE_CLOSURE,
+        closure: 1.0,
+        ..Default::default()
+    };
+    let s = drive(&mut wr, &mut sr, &right, "the right fist", |s| {
+        s.freshness == hg::FRESH && ["pinky", "ring", "middle", "index"].iter().all(|j| q(s, j) > 1.68)
+    });
+    assert!(
+        q(&s, "thumb_bend").abs() < 0.02,
+        "the fist keeps the thumb straight: {s:?}"
+    );
+    assert!((s.closure - 1.0).abs() < 0.02);
+    rt.block_on(gw.shutdown());
+}
+
+/// A hand on backend dds in the gateway's runtime reaches the `handgate emulate` process on
+/// the driver's standard topics, and a closure through the canonical front moves it.
+#[test]
+fn dds_backend_hand_in_the_gateway_drives_the_emulate_process() {
+    let _g = serial();
+    let _emu = Emulate::start(239, &["inspire_ftp", "--side", "right", "--seed", "5"]);
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let gw = gateway(
+        239,
+        "name = \"ftp-client\"\n\
+         [[devices]]\nname = \"hand\"\nkind = \"inspire_ftp\"\nside = \"right\"\nbackend = \"dds\"\n\
+         [devices.watchdog]\ntimeout_ms = 2000\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n",
+        &rt,
+    );
+    let n = node(239);
+    let mut w = n
+        .writer::<hg::HandCmd_>("rt/handgate/hand/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    let mut s: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/hand/state", Qos::BestEffort);
+    w.wait_matched(1, DEADLINE).unwrap();
+    let half = hg::HandCmd_ {
+        seq: 1,
+        mode: hg::MODE_CLOSURE,
+        closure: 0.5,
+        ..Default::default()
+    };
+    let st = drive(&mut w, &mut s, &half, "half closed", |s| {
+        s.freshness == hg::FRESH && (q(s, "index") - 0.85).abs() < 0.02 && s.pressure.len() == 17
+    });
+    assert!(st.closure > 0.45 && st.closure < 0.55, "{st:?}");
+    rt.block_on(gw.shutdown());
+}
