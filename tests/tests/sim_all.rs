@@ -24,6 +24,8 @@ const DEVICES: &[(&str, &str, usize)] = &[
     ("ezgripper_right", "ezgripper", 1),
     ("inspire_dfx_left", "inspire_dfx", 6),
     ("inspire_dfx_right", "inspire_dfx", 6),
+    ("inspire_ftp_left", "inspire_ftp", 6),
+    ("inspire_ftp_right", "inspire_ftp", 6),
     ("brainco_left", "brainco", 6),
     ("brainco_right", "brainco", 6),
     ("hand_sdk", "hand_sdk", 4),
