@@ -11,8 +11,9 @@
 //! - `silence = "watchdog"`: a client that stops trips the device's watchdog;
 //! - `handgate check` on its side rule.
 //!
-//! Domains 88-90 (of the front's 88-91, docs/development.md; the `check` test opens none). Tests take turns ([`serial`]); every wait is on
-//! readiness with a deadline. Needs the binary (`cargo build -p handgate`) and `.venv`.
+//! Domains 88-90 (of the front's 88-91, docs/development.md; the `check` test opens none).
+//! Tests take turns ([`serial`]); every wait is on readiness with a deadline. Needs the binary
+//! (`cargo build -p handgate`) and `.venv`.
 
 use std::path::PathBuf;
 use std::process::Command;
