@@ -1,8 +1,8 @@
 //! The BrainCo Revo2 kind (docs/sources.md §7 "BrainCo Revo2"): its table against an oracle
 //! written out from §7, the DDS-client codec, the service emulator over real CycloneDDS, and
 //! closure pairing of a BrainCo front with a Dex3 hand, and the registry opening an emulated
-//! hand. DDS domains 240, 241 and 244 (the e2e
-//! tests in `tests/tests/brainco_e2e.rs` use 242 and 243).
+//! hand. DDS domains 40, 41, 48 and 49 (the e2e
+//! tests in `tests/tests/brainco_e2e.rs` use 92, 93 and 94).
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -20,25 +20,6 @@ use handgate_adapters::sim::Noise;
 use handgate_idl::unitree_go::{MotorCmd_, MotorCmds_, MotorStates_};
 
 const DEADLINE: Duration = Duration::from_secs(20);
-
-/// CycloneDDS's default port mapping (7400 + 250 × domain) runs past port 65535 above domain
-/// 232, so domains 240–244 need a smaller domain gain: every participant of this test
-/// process uses `DomainGain` 100 (domain 240 → port 31400) and a discovery tag of its own, so
-/// it ignores other processes whose ports the gain makes coincide. Set once, before any
-/// participant is created.
-fn dds_env() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        std::env::set_var(
-            "CYCLONEDDS_URI",
-            format!(
-                "<CycloneDDS><Domain Id=\"any\"><Discovery><Ports><DomainGain>100</DomainGain></Ports>\
-                 <Tag>handgate-brainco-test-{}</Tag></Discovery></Domain></CycloneDDS>",
-                std::process::id()
-            ),
-        );
-    });
-}
 
 fn table(side: Side) -> DeviceTable {
     DeviceKind::Brainco.table(side, &TableOverrides::default()).unwrap()
@@ -256,8 +237,7 @@ fn watch_until(
 
 #[test]
 fn emulated_service_opens_at_start_follows_commands_holds_on_silence_and_stops_hard() {
-    dds_env();
-    let node = Node::new(240, None).unwrap();
+    let node = Node::new(40, None).unwrap();
     let cfg = BraincoConfig {
         noise: Noise::OFF,
         ..BraincoConfig::new(Side::Left)
@@ -309,8 +289,7 @@ fn emulated_service_opens_at_start_follows_commands_holds_on_silence_and_stops_h
 
 #[test]
 fn client_device_drives_the_emulated_service_and_goes_stale_when_it_stops() {
-    dds_env();
-    let node = Node::new(241, None).unwrap();
+    let node = Node::new(41, None).unwrap();
     let emu = BraincoEmulator::start(&node, BraincoConfig::new(Side::Right)).unwrap();
     let t = Arc::new(table(Side::Right));
     let dev = DdsDevice::start(
@@ -358,8 +337,7 @@ fn client_device_drives_the_emulated_service_and_goes_stale_when_it_stops() {
 
 #[test]
 fn the_service_opens_the_hand_from_its_rest_posture_at_start_up() {
-    dds_env();
-    let node = Node::new(244, None).unwrap();
+    let node = Node::new(48, None).unwrap();
     // Slow fingers (a tenth of the default speed) and a hand left half closed, so the opening
     // is long enough to be watched from the first matched sample on.
     let mut cfg = BraincoConfig::new(Side::Right);
@@ -392,9 +370,7 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
     use handgate_adapters::brainco::open::BraincoOpen;
     use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
 
-    dds_env();
-    // Same process (same discovery tag) as the start-up test on 244, on private topics.
-    let node = Node::new(244, None).unwrap();
+    let node = Node::new(49, None).unwrap();
     let kind = DeviceKind::by_name("brainco").expect("registered");
     let f = kind.factory();
     let table = Arc::new(table(Side::Left));

@@ -1,12 +1,8 @@
 //! The BrainCo Revo2 kind end to end through the `handgate` binary (docs/adapters.md,
 //! "BrainCo Revo2"): a profile with two emulated hands driven through the canonical front, and
 //! `handgate emulate brainco` as separate processes driven by the shipped `g1-brainco` profile
-//! (backend dds) on the same domain. Domains 242 and 243.
-//!
-//! The two tests through `handgate run` are ignored: the gateway refuses a `dds.domain` above
-//! 232 (the standard RTPS port mapping's limit) and this kind's test domains are 240–244. The
-//! standalone `handgate emulate brainco` process is still driven here, by the same DDS-client
-//! device the gateway opens (`a_standalone_emulate_brainco_process_is_driven_by_the_client_device`).
+//! (backend dds) on the same domain, and a standalone `handgate emulate brainco` process driven by
+//! the same DDS-client device the gateway opens. Domains 92, 93 and 94.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -26,23 +22,6 @@ use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, Side};
 use handgate_tests::{handgate_bin, poll, serial, Gateway, Latest};
 
 const DEADLINE: Duration = Duration::from_secs(30);
-
-/// CycloneDDS's default port mapping (7400 + 250 × domain) runs past port 65535 above domain
-/// 232: this test process and every process it starts (they inherit the environment) use
-/// `DomainGain` 100 and a discovery tag of their own. Set once, before any participant.
-fn dds_env() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        std::env::set_var(
-            "CYCLONEDDS_URI",
-            format!(
-                "<CycloneDDS><Domain Id=\"any\"><Discovery><Ports><DomainGain>100</DomainGain></Ports>\
-                 <Tag>handgate-brainco-e2e-{}</Tag></Discovery></Domain></CycloneDDS>",
-                std::process::id()
-            ),
-        );
-    });
-}
 
 fn node(domain: u32) -> Node {
     Node::new(domain, None).expect("DDS participant")
@@ -152,10 +131,8 @@ fn assert_closed_positive(s: &hg::HandState_) {
 }
 
 #[test]
-#[ignore = "handgate refuses dds.domain above 232 (gateway/src/profile/schema.rs MAX_DOMAIN_ID) and this kind's assigned test domains are 240-244; run with --ignored once the range or the limit changes"]
 fn two_emulated_brainco_hands_close_and_open_through_the_canonical_front() {
     let _g = serial();
-    dds_env();
     let profile = "name = \"brainco-sim\"\ndescription = \"two emulated BrainCo hands\"\n\
         [[devices]]\nname = \"bl\"\nkind = \"brainco\"\nside = \"left\"\nbackend = \"emulator\"\n\
         [[devices]]\nname = \"br\"\nkind = \"brainco\"\nside = \"right\"\nbackend = \"emulator\"\n\
@@ -165,8 +142,8 @@ fn two_emulated_brainco_hands_close_and_open_through_the_canonical_front() {
     std::fs::create_dir_all(&dir).unwrap();
     let p = dir.join("brainco-sim.toml");
     std::fs::write(&p, profile).unwrap();
-    let gw = Gateway::start(242, &["--profile", p.to_str().unwrap()]);
-    let n = node(242);
+    let gw = Gateway::start(92, &["--profile", p.to_str().unwrap()]);
+    let n = node(92);
     for device in ["bl", "br"] {
         // The emulated service opens the hand at start-up.
         drive(&n, device, 0.0, |s| s.closure < 0.02, &gw);
@@ -178,15 +155,13 @@ fn two_emulated_brainco_hands_close_and_open_through_the_canonical_front() {
 }
 
 #[test]
-#[ignore = "handgate refuses dds.domain above 232 (gateway/src/profile/schema.rs MAX_DOMAIN_ID) and this kind's assigned test domains are 240-244; run with --ignored once the range or the limit changes"]
 fn g1_brainco_profile_drives_two_emulated_brainco_services() {
     let _g = serial();
-    dds_env();
-    let left = Emulator::start(&["--side", "left", "--domain", "243"]);
-    let _right = Emulator::start(&["--side", "right", "--domain", "243"]);
+    let left = Emulator::start(&["--side", "left", "--domain", "93"]);
+    let _right = Emulator::start(&["--side", "right", "--domain", "93"]);
     assert!(left.line.contains("rt/brainco/left/cmd"), "{}", left.line);
-    let gw = Gateway::start(243, &["--profile", "g1-brainco"]);
-    let n = node(243);
+    let gw = Gateway::start(93, &["--profile", "g1-brainco"]);
+    let n = node(93);
     // What the service itself reports (wire: q 1 = closed).
     let mut wire = Latest::<unitree_go::MotorStates_>::new(&n, "rt/brainco/right/state", Qos::BestEffort);
     let closed = drive(&n, "right_hand", 1.0, |s| s.closure > 0.97, &gw);
@@ -208,14 +183,13 @@ fn g1_brainco_profile_drives_two_emulated_brainco_services() {
 #[test]
 fn a_standalone_emulate_brainco_process_is_driven_by_the_client_device() {
     let _g = serial();
-    dds_env();
-    let emu = Emulator::start(&["--side", "left", "--domain", "243", "--seed", "3"]);
+    let emu = Emulator::start(&["--side", "left", "--domain", "94", "--seed", "3"]);
     assert!(
         emu.line.contains("rt/brainco/left/cmd") && emu.line.contains("rt/brainco/left/state"),
         "{}",
         emu.line
     );
-    let n = node(243);
+    let n = node(94);
     let table = Arc::new(
         DeviceKind::Brainco
             .table(Side::Left, &TableOverrides::default())

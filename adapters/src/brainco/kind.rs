@@ -74,6 +74,11 @@ impl KindFactory for BraincoFactory {
         &JOINTS
     }
 
+    /// `brainco_hand_service`'s own interface (`rt/brainco/{side}/*`): `super::serve`.
+    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
+        &[crate::front::kind::FrontKind::Brainco]
+    }
+
     fn backends(&self) -> &'static [Backend] {
         &[Backend::Dds, Backend::Emulator]
     }

@@ -1,6 +1,7 @@
 //! BrainCo Revo2 dexterous hand (G1 / H1), reached over DDS as a client of
 //! `brainco_hand_service` (docs/sources.md §7 "BrainCo Revo2"): mapping table, DDS-client
-//! codec, service emulator, pure front codec, and its registry entry.
+//! codec, service emulator, pure front codec, the front serving its interface (`serve`),
+//! and its registry entry.
 //!
 //! Everything about the kind lives in this folder; the interface's standard topics live here
 //! once ([`topics`]) and both the device side (`adapter`, `emulator`) and the front side
@@ -11,6 +12,7 @@ pub mod emulator;
 pub mod front;
 pub mod kind;
 pub mod open;
+pub mod serve;
 pub mod table;
 
 use crate::model::Side;
