@@ -80,6 +80,10 @@ fn every_kind_of_sim_all_is_fresh_and_every_front_publishes() {
     assert_eq!(d.states.len(), 12);
     // At rest the Inspire fingers are nearly open (q near 1 = open).
     assert!(d.states.iter().all(|m| m.q > 0.8), "{d:?}");
+    // The BrainCo service opens the hand at start-up (q near 0 = open).
+    let mut bc = Latest::<unitree_go::MotorStates_>::new(&n, "rt/brainco/left/state", Qos::BestEffort);
+    let b = bc.next(DEADLINE).expect("rt/brainco/left/state");
+    assert_eq!(b.states.len(), 6);
 
     // rt/joint_states carries every joint of every device.
     let mut js = Latest::<ros2::JointState_>::new(&n, "rt/joint_states", Qos::BestEffort);
