@@ -2,7 +2,7 @@
 //! the table against measured state, safe states, and re-seeding after the link comes back
 //! (a stale setpoint is never replayed).
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use crate::device::DeviceStats;
@@ -35,6 +35,9 @@ pub struct CommandState {
     table: Arc<DeviceTable>,
     inner: Arc<Mutex<Inner>>,
     pub counters: Arc<Counters>,
+    /// Whether the device loop has measured the device at least once
+    /// ([`Self::mark_measured`], set by `link::LinkTracker`).
+    measured: Arc<AtomicBool>,
 }
 
 /// Lock-free counters (read by status without touching the device loop).
@@ -83,7 +86,13 @@ impl CommandState {
                 last_tag: 0,
             })),
             counters: Arc::new(Counters::default()),
+            measured: Arc::new(AtomicBool::new(false)),
         }
+    }
+
+    /// The device was measured (its state carries real positions from now on).
+    pub fn mark_measured(&self) {
+        self.measured.store(true, Ordering::Relaxed);
     }
 
     pub fn table(&self) -> &Arc<DeviceTable> {
@@ -146,6 +155,13 @@ impl CommandState {
                 Active::Command(t) | Active::Safe(_, t) => Some(t.clone()),
                 Active::Idle => None,
             };
+            if prev.is_none() && !self.measured.load(Ordering::Relaxed) && self.table.is_partial(&cmd.body) {
+                // The joints this command leaves out would be held where they were measured,
+                // and nothing was measured yet: it waits for the first measurement (never
+                // hold a position that was never measured).
+                g.pending = Some(cmd);
+                return g.active.clone();
+            }
             match self.table.resolve(&cmd.body, prev.as_deref(), measured) {
                 Ok(t) => {
                     g.active = Active::Command(t);
@@ -167,5 +183,56 @@ impl CommandState {
     /// Whether a safe state is in force.
     pub fn is_safe(&self) -> bool {
         matches!(self.lock().active, Active::Safe(..))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{DeviceKind, JointId, Side};
+
+    /// A command naming only some joints, before anything was measured, waits for the first
+    /// measurement: the joints it leaves out are held where they are measured, never at the
+    /// zeros of a state that was never measured.
+    #[test]
+    fn a_partial_command_waits_for_the_first_measurement() {
+        let table = Arc::new(DeviceKind::Dex3.table(Side::Left, &Default::default()).unwrap());
+        let cmd = CommandState::new(table.clone());
+        let one = |q: f32| JointCommand {
+            q,
+            kp: 1.0,
+            kd: 0.1,
+            ..Default::default()
+        };
+        cmd.submit(HandCommand {
+            seq: 1,
+            body: CommandBody::Joints(vec![(JointId(5), one(0.5))]),
+            tag: 0,
+        })
+        .unwrap();
+        let never = vec![JointState::default(); 7];
+        assert_eq!(cmd.step(&never), Active::Idle, "nothing measured: nothing sent");
+        cmd.mark_measured();
+        let mut measured = vec![JointState::default(); 7];
+        measured[3].q = 0.7; // middle_0 where it was measured (canonical: closing)
+        match cmd.step(&measured) {
+            Active::Command(t) => {
+                assert_eq!(t[5].q, 0.5, "the named joint: {t:?}");
+                assert!((t[3].q - 0.7).abs() < 1e-6, "the others held where measured: {t:?}");
+            }
+            a => panic!("{a:?}"),
+        }
+        // A whole-hand command (closure) needs no measurement.
+        let cmd = CommandState::new(table);
+        cmd.submit(HandCommand {
+            seq: 1,
+            body: CommandBody::Closure {
+                closure: 0.5,
+                stiffness: None,
+            },
+            tag: 0,
+        })
+        .unwrap();
+        assert!(matches!(cmd.step(&never), Active::Command(_)));
     }
 }

@@ -27,6 +27,9 @@ impl LinkTracker {
             Counters::inc(&cmd.counters.reconnects);
             cmd.reseed(measured);
         }
+        if up {
+            cmd.mark_measured();
+        }
         self.ever_up |= up;
         self.up = up;
         cmd.counters.link_up.store(up as u64, Ordering::Relaxed);

@@ -224,6 +224,15 @@ impl DeviceTable {
         self.joints.len()
     }
 
+    /// Whether `body` names only some joints (the others keep their targets, or are held
+    /// where they were measured).
+    pub fn is_partial(&self, body: &CommandBody) -> bool {
+        match body {
+            CommandBody::Joints(list) => (0..self.joints.len()).any(|i| !list.iter().any(|(id, _)| id.index() == i)),
+            _ => false,
+        }
+    }
+
     pub fn joint(&self, id: JointId) -> Result<&JointMap, MappingError> {
         self.joints
             .get(id.index())

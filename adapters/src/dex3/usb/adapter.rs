@@ -176,6 +176,9 @@ impl Dex3UsbDevice {
                 }
                 last_connects = link.connects;
             }
+            if m.seq > 0 && !m.stale {
+                b_cmd.mark_measured();
+            }
             b_cmd.counters.link_up.store(link.connected as u64, Ordering::Relaxed);
             echo = reflected(&mut b_sent.lock().unwrap_or_else(|p| p.into_inner()), m.cmd_seq).unwrap_or(echo);
             crate::link::stamp(&mut st, &b_cmd, b_cmd.is_safe(), true);
