@@ -318,7 +318,9 @@ fn check_describes_the_front_and_refuses_a_side_less_device() {
     let out = String::from_utf8_lossy(&one.stdout);
     assert!(one.status.success(), "{}", String::from_utf8_lossy(&one.stderr));
     assert!(
-        out.contains("rt/inspire_hand/ctrl/l") && out.contains("rt/inspire_hand/state/l"),
+        out.contains(
+            "cmd rt/inspire_hand/ctrl/l state rt/inspire_hand/state/l at 50 Hz, touch rt/inspire_hand/touch/{l,r}"
+        ) && out.contains("silence: service: keeps the last target"),
         "{out}"
     );
     let center = check(
@@ -343,7 +345,23 @@ fn check_describes_the_front_and_refuses_a_side_less_device() {
     );
     let out = String::from_utf8_lossy(&sided.stdout);
     assert!(sided.status.success(), "{}", String::from_utf8_lossy(&sided.stderr));
-    assert!(out.contains("rt/inspire_hand/ctrl/r"), "{out}");
+    assert!(
+        out.contains("cmd rt/inspire_hand/ctrl/r") && out.contains("touch rt/inspire_hand/touch/r from"),
+        "{out}"
+    );
+    // On the topics a dds-backed hand uses to reach its driver: refused (it would answer its
+    // own commands).
+    let own = check(
+        "ftp-front-check-own",
+        "[[devices]]\nname = \"l\"\nkind = \"inspire_ftp\"\nside = \"left\"\nbackend = \"dds\"\n\
+         [[fronts]]\nkind = \"inspire_ftp\"\ndevice = \"l\"\n",
+    );
+    assert!(!own.status.success());
+    assert!(
+        String::from_utf8_lossy(&own.stderr).contains("uses to reach the real device"),
+        "{}",
+        String::from_utf8_lossy(&own.stderr)
+    );
     let two = check(
         "ftp-front-check-two",
         &format!(

@@ -152,12 +152,14 @@ impl FrontFactory for InspireFtpFront {
             ),
         )]
     }
+    /// The touch topic (`describe` is given the front's table only: with no `side` key, the
+    /// served side is the device's, named as `{l,r}`).
     fn describe(&self, f: &FrontConfig) -> Option<String> {
-        let side = match f.side {
+        let touch = match f.side {
             Some(s @ (Side::Left | Side::Right)) => topics(s).2,
-            _ => format!("{}/{{l,r}}", super::front::TOUCH_TOPIC_PREFIX),
+            _ => format!("{}/{{l,r}} (the served side)", super::front::TOUCH_TOPIC_PREFIX),
         };
-        Some(format!("touch on {side} from an inspire_ftp device with tactile pads"))
+        Some(format!(", touch {touch} from an inspire_ftp device with tactile pads"))
     }
     fn open(
         &self,
@@ -266,9 +268,12 @@ mod tests {
         }
         assert_eq!(f.default_name(&cfg(None), "left"), "inspire_ftp_left");
         let d = f.describe(&cfg(Some(Side::Left))).unwrap();
-        assert!(d.contains("touch on rt/inspire_hand/touch/l"), "{d}");
+        assert_eq!(
+            d,
+            ", touch rt/inspire_hand/touch/l from an inspire_ftp device with tactile pads"
+        );
         let d = f.describe(&cfg(None)).unwrap();
-        assert!(d.contains("rt/inspire_hand/touch/{l,r}"), "{d}");
+        assert!(d.contains("rt/inspire_hand/touch/{l,r} (the served side)"), "{d}");
     }
 
     #[test]
