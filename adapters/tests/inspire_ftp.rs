@@ -1,6 +1,6 @@
 //! The Inspire FTP kind (docs/sources.md §7, "Inspire FTP"): (a) its table against an
 //! independent oracle written out from §7, (b) the client codec, (c) the driver emulator over
-//! real CycloneDDS. DDS domains 235–237, each private to this process (CycloneDDS
+//! real CycloneDDS. DDS domains 62–64, each private to this process (CycloneDDS
 //! `Discovery/Tag`), so a concurrent run elsewhere on the host cannot cross-talk.
 
 use std::sync::Arc;
@@ -24,12 +24,9 @@ fn table(side: Side) -> DeviceTable {
 }
 
 /// Makes DDS domain `id` private to this process (see `emu_common::isolated_test_domain`).
-/// Domains above 232 do not fit the standard RTPS port mapping (7400 + 250 · id overflows 16
-/// bits), so this one uses a domain gain of 200: 7400 + 200 · 239 + 11 < 65535.
 fn isolated(id: u32) {
     let cfg = format!(
-        "<CycloneDDS><Domain Id=\"any\"><Discovery><Tag>handgate-ftp-test-{}-{id}</Tag>\
-         <Ports><DomainGain>200</DomainGain></Ports></Discovery></Domain></CycloneDDS>",
+        "<CycloneDDS><Domain Id=\"any\"><Discovery><Tag>handgate-ftp-test-{}-{id}</Tag></Discovery></Domain></CycloneDDS>",
         std::process::id()
     );
     let d = cyclonedds_rs::dds_domain::DdsDomain::create(id, Some(&cfg)).expect("isolated domain");
@@ -186,8 +183,8 @@ fn info(side: Side) -> DeviceInfo {
 /// stops.
 #[test]
 fn c_client_device_drives_the_emulated_driver_and_goes_stale_without_it() {
-    isolated(235);
-    let node = Node::new(235, None).unwrap();
+    isolated(62);
+    let node = Node::new(62, None).unwrap();
     let emu = FtpEmulator::start(&node, FtpConfig::new(Side::Left).exact()).unwrap();
     let (ctrl, st, touch) = front::topics(Side::Left);
     assert_eq!(
@@ -247,8 +244,8 @@ fn c_client_device_drives_the_emulated_driver_and_goes_stale_without_it() {
 /// timeout (the hand keeps its targets through silence), hard stops at 0 and 1000.
 #[test]
 fn c_raw_client_sees_startup_modes_silence_and_hard_stops() {
-    isolated(236);
-    let node = Node::new(236, None).unwrap();
+    isolated(63);
+    let node = Node::new(63, None).unwrap();
     let emu = FtpEmulator::start(&node, FtpConfig::new(Side::Right)).unwrap();
     let (ctrl, st, _) = front::topics(Side::Right);
     let mut w = node
@@ -306,8 +303,8 @@ fn c_raw_client_sees_startup_modes_silence_and_hard_stops() {
 /// pads read noise only. Over RS-485 the driver publishes no touch topic.
 #[test]
 fn c_object_raises_force_and_tactile_pressure_and_rs485_has_no_touch() {
-    isolated(237);
-    let node = Node::new(237, None).unwrap();
+    isolated(64);
+    let node = Node::new(64, None).unwrap();
     let mut cfg = FtpConfig::new(Side::Left);
     cfg.object[3] = Some(600.0);
     let _emu = FtpEmulator::start(&node, cfg).unwrap();

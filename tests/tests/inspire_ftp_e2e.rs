@@ -1,19 +1,13 @@
-//! The Inspire FTP kind through the real `handgate` binary. Domains 238 and 239.
+//! The Inspire FTP kind through the real `handgate` binary. Domains 84–87
+//! (docs/development.md).
 //!
 //! What runs: `handgate emulate inspire_ftp` as a process of its own where Inspire's DDS driver
 //! would be, driven across the process boundary by the kind's own device (opened through the
-//! registry, as the gateway opens it); `handgate check` on the shipped profile and on a fleet
-//! of two emulated hands with a canonical front.
-//!
-//! What does not run here: a *gateway process* on these domains. This kind's test domains are
-//! 235–239 and `handgate run` refuses a domain above 232 (`profile::MAX_DOMAIN_ID`: the
-//! standard RTPS port mapping, 7400 + 250 · id, overflows 16 bits there). Instead, the
-//! gateway's own runtime (`handgate_gateway::runtime::Runtime`, what `handgate run` starts)
-//! runs in this process from a loaded and resolved profile whose domain is then set to one
-//! of ours: two emulated hands driven through their canonical fronts, and a dds-backend hand
-//! against the `handgate emulate` process. The emulate process and this test share a
-//! CycloneDDS configuration (`CYCLONEDDS_URI`) with a domain gain of 200 and a discovery tag
-//! unique to this run.
+//! registry, as the gateway opens it) on 84 and 85; `handgate check` on the shipped profile and
+//! on a fleet of two emulated hands with a canonical front; `handgate run` serving two emulated
+//! hands through their canonical fronts (86), and a dds-backend hand against the `handgate
+//! emulate` process (87). Tests take turns ([`serial`]); every wait is on readiness with a
+//! deadline.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -28,53 +22,17 @@ use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, Side};
 use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
 use handgate_idl::handgate as hg;
-use handgate_tests::{handgate_bin, serial, stream_until, Latest};
+use handgate_tests::{handgate_bin, node, serial, stream_until, Gateway, Latest};
 
 const DEADLINE: Duration = Duration::from_secs(30);
 
-/// The CycloneDDS configuration of domain `id` for this run (also the child's `CYCLONEDDS_URI`).
-fn dds_config(id: u32) -> String {
-    format!(
-        "<CycloneDDS><Domain Id=\"{id}\"><Discovery><Tag>handgate-ftp-e2e-{}-{id}</Tag>\
-         <Ports><DomainGain>200</DomainGain></Ports></Discovery></Domain></CycloneDDS>",
-        std::process::id()
-    )
-}
-
-/// Creates domain `id` with [`dds_config`] once per process (kept for the process's life).
-fn domain(id: u32) {
-    static CREATED: std::sync::Mutex<Vec<u32>> = std::sync::Mutex::new(Vec::new());
-    let mut created = CREATED.lock().unwrap_or_else(|e| e.into_inner());
-    if !created.contains(&id) {
-        let d = cyclonedds_rs::dds_domain::DdsDomain::create(id, Some(&dds_config(id))).expect("domain");
-        std::mem::forget(d);
-        created.push(id);
-    }
-}
-
-fn node(id: u32) -> Node {
-    domain(id);
-    Node::new(id, None).expect("participant")
-}
-
-/// The gateway's runtime for the profile in `text` (its own domain replaced by `id`).
-fn gateway(id: u32, text: &str, rt: &tokio::runtime::Runtime) -> handgate_gateway::runtime::Runtime {
-    use handgate_gateway::profile::{load, EnvLayer, LoadOptions};
+/// A profile written for this run; `handgate run --profile <it>` loads it.
+fn write_profile(name: &str, text: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("handgate-ftp-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(format!("gw-{id}.toml"));
+    let p = dir.join(format!("{name}.toml"));
     std::fs::write(&p, text).unwrap();
-    let loaded = load(&LoadOptions {
-        profile: Some(p.display().to_string()),
-        env: EnvLayer::Ignore,
-        ..Default::default()
-    })
-    .unwrap_or_else(|e| panic!("{e}"));
-    let mut plan = handgate_gateway::resolve::plan(&loaded.profile).unwrap_or_else(|e| panic!("{e:?}"));
-    plan.domain = id;
-    domain(id);
-    let _in_rt = rt.enter();
-    handgate_gateway::runtime::Runtime::start(&plan).unwrap_or_else(|e| panic!("{e}"))
+    p
 }
 
 /// The newest canonical state on `r` that satisfies `ok`, while `cmd` streams on `w`.
@@ -109,7 +67,6 @@ impl Emulate {
                 cmd.env_remove(k);
             }
         }
-        cmd.env("CYCLONEDDS_URI", dds_config(domain));
         let mut child = cmd
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
@@ -182,13 +139,13 @@ fn wait_state(dev: &dyn HandDevice, what: &str, mut ok: impl FnMut(&HandState) -
 #[test]
 fn emulated_driver_process_is_driven_by_the_kind_over_dds_with_touch() {
     let _g = serial();
-    let emu = Emulate::start(238, &["inspire_ftp", "--side", "left", "--no-noise"]);
+    let emu = Emulate::start(84, &["inspire_ftp", "--side", "left", "--no-noise"]);
     assert!(
         emu.line.contains("rt/inspire_hand/ctrl/l") && emu.line.contains("rt/inspire_hand/touch/l"),
         "{}",
         emu.line
     );
-    let node = node(238);
+    let node = node(84);
     let dev = open(&node, "left_hand", Side::Left, DdsConfig::default());
     // The driver's start-up state: where the hand was left, 900 = 0.17 rad on a finger.
     let s = wait_state(&*dev, "a fresh state with the tactile pads", |s| {
@@ -208,13 +165,13 @@ fn emulated_driver_process_is_driven_by_the_kind_over_dds_with_touch() {
 #[test]
 fn rs485_driver_process_has_no_touch_and_unknown_transport_is_refused() {
     let _g = serial();
-    let emu = Emulate::start(239, &["inspire_ftp", "--side", "right", "--variant", "rs485"]);
+    let emu = Emulate::start(85, &["inspire_ftp", "--side", "right", "--variant", "rs485"]);
     assert!(
         emu.line.contains("RS-485") && !emu.line.contains("touch/r"),
         "{}",
         emu.line
     );
-    let node = node(239);
+    let node = node(85);
     let dev = open(
         &node,
         "right_hand",
@@ -237,9 +194,8 @@ fn rs485_driver_process_has_no_touch_and_unknown_transport_is_refused() {
             "--variant",
             "can",
             "--domain",
-            "239",
+            "85",
         ])
-        .env("CYCLONEDDS_URI", dds_config(239))
         .output()
         .unwrap();
     assert!(!out.status.success());
@@ -297,25 +253,24 @@ fn check_describes_the_shipped_profile_and_a_two_hand_emulated_fleet() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("emulator.object_at.thumb_rotate"));
 }
 
-/// Two emulated hands, each driven through its canonical front by the gateway's runtime: one
+/// Two emulated hands, each driven through its canonical front by `handgate run`: one
 /// joint by name on the left (positive closes: the index goes to 1.2 rad, the others keep
 /// their rest), a closure on the right (the fist); the state comes back measured, with the 17
 /// tactile pads' peaks.
 #[test]
 fn two_emulated_hands_through_their_canonical_fronts() {
     let _g = serial();
-    let rt = tokio::runtime::Runtime::new().unwrap();
-    let gw = gateway(
-        238,
+    let p = write_profile(
+        "ftp-pair",
         "name = \"ftp-pair\"\n\
          [[devices]]\nname = \"l\"\nkind = \"inspire_ftp\"\nside = \"left\"\nbackend = \"emulator\"\n\
          [devices.watchdog]\ntimeout_ms = 2000\n\
          [[devices]]\nname = \"r\"\nkind = \"inspire_ftp\"\nside = \"right\"\nbackend = \"emulator\"\n\
          [devices.watchdog]\ntimeout_ms = 2000\n\
          [[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"r\"\n",
-        &rt,
     );
-    let n = node(238);
+    let _gw = Gateway::start(86, &["--profile", p.to_str().unwrap()]);
+    let n = node(86);
     let mut wl = n
         .writer::<hg::HandCmd_>("rt/handgate/l/cmd", Qos::Reliable { depth: 1 })
         .unwrap();
@@ -366,25 +321,23 @@ fn two_emulated_hands_through_their_canonical_fronts() {
         "the fist keeps the thumb straight: {s:?}"
     );
     assert!((s.closure - 1.0).abs() < 0.02);
-    rt.block_on(gw.shutdown());
 }
 
-/// A hand on backend dds in the gateway's runtime reaches the `handgate emulate` process on
+/// A hand on backend dds in `handgate run` reaches the `handgate emulate` process on
 /// the driver's standard topics, and a closure through the canonical front moves it.
 #[test]
 fn dds_backend_hand_in_the_gateway_drives_the_emulate_process() {
     let _g = serial();
-    let _emu = Emulate::start(239, &["inspire_ftp", "--side", "right", "--seed", "5"]);
-    let rt = tokio::runtime::Runtime::new().unwrap();
-    let gw = gateway(
-        239,
+    let _emu = Emulate::start(87, &["inspire_ftp", "--side", "right", "--seed", "5"]);
+    let p = write_profile(
+        "ftp-client",
         "name = \"ftp-client\"\n\
          [[devices]]\nname = \"hand\"\nkind = \"inspire_ftp\"\nside = \"right\"\nbackend = \"dds\"\n\
          [devices.watchdog]\ntimeout_ms = 2000\n\
          [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n",
-        &rt,
     );
-    let n = node(239);
+    let _gw = Gateway::start(87, &["--profile", p.to_str().unwrap()]);
+    let n = node(87);
     let mut w = n
         .writer::<hg::HandCmd_>("rt/handgate/hand/cmd", Qos::Reliable { depth: 1 })
         .unwrap();
@@ -400,5 +353,4 @@ fn dds_backend_hand_in_the_gateway_drives_the_emulate_process() {
         s.freshness == hg::FRESH && (q(s, "index") - 0.85).abs() < 0.02 && s.pressure.len() == 17
     });
     assert!(st.closure > 0.45 && st.closure < 0.55, "{st:?}");
-    rt.block_on(gw.shutdown());
 }

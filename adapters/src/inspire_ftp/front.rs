@@ -1,7 +1,7 @@
 //! The Inspire FTP front codec: what Inspire's DDS driver serves for one hand
 //! (`rt/inspire_hand/{ctrl,state,touch}/{l,r}`, docs/sources.md §7), so a client written for it
 //! (xr_teleoperate's `Inspire_Controller_FTP`, Inspire's own examples) can drive any device.
-//! Pure functions; the front's registry entry is not part of this folder yet.
+//! Pure functions; the front's registry entry and endpoints are [`super::serve`].
 //!
 //! Command rules (docs/fronts.md, "Bad input"; `inspire_hand_ctrl`):
 //! - `mode` bits above 0b1111 (a negative or ≥ 16 `mode`) → rejected whole (`UnknownMode`).

@@ -105,6 +105,11 @@ impl KindFactory for InspireFtpFactory {
         &JOINTS
     }
 
+    /// Inspire's DDS driver's own interface (`rt/inspire_hand/*/{l,r}`, one hand): `super::serve`.
+    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
+        &[crate::front::kind::FrontKind::InspireFtp]
+    }
+
     fn backends(&self) -> &'static [Backend] {
         &[Backend::Dds, Backend::Emulator]
     }
