@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
-use handgate_idl::{ros2, unitree_go, unitree_hg};
+use handgate_idl::{inspire, ros2, unitree_go, unitree_hg};
 use handgate_tests::{node, poll, Gateway, Latest};
 
 const DOMAIN: u32 = 95;
@@ -80,6 +80,11 @@ fn every_kind_of_sim_all_is_fresh_and_every_front_publishes() {
     assert_eq!(d.states.len(), 12);
     // At rest the Inspire fingers are nearly open (q near 1 = open).
     assert!(d.states.iter().all(|m| m.q > 0.8), "{d:?}");
+    // Inspire's FTP driver: state and the tactile arrays (1062 values per hand).
+    let mut ftp = Latest::<inspire::InspireHandState>::new(&n, "rt/inspire_hand/state/r", Qos::BestEffort);
+    assert_eq!(ftp.next(DEADLINE).expect("rt/inspire_hand/state/r").angle_act.len(), 6);
+    let mut touch = Latest::<inspire::InspireHandTouch>::new(&n, "rt/inspire_hand/touch/l", Qos::BestEffort);
+    touch.next(DEADLINE).expect("rt/inspire_hand/touch/l");
     // The BrainCo service opens the hand at start-up (q near 0 = open).
     let mut bc = Latest::<unitree_go::MotorStates_>::new(&n, "rt/brainco/left/state", Qos::BestEffort);
     let b = bc.next(DEADLINE).expect("rt/brainco/left/state");
