@@ -1175,6 +1175,59 @@ pub fn default_profile_with_watchdog(name: &str, front_device_line: &str) -> Pat
     )
 }
 
+// ---------------------------------------------------------------------------------------------
+// Profiles and canonical messages shared by the kinds' end-to-end tests.
+
+/// Writes `text` as `<name>.toml` in this test process's directory for `tag`
+/// (`$TMPDIR/handgate-<tag>-<pid>/`) and returns its path.
+pub fn temp_profile(tag: &str, name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("handgate-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("profile directory");
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, text).expect("profile written");
+    p
+}
+
+/// A `[[devices]]` table of an emulated device.
+pub fn emulated_device(name: &str, kind: &str, side: &str) -> String {
+    format!("[[devices]]\nname = \"{name}\"\nkind = \"{kind}\"\nside = \"{side}\"\nbackend = \"emulator\"\n")
+}
+
+/// Canonical position (rad) of joint `name` in a canonical front's state.
+pub fn canonical_q(s: &handgate::HandState_, name: &str) -> f32 {
+    s.joints
+        .iter()
+        .find(|j| j.name == name)
+        .unwrap_or_else(|| panic!("no joint {name} in {s:?}"))
+        .q
+}
+
+/// A canonical closure command (0 open, 1 closed).
+pub fn closure_cmd(seq: u64, closure: f32) -> handgate::HandCmd_ {
+    handgate::HandCmd_ {
+        seq,
+        mode: handgate::MODE_CLOSURE,
+        closure,
+        ..Default::default()
+    }
+}
+
+/// `handgate check PROFILE` from the repository root, without the caller's `HANDGATE_*`
+/// environment.
+pub fn handgate_check(profile: &Path) -> std::process::Output {
+    let mut cmd = Command::new(handgate_bin());
+    for (k, _) in std::env::vars() {
+        if k.starts_with("HANDGATE_") {
+            cmd.env_remove(k);
+        }
+    }
+    cmd.current_dir(repo_root())
+        .arg("check")
+        .arg(profile)
+        .output()
+        .expect("handgate check runs")
+}
+
 #[cfg(test)]
 mod unit {
     use super::*;

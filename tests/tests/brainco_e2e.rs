@@ -19,7 +19,7 @@ use handgate_adapters::dds_device::{DdsDevice, DdsDeviceConfig};
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
 use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, Side};
-use handgate_tests::{handgate_bin, poll, serial, Gateway, Latest};
+use handgate_tests::{closure_cmd, handgate_bin, poll, serial, Gateway, Latest};
 
 const DEADLINE: Duration = Duration::from_secs(30);
 
@@ -68,15 +68,6 @@ impl Drop for Emulator {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
-    }
-}
-
-fn closure_cmd(seq: u64, closure: f32) -> hg::HandCmd_ {
-    hg::HandCmd_ {
-        seq,
-        mode: hg::MODE_CLOSURE,
-        closure,
-        ..Default::default()
     }
 }
 

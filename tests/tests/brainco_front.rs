@@ -16,14 +16,14 @@
 //! (`cargo build -p handgate`) and `.venv`.
 
 use std::path::PathBuf;
-use std::process::Command;
 use std::time::Duration;
 
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_idl::unitree_go;
 use handgate_tests::{
-    handgate_bin, interop_interface, node, poll, repo_root, serial, stream_until, Gateway, Latest, PyProcess,
+    canonical_q, emulated_device, handgate_check, interop_interface, node, poll, serial, stream_until, temp_profile,
+    Gateway, Latest, PyProcess,
 };
 use serde_json::Value;
 
@@ -38,25 +38,19 @@ const URDF_MAX: [f64; 6] = [1.5184, 1.0472, 1.4661, 1.4661, 1.4661, 1.4661];
 const CLIENT_MAX: [f64; 6] = [1.52, 1.05, 1.47, 1.47, 1.47, 1.47];
 
 fn write_profile(name: &str, body: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("handgate-brainco-front-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(format!("{name}.toml"));
-    std::fs::write(&p, format!("name = \"{name}\"\ndescription = \"test\"\n{body}")).unwrap();
-    p
+    temp_profile(
+        "brainco-front",
+        name,
+        &format!("name = \"{name}\"\ndescription = \"test\"\n{body}"),
+    )
 }
 
 fn device(name: &str, kind: &str, side: &str) -> String {
-    format!("[[devices]]\nname = \"{name}\"\nkind = \"{kind}\"\nside = \"{side}\"\nbackend = \"emulator\"\n")
+    emulated_device(name, kind, side)
 }
 
 fn joint(s: &hg::HandState_, name: &str) -> f64 {
-    f64::from(
-        s.joints
-            .iter()
-            .find(|j| j.name == name)
-            .unwrap_or_else(|| panic!("no joint {name} in {s:?}"))
-            .q,
-    )
+    f64::from(canonical_q(s, name))
 }
 
 fn status_of<'a>(s: &'a hg::GatewayStatus_, name: &str) -> &'a hg::DeviceStatus_ {
@@ -264,18 +258,7 @@ fn silence_watchdog_trips_when_the_brainco_client_stops() {
 }
 
 fn check(name: &str, body: &str) -> std::process::Output {
-    let p = write_profile(name, body);
-    let mut cmd = Command::new(handgate_bin());
-    for (k, _) in std::env::vars() {
-        if k.starts_with("HANDGATE_") {
-            cmd.env_remove(k);
-        }
-    }
-    cmd.current_dir(repo_root())
-        .arg("check")
-        .arg(&p)
-        .output()
-        .expect("handgate check runs")
+    handgate_check(&write_profile(name, body))
 }
 
 /// `handgate check`: a brainco front serves its side's topics; a center device needs a side

@@ -15,7 +15,10 @@ use std::time::Duration;
 use handgate_adapters::dds::{Qos, Writer};
 use handgate_idl::handgate as hg;
 use handgate_idl::{ros2, unitree_go};
-use handgate_tests::{handgate_bin, node, poll, repo_root, serial, status_device, stream_until, Gateway, Latest};
+use handgate_tests::{
+    canonical_q, closure_cmd, handgate_bin, node, poll, repo_root, serial, status_device, stream_until, temp_profile,
+    Gateway, Latest,
+};
 
 /// Bound on a start, a first state, a match or reaching a target (never a fixed sleep).
 const DEADLINE: Duration = Duration::from_secs(30);
@@ -26,20 +29,7 @@ const LOWER: [f32; 6] = [0.0, 0.0, 0.0, 0.0, 0.0, -0.1];
 const UPPER: [f32; 6] = [1.7, 1.7, 1.7, 1.7, 0.5, 1.3];
 
 fn write_profile(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("handgate-dfx-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(format!("{name}.toml"));
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn closure_cmd(seq: u64, closure: f32) -> hg::HandCmd_ {
-    hg::HandCmd_ {
-        seq,
-        mode: hg::MODE_CLOSURE,
-        closure,
-        ..Default::default()
-    }
+    temp_profile("dfx", name, text)
 }
 
 fn joints_cmd(seq: u64, joints: &[(&str, f32)]) -> hg::HandCmd_ {
@@ -60,11 +50,7 @@ fn joints_cmd(seq: u64, joints: &[(&str, f32)]) -> hg::HandCmd_ {
 }
 
 fn joint(s: &hg::HandState_, name: &str) -> f32 {
-    s.joints
-        .iter()
-        .find(|j| j.name == name)
-        .unwrap_or_else(|| panic!("no joint {name} in {s:?}"))
-        .q
+    canonical_q(s, name)
 }
 
 /// Streams `cmd` to `w` until the state on `state` satisfies `done`; returns that state.

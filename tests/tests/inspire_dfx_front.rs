@@ -13,14 +13,14 @@
 //! readiness with a deadline. Needs the binary (`cargo build -p handgate`) and `.venv`.
 
 use std::path::PathBuf;
-use std::process::Command;
 use std::time::Duration;
 
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_idl::unitree_go;
 use handgate_tests::{
-    handgate_bin, interop_interface, node, poll, repo_root, serial, stream_until, Gateway, Latest, PyProcess,
+    canonical_q, emulated_device, handgate_check, interop_interface, node, poll, serial, stream_until, temp_profile,
+    Gateway, Latest, PyProcess,
 };
 use serde_json::Value;
 
@@ -34,25 +34,19 @@ const LOWER: [f64; 6] = [0.0, 0.0, 0.0, 0.0, 0.0, -0.1];
 const UPPER: [f64; 6] = [1.7, 1.7, 1.7, 1.7, 0.5, 1.3];
 
 fn write_profile(name: &str, body: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("handgate-dfx-front-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(format!("{name}.toml"));
-    std::fs::write(&p, format!("name = \"{name}\"\ndescription = \"test\"\n{body}")).unwrap();
-    p
+    temp_profile(
+        "dfx-front",
+        name,
+        &format!("name = \"{name}\"\ndescription = \"test\"\n{body}"),
+    )
 }
 
 fn device(name: &str, kind: &str, side: &str) -> String {
-    format!("[[devices]]\nname = \"{name}\"\nkind = \"{kind}\"\nside = \"{side}\"\nbackend = \"emulator\"\n")
+    emulated_device(name, kind, side)
 }
 
 fn joint(s: &hg::HandState_, name: &str) -> f64 {
-    f64::from(
-        s.joints
-            .iter()
-            .find(|j| j.name == name)
-            .unwrap_or_else(|| panic!("no joint {name} in {s:?}"))
-            .q,
-    )
+    f64::from(canonical_q(s, name))
 }
 
 /// The service's message: 12 entries, only `q` set (as xr_teleoperate sends it).
@@ -270,18 +264,7 @@ fn the_inspire_dfx_front_closes_and_opens_a_dex3_hand() {
 }
 
 fn check(name: &str, body: &str) -> std::process::Output {
-    let p = write_profile(name, body);
-    let mut cmd = Command::new(handgate_bin());
-    for (k, _) in std::env::vars() {
-        if k.starts_with("HANDGATE_") {
-            cmd.env_remove(k);
-        }
-    }
-    cmd.current_dir(repo_root())
-        .arg("check")
-        .arg(&p)
-        .output()
-        .expect("handgate check runs")
+    handgate_check(&write_profile(name, body))
 }
 
 /// `handgate check`: the unbound hand is described; a center device needs a side; two

@@ -22,17 +22,13 @@ use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, Side};
 use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
 use handgate_idl::handgate as hg;
-use handgate_tests::{handgate_bin, node, serial, stream_until, Gateway, Latest};
+use handgate_tests::{handgate_bin, node, serial, stream_until, temp_profile, Gateway, Latest};
 
 const DEADLINE: Duration = Duration::from_secs(30);
 
 /// A profile written for this run; `handgate run --profile <it>` loads it.
 fn write_profile(name: &str, text: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("handgate-ftp-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(format!("{name}.toml"));
-    std::fs::write(&p, text).unwrap();
-    p
+    temp_profile("ftp", name, text)
 }
 
 /// The newest canonical state on `r` that satisfies `ok`, while `cmd` streams on `w`.
