@@ -191,6 +191,34 @@ fn b_the_left_hand_writes_entries_6_to_11() {
     assert!(msg.cmds[6..].iter().all(|m| (m.q - 1.0).abs() < 1e-6), "left open");
 }
 
+/// A left and a right device on one service: every message either sends carries both
+/// hands' own latest targets, so the service (latest message wins per loop) never applies
+/// one hand's stale measurement over the other device's target, whichever writes last.
+#[test]
+fn b_two_devices_on_one_service_each_send_both_hands_targets() {
+    let (r, l) = (table(Side::Right), table(Side::Left));
+    let shared = handgate_adapters::inspire_dfx::adapter::SharedTargets::default();
+    let mut cr = DfxCodec::with_shared(Side::Right, shared.clone()).unwrap();
+    let mut cl = DfxCodec::with_shared(Side::Left, shared).unwrap();
+    let rest = state12([0.9; 12]);
+    cr.decode(&rest, &r).unwrap();
+    cl.decode(&rest, &l).unwrap();
+    // Right closes (wire 0), left opens (wire 1); the left device writes last.
+    cr.encode(&targets(&r, 1.0), &r, 0.01).unwrap();
+    let msg = cl.encode(&targets(&l, 0.0), &l, 0.01).unwrap();
+    assert!(
+        msg.cmds[..6].iter().all(|m| m.q.abs() < 1e-6),
+        "right's target, not its 0.9: {msg:?}"
+    );
+    assert!(
+        msg.cmds[6..].iter().all(|m| (m.q - 1.0).abs() < 1e-6),
+        "left's target: {msg:?}"
+    );
+    // And the right device's next message carries the left's target.
+    let msg = cr.encode(&targets(&r, 1.0), &r, 0.01).unwrap();
+    assert!(msg.cmds[6..].iter().all(|m| (m.q - 1.0).abs() < 1e-6), "{msg:?}");
+}
+
 #[test]
 fn b_wrong_sizes_are_not_this_hand_and_a_growing_lost_count_is_a_fault() {
     let r = table(Side::Right);

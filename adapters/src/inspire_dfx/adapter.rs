@@ -3,11 +3,13 @@
 //! always 12 entries, 0–5 the right hand, 6–11 the left, only `q` meaningful (1 = open).
 //!
 //! One message carries both hands, and each hand is its own handgate device. So a device
-//! never disturbs the other hand's six entries: it fills them with the other hand's **last
-//! measured** `q` (what the service just reported), and sends nothing at all until that hand
-//! has been measured once (the pattern of the Dex1 `actuator` variant). Two devices (or two
-//! clients) on one service therefore interleave whole messages; each message holds the other
-//! hand at its last measurement, which is where that hand's own device last saw it.
+//! never disturbs the other hand's six entries: when the other hand is driven by handgate too
+//! (a left and a right device on one service: they share [`SharedTargets`]), every message
+//! carries that hand's own latest target, so both devices send the same picture of both
+//! hands and neither can starve the other (the service applies the latest message per loop);
+//! when it is not, the other hand's **last measured** `q` (what the service just reported),
+//! and nothing at all until that hand has been measured once (the pattern of the Dex1
+//! `actuator` variant).
 //!
 //! State: `q` per entry (the hand's ANGLE_ACT / 1000); `lost` counts failed serial reads per
 //! entry: a hand whose `lost` grew since the previous sample was not read this cycle
@@ -21,6 +23,10 @@ use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, SafeAction, Side};
 
+/// The latest wire q each handgate device on one command topic sent for its own six entries
+/// (`None`: that hand's device has sent nothing yet, or there is none).
+pub type SharedTargets = std::sync::Arc<std::sync::Mutex<[Option<f32>; ENTRIES]>>;
+
 /// The DDS-client codec of one hand.
 #[derive(Debug, Clone)]
 pub struct DfxCodec {
@@ -31,15 +37,24 @@ pub struct DfxCodec {
     other_q: Option<[f32; HAND_ENTRIES]>,
     /// This hand's `lost` counters in the previous sample.
     last_lost: Option<[u32; HAND_ENTRIES]>,
+    /// Targets of the devices sharing this command topic.
+    shared: SharedTargets,
 }
 
 impl DfxCodec {
     /// The codec of `side`'s hand (`None` for a center side: the message has no such hand).
     pub fn new(side: Side) -> Option<Self> {
+        Self::with_shared(side, SharedTargets::default())
+    }
+
+    /// The codec of `side`'s hand, sharing `shared` with the other hand's device on the same
+    /// command topic.
+    pub fn with_shared(side: Side, shared: SharedTargets) -> Option<Self> {
         Some(Self {
             element: super::element(side)?,
             other_q: None,
             last_lost: None,
+            shared,
         })
     }
 
@@ -79,9 +94,18 @@ impl DdsCodec for DfxCodec {
             Active::Safe(SafeAction::Limp, _) => return None,
             Active::Command(t) | Active::Safe(_, t) => t,
         };
-        // Without the other hand's position we cannot hold it: stay silent.
-        let other = self.other_q?;
         let w = table.to_wire(targets);
+        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        for (i, e) in self.own_range().enumerate() {
+            shared[e] = w.get(i).map(|w| w.q).filter(|q| q.is_finite());
+        }
+        // The other hand: its own device's latest targets, else where it was last measured;
+        // without either we cannot hold it: stay silent.
+        let other: [f32; HAND_ENTRIES] = match self.other_range().map(|e| shared[e]).collect::<Option<Vec<f32>>>() {
+            Some(t) => t.try_into().ok()?,
+            None => self.other_q?,
+        };
+        drop(shared);
         let mut msg = unitree_go::MotorCmds_::with_len(ENTRIES);
         for (i, e) in self.own_range().enumerate() {
             msg.cmds[e] = entry(w.get(i).map_or(f32::NAN, |w| w.q));

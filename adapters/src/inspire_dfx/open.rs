@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use super::adapter::DfxCodec;
+use super::adapter::{DfxCodec, SharedTargets};
 use super::emulator::{DfxConfig, DfxEmulator, DFX_NOISE};
 use super::kind::DfxProfile;
 use super::table::JOINTS;
@@ -99,11 +99,26 @@ pub fn prepare(devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), 
     Ok(())
 }
 
-/// Opens an Inspire DFX hand on its backend.
+/// Opens an Inspire DFX hand on its backend. The hands on one command topic share their
+/// targets (`SharedTargets`, in `env.shared` under the topic): every message carries both.
 pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
-    let codec = DfxCodec::new(spec.side)
+    let open = configure(spec)?;
+    let topic = match &open {
+        DfxOpen::Dds { config, .. } | DfxOpen::Emulated { config, .. } => {
+            format!("inspire_dfx targets {}", config.cmd_topic)
+        }
+    };
+    let shared = match env.shared.get::<SharedTargets>(&topic) {
+        Some(s) => s.clone(),
+        None => {
+            let s = SharedTargets::default();
+            env.shared.insert(&topic, s.clone());
+            s
+        }
+    };
+    let codec = DfxCodec::with_shared(spec.side, shared)
         .ok_or_else(|| DeviceError::Config("an inspire_dfx hand is left or right, not center".into()))?;
-    Ok(match configure(spec)? {
+    Ok(match open {
         DfxOpen::Dds { config, .. } => Box::new(DdsDevice::start(env.node, spec.info(), config, codec)?),
         DfxOpen::Emulated { config, .. } => {
             let service = env
