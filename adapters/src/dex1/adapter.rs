@@ -87,22 +87,38 @@ fn go_cmd(w: &crate::mapping::WireTarget) -> unitree_go::MotorCmd_ {
     (*w).into()
 }
 
+/// Actuator variant: the latest wire command each handgate device on one command topic sent
+/// for its own element (`None`: none yet, or no such device). A left and a right device share
+/// it, so every message carries both grippers' own targets: the service applies the latest
+/// message, and a gripper held at its last measurement by the other device's messages would
+/// otherwise be starved of its own targets.
+pub type SharedElements = std::sync::Arc<std::sync::Mutex<[Option<unitree_go::MotorCmd_>; 2]>>;
+
 /// Codec for the `unitree_go` variants (Go and Actuator).
 #[derive(Debug, Clone)]
 pub struct Dex1GoCodec {
     pub variant: Variant,
     pub side: Side,
     /// Actuator variant: the other gripper's last measured wire q, so our messages hold it
-    /// where it is instead of commanding it anywhere.
+    /// where it is when no handgate device drives it.
     other_q: Option<f32>,
+    /// Actuator variant: the targets of the devices sharing the command topic.
+    shared: SharedElements,
 }
 
 impl Dex1GoCodec {
     pub fn new(variant: Variant, side: Side) -> Self {
+        Self::with_shared(variant, side, SharedElements::default())
+    }
+
+    /// The codec of `side`'s gripper, sharing `shared` with the other element's device on
+    /// the same command topic (actuator variant).
+    pub fn with_shared(variant: Variant, side: Side, shared: SharedElements) -> Self {
         Self {
             variant,
             side,
             other_q: None,
+            shared,
         }
     }
     fn index(&self) -> usize {
@@ -144,16 +160,23 @@ impl DdsCodec for Dex1GoCodec {
         let w = table.to_wire(targets(active)?);
         match self.variant {
             Variant::Actuator => {
-                // Without the other gripper's position we cannot hold it: stay silent.
-                let other = self.other_q?;
-                let mut msg = unitree_go::MotorCmds_::with_len(2);
-                msg.cmds[self.index()] = go_cmd(&w[0]);
-                msg.cmds[1 - self.index()] = unitree_go::MotorCmd_ {
-                    q: other,
-                    kp: table.hold_kp,
-                    kd: table.hold_kd,
-                    ..Default::default()
+                let own = go_cmd(&w[0]);
+                let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+                shared[self.index()] = Some(own.clone());
+                // The other gripper: its own device's latest command, else held where it was
+                // last measured; without either we cannot hold it: stay silent.
+                let other = match &shared[1 - self.index()] {
+                    Some(c) => c.clone(),
+                    None => unitree_go::MotorCmd_ {
+                        q: self.other_q?,
+                        kp: table.hold_kp,
+                        kd: table.hold_kd,
+                        ..Default::default()
+                    },
                 };
+                let mut msg = unitree_go::MotorCmds_::with_len(2);
+                msg.cmds[self.index()] = own;
+                msg.cmds[1 - self.index()] = other;
                 Some(msg)
             }
             _ => Some(unitree_go::MotorCmds_ {
@@ -242,6 +265,35 @@ mod tests {
         assert_eq!(msg.cmds.len(), 2);
         assert!((msg.cmds[0].q - 2.7).abs() < 1e-5);
         assert_eq!(msg.cmds[1].q, 4.0);
+    }
+
+    /// Two actuator devices (right and left) sharing the topic: every message carries both
+    /// grippers' own commands, whichever device writes last.
+    #[test]
+    fn actuator_pair_sends_both_grippers_targets() {
+        let (tr, tl) = (
+            crate::dex1::table::table(Side::Right, 5.4),
+            crate::dex1::table::table(Side::Left, 5.4),
+        );
+        let shared = SharedElements::default();
+        let mut r = Dex1GoCodec::with_shared(Variant::Actuator, Side::Right, shared.clone());
+        let mut l = Dex1GoCodec::with_shared(Variant::Actuator, Side::Left, shared);
+        let mut st = unitree_go::MotorStates_::with_len(2);
+        st.states[0].q = 5.0;
+        st.states[1].q = 5.0;
+        r.decode(&st, &tr).unwrap();
+        l.decode(&st, &tl).unwrap();
+        // Right closes (wire 0), left half open (2.7); the left writes last.
+        r.encode(&Active::Command(tr.closure_targets(1.0, None).unwrap()), &tr, 0.005)
+            .unwrap();
+        let msg = l
+            .encode(&Active::Command(tl.closure_targets(0.5, None).unwrap()), &tl, 0.005)
+            .unwrap();
+        assert!(
+            msg.cmds[0].q.abs() < 1e-5,
+            "the right gripper's own target, not its 5.0: {msg:?}"
+        );
+        assert!((msg.cmds[1].q - 2.7).abs() < 1e-5, "{msg:?}");
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! the profile's wire variant, or on the emulator backend: the service's emulator on private
 //! topics driven by the very same DDS adapter.
 
-use super::adapter::{Dex1GoCodec, Dex1HgCodec, Variant};
+use super::adapter::{Dex1GoCodec, Dex1HgCodec, SharedElements, Variant};
 use super::emulator::{Dex1Config, Dex1Emulator, DEX1_REST_Q};
 use super::kind::Dex1Profile;
 use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer};
@@ -63,12 +63,24 @@ pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn Hand
             config,
             variant: Variant::Hg,
         } => Box::new(DdsDevice::start(env.node, spec.info(), config, Dex1HgCodec)?),
-        Dex1Open::Dds { config, variant } => Box::new(DdsDevice::start(
-            env.node,
-            spec.info(),
-            config,
-            Dex1GoCodec::new(variant, spec.side),
-        )?),
+        Dex1Open::Dds { config, variant } => {
+            // The actuator variant's grippers on one command topic share their commands.
+            let key = format!("dex1 elements {}", config.cmd_topic);
+            let shared = match env.shared.get::<SharedElements>(&key) {
+                Some(s) => s.clone(),
+                None => {
+                    let s = SharedElements::default();
+                    env.shared.insert(&key, s.clone());
+                    s
+                }
+            };
+            Box::new(DdsDevice::start(
+                env.node,
+                spec.info(),
+                config,
+                Dex1GoCodec::with_shared(variant, spec.side, shared),
+            )?)
+        }
         Dex1Open::Emulated { peer, config } => {
             let peer = Dex1Emulator::start(env.node, peer)?;
             let device = DdsDevice::start(env.node, spec.info(), config, Dex1GoCodec::new(Variant::Go, spec.side))?;
