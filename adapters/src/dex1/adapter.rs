@@ -162,11 +162,11 @@ impl DdsCodec for Dex1GoCodec {
             Variant::Actuator => {
                 let own = go_cmd(&w[0]);
                 let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-                shared[self.index()] = Some(own.clone());
+                shared[self.index()] = Some(own);
                 // The other gripper: its own device's latest command, else held where it was
                 // last measured; without either we cannot hold it: stay silent.
                 let other = match &shared[1 - self.index()] {
-                    Some(c) => c.clone(),
+                    Some(c) => *c,
                     None => unitree_go::MotorCmd_ {
                         q: self.other_q?,
                         kp: table.hold_kp,
