@@ -497,6 +497,16 @@ state_hz = 0.1
             ..Default::default()
         };
     }
+    // A command with a non-finite target is rejected whole and said so in the log (once a
+    // second per reason).
+    let mut bad = c.clone();
+    bad.motor_cmd[2].q = f32::NAN;
+    cmd.write(bad).unwrap();
+    assert!(
+        poll(DEADLINE, || gw.transcript().contains("rejected command").then_some(())).is_some(),
+        "no rejection logged:\n{}",
+        gw.transcript()
+    );
     c.reserve[0] = 4242;
     cmd.write(c).unwrap();
     let echoed = poll(Duration::from_secs(4), || {
@@ -505,6 +515,77 @@ state_hz = 0.1
     assert!(
         echoed.is_some(),
         "no state echoing the command within 4 s (periodic state every 10 s, the first 10 s after start): {:?}\n{}",
+        state.last,
+        gw.transcript()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The same for a front whose messages carry two devices (the Inspire DFX service's 12
+/// entries, both hands): the state is published at once when BOTH hands reflect the command,
+/// not at the next tick. Guards the prompt publish waiting on every bound device
+/// (`first_change` over all of them). Domain 177.
+#[test]
+fn a_two_hand_front_publishes_at_once_when_both_hands_reflect_the_command() {
+    use handgate_idl::unitree_go;
+    let _serial = serial();
+    let dir = std::env::temp_dir().join(format!("handgate-safety-e2e-prompt2-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("profile.toml");
+    std::fs::write(
+        &profile,
+        r#"name = "safety-e2e-prompt-two"
+[[devices]]
+name = "r"
+kind = "inspire_dfx"
+side = "right"
+backend = "emulator"
+
+[[devices]]
+name = "l"
+kind = "inspire_dfx"
+side = "left"
+backend = "emulator"
+
+[[fronts]]
+kind = "inspire_dfx"
+devices = { right = "r", left = "l" }
+state_hz = 0.1
+"#,
+    )
+    .unwrap();
+    let gw = Gateway::start(177, &["--profile", profile.to_str().unwrap()]);
+    let n = node(177);
+    let mut status = Latest::<hg::GatewayStatus_>::new(&n, "rt/handgate/status", Qos::Reliable { depth: 1 });
+    // Both hands measured first (a hand's device sends nothing before it saw the service).
+    poll(DEADLINE, || {
+        status
+            .update()
+            .filter(|s| s.devices.len() == 2 && s.devices.iter().all(|d| d.freshness == hg::FRESH))
+            .map(|_| ())
+    })
+    .unwrap_or_else(|| panic!("hands never fresh\n{}", gw.transcript()));
+    let mut state = Latest::<unitree_go::MotorStates_>::new(&n, "rt/inspire/state", Qos::BestEffort);
+    let mut cmd = n
+        .writer::<unitree_go::MotorCmds_>("rt/inspire/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    cmd.wait_matched(1, DEADLINE).unwrap();
+    let mut c = unitree_go::MotorCmds_::with_len(12);
+    for m in c.cmds.iter_mut() {
+        m.q = 0.5;
+    }
+    c.cmds[0].reserve[0] = 5151;
+    cmd.write(c).unwrap();
+    let echoed = poll(Duration::from_secs(4), || {
+        state
+            .update()
+            .filter(|s| s.states.len() == 12 && s.states[0].reserve[0] == 5151 && s.states[6].reserve[0] == 5151)
+            .cloned()
+    });
+    assert!(
+        echoed.is_some(),
+        "no state echoing the command on both hands within 4 s (periodic state every 10 s): {:?}\n{}",
         state.last,
         gw.transcript()
     );
