@@ -197,13 +197,15 @@ pub fn measure_profile(
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
         if let Some(s) = reader.take().pop() {
-            if !s.devices.is_empty() && s.devices.iter().all(|d| d.freshness == 0) {
+            // Fresh, or commanded only (a one-way interface such as rt/hand_sdk is never
+            // measured): not stale.
+            if !s.devices.is_empty() && s.devices.iter().all(|d| d.freshness != handgate_idl::handgate::STALE) {
                 break;
             }
         }
         anyhow::ensure!(
             Instant::now() < deadline,
-            "profile {profile}: not every device reported fresh within 60 s"
+            "profile {profile}: not every device reported fresh (or commanded only) within 60 s"
         );
         std::thread::sleep(Duration::from_millis(100));
     }
