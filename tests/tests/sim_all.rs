@@ -8,7 +8,7 @@ use std::time::Duration;
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_idl::{inspire, ros2, unitree_go, unitree_hg};
-use handgate_tests::{node, poll, Gateway, Latest};
+use handgate_tests::{interop_interface, node, poll, Gateway, Latest, PyProcess};
 
 const DOMAIN: u32 = 95;
 /// Generous: 11+ devices start on a shared 2-core machine (the EZGrippers calibrate first).
@@ -96,4 +96,49 @@ fn every_kind_of_sim_all_is_fresh_and_every_front_publishes() {
     let joints: usize = DEVICES.iter().map(|(_, _, n)| n).sum();
     assert_eq!(j.name.len(), joints, "{:?}", j.name);
     assert!(j.position.iter().all(|q| q.is_finite()), "{j:?}");
+}
+
+/// The official-SDK clients of the three G1 hands handgate serves besides Dex3 and Dex1,
+/// written as xr_teleoperate's controllers write them (tests/python/xr_*_client.py: their
+/// topics, messages, rates, waiting for state first), drive the emulated hands of `sim-all`
+/// one after the other, every finger of both hands to its own target; each client reads the
+/// state back in its own joint order and direction and prints DONE only when every entry
+/// reads its own target. Domain 91 (one gateway; the clients take turns).
+#[test]
+fn xr_teleoperate_clients_of_the_new_hands_drive_sim_all() {
+    const SDK_DOMAIN: u32 = 91;
+    let gw = Gateway::start(SDK_DOMAIN, &["--profile", "sim-all"]);
+    let csv = |v: &[f64; 6]| v.map(|x| x.to_string()).join(",");
+    // (script, first hand's URDF radians, second hand's), in each client's argument order.
+    let runs: [(&str, [f64; 6], [f64; 6]); 3] = [
+        // DFX: RIGHT_RAD LEFT_RAD (pinky, ring, middle, index, thumb bend, thumb rotation).
+        (
+            "xr_inspire_dfx_client.py",
+            [1.5, 1.1, 0.7, 0.3, 0.4, 0.2],
+            [0.2, 0.6, 1.0, 1.4, 0.1, 1.0],
+        ),
+        // FTP: LEFT_RAD RIGHT_RAD (same joints).
+        (
+            "xr_inspire_ftp_client.py",
+            [0.2, 0.6, 1.3, 1.05, 0.1, 1.0],
+            [1.5, 1.1, 0.7, 0.3, 0.4, 0.2],
+        ),
+        // BrainCo: LEFT_RAD RIGHT_RAD (thumb, thumb aux, index, middle, ring, pinky).
+        (
+            "xr_brainco_client.py",
+            [1.2, 0.3, 0.5, 0.9, 1.3, 0.1],
+            [0.4, 0.8, 1.4, 0.2, 0.6, 1.0],
+        ),
+    ];
+    for (script, a, b) in runs {
+        let mut args = vec![SDK_DOMAIN.to_string(), csv(&a), csv(&b)];
+        if let Some(i) = interop_interface() {
+            args.push(i);
+        }
+        let py = PyProcess::spawn(script, &args).expect("python client");
+        py.wait_line("READY", DEADLINE)
+            .unwrap_or_else(|e| panic!("{script}: {e}\n{}", gw.transcript()));
+        py.wait_line("DONE ", DEADLINE * 2)
+            .unwrap_or_else(|e| panic!("{script}: {e}\n{}\n{}", py.transcript(), gw.transcript()));
+    }
 }
