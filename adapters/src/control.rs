@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use crate::device::DeviceStats;
-use crate::mapping::{DeviceTable, MappingError};
+use crate::mapping::{CheckedBody, DeviceTable, MappingError};
 use crate::model::{CommandBody, HandCommand, JointCommand, JointState, SafeAction};
 
 /// What the loop should send this cycle.
@@ -107,10 +107,26 @@ impl CommandState {
     /// ([`DeviceTable::check`]) so a bad command is refused immediately and nothing changes;
     /// it is resolved once, against the measured state, in [`Self::step`].
     pub fn submit(&self, cmd: HandCommand) -> Result<(), MappingError> {
-        if let Err(e) = self.table.check(&cmd.body) {
-            Counters::inc(&self.counters.rejected);
-            return Err(e);
+        match self.table.checked(cmd.body) {
+            Ok(body) => {
+                self.submit_checked(cmd.seq, body, cmd.tag);
+                Ok(())
+            }
+            Err(e) => {
+                Counters::inc(&self.counters.rejected);
+                Err(e)
+            }
         }
+    }
+
+    /// Accepts a command already checked against this slot's table (latest wins), without
+    /// checking it again.
+    pub fn submit_checked(&self, seq: u64, body: CheckedBody, tag: u32) {
+        let cmd = HandCommand {
+            seq,
+            body: body.into_body(),
+            tag,
+        };
         Counters::inc(&self.counters.commands);
         let mut g = self.lock();
         if let CommandBody::Safe(a) = cmd.body {
@@ -120,7 +136,6 @@ impl CommandState {
             g.pending = Some(cmd);
             g.pending_safe = None;
         }
-        Ok(())
     }
 
     /// Requests a safe state (watchdog, shutdown).

@@ -222,6 +222,11 @@ impl HandDevice for DdsDevice {
         Ok(self.cmd.submit(cmd)?)
     }
 
+    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
+        self.cmd.submit_checked(seq, body, tag);
+        Ok(())
+    }
+
     fn state(&self) -> watch::Receiver<HandState> {
         self.state_rx.clone()
     }
@@ -267,6 +272,9 @@ impl HandDevice for WithPeer {
     }
     fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
         self.device.command(cmd)
+    }
+    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
+        self.device.command_checked(seq, body, tag)
     }
     fn state(&self) -> watch::Receiver<HandState> {
         self.device.state()

@@ -152,8 +152,19 @@ pub trait HandDevice: Send + Sync {
     fn info(&self) -> &DeviceInfo;
 
     /// Replaces the pending command (latest wins). Returns an error, and changes nothing,
-    /// when the command cannot be mapped safely.
+    /// when the command cannot be mapped safely (checked here, against the device's table).
     fn command(&self, cmd: HandCommand) -> Result<(), DeviceError>;
+
+    /// Replaces the pending command with one already checked against this device's table
+    /// (a front checks each command it routes once: `DeviceTable::checked`); devices take it
+    /// without checking again. The default re-checks through [`Self::command`].
+    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
+        self.command(HandCommand {
+            seq,
+            body: body.into_body(),
+            tag,
+        })
+    }
 
     /// The latest canonical state.
     fn state(&self) -> watch::Receiver<HandState>;

@@ -208,6 +208,22 @@ pub struct DeviceTable {
     pub urdf_frame: UrdfFrame,
 }
 
+/// A command body that passed [`DeviceTable::check`] for a device's table: every joint it
+/// names exists, every value is finite, a closure is finite and the closure map fits. Only
+/// [`DeviceTable::checked`] builds one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckedBody(CommandBody);
+
+impl CheckedBody {
+    pub fn body(&self) -> &CommandBody {
+        &self.0
+    }
+
+    pub fn into_body(self) -> CommandBody {
+        self.0
+    }
+}
+
 /// Which of a table's frames the kind's URDF joint angles are in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum UrdfFrame {
@@ -347,6 +363,14 @@ impl DeviceTable {
             }
             ClosureMap::Torque { .. } => 0.0,
         }
+    }
+
+    /// `body` checked once against this table ([`Self::check`]), as a type: a device given a
+    /// [`CheckedBody`] of its table takes it without checking again (a front checks each
+    /// command it routes once, the device's `command_checked` trusts it).
+    pub fn checked(&self, body: CommandBody) -> Result<CheckedBody, MappingError> {
+        self.check(&body)?;
+        Ok(CheckedBody(body))
     }
 
     /// Whether `body` can be mapped safely, whatever the measured state: every joint id

@@ -172,6 +172,11 @@ impl HandDevice for EzGripperDevice {
         self.apply()
     }
 
+    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
+        self.cmd.submit_checked(seq, body, tag);
+        self.apply()
+    }
+
     fn state(&self) -> watch::Receiver<HandState> {
         self.state_rx.clone()
     }

@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::Node;
-use handgate_adapters::model::{HandCommand, HandState, SafeAction};
+use handgate_adapters::model::{HandState, SafeAction};
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
@@ -193,7 +193,15 @@ pub(super) fn spawn_front(
                                         let _ = h.await;
                                     }
                                     b.seq += 1;
-                                    match b.slot.device.command(HandCommand { seq: b.seq, body, tag }) {
+                                    // Checked once, here, against the device's table; the
+                                    // device takes the checked body as it is.
+                                    let sent = b
+                                        .route
+                                        .device
+                                        .checked(body)
+                                        .map_err(handgate_adapters::device::DeviceError::from)
+                                        .and_then(|body| b.slot.device.command_checked(b.seq, body, tag));
+                                    match sent {
                                         Ok(()) => {
                                             any = true;
                                             let counters = &b.slot.counters;

@@ -249,7 +249,14 @@ impl HandDevice for Dex3UsbDevice {
     }
 
     fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
-        self.cmd.submit(cmd)?;
+        let body = self.info.table.checked(cmd.body).inspect_err(|_| {
+            crate::control::Counters::inc(&self.cmd.counters.rejected);
+        })?;
+        self.command_checked(cmd.seq, body, cmd.tag)
+    }
+
+    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
+        self.cmd.submit_checked(seq, body, tag);
         self.apply();
         // Motors whose 1 s timeout protection tripped while the link stalled (shorter than a
         // reconnect, which clears it) stay limp until the latch is cleared. A NEW client
