@@ -13,7 +13,12 @@
 #                                   gateway/src/runtime/fronts.rs); each mutant runs the gateway's
 #                                   unit tests and the end-to-end safety tests against the mutated
 #                                   binary (slow: about a minute per mutant)
-#   scripts/mutants.sh all          all three
+#   scripts/mutants.sh kinds        the tables of the kinds added in issue 13
+#                                   (adapters/src/{inspire_dfx,inspire_ftp,brainco}/table.rs);
+#                                   each mutant runs those kinds' test files (their tables
+#                                   against literal numbers from docs/sources.md) and the
+#                                   mapping/safety tests
+#   scripts/mutants.sh all          adapters, fronts and gateway
 #   scripts/mutants.sh summary DIR  caught / missed / unviable / timeout per file of a finished run
 #
 # Each run works on a copy of the tree (cargo-mutants' default; the copy includes target/ so
@@ -105,12 +110,28 @@ fronts() {
   return $rc
 }
 
+kinds() {
+  install
+  local dir=target/mutants/kinds
+  mkdir -p "$dir"
+  set +e
+  cargo mutants -j 1 --copy-target=true --no-shuffle -o "$dir" --timeout 120 --build-timeout 600 \
+    -p handgate-adapters \
+    -f adapters/src/inspire_dfx/table.rs -f adapters/src/inspire_ftp/table.rs -f adapters/src/brainco/table.rs \
+    "${extra[@]}" -- --test inspire_dfx --test inspire_ftp --test brainco --test mapping --test safety
+  local rc=$?
+  set -e
+  summary "$dir" || true
+  return $rc
+}
+
 case "${1:-}" in
   install) install ;;
   adapters) adapters ;;
   fronts) fronts ;;
   gateway) gateway ;;
+  kinds) kinds ;;
   all) rc=0; adapters || rc=$?; fronts || rc=$?; gateway || rc=$?; exit $rc ;;
   summary) [ $# -ge 2 ] || { echo "usage: $0 summary DIR" >&2; exit 2; }; summary "$2" ;;
-  *) sed -n '2,24p' "$0"; exit 2 ;;
+  *) sed -n '2,28p' "$0"; exit 2 ;;
 esac
