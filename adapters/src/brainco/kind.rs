@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::table::{JOINTS, URDF_MAX_RAD};
+use super::table::JOINTS;
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{
     check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, Problem, SectionSpec,
@@ -113,13 +113,6 @@ impl KindFactory for BraincoFactory {
 
     fn table(&self, side: Side, _c: &dyn KindConfig) -> DeviceTable {
         super::table::table(side)
-    }
-
-    /// The URDF range: the service clamps q to [0, 1], the hand's whole travel.
-    fn hardware_range(&self, side: Side, joint: &str) -> Option<(f64, f64)> {
-        self.check_side(side).ok()?;
-        let i = JOINTS.iter().position(|j| *j == joint)?;
-        Some((0.0, f64::from(URDF_MAX_RAD[i])))
     }
 
     fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn std::fmt::Debug>, DeviceError> {

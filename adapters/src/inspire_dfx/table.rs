@@ -34,7 +34,7 @@ pub const NOMINAL_KP: f32 = 1.0;
 pub const NOMINAL_KD: f32 = 0.0;
 
 /// The URDF prefix of a side (`L_` / `R_`; a center hand has no URDF, it gets `C_`).
-fn urdf_prefix(side: Side) -> &'static str {
+pub fn urdf_prefix(side: Side) -> &'static str {
     match side {
         Side::Left => "L_",
         Side::Right => "R_",

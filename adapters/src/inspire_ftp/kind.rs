@@ -145,15 +145,6 @@ impl KindFactory for InspireFtpFactory {
         super::table::table(side)
     }
 
-    /// The angle register's 0–1000 is the whole mechanical range, and the URDF's limits are
-    /// its ends (docs/sources.md §7): the hardware range is the table's.
-    fn hardware_range(&self, side: Side, joint: &str) -> Option<(f64, f64)> {
-        self.check_side(side).ok()?;
-        let i = JOINTS.iter().position(|j| *j == joint)?;
-        let (lo, hi) = super::table::URDF_RANGE[i];
-        Some((f64::from(lo), f64::from(hi)))
-    }
-
     /// The driver reports no velocity and no torque in N·m: their noise keys would change
     /// nothing.
     fn validate_emulator(&self, _ctx: &DeviceCtx<'_>, section: &EmulatorSection) -> Vec<Problem> {

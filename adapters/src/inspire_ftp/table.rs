@@ -15,23 +15,21 @@
 use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
 use crate::model::{DeviceKind, Side};
 
-/// Canonical joints, canonical (= wire) order.
-pub const JOINTS: [&str; 6] = ["pinky", "ring", "middle", "index", "thumb_bend", "thumb_rotate"];
+/// The Inspire hand's joints and its URDF (names, ranges): the FTP is the DFX's hand with
+/// tactile sensors, one model (docs/sources.md §7, "URDF joint names"), kept once in the DFX
+/// table. Canonical (= wire) order: the driver's array order.
+pub use crate::inspire_dfx::table::{urdf_prefix, JOINTS, URDF};
 
-/// URDF ranges (rad) of the actuated joints in message order (docs/sources.md §7, "URDF joint
-/// names": index 0–3 [0, 1.7], thumb bend [0, 0.5], thumb rotation [−0.1, 1.3]).
-pub const URDF_RANGE: [(f32, f32); 6] = [(0.0, 1.7), (0.0, 1.7), (0.0, 1.7), (0.0, 1.7), (0.0, 0.5), (-0.1, 1.3)];
-
-/// URDF actuated joint names without the side prefix (`L_` / `R_`), message order
-/// (docs/sources.md §7, "URDF joint names").
-pub const URDF_JOINTS: [&str; 6] = [
-    "pinky_proximal_joint",
-    "ring_proximal_joint",
-    "middle_proximal_joint",
-    "index_proximal_joint",
-    "thumb_proximal_pitch_joint",
-    "thumb_proximal_yaw_joint",
-];
+/// URDF ranges (rad) of the actuated joints in message order, from [`URDF`].
+pub const URDF_RANGE: [(f32, f32); 6] = {
+    let mut r = [(0.0, 0.0); 6];
+    let mut i = 0;
+    while i < 6 {
+        r[i] = (URDF[i].1, URDF[i].2);
+        i += 1;
+    }
+    r
+};
 
 /// Angle register at the open end (finger straight) and the closed end.
 pub const ANGLE_OPEN: f32 = 1000.0;
@@ -50,22 +48,13 @@ pub const OPEN_POSTURE: [f32; 6] = [0.0, 0.0, 0.0, 0.0, 0.0, -0.1];
 pub const NOMINAL_KP: f32 = 1.0;
 pub const NOMINAL_KD: f32 = 0.1;
 
-/// URDF side prefix: `L_` / `R_`.
-pub fn urdf_prefix(side: Side) -> &'static str {
-    match side {
-        Side::Right => "R_",
-        _ => "L_",
-    }
-}
-
 /// The Inspire FTP table for `side` (both hands map the same way: no mirror image).
 pub fn table(side: Side) -> DeviceTable {
     let joints = JOINTS
         .iter()
-        .zip(URDF_RANGE)
-        .zip(URDF_JOINTS)
+        .zip(URDF)
         .enumerate()
-        .map(|(i, ((name, (min, max)), urdf))| {
+        .map(|(i, (name, (urdf, min, max)))| {
             let span = max - min;
             JointMap {
                 name,
