@@ -99,15 +99,7 @@ impl FrontFactory for BraincoFront {
     /// (docs/sources.md §7), so the device keeps its last target; `watchdog` mode: the
     /// device's watchdog.
     fn silence(&self, mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
-        let after = match mode {
-            Silence::Watchdog => Some(dog),
-            Silence::Service => None,
-        };
-        SilencePlan {
-            mode,
-            after,
-            timeout_bit: None,
-        }
+        SilencePlan::keeps_last_target(mode, dog)
     }
     fn validate(&self, f: &FrontConfig, served: Option<Side>, dangling: bool) -> Vec<(&'static str, String)> {
         if dangling {

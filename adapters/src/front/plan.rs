@@ -23,6 +23,20 @@ pub struct SilencePlan {
 }
 
 impl SilencePlan {
+    /// The silence of a service with no timeout of its own, whose hand keeps its last target
+    /// (Inspire's and BrainCo's): `service` keeps the last target, `watchdog` is the device's
+    /// watchdog `dog`.
+    pub fn keeps_last_target(mode: Silence, dog: (Duration, SafeAction)) -> Self {
+        Self {
+            mode,
+            after: match mode {
+                Silence::Watchdog => Some(dog),
+                Silence::Service => None,
+            },
+            timeout_bit: None,
+        }
+    }
+
     /// The silence action armed by a command (whether it set the RIS timeout bit): the
     /// earlier of the two, or `None` when silence keeps the last target.
     pub fn armed(&self, timeout_bit: bool) -> Option<(Duration, SafeAction)> {

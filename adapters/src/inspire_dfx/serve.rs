@@ -112,15 +112,7 @@ impl FrontFactory for InspireDfxFront {
     /// The service stops writing targets 1 s after the last command and the hand keeps its
     /// last target (docs/sources.md §7): the device keeps its last target.
     fn silence(&self, mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
-        let after = match mode {
-            Silence::Watchdog => Some(dog),
-            Silence::Service => None,
-        };
-        SilencePlan {
-            mode,
-            after,
-            timeout_bit: None,
-        }
+        SilencePlan::keeps_last_target(mode, dog)
     }
     fn elements(&self, _f: &FrontConfig) -> usize {
         2

@@ -131,15 +131,7 @@ impl FrontFactory for InspireFtpFront {
     }
     /// The driver has no timeout: the hand keeps its last target (docs/sources.md §7).
     fn silence(&self, mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
-        let after = match mode {
-            Silence::Watchdog => Some(dog),
-            Silence::Service => None,
-        };
-        SilencePlan {
-            mode,
-            after,
-            timeout_bit: None,
-        }
+        SilencePlan::keeps_last_target(mode, dog)
     }
     fn validate(&self, _f: &FrontConfig, served: Option<Side>, dangling: bool) -> Vec<(&'static str, String)> {
         if dangling || served != Some(Side::Center) {
