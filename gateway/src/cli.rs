@@ -53,11 +53,11 @@ pub enum Command {
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
     },
-    /// List the devices attached to this machine that a kind can enumerate (hands on USB,
-    /// with permission problems explained).
+    /// List the devices attached to this machine that a kind can enumerate (with permission
+    /// problems explained).
     List,
-    /// Report the wiring a device answers from (for a hand on USB: which (bus, id) each motor
-    /// and sensor answers on), as a profile snippet to paste. Opens only that device, through
+    /// Report the wiring a device answers from (for kinds that can discover it: which
+    /// (bus, id) each motor and sensor answers on), as a profile snippet to paste. Opens only that device, through
     /// its kind; sends zero-gain frames only: nothing moves.
     Discover {
         /// Device name in the profile.
@@ -68,7 +68,8 @@ pub enum Command {
         #[command(flatten)]
         overrides: OverrideArgs,
     },
-    /// Run a device's calibration (a gripper may close to its stop to find zero: it moves)
+    /// Run a device's calibration (for kinds that have one; the device may move to a stop to
+    /// find its zero)
     /// and print what to put in the profile. Opens only that device, through its kind.
     Calibrate {
         /// Device name in the profile.
@@ -121,12 +122,12 @@ pub enum Command {
 pub struct EmulateCmd {
     /// A registered device kind (an unknown one lists them).
     pub kind: String,
-    /// left or right (the emulated hand or gripper).
+    /// left or right (the emulated device's side).
     #[arg(long)]
     pub side: Option<handgate_adapters::model::Side>,
-    /// Hardware behind a Unix socket, speaking the kind's USB frame protocol (point a
-    /// device at it with `backend = "usb"` and `usb.socket = PATH`; kill and restart it to
-    /// emulate an unplug).
+    /// For kinds whose emulator stands at the transport seam: the emulated hardware behind
+    /// this Unix socket, speaking the kind's own frame protocol (the kind's profile section
+    /// points a device at it, docs/adapters.md; kill and restart it to emulate an unplug).
     #[arg(long)]
     pub socket: Option<PathBuf>,
     /// The robot's resident hand service on DDS instead of the hardware.
@@ -135,7 +136,7 @@ pub struct EmulateCmd {
     /// The service's wire variant, for kinds with several.
     #[arg(long)]
     pub variant: Option<String>,
-    /// Servo ids on an emulated bus (default: the side's).
+    /// Device ids on an emulated shared bus (default: the side's).
     #[arg(long, value_delimiter = ',')]
     pub ids: Vec<u8>,
     /// Where to link an emulated bus's pseudo-terminal (default: a temporary path).

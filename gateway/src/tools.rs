@@ -103,7 +103,7 @@ mod tests {
             uptime_ms: 1500,
             devices: vec![hg::DeviceStatus_ {
                 device: "left_hand".into(),
-                kind: "dex3".into(),
+                kind: handgate_adapters::kind::DeviceKind::default().as_str().into(),
                 freshness: hg::STALE,
                 ..Default::default()
             }],

@@ -185,7 +185,7 @@ impl fmt::Display for DeviceRate {
 }
 
 /// One device of the fleet: the keys every device has, and its kind's own keys
-/// ([`DeviceConfig::config`], the kind folder's typed struct, e.g. `[devices.usb]`).
+/// ([`DeviceConfig::config`], the kind folder's typed struct: its `[devices.<section>]` tables).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeviceConfig {
     pub name: DeviceName,

@@ -134,7 +134,7 @@ impl Checker {
                 if f.device.is_some() {
                     self.err(
                         k.key("devices"),
-                        "give either `device` (one gripper, on the front's side) or `devices` (by element), not both",
+                        "give either `device` (one device, on the front's side) or `devices` (by element), not both",
                     );
                 }
                 if f.side.is_some() {
@@ -453,7 +453,7 @@ impl Checker {
     }
 
     /// Checks across devices: two devices commanding one DDS topic, and each kind's rules
-    /// across its devices (shared buses, USB serials).
+    /// across its devices (what several of them share).
     fn fleet(&mut self, p: &Profile) {
         // Devices on one command topic: allowed only when each writes its own element of a
         // message carrying several (`KindConfig::dds_command_element`).
