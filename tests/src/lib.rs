@@ -1228,6 +1228,54 @@ pub fn handgate_check(profile: &Path) -> std::process::Output {
         .expect("handgate check runs")
 }
 
+/// A `handgate emulate ARGS` process (without the caller's `HANDGATE_*` environment), killed
+/// on drop.
+pub struct Emulation {
+    child: Child,
+    /// The line it printed on start (what it emulates, where).
+    pub line: String,
+}
+
+impl Emulation {
+    /// Starts it and waits (up to 30 s) for the line saying what it emulates.
+    pub fn start(args: &[&str]) -> Emulation {
+        let mut cmd = Command::new(handgate_bin());
+        cmd.arg("emulate").args(args);
+        for (k, _) in std::env::vars() {
+            if k.starts_with("HANDGATE_") {
+                cmd.env_remove(k);
+            }
+        }
+        let mut child = cmd
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("handgate emulate starts");
+        let stdout = child.stdout.take().expect("stdout is piped");
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            let mut lines = BufReader::new(stdout).lines();
+            if let Some(Ok(l)) = lines.next() {
+                let _ = tx.send(l);
+            }
+            // Keep reading so the emulator never blocks on a full pipe.
+            for _ in lines {}
+        });
+        let line = rx
+            .recv_timeout(Duration::from_secs(30))
+            .unwrap_or_else(|_| panic!("handgate emulate {args:?} printed nothing"));
+        Emulation { child, line }
+    }
+}
+
+impl Drop for Emulation {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
 #[cfg(test)]
 mod unit {
     use super::*;

@@ -4,9 +4,6 @@
 //! (backend dds) on the same domain, and a standalone `handgate emulate brainco` process driven by
 //! the same DDS-client device the gateway opens. Domains 92, 93 and 94.
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
 use std::time::Duration;
 
 use handgate_adapters::dds::{Node, Qos};
@@ -19,56 +16,12 @@ use handgate_adapters::dds_device::{DdsDevice, DdsDeviceConfig};
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
 use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, Side};
-use handgate_tests::{closure_cmd, handgate_bin, poll, serial, Gateway, Latest};
+use handgate_tests::{closure_cmd, poll, serial, Emulation as Emulator, Gateway, Latest};
 
 const DEADLINE: Duration = Duration::from_secs(30);
 
 fn node(domain: u32) -> Node {
     Node::new(domain, None).expect("DDS participant")
-}
-
-/// A `handgate emulate brainco` process, killed on drop.
-struct Emulator {
-    child: Child,
-    line: String,
-}
-
-impl Emulator {
-    fn start(args: &[&str]) -> Emulator {
-        let mut cmd = Command::new(handgate_bin());
-        cmd.arg("emulate").arg("brainco").args(args);
-        for (k, _) in std::env::vars() {
-            if k.starts_with("HANDGATE_") {
-                cmd.env_remove(k);
-            }
-        }
-        let mut child = cmd
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("handgate emulate starts");
-        let stdout = child.stdout.take().expect("stdout is piped");
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            let mut lines = BufReader::new(stdout).lines();
-            if let Some(Ok(l)) = lines.next() {
-                let _ = tx.send(l);
-            }
-            for _ in lines {}
-        });
-        let line = rx
-            .recv_timeout(DEADLINE)
-            .unwrap_or_else(|_| panic!("handgate emulate brainco {args:?} printed nothing"));
-        Emulator { child, line }
-    }
-}
-
-impl Drop for Emulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 /// Sends `closure` to `device`'s canonical front once per state sample (the front's watchdog
@@ -148,8 +101,8 @@ fn two_emulated_brainco_hands_close_and_open_through_the_canonical_front() {
 #[test]
 fn g1_brainco_profile_drives_two_emulated_brainco_services() {
     let _g = serial();
-    let left = Emulator::start(&["--side", "left", "--domain", "93"]);
-    let _right = Emulator::start(&["--side", "right", "--domain", "93"]);
+    let left = Emulator::start(&["brainco", "--side", "left", "--domain", "93"]);
+    let _right = Emulator::start(&["brainco", "--side", "right", "--domain", "93"]);
     assert!(left.line.contains("rt/brainco/left/cmd"), "{}", left.line);
     let gw = Gateway::start(93, &["--profile", "g1-brainco"]);
     let n = node(93);
@@ -174,7 +127,7 @@ fn g1_brainco_profile_drives_two_emulated_brainco_services() {
 #[test]
 fn a_standalone_emulate_brainco_process_is_driven_by_the_client_device() {
     let _g = serial();
-    let emu = Emulator::start(&["--side", "left", "--domain", "94", "--seed", "3"]);
+    let emu = Emulator::start(&["brainco", "--side", "left", "--domain", "94", "--seed", "3"]);
     assert!(
         emu.line.contains("rt/brainco/left/cmd") && emu.line.contains("rt/brainco/left/state"),
         "{}",

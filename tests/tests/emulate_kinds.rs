@@ -2,65 +2,19 @@
 //! as a process of its own where the hardware or the robot's service would be, so a profile
 //! written for a robot runs off-robot against it, on any domain. Domains 190-196.
 
-use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
+use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_idl::unitree_go;
-use handgate_tests::{handgate_bin, node, poll, repo_root, serial, status_device, Gateway, Latest};
+use handgate_tests::{
+    handgate_bin, node, poll, repo_root, serial, status_device, Emulation as Emulator, Gateway, Latest,
+};
 
 /// Bound on an emulator's start, a gateway's first fresh state and a match.
 const DEADLINE: Duration = Duration::from_secs(30);
-
-/// A `handgate emulate` process, killed on drop.
-struct Emulator {
-    child: Child,
-    /// The line it printed on start (what it emulates, where).
-    line: String,
-}
-
-impl Emulator {
-    fn start(args: &[&str]) -> Emulator {
-        let mut cmd = Command::new(handgate_bin());
-        cmd.arg("emulate").args(args);
-        for (k, _) in std::env::vars() {
-            if k.starts_with("HANDGATE_") {
-                cmd.env_remove(k);
-            }
-        }
-        let mut child = cmd
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("handgate emulate starts");
-        let stdout = child.stdout.take().expect("stdout is piped");
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            let mut lines = BufReader::new(stdout).lines();
-            if let Some(Ok(l)) = lines.next() {
-                let _ = tx.send(l);
-            }
-            // Keep reading so the emulator never blocks on a full pipe.
-            for _ in lines {}
-        });
-        let line = rx
-            .recv_timeout(DEADLINE)
-            .unwrap_or_else(|_| panic!("handgate emulate {args:?} printed nothing"));
-        Emulator { child, line }
-    }
-}
-
-impl Drop for Emulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
 
 /// Waits until the gateway on `domain` reports every device of `names` with freshness `want`.
 fn wait_status(domain: u32, names: &[&str], want: u8) {

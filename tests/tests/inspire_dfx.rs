@@ -6,10 +6,8 @@
 //! 234 of the range are unusable: RTPS's default port mapping 7400 + 250·domain passes 65535
 //! above domain 232, and the participant fails to start).
 
-use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
+use std::process::Command;
 use std::time::Duration;
 
 use handgate_adapters::dds::{Qos, Writer};
@@ -17,7 +15,7 @@ use handgate_idl::handgate as hg;
 use handgate_idl::{ros2, unitree_go};
 use handgate_tests::{
     canonical_q, closure_cmd, handgate_bin, node, poll, repo_root, serial, status_device, stream_until, temp_profile,
-    Gateway, Latest,
+    Emulation as Emulator, Gateway, Latest,
 };
 
 /// Bound on a start, a first state, a match or reaching a target (never a fixed sleep).
@@ -149,50 +147,6 @@ kind = "joint_state"
         "R_index_proximal_joint",
     ] {
         assert!(j.name.iter().any(|n| n == name), "{name} not in {:?}", j.name);
-    }
-}
-
-/// A `handgate emulate` process, killed on drop.
-struct Emulator {
-    child: Child,
-    line: String,
-}
-
-impl Emulator {
-    fn start(args: &[&str]) -> Emulator {
-        let mut cmd = Command::new(handgate_bin());
-        cmd.arg("emulate").args(args);
-        for (k, _) in std::env::vars() {
-            if k.starts_with("HANDGATE_") {
-                cmd.env_remove(k);
-            }
-        }
-        let mut child = cmd
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("handgate emulate starts");
-        let stdout = child.stdout.take().expect("stdout is piped");
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            let mut lines = BufReader::new(stdout).lines();
-            if let Some(Ok(l)) = lines.next() {
-                let _ = tx.send(l);
-            }
-            for _ in lines {}
-        });
-        let line = rx
-            .recv_timeout(DEADLINE)
-            .unwrap_or_else(|_| panic!("handgate emulate {args:?} printed nothing"));
-        Emulator { child, line }
-    }
-}
-
-impl Drop for Emulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
     }
 }
 

@@ -9,9 +9,8 @@
 //! emulate` process (87). Tests take turns ([`serial`]); every wait is on readiness with a
 //! deadline.
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
-use std::sync::{mpsc, Arc};
+use std::process::Command;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::Node;
@@ -22,7 +21,7 @@ use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, Side};
 use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
 use handgate_idl::handgate as hg;
-use handgate_tests::{handgate_bin, node, serial, stream_until, temp_profile, Gateway, Latest};
+use handgate_tests::{handgate_bin, node, serial, stream_until, temp_profile, Emulation, Gateway, Latest};
 
 const DEADLINE: Duration = Duration::from_secs(30);
 
@@ -46,48 +45,6 @@ fn drive(
 
 fn q(s: &hg::HandState_, joint: &str) -> f32 {
     s.joints.iter().find(|j| j.name == joint).map_or(f32::NAN, |j| j.q)
-}
-
-/// `handgate emulate <args>`, killed on drop.
-struct Emulate {
-    child: Child,
-    line: String,
-}
-
-impl Emulate {
-    fn start(domain: u32, args: &[&str]) -> Emulate {
-        let mut cmd = Command::new(handgate_bin());
-        cmd.arg("emulate").args(args).args(["--domain", &domain.to_string()]);
-        for (k, _) in std::env::vars() {
-            if k.starts_with("HANDGATE_") {
-                cmd.env_remove(k);
-            }
-        }
-        let mut child = cmd
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("handgate emulate starts");
-        let out = child.stdout.take().unwrap();
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            let mut lines = BufReader::new(out).lines();
-            if let Some(Ok(l)) = lines.next() {
-                let _ = tx.send(l);
-            }
-            for _ in lines {}
-        });
-        let line = rx.recv_timeout(DEADLINE).expect("handgate emulate printed its topics");
-        Emulate { child, line }
-    }
-}
-
-impl Drop for Emulate {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 /// Opens an inspire_ftp device on backend dds through the registry, as the gateway does.
@@ -135,7 +92,7 @@ fn wait_state(dev: &dyn HandDevice, what: &str, mut ok: impl FnMut(&HandState) -
 #[test]
 fn emulated_driver_process_is_driven_by_the_kind_over_dds_with_touch() {
     let _g = serial();
-    let emu = Emulate::start(84, &["inspire_ftp", "--side", "left", "--no-noise"]);
+    let emu = Emulation::start(&["inspire_ftp", "--side", "left", "--no-noise", "--domain", "84"]);
     assert!(
         emu.line.contains("rt/inspire_hand/ctrl/l") && emu.line.contains("rt/inspire_hand/touch/l"),
         "{}",
@@ -161,7 +118,7 @@ fn emulated_driver_process_is_driven_by_the_kind_over_dds_with_touch() {
 #[test]
 fn rs485_driver_process_has_no_touch_and_unknown_transport_is_refused() {
     let _g = serial();
-    let emu = Emulate::start(85, &["inspire_ftp", "--side", "right", "--variant", "rs485"]);
+    let emu = Emulation::start(&["inspire_ftp", "--side", "right", "--variant", "rs485", "--domain", "85"]);
     assert!(
         emu.line.contains("RS-485") && !emu.line.contains("touch/r"),
         "{}",
@@ -324,7 +281,7 @@ fn two_emulated_hands_through_their_canonical_fronts() {
 #[test]
 fn dds_backend_hand_in_the_gateway_drives_the_emulate_process() {
     let _g = serial();
-    let _emu = Emulate::start(87, &["inspire_ftp", "--side", "right", "--seed", "5"]);
+    let _emu = Emulation::start(&["inspire_ftp", "--side", "right", "--seed", "5", "--domain", "87"]);
     let p = write_profile(
         "ftp-client",
         "name = \"ftp-client\"\n\
