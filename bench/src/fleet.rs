@@ -73,21 +73,52 @@ pub fn profile(n3: usize, n1: usize) -> String {
     s
 }
 
-/// Measures a running gateway (`pid`) for `secs`, reading its status topic on `node`.
-pub fn measure(node: &Node, pid: u32, n3: usize, n1: usize, secs: f64, warm: Duration) -> anyhow::Result<FleetResult> {
+/// What one window of a running gateway's status gives: process figures and, per device, the
+/// mean state rate and the cycles missed during the window.
+struct Window {
+    wall: f64,
+    cpu_pct: f64,
+    rss_mb: f64,
+    peak_rss_mb: f64,
+    threads: f64,
+    /// The last status sample of the window.
+    last: GatewayStatus_,
+    /// Mean state rate over the window, per device.
+    rate: HashMap<String, f64>,
+    /// Cycles missed during the window, per device.
+    missed: HashMap<String, u64>,
+}
+
+impl Window {
+    /// The state-rate summary over the devices of `kind` and their missed cycles, summed.
+    fn kind(&self, kind: &str) -> (Option<Summary>, u64) {
+        let devs: Vec<_> = self.last.devices.iter().filter(|d| d.kind == kind).collect();
+        let means: Vec<f64> = devs.iter().filter_map(|d| self.rate.get(&d.device).copied()).collect();
+        let missed = devs
+            .iter()
+            .map(|d| self.missed.get(&d.device).copied().unwrap_or(0))
+            .sum();
+        (Summary::of(&means), missed)
+    }
+}
+
+/// Waits (up to 60 s) for a status sample from `node` where `ready` holds, lets the gateway
+/// (`pid`) run `warm`, then measures it for `secs`.
+fn window(
+    node: &Node,
+    pid: u32,
+    what: &str,
+    ready: impl Fn(&GatewayStatus_) -> bool,
+    secs: f64,
+    warm: Duration,
+) -> anyhow::Result<Window> {
     let reader = node.reader::<GatewayStatus_>("rt/handgate/status", Qos::Reliable { depth: 1 })?;
-    // Ready: every device reported fresh once.
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
-        if let Some(s) = reader.take().pop() {
-            if s.devices.len() == n3 + n1 && s.devices.iter().all(|d| d.freshness == 0) {
-                break;
-            }
+        if reader.take().pop().is_some_and(|s| ready(&s)) {
+            break;
         }
-        anyhow::ensure!(
-            Instant::now() < deadline,
-            "the fleet did not report every device fresh within 60 s"
-        );
+        anyhow::ensure!(Instant::now() < deadline, "{what} within 60 s");
         std::thread::sleep(Duration::from_millis(100));
     }
     std::thread::sleep(warm);
@@ -116,40 +147,56 @@ pub fn measure(node: &Node, pid: u32, n3: usize, n1: usize, secs: f64, warm: Dur
         .iter()
         .map(|d| (d.device.as_str(), d.missed_cycles))
         .collect();
-    let mean = |v: &Vec<f64>| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let per_kind = |kind: &str| {
-        let means: Vec<f64> = last
-            .devices
-            .iter()
-            .filter(|d| d.kind == kind)
-            .filter_map(|d| rates.get(&d.device).map(mean))
-            .collect();
-        let missed: u64 = last
-            .devices
-            .iter()
-            .filter(|d| d.kind == kind)
-            .map(|d| {
-                d.missed_cycles
-                    .saturating_sub(*missed0.get(d.device.as_str()).unwrap_or(&0))
-            })
-            .sum();
-        (Summary::of(&means), missed)
-    };
-    let (dex3_state_hz, dex3_missed) = per_kind("dex3");
-    let (dex1_state_hz, dex1_missed) = per_kind("dex1");
-    Ok(FleetResult {
-        dex3: n3,
-        dex1: n1,
-        secs: wall,
+    let missed = last
+        .devices
+        .iter()
+        .map(|d| {
+            let before = *missed0.get(d.device.as_str()).unwrap_or(&0);
+            (d.device.clone(), d.missed_cycles.saturating_sub(before))
+        })
+        .collect();
+    let rate = rates
+        .into_iter()
+        .map(|(d, v)| (d, v.iter().sum::<f64>() / v.len().max(1) as f64))
+        .collect();
+    Ok(Window {
+        wall,
         cpu_pct: 100.0 * (c1 - c0) / wall,
         rss_mb: status_kb(pid, "VmRSS").unwrap_or(f64::NAN) / 1024.0,
         peak_rss_mb: status_kb(pid, "VmHWM").unwrap_or(f64::NAN) / 1024.0,
         threads: status_kb(pid, "Threads").unwrap_or(f64::NAN),
+        last,
+        rate,
+        missed,
+    })
+}
+
+/// Measures a running gateway (`pid`) for `secs`, reading its status topic on `node`.
+pub fn measure(node: &Node, pid: u32, n3: usize, n1: usize, secs: f64, warm: Duration) -> anyhow::Result<FleetResult> {
+    // Ready: every device reported fresh once.
+    let w = window(
+        node,
+        pid,
+        "the fleet did not report every device fresh",
+        |s| s.devices.len() == n3 + n1 && s.devices.iter().all(|d| d.freshness == 0),
+        secs,
+        warm,
+    )?;
+    let (dex3_state_hz, dex3_missed) = w.kind("dex3");
+    let (dex1_state_hz, dex1_missed) = w.kind("dex1");
+    Ok(FleetResult {
+        dex3: n3,
+        dex1: n1,
+        secs: w.wall,
+        cpu_pct: w.cpu_pct,
+        rss_mb: w.rss_mb,
+        peak_rss_mb: w.peak_rss_mb,
+        threads: w.threads,
         dex3_state_hz,
-        dex1_state_hz,
         dex3_missed,
+        dex1_state_hz,
         dex1_missed,
-        devices_seen: last.devices.len(),
+        devices_seen: w.last.devices.len(),
     })
 }
 
@@ -193,67 +240,26 @@ pub fn measure_profile(
     secs: f64,
     warm: Duration,
 ) -> anyhow::Result<ProfileResult> {
-    let reader = node.reader::<GatewayStatus_>("rt/handgate/status", Qos::Reliable { depth: 1 })?;
-    let deadline = Instant::now() + Duration::from_secs(60);
-    loop {
-        if let Some(s) = reader.take().pop() {
-            // Fresh, or commanded only (a one-way interface such as rt/hand_sdk is never
-            // measured): not stale.
-            if !s.devices.is_empty() && s.devices.iter().all(|d| d.freshness != handgate_idl::handgate::STALE) {
-                break;
-            }
-        }
-        anyhow::ensure!(
-            Instant::now() < deadline,
-            "profile {profile}: not every device reported fresh (or commanded only) within 60 s"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    std::thread::sleep(warm);
-    let _ = reader.take();
-    let first = reader.wait_take(Duration::from_secs(5))?.pop().expect("one sample");
-    let c0 = cpu_seconds(pid).unwrap_or(f64::NAN);
-    let t0 = Instant::now();
-    let mut rates: HashMap<String, Vec<f64>> = HashMap::new();
-    let mut last = first.clone();
-    while t0.elapsed().as_secs_f64() < secs {
-        for s in reader.take() {
-            for d in &s.devices {
-                rates
-                    .entry(d.device.clone())
-                    .or_default()
-                    .push(f64::from(d.state_rate_hz));
-            }
-            last = s;
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let wall = t0.elapsed().as_secs_f64();
-    let c1 = cpu_seconds(pid).unwrap_or(f64::NAN);
-    let missed0: HashMap<&str, u64> = first
-        .devices
-        .iter()
-        .map(|d| (d.device.as_str(), d.missed_cycles))
-        .collect();
-    let mean = |v: &Vec<f64>| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let mut kinds: Vec<String> = last.devices.iter().map(|d| d.kind.clone()).collect();
+    // Fresh, or commanded only (a one-way interface such as rt/hand_sdk is never measured):
+    // not stale.
+    let w = window(
+        node,
+        pid,
+        &format!("profile {profile}: not every device reported fresh (or commanded only)"),
+        |s| !s.devices.is_empty() && s.devices.iter().all(|d| d.freshness != handgate_idl::handgate::STALE),
+        secs,
+        warm,
+    )?;
+    let mut kinds: Vec<String> = w.last.devices.iter().map(|d| d.kind.clone()).collect();
     kinds.sort();
     kinds.dedup();
     let kinds = kinds
         .into_iter()
         .map(|kind| {
-            let devs: Vec<_> = last.devices.iter().filter(|d| d.kind == kind).collect();
-            let means: Vec<f64> = devs.iter().filter_map(|d| rates.get(&d.device).map(mean)).collect();
-            let missed = devs
-                .iter()
-                .map(|d| {
-                    d.missed_cycles
-                        .saturating_sub(*missed0.get(d.device.as_str()).unwrap_or(&0))
-                })
-                .sum();
+            let (state_hz, missed) = w.kind(&kind);
             KindRow {
-                devices: devs.len(),
-                state_hz: Summary::of(&means),
+                devices: w.last.devices.iter().filter(|d| d.kind == kind).count(),
+                state_hz,
                 missed,
                 kind,
             }
@@ -262,12 +268,12 @@ pub fn measure_profile(
     Ok(ProfileResult {
         profile: profile.to_string(),
         domain: node.domain_id(),
-        secs: wall,
-        cpu_pct: 100.0 * (c1 - c0) / wall,
-        rss_mb: status_kb(pid, "VmRSS").unwrap_or(f64::NAN) / 1024.0,
-        peak_rss_mb: status_kb(pid, "VmHWM").unwrap_or(f64::NAN) / 1024.0,
-        threads: status_kb(pid, "Threads").unwrap_or(f64::NAN),
-        devices_seen: last.devices.len(),
+        secs: w.wall,
+        cpu_pct: w.cpu_pct,
+        rss_mb: w.rss_mb,
+        peak_rss_mb: w.peak_rss_mb,
+        threads: w.threads,
+        devices_seen: w.last.devices.len(),
         kinds,
     })
 }
