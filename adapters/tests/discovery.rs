@@ -201,9 +201,12 @@ fn rust_endpoints_of_another_participant_and_our_own_are_marked() {
 
     let s = disc
         .wait_for(DEADLINE, |s| {
+            // Endpoints can be discovered before their participant; until the participant is
+            // known its endpoints cannot be told apart from remote ones, so wait for it too.
+            let of_known = |topic, role| find(s, topic, role).is_some_and(|e| s.participant(&e.participant).is_some());
             find(s, "rt/own/cmd", Role::Writer).is_some()
-                && find(s, "rt/dex1/left/cmd", Role::Writer).is_some()
-                && find(s, "rt/dex1/left/state", Role::Reader).is_some()
+                && of_known("rt/dex1/left/cmd", Role::Writer)
+                && of_known("rt/dex1/left/state", Role::Reader)
         })
         .unwrap();
     eprintln!("participants: {:?}", s.participants);
