@@ -243,14 +243,14 @@ impl crate::front::kind::FrontFactory for Dex1Front {
     }
     fn open(
         &self,
-        node: &crate::dds::Node,
+        env: &crate::front::serve::FrontEnv,
         f: &crate::front::plan::FrontPlan,
         tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_default();
         Ok(crate::front::serve::Endpoints::Commands(Box::new(Dex1Io::open(
-            node,
+            &env.node,
             variant(&f.config),
             &cmd,
             &f.state_topic,

@@ -156,7 +156,7 @@ impl crate::front::kind::FrontFactory for Dex3Front {
     }
     fn open(
         &self,
-        node: &crate::dds::Node,
+        env: &crate::front::serve::FrontEnv,
         f: &crate::front::plan::FrontPlan,
         tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
@@ -164,7 +164,7 @@ impl crate::front::kind::FrontFactory for Dex3Front {
         let cmd = f.cmd_topic.clone().unwrap_or_default();
         let lf = f.lf_state.as_ref().map(|(t, hz)| (t.as_str(), *hz));
         Ok(crate::front::serve::Endpoints::Commands(Box::new(Dex3Io::open(
-            node,
+            &env.node,
             &cmd,
             &f.state_topic,
             lf,

@@ -46,13 +46,13 @@ impl crate::front::kind::FrontFactory for JointStateFront {
     }
     fn open(
         &self,
-        node: &crate::dds::Node,
+        env: &crate::front::serve::FrontEnv,
         f: &crate::front::plan::FrontPlan,
         _tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
         _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         Ok(crate::front::serve::Endpoints::StateOnly(Box::new(JointStateIo {
-            writer: node.writer(&f.state_topic, crate::dds::Qos::BestEffort)?,
+            writer: env.node.writer(&f.state_topic, crate::dds::Qos::BestEffort)?,
             urdf_names: f.config.urdf_names.unwrap_or(true),
         })))
     }

@@ -15,7 +15,7 @@ use tokio::sync::mpsc;
 use super::config::{FrontConfig, Silence};
 use super::plan::{FrontPlan, SilencePlan};
 use super::serve::{Endpoints, Message};
-use crate::dds::{DdsError, Node};
+use crate::dds::DdsError;
 use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::Topic;
 
@@ -98,7 +98,7 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
     /// The front's endpoints.
     fn open(
         &self,
-        node: &Node,
+        env: &super::serve::FrontEnv,
         plan: &FrontPlan,
         tx: mpsc::Sender<Message>,
         dropped: Arc<AtomicU64>,

@@ -103,14 +103,23 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
     })
 }
 
+/// What a front kind opens its endpoints with: the gateway's participant and what discovery
+/// sees on its domain (the latest snapshot; a front that follows its clients, or reports on
+/// them, watches it from its own task).
+#[derive(Clone)]
+pub struct FrontEnv {
+    pub node: Node,
+    pub discovery: tokio::sync::watch::Receiver<Arc<crate::discovery::Snapshot>>,
+}
+
 /// The endpoints of front `f`, opened by its kind.
 pub fn open(
-    node: &Node,
+    env: &FrontEnv,
     f: &FrontPlan,
     tx: mpsc::Sender<Message>,
     dropped: Arc<AtomicU64>,
 ) -> Result<Endpoints, DdsError> {
-    f.kind.factory().open(node, f, tx, dropped)
+    f.kind.factory().open(env, f, tx, dropped)
 }
 
 /// A decoded front command routed to the device of `route`.

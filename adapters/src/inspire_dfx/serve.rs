@@ -159,14 +159,14 @@ impl FrontFactory for InspireDfxFront {
     }
     fn open(
         &self,
-        node: &crate::dds::Node,
+        env: &crate::front::serve::FrontEnv,
         f: &FrontPlan,
         tx: tokio::sync::mpsc::Sender<Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Endpoints, crate::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_else(|| CMD_TOPIC.into());
         Ok(Endpoints::Commands(Box::new(DfxIo::open(
-            node,
+            &env.node,
             &cmd,
             &f.state_topic,
             tx,

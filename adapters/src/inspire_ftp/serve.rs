@@ -155,7 +155,7 @@ impl FrontFactory for InspireFtpFront {
     }
     fn open(
         &self,
-        node: &crate::dds::Node,
+        env: &crate::front::serve::FrontEnv,
         f: &FrontPlan,
         tx: tokio::sync::mpsc::Sender<Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
@@ -164,7 +164,7 @@ impl FrontFactory for InspireFtpFront {
         let (ctrl, _, touch) = topics(side);
         let cmd = f.cmd_topic.clone().unwrap_or(ctrl);
         Ok(Endpoints::Commands(Box::new(FtpIo::open(
-            node,
+            &env.node,
             &cmd,
             &f.state_topic,
             &touch,

@@ -5,7 +5,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::Node;
 use handgate_adapters::model::{HandState, SafeAction};
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
@@ -117,7 +116,7 @@ impl Bound {
 }
 
 pub(super) fn spawn_front(
-    node: &Node,
+    env: &fronts::FrontEnv,
     f: &FrontPlan,
     devices: &HashMap<String, Arc<DeviceSlot>>,
     mut shutdown: watch::Receiver<bool>,
@@ -125,7 +124,7 @@ pub(super) fn spawn_front(
     let (tx, mut rx) = mpsc::channel::<fronts::Message>(64);
     let dropped = Arc::new(AtomicU64::new(0));
     // The front kind's endpoints (readers and writers).
-    let mut out = match fronts::open(node, f, tx, dropped.clone())? {
+    let mut out = match fronts::open(env, f, tx, dropped.clone())? {
         fronts::Endpoints::Commands(out) => out,
         fronts::Endpoints::StateOnly(out) => return spawn_state_only(out, f, devices, shutdown),
     };

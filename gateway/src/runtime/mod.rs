@@ -14,6 +14,8 @@ use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::{DdsError, Node};
 use handgate_adapters::device::{DeviceError, HandDevice};
+use handgate_adapters::discovery::{Discovery, DiscoveryConfig};
+use handgate_adapters::front::serve::FrontEnv;
 use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::open::Shared;
 use tokio::sync::watch;
@@ -69,12 +71,20 @@ pub struct Runtime {
     /// What several devices share (a bus per port, an emulated service), alive as long as the
     /// runtime.
     pub shared: Shared,
+    /// Every reader and writer on the gateway's domain (its own thread; docs/discovery.md).
+    pub discovery: Discovery,
 }
 
 impl Runtime {
     /// Starts every device and front of `plan`. Must be called inside a tokio runtime.
     pub fn start(plan: &Plan) -> Result<Self, RuntimeError> {
         let node = Node::new(plan.domain, plan.interface.as_deref())?;
+        // Started first, so what is already on the domain is known by the time fronts open.
+        let discovery = Discovery::start(&node, DiscoveryConfig::default())?;
+        let env = FrontEnv {
+            node: node.clone(),
+            discovery: discovery.subscribe(),
+        };
         let mut shared = Shared::default();
         let opened = open_devices(&node, plan, &mut shared)?;
         let mut devices = Vec::new();
@@ -92,7 +102,7 @@ impl Runtime {
         let (shutdown, shutdown_rx) = watch::channel(false);
         let mut tasks = Vec::new();
         for f in &plan.fronts {
-            tasks.push(fronts::spawn_front(&node, f, &by_name, shutdown_rx.clone())?);
+            tasks.push(fronts::spawn_front(&env, f, &by_name, shutdown_rx.clone())?);
         }
         tasks.push(status::spawn_status(&node, plan, devices.clone(), shutdown_rx.clone())?);
         Ok(Self {
@@ -102,6 +112,7 @@ impl Runtime {
             tasks,
             started: Instant::now(),
             shared,
+            discovery,
         })
     }
 
