@@ -3,23 +3,25 @@
 #   1. codec      cargo bench -p handgate-adapters --bench dex3_usb (criterion), and --bench
 #                 ezgripper when adapters/benches/ezgripper.rs exists
 #   2. loop       the Dex3 USB device loop at 1 kHz on the emulator, 60 s (default, SCHED_FIFO)
+#   2b. busy      the same loop while discovery runs on a domain with 500 remote endpoints
+#                 (50 re-created a second), against the same loop with the domain quiet, 30 s each
 #   3. hop        end-to-end HandCmd_ -> HandState_ through handgate vs a Rust echo (floor) and a
 #                 unitree_sdk2py relay, at 200 Hz and 1 kHz
 #   4. fleet      16 Dex3 + 16 Dex1 emulated in one gateway, 30 s
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop hop fleet simall" to run a subset (the report keeps only what this run made).
+# BENCH_ONLY="codec loop busy hop fleet simall" to run a subset (the report keeps only what this run made).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop hop fleet simall"}
+only=${BENCH_ONLY:-"codec loop busy hop fleet simall"}
 quick=${BENCH_QUICK:-0}
 
-loop_secs=60; fleet_secs=30; samples=2000
-if [ "$quick" = 1 ]; then loop_secs=5; fleet_secs=5; samples=300; fi
+loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000
+if [ "$quick" = 1 ]; then loop_secs=5; busy_secs=5; fleet_secs=5; samples=300; fi
 
 want() { [[ " $only " == *" $1 "* ]]; }
 
@@ -27,6 +29,7 @@ want() { [[ " $only " == *" $1 "* ]]; }
 
 echo "bench: building release binaries"
 $cargo build --release -p handgate -p handgate-bench
+$cargo build --release -p handgate-adapters --example busy_domain
 bin="$target/release"
 
 rm -rf "$results"
@@ -54,6 +57,13 @@ if want loop; then
   # SCHED_FIFO needs root (or CAP_SYS_NICE): the opt-in real-time configuration.
   [ "$(id -u)" -eq 0 ] && configs="default,fifo"
   "$bin/handgate-bench" loop --secs "$loop_secs" --configs "$configs" --out "$results/loop.json"
+fi
+
+if want busy; then
+  echo "bench: 2b. device loop with a busy domain (${busy_secs} s per phase)"
+  busy_configs=default
+  [ "$(id -u)" -eq 0 ] && busy_configs="default,fifo"
+  "$bin/handgate-bench" busy --secs "$busy_secs" --configs "$busy_configs" --busy-domain "$bin/examples/busy_domain" --out "$results/busy.json"
 fi
 
 if want hop; then

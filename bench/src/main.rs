@@ -1,6 +1,7 @@
 //! `handgate-bench`: the benchmarks `make bench` runs (`scripts/bench.sh`), each writing JSON,
 //! and the report that turns them into docs/benchmarks.md. See docs/benchmarks.md.
 
+mod busy;
 mod child;
 mod criterion;
 mod device_loop;
@@ -38,6 +39,27 @@ enum Cmd {
         /// CAP_SYS_NICE), spin0, slack (spin 0, timer slack 1 ns), slack-spin.
         #[arg(long, value_delimiter = ',', default_value = "default")]
         configs: Vec<String>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The device loop while discovery runs on a busy domain (quiet, busy, quiet again).
+    Busy {
+        #[arg(long, default_value_t = 30.0)]
+        secs: f64,
+        /// Remote endpoints the busy process holds.
+        #[arg(long, default_value_t = 500)]
+        endpoints: usize,
+        /// Endpoints it deletes and re-creates every second.
+        #[arg(long, default_value_t = 50)]
+        churn: usize,
+        #[arg(long, default_value_t = 114)]
+        domain: u32,
+        /// Loop configurations (as for `loop`), each a full run of the four phases.
+        #[arg(long, value_delimiter = ',', default_value = "default")]
+        configs: Vec<String>,
+        /// The `busy_domain` example binary (adapters/examples/busy_domain.rs).
+        #[arg(long)]
+        busy_domain: PathBuf,
         #[arg(long)]
         out: PathBuf,
     },
@@ -183,6 +205,27 @@ fn main() -> anyhow::Result<()> {
                         v.push(r);
                     }
                     Err(e) => eprintln!("loop: {name} skipped: {e}"),
+                }
+            }
+            save(&out, &v)?;
+        }
+        Cmd::Busy {
+            secs,
+            endpoints,
+            churn,
+            domain,
+            configs,
+            busy_domain,
+            out,
+        } => {
+            let mut v = Vec::new();
+            for c in &configs {
+                match busy::run(secs, endpoints, churn, domain, &busy_domain, c) {
+                    Ok(r) => {
+                        eprintln!("busy: {r:?}");
+                        v.push(r);
+                    }
+                    Err(e) => eprintln!("busy: {c} skipped: {e}"),
                 }
             }
             save(&out, &v)?;

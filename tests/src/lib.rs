@@ -70,6 +70,97 @@ pub fn interop_interface() -> Option<String> {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Network namespaces (several hosts on one machine)
+
+/// `program`, run inside network namespace `netns` when given (`ip netns exec NS program`).
+pub fn in_netns(netns: Option<&str>, program: &Path) -> Command {
+    match netns {
+        Some(ns) => {
+            let mut c = Command::new("ip");
+            c.args(["netns", "exec", ns]).arg(program);
+            c
+        }
+        None => Command::new(program),
+    }
+}
+
+/// Why two test hosts could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum NetNsError {
+    #[error("network namespaces need root (this test runs as uid {0})")]
+    NotRoot(u32),
+    #[error("`ip {args}` failed: {stderr}")]
+    Ip { args: String, stderr: String },
+    #[error("could not run `ip`: {0}")]
+    Spawn(#[source] std::io::Error),
+}
+
+fn ip(args: &[&str]) -> Result<(), NetNsError> {
+    let out = Command::new("ip").args(args).output().map_err(NetNsError::Spawn)?;
+    if out.status.success() {
+        Ok(())
+    } else {
+        Err(NetNsError::Ip {
+            args: args.join(" "),
+            stderr: String::from_utf8_lossy(&out.stderr).trim().to_string(),
+        })
+    }
+}
+
+/// Two network namespaces joined by a veth pair: two hosts on one machine, whose traffic
+/// stays on the pair (nothing is routed to the machine's own interfaces). Deleted on drop
+/// (deleting a namespace deletes its end of the pair, and with it the other end).
+#[derive(Debug)]
+pub struct NetNs {
+    /// Namespace names, and each one's veth interface and IPv4 address.
+    pub hosts: [(String, String, String); 2],
+}
+
+impl NetNs {
+    /// Creates the pair with names unique to this process and `tag` (`tag`: up to 4
+    /// characters; interface names are limited to 15).
+    pub fn pair(tag: &str) -> Result<Self, NetNsError> {
+        // SAFETY: geteuid has no preconditions.
+        let uid = unsafe { libc::geteuid() };
+        if uid != 0 {
+            return Err(NetNsError::NotRoot(uid));
+        }
+        let id = std::process::id() % 100_000;
+        let subnet = 10 + id % 200;
+        let hosts = [0, 1].map(|i| {
+            (
+                format!("hg-{tag}-{id}-{i}"),
+                format!("hg{tag}{id}{}", ["a", "b"][i]),
+                format!("10.{subnet}.{}.{}", id % 250, i + 1),
+            )
+        });
+        let me = Self { hosts };
+        let [(na, va, aa), (nb, vb, ab)] = &me.hosts;
+        for (ns, _, _) in &me.hosts {
+            let _ = ip(&["netns", "del", ns]); // a leftover of a killed run
+            ip(&["netns", "add", ns])?;
+        }
+        ip(&[
+            "link", "add", va, "netns", na, "type", "veth", "peer", "name", vb, "netns", nb,
+        ])?;
+        for (ns, v, a) in [(na, va, aa), (nb, vb, ab)] {
+            ip(&["-n", ns, "addr", "add", &format!("{a}/24"), "dev", v])?;
+            ip(&["-n", ns, "link", "set", v, "up"])?;
+            ip(&["-n", ns, "link", "set", "lo", "up"])?;
+        }
+        Ok(me)
+    }
+}
+
+impl Drop for NetNs {
+    fn drop(&mut self) {
+        for (ns, _, _) in &self.hosts {
+            let _ = ip(&["netns", "del", ns]);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Python helper processes
 
 /// Failure while driving a Python helper process.
@@ -118,7 +209,12 @@ impl std::fmt::Debug for PyProcess {
 impl PyProcess {
     /// Starts `.venv/bin/python tests/python/<script> <args>` (unbuffered output).
     pub fn spawn(script: &str, args: &[String]) -> Result<Self, PyError> {
-        let mut child = Command::new(venv_python())
+        Self::spawn_in(None, script, args)
+    }
+
+    /// [`PyProcess::spawn`] inside network namespace `netns` (`ip netns exec`; see [`NetNs`]).
+    pub fn spawn_in(netns: Option<&str>, script: &str, args: &[String]) -> Result<Self, PyError> {
+        let mut child = in_netns(netns, &venv_python())
             .arg("-u")
             .arg(python_script(script))
             .args(args)
@@ -397,8 +493,18 @@ impl Gateway {
     /// Spawns `handgate run --domain <domain> [--interface <interface>] <args>` without
     /// waiting for readiness.
     pub fn spawn(domain: u32, args: &[&str], interface: Option<&str>) -> Result<Gateway, GatewayError> {
+        Self::spawn_in(None, domain, args, interface)
+    }
+
+    /// [`Gateway::spawn`] inside network namespace `netns` (`ip netns exec`; see [`NetNs`]).
+    pub fn spawn_in(
+        netns: Option<&str>,
+        domain: u32,
+        args: &[&str],
+        interface: Option<&str>,
+    ) -> Result<Gateway, GatewayError> {
         let bin = handgate_bin();
-        let mut cmd = Command::new(&bin);
+        let mut cmd = in_netns(netns, &bin);
         cmd.arg("run").arg("--domain").arg(domain.to_string());
         if let Some(iface) = interface {
             cmd.arg("--interface").arg(iface);
