@@ -2,7 +2,8 @@
 # Installs what handgate needs on a fresh Debian machine that has only the Rust toolchain.
 # Idempotent: every step checks first. Usage: scripts/setup.sh [--no-python]
 #   - Debian packages: cyclonedds-dev 0.10.2 (the version on Unitree robots), its tools,
-#     libclang-dev (bindgen), libusb-1.0-0-dev (rusb), pkg-config; systemd (only for
+#     libclang-dev (bindgen), libusb-1.0-0-dev (rusb), pkg-config, iproute2 (the two-hosts
+#     test's network namespaces); systemd (only for
 #     systemd-analyze, which checks the shipped unit; nothing is started).
 #   - .venv/ (git-ignored): cyclonedds==0.10.2 built against that library, and the official
 #     unitree-sdk2 (unitree_sdk2py) for the interop tests.
@@ -16,7 +17,7 @@ want_python=1
 sudo_cmd=""
 [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
 
-pkgs=(cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config)
+pkgs=(cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config iproute2)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
