@@ -227,6 +227,18 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "never",
     ),
     (
+        "unknown control",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\ncontrol = \"latest\"\n",
+        "fronts[0].control",
+        "latest",
+    ),
+    (
+        "control on a front that takes no commands",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\ncontrol = \"shared\"\n",
+        "fronts[0].control",
+        "takes no commands",
+    ),
+    (
         "watchdog_ms without the watchdog",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nwatchdog_ms = 100\n",
         "fronts[0].watchdog_ms",
@@ -1422,6 +1434,7 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
         ("fronts.lf_state_hz", front(""), front("lf_state_hz = 20")),
         ("fronts.variant", dex1_front(""), dex1_front("variant = \"hg\"")),
         ("fronts.silence", front(""), front("silence = \"watchdog\"")),
+        ("fronts.control", front(""), front("control = \"shared\"")),
         (
             "fronts.watchdog_ms",
             front("silence = \"watchdog\""),
