@@ -50,6 +50,9 @@ pub type Message = Box<dyn Any + Send>;
 pub struct Incoming {
     pub writer: Arc<WriterInfo>,
     pub msg: Message,
+    /// When the reader took it (a front task that falls behind still sees when each writer
+    /// last spoke).
+    pub taken: std::time::Instant,
 }
 
 /// The queue a front's readers feed.
@@ -144,6 +147,7 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
     node.reader_with_callback::<T, _>(topic, Qos::Reliable { depth: 16 }, move |h| {
         let mut v = Vec::new();
         h.take_with_writers(&mut v);
+        let taken = std::time::Instant::now();
         for (s, w) in v {
             if writers.len() >= MAX_WRITERS && !writers.contains_key(&w) {
                 writers.clear();
@@ -153,7 +157,7 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
                 .or_insert_with(|| Arc::new(h.matched_writer(w)))
                 .clone();
             let msg: Message = Box::new(s);
-            if tx.try_send(Incoming { writer, msg }).is_err() {
+            if tx.try_send(Incoming { writer, msg, taken }).is_err() {
                 dropped.fetch_add(1, Ordering::Relaxed);
             }
         }

@@ -188,7 +188,9 @@ pub(super) fn spawn_front(
                 tokio::select! {
                     msg = rx.recv() => {
                         let Some(msg) = msg else { break };
-                        let received = Instant::now();
+                        // When the reader took it, not now: a front task that fell behind
+                        // must not see its owner as silent because of its own backlog.
+                        let received = msg.taken;
                         let writer = msg.writer.handle;
                         if let Admit::Foreign { first, .. } = ownership.admit(writer, msg.force(), received) {
                             for b in &bound {
