@@ -157,7 +157,51 @@ impl Node {
         let writer = DdsWriter::create(&self.inner.participant, topic, Some(qos.to_dds()?), None)
             .map_err(dds_err("writer create"))?;
         Ok(Writer {
-            writer,
+            writer: WriterEntity::Rs(writer),
+            _node: self.clone(),
+            topic: name.to_string(),
+        })
+    }
+
+    /// A writer of `T` on topic `name` whose USER_DATA QoS is `user_data` (what the readers
+    /// that match it see of it, e.g. [`crate::front::serve::FORCE_USER_DATA`]). Created
+    /// through the C API: cyclonedds-rs 0.6.5 has no USER_DATA setter.
+    pub fn writer_with_user_data<T: TopicType>(
+        &self,
+        name: &str,
+        qos: Qos,
+        user_data: &[u8],
+    ) -> Result<Writer<T>, DdsError> {
+        let topic = self.topic::<T>(name)?;
+        // Ours to delete (the conversion hands the C object over).
+        let q: *const cyclonedds_sys::dds_qos_t = qos.to_dds()?.into();
+        // SAFETY: `q` is a live QoS object we own; CycloneDDS copies `user_data` (a valid
+        // slice of its length) and the QoS into the writer; the participant and topic are
+        // live entities of ours; `q` is deleted exactly once, after its last use.
+        let w = unsafe {
+            cyclonedds_sys::dds_qset_userdata(
+                q.cast_mut(),
+                user_data.as_ptr().cast(),
+                user_data.len() as cyclonedds_sys::size_t,
+            );
+            let w = cyclonedds_sys::dds_create_writer(
+                self.participant_entity(),
+                topic.entity().entity(),
+                q,
+                std::ptr::null(),
+            );
+            cyclonedds_sys::dds_delete_qos(q.cast_mut());
+            w
+        };
+        if w < 0 {
+            return Err(DdsError::Dds {
+                what: "writer create",
+                source: cyclonedds_rs::DDSError::from(w),
+            });
+        }
+        Ok(Writer {
+            // SAFETY: `w` is the writer just created; RawWriter deletes it once, on drop.
+            writer: WriterEntity::Raw(RawWriter(unsafe { cyclonedds_sys::DdsEntity::new(w) })),
             _node: self.clone(),
             topic: name.to_string(),
         })
@@ -216,11 +260,89 @@ impl<T: TopicType> DdsReaderHandle<T> {
     where
         T: Clone,
     {
-        take_all(&self.entity, out)
+        take_each(&self.entity, |s, _| out.push(s))
+    }
+
+    /// Takes every available sample, oldest first, appending clones to `out` with the
+    /// handle of the writer that wrote each.
+    pub fn take_with_writers(&self, out: &mut Vec<(T, WriterHandle)>) -> usize
+    where
+        T: Clone,
+    {
+        take_each(&self.entity, |s, w| out.push((s, w)))
+    }
+
+    /// What this reader knows of the matched writer `handle` (its GUID, its participant's,
+    /// its USER_DATA); only the handle when the writer is no longer matched.
+    pub fn matched_writer(&self, handle: WriterHandle) -> WriterInfo {
+        // SAFETY: reads the integer handle of the reader this callback runs for.
+        matched_writer(unsafe { self.entity.entity() }, handle)
     }
 }
 
-fn take_all<T: TopicType + Clone>(entity: &cyclonedds_sys::DdsEntity, out: &mut Vec<T>) -> usize {
+/// The writer of a sample as a reader knows it: the writer's instance handle on the reading
+/// participant (`dds_sample_info::publication_handle`), stable while the writer is matched.
+pub type WriterHandle = cyclonedds_sys::dds_instance_handle_t;
+
+/// Longest USER_DATA kept from a matched writer, bytes (the rest is cut).
+pub const MAX_USER_DATA: usize = 64;
+
+/// A writer matched by a reader, read once from CycloneDDS's matched-publication data.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct WriterInfo {
+    pub handle: WriterHandle,
+    /// The writer's GUID (`None`: no longer matched when asked).
+    pub guid: Option<crate::discovery::Guid>,
+    /// The GUID of the writer's participant (names its process through discovery).
+    pub participant: Option<crate::discovery::Guid>,
+    /// The writer's USER_DATA QoS, at most [`MAX_USER_DATA`] bytes.
+    pub user_data: Vec<u8>,
+}
+
+mod ffi {
+    extern "C" {
+        // libddsc 0.10.2 exports it; cyclonedds-sys 0.2.1 does not declare it.
+        pub fn dds_builtintopic_free_endpoint(e: *mut cyclonedds_sys::dds_builtintopic_endpoint_t);
+    }
+}
+
+fn matched_writer(reader: cyclonedds_sys::dds_entity_t, handle: WriterHandle) -> WriterInfo {
+    let mut info = WriterInfo {
+        handle,
+        ..WriterInfo::default()
+    };
+    // SAFETY: `reader` is a live reader; the handle is a plain integer (an unknown one gives
+    // null). A non-null result is an endpoint CycloneDDS allocated for us, freed below.
+    let ep = unsafe { cyclonedds_sys::dds_get_matched_publication_data(reader, handle) };
+    if ep.is_null() {
+        return info;
+    }
+    // SAFETY: `ep` is valid until freed at the end of this block; its qos is null or valid;
+    // the USER_DATA copy is CycloneDDS's allocation of `sz` bytes, which we own and free.
+    unsafe {
+        info.guid = Some(crate::discovery::Guid((*ep).key.v));
+        info.participant = Some(crate::discovery::Guid((*ep).participant_key.v));
+        let qos = (*ep).qos;
+        if !qos.is_null() {
+            let mut value: *mut std::ffi::c_void = std::ptr::null_mut();
+            let mut sz: cyclonedds_sys::size_t = 0;
+            let found = cyclonedds_sys::dds_qget_userdata(qos, &mut value, &mut sz);
+            if !value.is_null() {
+                if found {
+                    let n = (sz as usize).min(MAX_USER_DATA);
+                    info.user_data = std::slice::from_raw_parts(value.cast::<u8>(), n).to_vec();
+                }
+                cyclonedds_sys::dds_free(value);
+            }
+        }
+        ffi::dds_builtintopic_free_endpoint(ep);
+    }
+    info
+}
+
+/// Takes every available sample, oldest first, handing each (cloned) to `each` with the
+/// handle of its writer.
+fn take_each<T: TopicType + Clone>(entity: &cyclonedds_sys::DdsEntity, mut each: impl FnMut(T, WriterHandle)) -> usize {
     const BATCH: usize = 16;
     let mut total = 0;
     loop {
@@ -229,10 +351,17 @@ fn take_all<T: TopicType + Clone>(entity: &cyclonedds_sys::DdsEntity, out: &mut 
             Ok(n) => n,
             Err(_) => break, // no data (cyclonedds-rs reports "no data" as an error)
         };
-        for i in 0..n {
+        // The buffer's own sample infos, filled by the take above (cyclonedds-rs keeps the
+        // field private; the pointer is its public way to them).
+        // SAFETY: only the pointer is taken; nothing is written through it.
+        let (_, infos) = unsafe { buf.as_mut_ptr() };
+        for i in 0..n.min(BATCH) {
             if buf.is_valid_sample(i) {
+                // SAFETY: `infos` points to the buffer's BATCH infos, alive as long as `buf`;
+                // i < BATCH.
+                let writer = unsafe { (*infos.add(i)).publication_handle };
                 if let Some(s) = buf.get(i).try_deref() {
-                    out.push(s.clone());
+                    each(s.clone(), writer);
                     total += 1;
                 }
             }
@@ -246,16 +375,42 @@ fn take_all<T: TopicType + Clone>(entity: &cyclonedds_sys::DdsEntity, out: &mut 
 
 /// A typed writer.
 pub struct Writer<T: TopicType> {
-    writer: DdsWriter<T>,
+    writer: WriterEntity<T>,
     _node: Node,
     topic: String,
+}
+
+/// A writer made by cyclonedds-rs, or one made through the C API (with QoS cyclonedds-rs
+/// cannot set); both write through cyclonedds-rs's serializer.
+enum WriterEntity<T: TopicType> {
+    Rs(DdsWriter<T>),
+    Raw(RawWriter),
+}
+
+/// A writer entity created through the C API, deleted when dropped.
+struct RawWriter(cyclonedds_sys::DdsEntity);
+
+impl Drop for RawWriter {
+    fn drop(&mut self) {
+        // SAFETY: the writer we created; deleted only here.
+        unsafe { cyclonedds_sys::dds_delete(self.0.entity()) };
+    }
+}
+
+impl<T: TopicType> WriterEntity<T> {
+    fn entity(&self) -> &cyclonedds_sys::DdsEntity {
+        match self {
+            WriterEntity::Rs(w) => w.entity(),
+            WriterEntity::Raw(w) => &w.0,
+        }
+    }
 }
 
 unsafe impl<T: TopicType> Send for Writer<T> {}
 
 impl<T: TopicType> Writer<T> {
     pub fn write(&mut self, sample: T) -> Result<(), DdsError> {
-        self.writer.write(Arc::new(sample)).map_err(dds_err("write"))
+        DdsWriter::<T>::write_to_entity(self.writer.entity(), Arc::new(sample)).map_err(dds_err("write"))
     }
 
     pub fn topic(&self) -> &str {
@@ -294,7 +449,7 @@ impl<T: TopicType + Clone> Reader<T> {
     /// Takes every available sample, oldest first.
     pub fn take(&self) -> Vec<T> {
         let mut out = Vec::new();
-        take_all(self.reader.entity(), &mut out);
+        take_each(self.reader.entity(), |s, _| out.push(s));
         out
     }
 

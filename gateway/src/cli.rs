@@ -114,6 +114,11 @@ pub enum Command {
         /// watchdog does not stop the motion early (0: send once).
         #[arg(long, default_value_t = 1.0)]
         hold: f64,
+        /// Take the device's front over from the client commanding it (a front with
+        /// `control = "exclusive"` refuses other clients while its owner streams); the
+        /// gateway logs who took over from whom.
+        #[arg(long)]
+        force: bool,
     },
 }
 

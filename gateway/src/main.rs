@@ -232,6 +232,7 @@ fn main() -> anyhow::Result<ExitCode> {
             safe,
             timeout,
             hold,
+            force,
         } => {
             let node = handgate_adapters::dds::Node::new(dds.domain, dds.interface.as_deref())?;
             let cmd = if safe {
@@ -267,8 +268,11 @@ fn main() -> anyhow::Result<ExitCode> {
                 &node,
                 &device,
                 cmd,
-                Duration::from_secs_f64(timeout),
-                Duration::from_secs_f64(hold),
+                tools::SendOptions {
+                    timeout: Duration::from_secs_f64(timeout),
+                    hold: Duration::from_secs_f64(hold),
+                    force,
+                },
             )?;
             println!("sent {n} command(s) to {device}");
         }

@@ -99,14 +99,23 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
     })
 }
 
+/// The watchdog of front `f` driving device `d`: the device's, or the front's where shorter.
+fn watchdog(f: &FrontConfig, d: &DeviceConfig) -> (std::time::Duration, handgate_adapters::model::SafeAction) {
+    let t = d.watchdog.timeout_ms.as_duration();
+    let t = f.watchdog_ms.map_or(t, |w| t.min(w.as_duration()));
+    (t, d.watchdog.safe_action)
+}
+
 /// What silence means for front `f` driving device `d` (docs/fronts.md, "Silence").
 pub fn silence_plan(f: &FrontConfig, d: &DeviceConfig) -> SilencePlan {
-    let dog = {
-        let t = d.watchdog.timeout_ms.as_duration();
-        let t = f.watchdog_ms.map_or(t, |w| t.min(w.as_duration()));
-        (t, d.watchdog.safe_action)
-    };
-    f.kind.factory().silence(f.silence, dog)
+    f.kind.factory().silence(f.silence, watchdog(f, d))
+}
+
+/// How long a silent owner keeps front `f` as far as device `d` goes (docs/fronts.md, "One
+/// commanding client per front"): the time the front's silence waits before it acts on the
+/// device, or, where silence keeps the last target, the watchdog time.
+pub fn hold(f: &FrontConfig, d: &DeviceConfig) -> std::time::Duration {
+    silence_plan(f, d).after.map_or(watchdog(f, d).0, |(t, _)| t)
 }
 
 /// The table of the wire convention front `f` speaks to device `d` on `side`: the served
@@ -145,6 +154,7 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
                 side,
                 element: f.kind.factory().element(f, side),
                 silence: silence_plan(f, d),
+                hold: hold(f, d),
                 table: front_table(f, side, d),
             });
         }

@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::time::Duration;
 
 use handgate_adapters::dds::{DdsError, Node, Qos};
+use handgate_adapters::front::serve::FORCE_USER_DATA;
 use handgate_idl::handgate as hg;
 
 /// Renders one status sample as a table.
@@ -18,7 +19,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
     );
     let _ = writeln!(
         out,
-        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9}",
+        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7}",
         "device",
         "kind",
         "backend",
@@ -31,7 +32,8 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         "bad",
         "wdog",
         "recon",
-        "missed"
+        "missed",
+        "foreign"
     );
     for d in &s.devices {
         let fresh = match d.freshness {
@@ -42,7 +44,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         };
         let _ = writeln!(
             out,
-            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9}",
+            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7}",
             d.device,
             d.kind,
             d.backend,
@@ -55,7 +57,8 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
             d.bad_input,
             d.watchdog_trips,
             d.reconnects,
-            d.missed_cycles
+            d.missed_cycles,
+            d.foreign_cmd
         );
     }
     out
@@ -68,12 +71,28 @@ pub fn status_once(node: &Node, topic: &str, timeout: Duration) -> Result<hg::Ga
     Ok(v.pop().expect("wait_take returns at least one sample"))
 }
 
+/// How `handgate send` sends: how long to wait for the gateway, how long to repeat the
+/// command, whether to take the front over from its owner.
+#[derive(Debug, Clone, Copy)]
+pub struct SendOptions {
+    pub timeout: Duration,
+    pub hold: Duration,
+    /// Writes with handgate's take-over marker ([`FORCE_USER_DATA`]) as its USER_DATA.
+    pub force: bool,
+}
+
 /// Publishes a command to handgate's own interface `rt/handgate/{device}/cmd` after the gateway's reader has
 /// matched, repeating it at 50 Hz for `hold` (the front's watchdog holds the device once the
 /// stream stops). Returns how many samples were written.
-pub fn send(node: &Node, device: &str, cmd: hg::HandCmd_, timeout: Duration, hold: Duration) -> Result<u64, DdsError> {
+pub fn send(node: &Node, device: &str, cmd: hg::HandCmd_, o: SendOptions) -> Result<u64, DdsError> {
+    let SendOptions { timeout, hold, force } = o;
     let (topic, _) = handgate_adapters::fronts::own_topics(device);
-    let mut w = node.writer::<hg::HandCmd_>(&topic, Qos::Reliable { depth: 1 })?;
+    let qos = Qos::Reliable { depth: 1 };
+    let mut w = if force {
+        node.writer_with_user_data::<hg::HandCmd_>(&topic, qos, FORCE_USER_DATA)?
+    } else {
+        node.writer::<hg::HandCmd_>(&topic, qos)?
+    };
     w.wait_matched(1, timeout)?;
     let start = std::time::Instant::now();
     let mut n: u64 = 0;

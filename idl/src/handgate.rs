@@ -84,6 +84,8 @@ pub struct DeviceStatus_ {
     pub reconnects: u64,
     pub missed_cycles: u64,
     pub age_ms: f32,
+    /// Commands refused whole because another client owns the front (`control`).
+    pub foreign_cmd: u64,
 }
 keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
 

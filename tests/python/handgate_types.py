@@ -82,6 +82,7 @@ class DeviceStatus_(idl.IdlStruct, typename="handgate.msg.dds_.DeviceStatus_"):
     reconnects: types.uint64
     missed_cycles: types.uint64
     age_ms: types.float32
+    foreign_cmd: types.uint64
 
 
 @dataclass

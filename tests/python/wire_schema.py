@@ -118,7 +118,7 @@ SCHEMA.update({
         ("device", "string"), ("kind", "string"), ("backend", "string"), ("freshness", "u8"),
         ("safe", "bool"), ("cmd_rate_hz", "f32"), ("state_rate_hz", "f32"), ("crc_errors", "u64"),
         ("bad_input", "u64"), ("watchdog_trips", "u64"), ("reconnects", "u64"),
-        ("missed_cycles", "u64"), ("age_ms", "f32"),
+        ("missed_cycles", "u64"), ("age_ms", "f32"), ("foreign_cmd", "u64"),
     ],
     "handgate/GatewayStatus_": [
         ("profile", "string"), ("uptime_ms", "u64"), ("devices", ("seq", "handgate/DeviceStatus_")),

@@ -946,7 +946,8 @@ plain_struct!(handgate::DeviceStatus_ {
     watchdog_trips,
     reconnects,
     missed_cycles,
-    age_ms
+    age_ms,
+    foreign_cmd
 });
 plain_struct!(handgate::GatewayStatus_ {
     profile,

@@ -34,7 +34,7 @@ impl Dex1Io {
         cmd_topic: &str,
         state_topic: &str,
         elements: usize,
-        tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Self, crate::dds::DdsError> {
         use crate::dds::Qos;
@@ -245,7 +245,7 @@ impl crate::front::kind::FrontFactory for Dex1Front {
         &self,
         env: &crate::front::serve::FrontEnv,
         f: &crate::front::plan::FrontPlan,
-        tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_default();

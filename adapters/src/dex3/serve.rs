@@ -20,7 +20,7 @@ impl Dex3Io {
         cmd_topic: &str,
         state_topic: &str,
         lf: Option<(&str, f64)>,
-        tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Self, crate::dds::DdsError> {
         use crate::dds::Qos;
@@ -158,7 +158,7 @@ impl crate::front::kind::FrontFactory for Dex3Front {
         &self,
         env: &crate::front::serve::FrontEnv,
         f: &crate::front::plan::FrontPlan,
-        tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_default();

@@ -21,7 +21,7 @@ impl CanonicalIo {
         node: &crate::dds::Node,
         cmd_topic: &str,
         state_topic: &str,
-        tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Self, crate::dds::DdsError> {
         Ok(Self {
@@ -86,7 +86,7 @@ impl crate::front::kind::FrontFactory for CanonicalFront {
         &self,
         env: &crate::front::serve::FrontEnv,
         f: &crate::front::plan::FrontPlan,
-        tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_default();

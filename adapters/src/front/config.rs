@@ -51,6 +51,36 @@ impl fmt::Display for Silence {
     }
 }
 
+/// Who may command a front (docs/fronts.md, "One commanding client per front").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Control {
+    /// One writer at a time: the first writer whose command is accepted owns the front until
+    /// it has been silent for the front's hold time; other writers' samples are refused.
+    #[default]
+    Exclusive,
+    /// Every writer's commands are taken, the latest wins.
+    Shared,
+}
+
+impl Control {
+    /// Every value, in declaration order.
+    pub const ALL: &'static [Control] = &[Control::Exclusive, Control::Shared];
+    /// The spelling used in profile files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Control::Exclusive => "exclusive",
+            Control::Shared => "shared",
+        }
+    }
+}
+
+impl fmt::Display for Control {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// The grippers of an `actuator` Dex1 front, by message element (0 = right, 1 = left).
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -111,6 +141,9 @@ pub struct FrontConfig {
     /// What silence from the client means (default `service`).
     #[serde(default)]
     pub silence: Silence,
+    /// Whether one writer at a time commands the front (default `exclusive`).
+    #[serde(default)]
+    pub control: Control,
     /// `silence = "watchdog"`: a per-front timeout, shorter than the device's
     /// `watchdog.timeout_ms` (the smaller of the two applies); default: the device's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -139,6 +172,7 @@ impl Default for FrontConfig {
             lf_state_hz: None,
             variant: None,
             silence: Silence::default(),
+            control: Control::default(),
             watchdog_ms: None,
             topic: None,
             urdf_names: None,

@@ -48,7 +48,7 @@ impl crate::front::kind::FrontFactory for JointStateFront {
         &self,
         env: &crate::front::serve::FrontEnv,
         f: &crate::front::plan::FrontPlan,
-        _tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
+        _tx: crate::front::serve::Queue,
         _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         Ok(crate::front::serve::Endpoints::StateOnly(Box::new(JointStateIo {

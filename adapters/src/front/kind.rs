@@ -10,11 +10,10 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use tokio::sync::mpsc;
 
 use super::config::{FrontConfig, Silence};
 use super::plan::{FrontPlan, SilencePlan};
-use super::serve::{Endpoints, Message};
+use super::serve::Endpoints;
 use crate::dds::DdsError;
 use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::Topic;
@@ -100,7 +99,7 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
         &self,
         env: &super::serve::FrontEnv,
         plan: &FrontPlan,
-        tx: mpsc::Sender<Message>,
+        tx: super::serve::Queue,
         dropped: Arc<AtomicU64>,
     ) -> Result<Endpoints, DdsError>;
 }

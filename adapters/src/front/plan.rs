@@ -81,6 +81,12 @@ pub struct Binding {
     /// otherwise 0).
     pub element: usize,
     pub silence: SilencePlan,
+    /// How long a writer that owns the front keeps it, silent, as far as this device goes
+    /// (`control = "exclusive"`): when the front's silence acts on the device, the time it
+    /// waits; when it keeps the last target, the device's watchdog time (the front's own
+    /// `watchdog_ms` where smaller). The front's hold is the longest over its bindings
+    /// ([`FrontPlan::hold`]).
+    pub hold: Duration,
     /// The front's table for this device (the wire convention it speaks, for its side);
     /// `None`: the device's own (fronts that speak no device kind's convention).
     pub table: Option<Arc<DeviceTable>>,
@@ -110,5 +116,11 @@ impl FrontPlan {
     /// front, else 1).
     pub fn elements(&self) -> usize {
         self.kind.factory().elements(&self.config)
+    }
+
+    /// How long the writer owning this front keeps it after its last accepted command
+    /// (`control = "exclusive"`): the longest of its bindings' holds.
+    pub fn hold(&self) -> Duration {
+        self.bindings.iter().map(|b| b.hold).max().unwrap_or_default()
     }
 }

@@ -8,7 +8,7 @@ use std::any::Any;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
-use crate::dds::{DdsError, Node, Qos, Reader};
+use crate::dds::{DdsError, Node, Qos, Reader, WriterHandle, WriterInfo};
 
 use crate::model::{CommandBody, HandState, SafeAction};
 use tokio::sync::mpsc;
@@ -44,6 +44,56 @@ pub type Routed = (CommandBody, u32, bool);
 
 /// A message a front's reader took, for that front's own decode.
 pub type Message = Box<dyn Any + Send>;
+
+/// A command sample as the front task receives it: the message and the writer that wrote it
+/// (read once per writer, shared by its samples).
+pub struct Incoming {
+    pub writer: Arc<WriterInfo>,
+    pub msg: Message,
+    /// When the reader took it (a front task that falls behind still sees when each writer
+    /// last spoke).
+    pub taken: std::time::Instant,
+}
+
+/// The queue a front's readers feed.
+pub type Queue = mpsc::Sender<Incoming>;
+
+/// The USER_DATA of a writer that takes a front over from its owner (`handgate send
+/// --force`; docs/fronts.md, "One commanding client per front"). handgate's own marker, set
+/// only by handgate's tools; no Unitree or DDS convention.
+pub const FORCE_USER_DATA: &[u8] = b"handgate:control=force";
+
+impl Incoming {
+    /// Whether the writer asks to take the front over from its owner.
+    pub fn force(&self) -> bool {
+        self.writer.user_data == FORCE_USER_DATA
+    }
+}
+
+/// Names a writer for a log line: its process, pid and host where discovery knows its
+/// participant, and its GUID (or only the reader's handle when the writer had gone).
+pub fn describe_writer(w: &WriterInfo, discovery: &crate::discovery::Snapshot) -> String {
+    let Some(guid) = w.guid else {
+        return format!("writer handle {:016x} (no longer matched)", w.handle);
+    };
+    let who = w.participant.and_then(|p| discovery.participant(&p)).map(|p| {
+        let mut s = p.process_name.as_deref().unwrap_or("?").to_string();
+        if let Some(pid) = p.pid {
+            s.push_str(&format!(" pid {pid}"));
+        }
+        if let Some(h) = &p.hostname {
+            s.push_str(&format!(" on {h}"));
+        }
+        s
+    });
+    match who {
+        Some(who) => format!("{who} (writer {guid})"),
+        None => format!("writer {guid}"),
+    }
+}
+
+/// Writers a reader remembers at most; beyond, it forgets them all and reads each again.
+const MAX_WRITERS: usize = 64;
 
 /// A running front's wire side: its reader (kept alive), decoding and state writers. The
 /// runtime's one front task (queue, silence, prompt state, deadlines) drives every front
@@ -84,19 +134,30 @@ pub enum Endpoints {
     StateOnly(Box<dyn StateIo>),
 }
 
-/// A command reader on `topic` handing every sample to the front's task as a [`Message`];
-/// a sample that finds the queue full is dropped and counted in `dropped`.
+/// A command reader on `topic` handing every sample to the front's task as an [`Incoming`]
+/// (the message and its writer, read from CycloneDDS once per new writer); a sample that
+/// finds the queue full is dropped and counted in `dropped`.
 pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
     node: &Node,
     topic: &str,
-    tx: mpsc::Sender<Message>,
+    tx: Queue,
     dropped: Arc<AtomicU64>,
 ) -> Result<Reader<T>, DdsError> {
+    let mut writers: std::collections::HashMap<WriterHandle, Arc<WriterInfo>> = std::collections::HashMap::new();
     node.reader_with_callback::<T, _>(topic, Qos::Reliable { depth: 16 }, move |h| {
         let mut v = Vec::new();
-        h.take_into(&mut v);
-        for s in v {
-            if tx.try_send(Box::new(s)).is_err() {
+        h.take_with_writers(&mut v);
+        let taken = std::time::Instant::now();
+        for (s, w) in v {
+            if writers.len() >= MAX_WRITERS && !writers.contains_key(&w) {
+                writers.clear();
+            }
+            let writer = writers
+                .entry(w)
+                .or_insert_with(|| Arc::new(h.matched_writer(w)))
+                .clone();
+            let msg: Message = Box::new(s);
+            if tx.try_send(Incoming { writer, msg, taken }).is_err() {
                 dropped.fetch_add(1, Ordering::Relaxed);
             }
         }
@@ -113,12 +174,7 @@ pub struct FrontEnv {
 }
 
 /// The endpoints of front `f`, opened by its kind.
-pub fn open(
-    env: &FrontEnv,
-    f: &FrontPlan,
-    tx: mpsc::Sender<Message>,
-    dropped: Arc<AtomicU64>,
-) -> Result<Endpoints, DdsError> {
+pub fn open(env: &FrontEnv, f: &FrontPlan, tx: Queue, dropped: Arc<AtomicU64>) -> Result<Endpoints, DdsError> {
     f.kind.factory().open(env, f, tx, dropped)
 }
 

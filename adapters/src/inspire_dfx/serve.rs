@@ -31,7 +31,7 @@ impl DfxIo {
         node: &crate::dds::Node,
         cmd_topic: &str,
         state_topic: &str,
-        tx: tokio::sync::mpsc::Sender<Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Self, crate::dds::DdsError> {
         Ok(Self {
@@ -161,7 +161,7 @@ impl FrontFactory for InspireDfxFront {
         &self,
         env: &crate::front::serve::FrontEnv,
         f: &FrontPlan,
-        tx: tokio::sync::mpsc::Sender<Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Endpoints, crate::dds::DdsError> {
         let cmd = f.cmd_topic.clone().unwrap_or_else(|| CMD_TOPIC.into());

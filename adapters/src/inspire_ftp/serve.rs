@@ -39,7 +39,7 @@ impl FtpIo {
         cmd_topic: &str,
         state_topic: &str,
         touch_topic: &str,
-        tx: tokio::sync::mpsc::Sender<Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Self, crate::dds::DdsError> {
         use crate::dds::Qos;
@@ -157,7 +157,7 @@ impl FrontFactory for InspireFtpFront {
         &self,
         env: &crate::front::serve::FrontEnv,
         f: &FrontPlan,
-        tx: tokio::sync::mpsc::Sender<Message>,
+        tx: crate::front::serve::Queue,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Endpoints, crate::dds::DdsError> {
         let side = f.bindings.first().map_or(Side::Right, |b| b.side);

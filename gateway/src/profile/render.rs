@@ -94,6 +94,18 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
                     let _ = write!(s, ", silence ({n}): {p}");
                 }
             }
+            let hold = f
+                .bindings(lookup)
+                .into_iter()
+                .filter_map(|(_, n)| lookup(n).map(|d| crate::resolve::hold(f, d)))
+                .max()
+                .unwrap_or_default();
+            match f.control {
+                Control::Exclusive => {
+                    let _ = write!(s, ", control: exclusive (hold {} ms)", hold.as_millis());
+                }
+                Control::Shared => s.push_str(", control: shared"),
+            }
         }
         s.push('\n');
         let bound: Vec<Side> = f.bindings(lookup).into_iter().map(|(side, _)| side).collect();

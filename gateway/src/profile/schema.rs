@@ -63,7 +63,7 @@ snake_enum!(
     LogFormat { Human => "human", Json => "json" } default Human
 );
 
-pub use handgate_adapters::front::config::Silence;
+pub use handgate_adapters::front::config::{Control, Silence};
 
 /// Which interface a front serves to clients: a handle into the front registry.
 pub use handgate_adapters::front::kind::FrontKind;

@@ -227,6 +227,18 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "never",
     ),
     (
+        "unknown control",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\ncontrol = \"latest\"\n",
+        "fronts[0].control",
+        "latest",
+    ),
+    (
+        "control on a front that takes no commands",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\ncontrol = \"shared\"\n",
+        "fronts[0].control",
+        "takes no commands",
+    ),
+    (
         "watchdog_ms without the watchdog",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nwatchdog_ms = 100\n",
         "fronts[0].watchdog_ms",
@@ -734,6 +746,31 @@ fn silence_defaults_to_the_served_service_and_watchdog_is_the_device_watchdog() 
     assert_eq!(plan.fronts[3].name, "strict");
     assert_eq!(plan.fronts[0].name, "dex3_left");
     assert_eq!(plan.fronts[2].name, "canonical_h");
+}
+
+#[test]
+fn the_hold_of_an_exclusive_front_is_when_its_silence_acts_or_the_watchdog_time() {
+    use handgate_adapters::front::config::Control;
+    let text = "[[devices]]\nname = \"h\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\nwatchdog = { timeout_ms = 300, safe_action = \"limp\" }\n[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"r\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\nwatchdog = { timeout_ms = 700, safe_action = \"hold\" }\n[[fronts]]\nkind = \"dex3\"\ndevice = \"h\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\ncontrol = \"shared\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"h\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"h\"\nname = \"strict\"\nsilence = \"watchdog\"\nwatchdog_ms = 50\ncmd_topic = \"rt/x/cmd\"\nstate_topic = \"rt/x/state\"\nlf_state_topic = \"rt/x/lf\"\n[[fronts]]\nkind = \"dex1\"\nvariant = \"actuator\"\ndevices = { left = \"g\", right = \"r\" }\nsilence = \"watchdog\"\n";
+    let (_, r) = load_text(text);
+    let plan = crate::resolve::plan(&r.unwrap().profile).unwrap();
+    let ms = std::time::Duration::from_millis;
+    let holds: Vec<_> = plan.fronts.iter().map(|f| f.hold()).collect();
+    // Dex3 service keeps the last target: the device's watchdog time. Dex1 service brakes
+    // after 1 s: that. Canonical: the device's watchdog. A front's own shorter watchdog_ms.
+    // Two devices with silence = "watchdog": the longer of their watchdogs (200, 700).
+    assert_eq!(holds, [ms(300), ms(1000), ms(300), ms(50), ms(700)]);
+    let controls: Vec<_> = plan.fronts.iter().map(|f| f.config.control).collect();
+    assert_eq!(
+        controls,
+        [
+            Control::Exclusive,
+            Control::Shared,
+            Control::Exclusive,
+            Control::Exclusive,
+            Control::Exclusive
+        ]
+    );
 }
 
 #[test]
@@ -1422,6 +1459,7 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
         ("fronts.lf_state_hz", front(""), front("lf_state_hz = 20")),
         ("fronts.variant", dex1_front(""), dex1_front("variant = \"hg\"")),
         ("fronts.silence", front(""), front("silence = \"watchdog\"")),
+        ("fronts.control", front(""), front("control = \"shared\"")),
         (
             "fronts.watchdog_ms",
             front("silence = \"watchdog\""),

@@ -564,6 +564,15 @@ impl Checker {
                 ),
             );
         }
+        if !kind.takes_commands() && f.control != Control::default() {
+            self.err(
+                k.key("control"),
+                format!(
+                    "{} front takes no commands, so has no client to give it to",
+                    a(kind.as_str())
+                ),
+            );
+        }
         if let Some(w) = f.watchdog_ms {
             let (wlo, whi) = WATCHDOG_MS_RANGE;
             if !(wlo..=whi).contains(&w.0) {

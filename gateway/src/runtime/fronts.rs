@@ -9,6 +9,7 @@ use handgate_adapters::model::{HandState, SafeAction};
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
+use super::control::{Admit, Change, Ownership};
 use super::{DeviceSlot, RuntimeError};
 use crate::plan::{FrontPlan, SilencePlan};
 use crate::ticker::Ticker;
@@ -121,7 +122,7 @@ pub(super) fn spawn_front(
     devices: &HashMap<String, Arc<DeviceSlot>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
-    let (tx, mut rx) = mpsc::channel::<fronts::Message>(64);
+    let (tx, mut rx) = mpsc::channel::<fronts::Incoming>(64);
     let dropped = Arc::new(AtomicU64::new(0));
     // The front kind's endpoints (readers and writers).
     let mut out = match fronts::open(env, f, tx, dropped.clone())? {
@@ -153,6 +154,8 @@ pub(super) fn spawn_front(
     }
     let f = f.clone();
     let log = RateLimitedLog::default();
+    let mut ownership = Ownership::new(f.config.control, f.hold());
+    let discovery = env.discovery.clone();
     let front_id = NEXT_FRONT_ID.fetch_add(1, Ordering::Relaxed);
     let devices_list = f
         .bindings
@@ -176,13 +179,33 @@ pub(super) fn spawn_front(
             // periodic one due at the end of its period, so the rate stays the nominal one.
             let mut prompt_since: Option<Instant> = None;
             let mut slot_used = false;
+            // The writer owning the front (`control = "exclusive"`), to name it in the log.
+            let mut owner: Option<Arc<handgate_adapters::dds::WriterInfo>> = None;
+            let hold_ms = f.hold().as_millis() as u64;
             loop {
                 let silence_due = bound.iter().filter_map(Bound::silence_due).min();
                 let awaiting = bound.iter().any(|b| b.awaiting.is_some());
                 tokio::select! {
                     msg = rx.recv() => {
                         let Some(msg) = msg else { break };
-                        let decoded = out.decode(&views(&bound), &msg);
+                        // When the reader took it, not now: a front task that fell behind
+                        // must not see its owner as silent because of its own backlog.
+                        let received = msg.taken;
+                        let writer = msg.writer.handle;
+                        if let Admit::Foreign { first, .. } = ownership.admit(writer, msg.force(), received) {
+                            for b in &bound {
+                                b.slot.counters.foreign_cmd.fetch_add(1, Ordering::Relaxed);
+                            }
+                            if first {
+                                let snap = discovery.borrow().clone();
+                                let owner = owner.as_ref().map_or("?".into(), |o| fronts::describe_writer(o, &snap));
+                                warn!(front = %name, hold_ms, "refused the commands of {}: {owner} commands this front \
+                                    (control = \"exclusive\"; refused until it is silent for {hold_ms} ms; counted in foreign_cmd)",
+                                    fronts::describe_writer(&msg.writer, &snap));
+                            }
+                            continue;
+                        }
+                        let decoded = out.decode(&views(&bound), &msg.msg);
                         match decoded {
                             Ok(cmds) => {
                                 let mut any = false;
@@ -223,6 +246,20 @@ pub(super) fn spawn_front(
                                 }
                                 if any {
                                     prompt_since = Some(Instant::now());
+                                    if let Some(change) = ownership.accepted(writer, received) {
+                                        let snap = discovery.borrow().clone();
+                                        let new = fronts::describe_writer(&msg.writer, &snap);
+                                        let old = owner.as_ref().map_or("?".into(), |o| fronts::describe_writer(o, &snap));
+                                        match change {
+                                            Change::First => info!(front = %name, "{new} commands this front"),
+                                            Change::AfterSilence { silent, .. } => info!(front = %name,
+                                                silent_ms = silent.as_millis() as u64,
+                                                "{new} commands this front: {old} was silent for {} ms", silent.as_millis()),
+                                            Change::Forced => warn!(front = %name,
+                                                "{new} took this front over from {old} (forced)"),
+                                        }
+                                        owner = Some(msg.writer.clone());
+                                    }
                                 }
                             }
                             Err(r) => {

@@ -3,6 +3,7 @@
 //! along its reasons to change: device start-up ([`devices`]), front tasks ([`fronts`]),
 //! status publishing ([`status`]).
 
+mod control;
 mod devices;
 mod fronts;
 mod status;
@@ -47,6 +48,9 @@ pub struct FrontCounters {
     /// when the device's last command was its own).
     pub last_front: AtomicU64,
     pub rejected: AtomicU64,
+    /// Commands refused whole because another writer owns the front (`foreign_cmd` in
+    /// status; `control = "exclusive"`).
+    pub foreign_cmd: AtomicU64,
     /// Silence actions run (`wdog` in status): watchdog trips, a service's brake or timeout.
     pub watchdog_trips: AtomicU64,
     /// 1 while a silence action holds the device (until the next accepted command).

@@ -53,6 +53,7 @@ pub(super) fn spawn_status(
                             watchdog_trips: d.counters.watchdog_trips.load(Ordering::Relaxed),
                             reconnects: s.reconnects,
                             missed_cycles: s.missed_cycles,
+                            foreign_cmd: d.counters.foreign_cmd.load(Ordering::Relaxed),
                             age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
                         });
                     }
