@@ -25,6 +25,10 @@ pub enum Variant {
     Hg,
     /// `rt/unitree_actuator/{cmd,state}`, unitree_go, 2 elements (0 = right, 1 = left).
     Actuator,
+    /// Fronts only (the fronts' default): `go` on `rt/dex1/{side}/*` until a client appears,
+    /// then every variant its clients speak, `rt/unitree_actuator/*` included
+    /// (`crate::dex1::follow`). Not a device's variant: a device speaks one.
+    Auto,
 }
 
 impl std::fmt::Display for Variant {
@@ -33,6 +37,7 @@ impl std::fmt::Display for Variant {
             Variant::Go => "go",
             Variant::Hg => "hg",
             Variant::Actuator => "actuator",
+            Variant::Auto => "auto",
         })
     }
 }
@@ -46,7 +51,9 @@ impl Variant {
     /// (command topic, state topic) for `side` (ignored by [`Variant::Actuator`]).
     pub fn topics(self, side: Side) -> (String, String) {
         match self {
-            Variant::Go | Variant::Hg => (format!("rt/dex1/{side}/cmd"), format!("rt/dex1/{side}/state")),
+            Variant::Go | Variant::Hg | Variant::Auto => {
+                (format!("rt/dex1/{side}/cmd"), format!("rt/dex1/{side}/state"))
+            }
             Variant::Actuator => ("rt/unitree_actuator/cmd".into(), "rt/unitree_actuator/state".into()),
         }
     }
@@ -54,7 +61,7 @@ impl Variant {
     /// Which gripper each message element drives.
     pub fn layout(self, side: Side) -> Vec<Side> {
         match self {
-            Variant::Go | Variant::Hg => vec![side],
+            Variant::Go | Variant::Hg | Variant::Auto => vec![side],
             Variant::Actuator => vec![Side::Right, Side::Left],
         }
     }

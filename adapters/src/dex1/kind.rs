@@ -147,6 +147,12 @@ impl KindConfig for Dex1Profile {
                     out.push(Problem::new(&["dds", key], e));
                 }
             }
+            if x.variant == Some(Variant::Auto) {
+                out.push(Problem::new(
+                    &["dds", "variant"],
+                    "`auto` is a front's variant (it follows its clients); a device speaks one: go, hg or actuator",
+                ));
+            }
             if let Some(r) = x.range_rad {
                 if !(r.is_finite() && r > 0.0 && r <= f64::from(SEED_SPEC_RANGE_RAD)) {
                     out.push(Problem::new(

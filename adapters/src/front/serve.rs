@@ -110,6 +110,27 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
 pub struct FrontEnv {
     pub node: Node,
     pub discovery: tokio::sync::watch::Receiver<Arc<crate::discovery::Snapshot>>,
+    /// What the fronts of one runtime share (a front kind's own meeting point between its
+    /// fronts, e.g. several fronts serving one topic together).
+    pub shared: FrontShared,
+}
+
+/// Items the fronts of one runtime share, one per (type, key), created on first use.
+#[derive(Clone, Default)]
+pub struct FrontShared(Arc<std::sync::Mutex<SharedItems>>);
+
+type SharedItems = std::collections::HashMap<(std::any::TypeId, &'static str), Arc<dyn Any + Send + Sync>>;
+
+impl FrontShared {
+    /// The item of type `T` under `key`, created with `T::default()` by the first caller.
+    pub fn get<T: Any + Send + Sync + Default>(&self, key: &'static str) -> Arc<T> {
+        let mut g = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let item = g
+            .entry((std::any::TypeId::of::<T>(), key))
+            .or_insert_with(|| Arc::new(T::default()))
+            .clone();
+        item.downcast::<T>().expect("an entry keyed by T's TypeId holds a T")
+    }
 }
 
 /// The endpoints of front `f`, opened by its kind.

@@ -84,6 +84,7 @@ impl Runtime {
         let env = FrontEnv {
             node: node.clone(),
             discovery: discovery.subscribe(),
+            shared: Default::default(),
         };
         let mut shared = Shared::default();
         let opened = open_devices(&node, plan, &mut shared)?;
