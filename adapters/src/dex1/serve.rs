@@ -24,7 +24,7 @@ enum Dex1Writer {
 }
 
 /// The endpoints of one variant a Dex1 front serves.
-struct Served {
+struct VariantIo {
     variant: Variant,
     /// The command reader (kept alive).
     _reader: Box<dyn Send>,
@@ -89,7 +89,7 @@ impl ActuatorPair {
         }
         if g.writer.is_none() {
             let state = Variant::Actuator.topics(Side::Left).1;
-            g.writer = Some(node.writer(&state, crate::dds::Qos::BestEffort)?);
+            g.writer = Some(node.writer(&state, crate::front::serve::STATE_QOS)?);
             g.leader = Some(element);
         }
         Ok(true)
@@ -136,8 +136,8 @@ struct OpenCtx {
 impl OpenCtx {
     /// The endpoints of `variant` (`Actuator`: the explicit front's own, or for an `auto`
     /// front its reader of the pair; `None` when an explicit front serves the pair).
-    fn open(&self, variant: Variant) -> Result<Option<Served>, crate::dds::DdsError> {
-        use crate::dds::Qos;
+    fn open(&self, variant: Variant) -> Result<Option<VariantIo>, crate::dds::DdsError> {
+        use crate::front::serve::{COMMAND_QOS, STATE_QOS};
         let (node, tx, dropped) = (&self.node, self.tx.clone(), self.dropped.clone());
         let (reader, writer): (Box<dyn Send>, _) = match (variant, &self.pair) {
             (Variant::Hg, _) => (
@@ -147,26 +147,22 @@ impl OpenCtx {
                     tx,
                     dropped,
                 )?),
-                Dex1Writer::Hg(node.writer(&self.state_topic, Qos::BestEffort)?),
+                Dex1Writer::Hg(node.writer(&self.state_topic, STATE_QOS)?),
             ),
             (Variant::Actuator, Some((pair, element))) => {
                 if !pair.join(node, *element)? {
                     return Ok(None);
                 }
                 let cmd = Variant::Actuator.topics(Side::Left).0;
-                let r = node.reader_with_callback::<unitree_go::MotorCmds_, _>(
-                    &cmd,
-                    Qos::Reliable { depth: 16 },
-                    move |h| {
-                        let mut v = Vec::new();
-                        h.take_into(&mut v);
-                        for s in v {
-                            if tx.try_send(Box::new(PairCmd(s))).is_err() {
-                                dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                            }
+                let r = node.reader_with_callback::<unitree_go::MotorCmds_, _>(&cmd, COMMAND_QOS, move |h| {
+                    let mut v = Vec::new();
+                    h.take_into(&mut v);
+                    for s in v {
+                        if tx.try_send(Box::new(PairCmd(s))).is_err() {
+                            dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                         }
-                    },
-                )?;
+                    }
+                })?;
                 (Box::new(r), Dex1Writer::Pair)
             }
             (Variant::Go | Variant::Actuator | Variant::Auto, _) => (
@@ -176,10 +172,10 @@ impl OpenCtx {
                     tx,
                     dropped,
                 )?),
-                Dex1Writer::Go(node.writer(&self.state_topic, Qos::BestEffort)?),
+                Dex1Writer::Go(node.writer(&self.state_topic, STATE_QOS)?),
             ),
         };
-        Ok(Some(Served {
+        Ok(Some(VariantIo {
             variant,
             _reader: reader,
             writer,
@@ -194,15 +190,15 @@ pub struct Dex1Io {
     variant: Variant,
     /// Elements of its messages (the actuator variant: 2).
     elements: usize,
-    served: Vec<Served>,
+    served: Vec<VariantIo>,
     /// `auto`: the endpoints its follower task opened, taken at the next publish.
-    added: Option<tokio::sync::mpsc::UnboundedReceiver<Served>>,
+    added: Option<tokio::sync::mpsc::UnboundedReceiver<VariantIo>>,
     /// `auto` fronts of a left or right gripper: the actuator pair and its element.
     pair: Option<(std::sync::Arc<ActuatorPair>, usize)>,
 }
 
 impl Dex1Io {
-    fn new(variant: Variant, elements: usize, first: Served) -> Self {
+    fn new(variant: Variant, elements: usize, first: VariantIo) -> Self {
         Self {
             variant,
             elements,
@@ -222,7 +218,7 @@ fn spawn_follower(
     name: String,
     watched: crate::dex1::follow::Watched,
     ctx: OpenCtx,
-    added: tokio::sync::mpsc::UnboundedSender<Served>,
+    added: tokio::sync::mpsc::UnboundedSender<VariantIo>,
 ) -> Result<(), crate::dds::DdsError> {
     let handle = tokio::runtime::Handle::try_current().map_err(|e| {
         crate::dds::DdsError::Thread(format!("an auto dex1 front follows its clients from a tokio task: {e}"))
@@ -344,6 +340,109 @@ impl crate::front::serve::FrontIo for Dex1Io {
 /// The wire variant of Dex1 front `f` (default `auto`).
 fn variant(f: &crate::front::config::FrontConfig) -> Variant {
     f.variant.unwrap_or(Variant::Auto)
+}
+
+/// What Dex1 front `f` serves: its variant's types on its topics (`auto`: go and hg both); the
+/// other variant's types and the other interface's topics (per side vs actuator) named with
+/// the profile change that serves them (`auto` of a left or right gripper: the actuator pair,
+/// which it serves once a client appears).
+fn served(f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+    use crate::dds::type_name;
+    use crate::discovery::diagnose::Served;
+    use crate::front::serve::{served_command, served_state};
+    let v = variant(&f.config);
+    let name = &f.name;
+    let (go_cmd, hg_cmd) = (
+        type_name::<unitree_go::MotorCmds_>(),
+        type_name::<unitree_hg::HandCmd_>(),
+    );
+    let (go_state, hg_state) = (
+        type_name::<unitree_go::MotorStates_>(),
+        type_name::<unitree_hg::HandState_>(),
+    );
+    // Another type on this topic: the variant that speaks it.
+    let (cmd, state) = match v {
+        Variant::Hg => (
+            served_command::<unitree_hg::HandCmd_>(f.cmd_topic.as_deref().unwrap_or_default()),
+            served_state::<unitree_hg::HandState_>(&f.state_topic),
+        ),
+        Variant::Go | Variant::Actuator => (
+            served_command::<unitree_go::MotorCmds_>(f.cmd_topic.as_deref().unwrap_or_default()),
+            served_state::<unitree_go::MotorStates_>(&f.state_topic),
+        ),
+        // Go from the start, hg once a client speaks it: a client of either matches.
+        Variant::Auto => (
+            served_command::<unitree_go::MotorCmds_>(f.cmd_topic.as_deref().unwrap_or_default())
+                .also_serving(hg_cmd.clone()),
+            served_state::<unitree_go::MotorStates_>(&f.state_topic).also_serving(hg_state.clone()),
+        ),
+    };
+    let other_type = |s: Served, go: &str, hg: &str| {
+        match v {
+        Variant::Hg => s.alternative(
+            go.to_string(),
+            format!("the client speaks the unitree_go variant (dex1_1_service): set variant = \"{}\" on front {name}", Variant::Go),
+        ),
+        Variant::Go => s.alternative(
+            hg.to_string(),
+            format!("the client speaks the seed-spec unitree_hg variant: set variant = \"{}\" on front {name}", Variant::Hg),
+        ),
+        Variant::Actuator => s.alternative(
+            hg.to_string(),
+            format!(
+                "the client speaks the seed-spec unitree_hg variant, which is per side ({} or {}): serve it with a dex1 front with variant = \"{}\"",
+                Variant::Hg.topics(Side::Left).0,
+                Variant::Hg.topics(Side::Right).0,
+                Variant::Hg
+            ),
+        ),
+        Variant::Auto => s,
+    }
+    };
+    let (mut cmd, mut state) = (
+        other_type(cmd, &go_cmd, &hg_cmd),
+        other_type(state, &go_state, &hg_state),
+    );
+    // The other interface's topics.
+    let pair_side = f.bindings.first().is_some_and(|b| b.side != Side::Center);
+    match v {
+        Variant::Auto if pair_side => {
+            let (c, s) = Variant::Actuator.topics(Side::Left);
+            let hint = format!(
+                "the client uses the actuator interface (both grippers in one message): front {name} (auto) serves its element of the pair once the client's endpoints are discovered, unless a dex1 front with variant = \"{}\" serves the pair",
+                Variant::Actuator
+            );
+            cmd = cmd.related(c, hint.clone());
+            state = state.related(s, hint);
+        }
+        Variant::Go | Variant::Hg | Variant::Auto => {
+            let (c, s) = Variant::Actuator.topics(Side::Left);
+            let hint = format!(
+                "the client uses the actuator interface (both grippers in one message): serve it with a dex1 front with variant = \"{}\" instead of front {name}",
+                Variant::Actuator
+            );
+            cmd = cmd.related(c, hint.clone());
+            state = state.related(s, hint);
+        }
+        Variant::Actuator => {
+            for side in [Side::Left, Side::Right] {
+                let (c, s) = Variant::Go.topics(side);
+                let hint = format!(
+                    "the client uses the per-side dex1 interface: serve side {side} with a dex1 front with variant = \"{}\" (or \"{}\") instead of front {name}",
+                    Variant::Go,
+                    Variant::Hg
+                );
+                cmd = cmd.related(c, hint.clone());
+                state = state.related(s, hint);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    if f.cmd_topic.is_some() {
+        out.push(cmd);
+    }
+    out.push(state);
+    out
 }
 
 /// The Dex1-1 service interface, in its wire variants.
@@ -473,6 +572,9 @@ impl crate::front::kind::FrontFactory for Dex1Front {
             Variant::Auto => " (auto: go until a client appears, then each client's variant: go, hg, and the actuator pair's element of its side)".into(),
             v => format!(" ({v})"),
         })
+    }
+    fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        served(f)
     }
     fn open(
         &self,
