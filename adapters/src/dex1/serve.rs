@@ -134,52 +134,66 @@ struct OpenCtx {
 }
 
 impl OpenCtx {
-    /// The endpoints of `variant` (`Actuator`: the explicit front's own, or for an `auto`
-    /// front its reader of the pair; `None` when an explicit front serves the pair).
-    fn open(&self, variant: Variant) -> Result<Option<VariantIo>, crate::dds::DdsError> {
-        use crate::front::serve::{COMMAND_QOS, STATE_QOS};
+    /// The endpoints of `variant` on the front's own topics (`Auto`: its go ones; `Actuator`:
+    /// the explicit actuator front's).
+    fn open_own(&self, variant: Variant) -> Result<VariantIo, crate::dds::DdsError> {
+        use crate::front::serve::{reader, STATE_QOS};
         let (node, tx, dropped) = (&self.node, self.tx.clone(), self.dropped.clone());
-        let (reader, writer): (Box<dyn Send>, _) = match (variant, &self.pair) {
-            (Variant::Hg, _) => (
-                Box::new(crate::front::serve::reader::<unitree_hg::HandCmd_>(
-                    node,
-                    &self.cmd_topic,
-                    tx,
-                    dropped,
-                )?),
+        let (reader, writer): (Box<dyn Send>, _) = match variant {
+            Variant::Hg => (
+                Box::new(reader::<unitree_hg::HandCmd_>(node, &self.cmd_topic, tx, dropped)?),
                 Dex1Writer::Hg(node.writer(&self.state_topic, STATE_QOS)?),
             ),
-            (Variant::Actuator, Some((pair, element))) => {
-                if !pair.join(node, *element)? {
-                    return Ok(None);
-                }
-                let cmd = Variant::Actuator.topics(Side::Left).0;
-                let r = node.reader_with_callback::<unitree_go::MotorCmds_, _>(&cmd, COMMAND_QOS, move |h| {
-                    let mut v = Vec::new();
-                    h.take_into(&mut v);
-                    for s in v {
-                        if tx.try_send(Box::new(PairCmd(s))).is_err() {
-                            dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        }
-                    }
-                })?;
-                (Box::new(r), Dex1Writer::Pair)
-            }
-            (Variant::Go | Variant::Actuator | Variant::Auto, _) => (
-                Box::new(crate::front::serve::reader::<unitree_go::MotorCmds_>(
-                    node,
-                    &self.cmd_topic,
-                    tx,
-                    dropped,
-                )?),
+            Variant::Go | Variant::Actuator | Variant::Auto => (
+                Box::new(reader::<unitree_go::MotorCmds_>(node, &self.cmd_topic, tx, dropped)?),
                 Dex1Writer::Go(node.writer(&self.state_topic, STATE_QOS)?),
             ),
         };
-        Ok(Some(VariantIo {
+        Ok(VariantIo {
             variant,
             _reader: reader,
             writer,
+        })
+    }
+
+    /// An `auto` front's endpoints for the actuator pair: its reader of the pair (the pair's
+    /// state writer opened by the first front to join). `None`: the front serves no element
+    /// of the pair, or an explicit actuator front serves it.
+    fn open_pair(&self) -> Result<Option<VariantIo>, crate::dds::DdsError> {
+        let Some((pair, element)) = &self.pair else {
+            return Ok(None);
+        };
+        if !pair.join(&self.node, *element)? {
+            return Ok(None);
+        }
+        let (tx, dropped) = (self.tx.clone(), self.dropped.clone());
+        let cmd = Variant::Actuator.topics(Side::Left).0;
+        let r = self.node.reader_with_callback::<unitree_go::MotorCmds_, _>(
+            &cmd,
+            crate::front::serve::COMMAND_QOS,
+            move |h| {
+                let mut v = Vec::new();
+                h.take_into(&mut v);
+                for s in v {
+                    if tx.try_send(Box::new(PairCmd(s))).is_err() {
+                        dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    }
+                }
+            },
+        )?;
+        Ok(Some(VariantIo {
+            variant: Variant::Actuator,
+            _reader: Box::new(r),
+            writer: Dex1Writer::Pair,
         }))
+    }
+
+    /// What an `auto` front opens for a client of `variant`.
+    fn open_followed(&self, variant: Variant) -> Result<Option<VariantIo>, crate::dds::DdsError> {
+        match variant {
+            Variant::Actuator => self.open_pair(),
+            v => self.open_own(v).map(Some),
+        }
     }
 }
 
@@ -236,7 +250,7 @@ fn spawn_follower(
                 }
                 let Some(c) = clients.get(&v) else { continue };
                 let ctx = ctx.clone();
-                let opened = tokio::task::spawn_blocking(move || ctx.open(v)).await;
+                let opened = tokio::task::spawn_blocking(move || ctx.open_followed(v)).await;
                 let (topic, ty, who) = (&*c.endpoint.topic, &*c.endpoint.type_name, &c.who);
                 let role = match c.endpoint.role {
                     crate::discovery::Role::Writer => "writes",
@@ -604,10 +618,7 @@ impl crate::front::kind::FrontFactory for Dex1Front {
         };
         // Auto serves go until a client of another variant appears.
         let first = if variant == Variant::Auto { Variant::Go } else { variant };
-        let served = ctx
-            .open(first)?
-            .ok_or_else(|| crate::dds::DdsError::Thread("dex1 front endpoints not opened".into()))?;
-        let mut io = Dex1Io::new(variant, f.elements(), served);
+        let mut io = Dex1Io::new(variant, f.elements(), ctx.open_own(first)?);
         if variant == Variant::Auto {
             if let Some(e) = element {
                 pair.register(e);
