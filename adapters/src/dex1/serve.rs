@@ -109,7 +109,6 @@ impl ActuatorPair {
             states: (0..2)
                 .map(|e| {
                     g.states[e]
-                        .clone()
                         .filter(|_| g.sides[e])
                         .unwrap_or_else(|| unbound_state(front))
                 })
@@ -324,10 +323,10 @@ impl crate::front::serve::FrontIo for Dex1Io {
         }
         let now = std::time::Instant::now();
         let b0 = &bound[0];
-        let joint = || b0.routed_state()[0].clone();
+        let joint = b0.routed_state()[0];
         if let Some((pair, element)) = &self.pair {
             pair.publish(*element, &b0.route.front, || {
-                go_state(&b0.route.front, &joint(), &b0.state, now)
+                go_state(&b0.route.front, &joint, &b0.state, now)
             });
         }
         for s in &mut self.served {
@@ -343,8 +342,8 @@ impl crate::front::serve::FrontIo for Dex1Io {
                     }
                     w.write(m)
                 }
-                Dex1Writer::Go(w) => w.write(encode_go(&b0.route.front, &joint(), &b0.state, now)),
-                Dex1Writer::Hg(w) => w.write(encode_hg(&b0.route.front, &joint(), &b0.state, now)),
+                Dex1Writer::Go(w) => w.write(encode_go(&b0.route.front, &joint, &b0.state, now)),
+                Dex1Writer::Hg(w) => w.write(encode_hg(&b0.route.front, &joint, &b0.state, now)),
                 Dex1Writer::Pair => Ok(()),
             };
         }
