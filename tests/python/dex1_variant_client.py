@@ -6,12 +6,15 @@ on rt/dex1/SIDE/{cmd,state}. It waits for state, then commands at 200 Hz with kp
 each step clipped to +-0.18 rad of the measured q (as xr_teleoperate does). Run by
 tests/tests/dex1_auto.rs against an `auto` Dex1 front.
 
-    .venv/bin/python tests/python/dex1_variant_client.py DOMAIN go|hg SIDE TARGET_RAD [IFACE]
+    .venv/bin/python tests/python/dex1_variant_client.py DOMAIN go|hg SIDE TARGET_RAD [IFACE] [--watch W]
 
 stdout protocol (flushed lines):
     READY             endpoints set up
     DONE <json>       q within 0.05 rad of TARGET: {"q", "samples", "commands", "type"}
                       ("type": the state type received, as the SDK named it)
+    SAW <json>        with --watch W: after DONE, it stops commanding and reads state until q
+                      is within 0.05 rad of W (another client moved the gripper there):
+                      {"q", "samples", "type"}
     FAIL <json>       30 s passed first: {"q": last or null, "samples": n}
 """
 import json
@@ -26,9 +29,15 @@ from unitree_sdk2py.idl.unitree_hg.msg.dds_ import HandCmd_, HandState_
 TOL = 0.05
 STEP = 0.18
 
-domain, variant, side, target = int(sys.argv[1]), sys.argv[2], sys.argv[3], float(sys.argv[4])
-if len(sys.argv) > 5:
-    ChannelFactoryInitialize(domain, sys.argv[5])
+argv = sys.argv[1:]
+watch = None
+if "--watch" in argv:
+    i = argv.index("--watch")
+    watch = float(argv[i + 1])
+    del argv[i : i + 2]
+domain, variant, side, target = int(argv[0]), argv[1], argv[2], float(argv[3])
+if len(argv) > 4:
+    ChannelFactoryInitialize(domain, argv[4])
 else:
     ChannelFactoryInitialize(domain)
 seen = {"n": 0, "q": None, "type": None}
@@ -56,7 +65,14 @@ while time.time() - start < 30:
         continue
     if abs(q - target) < TOL:
         print("DONE " + json.dumps({"q": q, "samples": seen["n"], "commands": commands, "type": seen["type"]}), flush=True)
-        sys.exit(0)
+        if watch is None:
+            sys.exit(0)
+        while time.time() - start < 30:
+            if abs(seen["q"] - watch) < TOL:
+                print("SAW " + json.dumps({"q": seen["q"], "samples": seen["n"], "type": seen["type"]}), flush=True)
+                sys.exit(0)
+            time.sleep(0.005)
+        break
     step = max(q - STEP, min(q + STEP, target))
     if variant == "go":
         c = unitree_go_msg_dds__MotorCmd_()

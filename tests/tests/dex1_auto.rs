@@ -5,7 +5,7 @@
 //! - an hg client is served: its commands move the gripper, it receives HandState_;
 //! - a go client likewise (served from the start: nothing to add, nothing logged);
 //! - a go and an hg client on one front at once: each gets states in its own type, both move
-//!   the one gripper;
+//!   the one gripper (the hg client sees the go client's target in HandState_);
 //! - an rt/unitree_actuator client on two per-side auto fronts: one writer, one 2-element
 //!   message at the front's rate, each element from its side's gripper; with one side's front
 //!   only, the other element is reported unbound as the actuator variant does;
@@ -29,10 +29,16 @@ const TOL: f64 = 0.05;
 
 /// `dex1_variant_client.py DOMAIN VARIANT SIDE TARGET [IFACE]`, READY awaited.
 fn client(domain: u32, variant: &str, side: &str, target: f64, gw: &Gateway) -> PyProcess {
+    client_with(domain, variant, side, target, &[], gw)
+}
+
+/// [`client`] with more arguments (`--watch W`).
+fn client_with(domain: u32, variant: &str, side: &str, target: f64, more: &[&str], gw: &Gateway) -> PyProcess {
     let mut args = vec![domain.to_string(), variant.into(), side.into(), target.to_string()];
     if let Some(i) = interop_interface() {
         args.push(i);
     }
+    args.extend(more.iter().map(|s| s.to_string()));
     let py = PyProcess::spawn("dex1_variant_client.py", &args).expect("python client");
     py.wait_line("READY", DEADLINE)
         .unwrap_or_else(|e| panic!("{e}\n{}", gw.transcript()));
@@ -96,16 +102,24 @@ fn a_go_client_is_served_by_the_default_auto_front() {
 fn a_go_and_an_hg_client_on_one_auto_front_are_served_at_once() {
     let _serial = serial();
     let gw = Gateway::start(132, &[]);
-    // Both command the one left gripper toward the same target, each reading its own type.
-    let hg = client(132, "hg", "left", 1.5, &gw);
-    let go = client(132, "go", "left", 1.5, &gw);
-    let (dh, dg) = (done(&hg, &gw), done(&go, &gw));
+    // The hg client moves the left gripper to 1.5 and stays, reading HandState_; the go
+    // client, on the same front meanwhile, moves it to 3.5 reading MotorStates_; the hg client
+    // sees that in its own type.
+    let hg = client_with(132, "hg", "left", 1.5, &["--watch", "3.5"], &gw);
+    let dh = done(&hg, &gw);
     assert_eq!(dh["type"], "HandState_", "{dh}");
+    assert!((dh["q"].as_f64().unwrap() - 1.5).abs() < TOL, "{dh}");
+    assert!(dh["commands"].as_u64().unwrap() > 0, "the hg client moved it: {dh}");
+    let go = client(132, "go", "left", 3.5, &gw);
+    let dg = done(&go, &gw);
     assert_eq!(dg["type"], "MotorStates_", "{dg}");
-    for d in [&dh, &dg] {
-        assert!((d["q"].as_f64().unwrap() - 1.5).abs() < TOL, "{d}");
-        assert!(d["commands"].as_u64().unwrap() > 0, "{d}");
-    }
+    assert!((dg["q"].as_f64().unwrap() - 3.5).abs() < TOL, "{dg}");
+    assert!(dg["commands"].as_u64().unwrap() > 0, "the go client moved it: {dg}");
+    let line = hg
+        .wait_line("SAW ", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}\n{}", hg.transcript(), gw.transcript()));
+    let saw: Value = serde_json::from_str(line.trim_start_matches("SAW ")).unwrap();
+    assert_eq!(saw["type"], "HandState_", "{saw}");
     assert_eq!(
         count_lines(&gw, "dex1 front dex1_left serves hg clients too"),
         1,
