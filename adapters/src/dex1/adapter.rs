@@ -3,9 +3,10 @@
 //!
 //! | variant | cmd / state topics | types | elements |
 //! |---|---|---|---|
-//! | `Go` (default, real systems) | `rt/dex1/{side}/cmd`, `rt/dex1/{side}/state` | unitree_go MotorCmds_ / MotorStates_ | 1 |
+//! | `Go` (a device's default, real systems) | `rt/dex1/{side}/cmd`, `rt/dex1/{side}/state` | unitree_go MotorCmds_ / MotorStates_ | 1 |
 //! | `Hg` (the seed spec) | same topics | unitree_hg HandCmd_ / HandState_ | 1 |
 //! | `Actuator` (old xr_teleoperate) | `rt/unitree_actuator/cmd`, `/state` | unitree_go MotorCmds_ / MotorStates_ | 2: index 0 right, 1 left |
+//! | `Auto` (fronts only, their default) | `Go` until a client appears, then each client's | | |
 
 use handgate_idl::{unitree_go, unitree_hg};
 
