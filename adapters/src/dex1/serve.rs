@@ -582,7 +582,7 @@ impl crate::front::kind::FrontFactory for Dex1Front {
     }
     fn describe(&self, f: &crate::front::config::FrontConfig) -> Option<String> {
         Some(match variant(f) {
-            Variant::Auto => " (auto: go until a client appears, then each client's variant: go, hg, and the actuator pair's element of its side)".into(),
+            Variant::Auto => " (auto: go until a client appears, then each client's variant: go, hg, and its side's element of rt/unitree_actuator unless an actuator front serves it)".into(),
             v => format!(" ({v})"),
         })
     }
