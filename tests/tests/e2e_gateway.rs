@@ -183,7 +183,7 @@ fn watchdog_trips_holds_and_resumes() {
     // silence, "service", brakes only after dex1_1_service's 1 s).
     let profile = handgate_tests::default_profile_with_watchdog(
         "e2e-watchdog",
-        "device = \"dex1_left\"      # rt/dex1/left/{cmd,state}, unitree_go MotorCmds_/MotorStates_",
+        "device = \"dex1_left\"      # rt/dex1/left/{cmd,state}, variant auto: go, hg, rt/unitree_actuator clients",
     );
     let mut gw = Gateway::start(71, &["--profile", profile.to_str().unwrap()]);
     let n = node(71);

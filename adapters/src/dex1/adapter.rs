@@ -3,9 +3,10 @@
 //!
 //! | variant | cmd / state topics | types | elements |
 //! |---|---|---|---|
-//! | `Go` (default, real systems) | `rt/dex1/{side}/cmd`, `rt/dex1/{side}/state` | unitree_go MotorCmds_ / MotorStates_ | 1 |
+//! | `Go` (a device's default, real systems) | `rt/dex1/{side}/cmd`, `rt/dex1/{side}/state` | unitree_go MotorCmds_ / MotorStates_ | 1 |
 //! | `Hg` (the seed spec) | same topics | unitree_hg HandCmd_ / HandState_ | 1 |
 //! | `Actuator` (old xr_teleoperate) | `rt/unitree_actuator/cmd`, `/state` | unitree_go MotorCmds_ / MotorStates_ | 2: index 0 right, 1 left |
+//! | `Auto` (fronts only, their default) | `Go` until a client appears, then each client's | | |
 
 use handgate_idl::{unitree_go, unitree_hg};
 
@@ -25,6 +26,10 @@ pub enum Variant {
     Hg,
     /// `rt/unitree_actuator/{cmd,state}`, unitree_go, 2 elements (0 = right, 1 = left).
     Actuator,
+    /// Fronts only (the fronts' default): `go` on `rt/dex1/{side}/*` until a client appears,
+    /// then every variant its clients speak, `rt/unitree_actuator/*` included
+    /// (`crate::dex1::follow`). Not a device's variant: a device speaks one.
+    Auto,
 }
 
 impl std::fmt::Display for Variant {
@@ -33,6 +38,7 @@ impl std::fmt::Display for Variant {
             Variant::Go => "go",
             Variant::Hg => "hg",
             Variant::Actuator => "actuator",
+            Variant::Auto => "auto",
         })
     }
 }
@@ -46,7 +52,9 @@ impl Variant {
     /// (command topic, state topic) for `side` (ignored by [`Variant::Actuator`]).
     pub fn topics(self, side: Side) -> (String, String) {
         match self {
-            Variant::Go | Variant::Hg => (format!("rt/dex1/{side}/cmd"), format!("rt/dex1/{side}/state")),
+            Variant::Go | Variant::Hg | Variant::Auto => {
+                (format!("rt/dex1/{side}/cmd"), format!("rt/dex1/{side}/state"))
+            }
             Variant::Actuator => ("rt/unitree_actuator/cmd".into(), "rt/unitree_actuator/state".into()),
         }
     }
@@ -54,7 +62,7 @@ impl Variant {
     /// Which gripper each message element drives.
     pub fn layout(self, side: Side) -> Vec<Side> {
         match self {
-            Variant::Go | Variant::Hg => vec![side],
+            Variant::Go | Variant::Hg | Variant::Auto => vec![side],
             Variant::Actuator => vec![Side::Right, Side::Left],
         }
     }

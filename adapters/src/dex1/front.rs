@@ -1,8 +1,9 @@
 //! The Dex1 service front: what dex1_1_service and SAKE's EZGripper driver serve, so a client
 //! written for either (xr_teleoperate included) works unchanged. Variants as in
-//! `crate::dex1::adapter::Variant`: `go` (default: `rt/dex1/{side}/*`, unitree_go
+//! `crate::dex1::adapter::Variant`: `go` (`rt/dex1/{side}/*`, unitree_go
 //! MotorCmds_/MotorStates_, 1 element), `hg` (seed spec: HandCmd_/HandState_, 1 motor),
-//! `actuator` (`rt/unitree_actuator/*`, 2 elements, index 0 right, 1 left).
+//! `actuator` (`rt/unitree_actuator/*`, 2 elements, index 0 right, 1 left); a front's default
+//! `auto` serves each of them as its clients appear (`crate::dex1::follow`, `crate::dex1::serve`).
 //!
 //! Command rules: exact element count; finite values; `mode` ignored (as dex1_1_service does);
 //! q outside [0, range] is clamped by the device table. State: q clamped to [0, range] (a

@@ -117,6 +117,10 @@ impl KindFactory for Dex1Factory {
         Ok(Box::new(super::open::configure(spec)?))
     }
 
+    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+        super::open::served(spec)
+    }
+
     fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
         super::open::emulate(args)
     }
@@ -146,6 +150,12 @@ impl KindConfig for Dex1Profile {
                 if let Some(Err(e)) = t.as_deref().map(check_topic) {
                     out.push(Problem::new(&["dds", key], e));
                 }
+            }
+            if x.variant == Some(Variant::Auto) {
+                out.push(Problem::new(
+                    &["dds", "variant"],
+                    "`auto` is a front's variant (it follows its clients); a device speaks one: go, hg or actuator",
+                ));
             }
             if let Some(r) = x.range_rad {
                 if !(r.is_finite() && r > 0.0 && r <= f64::from(SEED_SPEC_RANGE_RAD)) {

@@ -2,6 +2,7 @@
 
 pub mod adapter;
 pub mod emulator;
+pub mod follow;
 pub mod front;
 pub mod kind;
 pub mod open;

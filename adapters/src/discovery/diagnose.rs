@@ -43,6 +43,54 @@ pub struct Served {
     pub qos: ServedQos,
     pub alternatives: Vec<Alternative>,
     pub related_topics: Vec<RelatedTopic>,
+    /// Other types served on this topic in this role with this QoS by the same owner (a
+    /// front that follows its clients' types, like an `auto` Dex1 front): their
+    /// counterparts match as the main type's do.
+    pub also: Vec<String>,
+}
+
+impl Served {
+    /// `role` on `topic` with `type_name` and `qos`, no alternatives or related topics.
+    pub fn new(topic: &str, type_name: String, role: Role, qos: ServedQos) -> Self {
+        Self {
+            topic: topic.to_string(),
+            type_name,
+            role,
+            qos,
+            alternatives: Vec::new(),
+            related_topics: Vec::new(),
+            also: Vec::new(),
+        }
+    }
+
+    /// Also serving `type_name` here (see [`Served::also`]).
+    pub fn also_serving(mut self, type_name: String) -> Self {
+        self.also.push(type_name);
+        self
+    }
+
+    /// Whether a counterpart of type `type_name` matches this endpoint.
+    pub fn serves_type(&self, type_name: &str) -> bool {
+        self.type_name == type_name || self.also.iter().any(|t| t == type_name)
+    }
+
+    /// With another type a client may use here, and what to tell its user.
+    pub fn alternative(mut self, type_name: String, hint: impl Into<String>) -> Self {
+        self.alternatives.push(Alternative {
+            type_name,
+            hint: hint.into(),
+        });
+        self
+    }
+
+    /// With a topic a client may use instead of this one, and what to tell its user.
+    pub fn related(mut self, topic: impl Into<String>, hint: impl Into<String>) -> Self {
+        self.related_topics.push(RelatedTopic {
+            topic: topic.into(),
+            hint: hint.into(),
+        });
+        self
+    }
 }
 
 /// A remote endpoint a finding is about, with what its participant reported.
@@ -293,7 +341,7 @@ pub fn diagnose(snapshot: &Snapshot, served: &[Served]) -> Report {
         let mut foreign = Vec::new();
         for e in remote.iter().filter(|e| *e.topic == *s.topic) {
             if e.role == want {
-                if *e.type_name != *s.type_name {
+                if !s.serves_type(&e.type_name) {
                     by_type
                         .entry(&e.type_name)
                         .or_default()
@@ -310,7 +358,10 @@ pub fn diagnose(snapshot: &Snapshot, served: &[Served]) -> Report {
                 } else {
                     by_qos.entry(reasons).or_default().push(RemoteRef::new(snapshot, e));
                 }
-            } else if s.role == Role::Writer && e.role == Role::Writer {
+            } else if s.role == Role::Writer && e.role == Role::Writer && snapshot.participant(&e.participant).is_some()
+            {
+                // A writer whose participant is not known yet may be this process's own
+                // (discovery can list an endpoint before its participant): not foreign yet.
                 foreign.push(RemoteRef::new(snapshot, e));
             }
         }
@@ -553,6 +604,7 @@ mod tests {
             },
             alternatives: Vec::new(),
             related_topics: Vec::new(),
+            also: Vec::new(),
         }
     }
 
@@ -823,6 +875,15 @@ mod tests {
         assert!(f.detail.contains("pid 1001"), "{}", f.detail);
         assert!(f.fix.contains("two sources"));
         assert_eq!(r.topics[0].matched.len(), 1);
+    }
+
+    #[test]
+    fn no_foreign_writer_before_its_participant_is_known() {
+        let mut b = Builder::new().remote(Role::Writer, "rt/dex1/left/state", GO_STATES);
+        // Discovery listed the endpoint but not (yet) its participant.
+        b.snap.participants.clear();
+        let r = diagnose(&b.snap, &[served("rt/dex1/left/state", GO_STATES, Role::Writer)]);
+        assert!(!kinds(&r).contains(&&FindingKind::ForeignWriter), "{:?}", kinds(&r));
     }
 
     #[test]

@@ -135,7 +135,7 @@ pub struct FrontConfig {
     /// dex3 fronts: rate of the low-frequency copy (default 50).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lf_state_hz: Option<RateHz>,
-    /// dex1 fronts: wire variant (default `go`).
+    /// dex1 fronts: wire variant (default `auto`: follows its clients, `crate::dex1::follow`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub variant: Option<Dex1Variant>,
     /// What silence from the client means (default `service`).

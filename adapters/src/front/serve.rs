@@ -9,6 +9,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use crate::dds::{DdsError, Node, Qos, Reader, WriterHandle, WriterInfo};
+use crate::discovery::diagnose::Served;
+use crate::discovery::Role;
 
 use crate::model::{CommandBody, HandState, SafeAction};
 use tokio::sync::mpsc;
@@ -134,6 +136,21 @@ pub enum Endpoints {
     StateOnly(Box<dyn StateIo>),
 }
 
+/// The QoS of every front's command reader ([`reader`]).
+pub const COMMAND_QOS: Qos = Qos::Reliable { depth: 16 };
+/// The QoS of every front's state writers (state, low-frequency state, touch).
+pub const STATE_QOS: Qos = Qos::BestEffort;
+
+/// What a front serves on its command topic: a reader of `T` with [`COMMAND_QOS`].
+pub fn served_command<T: handgate_idl::TopicType>(topic: &str) -> Served {
+    Served::new(topic, crate::dds::type_name::<T>(), Role::Reader, COMMAND_QOS.served())
+}
+
+/// What a front serves on a state topic: a writer of `T` with [`STATE_QOS`].
+pub fn served_state<T: handgate_idl::TopicType>(topic: &str) -> Served {
+    Served::new(topic, crate::dds::type_name::<T>(), Role::Writer, STATE_QOS.served())
+}
+
 /// A command reader on `topic` handing every sample to the front's task as an [`Incoming`]
 /// (the message and its writer, read from CycloneDDS once per new writer); a sample that
 /// finds the queue full is dropped and counted in `dropped`.
@@ -143,8 +160,20 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
     tx: Queue,
     dropped: Arc<AtomicU64>,
 ) -> Result<Reader<T>, DdsError> {
+    reader_wrapping(node, topic, tx, dropped, |s: T| -> Message { Box::new(s) })
+}
+
+/// [`reader`], each sample wrapped by `wrap` into the [`Message`] the front's decode expects
+/// (a front that reads one type on two topics tells them apart by the wrapper).
+pub fn reader_wrapping<T: Clone + handgate_idl::TopicType + Send + 'static>(
+    node: &Node,
+    topic: &str,
+    tx: Queue,
+    dropped: Arc<AtomicU64>,
+    wrap: impl Fn(T) -> Message + Send + 'static,
+) -> Result<Reader<T>, DdsError> {
     let mut writers: std::collections::HashMap<WriterHandle, Arc<WriterInfo>> = std::collections::HashMap::new();
-    node.reader_with_callback::<T, _>(topic, Qos::Reliable { depth: 16 }, move |h| {
+    node.reader_with_callback::<T, _>(topic, COMMAND_QOS, move |h| {
         let mut v = Vec::new();
         h.take_with_writers(&mut v);
         let taken = std::time::Instant::now();
@@ -156,7 +185,7 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
                 .entry(w)
                 .or_insert_with(|| Arc::new(h.matched_writer(w)))
                 .clone();
-            let msg: Message = Box::new(s);
+            let msg = wrap(s);
             if tx.try_send(Incoming { writer, msg, taken }).is_err() {
                 dropped.fetch_add(1, Ordering::Relaxed);
             }
@@ -171,6 +200,27 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
 pub struct FrontEnv {
     pub node: Node,
     pub discovery: tokio::sync::watch::Receiver<Arc<crate::discovery::Snapshot>>,
+    /// What the fronts of one runtime share (a front kind's own meeting point between its
+    /// fronts, e.g. several fronts serving one topic together).
+    pub shared: FrontShared,
+}
+
+/// Items the fronts of one runtime share, one per (type, key), created on first use.
+#[derive(Clone, Default)]
+pub struct FrontShared(Arc<std::sync::Mutex<SharedItems>>);
+
+type SharedItems = std::collections::HashMap<(std::any::TypeId, &'static str), Arc<dyn Any + Send + Sync>>;
+
+impl FrontShared {
+    /// The item of type `T` under `key`, created with `T::default()` by the first caller.
+    pub fn get<T: Any + Send + Sync + Default>(&self, key: &'static str) -> Arc<T> {
+        let mut g = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let item = g
+            .entry((std::any::TypeId::of::<T>(), key))
+            .or_insert_with(|| Arc::new(T::default()))
+            .clone();
+        item.downcast::<T>().expect("an entry keyed by T's TypeId holds a T")
+    }
 }
 
 /// The endpoints of front `f`, opened by its kind.
