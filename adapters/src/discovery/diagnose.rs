@@ -330,6 +330,21 @@ fn finding(kind: FindingKind, served: &Served, detail: String, fix: String, remo
 /// ([`Origin::Remote`]) count as counterparts; this process's own are ignored.
 pub fn diagnose(snapshot: &Snapshot, served: &[Served]) -> Report {
     let remote: Vec<&Endpoint> = snapshot.remote_endpoints().collect();
+    // Per (topic, role): the participants with such an endpoint (any origin), built once, so
+    // whether a remote endpoint is answered costs a lookup, not a scan of the snapshot.
+    let mut by_topic_role: std::collections::HashMap<(&str, Role), Vec<Guid>> = std::collections::HashMap::new();
+    for e in &snapshot.endpoints {
+        by_topic_role.entry((&e.topic, e.role)).or_default().push(e.participant);
+    }
+    // Whether another participant answers each remote endpoint (same order as `remote`).
+    let answered: Vec<bool> = remote
+        .iter()
+        .map(|e| {
+            by_topic_role
+                .get(&(&*e.topic, e.role.counterpart()))
+                .is_some_and(|ps| ps.iter().any(|p| *p != e.participant))
+        })
+        .collect();
     let served_topics: std::collections::HashSet<(&str, Role)> =
         served.iter().map(|s| (s.topic.as_str(), s.role)).collect();
     let mut topics = Vec::with_capacity(served.len());
@@ -426,14 +441,12 @@ pub fn diagnose(snapshot: &Snapshot, served: &[Served]) -> Report {
         // Near misses: counterpart-role remote endpoints on another topic that nothing
         // matches (no endpoint of the other role on that exact topic) and that is not ours.
         let mut near: BTreeMap<(String, String), Vec<RemoteRef>> = BTreeMap::new();
-        for e in remote.iter().filter(|e| e.role == want && *e.topic != *s.topic) {
+        for (e, _) in remote
+            .iter()
+            .zip(&answered)
+            .filter(|(e, answered)| e.role == want && *e.topic != *s.topic && !**answered)
+        {
             if served_topics.contains(&(&*e.topic, s.role)) {
-                continue;
-            }
-            let answered = snapshot
-                .on_topic(&e.topic)
-                .any(|o| o.role == e.role.counterpart() && o.participant != e.participant);
-            if answered {
                 continue;
             }
             let reason = s
