@@ -59,6 +59,8 @@ pub struct Plan {
     pub interface: Option<String>,
     pub status_topic: String,
     pub status_hz: f64,
+    /// Announce handgate as a ROS node in this namespace (`[dds] ros_node`); `None`: not.
+    pub namespace: Option<handgate_adapters::ros::Namespace>,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

@@ -20,6 +20,9 @@ impl crate::front::kind::FrontFactory for JointStateFront {
     fn keys(&self) -> &'static [&'static str] {
         &["topic", "urdf_names"]
     }
+    fn in_namespace(&self) -> bool {
+        true
+    }
     fn state_topic_key(&self) -> &'static str {
         "topic"
     }
@@ -52,7 +55,13 @@ impl crate::front::kind::FrontFactory for JointStateFront {
         _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         Ok(crate::front::serve::Endpoints::StateOnly(Box::new(JointStateIo {
-            writer: env.node.writer(&f.state_topic, crate::dds::Qos::BestEffort)?,
+            // ROS 2's default QoS (reliable, volatile) subscribers match a reliable writer;
+            // keep-last 1: only the newest state matters (docs/fronts.md, "QoS per topic").
+            writer: env.node.writer_with(
+                &f.state_topic,
+                crate::dds::Qos::Reliable { depth: 1 },
+                &crate::ros::user_data::<JointState_>(),
+            )?,
             urdf_names: f.config.urdf_names.unwrap_or(true),
         })))
     }

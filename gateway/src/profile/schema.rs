@@ -64,6 +64,7 @@ snake_enum!(
 );
 
 pub use handgate_adapters::front::config::Silence;
+pub use handgate_adapters::ros::Namespace;
 
 /// Which interface a front serves to clients: a handle into the front registry.
 pub use handgate_adapters::front::kind::FrontKind;
@@ -96,6 +97,31 @@ pub struct RawProfile {
     pub fronts: Vec<FrontConfig>,
 }
 
+impl Profile {
+    /// Front `f`'s topics and rates (`device`: its bound device), with handgate's own
+    /// interfaces' topics in the profile's namespace (`FrontFactory::in_namespace`).
+    pub fn front_topics(&self, f: &FrontConfig, device: Option<&DeviceConfig>) -> FrontTopics {
+        let mut t = f.topics(device);
+        if f.kind.factory().in_namespace() {
+            let ns = self.dds.namespace();
+            let map = |t: &mut Option<Topic>| {
+                if let Some(x) = t {
+                    *x = Topic(ns.topic(x.as_str()));
+                }
+            };
+            map(&mut t.cmd);
+            map(&mut t.state);
+            map(&mut t.lf_state);
+        }
+        t
+    }
+
+    /// The status topic, in the profile's namespace.
+    pub fn status_topic(&self) -> Topic {
+        Topic(self.dds.namespace().topic(self.status.topic.as_str()))
+    }
+}
+
 impl RawProfile {
     /// The profile with its devices parsed.
     pub fn into_profile(self, devices: Vec<DeviceConfig>) -> Profile {
@@ -119,6 +145,22 @@ pub struct DdsConfig {
     /// Network interface to bind, like unitree_sdk2's `ChannelFactoryInitialize(0, "eth0")`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interface: Option<String>,
+    /// ROS namespace of handgate's own topics (canonical, joint_state, status) and of its ROS
+    /// node: `robot1` makes `rt/joint_states` `rt/robot1/joint_states` (docs/fronts.md, "ROS 2").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub namespace: Option<String>,
+    /// Announce handgate as ROS node `<namespace>/handgate` on `ros_discovery_info`.
+    pub ros_node: bool,
+}
+
+impl DdsConfig {
+    /// The namespace (validated by `handgate check`; the root namespace when absent).
+    pub fn namespace(&self) -> Namespace {
+        self.namespace
+            .as_deref()
+            .and_then(|n| Namespace::parse(n).ok())
+            .unwrap_or_default()
+    }
 }
 
 impl Default for DdsConfig {
@@ -127,6 +169,8 @@ impl Default for DdsConfig {
         DdsConfig {
             domain: DomainId(1),
             interface: None,
+            namespace: None,
+            ros_node: true,
         }
     }
 }

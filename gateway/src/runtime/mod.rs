@@ -5,6 +5,7 @@
 
 mod devices;
 mod fronts;
+mod ros;
 mod status;
 
 use std::collections::HashMap;
@@ -105,6 +106,9 @@ impl Runtime {
             tasks.push(fronts::spawn_front(&env, f, &by_name, shutdown_rx.clone())?);
         }
         tasks.push(status::spawn_status(&node, plan, devices.clone(), shutdown_rx.clone())?);
+        if let Some(ns) = &plan.namespace {
+            tasks.push(ros::spawn_presence(&node, ns.clone(), shutdown_rx.clone())?);
+        }
         Ok(Self {
             node,
             devices,
