@@ -71,8 +71,16 @@ pub fn status_once(node: &Node, topic: &str, timeout: Duration) -> Result<hg::Ga
 /// Publishes a command to handgate's own interface `rt/handgate/{device}/cmd` after the gateway's reader has
 /// matched, repeating it at 50 Hz for `hold` (the front's watchdog holds the device once the
 /// stream stops). Returns how many samples were written.
-pub fn send(node: &Node, device: &str, cmd: hg::HandCmd_, timeout: Duration, hold: Duration) -> Result<u64, DdsError> {
-    let (topic, _) = handgate_adapters::fronts::own_topics(device);
+/// `ns`: the gateway's ROS namespace (docs/fronts.md, "ROS 2").
+pub fn send(
+    node: &Node,
+    ns: &handgate_adapters::ros::Namespace,
+    device: &str,
+    cmd: hg::HandCmd_,
+    timeout: Duration,
+    hold: Duration,
+) -> Result<u64, DdsError> {
+    let topic = ns.topic(&handgate_adapters::fronts::own_topics(device).0);
     let mut w = node.writer::<hg::HandCmd_>(&topic, Qos::Reliable { depth: 1 })?;
     w.wait_matched(1, timeout)?;
     let start = std::time::Instant::now();

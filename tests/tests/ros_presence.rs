@@ -14,7 +14,7 @@
 use std::collections::BTreeSet;
 use std::time::Duration;
 
-use handgate_tests::{default_profile_edited, serial, Gateway, PyProcess};
+use handgate_tests::{default_profile_edited, handgate_bin, serial, Gateway, PyProcess};
 use serde_json::Value;
 
 const DEADLINE: Duration = Duration::from_secs(45);
@@ -158,4 +158,13 @@ fn namespace_moves_handgates_own_topics_and_names_the_node() {
     for t in ["rt/joint_states", "rt/handgate/status", "rt/handgate/dex3_left/state"] {
         assert!(!topics.contains(t), "{t} in {topics:?}");
     }
+
+    // `handgate status --namespace` finds the namespaced status topic.
+    let out = std::process::Command::new(handgate_bin())
+        .args(["status", "--once", "--domain", "205", "--namespace", "robot1", "--timeout", "20"])
+        .output()
+        .expect("handgate status runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("dex3_left"), "{stdout}");
 }
