@@ -499,7 +499,10 @@ impl<T: TopicType> Reader<T> {
 
 extern "C" {
     // Not in cyclonedds-sys 0.2.1's bindings; CycloneDDS 0.10's `dds_get_guid`.
-    fn dds_get_guid(entity: cyclonedds_sys::dds_entity_t, guid: *mut cyclonedds_sys::dds_guid_t) -> cyclonedds_sys::dds_return_t;
+    fn dds_get_guid(
+        entity: cyclonedds_sys::dds_entity_t,
+        guid: *mut cyclonedds_sys::dds_guid_t,
+    ) -> cyclonedds_sys::dds_return_t;
 }
 
 /// The DDS GUID of a live entity (participant, reader, writer).

@@ -177,14 +177,23 @@ mod tests {
     #[test]
     fn namespaces_follow_ros_rules() {
         assert_eq!(Namespace::parse("robot1").unwrap().ros(), "/robot1");
-        assert_eq!(Namespace::parse("/robot1").unwrap(), Namespace::parse("robot1").unwrap());
+        assert_eq!(
+            Namespace::parse("/robot1").unwrap(),
+            Namespace::parse("robot1").unwrap()
+        );
         assert_eq!(Namespace::parse("fleet/robot_1").unwrap().ros(), "/fleet/robot_1");
         assert_eq!(Namespace::parse(""), Err(NamespaceError::Empty));
         assert_eq!(Namespace::parse("/"), Err(NamespaceError::Empty));
         assert_eq!(Namespace::parse("a//b"), Err(NamespaceError::EmptyToken));
         assert_eq!(Namespace::parse("robot1/"), Err(NamespaceError::EmptyToken));
-        assert_eq!(Namespace::parse("1robot"), Err(NamespaceError::LeadingDigit("1robot".into())));
-        assert_eq!(Namespace::parse("ro-bot"), Err(NamespaceError::BadChar("ro-bot".into())));
+        assert_eq!(
+            Namespace::parse("1robot"),
+            Err(NamespaceError::LeadingDigit("1robot".into()))
+        );
+        assert_eq!(
+            Namespace::parse("ro-bot"),
+            Err(NamespaceError::BadChar("ro-bot".into()))
+        );
         assert_eq!(Namespace::parse("rö"), Err(NamespaceError::BadChar("rö".into())));
         assert!(Namespace::parse(&"a".repeat(255)).is_ok());
         assert_eq!(
@@ -216,7 +225,10 @@ mod tests {
         assert_eq!(m.gid.data, [1; 16]);
         assert_eq!(m.node_entities_info_seq.len(), 1);
         let n = &m.node_entities_info_seq[0];
-        assert_eq!((n.node_namespace.as_str(), n.node_name.as_str()), ("/robot1", "handgate"));
+        assert_eq!(
+            (n.node_namespace.as_str(), n.node_name.as_str()),
+            ("/robot1", "handgate")
+        );
         assert_eq!(n.reader_gid_seq, vec![Gid_ { data: [3; 16] }]);
         assert_eq!(n.writer_gid_seq, vec![Gid_ { data: [2; 16] }, Gid_ { data: [4; 16] }]);
     }

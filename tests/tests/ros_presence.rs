@@ -21,8 +21,7 @@ const DEADLINE: Duration = Duration::from_secs(45);
 
 /// REP-2011 hashes as ROS 2's generated code publishes them (docs/sources.md §10).
 const JOINT_STATE_HASH: &str = "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e";
-const PARTICIPANT_ENTITIES_INFO_HASH: &str =
-    "RIHS01_91a0593bacdcc50ea9bdcf849a938b128412cc1ea821245c663bcd26f83c295e";
+const PARTICIPANT_ENTITIES_INFO_HASH: &str = "RIHS01_91a0593bacdcc50ea9bdcf849a938b128412cc1ea821245c663bcd26f83c295e";
 
 /// What the peer reported: the node message and the participant's writers.
 struct Seen {
@@ -36,7 +35,10 @@ impl Seen {
         self.pubs.iter().find(|p| p["topic"] == topic)
     }
     fn topics(&self) -> BTreeSet<String> {
-        self.pubs.iter().map(|p| p["topic"].as_str().unwrap().to_string()).collect()
+        self.pubs
+            .iter()
+            .map(|p| p["topic"].as_str().unwrap().to_string())
+            .collect()
     }
 }
 
@@ -51,8 +53,11 @@ fn peer(gw: &Gateway, joint_states: &str) -> Seen {
     ];
     let py = PyProcess::spawn("ros_peer.py", &args).unwrap();
     let ctx = || format!("{}\n{}", py.transcript(), gw.transcript());
-    py.wait_line("READY", DEADLINE).unwrap_or_else(|e| panic!("{e}\n{}", ctx()));
-    let node = py.wait_line("NODE ", DEADLINE).unwrap_or_else(|e| panic!("{e}\n{}", ctx()));
+    py.wait_line("READY", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", ctx()));
+    let node = py
+        .wait_line("NODE ", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", ctx()));
     let node: Value = serde_json::from_str(&node).unwrap();
     let mut pubs = Vec::new();
     let joint_names;
@@ -67,7 +72,8 @@ fn peer(gw: &Gateway, joint_states: &str) -> Seen {
             panic!("unexpected line {line:?}\n{}", ctx());
         }
     }
-    py.wait_line("DONE", DEADLINE).unwrap_or_else(|e| panic!("{e}\n{}", ctx()));
+    py.wait_line("DONE", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", ctx()));
     Seen {
         node,
         pubs,
@@ -129,7 +135,11 @@ fn default_profile_is_a_ros_node_and_joint_states_match_a_default_qos_reader() {
     let seen = peer(&gw, "rt/joint_states");
     check_presence(&seen, "/", "rt/joint_states");
     let topics = seen.topics();
-    for t in ["rt/handgate/status", "rt/handgate/dex3_left/state", "rt/dex3/left/state"] {
+    for t in [
+        "rt/handgate/status",
+        "rt/handgate/dex3_left/state",
+        "rt/dex3/left/state",
+    ] {
         assert!(topics.contains(t), "{t} in {topics:?}");
     }
 }
@@ -161,7 +171,16 @@ fn namespace_moves_handgates_own_topics_and_names_the_node() {
 
     // `handgate status --namespace` finds the namespaced status topic.
     let out = std::process::Command::new(handgate_bin())
-        .args(["status", "--once", "--domain", "205", "--namespace", "robot1", "--timeout", "20"])
+        .args([
+            "status",
+            "--once",
+            "--domain",
+            "205",
+            "--namespace",
+            "robot1",
+            "--timeout",
+            "20",
+        ])
         .output()
         .expect("handgate status runs");
     let stdout = String::from_utf8_lossy(&out.stdout);

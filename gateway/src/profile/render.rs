@@ -19,7 +19,11 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
         p.dds.domain.0,
         p.dds.interface.as_deref().unwrap_or("(any)"),
         if p.dds.ros_node {
-            format!("{}/{}", p.dds.namespace().ros().trim_end_matches('/'), handgate_adapters::ros::NODE_NAME)
+            format!(
+                "{}/{}",
+                p.dds.namespace().ros().trim_end_matches('/'),
+                handgate_adapters::ros::NODE_NAME
+            )
         } else {
             "off".into()
         }

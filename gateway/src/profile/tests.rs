@@ -1483,7 +1483,10 @@ fn namespace_moves_handgates_own_topics_only() {
     assert_eq!(
         topics,
         [
-            (Some("rt/fleet/robot1/handgate/l/cmd"), "rt/fleet/robot1/handgate/l/state"),
+            (
+                Some("rt/fleet/robot1/handgate/l/cmd"),
+                "rt/fleet/robot1/handgate/l/state"
+            ),
             (Some("rt/dex3/left/cmd"), "rt/dex3/left/state"),
             (None, "rt/fleet/robot1/joint_states"),
             // A topic set in the profile is a ROS name relative to the namespace too.
@@ -1491,7 +1494,10 @@ fn namespace_moves_handgates_own_topics_only() {
         ]
     );
     assert_eq!(plan.status_topic, "rt/fleet/robot1/handgate/status");
-    assert_eq!(plan.namespace.as_ref().map(|n| n.ros()).as_deref(), Some("/fleet/robot1"));
+    assert_eq!(
+        plan.namespace.as_ref().map(|n| n.ros()).as_deref(),
+        Some("/fleet/robot1")
+    );
     let text = render_fleet(&l.profile, &l.origin);
     assert!(text.contains("ROS node /fleet/robot1/handgate"), "{text}");
     assert!(text.contains("status: rt/fleet/robot1/handgate/status"), "{text}");
