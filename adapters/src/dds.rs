@@ -6,14 +6,16 @@
 //! a CycloneDDS XML config naming the interface is attached to the domain.
 
 use std::marker::PhantomData;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use cyclonedds_rs::{
     dds_domain::DdsDomain, DdsParticipant, DdsQos, DdsReader, DdsTopic, DdsWriter, Entity, ParticipantBuilder,
     SampleBuffer, TopicBuilder, TopicType,
 };
-use cyclonedds_sys::{dds_history_kind, dds_reliability_kind};
+use cyclonedds_sys::{dds_durability_kind, dds_history_kind, dds_reliability_kind};
+
+use crate::discovery::{Guid, Role};
 
 /// Errors from the DDS layer.
 #[derive(Debug, thiserror::Error)]
@@ -50,9 +52,43 @@ pub enum Qos {
     Reliable { depth: i32 },
 }
 
+/// DURABILITY of an endpoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Durability {
+    /// Samples go to the readers matched when they are written (the DDS and ROS 2 default).
+    #[default]
+    Volatile,
+    /// A writer keeps its history for readers that join later (ROS 2 `transient_local`).
+    TransientLocal,
+}
+
+/// What an endpoint carries beyond its [`Qos`]: durability and USER_DATA (e.g. a ROS 2
+/// type hash, `typehash=RIHS01_...;`, see `handgate_idl::type_hash::user_data`). The default
+/// is what [`Node::writer`] and [`Node::reader`] use: volatile, no USER_DATA.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct EndpointOptions {
+    pub durability: Durability,
+    /// USER_DATA bytes; empty: none.
+    pub user_data: Vec<u8>,
+}
+
+impl EndpointOptions {
+    /// These options with USER_DATA `bytes`.
+    pub fn user_data(mut self, bytes: impl Into<Vec<u8>>) -> Self {
+        self.user_data = bytes.into();
+        self
+    }
+
+    /// These options with durability `d`.
+    pub fn durability(mut self, d: Durability) -> Self {
+        self.durability = d;
+        self
+    }
+}
+
 impl Qos {
     /// The QoS an endpoint created with `self` has, as discovery and its diagnostics compare
-    /// it (volatile: nothing here sets durability).
+    /// it (volatile: durability comes from [`EndpointOptions`], which fronts do not set).
     pub fn served(self) -> crate::discovery::diagnose::ServedQos {
         use crate::discovery::{Durability, History, Reliability};
         let (reliability, history) = match self {
@@ -64,6 +100,14 @@ impl Qos {
             durability: Durability::Volatile,
             history,
         }
+    }
+
+    fn to_dds_with(self, opts: &EndpointOptions) -> Result<DdsQos, DdsError> {
+        let mut q = self.to_dds()?;
+        if opts.durability == Durability::TransientLocal {
+            q.set_durability(dds_durability_kind::DDS_DURABILITY_TRANSIENT_LOCAL);
+        }
+        finish_qos(q, &opts.user_data)
     }
 
     fn to_dds(self) -> Result<DdsQos, DdsError> {
@@ -86,6 +130,34 @@ impl Qos {
         }
         Ok(q)
     }
+}
+
+/// `q` with USER_DATA `user_data` (unchanged when `user_data` is empty).
+fn finish_qos(q: DdsQos, user_data: &[u8]) -> Result<DdsQos, DdsError> {
+    if user_data.is_empty() {
+        return Ok(q);
+    }
+    // cyclonedds-rs 0.6.5's DdsQos has no USER_DATA setter and keeps its pointer private: take
+    // the pointer out (the wrapper gives up ownership), set the policy through the C API and
+    // wrap the same object again.
+    let raw = <*const cyclonedds_sys::dds_qos_t>::from(q) as *mut cyclonedds_sys::dds_qos_t;
+    // SAFETY: `raw` is the live QoS object `q` owned, now owned by nobody; CycloneDDS copies the
+    // bytes of `user_data`.
+    unsafe {
+        cyclonedds_sys::dds_qset_userdata(raw, user_data.as_ptr().cast(), user_data.len() as _);
+        Ok(qos_from_raw(raw))
+    }
+}
+
+/// A `DdsQos` owning `raw`.
+///
+/// # Safety
+/// `raw` is a live QoS object owned by nobody else. `DdsQos` is a one-field tuple struct
+/// holding exactly this pointer (cyclonedds-rs 0.6.5, pinned `=0.6.5`); `transmute` checks the
+/// sizes agree.
+unsafe fn qos_from_raw(raw: *mut cyclonedds_sys::dds_qos_t) -> DdsQos {
+    // SAFETY: see the function's contract.
+    unsafe { std::mem::transmute::<*mut cyclonedds_sys::dds_qos_t, DdsQos>(raw) }
 }
 
 /// The CycloneDDS XML that binds a domain to one network interface.
@@ -112,6 +184,11 @@ pub struct Node {
 struct NodeInner {
     participant: DdsParticipant,
     domain_id: u32,
+    /// The participant's GUID.
+    guid: Guid,
+    /// Every reader and writer made through this node and still alive, in creation order
+    /// (what the ROS 2 graph message lists, `crate::ros`), and a counter bumped on each change.
+    endpoints: Mutex<(Vec<(Role, Guid)>, u64)>,
     // Keeps an explicitly configured domain alive as long as the participant.
     _domain: Option<DdsDomain>,
 }
@@ -144,13 +221,43 @@ impl Node {
             .with_domain(domain_id)
             .create()
             .map_err(dds_err("participant create"))?;
+        // SAFETY: only reads the integer handle out of the wrapper.
+        let guid = entity_guid(unsafe { participant.entity().entity() })?;
         Ok(Self {
             inner: Arc::new(NodeInner {
                 participant,
                 domain_id,
+                guid,
+                endpoints: Mutex::new((Vec::new(), 0)),
                 _domain: domain,
             }),
         })
+    }
+
+    /// The participant's DDS GUID.
+    pub fn guid(&self) -> Guid {
+        self.inner.guid
+    }
+
+    /// The readers and writers made through this node that are alive, in creation order, and
+    /// a generation number that changes whenever that list does.
+    pub fn endpoints(&self) -> (Vec<(Role, Guid)>, u64) {
+        let g = self.inner.endpoints.lock().unwrap_or_else(|p| p.into_inner());
+        (g.0.clone(), g.1)
+    }
+
+    fn register(&self, role: Role, entity: cyclonedds_sys::dds_entity_t) -> Result<Guid, DdsError> {
+        let guid = entity_guid(entity)?;
+        let mut g = self.inner.endpoints.lock().unwrap_or_else(|p| p.into_inner());
+        g.0.push((role, guid));
+        g.1 += 1;
+        Ok(guid)
+    }
+
+    fn unregister(&self, guid: Guid) {
+        let mut g = self.inner.endpoints.lock().unwrap_or_else(|p| p.into_inner());
+        g.0.retain(|(_, k)| *k != guid);
+        g.1 += 1;
     }
 
     pub fn domain_id(&self) -> u32 {
@@ -173,69 +280,51 @@ impl Node {
 
     /// A writer of `T` on topic `name`.
     pub fn writer<T: TopicType>(&self, name: &str, qos: Qos) -> Result<Writer<T>, DdsError> {
-        let topic = self.topic::<T>(name)?;
-        let writer = DdsWriter::create(&self.inner.participant, topic, Some(qos.to_dds()?), None)
-            .map_err(dds_err("writer create"))?;
-        Ok(Writer {
-            writer: WriterEntity::Rs(writer),
-            _node: self.clone(),
-            topic: name.to_string(),
-        })
+        self.writer_with(name, qos, &EndpointOptions::default())
     }
 
-    /// A writer of `T` on topic `name` whose USER_DATA QoS is `user_data` (what the readers
-    /// that match it see of it, e.g. [`crate::front::serve::FORCE_USER_DATA`]). Created
-    /// through the C API: cyclonedds-rs 0.6.5 has no USER_DATA setter.
-    pub fn writer_with_user_data<T: TopicType>(
+    /// A writer of `T` on topic `name` with durability and USER_DATA from `opts`.
+    pub fn writer_with<T: TopicType>(
         &self,
         name: &str,
         qos: Qos,
-        user_data: &[u8],
+        opts: &EndpointOptions,
     ) -> Result<Writer<T>, DdsError> {
         let topic = self.topic::<T>(name)?;
-        // Ours to delete (the conversion hands the C object over).
-        let q: *const cyclonedds_sys::dds_qos_t = qos.to_dds()?.into();
-        // SAFETY: `q` is a live QoS object we own; CycloneDDS copies `user_data` (a valid
-        // slice of its length) and the QoS into the writer; the participant and topic are
-        // live entities of ours; `q` is deleted exactly once, after its last use.
-        let w = unsafe {
-            cyclonedds_sys::dds_qset_userdata(
-                q.cast_mut(),
-                user_data.as_ptr().cast(),
-                user_data.len() as cyclonedds_sys::size_t,
-            );
-            let w = cyclonedds_sys::dds_create_writer(
-                self.participant_entity(),
-                topic.entity().entity(),
-                q,
-                std::ptr::null(),
-            );
-            cyclonedds_sys::dds_delete_qos(q.cast_mut());
-            w
-        };
-        if w < 0 {
-            return Err(DdsError::Dds {
-                what: "writer create",
-                source: cyclonedds_rs::DDSError::from(w),
-            });
-        }
+        let writer = DdsWriter::create(&self.inner.participant, topic, Some(qos.to_dds_with(opts)?), None)
+            .map_err(dds_err("writer create"))?;
+        // SAFETY: only reads the integer handle out of the wrapper.
+        let guid = self.register(Role::Writer, unsafe { writer.entity().entity() })?;
         Ok(Writer {
-            // SAFETY: `w` is the writer just created; RawWriter deletes it once, on drop.
-            writer: WriterEntity::Raw(RawWriter(unsafe { cyclonedds_sys::DdsEntity::new(w) })),
-            _node: self.clone(),
+            writer,
+            node: self.clone(),
             topic: name.to_string(),
+            guid,
         })
     }
 
     /// A polled reader of `T` on topic `name`.
     pub fn reader<T: TopicType>(&self, name: &str, qos: Qos) -> Result<Reader<T>, DdsError> {
+        self.reader_with(name, qos, &EndpointOptions::default())
+    }
+
+    /// A polled reader of `T` on topic `name` with durability and USER_DATA from `opts`.
+    pub fn reader_with<T: TopicType>(
+        &self,
+        name: &str,
+        qos: Qos,
+        opts: &EndpointOptions,
+    ) -> Result<Reader<T>, DdsError> {
         let topic = self.topic::<T>(name)?;
-        let reader = DdsReader::create(&self.inner.participant, topic, Some(qos.to_dds()?), None)
+        let reader = DdsReader::create(&self.inner.participant, topic, Some(qos.to_dds_with(opts)?), None)
             .map_err(dds_err("reader create"))?;
+        // SAFETY: only reads the integer handle out of the wrapper.
+        let guid = self.register(Role::Reader, unsafe { reader.entity().entity() })?;
         Ok(Reader {
             reader,
-            _node: self.clone(),
+            node: self.clone(),
             topic: name.to_string(),
+            guid,
             _p: PhantomData,
         })
     }
@@ -259,10 +348,13 @@ impl Node {
             .build();
         let reader = DdsReader::create(&self.inner.participant, topic, Some(qos.to_dds()?), Some(listener))
             .map_err(dds_err("reader create"))?;
+        // SAFETY: only reads the integer handle out of the wrapper.
+        let guid = self.register(Role::Reader, unsafe { reader.entity().entity() })?;
         Ok(Reader {
             reader,
-            _node: self.clone(),
+            node: self.clone(),
             topic: name.to_string(),
+            guid,
             _p: PhantomData,
         })
     }
@@ -395,34 +487,15 @@ fn take_each<T: TopicType + Clone>(entity: &cyclonedds_sys::DdsEntity, mut each:
 
 /// A typed writer.
 pub struct Writer<T: TopicType> {
-    writer: WriterEntity<T>,
-    _node: Node,
+    writer: DdsWriter<T>,
+    node: Node,
     topic: String,
+    guid: Guid,
 }
 
-/// A writer made by cyclonedds-rs, or one made through the C API (with QoS cyclonedds-rs
-/// cannot set); both write through cyclonedds-rs's serializer.
-enum WriterEntity<T: TopicType> {
-    Rs(DdsWriter<T>),
-    Raw(RawWriter),
-}
-
-/// A writer entity created through the C API, deleted when dropped.
-struct RawWriter(cyclonedds_sys::DdsEntity);
-
-impl Drop for RawWriter {
+impl<T: TopicType> Drop for Writer<T> {
     fn drop(&mut self) {
-        // SAFETY: the writer we created; deleted only here.
-        unsafe { cyclonedds_sys::dds_delete(self.0.entity()) };
-    }
-}
-
-impl<T: TopicType> WriterEntity<T> {
-    fn entity(&self) -> &cyclonedds_sys::DdsEntity {
-        match self {
-            WriterEntity::Rs(w) => w.entity(),
-            WriterEntity::Raw(w) => &w.0,
-        }
+        self.node.unregister(self.guid);
     }
 }
 
@@ -430,11 +503,16 @@ unsafe impl<T: TopicType> Send for Writer<T> {}
 
 impl<T: TopicType> Writer<T> {
     pub fn write(&mut self, sample: T) -> Result<(), DdsError> {
-        DdsWriter::<T>::write_to_entity(self.writer.entity(), Arc::new(sample)).map_err(dds_err("write"))
+        self.writer.write(Arc::new(sample)).map_err(dds_err("write"))
     }
 
     pub fn topic(&self) -> &str {
         &self.topic
+    }
+
+    /// The writer's DDS GUID.
+    pub fn guid(&self) -> Guid {
+        self.guid
     }
 
     /// Number of readers currently matched.
@@ -458,9 +536,16 @@ impl<T: TopicType> Writer<T> {
 /// A typed reader (polled, or callback-driven when made with `reader_with_callback`).
 pub struct Reader<T: TopicType> {
     reader: DdsReader<T>,
-    _node: Node,
+    node: Node,
     topic: String,
+    guid: Guid,
     _p: PhantomData<T>,
+}
+
+impl<T: TopicType> Drop for Reader<T> {
+    fn drop(&mut self) {
+        self.node.unregister(self.guid);
+    }
 }
 
 unsafe impl<T: TopicType> Send for Reader<T> {}
@@ -494,6 +579,11 @@ impl<T: TopicType> Reader<T> {
         &self.topic
     }
 
+    /// The reader's DDS GUID.
+    pub fn guid(&self) -> Guid {
+        self.guid
+    }
+
     /// Number of writers currently matched.
     pub fn matched(&self) -> u32 {
         let mut st = cyclonedds_sys::dds_subscription_matched_status_t::default();
@@ -510,6 +600,28 @@ impl<T: TopicType> Reader<T> {
     pub fn wait_matched(&self, n: u32, timeout: Duration) -> Result<(), DdsError> {
         wait_until(timeout, "matched writer", || self.matched() >= n)
     }
+}
+
+extern "C" {
+    // Not in cyclonedds-sys 0.2.1's bindings; CycloneDDS 0.10's `dds_get_guid`.
+    fn dds_get_guid(
+        entity: cyclonedds_sys::dds_entity_t,
+        guid: *mut cyclonedds_sys::dds_guid_t,
+    ) -> cyclonedds_sys::dds_return_t;
+}
+
+/// The DDS GUID of a live entity (participant, reader, writer).
+pub(crate) fn entity_guid(entity: cyclonedds_sys::dds_entity_t) -> Result<Guid, DdsError> {
+    let mut g = cyclonedds_sys::dds_guid_t::default();
+    // SAFETY: `g` is a plain out-parameter; an invalid handle is reported as an error code.
+    let rc = unsafe { dds_get_guid(entity, &mut g) };
+    if rc < 0 {
+        return Err(DdsError::Dds {
+            what: "get guid",
+            source: cyclonedds_rs::DDSError::from(rc),
+        });
+    }
+    Ok(Guid(g.v))
 }
 
 fn wait_until(timeout: Duration, what: &'static str, mut cond: impl FnMut() -> bool) -> Result<(), DdsError> {

@@ -493,7 +493,6 @@ mod ffi {
     pub const INSTANCE_ALIVE: u32 = 16;
 
     extern "C" {
-        pub fn dds_get_guid(entity: dds_entity_t, guid: *mut dds_guid_t) -> dds_return_t;
         pub fn dds_qget_prop(qos: *const dds_qos_t, name: *const c_char, value: *mut *mut c_char) -> bool;
         // The kinds are read as plain integers (the sys crate's Rust enums would make an
         // unexpected value undefined behaviour).
@@ -807,12 +806,7 @@ impl Discovery {
     /// [`Origin::ThisParticipant`]). The first snapshot holds what CycloneDDS already knows.
     pub fn start(node: &Node, cfg: DiscoveryConfig) -> Result<Self, DdsError> {
         let participant = node.participant_entity();
-        let mut guid = dds_guid_t::default();
-        // SAFETY: a live participant handle (held by `node`); `guid` is a plain out-parameter.
-        dds_call("get participant guid", unsafe {
-            ffi::dds_get_guid(participant, &mut guid)
-        })?;
-        let me = Guid(guid.v);
+        let me = node.guid();
 
         let mut ents = Entities {
             readers: [

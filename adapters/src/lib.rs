@@ -24,6 +24,7 @@ pub mod link;
 pub mod mapping;
 pub mod model;
 pub mod open;
+pub mod ros;
 pub mod route;
 pub mod sim;
 pub mod units;

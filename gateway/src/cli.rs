@@ -43,7 +43,7 @@ pub enum Command {
     Status {
         #[command(flatten)]
         dds: DdsArgs,
-        /// Status topic (`status.topic`).
+        /// Status topic (`status.topic`), in `--namespace`.
         #[arg(long, default_value = "rt/handgate/status")]
         topic: String,
         /// Print one sample and exit.
@@ -200,6 +200,16 @@ pub struct DdsArgs {
     /// Network interface for DDS, e.g. eth0.
     #[arg(long)]
     pub interface: Option<String>,
+    /// The gateway's ROS namespace (`dds.namespace`): its own topics are inside it.
+    #[arg(long, value_parser = handgate_adapters::ros::Namespace::parse)]
+    pub namespace: Option<handgate_adapters::ros::Namespace>,
+}
+
+impl DdsArgs {
+    /// One of handgate's own topics, in `--namespace`.
+    pub fn topic(&self, topic: &str) -> String {
+        self.namespace.clone().unwrap_or_default().topic(topic)
+    }
 }
 
 /// Flags that override profile keys (above the profile file and `HANDGATE_*` variables).

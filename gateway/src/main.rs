@@ -150,7 +150,7 @@ fn main() -> anyhow::Result<ExitCode> {
         } => {
             let node = handgate_adapters::dds::Node::new(dds.domain, dds.interface.as_deref())?;
             loop {
-                let s = tools::status_once(&node, &topic, Duration::from_secs_f64(timeout))?;
+                let s = tools::status_once(&node, &dds.topic(&topic), Duration::from_secs_f64(timeout))?;
                 if !once {
                     print!("\x1b[2J\x1b[H");
                 }
@@ -266,6 +266,7 @@ fn main() -> anyhow::Result<ExitCode> {
             };
             let n = tools::send(
                 &node,
+                &dds.namespace.clone().unwrap_or_default(),
                 &device,
                 cmd,
                 tools::SendOptions {

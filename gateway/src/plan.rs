@@ -66,6 +66,8 @@ pub struct Plan {
     /// the start waits for it (`dds.discovery_settle_ms`, `dds.discovery_max_wait_ms`).
     pub discovery_settle: Duration,
     pub discovery_max_wait: Duration,
+    /// Announce handgate as a ROS node in this namespace (`[dds] ros_node`); `None`: not.
+    pub namespace: Option<handgate_adapters::ros::Namespace>,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

@@ -140,7 +140,7 @@ fn front_table(
 fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveError> {
     let lookup = |n: &crate::profile::DeviceName| p.devices.iter().find(|d| &d.name == n);
     let dev = f.device.as_ref().and_then(lookup);
-    let topics = f.topics(dev);
+    let topics = p.front_topics(f, dev);
     let need = |t: Option<Topic>, what: &str| {
         t.map(|t| t.0)
             .ok_or_else(|| ResolveError::Front(i, format!("no {what} topic (side center?)")))
@@ -206,7 +206,8 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         profile: p.name.clone(),
         domain: p.dds.domain.0,
         interface: p.dds.interface.clone(),
-        status_topic: p.status.topic.0.clone(),
+        status_topic: p.status_topic().0,
+        namespace: p.dds.ros_node.then(|| p.dds.namespace()),
         status_hz: p.status.rate_hz.0,
         foreign_state_writers: p.dds.foreign_state_writers,
         discovery_settle: p.dds.discovery_settle_ms.as_duration(),

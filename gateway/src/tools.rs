@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use handgate_adapters::dds::{DdsError, Node, Qos};
+use handgate_adapters::dds::{DdsError, EndpointOptions, Node, Qos};
 use handgate_adapters::front::serve::FORCE_USER_DATA;
 use handgate_idl::handgate as hg;
 
@@ -108,15 +108,23 @@ pub struct SendOptions {
 /// Publishes a command to handgate's own interface `rt/handgate/{device}/cmd` after the gateway's reader has
 /// matched, repeating it at 50 Hz for `hold` (the front's watchdog holds the device once the
 /// stream stops). Returns how many samples were written.
-pub fn send(node: &Node, device: &str, cmd: hg::HandCmd_, o: SendOptions) -> Result<u64, DdsError> {
+/// `ns`: the gateway's ROS namespace (docs/fronts.md, "ROS 2").
+pub fn send(
+    node: &Node,
+    ns: &handgate_adapters::ros::Namespace,
+    device: &str,
+    cmd: hg::HandCmd_,
+    o: SendOptions,
+) -> Result<u64, DdsError> {
     let SendOptions { timeout, hold, force } = o;
-    let (topic, _) = handgate_adapters::fronts::own_topics(device);
+    let topic = ns.topic(&handgate_adapters::fronts::own_topics(device).0);
     let qos = Qos::Reliable { depth: 1 };
-    let mut w = if force {
-        node.writer_with_user_data::<hg::HandCmd_>(&topic, qos, FORCE_USER_DATA)?
+    let opts = if force {
+        EndpointOptions::default().user_data(FORCE_USER_DATA)
     } else {
-        node.writer::<hg::HandCmd_>(&topic, qos)?
+        EndpointOptions::default()
     };
+    let mut w = node.writer_with::<hg::HandCmd_>(&topic, qos, &opts)?;
     w.wait_matched(1, timeout)?;
     let start = std::time::Instant::now();
     let mut n: u64 = 0;

@@ -1,6 +1,7 @@
 //! Wire types only: the DDS messages real Unitree systems exchange with hands and grippers,
 //! byte-for-byte as unitree_sdk2 (CycloneDDS idlc 0.10.2, XCDR1, FINAL, keyless) lays them out,
-//! plus handgate's own canonical messages (`idl/handgate.idl`), the ROS 2 `JointState` and the
+//! plus handgate's own canonical messages (`idl/handgate.idl`), the ROS 2 `JointState` (with the
+//! REP-2011 type hashes of the ROS types, [`type_hash`]), the ROS 2 graph message and the
 //! Inspire FTP hand's own messages (`inspire::`, `idl/inspire.idl`).
 //!
 //! Field order is wire order. Fixed arrays are Rust arrays, IDL sequences are `Vec`s.
@@ -14,6 +15,7 @@ pub mod cdr_codec;
 pub mod handgate;
 pub mod inspire;
 pub mod ros2;
+pub mod type_hash;
 pub mod unitree_go;
 pub mod unitree_hg;
 

@@ -145,6 +145,34 @@ class RosJointState_(idl.IdlStruct, typename="sensor_msgs.msg.dds_.JointState_")
     effort: types.sequence[types.float64]
 
 
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class Gid_(idl.IdlStruct, typename="rmw_dds_common.msg.dds_.Gid_"):
+    data: types.array[types.uint8, 16]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class NodeEntitiesInfo_(idl.IdlStruct, typename="rmw_dds_common.msg.dds_.NodeEntitiesInfo_"):
+    node_namespace: types.bounded_str[256]
+    node_name: types.bounded_str[256]
+    reader_gid_seq: types.sequence[Gid_]
+    writer_gid_seq: types.sequence[Gid_]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class ParticipantEntitiesInfo_(idl.IdlStruct, typename="rmw_dds_common.msg.dds_.ParticipantEntitiesInfo_"):
+    """ROS 2 Iron and later (16-byte Gid): what rmw writes on `ros_discovery_info`. Read by
+    tests/python/ros_peer.py only (not a golden fixture type, so not in CLASSES)."""
+
+    gid: Gid_
+    node_entities_info_seq: types.sequence[NodeEntitiesInfo_]
+
+
 CLASSES = {
     "handgate/JointCmd_": JointCmd_,
     "handgate/HandCmd_": HandCmd_,

@@ -59,6 +59,9 @@ impl crate::front::kind::FrontFactory for CanonicalFront {
     fn name(&self) -> &'static str {
         "canonical"
     }
+    fn in_namespace(&self) -> bool {
+        true
+    }
     fn default_topics(
         &self,
         _f: &crate::front::config::FrontConfig,

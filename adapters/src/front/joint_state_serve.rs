@@ -20,6 +20,9 @@ impl crate::front::kind::FrontFactory for JointStateFront {
     fn keys(&self) -> &'static [&'static str] {
         &["topic", "urdf_names"]
     }
+    fn in_namespace(&self) -> bool {
+        true
+    }
     fn state_topic_key(&self) -> &'static str {
         "topic"
     }
@@ -45,7 +48,12 @@ impl crate::front::kind::FrontFactory for JointStateFront {
         }
     }
     fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        vec![crate::front::serve::served_state::<JointState_>(&f.state_topic)]
+        vec![crate::discovery::diagnose::Served::new(
+            &f.state_topic,
+            crate::dds::type_name::<JointState_>(),
+            crate::discovery::Role::Writer,
+            JOINT_STATES_QOS.served(),
+        )]
     }
     fn open(
         &self,
@@ -55,13 +63,24 @@ impl crate::front::kind::FrontFactory for JointStateFront {
         _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         Ok(crate::front::serve::Endpoints::StateOnly(Box::new(JointStateIo {
-            writer: env.node.writer(&f.state_topic, crate::front::serve::STATE_QOS)?,
+            // ROS 2's default QoS (reliable, volatile) subscribers match a reliable writer;
+            // keep-last 1: only the newest state matters (docs/fronts.md, "QoS per topic").
+            writer: env.node.writer_with(
+                &f.state_topic,
+                JOINT_STATES_QOS,
+                &crate::ros::user_data::<JointState_>(),
+            )?,
             urdf_names: f.config.urdf_names.unwrap_or(true),
         })))
     }
 }
 
 /// The joint_state front's writer.
+/// The QoS of the joint_states writer: ROS 2's default QoS (reliable, volatile) subscribers
+/// match a reliable writer; keep-last 1: only the newest state matters (docs/fronts.md, "QoS
+/// per topic").
+pub const JOINT_STATES_QOS: crate::dds::Qos = crate::dds::Qos::Reliable { depth: 1 };
+
 pub struct JointStateIo {
     writer: crate::dds::Writer<JointState_>,
     urdf_names: bool,

@@ -35,6 +35,12 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
     fn keys(&self) -> &'static [&'static str] {
         &[]
     }
+    /// Serves one of handgate's own interfaces, whose topics live in the profile's ROS
+    /// namespace (`[dds] namespace`); `false`: a device-compatible interface, whose topics are
+    /// the device's and never move.
+    fn in_namespace(&self) -> bool {
+        false
+    }
     /// The key naming this kind's state topic (`state_topic`, or joint_state's `topic`).
     fn state_topic_key(&self) -> &'static str {
         "state_topic"

@@ -15,12 +15,21 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     }
     let _ = writeln!(
         s,
-        "dds: domain {}, interface {}",
+        "dds: domain {}, interface {}, ROS node {}",
         p.dds.domain.0,
-        p.dds.interface.as_deref().unwrap_or("(any)")
+        p.dds.interface.as_deref().unwrap_or("(any)"),
+        if p.dds.ros_node {
+            format!(
+                "{}/{}",
+                p.dds.namespace().ros().trim_end_matches('/'),
+                handgate_adapters::ros::NODE_NAME
+            )
+        } else {
+            "off".into()
+        }
     );
     let _ = writeln!(s, "log: {} {}", p.log.format, p.log.level);
-    let _ = writeln!(s, "status: {} at {}", p.status.topic, p.status.rate_hz);
+    let _ = writeln!(s, "status: {} at {}", p.status_topic(), p.status.rate_hz);
     let _ = writeln!(s, "devices ({}):", p.devices.len());
     for d in &p.devices {
         let _ = write!(
@@ -50,7 +59,7 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     for f in &p.fronts {
         let lookup = |n: &DeviceName| p.devices.iter().find(|d| &d.name == n);
         let dev = f.device.as_ref().and_then(lookup);
-        let t = f.topics(dev);
+        let t = p.front_topics(f, dev);
         let target = match (&f.devices, &f.device) {
             (Some(els), _) => format!(
                 "right={}, left={}",

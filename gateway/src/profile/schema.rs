@@ -75,6 +75,7 @@ snake_enum!(
 );
 
 pub use handgate_adapters::front::config::{Control, Silence};
+pub use handgate_adapters::ros::Namespace;
 
 /// Which interface a front serves to clients: a handle into the front registry.
 pub use handgate_adapters::front::kind::FrontKind;
@@ -107,6 +108,31 @@ pub struct RawProfile {
     pub fronts: Vec<FrontConfig>,
 }
 
+impl Profile {
+    /// Front `f`'s topics and rates (`device`: its bound device), with handgate's own
+    /// interfaces' topics in the profile's namespace (`FrontFactory::in_namespace`).
+    pub fn front_topics(&self, f: &FrontConfig, device: Option<&DeviceConfig>) -> FrontTopics {
+        let mut t = f.topics(device);
+        if f.kind.factory().in_namespace() {
+            let ns = self.dds.namespace();
+            let map = |t: &mut Option<Topic>| {
+                if let Some(x) = t {
+                    *x = Topic(ns.topic(x.as_str()));
+                }
+            };
+            map(&mut t.cmd);
+            map(&mut t.state);
+            map(&mut t.lf_state);
+        }
+        t
+    }
+
+    /// The status topic, in the profile's namespace.
+    pub fn status_topic(&self) -> Topic {
+        Topic(self.dds.namespace().topic(self.status.topic.as_str()))
+    }
+}
+
 impl RawProfile {
     /// The profile with its devices parsed.
     pub fn into_profile(self, devices: Vec<DeviceConfig>) -> Profile {
@@ -136,6 +162,22 @@ pub struct DdsConfig {
     pub discovery_settle_ms: Millis,
     /// ...or after this long in all, whichever comes first.
     pub discovery_max_wait_ms: Millis,
+    /// ROS namespace of handgate's own topics (canonical, joint_state, status) and of its ROS
+    /// node: `robot1` makes `rt/joint_states` `rt/robot1/joint_states` (docs/fronts.md, "ROS 2").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub namespace: Option<String>,
+    /// Announce handgate as ROS node `<namespace>/handgate` on `ros_discovery_info`.
+    pub ros_node: bool,
+}
+
+impl DdsConfig {
+    /// The namespace (validated by `handgate check`; the root namespace when absent).
+    pub fn namespace(&self) -> Namespace {
+        self.namespace
+            .as_deref()
+            .and_then(|n| Namespace::parse(n).ok())
+            .unwrap_or_default()
+    }
 }
 
 impl Default for DdsConfig {
@@ -147,6 +189,8 @@ impl Default for DdsConfig {
             foreign_state_writers: ForeignStateWriters::default(),
             discovery_settle_ms: Millis(DEFAULT_DISCOVERY_SETTLE_MS),
             discovery_max_wait_ms: Millis(DEFAULT_DISCOVERY_MAX_WAIT_MS),
+            namespace: None,
+            ros_node: true,
         }
     }
 }

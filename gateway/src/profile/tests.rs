@@ -58,6 +58,19 @@ const BAD: &[(&str, &str, &str, &str)] = &[
     ),
     ("wrong type", "[dds]\ndomain = \"three\"\n", "dds.domain", "invalid type"),
     (
+        "namespace token starting with a digit",
+        "[dds]\nnamespace = \"fleet/1robot\"\n",
+        "dds.namespace",
+        "`fleet/1robot` is not a ROS namespace: it token `1robot` starts with a digit",
+    ),
+    (
+        "namespace with a dash",
+        "[dds]\nnamespace = \"robot-1\"\n",
+        "dds.namespace",
+        "is not a ROS namespace",
+    ),
+    ("empty namespace", "[dds]\nnamespace = \"/\"\n", "dds.namespace", "is empty"),
+    (
         "wrong type deep",
         "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\nwatchdog = { timeout_ms = \"soon\" }\n",
         "devices[0].watchdog.timeout_ms",
@@ -1508,4 +1521,71 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "setting `{key}` changes nothing the device or front is built with\n{with}"
         );
     }
+}
+
+/// `[dds] namespace` moves handgate's own topics (canonical, joint_state, status) into the
+/// ROS namespace and names the node's namespace; the device-compatible fronts' topics stay.
+#[test]
+fn namespace_moves_handgates_own_topics_only() {
+    let fronts = "[[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n[[fronts]]\nkind = \"dex3\"\ndevice = \"l\"\n[[fronts]]\nkind = \"joint_state\"\n[[fronts]]\nkind = \"joint_state\"\ntopic = \"rt/hands/joint_states\"\n";
+    let (_, r) = load_text(&format!("[dds]\nnamespace = \"/fleet/robot1\"\n{DEX3}{fronts}"));
+    let l = r.unwrap();
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    let topics: Vec<(Option<&str>, &str)> = plan
+        .fronts
+        .iter()
+        .map(|f| (f.cmd_topic.as_deref(), f.state_topic.as_str()))
+        .collect();
+    assert_eq!(
+        topics,
+        [
+            (
+                Some("rt/fleet/robot1/handgate/l/cmd"),
+                "rt/fleet/robot1/handgate/l/state"
+            ),
+            (Some("rt/dex3/left/cmd"), "rt/dex3/left/state"),
+            (None, "rt/fleet/robot1/joint_states"),
+            // A topic set in the profile is a ROS name relative to the namespace too.
+            (None, "rt/fleet/robot1/hands/joint_states"),
+        ]
+    );
+    assert_eq!(plan.status_topic, "rt/fleet/robot1/handgate/status");
+    assert_eq!(
+        plan.namespace.as_ref().map(|n| n.ros()).as_deref(),
+        Some("/fleet/robot1")
+    );
+    let text = render_fleet(&l.profile, &l.origin);
+    assert!(text.contains("ROS node /fleet/robot1/handgate"), "{text}");
+    assert!(text.contains("status: rt/fleet/robot1/handgate/status"), "{text}");
+    assert!(text.contains("rt/fleet/robot1/joint_states"), "{text}");
+
+    // No namespace: the topics as they were, node `/handgate`; `ros_node = false`: no node.
+    let (_, r) = load_text(&format!("{DEX3}{fronts}"));
+    let l = r.unwrap();
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    assert_eq!(plan.fronts[2].state_topic, "rt/joint_states");
+    assert_eq!(plan.status_topic, "rt/handgate/status");
+    assert_eq!(plan.namespace.as_ref().map(|n| n.ros()).as_deref(), Some("/"));
+    assert!(render_fleet(&l.profile, &l.origin).contains("ROS node /handgate"));
+    let (_, r) = load_text(&format!("[dds]\nros_node = false\n{DEX3}{fronts}"));
+    let l = r.unwrap();
+    assert_eq!(crate::resolve::plan(&l.profile).unwrap().namespace, None);
+    assert!(render_fleet(&l.profile, &l.origin).contains("ROS node off"));
+}
+
+/// A namespaced canonical command topic that is also the (namespaced) status topic is refused
+/// like the plain clash.
+#[test]
+fn namespaced_topics_are_checked_for_clashes() {
+    let (path, r) = load_text(&format!(
+        "[dds]\nnamespace = \"robot1\"\n{DEX3}[[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\ncmd_topic = \"rt/handgate/status\"\n"
+    ));
+    let lines = r.unwrap_err().lines();
+    assert_eq!(
+        lines,
+        [format!(
+            "{}: fronts[0].cmd_topic: command topic `rt/robot1/handgate/status` is the status topic",
+            path.display()
+        )]
+    );
 }

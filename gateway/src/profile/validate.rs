@@ -62,6 +62,14 @@ impl Checker {
                 format!("must be between 0 and {MAX_DOMAIN_ID}, got {}", p.dds.domain.0),
             );
         }
+        if let Some(n) = &p.dds.namespace {
+            if let Err(e) = handgate_adapters::ros::Namespace::parse(n) {
+                self.err(
+                    root().key("dds").key("namespace"),
+                    format!("`{n}` is not a ROS namespace: it {e}"),
+                );
+            }
+        }
         if let Some(i) = &p.dds.interface {
             if i.trim().is_empty() || i.chars().any(char::is_whitespace) {
                 self.err(
@@ -120,6 +128,7 @@ impl Checker {
         self.fleet(p);
 
         // fronts
+        let status_topic = p.status_topic();
         let mut cmd_topics: BTreeMap<Topic, usize> = BTreeMap::new();
         let mut state_topics: BTreeMap<Topic, usize> = BTreeMap::new();
         let mut names: BTreeMap<String, usize> = BTreeMap::new();
@@ -220,10 +229,10 @@ impl Checker {
                     names.insert(name, i);
                 }
             }
-            let topics = f.topics(dev);
+            let topics = p.front_topics(f, dev);
             let mut cmd_clash = None;
             if let Some(t) = &topics.cmd {
-                if t == &p.status.topic {
+                if t == &status_topic {
                     self.err(k.key("cmd_topic"), format!("command topic `{t}` is the status topic"));
                 }
                 match cmd_topics.get(t) {
@@ -244,7 +253,7 @@ impl Checker {
             let state_key = f.kind.factory().state_topic_key();
             for (key, t) in [(state_key, &topics.state), ("lf_state_topic", &topics.lf_state)] {
                 let Some(t) = t else { continue };
-                if t == &p.status.topic {
+                if t == &status_topic {
                     self.err(k.key(key), format!("state topic `{t}` is the status topic"));
                 }
                 match state_topics.get(t) {

@@ -6,6 +6,7 @@
 mod control;
 mod devices;
 mod fronts;
+mod ros;
 mod status;
 
 use std::collections::HashMap;
@@ -123,6 +124,9 @@ impl Runtime {
             diagnosis,
             shutdown_rx.clone(),
         )?);
+        if let Some(ns) = &plan.namespace {
+            tasks.push(ros::spawn_presence(&node, ns.clone(), shutdown_rx.clone())?);
+        }
         Ok(Self {
             node,
             devices,
