@@ -32,7 +32,7 @@ Cases:
               limits, kp 1.5 kd 0.1, 9 pressure pads with raw readings >= 100000 (and one
               30000 "no reading"), a unit quaternion, power_v 24.x.
   extreme     f32 max/-max/min normal/subnormals/-0.0/+-inf, u32 max, i16 min/max, u8 255,
-              sequences of 32 elements (f64/u64/i32/bool/string extremes for the canonical
+              sequences of 32 elements, 3 inside a sequence's element (f64/u64/i32/bool/string extremes for the canonical
               types: empty, non-ASCII and 300-byte strings).
   nan         every f32/f64 field NaN (CPython writes the quiet NaNs 0x7fc00000 and
               0x7ff8000000000000); 2-element sequences. Compared bit-for-bit on the Rust side (NaN != NaN as a value).
@@ -314,15 +314,20 @@ INT_EXTREMES = {
 class Filler:
     """Builds a message by walking the schema; scalars come from per-kind generators."""
 
-    def __init__(self, scalar, seq_len):
+    def __init__(self, scalar, seq_len, inner_seq_len=None):
         self.scalar = scalar
         self.seq_len = seq_len
+        # Sequences nest (GatewayStatus_ -> DeviceStatus_/EndpointStatus_ -> sequences of
+        # strings): filling every level to `seq_len` multiplies sizes (495 KB for one status),
+        # so sequences inside an element of a sequence get `inner_seq_len` elements.
+        self.inner_seq_len = seq_len if inner_seq_len is None else inner_seq_len
 
     def build(self, key):
         plain = self.plain(key)
         return ws.from_plain(key, plain)
 
-    def plain(self, key):
+    def plain(self, key, inner=False):
+        n = self.inner_seq_len if inner else self.seq_len
         out = {}
         for name, kind in ws.SCHEMA[key]:
             if isinstance(kind, str):
@@ -331,13 +336,13 @@ class Filler:
                 out[name] = [self.scalar(kind[1]) for _ in range(kind[2])]
             elif kind[0] == "bseq":
                 # Bounded: never more than the bound ("extreme" fills it exactly).
-                out[name] = [self.scalar(kind[1]) for _ in range(min(self.seq_len, kind[2]))]
+                out[name] = [self.scalar(kind[1]) for _ in range(min(n, kind[2]))]
             elif kind[0] == "seq" and "/" not in kind[1]:
-                out[name] = [self.scalar(kind[1]) for _ in range(self.seq_len)]
+                out[name] = [self.scalar(kind[1]) for _ in range(n)]
             elif kind[0] == "seq":
-                out[name] = [self.plain(kind[1]) for _ in range(self.seq_len)]
+                out[name] = [self.plain(kind[1], inner=True) for _ in range(n)]
             else:
-                out[name] = self.plain(kind[1])
+                out[name] = self.plain(kind[1], inner)
         return out
 
 
@@ -371,10 +376,11 @@ def build(key, case):
     if case == "typical":
         return typical(key)
     if case == "extreme":
-        # 32 elements; a bounded sequence gets exactly its bound.
+        # 32 elements (3 inside an element of a sequence); a bounded sequence gets exactly its
+        # bound.
         if key.startswith("inspire/"):
             return Filler(cycling_extremes(), 1 << 16).build(key)
-        return Filler(cycling_extremes(), 32).build(key)
+        return Filler(cycling_extremes(), 32, 3).build(key)
     if case == "nan":
         return Filler(nan_scalar, 2).build(key)
     if case == "sdk_default" and key.startswith("inspire/"):
