@@ -13,6 +13,7 @@
 pub mod cdr_codec;
 pub mod handgate;
 pub mod inspire;
+pub mod layout;
 pub mod ros2;
 pub mod unitree_go;
 pub mod unitree_hg;
