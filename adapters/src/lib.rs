@@ -22,6 +22,7 @@ pub mod kind;
 pub mod kinds;
 pub mod link;
 pub mod mapping;
+pub mod netif;
 pub mod model;
 pub mod open;
 pub mod route;
