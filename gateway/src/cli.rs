@@ -39,6 +39,26 @@ pub enum Command {
         #[command(flatten)]
         overrides: OverrideArgs,
     },
+    /// Join the profile's DDS domain for a few seconds without serving anything and say, for
+    /// every front and DDS device of the profile, which clients and services are there, what
+    /// keeps the others from matching and the fix (docs/troubleshooting.md). Exit 0 when
+    /// nothing is wrong, 1 otherwise, 2 for an invalid profile.
+    Doctor {
+        /// Profile (as for `run --profile`); without it: the embedded default.
+        #[arg(long)]
+        profile: Option<String>,
+        /// How long to listen, seconds.
+        #[arg(long, default_value_t = 3.0)]
+        seconds: f64,
+        /// Other DDS domains to look on at the same time, `A-B` or `N` (default 0-5).
+        #[arg(long, conflicts_with = "no_scan")]
+        scan: Option<String>,
+        /// Look on the profile's domain only.
+        #[arg(long)]
+        no_scan: bool,
+        #[command(flatten)]
+        overrides: OverrideArgs,
+    },
     /// Show a live table of the running gateway's devices (from its status topic).
     Status {
         #[command(flatten)]
