@@ -1,8 +1,16 @@
 //! Discovery diagnostics for the running gateway (issue #14): what every front and DDS-client
-//! device of a plan serves on DDS ([`served`]), asked of their kinds; the diagnostics task
-//! that watches discovery and reports findings lives here too (docs/discovery.md).
+//! device of a plan serves on DDS ([`served`]), asked of their kinds; the diagnosis of a
+//! discovery snapshot against it ([`diagnose_all`]); the task that watches discovery, logs
+//! each finding once per change and hands the latest [`Diagnosis`] to the status publisher
+//! ([`spawn`]); the start-up check for foreign state writers ([`foreign_state_writers`]).
+//! docs/discovery.md.
 
-use handgate_adapters::discovery::diagnose::Served;
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+
+use handgate_adapters::discovery::diagnose::{diagnose, Finding, FindingKind, RemoteRef, Served};
+use handgate_adapters::discovery::{Role, Snapshot};
+use tokio::sync::watch;
 
 use crate::plan::Plan;
 
@@ -63,6 +71,273 @@ pub fn served(plan: &Plan) -> Vec<ServedBy> {
     fronts.chain(devices).collect()
 }
 
+/// Counterparts listed by name per endpoint (the rest only counted).
+pub const MAX_WHO: usize = 8;
+
+/// One served endpoint and the counterparts that match it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EndpointDiagnosis {
+    pub owner: Owner,
+    pub topic: String,
+    pub role: Role,
+    /// How many counterparts match (type and QoS).
+    pub matched: usize,
+    /// The first [`MAX_WHO`] of them ([`RemoteRef::who`]; `this process (...)` for a
+    /// device's in-process peer).
+    pub who: Vec<String>,
+}
+
+/// A finding about an endpoint of `owner`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OwnedFinding {
+    pub owner: Owner,
+    pub finding: Finding,
+}
+
+impl OwnedFinding {
+    /// What identifies the finding across snapshots (not its wording, whose counts change).
+    pub fn key(&self) -> String {
+        format!(
+            "{}|{}|{:?}|{:?}",
+            self.owner, self.finding.served_topic, self.finding.served_role, self.finding.kind
+        )
+    }
+}
+
+/// The status topic's spelling of a finding kind.
+pub fn kind_str(k: &FindingKind) -> &'static str {
+    match k {
+        FindingKind::NoCounterpart => "no_counterpart",
+        FindingKind::TypeMismatch { .. } => "type_mismatch",
+        FindingKind::QosMismatch { .. } => "qos_mismatch",
+        FindingKind::NearMissTopic { .. } => "near_miss_topic",
+        FindingKind::ForeignWriter => "foreign_writer",
+    }
+}
+
+/// What the gateway reports about discovery: per served endpoint its counterparts, and the
+/// findings with their fixes.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Diagnosis {
+    /// Snapshot generation this was computed from.
+    pub generation: u64,
+    pub endpoints: Vec<EndpointDiagnosis>,
+    pub findings: Vec<OwnedFinding>,
+}
+
+fn role_str(r: Role) -> &'static str {
+    match r {
+        Role::Reader => "reader",
+        Role::Writer => "writer",
+    }
+}
+
+/// `who` of a counterpart; a participant of this process (a device's in-process service
+/// peer) says so.
+fn who(s: &Snapshot, r: &RemoteRef) -> String {
+    let local =
+        r.participant == s.this_participant || s.participant(&r.participant).is_some_and(|p| p.origin.is_local());
+    if local {
+        format!("this process ({})", r.who())
+    } else {
+        r.who()
+    }
+}
+
+/// Diagnoses `snapshot` against everything served.
+///
+/// - Fronts: only other processes' endpoints count ([`diagnose`]). A front nobody talks to
+///   is no finding (its endpoint shows 0 matched); what is reported is why a client that is
+///   there does not match (type, QoS, near-miss topic) and another writer of its state.
+/// - Devices (clients of a robot service): endpoints of this process of the counterpart role
+///   on the device's own topics count too: on the emulator backend the service's emulator
+///   runs in-process (on the gateway's participant) and is the device's real peer. A device
+///   without any counterpart is reported (`no_counterpart`: no service).
+pub fn diagnose_all(snapshot: &Snapshot, served: &[ServedBy]) -> Diagnosis {
+    let (fronts, devices): (Vec<&ServedBy>, Vec<&ServedBy>) =
+        served.iter().partition(|s| matches!(s.owner, Owner::Front(_)));
+    let mut out = Diagnosis {
+        generation: snapshot.generation,
+        ..Default::default()
+    };
+    // Devices see their in-process peers as counterparts.
+    let counterparts: BTreeSet<(&str, Role)> = devices
+        .iter()
+        .map(|s| (s.served.topic.as_str(), s.served.role.counterpart()))
+        .collect();
+    let device_view;
+    let views: [(&[&ServedBy], &Snapshot); 2] = [
+        (&fronts, snapshot),
+        (&devices, {
+            let mut v = snapshot.clone();
+            for e in v.endpoints.iter_mut() {
+                if e.origin.is_local() && counterparts.contains(&(&*e.topic, e.role)) {
+                    e.origin = handgate_adapters::discovery::Origin::Remote;
+                }
+            }
+            device_view = v;
+            &device_view
+        }),
+    ];
+    for (group, snap) in views {
+        if group.is_empty() {
+            continue;
+        }
+        let list: Vec<Served> = group.iter().map(|s| s.served.clone()).collect();
+        let report = diagnose(snap, &list);
+        for (by, t) in group.iter().zip(report.topics) {
+            out.endpoints.push(EndpointDiagnosis {
+                owner: by.owner.clone(),
+                topic: t.topic,
+                role: t.role,
+                matched: t.matched.len(),
+                who: t.matched.iter().take(MAX_WHO).map(|r| who(snapshot, r)).collect(),
+            });
+            for finding in t.findings {
+                if matches!(by.owner, Owner::Front(_)) && finding.kind == FindingKind::NoCounterpart {
+                    continue;
+                }
+                out.findings.push(OwnedFinding {
+                    owner: by.owner.clone(),
+                    finding,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The status topic's view of `d`.
+pub fn to_status(
+    d: &Diagnosis,
+) -> (
+    Vec<handgate_idl::handgate::EndpointStatus_>,
+    Vec<handgate_idl::handgate::Diagnostic_>,
+) {
+    use handgate_idl::handgate as hg;
+    let endpoints = d
+        .endpoints
+        .iter()
+        .map(|e| hg::EndpointStatus_ {
+            owner: e.owner.describe(),
+            topic: e.topic.clone(),
+            role: role_str(e.role).into(),
+            matched: u32::try_from(e.matched).unwrap_or(u32::MAX),
+            who: e.who.clone(),
+        })
+        .collect();
+    let diagnostics = d
+        .findings
+        .iter()
+        .map(|f| hg::Diagnostic_ {
+            owner: f.owner.describe(),
+            topic: f.finding.served_topic.clone(),
+            kind: kind_str(&f.finding.kind).into(),
+            detail: f.finding.detail.clone(),
+            fix: f.finding.fix.clone(),
+        })
+        .collect();
+    (endpoints, diagnostics)
+}
+
+/// Logs what changed from `prev` to `next`: each finding when it appears (warning, with its
+/// fix) and when it goes away; each endpoint's matched counterparts when they change.
+pub fn log_changes(prev: &Diagnosis, next: &Diagnosis) {
+    let before: BTreeMap<String, &OwnedFinding> = prev.findings.iter().map(|f| (f.key(), f)).collect();
+    let after: BTreeMap<String, &OwnedFinding> = next.findings.iter().map(|f| (f.key(), f)).collect();
+    for (k, f) in &after {
+        if !before.contains_key(k) {
+            tracing::warn!(
+                owner = %f.owner,
+                topic = %f.finding.served_topic,
+                kind = kind_str(&f.finding.kind),
+                fix = %f.finding.fix,
+                "discovery: {}",
+                f.finding.detail
+            );
+        }
+    }
+    for (k, f) in &before {
+        if !after.contains_key(k) {
+            tracing::info!(
+                owner = %f.owner,
+                topic = %f.finding.served_topic,
+                kind = kind_str(&f.finding.kind),
+                "discovery: resolved: {}",
+                f.finding.detail
+            );
+        }
+    }
+    let was: BTreeMap<(&Owner, &str, Role), &EndpointDiagnosis> = prev
+        .endpoints
+        .iter()
+        .map(|e| ((&e.owner, e.topic.as_str(), e.role), e))
+        .collect();
+    for e in &next.endpoints {
+        let old = was.get(&(&e.owner, e.topic.as_str(), e.role));
+        let changed = old.map_or(e.matched > 0, |o| o.matched != e.matched || o.who != e.who);
+        if changed {
+            tracing::info!(
+                owner = %e.owner,
+                topic = %e.topic,
+                role = role_str(e.role),
+                matched = e.matched,
+                "discovery: {} {} matched: {}",
+                role_str(e.role),
+                e.topic,
+                if e.who.is_empty() { "none".to_string() } else { e.who.join(", ") }
+            );
+        }
+    }
+}
+
+/// Starts the diagnostics task (a tokio task; never on a device path): on every new
+/// discovery snapshot, diagnoses `served`, logs the changes and publishes the result on the
+/// returned channel (read by the status publisher). Ends on `shutdown`.
+pub fn spawn(
+    served: Vec<ServedBy>,
+    mut snapshots: watch::Receiver<Arc<Snapshot>>,
+    mut shutdown: watch::Receiver<bool>,
+) -> (tokio::task::JoinHandle<()>, watch::Receiver<Arc<Diagnosis>>) {
+    let first = Arc::new(diagnose_all(&snapshots.borrow_and_update(), &served));
+    log_changes(&Diagnosis::default(), &first);
+    let (tx, rx) = watch::channel(first);
+    let task = tokio::spawn(async move {
+        loop {
+            tokio::select! {
+                r = snapshots.changed() => {
+                    if r.is_err() {
+                        break;
+                    }
+                    let snap = snapshots.borrow_and_update().clone();
+                    let next = diagnose_all(&snap, &served);
+                    let prev = tx.borrow().clone();
+                    if next.endpoints != prev.endpoints || next.findings != prev.findings {
+                        log_changes(&prev, &next);
+                        let _ = tx.send(Arc::new(next));
+                    }
+                }
+                _ = shutdown.changed() => break,
+            }
+        }
+    });
+    (task, rx)
+}
+
+/// Another process's writer on a state topic a front writes: (front, topic, the finding).
+pub fn foreign_state_writers(snapshot: &Snapshot, served: &[ServedBy]) -> Vec<OwnedFinding> {
+    let fronts: Vec<ServedBy> = served
+        .iter()
+        .filter(|s| matches!(s.owner, Owner::Front(_)) && s.served.role == Role::Writer)
+        .cloned()
+        .collect();
+    diagnose_all(snapshot, &fronts)
+        .findings
+        .into_iter()
+        .filter(|f| f.finding.kind == FindingKind::ForeignWriter)
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,6 +370,149 @@ mod tests {
 
     fn t<T: DdsTypeName>() -> String {
         T::DDS_TYPE_NAME.to_string()
+    }
+
+    mod snapshots {
+        use std::sync::Arc;
+
+        use handgate_adapters::discovery::{
+            Counters, Endpoint, EndpointQos, Guid, Origin, Participant, Role, Snapshot,
+        };
+
+        /// A snapshot whose participant 1 is ours; `eps`: (participant, origin, role, topic, type).
+        pub fn snap(eps: &[(u8, Origin, Role, &str, &str)]) -> Snapshot {
+            let mut participants: Vec<Participant> = Vec::new();
+            let mut endpoints = Vec::new();
+            for (i, (p, origin, role, topic, ty)) in eps.iter().enumerate() {
+                let key = Guid([*p; 16]).participant();
+                if !participants.iter().any(|x| x.key == key) {
+                    participants.push(Participant {
+                        key,
+                        hostname: Some(Arc::from("vm")),
+                        pid: Some(100 + u32::from(*p)),
+                        process_name: Some(Arc::from(if *p == 1 { "handgate" } else { "python" })),
+                        network_addresses: vec![],
+                        origin: *origin,
+                    });
+                }
+                let mut g = [*p; 16];
+                g[12] = i as u8 + 1;
+                g[15] = 0x03;
+                endpoints.push(Endpoint {
+                    key: Guid(g),
+                    participant: key,
+                    role: *role,
+                    topic: Arc::from(*topic),
+                    type_name: Arc::from(*ty),
+                    qos: EndpointQos::default(),
+                    origin: *origin,
+                });
+            }
+            participants.sort_by_key(|p| p.key);
+            Snapshot {
+                generation: 1,
+                domain_id: 9,
+                this_participant: Guid([1; 16]).participant(),
+                participants,
+                endpoints,
+                counters: Counters::default(),
+            }
+        }
+    }
+
+    fn served_by(owner: Owner, topic: &str, ty: &str, role: Role) -> ServedBy {
+        ServedBy {
+            owner,
+            served: Served::new(
+                topic,
+                ty.to_string(),
+                role,
+                handgate_adapters::dds::Qos::Reliable { depth: 1 }.served(),
+            ),
+        }
+    }
+
+    #[test]
+    fn a_device_counts_its_in_process_peer_and_a_front_only_other_processes() {
+        use handgate_adapters::discovery::Origin::*;
+        let s = snapshots::snap(&[
+            // The device's writer and its in-process emulator's reader, on our participant.
+            (1, ThisParticipant, Role::Writer, "rt/handgate/emu/d/cmd", "go::Cmds_"),
+            (1, ThisParticipant, Role::Reader, "rt/handgate/emu/d/cmd", "go::Cmds_"),
+            // The front's reader; its client in another process.
+            (1, ThisParticipant, Role::Reader, "rt/f/cmd", "go::Cmds_"),
+            (2, Remote, Role::Writer, "rt/f/cmd", "go::Cmds_"),
+        ]);
+        let served = vec![
+            served_by(Owner::Front("f".into()), "rt/f/cmd", "go::Cmds_", Role::Reader),
+            served_by(Owner::Front("f".into()), "rt/f/state", "go::States_", Role::Writer),
+            served_by(
+                Owner::Device("d".into()),
+                "rt/handgate/emu/d/cmd",
+                "go::Cmds_",
+                Role::Writer,
+            ),
+            served_by(Owner::Device("d2".into()), "rt/x/cmd", "go::Cmds_", Role::Writer),
+        ];
+        let d = diagnose_all(&s, &served);
+        let ep = |o: &Owner, t: &str| d.endpoints.iter().find(|e| &e.owner == o && e.topic == t).unwrap();
+        let f_cmd = ep(&Owner::Front("f".into()), "rt/f/cmd");
+        assert_eq!(f_cmd.matched, 1);
+        assert!(f_cmd.who[0].starts_with("process python (pid 102)"), "{:?}", f_cmd.who);
+        let dev = ep(&Owner::Device("d".into()), "rt/handgate/emu/d/cmd");
+        assert_eq!(dev.matched, 1, "the in-process emulator is the device's peer");
+        assert!(dev.who[0].starts_with("this process ("), "{:?}", dev.who);
+        // A front with nobody on its state topic is no finding; a device with no service is.
+        let kinds: Vec<(String, &str)> = d
+            .findings
+            .iter()
+            .map(|f| (f.owner.describe(), kind_str(&f.finding.kind)))
+            .collect();
+        assert_eq!(kinds, vec![("device d2".to_string(), "no_counterpart")]);
+        let (eps, diags) = to_status(&d);
+        assert_eq!(eps.len(), 4);
+        assert_eq!(diags[0].owner, "device d2");
+        assert!(!diags[0].fix.is_empty());
+    }
+
+    #[test]
+    fn findings_keep_their_key_when_their_counts_change() {
+        use handgate_adapters::discovery::Origin::*;
+        let served = vec![served_by(
+            Owner::Front("f".into()),
+            "rt/f/cmd",
+            "go::Cmds_",
+            Role::Reader,
+        )];
+        let one = snapshots::snap(&[(2, Remote, Role::Writer, "rt/f/cmd", "hg::HandCmd_")]);
+        let two = snapshots::snap(&[
+            (2, Remote, Role::Writer, "rt/f/cmd", "hg::HandCmd_"),
+            (3, Remote, Role::Writer, "rt/f/cmd", "hg::HandCmd_"),
+        ]);
+        let (a, b) = (diagnose_all(&one, &served), diagnose_all(&two, &served));
+        assert_eq!(kind_str(&a.findings[0].finding.kind), "type_mismatch");
+        assert_ne!(a.findings[0].finding.detail, b.findings[0].finding.detail);
+        assert_eq!(a.findings[0].key(), b.findings[0].key(), "logged once, not per count");
+    }
+
+    #[test]
+    fn foreign_state_writers_are_other_processes_writing_a_front_state_topic() {
+        use handgate_adapters::discovery::Origin::*;
+        let served = vec![
+            served_by(Owner::Front("f".into()), "rt/f/state", "go::States_", Role::Writer),
+            served_by(Owner::Device("d".into()), "rt/svc/cmd", "go::Cmds_", Role::Writer),
+        ];
+        let s = snapshots::snap(&[
+            (2, Remote, Role::Writer, "rt/f/state", "go::States_"),
+            (3, Remote, Role::Writer, "rt/svc/cmd", "go::Cmds_"),
+        ]);
+        let found = foreign_state_writers(&s, &served);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].owner, Owner::Front("f".into()));
+        assert!(found[0].finding.remotes[0].who().contains("pid 102"));
+        // Our own writer (another participant of this process) is not foreign.
+        let s = snapshots::snap(&[(2, ThisProcess, Role::Writer, "rt/f/state", "go::States_")]);
+        assert!(foreign_state_writers(&s, &served).is_empty());
     }
 
     #[test]

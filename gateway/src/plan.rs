@@ -59,6 +59,13 @@ pub struct Plan {
     pub interface: Option<String>,
     pub status_topic: String,
     pub status_hz: f64,
+    /// Start-up: another process already writing a front's state topic refuses the start or
+    /// is a warning (`dds.foreign_state_writers`).
+    pub foreign_state_writers: crate::profile::ForeignStateWriters,
+    /// Start-up: how long discovery must stay unchanged to count as settled, and the most
+    /// the start waits for it (`dds.discovery_settle_ms`, `dds.discovery_max_wait_ms`).
+    pub discovery_settle: Duration,
+    pub discovery_max_wait: Duration,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

@@ -198,6 +198,9 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         interface: p.dds.interface.clone(),
         status_topic: p.status.topic.0.clone(),
         status_hz: p.status.rate_hz.0,
+        foreign_state_writers: p.dds.foreign_state_writers,
+        discovery_settle: p.dds.discovery_settle_ms.as_duration(),
+        discovery_max_wait: p.dds.discovery_max_wait_ms.as_duration(),
         devices,
         fronts,
     })

@@ -58,6 +58,30 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
             d.missed_cycles
         );
     }
+    if !s.endpoints.is_empty() {
+        let _ = writeln!(out, "\nendpoints (matched counterparts)");
+        for e in &s.endpoints {
+            let who = if e.who.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", e.who.join(", "))
+            };
+            let _ = writeln!(
+                out,
+                "  {:<28} {:<6} {:<36} {:>3}{who}",
+                e.owner, e.role, e.topic, e.matched
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\ndiagnostics:{}",
+        if s.diagnostics.is_empty() { " none" } else { "" }
+    );
+    for d in &s.diagnostics {
+        let _ = writeln!(out, "  {} {} [{}]: {}", d.owner, d.topic, d.kind, d.detail);
+        let _ = writeln!(out, "    fix: {}", d.fix);
+    }
     out
 }
 
@@ -107,8 +131,37 @@ mod tests {
                 freshness: hg::STALE,
                 ..Default::default()
             }],
+            ..Default::default()
         };
         let t = render_status(&s);
         assert!(t.contains("left_hand") && t.contains("STALE") && t.contains("uptime 1.5 s"));
+        assert!(t.contains("diagnostics: none"), "{t}");
+    }
+
+    #[test]
+    fn renders_endpoints_and_diagnostics_with_their_fixes() {
+        let s = hg::GatewayStatus_ {
+            endpoints: vec![hg::EndpointStatus_ {
+                owner: "front f1".into(),
+                topic: "rt/a/cmd".into(),
+                role: "reader".into(),
+                matched: 1,
+                who: vec!["process python (pid 7) on vm".into()],
+            }],
+            diagnostics: vec![hg::Diagnostic_ {
+                owner: "front f1".into(),
+                topic: "rt/a/cmd".into(),
+                kind: "type_mismatch".into(),
+                detail: "1 writer(s) use type x::T_".into(),
+                fix: "set variant".into(),
+            }],
+            ..Default::default()
+        };
+        let t = render_status(&s);
+        assert!(t.contains("front f1") && t.contains("pid 7"), "{t}");
+        assert!(
+            t.contains("[type_mismatch]: 1 writer(s) use type x::T_") && t.contains("fix: set variant"),
+            "{t}"
+        );
     }
 }

@@ -87,11 +87,49 @@ pub struct DeviceStatus_ {
 }
 keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
 
+/// One endpoint a front or a DDS-client device serves, and what matches it.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct EndpointStatus_ {
+    /// `front NAME` or `device NAME`.
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub owner: String,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub topic: String,
+    /// `reader` or `writer`.
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub role: String,
+    /// Counterparts matching (type and QoS).
+    pub matched: u32,
+    /// The first of them, as `process NAME (pid P) on HOST at ADDR`.
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize_vec")]
+    pub who: Vec<String>,
+}
+keyless_topic_type!(EndpointStatus_, "handgate::msg::dds_::EndpointStatus_");
+
+/// A discovery finding about a served endpoint, with its fix.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Diagnostic_ {
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub owner: String,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub topic: String,
+    /// `type_mismatch`, `qos_mismatch`, `near_miss_topic`, `foreign_writer`, `no_counterpart`.
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub kind: String,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub detail: String,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub fix: String,
+}
+keyless_topic_type!(Diagnostic_, "handgate::msg::dds_::Diagnostic_");
+
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct GatewayStatus_ {
     #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub profile: String,
     pub uptime_ms: u64,
     pub devices: Vec<DeviceStatus_>,
+    pub endpoints: Vec<EndpointStatus_>,
+    pub diagnostics: Vec<Diagnostic_>,
 }
 keyless_topic_type!(GatewayStatus_, "handgate::msg::dds_::GatewayStatus_");

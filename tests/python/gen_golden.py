@@ -162,6 +162,22 @@ def hg_device_status_typical(i):
     )
 
 
+def hg_endpoint_status_typical():
+    return ws.CLASSES["handgate/EndpointStatus_"](
+        owner="front dex1_left", topic="rt/dex1/left/cmd", role="reader", matched=1,
+        who=["process python (pid 4242) on vm at 192.0.2.2"],
+    )
+
+
+def hg_diagnostic_typical():
+    return ws.CLASSES["handgate/Diagnostic_"](
+        owner="front dex1_left", topic="rt/dex1/left/cmd", kind="type_mismatch",
+        detail="1 writer(s) on rt/dex1/left/cmd use type unitree_hg::msg::dds_::HandCmd_; "
+               "this process serves unitree_go::msg::dds_::MotorCmds_",
+        fix='the client speaks the seed-spec unitree_hg variant: set variant = "hg" on front dex1_left',
+    )
+
+
 def canonical_typical(key):
     c = ws.CLASSES
     if key == "handgate/JointCmd_":
@@ -183,8 +199,13 @@ def canonical_typical(key):
         )
     if key == "handgate/DeviceStatus_":
         return hg_device_status_typical(0)
+    if key == "handgate/EndpointStatus_":
+        return hg_endpoint_status_typical()
+    if key == "handgate/Diagnostic_":
+        return hg_diagnostic_typical()
     if key == "handgate/GatewayStatus_":
-        return c[key](profile="default", uptime_ms=3_600_000, devices=[hg_device_status_typical(i) for i in range(3)])
+        return c[key](profile="default", uptime_ms=3_600_000, devices=[hg_device_status_typical(i) for i in range(3)],
+                      endpoints=[hg_endpoint_status_typical()], diagnostics=[hg_diagnostic_typical()])
     if key == "builtin_interfaces/Time_":
         return c[key](sec=1_763_712_000, nanosec=123_456_789)
     if key == "std_msgs/Header_":

@@ -87,10 +87,34 @@ class DeviceStatus_(idl.IdlStruct, typename="handgate.msg.dds_.DeviceStatus_"):
 @dataclass
 @annotate.final
 @annotate.autoid("sequential")
+class EndpointStatus_(idl.IdlStruct, typename="handgate.msg.dds_.EndpointStatus_"):
+    owner: str
+    topic: str
+    role: str
+    matched: types.uint32
+    who: types.sequence[str]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class Diagnostic_(idl.IdlStruct, typename="handgate.msg.dds_.Diagnostic_"):
+    owner: str
+    topic: str
+    kind: str
+    detail: str
+    fix: str
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
 class GatewayStatus_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatus_"):
     profile: str
     uptime_ms: types.uint64
     devices: types.sequence[DeviceStatus_]
+    endpoints: types.sequence[EndpointStatus_]
+    diagnostics: types.sequence[Diagnostic_]
 
 
 @dataclass
@@ -126,6 +150,8 @@ CLASSES = {
     "handgate/JointState_": JointState_,
     "handgate/HandState_": HandState_,
     "handgate/DeviceStatus_": DeviceStatus_,
+    "handgate/EndpointStatus_": EndpointStatus_,
+    "handgate/Diagnostic_": Diagnostic_,
     "handgate/GatewayStatus_": GatewayStatus_,
     "builtin_interfaces/Time_": Time_,
     "std_msgs/Header_": Header_,

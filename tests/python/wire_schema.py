@@ -120,8 +120,18 @@ SCHEMA.update({
         ("bad_input", "u64"), ("watchdog_trips", "u64"), ("reconnects", "u64"),
         ("missed_cycles", "u64"), ("age_ms", "f32"),
     ],
+    "handgate/EndpointStatus_": [
+        ("owner", "string"), ("topic", "string"), ("role", "string"), ("matched", "u32"),
+        ("who", ("seq", "string")),
+    ],
+    "handgate/Diagnostic_": [
+        ("owner", "string"), ("topic", "string"), ("kind", "string"), ("detail", "string"),
+        ("fix", "string"),
+    ],
     "handgate/GatewayStatus_": [
         ("profile", "string"), ("uptime_ms", "u64"), ("devices", ("seq", "handgate/DeviceStatus_")),
+        ("endpoints", ("seq", "handgate/EndpointStatus_")),
+        ("diagnostics", ("seq", "handgate/Diagnostic_")),
     ],
     "builtin_interfaces/Time_": [("sec", "i32"), ("nanosec", "u32")],
     "std_msgs/Header_": [("stamp", ("struct", "builtin_interfaces/Time_")), ("frame_id", "string")],

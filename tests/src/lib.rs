@@ -842,10 +842,26 @@ plain_struct!(handgate::DeviceStatus_ {
     missed_cycles,
     age_ms
 });
+plain_struct!(handgate::EndpointStatus_ {
+    owner,
+    topic,
+    role,
+    matched,
+    who
+});
+plain_struct!(handgate::Diagnostic_ {
+    owner,
+    topic,
+    kind,
+    detail,
+    fix
+});
 plain_struct!(handgate::GatewayStatus_ {
     profile,
     uptime_ms,
-    devices
+    devices,
+    endpoints,
+    diagnostics
 });
 plain_struct!(ros2::Time_ { sec, nanosec });
 plain_struct!(ros2::Header_ { stamp, frame_id });

@@ -249,6 +249,20 @@ fn handgate_device_status() {
 }
 
 #[test]
+fn handgate_endpoint_status() {
+    let all = check_type::<handgate::EndpointStatus_>("handgate", "EndpointStatus_");
+    assert_eq!(case(&all, "empty"), &handgate::EndpointStatus_::default());
+    assert_eq!(case(&all, "typical").who.len(), 1);
+}
+
+#[test]
+fn handgate_diagnostic() {
+    let all = check_type::<handgate::Diagnostic_>("handgate", "Diagnostic_");
+    assert_eq!(case(&all, "empty"), &handgate::Diagnostic_::default());
+    assert_eq!(case(&all, "typical").kind, "type_mismatch");
+}
+
+#[test]
 fn handgate_gateway_status() {
     let all = check_type::<handgate::GatewayStatus_>("handgate", "GatewayStatus_");
     assert_eq!(case(&all, "empty"), &handgate::GatewayStatus_::default());
@@ -362,6 +376,8 @@ fn every_fixture_is_checked() {
         ("handgate", "JointState_"),
         ("handgate", "HandState_"),
         ("handgate", "DeviceStatus_"),
+        ("handgate", "EndpointStatus_"),
+        ("handgate", "Diagnostic_"),
         ("handgate", "GatewayStatus_"),
         ("builtin_interfaces", "Time_"),
         ("std_msgs", "Header_"),

@@ -342,7 +342,10 @@ pub fn diagnose(snapshot: &Snapshot, served: &[Served]) -> Report {
                 } else {
                     by_qos.entry(reasons).or_default().push(RemoteRef::new(snapshot, e));
                 }
-            } else if s.role == Role::Writer && e.role == Role::Writer {
+            } else if s.role == Role::Writer && e.role == Role::Writer && snapshot.participant(&e.participant).is_some()
+            {
+                // A writer whose participant is not known yet may be this process's own
+                // (discovery can list an endpoint before its participant): not foreign yet.
                 foreign.push(RemoteRef::new(snapshot, e));
             }
         }
@@ -855,6 +858,15 @@ mod tests {
         assert!(f.detail.contains("pid 1001"), "{}", f.detail);
         assert!(f.fix.contains("two sources"));
         assert_eq!(r.topics[0].matched.len(), 1);
+    }
+
+    #[test]
+    fn no_foreign_writer_before_its_participant_is_known() {
+        let mut b = Builder::new().remote(Role::Writer, "rt/dex1/left/state", GO_STATES);
+        // Discovery listed the endpoint but not (yet) its participant.
+        b.snap.participants.clear();
+        let r = diagnose(&b.snap, &[served("rt/dex1/left/state", GO_STATES, Role::Writer)]);
+        assert!(!kinds(&r).contains(&&FindingKind::ForeignWriter), "{:?}", kinds(&r));
     }
 
     #[test]

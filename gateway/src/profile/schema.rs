@@ -63,6 +63,17 @@ snake_enum!(
     LogFormat { Human => "human", Json => "json" } default Human
 );
 
+snake_enum!(
+    /// What `handgate run` does when another process already writes a state topic one of its
+    /// fronts would write (another service for the same hand, a second handgate).
+    ForeignStateWriters {
+        /// Refuse to start, naming the topic and the other process.
+        Refuse => "refuse",
+        /// Start anyway; log a warning and flag it in status.
+        Warn => "warn",
+    } default Refuse
+);
+
 pub use handgate_adapters::front::config::Silence;
 
 /// Which interface a front serves to clients: a handle into the front registry.
@@ -119,6 +130,12 @@ pub struct DdsConfig {
     /// Network interface to bind, like unitree_sdk2's `ChannelFactoryInitialize(0, "eth0")`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interface: Option<String>,
+    /// Another process already writing a front's state topic at start-up: refuse or warn.
+    pub foreign_state_writers: ForeignStateWriters,
+    /// Start-up: discovery counts as settled after this long without a change...
+    pub discovery_settle_ms: Millis,
+    /// ...or after this long in all, whichever comes first.
+    pub discovery_max_wait_ms: Millis,
 }
 
 impl Default for DdsConfig {
@@ -127,9 +144,19 @@ impl Default for DdsConfig {
         DdsConfig {
             domain: DomainId(1),
             interface: None,
+            foreign_state_writers: ForeignStateWriters::default(),
+            discovery_settle_ms: Millis(DEFAULT_DISCOVERY_SETTLE_MS),
+            discovery_max_wait_ms: Millis(DEFAULT_DISCOVERY_MAX_WAIT_MS),
         }
     }
 }
+
+/// Default `dds.discovery_settle_ms`.
+pub const DEFAULT_DISCOVERY_SETTLE_MS: u32 = 100;
+/// Default `dds.discovery_max_wait_ms`.
+pub const DEFAULT_DISCOVERY_MAX_WAIT_MS: u32 = 500;
+/// Largest `dds.discovery_max_wait_ms`.
+pub const MAX_DISCOVERY_WAIT_MS: u32 = 10_000;
 
 /// Logging.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -70,6 +70,19 @@ impl Checker {
                 );
             }
         }
+        let (settle, max_wait) = (p.dds.discovery_settle_ms.0, p.dds.discovery_max_wait_ms.0);
+        if max_wait > MAX_DISCOVERY_WAIT_MS {
+            self.err(
+                root().key("dds").key("discovery_max_wait_ms"),
+                format!("must be at most {MAX_DISCOVERY_WAIT_MS} ms, got {max_wait}"),
+            );
+        }
+        if settle > max_wait {
+            self.err(
+                root().key("dds").key("discovery_settle_ms"),
+                format!("must be at most dds.discovery_max_wait_ms ({max_wait} ms), got {settle}"),
+            );
+        }
         // log
         if let Err(e) = tracing_subscriber::EnvFilter::try_new(&p.log.level) {
             self.err(

@@ -37,6 +37,9 @@ pub enum RuntimeError {
     },
     #[error("front bound to unknown device {0:?}")]
     UnknownDevice(String),
+    /// Another process already writes a state topic a front would write.
+    #[error("{0}")]
+    ForeignStateWriter(String),
 }
 
 /// Per-device counters kept by the fronts bound to it.
@@ -87,6 +90,8 @@ impl Runtime {
         };
         let mut shared = Shared::default();
         let opened = open_devices(&node, plan, &mut shared)?;
+        let served = crate::diagnostics::served(plan);
+        check_foreign_state_writers(&discovery, plan, &served)?;
         let mut devices = Vec::new();
         let mut by_name = HashMap::new();
         for (p, device) in plan.devices.iter().zip(opened) {
@@ -104,7 +109,15 @@ impl Runtime {
         for f in &plan.fronts {
             tasks.push(fronts::spawn_front(&env, f, &by_name, shutdown_rx.clone())?);
         }
-        tasks.push(status::spawn_status(&node, plan, devices.clone(), shutdown_rx.clone())?);
+        let (diag_task, diagnosis) = crate::diagnostics::spawn(served, discovery.subscribe(), shutdown_rx.clone());
+        tasks.push(diag_task);
+        tasks.push(status::spawn_status(
+            &node,
+            plan,
+            devices.clone(),
+            diagnosis,
+            shutdown_rx.clone(),
+        )?);
         Ok(Self {
             node,
             devices,
@@ -142,6 +155,74 @@ impl Runtime {
         }
         out
     }
+}
+
+/// Waits until discovery has settled (no change for `plan.discovery_settle`, at most
+/// `plan.discovery_max_wait` in all); returns the snapshot and how long it took.
+fn settle(discovery: &Discovery, plan: &Plan) -> (Arc<handgate_adapters::discovery::Snapshot>, Duration) {
+    let start = Instant::now();
+    loop {
+        let generation = discovery.snapshot().generation;
+        let left = plan.discovery_max_wait.saturating_sub(start.elapsed());
+        if left.is_zero() {
+            break;
+        }
+        // Err: nothing changed within the settle time (or the cap came first).
+        if discovery
+            .wait_for(plan.discovery_settle.min(left), |s| s.generation != generation)
+            .is_err()
+        {
+            break;
+        }
+    }
+    (discovery.snapshot(), start.elapsed())
+}
+
+/// Before the fronts open: another process already writing a state topic a front would
+/// write refuses the start (`dds.foreign_state_writers = "refuse"`, naming the topic and the
+/// process), or is logged (`"warn"`; the diagnostics task then flags it in status). Waits for
+/// discovery to settle first, only when refusing and some front writes a topic.
+fn check_foreign_state_writers(
+    discovery: &Discovery,
+    plan: &Plan,
+    served: &[crate::diagnostics::ServedBy],
+) -> Result<(), RuntimeError> {
+    use crate::profile::ForeignStateWriters;
+    let writes = served.iter().any(|s| {
+        matches!(s.owner, crate::diagnostics::Owner::Front(_))
+            && s.served.role == handgate_adapters::discovery::Role::Writer
+    });
+    if plan.foreign_state_writers != ForeignStateWriters::Refuse || !writes {
+        return Ok(());
+    }
+    let (snapshot, waited) = settle(discovery, plan);
+    tracing::debug!(
+        waited_ms = waited.as_millis() as u64,
+        participants = snapshot.participants.len(),
+        endpoints = snapshot.endpoints.len(),
+        "discovery settled"
+    );
+    let found = crate::diagnostics::foreign_state_writers(&snapshot, served);
+    if found.is_empty() {
+        return Ok(());
+    }
+    let lines: Vec<String> = found
+        .iter()
+        .map(|f| {
+            let who: Vec<String> = f.finding.remotes.iter().map(|r| r.who()).collect();
+            format!(
+                "{}: {} already has a writer in another process: {}",
+                f.owner,
+                f.finding.served_topic,
+                who.join("; ")
+            )
+        })
+        .collect();
+    Err(RuntimeError::ForeignStateWriter(format!(
+        "{}; stop the other source, or set [dds] foreign_state_writers = \"{}\" to start anyway",
+        lines.join("; "),
+        ForeignStateWriters::Warn
+    )))
 }
 
 async fn futures_join_all<F>(futs: impl Iterator<Item = F>) -> Vec<F::Output>

@@ -1,5 +1,5 @@
 //! The gateway's status heartbeat (`rt/handgate/status`): per device, freshness, rates and
-//! counters.
+//! counters; per served endpoint, its matched counterparts; discovery's findings.
 
 use std::collections::HashMap;
 use std::sync::atomic::Ordering;
@@ -19,6 +19,7 @@ pub(super) fn spawn_status(
     node: &Node,
     plan: &Plan,
     devices: Vec<Arc<DeviceSlot>>,
+    diagnosis: watch::Receiver<Arc<crate::diagnostics::Diagnosis>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let mut writer = node.writer::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::Reliable { depth: 1 })?;
@@ -32,7 +33,8 @@ pub(super) fn spawn_status(
             tokio::select! {
                 _ = tick.tick() => {
                     let now = Instant::now();
-                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![] };
+                    let (endpoints, diagnostics) = crate::diagnostics::to_status(&diagnosis.borrow());
+                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![], endpoints, diagnostics };
                     for d in &devices {
                         let s = d.device.stats();
                         let st = d.device.state().borrow().clone();
