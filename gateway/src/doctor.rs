@@ -414,6 +414,21 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     // --- Layout of the samples read.
     for p in &probes {
         if p.total == 0 {
+            let writers: Vec<String> = all
+                .iter()
+                .zip(&report.topics)
+                .filter(|(s, _)| s.owner == p.owner && s.served.topic == p.topic && s.served.role == Role::Reader)
+                .flat_map(|(_, t)| t.matched.iter().filter(|r| !gateways.contains(&r.participant)).map(RemoteRef::who))
+                .collect();
+            if !writers.is_empty() {
+                out.line(format!(
+                    "note: {} matched writer(s) on {} sent no sample in {:.1} s ({}): the client exists but does not write (idle, or its send loop failed)",
+                    writers.len(),
+                    p.topic,
+                    opts.listen.as_secs_f64(),
+                    writers.join("; ")
+                ));
+            }
             continue;
         }
         let older: Vec<&str> = p.older.iter().copied().collect();
@@ -630,7 +645,19 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                 .filter(|i| i.up && !i.addrs.is_empty() && !sel.contains(&i.name.as_str()))
                 .map(describe_if)
                 .collect();
-            if !alternatives.is_empty() {
+            if !selected.is_empty() && selected.iter().all(|i| i.loopback) && !alternatives.is_empty() {
+                out.problem(
+                    "",
+                    format!(
+                        "DDS here uses only the loopback interface {}: nothing on another host can be seen, and nothing for this profile was seen on this one",
+                        sel.join(", ")
+                    ),
+                    format!(
+                        "select the interface of the clients' network: --interface NAME (dds.interface) with one of: {}",
+                        alternatives.join(", ")
+                    ),
+                );
+            } else if !alternatives.is_empty() {
                 out.line(format!(
                     "hint: nothing for this profile reached this host through {}; if the clients run elsewhere, their network may be on another interface here: {} (--interface NAME)",
                     if sel.is_empty() { "CycloneDDS's interface".to_string() } else { sel.join(", ") },
