@@ -162,7 +162,10 @@ impl InterfaceTrace {
                 out.found.get_or_insert_with(|| v.trim().to_string());
             } else {
                 let l = msg.to_ascii_lowercase();
-                if (l.contains("interface") || l.contains("multicast")) && !l.contains("transmit port") && !l.contains("ports:") {
+                if (l.contains("interface") || l.contains("multicast"))
+                    && !l.contains("transmit port")
+                    && !l.contains("ports:")
+                {
                     out.notes.push(msg.to_string());
                 }
             }

@@ -83,9 +83,13 @@ impl<T: DdsTypeName> RawTake for Reader<Raw<T>> {
 
 fn raw_reader(node: &Node, topic: &str, type_name: &str) -> Result<Option<Box<dyn RawTake>>, DdsError> {
     Ok(if type_name == unitree_hg::HandCmd_::DDS_TYPE_NAME {
-        Some(Box::new(node.reader::<Raw<unitree_hg::HandCmd_>>(topic, Qos::BestEffort)?))
+        Some(Box::new(
+            node.reader::<Raw<unitree_hg::HandCmd_>>(topic, Qos::BestEffort)?,
+        ))
     } else if type_name == unitree_hg::HandState_::DDS_TYPE_NAME {
-        Some(Box::new(node.reader::<Raw<unitree_hg::HandState_>>(topic, Qos::BestEffort)?))
+        Some(Box::new(
+            node.reader::<Raw<unitree_hg::HandState_>>(topic, Qos::BestEffort)?,
+        ))
     } else {
         None
     })
@@ -107,7 +111,9 @@ struct Probe {
 impl Probe {
     fn poll(&mut self) {
         for bytes in self.reader.take_bytes() {
-            let Some(c) = layout::check(&self.type_name, &bytes) else { continue };
+            let Some(c) = layout::check(&self.type_name, &bytes) else {
+                continue;
+            };
             self.total += 1;
             let key = match c.verdict {
                 Verdict::Current => "current".to_string(),
@@ -185,7 +191,15 @@ fn selected_names<'a>(trace: &InterfaceTrace, ifs: &'a [NetIf]) -> Vec<&'a NetIf
 
 fn describe_if(i: &NetIf) -> String {
     let addrs: Vec<String> = i.addrs.iter().map(|a| format!("{}/{}", a.ip, a.prefix)).collect();
-    let mut s = format!("{} ({})", i.name, if addrs.is_empty() { "no address".into() } else { addrs.join(", ") });
+    let mut s = format!(
+        "{} ({})",
+        i.name,
+        if addrs.is_empty() {
+            "no address".into()
+        } else {
+            addrs.join(", ")
+        }
+    );
     if !i.up {
         s.push_str(" down");
     }
@@ -260,7 +274,9 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     let mut scans = Vec::new();
     let mut scan_errors = Vec::new();
     for &d in opts.scan.iter().filter(|&&d| d != plan.domain) {
-        match Node::new(d, interface.as_deref()).and_then(|n| Ok((Discovery::start(&n, DiscoveryConfig::default())?, n))) {
+        match Node::new(d, interface.as_deref())
+            .and_then(|n| Ok((Discovery::start(&n, DiscoveryConfig::default())?, n)))
+        {
             Ok((discovery, n)) => scans.push(Scan {
                 domain: d,
                 discovery,
@@ -287,7 +303,9 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     // --- A gateway already running.
     let gateways = running_gateways(&snap, &plan.status_topic);
     for g in &gateways {
-        let who = snap.participant(g).map_or_else(|| format!("participant {g}"), who_participant);
+        let who = snap
+            .participant(g)
+            .map_or_else(|| format!("participant {g}"), who_participant);
         let writes: BTreeSet<&str> = snap
             .endpoints
             .iter()
@@ -365,7 +383,9 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                     FindingKind::QosMismatch { .. } => "QoS mismatch",
                     FindingKind::NearMissTopic { .. } => "near-miss topic",
                     FindingKind::ForeignWriter => {
-                        if f.remotes.iter().all(|r| gateways.contains(&r.participant)) && f.remote_count == f.remotes.len() {
+                        if f.remotes.iter().all(|r| gateways.contains(&r.participant))
+                            && f.remote_count == f.remotes.len()
+                        {
                             continue;
                         }
                         "foreign writer"
@@ -418,7 +438,12 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                 .iter()
                 .zip(&report.topics)
                 .filter(|(s, _)| s.owner == p.owner && s.served.topic == p.topic && s.served.role == Role::Reader)
-                .flat_map(|(_, t)| t.matched.iter().filter(|r| !gateways.contains(&r.participant)).map(RemoteRef::who))
+                .flat_map(|(_, t)| {
+                    t.matched
+                        .iter()
+                        .filter(|r| !gateways.contains(&r.participant))
+                        .map(RemoteRef::who)
+                })
                 .collect();
             if !writers.is_empty() {
                 out.line(format!(
@@ -473,9 +498,10 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
             ));
         }
     }
-    if all.iter().any(|s| {
-        s.served.role == Role::Writer && layout::checked_types().any(|t| t == s.served.type_name)
-    }) {
+    if all
+        .iter()
+        .any(|s| s.served.role == Role::Writer && layout::checked_types().any(|t| t == s.served.type_name))
+    {
         out.line(
             "layout: the HandState_ layout of client readers cannot be checked (a reader sends no samples); a client on an older SDK shows through the HandCmd_ it writes",
         );
@@ -520,7 +546,11 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     let my_host = snap
         .participant(&snap.this_participant)
         .and_then(|p| p.hostname.clone());
-    let remote: Vec<&Participant> = snap.participants.iter().filter(|p| p.origin == Origin::Remote).collect();
+    let remote: Vec<&Participant> = snap
+        .participants
+        .iter()
+        .filter(|p| p.origin == Origin::Remote)
+        .collect();
     let other_hosts: BTreeSet<&str> = remote
         .iter()
         .filter_map(|p| p.hostname.as_deref())
@@ -554,35 +584,11 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     if !selected.is_empty() {
         for g in &relevant {
             let Some(p) = snap.participant(g) else { continue };
-            let Some(ip) = p.unicast_address().and_then(|a| a.parse::<IpAddr>().ok()) else { continue };
-            if selected.iter().any(|i| i.on_subnet(ip)) {
+            let Some(ip) = p.unicast_address().and_then(|a| a.parse::<IpAddr>().ok()) else {
                 continue;
-            }
-            let sel: Vec<&str> = selected.iter().map(|i| i.name.as_str()).collect();
-            match ifs.iter().find(|i| i.on_subnet(ip)) {
-                Some(other) => out.problem(
-                    "  ",
-                    format!(
-                        "{} is on {}'s subnet, but DDS here uses {}",
-                        who_participant(p),
-                        other.name,
-                        sel.join(", ")
-                    ),
-                    format!(
-                        "use the same interface on both sides: --interface {} (dds.interface = \"{}\"), or move the client to {}",
-                        other.name,
-                        other.name,
-                        sel.join(", ")
-                    ),
-                ),
-                None => out.problem(
-                    "  ",
-                    format!(
-                        "{} is on a subnet none of this host's interfaces has",
-                        who_participant(p)
-                    ),
-                    "put this host and the client on one subnet (e.g. 192.168.123.0/24 on a Unitree robot's network) and select that interface",
-                ),
+            };
+            if let Some((what, fix)) = subnet_problem(&who_participant(p), ip, &selected, &ifs) {
+                out.problem("  ", what, fix);
             }
         }
     }
@@ -614,7 +620,11 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
             }
         }
         if n > 0 {
-            out.line(format!("  domain {}: {n} endpoint(s) for this profile: {}", s.domain, clients.join("; ")));
+            out.line(format!(
+                "  domain {}: {n} endpoint(s) for this profile: {}",
+                s.domain,
+                clients.join("; ")
+            ));
             elsewhere.push(s.domain);
         } else {
             let others = snap.participants.iter().filter(|p| p.origin == Origin::Remote).count();
@@ -677,6 +687,33 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     Ok(out)
 }
 
+/// When a client at `ip` is on none of the `selected` interfaces' subnets: what to say and
+/// the fix (another interface of this host has its subnet, or none does).
+fn subnet_problem(who: &str, ip: IpAddr, selected: &[&NetIf], ifs: &[NetIf]) -> Option<(String, String)> {
+    if selected.is_empty() || ip.is_loopback() && selected.iter().any(|i| i.loopback) {
+        return None;
+    }
+    if selected.iter().any(|i| i.on_subnet(ip)) {
+        return None;
+    }
+    let sel: Vec<&str> = selected.iter().map(|i| i.name.as_str()).collect();
+    Some(match ifs.iter().find(|i| i.on_subnet(ip)) {
+        Some(other) => (
+            format!("{who} is on {}'s subnet, but DDS here uses {}", other.name, sel.join(", ")),
+            format!(
+                "use the same interface on both sides: --interface {} (dds.interface = \"{}\"), or move the client to {}",
+                other.name,
+                other.name,
+                sel.join(", ")
+            ),
+        ),
+        None => (
+            format!("{who} is on a subnet none of this host's interfaces has"),
+            "put this host and the client on one subnet (e.g. 192.168.123.0/24 on a Unitree robot's network) and select that interface".to_string(),
+        ),
+    })
+}
+
 /// `unitree_hg::msg::dds_::HandCmd_` -> `HandCmd_`.
 fn short_type(t: &str) -> &str {
     t.rsplit("::").next().unwrap_or(t)
@@ -706,7 +743,9 @@ pub fn parse_scan(s: &str) -> Result<Vec<u32>, String> {
         return Err(format!("{a}-{b}: the range is empty"));
     }
     if b > MAX_DOMAIN {
-        return Err(format!("domain {b} is above {MAX_DOMAIN}, the highest CycloneDDS's port mapping allows"));
+        return Err(format!(
+            "domain {b} is above {MAX_DOMAIN}, the highest CycloneDDS's port mapping allows"
+        ));
     }
     if b - a > 31 {
         return Err(format!("{a}-{b}: at most 32 domains at once"));
@@ -767,5 +806,36 @@ mod tests {
         };
         let names: Vec<&str> = selected_names(&t, &ifs).iter().map(|i| i.name.as_str()).collect();
         assert_eq!(names, vec!["eth0"]);
+    }
+
+    #[test]
+    fn clients_on_another_subnet() {
+        let ifa = |name: &str, ip: &str, prefix: u8, lo: bool| NetIf {
+            name: name.into(),
+            up: true,
+            loopback: lo,
+            multicast: !lo,
+            addrs: vec![netif::IfAddr {
+                ip: ip.parse().unwrap(),
+                prefix,
+            }],
+        };
+        let ifs = vec![
+            ifa("lo", "127.0.0.1", 8, true),
+            ifa("eth0", "10.0.0.5", 24, false),
+            ifa("eth1", "192.168.123.222", 24, false),
+        ];
+        let eth0 = [&ifs[1]];
+        let ip = |s: &str| s.parse::<IpAddr>().unwrap();
+        assert!(subnet_problem("c", ip("10.0.0.9"), &eth0, &ifs).is_none());
+        let (what, fix) = subnet_problem("c", ip("192.168.123.161"), &eth0, &ifs).unwrap();
+        assert_eq!(what, "c is on eth1's subnet, but DDS here uses eth0");
+        assert!(fix.contains("--interface eth1"), "{fix}");
+        let (what, _) = subnet_problem("c", ip("172.16.0.1"), &eth0, &ifs).unwrap();
+        assert!(what.contains("none of this host's interfaces"), "{what}");
+        // A client on this host using lo, while DDS here uses eth0.
+        let (what, _) = subnet_problem("c", ip("127.0.0.1"), &eth0, &ifs).unwrap();
+        assert!(what.contains("lo's subnet"), "{what}");
+        assert!(subnet_problem("c", ip("127.0.0.1"), &[&ifs[0]], &ifs).is_none());
     }
 }

@@ -53,11 +53,25 @@ fn client(domain: u32, args: &[&str]) -> PyProcess {
 fn nothing_running_is_no_client_and_service_not_found() {
     let (code, out) = doctor(&["--domain", "140", "--no-scan"]);
     assert_eq!(code, 1, "{out}");
-    assert!(out.contains("rt/dex3/left/cmd (reader of unitree_hg::msg::dds_::HandCmd_): no writer"), "{out}");
-    assert!(out.contains("PROBLEM no client on any of the 9 front(s) on domain 140"), "{out}");
+    assert!(
+        out.contains("rt/dex3/left/cmd (reader of unitree_hg::msg::dds_::HandCmd_): no writer"),
+        "{out}"
+    );
+    assert!(
+        out.contains("PROBLEM no client on any of the 9 front(s) on domain 140"),
+        "{out}"
+    );
     assert!(out.contains("CycloneDDS selected: "), "{out}");
     // A profile with DDS-client devices: their service is missing.
-    let (code, out) = doctor(&["--profile", "g1-dex3", "--domain", "140", "--interface", "lo", "--no-scan"]);
+    let (code, out) = doctor(&[
+        "--profile",
+        "g1-dex3",
+        "--domain",
+        "140",
+        "--interface",
+        "lo",
+        "--no-scan",
+    ]);
     assert_eq!(code, 1, "{out}");
     assert!(out.contains("PROBLEM service not found for device left_hand"), "{out}");
     assert!(out.contains("CycloneDDS selected: lo"), "{out}");
@@ -81,12 +95,18 @@ fn a_matched_client_is_named_and_exits_0() {
         .lines()
         .find(|l| l.starts_with("  rt/dex3/left/cmd "))
         .unwrap_or_else(|| panic!("{out}"));
-    assert!(cmd_line.contains("1 matched writer(s)") && cmd_line.contains(&pid), "{out}");
+    assert!(
+        cmd_line.contains("1 matched writer(s)") && cmd_line.contains(&pid),
+        "{out}"
+    );
     let state_line = out
         .lines()
         .find(|l| l.starts_with("  rt/dex3/left/state "))
         .unwrap_or_else(|| panic!("{out}"));
-    assert!(state_line.contains("1 matched reader(s)") && state_line.contains(&pid), "{out}");
+    assert!(
+        state_line.contains("1 matched reader(s)") && state_line.contains(&pid),
+        "{out}"
+    );
     // The SDK publisher exists but writes nothing: said, not a problem.
     assert!(
         out.contains("note: 1 matched writer(s) on rt/dex3/left/cmd sent no sample in 2.0 s"),
@@ -149,25 +169,52 @@ fn clients_on_another_domain_are_found_by_the_scan() {
             "rt/dex3/left/state=unitree_hg/HandState_",
         ],
     );
-    let (code, out) = doctor(&["--domain", "144", "--scan", "144-146"]);
+    let (code, out) = doctor(&["--domain", "144", "--scan", "144-145"]);
     assert_eq!(code, 1, "{out}");
-    assert!(out.contains("domain scan (145, 146):"), "{out}");
+    assert!(out.contains("domain scan (145):"), "{out}");
     let found = out
         .lines()
         .find(|l| l.starts_with("  domain 145: "))
         .unwrap_or_else(|| panic!("{out}"));
     assert!(found.contains(&format!("(pid {})", c.id())), "{out}");
-    assert!(out.contains("PROBLEM your clients are on domain 145, the profile uses domain 144"), "{out}");
+    assert!(
+        out.contains("PROBLEM your clients are on domain 145, the profile uses domain 144"),
+        "{out}"
+    );
     assert!(out.contains("--domain 145"), "{out}");
-    assert!(out.contains("  domain 146: nothing for this profile"), "{out}");
+}
+
+#[test]
+fn a_foreign_writer_of_a_state_topic_is_a_problem() {
+    // Another process publishing the state a front would serve (as the G1's resident Dex3
+    // service does on rt/dex3/left/state).
+    let c = client(146, &["--pub", "rt/dex3/left/state=unitree_hg/HandState_"]);
+    let (code, out) = doctor(&["--domain", "146", "--no-scan"]);
+    assert_eq!(code, 1, "{out}");
+    let lines: Vec<&str> = out.lines().collect();
+    let problem = lines
+        .iter()
+        .position(|l| l.contains("PROBLEM foreign writer") && l.contains("rt/dex3/left/state"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(lines[problem].contains(&format!("(pid {})", c.id())), "{out}");
+    assert!(
+        lines[problem + 1].contains("fix: two sources publish this topic"),
+        "{out}"
+    );
 }
 
 #[test]
 fn a_nonexistent_interface_is_said_so() {
-    let (code, out) = doctor(&["--domain", "146", "--interface", "nosuch0", "--no-scan"]);
+    let (code, out) = doctor(&["--domain", "149", "--interface", "nosuch0", "--no-scan"]);
     assert_eq!(code, 1, "{out}");
-    assert!(out.contains("PROBLEM interface nosuch0 does not exist on this host"), "{out}");
-    assert!(out.contains("fix: set dds.interface in the profile (or --interface) to one of: "), "{out}");
+    assert!(
+        out.contains("PROBLEM interface nosuch0 does not exist on this host"),
+        "{out}"
+    );
+    assert!(
+        out.contains("fix: set dds.interface in the profile (or --interface) to one of: "),
+        "{out}"
+    );
 }
 
 #[test]
@@ -215,7 +262,10 @@ fn a_running_gateway_is_named_and_its_writers_are_not_foreign() {
     );
     let (code, out) = doctor(&["--domain", "148", "--no-scan"]);
     assert!(
-        out.contains(&format!("handgate already serving on domain 148: process handgate (pid {})", gw.id())),
+        out.contains(&format!(
+            "handgate already serving on domain 148: process handgate (pid {})",
+            gw.id()
+        )),
         "{out}"
     );
     assert!(out.contains("11 of this profile's 11 front state topics"), "{out}");
