@@ -39,10 +39,14 @@ pub enum Command {
         #[command(flatten)]
         overrides: OverrideArgs,
     },
-    /// Join the profile's DDS domain for a few seconds without serving anything and say, for
-    /// every front and DDS device of the profile, which clients and services are there, what
-    /// keeps the others from matching and the fix (docs/troubleshooting.md). Exit 0 when
-    /// nothing is wrong, 1 otherwise, 2 for an invalid profile.
+    /// Say why clients do not match the profile's gateway ("Waiting to subscribe dds...").
+    ///
+    /// Joins the profile's DDS domain for a few seconds without serving anything and says,
+    /// for every front and DDS device of the profile, which clients and services are there,
+    /// what keeps the others from matching and the fix, which interfaces CycloneDDS chose and
+    /// whether multicast works on them, and which other domains have the profile's clients
+    /// (docs/troubleshooting.md). Exit 0 when nothing is wrong, 1 otherwise, 2 for an invalid
+    /// profile.
     Doctor {
         /// Profile (as for `run --profile`); without it: the embedded default.
         #[arg(long)]

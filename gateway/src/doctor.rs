@@ -337,6 +337,7 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
         }
     }
     let mut fronts_with_client = 0;
+    let mut front_findings = 0usize;
     let mut fronts = 0;
     let mut missing_anywhere: Vec<&str> = Vec::new();
     for owner in &owners {
@@ -391,11 +392,24 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                         "foreign writer"
                     }
                 };
-                out.problem(
-                    "  ",
-                    format!("{label}: {} ({})", f.detail, list_refs(&f.remotes, f.remote_count)),
-                    &f.fix,
-                );
+                // `diagnose` words its details for the process that serves; the doctor
+                // speaks for the profile's gateway, which is not running here.
+                let detail = f
+                    .detail
+                    .replace("this process does not serve", "the profile does not serve")
+                    .replace("this process serves", "the profile serves")
+                    .replace(
+                        "which this process writes too",
+                        "which the profile's gateway would write too",
+                    );
+                let named = f.remotes.first().is_some_and(|r| detail.contains(&r.who()));
+                let who = if named {
+                    String::new()
+                } else {
+                    format!(" ({})", list_refs(&f.remotes, f.remote_count))
+                };
+                out.problem("  ", format!("{label}: {detail}{who}"), &f.fix);
+                front_findings += usize::from(matches!(owner, Owner::Front(_)));
             }
         }
         match owner {
@@ -423,7 +437,8 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
             }
         }
     }
-    if fronts > 0 && fronts_with_client == 0 {
+    // Clients that are there but do not match were each reported above.
+    if fronts > 0 && fronts_with_client == 0 && front_findings == 0 {
         out.problem(
             "",
             format!("no client on any of the {fronts} front(s) on domain {}", plan.domain),
@@ -462,8 +477,8 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                 .seen
                 .iter()
                 .map(|(k, (n, size, cur))| match cur {
-                    Some(c) => format!("{n} × {size} bytes ({k}; the current layout is {c} bytes)"),
-                    None => format!("{n} × {size} bytes ({k})"),
+                    Some(c) => format!("{n} sample(s) of {size} bytes: {k} (the current layout: {c} bytes)"),
+                    None => format!("{n} sample(s) of {size} bytes: {k}"),
                 })
                 .collect();
             let what = if older.is_empty() {

@@ -242,7 +242,7 @@ fn a_client_writing_the_old_hand_cmd_layout_is_stale() {
     assert_eq!(code, 1, "{out}");
     assert!(
         out.contains("PROBLEM stale HandCmd_ layout on rt/dex3/left/cmd (front dex3_left)")
-            && out.contains("200 bytes")
+            && out.contains("of 200 bytes: HandCmd_ without reserve[4]")
             && out.contains("before December 2024"),
         "{out}"
     );
