@@ -291,14 +291,20 @@ pub fn log_changes(prev: &Diagnosis, next: &Diagnosis) {
     }
 }
 
-/// Starts the diagnostics task (a tokio task; never on a device path): on every new
-/// discovery snapshot, diagnoses `served`, logs the changes and publishes the result on the
-/// returned channel (read by the status publisher). Ends on `shutdown`.
+/// Least time between two diagnoses: snapshots arriving faster are coalesced (the latest
+/// wins), so a busy domain costs at most one diagnosis per interval.
+pub const MIN_DIAGNOSIS_INTERVAL: std::time::Duration = std::time::Duration::from_millis(100);
+
+/// Starts the diagnostics task (a tokio task that computes on the blocking pool, never on a
+/// device path or a front's worker): on every new discovery snapshot (at most one per
+/// [`MIN_DIAGNOSIS_INTERVAL`]), diagnoses `served`, logs the changes and publishes the result
+/// on the returned channel (read by the status publisher). Ends on `shutdown`.
 pub fn spawn(
     served: Vec<ServedBy>,
     mut snapshots: watch::Receiver<Arc<Snapshot>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> (tokio::task::JoinHandle<()>, watch::Receiver<Arc<Diagnosis>>) {
+    let served = Arc::new(served);
     let first = Arc::new(diagnose_all(&snapshots.borrow_and_update(), &served));
     log_changes(&Diagnosis::default(), &first);
     let (tx, rx) = watch::channel(first);
@@ -310,13 +316,20 @@ pub fn spawn(
                         break;
                     }
                     let snap = snapshots.borrow_and_update().clone();
-                    let next = diagnose_all(&snap, &served);
+                    let s = Arc::clone(&served);
+                    let Ok(next) = tokio::task::spawn_blocking(move || diagnose_all(&snap, &s)).await else {
+                        break;
+                    };
                     let prev = tx.borrow().clone();
                     if next.endpoints != prev.endpoints || next.findings != prev.findings {
                         log_changes(&prev, &next);
                         let _ = tx.send(Arc::new(next));
                     }
                 }
+                _ = shutdown.changed() => break,
+            }
+            tokio::select! {
+                _ = tokio::time::sleep(MIN_DIAGNOSIS_INTERVAL) => {}
                 _ = shutdown.changed() => break,
             }
         }

@@ -9,7 +9,8 @@ Creates one ChannelPublisher per --pub and one ChannelSubscriber per --sub (the 
 QoS) after ChannelFactoryInitialize(domain). stdout protocol (flushed lines):
     READY <pid>   every endpoint exists
     CLOSED        stdin reached end of file and every endpoint was closed; then it exits 0
-It also exits on its own after --timeout seconds.
+With --hold it ignores stdin and keeps its endpoints until it is killed (tests/src's
+PyProcess gives it no stdin). It also exits on its own after --timeout seconds.
 """
 
 import argparse
@@ -42,6 +43,7 @@ def main():
     ap.add_argument("--sub", type=pair, action="append", default=[])
     ap.add_argument("--interface", default=None)
     ap.add_argument("--timeout", type=float, default=60.0)
+    ap.add_argument("--hold", action="store_true", help="keep the endpoints until killed")
     args = ap.parse_args()
 
     threading.Timer(args.timeout, lambda: os._exit(3)).start()
@@ -57,6 +59,8 @@ def main():
         endpoints.append(s)
     print(f"READY {os.getpid()}", flush=True)
 
+    if args.hold:
+        threading.Event().wait()
     sys.stdin.read()
     for e in endpoints:
         e.Close()

@@ -77,6 +77,24 @@ const BAD: &[(&str, &str, &str, &str)] = &[
     ),
     ("domain too high", "[dds]\ndomain = 233\n", "dds.domain", "between 0 and 232"),
     (
+        "unknown foreign writer policy",
+        "[dds]\nforeign_state_writers = \"ignore\"\n",
+        "dds.foreign_state_writers",
+        "unknown variant: found `ignore`, expected ``refuse` or `warn``",
+    ),
+    (
+        "discovery wait too long",
+        "[dds]\ndiscovery_max_wait_ms = 60000\n",
+        "dds.discovery_max_wait_ms",
+        "at most 10000 ms",
+    ),
+    (
+        "discovery settle longer than the wait",
+        "[dds]\ndiscovery_settle_ms = 800\n",
+        "dds.discovery_settle_ms",
+        "at most dds.discovery_max_wait_ms (500 ms)",
+    ),
+    (
         "emulator noise on a kind that publishes no state",
         "[[devices]]\nname = \"s\"\nkind = \"hand_sdk\"\nside = \"center\"\nbackend = \"emulator\"\n[devices.emulator]\nposition_noise_rad = 0.001\n",
         "devices[0].emulator.position_noise_rad",
