@@ -60,6 +60,14 @@ pub enum Command {
         /// Look on the profile's domain only.
         #[arg(long)]
         no_scan: bool,
+        /// When nothing for the profile is found, do not look through this host's other
+        /// interfaces (by default it does, one child process per interface).
+        #[arg(long)]
+        no_sweep: bool,
+        /// Print only `relevant N` (the participants found for the profile); used by the
+        /// interface sweep.
+        #[arg(long, hide = true)]
+        count_only: bool,
         #[command(flatten)]
         overrides: OverrideArgs,
     },

@@ -42,6 +42,19 @@ pub struct Options {
     /// Other domains to join at the same time, to find clients on the wrong domain (the
     /// profile's own is skipped).
     pub scan: Vec<u32>,
+    /// When nothing for the profile is found: look through this host's other interfaces too.
+    pub sweep: Option<Sweep>,
+}
+
+/// How to look through another interface: a child `handgate doctor --count-only` per
+/// interface (one process holds one CycloneDDS configuration per domain, so the doctor cannot
+/// join its own domain a second time through another interface).
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    /// The `handgate` executable.
+    pub exe: std::path::PathBuf,
+    /// The `--profile` argument the doctor was given.
+    pub profile: Option<String>,
 }
 
 /// Highest DDS domain id CycloneDDS's default port mapping allows (7400 + 250 × id must fit
@@ -53,6 +66,9 @@ pub const MAX_DOMAIN: u32 = 232;
 pub struct Outcome {
     pub text: String,
     pub problems: Vec<String>,
+    /// Remote participants with endpoints for the profile on its domain (clients, services,
+    /// near misses; a running gateway not counted).
+    pub relevant: usize,
 }
 
 impl Outcome {
@@ -670,7 +686,34 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                 .filter(|i| i.up && !i.addrs.is_empty() && !sel.contains(&i.name.as_str()))
                 .map(describe_if)
                 .collect();
-            if !selected.is_empty() && selected.iter().all(|i| i.loopback) && !alternatives.is_empty() {
+            let through = if sel.is_empty() {
+                "CycloneDDS's interface".to_string()
+            } else {
+                sel.join(", ")
+            };
+            let swept = match &opts.sweep {
+                Some(sw) => sweep(sw, plan, opts.listen, &ifs, &sel),
+                None => Vec::new(),
+            };
+            let found: Vec<&(String, Result<usize, String>)> =
+                swept.iter().filter(|(_, r)| matches!(r, Ok(n) if *n > 0)).collect();
+            if !swept.is_empty() {
+                let each: Vec<String> = swept
+                    .iter()
+                    .map(|(name, r)| match r {
+                        Ok(n) => format!("{name}: {n} participant(s) for this profile"),
+                        Err(e) => format!("{name}: {e}"),
+                    })
+                    .collect();
+                out.line(format!("interface sweep (domain {}): {}", plan.domain, each.join("; ")));
+            }
+            if let Some((name, _)) = found.first() {
+                out.problem(
+                    "",
+                    format!("nothing for this profile reached this host through {through}, but through {name} it does"),
+                    format!("select {name}: --interface {name} (dds.interface = \"{name}\" in the profile)"),
+                );
+            } else if !selected.is_empty() && selected.iter().all(|i| i.loopback) && !alternatives.is_empty() {
                 out.problem(
                     "",
                     format!(
@@ -684,14 +727,14 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                 );
             } else if !alternatives.is_empty() {
                 out.line(format!(
-                    "hint: nothing for this profile reached this host through {}; if the clients run elsewhere, their network may be on another interface here: {} (--interface NAME)",
-                    if sel.is_empty() { "CycloneDDS's interface".to_string() } else { sel.join(", ") },
+                    "hint: nothing for this profile reached this host through {through}; if the clients run elsewhere, their network may be on another interface here: {} (--interface NAME)",
                     alternatives.join(", ")
                 ));
             }
         }
     }
 
+    out.relevant = relevant.len();
     if out.problems.is_empty() {
         out.line("doctor: nothing wrong found");
     } else {
@@ -700,6 +743,58 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     drop(probes);
     drop(scans);
     Ok(out)
+}
+
+/// Runs `handgate doctor --count-only` on the profile's domain through each up interface with
+/// an address that is not one of `selected`, all at once, and returns each one's count of
+/// participants for the profile (or why it could not look).
+fn sweep(
+    sw: &Sweep,
+    plan: &Plan,
+    listen: Duration,
+    ifs: &[NetIf],
+    selected: &[&str],
+) -> Vec<(String, Result<usize, String>)> {
+    let children: Vec<(String, std::io::Result<std::process::Child>)> = ifs
+        .iter()
+        .filter(|i| i.up && i.ipv4().is_some() && !selected.contains(&i.name.as_str()))
+        .map(|i| {
+            let mut cmd = std::process::Command::new(&sw.exe);
+            cmd.arg("doctor");
+            if let Some(p) = &sw.profile {
+                cmd.arg("--profile").arg(p);
+            }
+            let child = cmd
+                .arg("--domain")
+                .arg(plan.domain.to_string())
+                .arg("--interface")
+                .arg(&i.name)
+                .arg("--no-scan")
+                .arg("--seconds")
+                .arg(listen.as_secs_f64().to_string())
+                .arg("--count-only")
+                .stdin(std::process::Stdio::null())
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::null())
+                .spawn();
+            (i.name.clone(), child)
+        })
+        .collect();
+    children
+        .into_iter()
+        .map(|(name, child)| {
+            let r = child
+                .and_then(|c| c.wait_with_output())
+                .map_err(|e| e.to_string())
+                .and_then(|o| {
+                    String::from_utf8_lossy(&o.stdout)
+                        .lines()
+                        .find_map(|l| l.strip_prefix("relevant ").and_then(|n| n.trim().parse().ok()))
+                        .ok_or_else(|| format!("the look through it failed ({})", o.status))
+                });
+            (name, r)
+        })
+        .collect()
 }
 
 /// When a client at `ip` is on none of the `selected` interfaces' subnets: what to say and

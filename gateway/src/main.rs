@@ -147,6 +147,8 @@ fn main() -> anyhow::Result<ExitCode> {
             seconds,
             scan,
             no_scan,
+            no_sweep,
+            count_only,
             overrides,
         } => {
             use handgate_gateway::doctor;
@@ -156,6 +158,14 @@ fn main() -> anyhow::Result<ExitCode> {
                 (false, Some(s)) => doctor::parse_scan(&s).map_err(|e| anyhow::anyhow!("--scan {s}: {e}"))?,
                 (false, None) => doctor::default_scan(),
             };
+            let sweep = (!no_sweep && !count_only)
+                .then(|| {
+                    std::env::current_exe().ok().map(|exe| doctor::Sweep {
+                        exe,
+                        profile: profile.clone(),
+                    })
+                })
+                .flatten();
             let l = match load(profile, overrides) {
                 Ok(l) => l,
                 Err(code) => return Ok(code),
@@ -169,7 +179,12 @@ fn main() -> anyhow::Result<ExitCode> {
                     return Ok(ExitCode::from(EXIT_INVALID));
                 }
             };
-            let out = doctor::run(&plan, &doctor::Options { listen, scan })?;
+            let scan = if count_only { Vec::new() } else { scan };
+            let out = doctor::run(&plan, &doctor::Options { listen, scan, sweep })?;
+            if count_only {
+                println!("relevant {}", out.relevant);
+                return Ok(ExitCode::SUCCESS);
+            }
             print!("{}", out.text);
             if !out.problems.is_empty() {
                 return Ok(ExitCode::from(1));

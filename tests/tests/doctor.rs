@@ -13,9 +13,15 @@ const LISTEN: &str = "2";
 /// Runs `handgate doctor <args>` (plus `--interface` from `HANDGATE_INTEROP_IFACE` unless the
 /// test names one) and returns its exit code and stdout (stderr appended).
 fn doctor(args: &[&str]) -> (i32, String) {
+    let iface = interop_interface().filter(|_| !args.contains(&"--interface"));
+    doctor_on(args, iface.as_deref())
+}
+
+/// `handgate doctor <args> [--interface <interface>]`: exit code and output.
+fn doctor_on(args: &[&str], interface: Option<&str>) -> (i32, String) {
     let mut cmd = Command::new(handgate_bin());
     cmd.arg("doctor").arg("--seconds").arg(LISTEN).args(args);
-    if let (Some(iface), false) = (interop_interface(), args.contains(&"--interface")) {
+    if let Some(iface) = interface {
         cmd.arg("--interface").arg(iface);
     }
     for (k, _) in std::env::vars() {
@@ -51,7 +57,7 @@ fn client(domain: u32, args: &[&str]) -> PyProcess {
 
 #[test]
 fn nothing_running_is_no_client_and_service_not_found() {
-    let (code, out) = doctor(&["--domain", "140", "--no-scan"]);
+    let (code, out) = doctor(&["--domain", "140", "--no-scan", "--no-sweep"]);
     assert_eq!(code, 1, "{out}");
     assert!(
         out.contains("rt/dex3/left/cmd (reader of unitree_hg::msg::dds_::HandCmd_): no writer"),
@@ -71,6 +77,7 @@ fn nothing_running_is_no_client_and_service_not_found() {
         "--interface",
         "lo",
         "--no-scan",
+        "--no-sweep",
     ]);
     assert_eq!(code, 1, "{out}");
     assert!(out.contains("PROBLEM service not found for device left_hand"), "{out}");
@@ -204,8 +211,9 @@ fn a_foreign_writer_of_a_state_topic_is_a_problem() {
 }
 
 #[test]
-fn a_nonexistent_interface_is_said_so() {
-    let (code, out) = doctor(&["--domain", "149", "--interface", "nosuch0", "--no-scan"]);
+fn interfaces_nonexistent_loopback_only_and_the_sweep() {
+    // One domain, one step after the other: each step must not see the others' clients.
+    let (code, out) = doctor(&["--domain", "149", "--interface", "nosuch0", "--no-scan", "--no-sweep"]);
     assert_eq!(code, 1, "{out}");
     assert!(
         out.contains("PROBLEM interface nosuch0 does not exist on this host"),
@@ -215,10 +223,7 @@ fn a_nonexistent_interface_is_said_so() {
         out.contains("fix: set dds.interface in the profile (or --interface) to one of: "),
         "{out}"
     );
-}
 
-#[test]
-fn loopback_only_with_nothing_found_is_a_problem() {
     // lo exists everywhere; with it alone nothing beyond this host is reachable.
     let (code, out) = doctor(&["--domain", "149", "--interface", "lo", "--no-scan"]);
     assert_eq!(code, 1, "{out}");
@@ -233,6 +238,22 @@ fn loopback_only_with_nothing_found_is_a_problem() {
         others,
         "{out}"
     );
+
+    // A client on lo, the doctor on CycloneDDS's own choice: found directly, or by the
+    // sweep through lo (a child doctor per other interface).
+    let c = client(
+        149,
+        &["--interface", "lo", "--pub", "rt/dex3/left/cmd=unitree_hg/HandCmd_"],
+    );
+    let (_, out) = doctor_on(&["--domain", "149", "--no-scan"], None);
+    let pid = format!("(pid {})", c.id());
+    let direct = out.contains("1 matched writer(s)") && out.contains(&pid);
+    let swept = out.contains("interface sweep (domain 149): ")
+        && out.contains("lo: 1 participant(s) for this profile")
+        && out.contains("PROBLEM nothing for this profile reached this host through ")
+        && out.contains("but through lo it does")
+        && out.contains("fix: select lo: --interface lo");
+    assert!(direct || swept, "{out}");
 }
 
 #[test]
