@@ -265,7 +265,12 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
 
     // --- Join the domain (with CycloneDDS's trace of its interface choice) and the scan.
     let trace_file = std::env::temp_dir().join(format!("handgate-doctor-{}-{}.log", std::process::id(), plan.domain));
-    let node = Node::with_trace(plan.domain, interface.as_deref(), &trace_file)?;
+    let node = match Node::with_trace(plan.domain, interface.as_deref(), &trace_file) {
+        // A temporary directory CycloneDDS's XML cannot name: look without the trace (the
+        // network section then says it could not read CycloneDDS's choice).
+        Err(DdsError::BadTracePath(_)) => Node::new(plan.domain, interface.as_deref())?,
+        r => r?,
+    };
     let discovery = Discovery::start(&node, DiscoveryConfig::default())?;
     let mut probes = Vec::new();
     for s in &all {
