@@ -28,6 +28,8 @@ pub enum DdsError {
     },
     #[error("invalid network interface name {0:?}")]
     BadInterface(String),
+    #[error("trace file path {0:?} has characters other than letters, digits, /, ., - and _")]
+    BadTracePath(String),
     #[error("could not start a thread: {0}")]
     Thread(String),
     #[error("timed out after {0:?} waiting for {1}")]
@@ -175,6 +177,75 @@ pub fn interface_config(interface: &str) -> Result<String, DdsError> {
     ))
 }
 
+/// The CycloneDDS XML for one domain: an optional interface, and optionally CycloneDDS's
+/// `config` trace (which includes the interfaces it found, the ones it selected and its
+/// multicast decision) written to `trace_file`.
+fn domain_config(interface: Option<&str>, trace_file: Option<&std::path::Path>) -> Result<String, DdsError> {
+    let mut inner = String::new();
+    if let Some(iface) = interface {
+        // Validates the name (the same check as `interface_config`).
+        interface_config(iface)?;
+        inner.push_str(&format!(
+            "<General><Interfaces><NetworkInterface name=\"{iface}\" priority=\"default\" \
+             multicast=\"default\"/></Interfaces></General>"
+        ));
+    }
+    if let Some(path) = trace_file {
+        let path = path.to_string_lossy();
+        let ok = path
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '/' | '.' | '-' | '_'));
+        if !ok {
+            return Err(DdsError::BadTracePath(path.into_owned()));
+        }
+        inner.push_str(&format!(
+            "<Tracing><Category>config</Category><OutputFile>{path}</OutputFile></Tracing>"
+        ));
+    }
+    Ok(format!("<CycloneDDS><Domain Id=\"any\">{inner}</Domain></CycloneDDS>"))
+}
+
+/// What CycloneDDS's `config` trace says about network interfaces (see [`Node::with_trace`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct InterfaceTrace {
+    /// The `interfaces:` line: every interface CycloneDDS found, with its locator.
+    pub found: Option<String>,
+    /// The `selected interfaces:` line.
+    pub selected: Option<String>,
+    /// Every other trace line about an interface or multicast (its decision on multicast,
+    /// an interface name that matches nothing, ...), in order.
+    pub notes: Vec<String>,
+}
+
+impl InterfaceTrace {
+    /// Reads the lines of a CycloneDDS trace (`<time> [<domain>] <thread>: <message>`),
+    /// skipping the `config:` echo of every setting.
+    pub fn parse(trace: &str) -> Self {
+        let mut out = Self::default();
+        for line in trace.lines() {
+            let Some((_, msg)) = line.split_once("]") else { continue };
+            let msg = msg.split_once(": ").map_or(msg, |(_, m)| m).trim();
+            if msg.starts_with("config:") {
+                continue;
+            }
+            if let Some(v) = msg.strip_prefix("selected interfaces:") {
+                out.selected.get_or_insert_with(|| v.trim().to_string());
+            } else if let Some(v) = msg.strip_prefix("interfaces:") {
+                out.found.get_or_insert_with(|| v.trim().to_string());
+            } else {
+                let l = msg.to_ascii_lowercase();
+                if (l.contains("interface") || l.contains("multicast"))
+                    && !l.contains("transmit port")
+                    && !l.contains("ports:")
+                {
+                    out.notes.push(msg.to_string());
+                }
+            }
+        }
+        out
+    }
+}
+
 /// A participant on one DDS domain. Cheap to clone.
 #[derive(Clone)]
 pub struct Node {
@@ -258,6 +329,34 @@ impl Node {
         let mut g = self.inner.endpoints.lock().unwrap_or_else(|p| p.into_inner());
         g.0.retain(|(_, k)| *k != guid);
         g.1 += 1;
+    }
+
+    /// As [`Node::new`], and CycloneDDS writes its `config` trace for this domain to
+    /// `trace_file` ([`InterfaceTrace::parse`] reads what it chose). Without an interface the
+    /// configuration in `CYCLONEDDS_URI` (if any) still applies, the trace added to it; with
+    /// one, as [`Node::new`], only the interface is configured.
+    pub fn with_trace(domain_id: u32, interface: Option<&str>, trace_file: &std::path::Path) -> Result<Self, DdsError> {
+        let ours = domain_config(interface, Some(trace_file))?;
+        let cfg = match (interface, std::env::var("CYCLONEDDS_URI")) {
+            (None, Ok(env)) if !env.trim().is_empty() => format!("{env},{ours}"),
+            _ => ours,
+        };
+        let domain = DdsDomain::create(domain_id, Some(&cfg)).map_err(dds_err("domain create"))?;
+        let participant = ParticipantBuilder::new()
+            .with_domain(domain_id)
+            .create()
+            .map_err(dds_err("participant create"))?;
+        // SAFETY: only reads the integer handle out of the wrapper.
+        let guid = entity_guid(unsafe { participant.entity().entity() })?;
+        Ok(Self {
+            inner: Arc::new(NodeInner {
+                participant,
+                domain_id,
+                guid,
+                endpoints: Mutex::new((Vec::new(), 0)),
+                _domain: Some(domain),
+            }),
+        })
     }
 
     pub fn domain_id(&self) -> u32 {
@@ -633,4 +732,33 @@ fn wait_until(timeout: Duration, what: &'static str, mut cond: impl FnMut() -> b
         std::thread::sleep(Duration::from_millis(1));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interface_trace_lines() {
+        // Lines as CycloneDDS 0.10.2 writes them (measured here, `Tracing/Category config`).
+        let t = "1795523015.6 [147]     python: config: Domain/General/AllowMulticast/#text: default {}\n\
+                 1795523015.6 [147]     python: interfaces: lo udp/127.0.0.1(q1) eth0 udp/192.0.2.2(q9)\n\
+                 1795523015.6 [147]     python: selected interfaces: lo (index 1 priority 2)\n\
+                 1795523015.6 [147]     python: selected interface \"lo\" is not multicast-capable: disabling multicast\n\
+                 1795523015.6 [147]     python: interface lo: transmit port 50754\n";
+        let p = InterfaceTrace::parse(t);
+        assert_eq!(p.found.as_deref(), Some("lo udp/127.0.0.1(q1) eth0 udp/192.0.2.2(q9)"));
+        assert_eq!(p.selected.as_deref(), Some("lo (index 1 priority 2)"));
+        assert_eq!(
+            p.notes,
+            vec!["selected interface \"lo\" is not multicast-capable: disabling multicast".to_string()]
+        );
+    }
+
+    #[test]
+    fn domain_config_validates_names() {
+        assert!(domain_config(Some("eth0"), Some(std::path::Path::new("/tmp/x.log"))).is_ok());
+        assert!(domain_config(Some("eth0\"/>"), None).is_err());
+        assert!(domain_config(None, Some(std::path::Path::new("/tmp/a b<"))).is_err());
+    }
 }

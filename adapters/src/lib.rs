@@ -23,6 +23,7 @@ pub mod kinds;
 pub mod link;
 pub mod mapping;
 pub mod model;
+pub mod netif;
 pub mod open;
 pub mod ros;
 pub mod route;

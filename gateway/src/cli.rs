@@ -39,6 +39,38 @@ pub enum Command {
         #[command(flatten)]
         overrides: OverrideArgs,
     },
+    /// Say why clients do not match the profile's gateway ("Waiting to subscribe dds...").
+    ///
+    /// Joins the profile's DDS domain for a few seconds without serving anything and says,
+    /// for every front and DDS device of the profile, which clients and services are there,
+    /// what keeps the others from matching and the fix, which interfaces CycloneDDS chose and
+    /// whether multicast works on them, and which other domains have the profile's clients
+    /// (docs/troubleshooting.md). Exit 0 when nothing is wrong, 1 otherwise, 2 for an invalid
+    /// profile.
+    Doctor {
+        /// Profile (as for `run --profile`); without it: the embedded default.
+        #[arg(long)]
+        profile: Option<String>,
+        /// How long to listen, seconds.
+        #[arg(long, default_value_t = 3.0)]
+        seconds: f64,
+        /// Other DDS domains to look on at the same time, `A-B` or `N` (default 0-5).
+        #[arg(long, conflicts_with = "no_scan")]
+        scan: Option<String>,
+        /// Look on the profile's domain only.
+        #[arg(long)]
+        no_scan: bool,
+        /// When nothing for the profile is found, do not look through this host's other
+        /// interfaces (by default it does, one child process per interface).
+        #[arg(long)]
+        no_sweep: bool,
+        /// Print only `relevant N` (the participants found for the profile); used by the
+        /// interface sweep.
+        #[arg(long, hide = true)]
+        count_only: bool,
+        #[command(flatten)]
+        overrides: OverrideArgs,
+    },
     /// Show a live table of the running gateway's devices (from its status topic).
     Status {
         #[command(flatten)]

@@ -2,6 +2,7 @@
 
 pub mod cli;
 pub mod diagnostics;
+pub mod doctor;
 pub mod plan;
 pub mod profile;
 pub mod resolve;

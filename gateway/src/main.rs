@@ -142,6 +142,54 @@ fn main() -> anyhow::Result<ExitCode> {
             rt.shutdown_timeout(Duration::from_millis(200));
             tracing::info!("stopped");
         }
+        Command::Doctor {
+            profile,
+            seconds,
+            scan,
+            no_scan,
+            no_sweep,
+            count_only,
+            overrides,
+        } => {
+            use handgate_gateway::doctor;
+            let listen = doctor::listen_time(seconds).map_err(anyhow::Error::msg)?;
+            let scan = match (no_scan, scan) {
+                (true, _) => Vec::new(),
+                (false, Some(s)) => doctor::parse_scan(&s).map_err(|e| anyhow::anyhow!("--scan {s}: {e}"))?,
+                (false, None) => doctor::default_scan(),
+            };
+            let sweep = (!no_sweep && !count_only)
+                .then(|| {
+                    std::env::current_exe().ok().map(|exe| doctor::Sweep {
+                        exe,
+                        profile: profile.clone(),
+                    })
+                })
+                .flatten();
+            let l = match load(profile, overrides) {
+                Ok(l) => l,
+                Err(code) => return Ok(code),
+            };
+            let plan = match resolve::plan(&l.profile) {
+                Ok(p) => p,
+                Err(errors) => {
+                    for e in errors {
+                        eprintln!("{}: {e}", l.origin);
+                    }
+                    return Ok(ExitCode::from(EXIT_INVALID));
+                }
+            };
+            let scan = if count_only { Vec::new() } else { scan };
+            let out = doctor::run(&plan, &doctor::Options { listen, scan, sweep })?;
+            if count_only {
+                println!("relevant {}", out.relevant);
+                return Ok(ExitCode::SUCCESS);
+            }
+            print!("{}", out.text);
+            if !out.problems.is_empty() {
+                return Ok(ExitCode::from(1));
+            }
+        }
         Command::Status {
             dds,
             topic,

@@ -14,6 +14,7 @@
 pub mod cdr_codec;
 pub mod handgate;
 pub mod inspire;
+pub mod layout;
 pub mod ros2;
 pub mod type_hash;
 pub mod unitree_go;

@@ -1,0 +1,296 @@
+//! `handgate doctor` through the real binary, against clients made with the official
+//! unitree_sdk2py (`tests/python/doctor_client.py`). DDS domains 140–149
+//! (docs/development.md); every domain scan stays inside them.
+
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use handgate_tests::{handgate_bin, interop_interface, repo_root, Gateway, PyProcess};
+
+/// How long the doctor listens in these tests (its own default is 3 s).
+const LISTEN: &str = "2";
+
+/// Runs `handgate doctor <args>` (plus `--interface` from `HANDGATE_INTEROP_IFACE` unless the
+/// test names one) and returns its exit code and stdout (stderr appended).
+fn doctor(args: &[&str]) -> (i32, String) {
+    let iface = interop_interface().filter(|_| !args.contains(&"--interface"));
+    doctor_on(args, iface.as_deref())
+}
+
+/// `handgate doctor <args> [--interface <interface>]`: exit code and output.
+fn doctor_on(args: &[&str], interface: Option<&str>) -> (i32, String) {
+    let mut cmd = Command::new(handgate_bin());
+    cmd.arg("doctor").arg("--seconds").arg(LISTEN).args(args);
+    if let Some(iface) = interface {
+        cmd.arg("--interface").arg(iface);
+    }
+    for (k, _) in std::env::vars() {
+        if k.starts_with("HANDGATE_") {
+            cmd.env_remove(k);
+        }
+    }
+    let out = cmd
+        .current_dir(repo_root())
+        .stdin(Stdio::null())
+        .output()
+        .expect("handgate doctor runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.code().unwrap_or(-1), text)
+}
+
+/// A `doctor_client.py` on `domain` with `args`, once its endpoints exist.
+fn client(domain: u32, args: &[&str]) -> PyProcess {
+    let mut a = vec!["--domain".to_string(), domain.to_string()];
+    if let Some(iface) = interop_interface() {
+        a.extend(["--interface".to_string(), iface]);
+    }
+    a.extend(args.iter().map(|s| s.to_string()));
+    let p = PyProcess::spawn("doctor_client.py", &a).expect("doctor_client.py starts");
+    p.wait_line("READY", Duration::from_secs(30))
+        .unwrap_or_else(|e| panic!("doctor_client.py not ready: {e}\n{}", p.transcript()));
+    p
+}
+
+#[test]
+fn nothing_running_is_no_client_and_service_not_found() {
+    let (code, out) = doctor(&["--domain", "140", "--no-scan", "--no-sweep"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("rt/dex3/left/cmd (reader of unitree_hg::msg::dds_::HandCmd_): no writer"),
+        "{out}"
+    );
+    assert!(
+        out.contains("PROBLEM no client on any of the 9 front(s) on domain 140"),
+        "{out}"
+    );
+    assert!(out.contains("CycloneDDS selected: "), "{out}");
+    // A profile with DDS-client devices: their service is missing.
+    let (code, out) = doctor(&[
+        "--profile",
+        "g1-dex3",
+        "--domain",
+        "140",
+        "--interface",
+        "lo",
+        "--no-scan",
+        "--no-sweep",
+    ]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("PROBLEM service not found for device left_hand"), "{out}");
+    assert!(out.contains("CycloneDDS selected: lo"), "{out}");
+}
+
+#[test]
+fn a_matched_client_is_named_and_exits_0() {
+    let c = client(
+        141,
+        &[
+            "--pub",
+            "rt/dex3/left/cmd=unitree_hg/HandCmd_",
+            "--sub",
+            "rt/dex3/left/state=unitree_hg/HandState_",
+        ],
+    );
+    let (code, out) = doctor(&["--domain", "141", "--no-scan"]);
+    assert_eq!(code, 0, "{out}");
+    let pid = format!("(pid {})", c.id());
+    let cmd_line = out
+        .lines()
+        .find(|l| l.starts_with("  rt/dex3/left/cmd "))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(
+        cmd_line.contains("1 matched writer(s)") && cmd_line.contains(&pid),
+        "{out}"
+    );
+    let state_line = out
+        .lines()
+        .find(|l| l.starts_with("  rt/dex3/left/state "))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(
+        state_line.contains("1 matched reader(s)") && state_line.contains(&pid),
+        "{out}"
+    );
+    // The SDK publisher exists but writes nothing: said, not a problem.
+    assert!(
+        out.contains("note: 1 matched writer(s) on rt/dex3/left/cmd sent no sample in 2.0 s"),
+        "{out}"
+    );
+    assert!(out.contains("doctor: nothing wrong found"), "{out}");
+}
+
+#[test]
+fn a_wrong_type_client_gets_the_variant_fix() {
+    // hg HandCmd_ on the default profile's go Dex1 front.
+    let c = client(
+        142,
+        &[
+            "--pub",
+            "rt/dex1/left/cmd=unitree_hg/HandCmd_",
+            "--sub",
+            "rt/dex1/left/state=unitree_hg/HandState_",
+        ],
+    );
+    let (code, out) = doctor(&["--domain", "142", "--no-scan"]);
+    assert_eq!(code, 1, "{out}");
+    let problem = out
+        .lines()
+        .position(|l| l.contains("PROBLEM wrong type") && l.contains("rt/dex1/left/cmd"))
+        .unwrap_or_else(|| panic!("{out}"));
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[problem].contains(&format!("(pid {})", c.id())), "{out}");
+    assert!(
+        lines[problem + 1].contains("fix:") && lines[problem + 1].contains("variant = \"hg\" on front dex1_left"),
+        "{out}"
+    );
+}
+
+#[test]
+fn a_near_miss_topic_client_gets_the_right_topic() {
+    let c = client(143, &["--pub", "dex3/left/cmd=unitree_hg/HandCmd_"]);
+    let (code, out) = doctor(&["--domain", "143", "--no-scan"]);
+    assert_eq!(code, 1, "{out}");
+    let lines: Vec<&str> = out.lines().collect();
+    let problem = lines
+        .iter()
+        .position(|l| l.contains("PROBLEM near-miss topic") && l.contains("\"dex3/left/cmd\""))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(lines[problem].contains(&format!("(pid {})", c.id())), "{out}");
+    assert!(
+        lines[problem + 1].contains("fix: correct the topic name in the client to \"rt/dex3/left/cmd\""),
+        "{out}"
+    );
+}
+
+#[test]
+fn clients_on_another_domain_are_found_by_the_scan() {
+    let c = client(
+        145,
+        &[
+            "--pub",
+            "rt/dex3/left/cmd=unitree_hg/HandCmd_",
+            "--sub",
+            "rt/dex3/left/state=unitree_hg/HandState_",
+        ],
+    );
+    let (code, out) = doctor(&["--domain", "144", "--scan", "144-145"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("domain scan (145):"), "{out}");
+    let found = out
+        .lines()
+        .find(|l| l.starts_with("  domain 145: "))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(found.contains(&format!("(pid {})", c.id())), "{out}");
+    assert!(
+        out.contains("PROBLEM your clients are on domain 145, the profile uses domain 144"),
+        "{out}"
+    );
+    assert!(out.contains("--domain 145"), "{out}");
+}
+
+#[test]
+fn a_foreign_writer_of_a_state_topic_is_a_problem() {
+    // Another process publishing the state a front would serve (as the G1's resident Dex3
+    // service does on rt/dex3/left/state).
+    let c = client(146, &["--pub", "rt/dex3/left/state=unitree_hg/HandState_"]);
+    let (code, out) = doctor(&["--domain", "146", "--no-scan"]);
+    assert_eq!(code, 1, "{out}");
+    let lines: Vec<&str> = out.lines().collect();
+    let problem = lines
+        .iter()
+        .position(|l| l.contains("PROBLEM foreign writer") && l.contains("rt/dex3/left/state"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(lines[problem].contains(&format!("(pid {})", c.id())), "{out}");
+    assert!(
+        lines[problem + 1].contains("fix: two sources publish this topic"),
+        "{out}"
+    );
+}
+
+#[test]
+fn interfaces_nonexistent_loopback_only_and_the_sweep() {
+    // One domain, one step after the other: each step must not see the others' clients.
+    let (code, out) = doctor(&["--domain", "149", "--interface", "nosuch0", "--no-scan", "--no-sweep"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("PROBLEM interface nosuch0 does not exist on this host"),
+        "{out}"
+    );
+    assert!(
+        out.contains("fix: set dds.interface in the profile (or --interface) to one of: "),
+        "{out}"
+    );
+
+    // lo exists everywhere; with it alone nothing beyond this host is reachable.
+    let (code, out) = doctor(&["--domain", "149", "--interface", "lo", "--no-scan"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("CycloneDDS selected: lo"), "{out}");
+    let others = handgate_adapters::netif::list()
+        .expect("interfaces")
+        .into_iter()
+        .any(|i| !i.loopback && i.up && !i.addrs.is_empty());
+    // Said when this host has another interface to suggest.
+    assert_eq!(
+        out.contains("PROBLEM DDS here uses only the loopback interface lo"),
+        others,
+        "{out}"
+    );
+
+    // A client on lo, the doctor on CycloneDDS's own choice: found directly, or by the
+    // sweep through lo (a child doctor per other interface).
+    let c = client(
+        149,
+        &["--interface", "lo", "--pub", "rt/dex3/left/cmd=unitree_hg/HandCmd_"],
+    );
+    let (_, out) = doctor_on(&["--domain", "149", "--no-scan"], None);
+    let pid = format!("(pid {})", c.id());
+    let direct = out.contains("1 matched writer(s)") && out.contains(&pid);
+    let swept = out.contains("interface sweep (domain 149): ")
+        && out.contains("lo: 1 participant(s) for this profile")
+        && out.contains("PROBLEM nothing for this profile reached this host through ")
+        && out.contains("but through lo it does")
+        && out.contains("fix: select lo: --interface lo");
+    assert!(direct || swept, "{out}");
+}
+
+#[test]
+fn a_client_writing_the_old_hand_cmd_layout_is_stale() {
+    let _c = client(147, &["--write-old-hand-cmd", "rt/dex3/left/cmd"]);
+    let (code, out) = doctor(&["--domain", "147", "--no-scan"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("PROBLEM stale HandCmd_ layout on rt/dex3/left/cmd (front dex3_left)")
+            && out.contains("of 200 bytes: HandCmd_ without reserve[4]")
+            && out.contains("before December 2024"),
+        "{out}"
+    );
+}
+
+#[test]
+fn a_running_gateway_is_named_and_its_writers_are_not_foreign() {
+    let gw = Gateway::start(148, &[]);
+    let c = client(
+        148,
+        &[
+            "--pub",
+            "rt/dex3/left/cmd=unitree_hg/HandCmd_",
+            "--sub",
+            "rt/dex3/left/state=unitree_hg/HandState_",
+        ],
+    );
+    let (code, out) = doctor(&["--domain", "148", "--no-scan"]);
+    assert!(
+        out.contains(&format!(
+            "handgate already serving on domain 148: process handgate (pid {})",
+            gw.id()
+        )),
+        "{out}"
+    );
+    assert!(out.contains("11 of this profile's 11 front state topics"), "{out}");
+    assert!(!out.contains("foreign writer"), "{out}");
+    assert!(out.contains(&format!("(pid {})", c.id())), "{out}");
+    assert_eq!(code, 0, "{out}");
+}
