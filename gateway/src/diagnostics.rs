@@ -112,6 +112,7 @@ pub fn kind_str(k: &FindingKind) -> &'static str {
         FindingKind::QosMismatch { .. } => "qos_mismatch",
         FindingKind::NearMissTopic { .. } => "near_miss_topic",
         FindingKind::ForeignWriter => "foreign_writer",
+        FindingKind::ServedOnDemand { .. } => "served_on_demand",
     }
 }
 
@@ -246,7 +247,20 @@ pub fn log_changes(prev: &Diagnosis, next: &Diagnosis) {
     let before: BTreeMap<String, &OwnedFinding> = prev.findings.iter().map(|f| (f.key(), f)).collect();
     let after: BTreeMap<String, &OwnedFinding> = next.findings.iter().map(|f| (f.key(), f)).collect();
     for (k, f) in &after {
-        if !before.contains_key(k) {
+        if before.contains_key(k) {
+            continue;
+        }
+        if matches!(f.finding.kind, FindingKind::ServedOnDemand { .. }) {
+            // Not a problem: the front opens those topics for the client.
+            tracing::info!(
+                owner = %f.owner,
+                topic = %f.finding.served_topic,
+                kind = kind_str(&f.finding.kind),
+                "discovery: {}: {}",
+                f.finding.detail,
+                f.finding.fix
+            );
+        } else {
             tracing::warn!(
                 owner = %f.owner,
                 topic = %f.finding.served_topic,

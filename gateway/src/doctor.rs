@@ -370,9 +370,18 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
         }
         out.line(owner.describe());
         let mut any_matched = false;
+        // A client on a topic the front serves once it is discovered (a Dex1 `auto` front's
+        // actuator pair): a client, on topics not served yet.
+        let mut on_demand = false;
         let mut unmatched: Vec<String> = Vec::new();
         for (s, t) in all.iter().zip(&report.topics).filter(|(s, _)| &s.owner == owner) {
             let want = role_word(s.served.role.counterpart());
+            // A front that follows its clients' types (Dex1 `auto`) serves several.
+            let types = std::iter::once(&s.served.type_name)
+                .chain(&s.served.also)
+                .map(String::as_str)
+                .collect::<Vec<_>>()
+                .join(" or ");
             let matched: Vec<&RemoteRef> = t
                 .matched
                 .iter()
@@ -380,20 +389,18 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                 .collect();
             if matched.is_empty() {
                 out.line(format!(
-                    "  {} ({} of {}): no {want}",
+                    "  {} ({} of {types}): no {want}",
                     s.served.topic,
                     role_word(s.served.role),
-                    s.served.type_name
                 ));
                 unmatched.push(s.served.topic.clone());
             } else {
                 any_matched = true;
                 let who: Vec<String> = matched.iter().map(|r| r.who()).collect();
                 out.line(format!(
-                    "  {} ({} of {}): {} matched {want}(s): {}",
+                    "  {} ({} of {types}): {} matched {want}(s): {}",
                     s.served.topic,
                     role_word(s.served.role),
-                    s.served.type_name,
                     matched.len(),
                     who.join("; ")
                 ));
@@ -404,6 +411,16 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                     FindingKind::TypeMismatch { .. } => "wrong type",
                     FindingKind::QosMismatch { .. } => "QoS mismatch",
                     FindingKind::NearMissTopic { .. } => "near-miss topic",
+                    FindingKind::ServedOnDemand { .. } => {
+                        on_demand = true;
+                        let detail = f.detail.replace("this process serves", "the profile's gateway serves");
+                        out.line(format!(
+                            "  note: {detail} ({}): {}",
+                            list_refs(&f.remotes, f.remote_count),
+                            f.fix
+                        ));
+                        continue;
+                    }
                     FindingKind::ForeignWriter => {
                         if f.remotes.iter().all(|r| gateways.contains(&r.participant))
                             && f.remote_count == f.remotes.len()
@@ -438,6 +455,9 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                 fronts += 1;
                 if any_matched {
                     fronts_with_client += 1;
+                } else if on_demand {
+                    fronts_with_client += 1;
+                    out.line("  a client, on topics served once it is discovered (notes above)");
                 } else {
                     out.line("  no client");
                     missing_anywhere.extend(unmatched.iter().map(|_| owner.name()));

@@ -115,7 +115,7 @@ pub struct Diagnostic_ {
     pub owner: String,
     #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub topic: String,
-    /// `type_mismatch`, `qos_mismatch`, `near_miss_topic`, `foreign_writer`, `no_counterpart`.
+    /// `type_mismatch`, `qos_mismatch`, `near_miss_topic`, `foreign_writer`, `no_counterpart`, `served_on_demand`.
     #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub kind: String,
     #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]

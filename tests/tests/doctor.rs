@@ -5,7 +5,7 @@
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use handgate_tests::{handgate_bin, interop_interface, repo_root, Gateway, PyProcess};
+use handgate_tests::{emulated_device, handgate_bin, interop_interface, repo_root, temp_profile, Gateway, PyProcess};
 
 /// How long the doctor listens in these tests (its own default is 3 s).
 const LISTEN: &str = "2";
@@ -53,6 +53,18 @@ fn client(domain: u32, args: &[&str]) -> PyProcess {
     p.wait_line("READY", Duration::from_secs(30))
         .unwrap_or_else(|e| panic!("doctor_client.py not ready: {e}\n{}", p.transcript()));
     p
+}
+
+/// One emulated Dex1 on the left, served by a Dex1 front pinned to the `go` variant.
+fn dex1_go_profile() -> std::path::PathBuf {
+    temp_profile(
+        "doctor",
+        "dex1-go",
+        &format!(
+            "name = \"dex1-go\"\n{}[[fronts]]\nkind = \"dex1\"\ndevice = \"dex1_left\"\nvariant = \"go\"\n",
+            emulated_device("dex1_left", "dex1", "left")
+        ),
+    )
 }
 
 #[test]
@@ -124,7 +136,7 @@ fn a_matched_client_is_named_and_exits_0() {
 
 #[test]
 fn a_wrong_type_client_gets_the_variant_fix() {
-    // hg HandCmd_ on the default profile's go Dex1 front.
+    // hg HandCmd_ on a Dex1 front the profile pins to `go`.
     let c = client(
         142,
         &[
@@ -134,7 +146,8 @@ fn a_wrong_type_client_gets_the_variant_fix() {
             "rt/dex1/left/state=unitree_hg/HandState_",
         ],
     );
-    let (code, out) = doctor(&["--domain", "142", "--no-scan"]);
+    let go = dex1_go_profile();
+    let (code, out) = doctor(&["--domain", "142", "--no-scan", "--profile", go.to_str().unwrap()]);
     assert_eq!(code, 1, "{out}");
     let problem = out
         .lines()
@@ -146,6 +159,19 @@ fn a_wrong_type_client_gets_the_variant_fix() {
         lines[problem + 1].contains("fix:") && lines[problem + 1].contains("variant = \"hg\" on front dex1_left"),
         "{out}"
     );
+
+    // The default profile's Dex1 fronts are `auto`: the same client is served, not a problem.
+    let (code, out) = doctor(&["--domain", "142", "--no-scan"]);
+    assert_eq!(code, 0, "{out}");
+    let cmd_line = out
+        .lines()
+        .find(|l| l.starts_with("  rt/dex1/left/cmd "))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(
+        cmd_line.contains("or unitree_hg::msg::dds_::HandCmd_") && cmd_line.contains(&format!("(pid {})", c.id())),
+        "{out}"
+    );
+    assert!(!out.contains("PROBLEM wrong type"), "{out}");
 }
 
 #[test]
@@ -163,6 +189,41 @@ fn a_near_miss_topic_client_gets_the_right_topic() {
         lines[problem + 1].contains("fix: correct the topic name in the client to \"rt/dex3/left/cmd\""),
         "{out}"
     );
+    drop(c);
+
+    // The actuator interface (older xr_teleoperate) on a profile whose Dex1 fronts are `go`:
+    // a related topic, named with the variant that serves it.
+    let c = client(
+        143,
+        &[
+            "--pub",
+            "rt/unitree_actuator/cmd=unitree_go/MotorCmds_",
+            "--sub",
+            "rt/unitree_actuator/state=unitree_go/MotorStates_",
+        ],
+    );
+    let go = dex1_go_profile();
+    let (code, out) = doctor(&["--domain", "143", "--no-scan", "--profile", go.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}");
+    let lines: Vec<&str> = out.lines().collect();
+    let problem = lines
+        .iter()
+        .position(|l| l.contains("PROBLEM near-miss topic") && l.contains("\"rt/unitree_actuator/cmd\""))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(lines[problem].contains(&format!("(pid {})", c.id())), "{out}");
+    assert!(lines[problem + 1].contains("variant = \"actuator\""), "{out}");
+
+    // The default profile's `auto` fronts serve that pair once the client is discovered: a
+    // note, nothing wrong.
+    let (code, out) = doctor(&["--domain", "143", "--no-scan"]);
+    assert_eq!(code, 0, "{out}");
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("  note: 1 writer(s) on \"rt/unitree_actuator/cmd\"")
+                && l.contains(&format!("(pid {})", c.id()))),
+        "{out}"
+    );
+    assert!(!out.contains("PROBLEM"), "{out}");
 }
 
 #[test]

@@ -415,8 +415,8 @@ fn served(f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::
                 "the client uses the actuator interface (both grippers in one message): front {name} (auto) serves its element of the pair once the client's endpoints are discovered, unless a dex1 front with variant = \"{}\" serves the pair",
                 Variant::Actuator
             );
-            cmd = cmd.related(c, hint.clone());
-            state = state.related(s, hint);
+            cmd = cmd.related_on_demand(c, hint.clone());
+            state = state.related_on_demand(s, hint);
         }
         Variant::Go | Variant::Hg | Variant::Auto => {
             let (c, s) = Variant::Actuator.topics(Side::Left);

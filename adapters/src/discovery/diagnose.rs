@@ -32,6 +32,9 @@ pub struct Alternative {
 pub struct RelatedTopic {
     pub topic: String,
     pub hint: String,
+    /// The owner serves this topic itself once a client on it is discovered (a Dex1 `auto`
+    /// front and the actuator pair): a client there is a note, not a problem.
+    pub on_demand: bool,
 }
 
 /// One endpoint this process serves.
@@ -88,6 +91,18 @@ impl Served {
         self.related_topics.push(RelatedTopic {
             topic: topic.into(),
             hint: hint.into(),
+            on_demand: false,
+        });
+        self
+    }
+
+    /// With a topic the owner starts serving itself once a client on it is discovered, and
+    /// what to tell its user.
+    pub fn related_on_demand(mut self, topic: impl Into<String>, hint: impl Into<String>) -> Self {
+        self.related_topics.push(RelatedTopic {
+            topic: topic.into(),
+            hint: hint.into(),
+            on_demand: true,
         });
         self
     }
@@ -156,6 +171,9 @@ pub enum FindingKind {
     NearMissTopic { remote_topic: String, reason: String },
     /// Another process writes a topic this process writes.
     ForeignWriter,
+    /// A counterpart-role endpoint on a related topic the owner serves once such a client is
+    /// discovered ([`RelatedTopic::on_demand`]): not a problem.
+    ServedOnDemand { remote_topic: String },
 }
 
 /// One diagnosis about a served topic.
@@ -453,7 +471,10 @@ pub fn diagnose(snapshot: &Snapshot, served: &[Served]) -> Report {
                 .related_topics
                 .iter()
                 .find(|r| *r.topic == *e.topic)
-                .map(|r| format!("related: {}", r.hint))
+                .map(|r| {
+                    let tag = if r.on_demand { "on demand" } else { "related" };
+                    format!("{tag}: {}", r.hint)
+                })
                 .or_else(|| near_miss_reason(&e.topic, &s.topic));
             if let Some(reason) = reason {
                 near.entry((e.topic.to_string(), reason))
@@ -462,6 +483,21 @@ pub fn diagnose(snapshot: &Snapshot, served: &[Served]) -> Report {
             }
         }
         for ((remote_topic, reason), refs) in near {
+            if let Some(hint) = reason.strip_prefix("on demand: ") {
+                let detail = format!(
+                    "{} {}(s) on {remote_topic:?}, which this process serves once such a client is discovered",
+                    refs.len(),
+                    role_word(want),
+                );
+                findings.push(finding(
+                    FindingKind::ServedOnDemand { remote_topic },
+                    s,
+                    detail,
+                    hint.to_string(),
+                    refs,
+                ));
+                continue;
+            }
             let (detail, fix) = match reason.strip_prefix("related: ") {
                 Some(hint) => (
                     format!(
@@ -494,7 +530,10 @@ pub fn diagnose(snapshot: &Snapshot, served: &[Served]) -> Report {
         let explained = findings.iter().any(|f| {
             matches!(
                 f.kind,
-                FindingKind::TypeMismatch { .. } | FindingKind::QosMismatch { .. } | FindingKind::NearMissTopic { .. }
+                FindingKind::TypeMismatch { .. }
+                    | FindingKind::QosMismatch { .. }
+                    | FindingKind::NearMissTopic { .. }
+                    | FindingKind::ServedOnDemand { .. }
             )
         });
         if matched.is_empty() && !explained {
@@ -846,6 +885,7 @@ mod tests {
         s.related_topics.push(RelatedTopic {
             topic: "rt/unitree_actuator/cmd".into(),
             hint: "the client speaks the legacy actuator interface: serve the actuator variant".into(),
+            on_demand: false,
         });
         let r = diagnose(&b.snap, &[s]);
         let f = r.findings().next().unwrap();
@@ -853,6 +893,24 @@ mod tests {
             matches!(&f.kind, FindingKind::NearMissTopic { remote_topic, .. } if remote_topic == "rt/unitree_actuator/cmd")
         );
         assert!(f.fix.contains("legacy actuator"), "{}", f.fix);
+    }
+
+    #[test]
+    fn a_client_on_a_topic_served_on_demand_is_a_note_that_explains_no_counterpart() {
+        let b = Builder::new().remote(Role::Writer, "rt/unitree_actuator/cmd", GO_CMDS);
+        let s = served("rt/dex1/left/cmd", GO_CMDS, Role::Reader).related_on_demand(
+            "rt/unitree_actuator/cmd",
+            "the auto front serves the pair once discovered",
+        );
+        let r = diagnose(&b.snap, &[s]);
+        let all: Vec<_> = r.findings().collect();
+        assert_eq!(all.len(), 1, "{all:?}");
+        assert!(
+            matches!(&all[0].kind, FindingKind::ServedOnDemand { remote_topic } if remote_topic == "rt/unitree_actuator/cmd"),
+            "{all:?}"
+        );
+        assert_eq!(all[0].fix, "the auto front serves the pair once discovered");
+        assert_eq!(all[0].remote_count, 1);
     }
 
     #[test]
