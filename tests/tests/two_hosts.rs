@@ -9,7 +9,9 @@
 
 use std::time::Duration;
 
-use handgate_tests::{Gateway, NetNs, NetNsError, PyProcess};
+use std::process::Stdio;
+
+use handgate_tests::{handgate_bin, in_netns, repo_root, Gateway, NetNs, NetNsError, PyProcess};
 use serde_json::Value;
 
 const DOMAIN: u32 = 181;
@@ -53,4 +55,91 @@ fn an_sdk_client_on_another_host_drives_a_device_across_the_link() {
         result["converged"], true,
         "the devices on host A did not reach the targets the client on host B sent: {result}"
     );
+
+    // `handgate doctor` on host B. Pointed at eth0, which host B does not have (the usual
+    // copy of a robot PC's profile onto a laptop), it says so and names the interface it has.
+    let (code, out) = doctor_in(cl_ns, &["--interface", "eth0"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("PROBLEM interface eth0 does not exist on this host"),
+        "{out}"
+    );
+    let fix = out
+        .lines()
+        .find(|l| l.contains("fix: set dds.interface in the profile (or --interface) to one of: "))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(
+        fix.contains(cl_if.as_str()),
+        "the fix names host B's veth {cl_if}: {out}"
+    );
+
+    // On host B's own interface, with an idle SDK client there, it finds the gateway on host
+    // A at host A's address, and the client matched.
+    let idle = PyProcess::spawn_in(
+        Some(cl_ns),
+        "doctor_client.py",
+        &[
+            "--domain",
+            &DOMAIN.to_string(),
+            "--interface",
+            cl_if,
+            "--pub",
+            "rt/dex3/left/cmd=unitree_hg/HandCmd_",
+            "--sub",
+            "rt/dex3/left/state=unitree_hg/HandState_",
+        ]
+        .map(String::from),
+    )
+    .expect("start the idle client");
+    idle.wait_line("READY", Duration::from_secs(30))
+        .unwrap_or_else(|e| panic!("{e}\n{}", idle.transcript()));
+    let (code, out) = doctor_in(cl_ns, &["--interface", cl_if]);
+    let serving = out
+        .lines()
+        .find(|l| l.contains("handgate already serving on domain 181: process handgate"))
+        .unwrap_or_else(|| panic!("{out}\ngateway:\n{}", gw.transcript()));
+    assert!(serving.contains(gw_addr.as_str()), "host A's address {gw_addr}: {out}");
+    assert!(out.contains("11 of this profile's 11 front state topics"), "{out}");
+    assert!(!out.contains("foreign writer"), "{out}");
+    let state = out
+        .lines()
+        .find(|l| l.starts_with("  rt/dex3/left/state "))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(
+        state.contains("1 matched reader(s)") && state.contains(&format!("(pid {})", idle.id())),
+        "{out}"
+    );
+    assert_eq!(code, 0, "{out}");
+}
+
+/// `handgate doctor --domain 181 --no-scan --no-sweep --seconds 2 <args>` in namespace `ns`:
+/// exit code and output.
+fn doctor_in(ns: &str, args: &[&str]) -> (i32, String) {
+    let mut cmd = in_netns(Some(ns), &handgate_bin());
+    cmd.args([
+        "doctor",
+        "--domain",
+        &DOMAIN.to_string(),
+        "--no-scan",
+        "--no-sweep",
+        "--seconds",
+        "2",
+    ])
+    .args(args);
+    for (k, _) in std::env::vars() {
+        if k.starts_with("HANDGATE_") {
+            cmd.env_remove(k);
+        }
+    }
+    let out = cmd
+        .current_dir(repo_root())
+        .stdin(Stdio::null())
+        .output()
+        .expect("handgate doctor runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.code().unwrap_or(-1), text)
 }
