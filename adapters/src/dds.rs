@@ -36,6 +36,11 @@ fn dds_err(what: &'static str) -> impl FnOnce(cyclonedds_rs::DDSError) -> DdsErr
     move |source| DdsError::Dds { what, source }
 }
 
+/// The DDS type name `T` registers (`unitree_hg::msg::dds_::HandCmd_`), as discovery sees it.
+pub fn type_name<T: TopicType>() -> String {
+    T::typename().to_string_lossy().into_owned()
+}
+
 /// Reliability/history of a topic endpoint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Qos {
@@ -46,6 +51,21 @@ pub enum Qos {
 }
 
 impl Qos {
+    /// The QoS an endpoint created with `self` has, as discovery and its diagnostics compare
+    /// it (volatile: nothing here sets durability).
+    pub fn served(self) -> crate::discovery::diagnose::ServedQos {
+        use crate::discovery::{Durability, History, Reliability};
+        let (reliability, history) = match self {
+            Qos::BestEffort => (Reliability::BestEffort, History::KeepLast(1)),
+            Qos::Reliable { depth } => (Reliability::Reliable, History::KeepLast(depth.max(1))),
+        };
+        crate::discovery::diagnose::ServedQos {
+            reliability,
+            durability: Durability::Volatile,
+            history,
+        }
+    }
+
     fn to_dds(self) -> Result<DdsQos, DdsError> {
         let mut q = DdsQos::create().map_err(dds_err("qos create"))?;
         match self {

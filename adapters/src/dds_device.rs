@@ -49,6 +49,34 @@ pub struct DdsDeviceConfig {
     pub stale_after: Duration,
 }
 
+/// The QoS of a DDS-client device's command writer.
+pub const CMD_QOS: Qos = Qos::Reliable { depth: 1 };
+/// The QoS of a DDS-client device's state reader (and any other reader of the peer's state).
+pub const STATE_QOS: Qos = Qos::BestEffort;
+
+impl DdsDeviceConfig {
+    /// What a device started with this configuration and codec `C` serves on the peer's
+    /// topics, for discovery's diagnostics: its command writer and its state reader.
+    pub fn served<C: DdsCodec>(&self) -> Vec<crate::discovery::diagnose::Served> {
+        use crate::discovery::{diagnose::Served, Role};
+        let mut out = vec![Served::new(
+            &self.cmd_topic,
+            crate::dds::type_name::<C::Cmd>(),
+            Role::Writer,
+            CMD_QOS.served(),
+        )];
+        if let Some(t) = &self.state_topic {
+            out.push(Served::new(
+                t,
+                crate::dds::type_name::<C::State>(),
+                Role::Reader,
+                STATE_QOS.served(),
+            ));
+        }
+        out
+    }
+}
+
 struct Shared<S> {
     latest: Mutex<Option<S>>,
 }
@@ -73,7 +101,7 @@ impl DdsDevice {
     ) -> Result<Self, DdsError> {
         let table = info.table.clone();
         let cmd = CommandState::new(table.clone());
-        let mut writer = node.writer::<C::Cmd>(&config.cmd_topic, Qos::Reliable { depth: 1 })?;
+        let mut writer = node.writer::<C::Cmd>(&config.cmd_topic, CMD_QOS)?;
         let shared: Arc<Shared<C::State>> = Arc::new(Shared {
             latest: Mutex::new(None),
         });
@@ -82,7 +110,7 @@ impl DdsDevice {
             Some(t) => {
                 let sh = shared.clone();
                 let ctr = counters.clone();
-                Some(node.reader_with_callback::<C::State, _>(t, Qos::BestEffort, move |h| {
+                Some(node.reader_with_callback::<C::State, _>(t, STATE_QOS, move |h| {
                     let mut v = Vec::new();
                     if h.take_into(&mut v) > 0 {
                         ctr.state_samples.fetch_add(v.len() as u64, Ordering::Relaxed);

@@ -280,6 +280,15 @@ pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
     /// to print (socket, pty or topics) and the running emulation.
     fn emulate(&self, args: &EmulateArgs) -> Result<(String, Emulation), DeviceError>;
 
+    /// What a device opened from `spec` serves on DDS as a client of a robot service, for
+    /// discovery's diagnostics: its command topic (role writer) and state topics (role
+    /// reader), on the emulator backend its in-process peer's private topics. Empty for
+    /// devices that reach their hardware without DDS (USB, serial) or a `spec` that cannot
+    /// open (reported when opening).
+    fn served(&self, _spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+        Vec::new()
+    }
+
     /// Opens one device on its backend (the emulator backend included).
     fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError>;
 }

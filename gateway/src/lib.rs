@@ -1,6 +1,7 @@
 //! handgate gateway: router, fronts, profiles, runtime and CLI.
 
 pub mod cli;
+pub mod diagnostics;
 pub mod plan;
 pub mod profile;
 pub mod resolve;

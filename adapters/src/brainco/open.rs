@@ -60,6 +60,14 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<BraincoOpen, DeviceError> {
     })
 }
 
+/// What a BrainCo hand opened from `spec` serves on DDS.
+pub fn served(spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+    match configure(spec) {
+        Ok(BraincoOpen::Dds { config, .. } | BraincoOpen::Emulated { config, .. }) => config.served::<BraincoCodec>(),
+        Err(_) => Vec::new(),
+    }
+}
+
 /// Opens a BrainCo hand on its backend.
 pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
     Ok(match configure(spec)? {

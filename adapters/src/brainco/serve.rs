@@ -35,7 +35,7 @@ impl BraincoIo {
     ) -> Result<Self, crate::dds::DdsError> {
         Ok(Self {
             _reader: reader(node, cmd_topic, tx, dropped)?,
-            state: node.writer(state_topic, crate::dds::Qos::BestEffort)?,
+            state: node.writer(state_topic, crate::front::serve::STATE_QOS)?,
         })
     }
 }
@@ -107,6 +107,15 @@ impl FrontFactory for BraincoFront {
         }
         let given = f.cmd_topic.is_some() && f.state_topic.is_some();
         crate::dex3::serve::side_rule(NAME, served, given, false)
+    }
+    fn served(&self, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        use crate::front::serve::{served_command, served_state};
+        let mut out = Vec::new();
+        if let Some(cmd) = &f.cmd_topic {
+            out.push(served_command::<unitree_go::MotorCmds_>(cmd));
+        }
+        out.push(served_state::<unitree_go::MotorStates_>(&f.state_topic));
+        out
     }
     fn open(
         &self,

@@ -117,6 +117,10 @@ impl KindFactory for Dex1Factory {
         Ok(Box::new(super::open::configure(spec)?))
     }
 
+    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+        super::open::served(spec)
+    }
+
     fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
         super::open::emulate(args)
     }

@@ -56,6 +56,18 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<Dex1Open, DeviceError> {
     })
 }
 
+/// What a Dex1 opened from `spec` serves on DDS.
+pub fn served(spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+    match configure(spec) {
+        Ok(Dex1Open::Dds {
+            config,
+            variant: Variant::Hg,
+        }) => config.served::<Dex1HgCodec>(),
+        Ok(Dex1Open::Dds { config, .. } | Dex1Open::Emulated { config, .. }) => config.served::<Dex1GoCodec>(),
+        Err(_) => Vec::new(),
+    }
+}
+
 /// Opens a Dex1 on its backend.
 pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
     Ok(match configure(spec)? {

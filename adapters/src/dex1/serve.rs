@@ -37,19 +37,19 @@ impl Dex1Io {
         tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Self, crate::dds::DdsError> {
-        use crate::dds::Qos;
+        use crate::front::serve::STATE_QOS;
         let (reader, writer): (Box<dyn Send>, _) = match variant {
             Variant::Hg => (
                 Box::new(crate::front::serve::reader::<unitree_hg::HandCmd_>(
                     node, cmd_topic, tx, dropped,
                 )?),
-                Dex1Writer::Hg(node.writer(state_topic, Qos::BestEffort)?),
+                Dex1Writer::Hg(node.writer(state_topic, STATE_QOS)?),
             ),
             Variant::Go | Variant::Actuator => (
                 Box::new(crate::front::serve::reader::<unitree_go::MotorCmds_>(
                     node, cmd_topic, tx, dropped,
                 )?),
-                Dex1Writer::Go(node.writer(state_topic, Qos::BestEffort)?),
+                Dex1Writer::Go(node.writer(state_topic, STATE_QOS)?),
             ),
         };
         Ok(Self {
@@ -114,6 +114,91 @@ impl crate::front::serve::FrontIo for Dex1Io {
 /// The wire variant of Dex1 front `f` (default `go`).
 fn variant(f: &crate::front::config::FrontConfig) -> Variant {
     f.variant.unwrap_or_default()
+}
+
+/// What Dex1 front `f` serves: its variant's types on its topics; the other variant's types
+/// and the other interface's topics (per side vs actuator) named with the profile change that
+/// serves them.
+fn served(f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+    use crate::dds::type_name;
+    use crate::discovery::diagnose::Served;
+    use crate::front::serve::{served_command, served_state};
+    let v = variant(&f.config);
+    let name = &f.name;
+    let (go_cmd, hg_cmd) = (
+        type_name::<unitree_go::MotorCmds_>(),
+        type_name::<unitree_hg::HandCmd_>(),
+    );
+    let (go_state, hg_state) = (
+        type_name::<unitree_go::MotorStates_>(),
+        type_name::<unitree_hg::HandState_>(),
+    );
+    // Another type on this topic: the variant that speaks it.
+    let (cmd, state) = match v {
+        Variant::Hg => (
+            served_command::<unitree_hg::HandCmd_>(f.cmd_topic.as_deref().unwrap_or_default()),
+            served_state::<unitree_hg::HandState_>(&f.state_topic),
+        ),
+        Variant::Go | Variant::Actuator => (
+            served_command::<unitree_go::MotorCmds_>(f.cmd_topic.as_deref().unwrap_or_default()),
+            served_state::<unitree_go::MotorStates_>(&f.state_topic),
+        ),
+    };
+    let other_type = |s: Served, go: &str, hg: &str| {
+        match v {
+        Variant::Hg => s.alternative(
+            go.to_string(),
+            format!("the client speaks the unitree_go variant (dex1_1_service): set variant = \"{}\" on front {name}", Variant::Go),
+        ),
+        Variant::Go => s.alternative(
+            hg.to_string(),
+            format!("the client speaks the seed-spec unitree_hg variant: set variant = \"{}\" on front {name}", Variant::Hg),
+        ),
+        Variant::Actuator => s.alternative(
+            hg.to_string(),
+            format!(
+                "the client speaks the seed-spec unitree_hg variant, which is per side ({} or {}): serve it with a dex1 front with variant = \"{}\"",
+                Variant::Hg.topics(Side::Left).0,
+                Variant::Hg.topics(Side::Right).0,
+                Variant::Hg
+            ),
+        ),
+    }
+    };
+    let (mut cmd, mut state) = (
+        other_type(cmd, &go_cmd, &hg_cmd),
+        other_type(state, &go_state, &hg_state),
+    );
+    // The other interface's topics.
+    match v {
+        Variant::Go | Variant::Hg => {
+            let (c, s) = Variant::Actuator.topics(Side::Left);
+            let hint = format!(
+                "the client uses the actuator interface (both grippers in one message): serve it with a dex1 front with variant = \"{}\" instead of front {name}",
+                Variant::Actuator
+            );
+            cmd = cmd.related(c, hint.clone());
+            state = state.related(s, hint);
+        }
+        Variant::Actuator => {
+            for side in [Side::Left, Side::Right] {
+                let (c, s) = Variant::Go.topics(side);
+                let hint = format!(
+                    "the client uses the per-side dex1 interface: serve side {side} with a dex1 front with variant = \"{}\" (or \"{}\") instead of front {name}",
+                    Variant::Go,
+                    Variant::Hg
+                );
+                cmd = cmd.related(c, hint.clone());
+                state = state.related(s, hint);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    if f.cmd_topic.is_some() {
+        out.push(cmd);
+    }
+    out.push(state);
+    out
 }
 
 /// The Dex1-1 service interface, in its wire variants.
@@ -240,6 +325,9 @@ impl crate::front::kind::FrontFactory for Dex1Front {
     }
     fn describe(&self, f: &crate::front::config::FrontConfig) -> Option<String> {
         Some(format!(" ({})", variant(f)))
+    }
+    fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        served(f)
     }
     fn open(
         &self,

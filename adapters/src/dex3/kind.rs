@@ -199,6 +199,10 @@ impl KindFactory for Dex3Factory {
         Ok(Box::new(super::open::configure(spec)?))
     }
 
+    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+        super::open::served(spec)
+    }
+
     /// Dex3-1 hands on USB (VID 0x34B7, PID by side), with permission problems explained.
     fn list_attached(&self) -> Option<Result<Vec<String>, DeviceError>> {
         let hands = match super::usb::list_hands() {

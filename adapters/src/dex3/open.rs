@@ -130,6 +130,14 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<Dex3Open, DeviceError> {
     Ok(Dex3Open::Usb { source, config })
 }
 
+/// What a Dex3 opened from `spec` serves on DDS (nothing over USB).
+pub fn served(spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+    match configure(spec) {
+        Ok(Dex3Open::Dds { config, .. }) => config.served::<Dex3DdsCodec>(),
+        _ => Vec::new(),
+    }
+}
+
 /// Opens a Dex3 on its backend.
 pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
     Ok(match configure(spec)? {

@@ -23,12 +23,12 @@ impl Dex3Io {
         tx: tokio::sync::mpsc::Sender<crate::front::serve::Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Self, crate::dds::DdsError> {
-        use crate::dds::Qos;
+        use crate::front::serve::STATE_QOS;
         Ok(Self {
             _reader: crate::front::serve::reader(node, cmd_topic, tx, dropped)?,
-            state: node.writer(state_topic, Qos::BestEffort)?,
+            state: node.writer(state_topic, STATE_QOS)?,
             lf: lf
-                .map(|(t, hz)| node.writer(t, Qos::BestEffort).map(|w| (w, hz)))
+                .map(|(t, hz)| node.writer(t, STATE_QOS).map(|w| (w, hz)))
                 .transpose()?,
         })
     }
@@ -153,6 +153,36 @@ impl crate::front::kind::FrontFactory for Dex3Front {
         }
         let given = f.cmd_topic.is_some() && f.state_topic.is_some() && f.lf_state_topic.is_some();
         side_rule("dex3", served, given, false)
+    }
+    fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        use crate::dds::type_name;
+        use crate::front::serve::{served_command, served_state};
+        use handgate_idl::{handgate, unitree_go};
+        let mut out = Vec::new();
+        if let Some(cmd) = &f.cmd_topic {
+            out.push(
+                served_command::<HandCmd_>(cmd)
+                    .alternative(
+                        type_name::<unitree_go::MotorCmds_>(),
+                        format!("the client speaks the Dex1 / hand-service interface (unitree_go MotorCmds_), not the Dex3 service's unitree_hg HandCmd_: point it at a dex1 front, or send HandCmd_ to front {}", f.name),
+                    )
+                    .alternative(
+                        type_name::<handgate::HandCmd_>(),
+                        format!("the client speaks handgate's canonical interface: send it to a canonical front, or send unitree_hg HandCmd_ to front {}", f.name),
+                    ),
+            );
+        }
+        let state_alt = |s: crate::discovery::diagnose::Served| {
+            s.alternative(
+                type_name::<unitree_go::MotorStates_>(),
+                format!("the client reads unitree_go MotorStates_ (Dex1 / hand-service interface); front {} publishes the Dex3 service's unitree_hg HandState_", f.name),
+            )
+        };
+        out.push(state_alt(served_state::<HandState_>(&f.state_topic)));
+        if let Some((lf, _)) = &f.lf_state {
+            out.push(state_alt(served_state::<HandState_>(lf)));
+        }
+        out
     }
     fn open(
         &self,

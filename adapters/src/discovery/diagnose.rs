@@ -45,6 +45,38 @@ pub struct Served {
     pub related_topics: Vec<RelatedTopic>,
 }
 
+impl Served {
+    /// `role` on `topic` with `type_name` and `qos`, no alternatives or related topics.
+    pub fn new(topic: &str, type_name: String, role: Role, qos: ServedQos) -> Self {
+        Self {
+            topic: topic.to_string(),
+            type_name,
+            role,
+            qos,
+            alternatives: Vec::new(),
+            related_topics: Vec::new(),
+        }
+    }
+
+    /// With another type a client may use here, and what to tell its user.
+    pub fn alternative(mut self, type_name: String, hint: impl Into<String>) -> Self {
+        self.alternatives.push(Alternative {
+            type_name,
+            hint: hint.into(),
+        });
+        self
+    }
+
+    /// With a topic a client may use instead of this one, and what to tell its user.
+    pub fn related(mut self, topic: impl Into<String>, hint: impl Into<String>) -> Self {
+        self.related_topics.push(RelatedTopic {
+            topic: topic.into(),
+            hint: hint.into(),
+        });
+        self
+    }
+}
+
 /// A remote endpoint a finding is about, with what its participant reported.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RemoteRef {

@@ -26,7 +26,7 @@ impl CanonicalIo {
     ) -> Result<Self, crate::dds::DdsError> {
         Ok(Self {
             _reader: crate::front::serve::reader(node, cmd_topic, tx, dropped)?,
-            state: node.writer(state_topic, crate::dds::Qos::BestEffort)?,
+            state: node.writer(state_topic, crate::front::serve::STATE_QOS)?,
         })
     }
 }
@@ -81,6 +81,20 @@ impl crate::front::kind::FrontFactory for CanonicalFront {
             after: Some(dog),
             timeout_bit: None,
         }
+    }
+    fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        use crate::dds::type_name;
+        use crate::front::serve::{served_command, served_state};
+        use handgate_idl::unitree_hg;
+        let mut out = Vec::new();
+        if let Some(cmd) = &f.cmd_topic {
+            out.push(served_command::<hg::HandCmd_>(cmd).alternative(
+                type_name::<unitree_hg::HandCmd_>(),
+                format!("the client speaks the Dex3 service interface (unitree_hg HandCmd_): serve it with a dex3 front, or send handgate HandCmd_ to front {}", f.name),
+            ));
+        }
+        out.push(served_state::<hg::HandState_>(&f.state_topic));
+        out
     }
     fn open(
         &self,

@@ -44,6 +44,9 @@ impl crate::front::kind::FrontFactory for JointStateFront {
             _ => "joint_state".into(),
         }
     }
+    fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        vec![crate::front::serve::served_state::<JointState_>(&f.state_topic)]
+    }
     fn open(
         &self,
         env: &crate::front::serve::FrontEnv,
@@ -52,7 +55,7 @@ impl crate::front::kind::FrontFactory for JointStateFront {
         _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
         Ok(crate::front::serve::Endpoints::StateOnly(Box::new(JointStateIo {
-            writer: env.node.writer(&f.state_topic, crate::dds::Qos::BestEffort)?,
+            writer: env.node.writer(&f.state_topic, crate::front::serve::STATE_QOS)?,
             urdf_names: f.config.urdf_names.unwrap_or(true),
         })))
     }

@@ -95,6 +95,11 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
     fn clash_hint(&self, _f: &FrontConfig, _other: &FrontConfig) -> &'static str {
         ""
     }
+    /// What the front serves on DDS, for discovery's diagnostics: its command topic (role
+    /// reader), its state topics (role writer), each with the type name CycloneDDS registers,
+    /// the QoS [`FrontFactory::open`] uses, the other types a client may use there (with the
+    /// fix in words) and related topics a client may use instead.
+    fn served(&self, plan: &FrontPlan) -> Vec<crate::discovery::diagnose::Served>;
     /// The front's endpoints.
     fn open(
         &self,

@@ -9,6 +9,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use crate::dds::{DdsError, Node, Qos, Reader};
+use crate::discovery::diagnose::Served;
+use crate::discovery::Role;
 
 use crate::model::{CommandBody, HandState, SafeAction};
 use tokio::sync::mpsc;
@@ -84,6 +86,21 @@ pub enum Endpoints {
     StateOnly(Box<dyn StateIo>),
 }
 
+/// The QoS of every front's command reader ([`reader`]).
+pub const COMMAND_QOS: Qos = Qos::Reliable { depth: 16 };
+/// The QoS of every front's state writers (state, low-frequency state, touch).
+pub const STATE_QOS: Qos = Qos::BestEffort;
+
+/// What a front serves on its command topic: a reader of `T` with [`COMMAND_QOS`].
+pub fn served_command<T: handgate_idl::TopicType>(topic: &str) -> Served {
+    Served::new(topic, crate::dds::type_name::<T>(), Role::Reader, COMMAND_QOS.served())
+}
+
+/// What a front serves on a state topic: a writer of `T` with [`STATE_QOS`].
+pub fn served_state<T: handgate_idl::TopicType>(topic: &str) -> Served {
+    Served::new(topic, crate::dds::type_name::<T>(), Role::Writer, STATE_QOS.served())
+}
+
 /// A command reader on `topic` handing every sample to the front's task as a [`Message`];
 /// a sample that finds the queue full is dropped and counted in `dropped`.
 pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
@@ -92,7 +109,7 @@ pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
     tx: mpsc::Sender<Message>,
     dropped: Arc<AtomicU64>,
 ) -> Result<Reader<T>, DdsError> {
-    node.reader_with_callback::<T, _>(topic, Qos::Reliable { depth: 16 }, move |h| {
+    node.reader_with_callback::<T, _>(topic, COMMAND_QOS, move |h| {
         let mut v = Vec::new();
         h.take_into(&mut v);
         for s in v {

@@ -114,6 +114,10 @@ impl KindFactory for HandSdkFactory {
         Ok(Box::new(super::open::configure(spec)?))
     }
 
+    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+        super::open::served(spec)
+    }
+
     /// The emulated ai_sport blend publishes no state and the adapter reads none: no
     /// `[devices.emulator]` key (initial posture, object, noise) could change what handgate
     /// sees, so each one set is refused.

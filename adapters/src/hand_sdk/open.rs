@@ -44,6 +44,11 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<HandSdkOpen, DeviceError> {
     })
 }
 
+/// What a hand_sdk device opened from `spec` serves on DDS (its command topic only).
+pub fn served(spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+    configure(spec).map_or_else(|_| Vec::new(), |c| c.config.served::<HandSdkCodec>())
+}
+
 /// Opens a hand_sdk device on its backend.
 pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
     let c = configure(spec)?;

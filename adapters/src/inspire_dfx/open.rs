@@ -61,6 +61,14 @@ pub fn service_config(devs: &[DeviceSpec<'_>]) -> Result<DfxConfig, DeviceError>
     Ok(cfg)
 }
 
+/// What an Inspire DFX hand opened from `spec` serves on DDS.
+pub fn served(spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+    match configure(spec) {
+        Ok(DfxOpen::Dds { config, .. } | DfxOpen::Emulated { config, .. }) => config.served::<DfxCodec>(),
+        Err(_) => Vec::new(),
+    }
+}
+
 /// What `spec` opens with.
 pub fn configure(spec: &DeviceSpec<'_>) -> Result<DfxOpen, DeviceError> {
     let element = element(spec)?;

@@ -36,7 +36,7 @@ impl DfxIo {
     ) -> Result<Self, crate::dds::DdsError> {
         Ok(Self {
             _reader: reader(node, cmd_topic, tx, dropped)?,
-            state: node.writer(state_topic, crate::dds::Qos::BestEffort)?,
+            state: node.writer(state_topic, crate::front::serve::STATE_QOS)?,
         })
     }
 }
@@ -157,6 +157,13 @@ impl FrontFactory for InspireDfxFront {
             ""
         }
     }
+    fn served(&self, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        use crate::front::serve::{served_command, served_state};
+        vec![
+            served_command::<unitree_go::MotorCmds_>(&cmd_topic(f)),
+            served_state::<unitree_go::MotorStates_>(&f.state_topic),
+        ]
+    }
     fn open(
         &self,
         env: &crate::front::serve::FrontEnv,
@@ -164,15 +171,19 @@ impl FrontFactory for InspireDfxFront {
         tx: tokio::sync::mpsc::Sender<Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Endpoints, crate::dds::DdsError> {
-        let cmd = f.cmd_topic.clone().unwrap_or_else(|| CMD_TOPIC.into());
         Ok(Endpoints::Commands(Box::new(DfxIo::open(
             &env.node,
-            &cmd,
+            &cmd_topic(f),
             &f.state_topic,
             tx,
             dropped,
         )?)))
     }
+}
+
+/// The command topic of front `f` (the service's when the plan has none).
+fn cmd_topic(f: &FrontPlan) -> String {
+    f.cmd_topic.clone().unwrap_or_else(|| CMD_TOPIC.into())
 }
 
 impl FrontKind {

@@ -5,8 +5,8 @@ use super::adapter::{FtpClient, FtpCodec};
 use super::emulator::{FtpConfig, FtpEmulator, FtpTransport, ANGLE_NOISE, REST_ANGLE};
 use super::kind::{FtpTopics, InspireFtpProfile};
 use super::table::JOINTS;
-use crate::dds::{Node, Qos};
-use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer};
+use crate::dds::Node;
+use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer, STATE_QOS};
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{EmulateArgs, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
@@ -79,10 +79,29 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<FtpOpen, DeviceError> {
     })
 }
 
+/// What an Inspire FTP hand opened from `spec` serves on DDS: the client's topics, and its
+/// touch reader where the topics have one.
+pub fn served(spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+    let (config, topics) = match configure(spec) {
+        Ok(FtpOpen::Dds { config, topics, .. } | FtpOpen::Emulated { config, topics, .. }) => (config, topics),
+        Err(_) => return Vec::new(),
+    };
+    let mut out = config.served::<FtpCodec>();
+    if let Some(t) = &topics.touch {
+        out.push(crate::discovery::diagnose::Served::new(
+            t,
+            crate::dds::type_name::<handgate_idl::inspire::InspireHandTouch>(),
+            crate::discovery::Role::Reader,
+            STATE_QOS.served(),
+        ));
+    }
+    out
+}
+
 /// The client of the driver (and its touch reader when the topics have one).
 fn client(node: &Node, codec: FtpCodec, topics: &FtpTopics) -> Result<FtpClient, DeviceError> {
     let touch = match &topics.touch {
-        Some(t) => Some(node.reader(t, Qos::BestEffort)?),
+        Some(t) => Some(node.reader(t, STATE_QOS)?),
         None => None,
     };
     Ok(FtpClient::new(codec, touch))

@@ -42,11 +42,11 @@ impl FtpIo {
         tx: tokio::sync::mpsc::Sender<Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Self, crate::dds::DdsError> {
-        use crate::dds::Qos;
+        use crate::front::serve::STATE_QOS;
         Ok(Self {
             _reader: reader(node, cmd_topic, tx, dropped)?,
-            state: node.writer(state_topic, Qos::BestEffort)?,
-            touch: node.writer(touch_topic, Qos::BestEffort)?,
+            state: node.writer(state_topic, STATE_QOS)?,
+            touch: node.writer(touch_topic, STATE_QOS)?,
         })
     }
 }
@@ -153,6 +153,15 @@ impl FrontFactory for InspireFtpFront {
         };
         Some(format!(", touch {touch} from an inspire_ftp device with tactile pads"))
     }
+    fn served(&self, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        use crate::front::serve::{served_command, served_state};
+        let (cmd, touch) = cmd_touch_topics(f);
+        vec![
+            served_command::<InspireHandCtrl>(&cmd),
+            served_state::<InspireHandState>(&f.state_topic),
+            served_state::<InspireHandTouch>(&touch),
+        ]
+    }
     fn open(
         &self,
         env: &crate::front::serve::FrontEnv,
@@ -160,9 +169,7 @@ impl FrontFactory for InspireFtpFront {
         tx: tokio::sync::mpsc::Sender<Message>,
         dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
     ) -> Result<Endpoints, crate::dds::DdsError> {
-        let side = f.bindings.first().map_or(Side::Right, |b| b.side);
-        let (ctrl, _, touch) = topics(side);
-        let cmd = f.cmd_topic.clone().unwrap_or(ctrl);
+        let (cmd, touch) = cmd_touch_topics(f);
         Ok(Endpoints::Commands(Box::new(FtpIo::open(
             &env.node,
             &cmd,
@@ -172,6 +179,14 @@ impl FrontFactory for InspireFtpFront {
             dropped,
         )?)))
     }
+}
+
+/// The command and touch topics of front `f`: the served side's (the plan's command topic
+/// when it has one).
+fn cmd_touch_topics(f: &FrontPlan) -> (String, String) {
+    let side = f.bindings.first().map_or(Side::Right, |b| b.side);
+    let (ctrl, _, touch) = topics(side);
+    (f.cmd_topic.clone().unwrap_or(ctrl), touch)
 }
 
 impl FrontKind {
