@@ -4,6 +4,7 @@ pub mod cli;
 pub mod diagnostics;
 pub mod plan;
 pub mod profile;
+pub mod recording;
 pub mod resolve;
 pub mod runtime;
 pub mod ticker;

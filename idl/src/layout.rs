@@ -321,7 +321,10 @@ mod tests {
             assert_eq!(c.verdict, Verdict::Current, "{n} motors");
             assert_eq!(c.current_size, Some(c.size));
             let be = to_cdr_be(&cmd(n)).unwrap()[4..].to_vec();
-            assert_eq!(check(hg::HandCmd_::DDS_TYPE_NAME, &be).unwrap().verdict, Verdict::Current);
+            assert_eq!(
+                check(hg::HandCmd_::DDS_TYPE_NAME, &be).unwrap().verdict,
+                Verdict::Current
+            );
         }
         let s = hg::HandState_ {
             motor_state: vec![hg::MotorState_::default(); 7],
@@ -343,7 +346,10 @@ mod tests {
             motor_cmd: vec![hg::MotorCmd_::default(); 7],
         };
         let c = check(hg::HandCmd_::DDS_TYPE_NAME, &body(&old)).unwrap();
-        assert!(matches!(c.verdict, Verdict::Older(w) if w.contains("December 2024")), "{c:?}");
+        assert!(
+            matches!(c.verdict, Verdict::Older(w) if w.contains("December 2024")),
+            "{c:?}"
+        );
         assert_eq!(c.size, 4 + 7 * 28);
         let page = HandCmdBasicServicesPage {
             motor_cmd: vec![
@@ -362,7 +368,10 @@ mod tests {
         // 7 × 36 + 4 bytes decode as the current layout too (7 motors and more bytes), so
         // only the size tells it apart.
         let c = check(hg::HandCmd_::DDS_TYPE_NAME, &body(&page)).unwrap();
-        assert!(matches!(c.verdict, Verdict::Older(w) if w.contains("basic-services")), "{c:?}");
+        assert!(
+            matches!(c.verdict, Verdict::Older(w) if w.contains("basic-services")),
+            "{c:?}"
+        );
         assert_eq!(c.current_size, Some(4 + 7 * 28 + 16));
     }
 
@@ -386,7 +395,10 @@ mod tests {
             reserve: [0; 2],
         };
         let c = check(hg::HandState_::DDS_TYPE_NAME, &body(&s)).unwrap();
-        assert!(matches!(c.verdict, Verdict::Older(w) if w.contains("February 2025")), "{c:?}");
+        assert!(
+            matches!(c.verdict, Verdict::Older(w) if w.contains("February 2025")),
+            "{c:?}"
+        );
         let page = HandStateBasicServicesPage {
             motor_state: Vec::new(),
             imu_state: hg::IMUState_::default(),
@@ -396,7 +408,10 @@ mod tests {
             reserve: [0; 2],
         };
         let c = check(hg::HandState_::DDS_TYPE_NAME, &body(&page)).unwrap();
-        assert!(matches!(c.verdict, Verdict::Older(w) if w.contains("basic-services")), "{c:?}");
+        assert!(
+            matches!(c.verdict, Verdict::Older(w) if w.contains("basic-services")),
+            "{c:?}"
+        );
     }
 
     #[test]
@@ -412,6 +427,9 @@ mod tests {
         let enc = to_cdr_le(&cmd(7)).unwrap();
         let raw: Raw<hg::HandCmd_> = from_cdr(&enc).unwrap();
         assert_eq!(raw.bytes, enc[4..]);
-        assert_eq!(<Raw<hg::HandCmd_> as TopicType>::typename().to_str().unwrap(), hg::HandCmd_::DDS_TYPE_NAME);
+        assert_eq!(
+            <Raw<hg::HandCmd_> as TopicType>::typename().to_str().unwrap(),
+            hg::HandCmd_::DDS_TYPE_NAME
+        );
     }
 }
