@@ -51,6 +51,17 @@ impl DevicePlan {
 
 pub use handgate_adapters::front::plan::{Binding, FrontPlan, SilencePlan};
 
+/// The gateway's own recording (`[record]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordPlan {
+    /// The recording directory of this start (`DIR/<profile>_<unix seconds>`).
+    pub dir: std::path::PathBuf,
+    pub topics: Vec<String>,
+    pub max_mb: Option<f64>,
+    pub max_seconds: Option<f64>,
+    pub zstd: bool,
+}
+
 /// The whole fleet.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
@@ -59,6 +70,8 @@ pub struct Plan {
     pub interface: Option<String>,
     pub status_topic: String,
     pub status_hz: f64,
+    /// `[record]`: record from start-up.
+    pub record: Option<RecordPlan>,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

@@ -198,6 +198,20 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         interface: p.dds.interface.clone(),
         status_topic: p.status.topic.0.clone(),
         status_hz: p.status.rate_hz.0,
+        record: p.record.as_ref().map(|r| crate::plan::RecordPlan {
+            dir: std::path::Path::new(&r.dir).join(format!(
+                "{}_{}",
+                p.name,
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map(|d| d.as_secs())
+                    .unwrap_or(0)
+            )),
+            topics: r.topics.clone(),
+            max_mb: r.max_mb,
+            max_seconds: r.max_seconds,
+            zstd: r.zstd,
+        }),
         devices,
         fronts,
     })

@@ -58,6 +58,13 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
             d.missed_cycles
         );
     }
+    if s.record_messages > 0 || s.record_dropped > 0 {
+        let _ = writeln!(
+            out,
+            "recording: {} message(s) written, {} dropped",
+            s.record_messages, s.record_dropped
+        );
+    }
     out
 }
 
@@ -107,8 +114,16 @@ mod tests {
                 freshness: hg::STALE,
                 ..Default::default()
             }],
+            ..Default::default()
         };
         let t = render_status(&s);
         assert!(t.contains("left_hand") && t.contains("STALE") && t.contains("uptime 1.5 s"));
+        assert!(!t.contains("recording"));
+        let t = render_status(&hg::GatewayStatus_ {
+            record_messages: 10,
+            record_dropped: 2,
+            ..s
+        });
+        assert!(t.contains("recording: 10 message(s) written, 2 dropped"), "{t}");
     }
 }

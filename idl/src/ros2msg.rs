@@ -126,7 +126,7 @@ float32[3] gyroscope\nfloat32 power_v\nfloat32 power_a\nuint32 faults\n",
     dep!("handgate/JointState", handgate_joint_state!())
 );
 const HANDGATE_STATUS: &str = concat!(
-    "string profile\nuint64 uptime_ms\nhandgate/DeviceStatus[] devices\n",
+    "string profile\nuint64 uptime_ms\nhandgate/DeviceStatus[] devices\nuint64 record_messages\nuint64 record_dropped\n",
     dep!("handgate/DeviceStatus", handgate_device_status!())
 );
 

@@ -91,6 +91,8 @@ class GatewayStatus_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatus_")
     profile: str
     uptime_ms: types.uint64
     devices: types.sequence[DeviceStatus_]
+    record_messages: types.uint64
+    record_dropped: types.uint64
 
 
 @dataclass

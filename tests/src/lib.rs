@@ -845,7 +845,9 @@ plain_struct!(handgate::DeviceStatus_ {
 plain_struct!(handgate::GatewayStatus_ {
     profile,
     uptime_ms,
-    devices
+    devices,
+    record_messages,
+    record_dropped
 });
 plain_struct!(ros2::Time_ { sec, nanosec });
 plain_struct!(ros2::Header_ { stamp, frame_id });

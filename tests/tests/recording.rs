@@ -264,6 +264,8 @@ fn replaying_a_session_into_a_fresh_gateway_drives_its_device_like_the_client_di
                 "/dex3/left/cmd",
                 "--readers",
                 "2",
+                "--wait",
+                "30",
             ])
             .current_dir(repo_root())
             .output()
@@ -276,17 +278,54 @@ fn replaying_a_session_into_a_fresh_gateway_drives_its_device_like_the_client_di
         std::thread::sleep(Duration::from_millis(300));
         stop(rec);
     }
-    let a = trajectory(&Bag::open(&original).unwrap());
-    let b = trajectory(&Bag::open(&replayed).unwrap());
-    // Compared every 20 ms over the 1.5 s session (timing differs by scheduling jitter:
-    // a ramp of 1 rad/s moves 5 mrad in 5 ms).
-    let mut worst: f64 = 0.0;
+    let (bag_a, bag_b) = (Bag::open(&original).unwrap(), Bag::open(&replayed).unwrap());
+    // The replayed commands are the client's, value for value, in order and at the same
+    // relative times (up to scheduling jitter).
+    let cmds = |bag: &Bag| -> Vec<(f64, f32)> {
+        let c: Vec<_> = bag
+            .messages
+            .iter()
+            .filter(|m| m.ros_topic == "/dex3/left/cmd")
+            .collect();
+        let t0 = c[0].publish_time;
+        c.iter()
+            .map(|m| {
+                let j = handgate_record::export::joints(m).unwrap().unwrap();
+                ((m.publish_time - t0) as f64 / 1e9, j.q[5] as f32)
+            })
+            .collect()
+    };
+    let (ca, cb) = (cmds(&bag_a), cmds(&bag_b));
+    assert_eq!(
+        ca.iter().map(|c| c.1).collect::<Vec<_>>(),
+        cb.iter().map(|c| c.1).collect::<Vec<_>>()
+    );
+    let mut shifts: Vec<f64> = ca.iter().zip(&cb).map(|(a, b)| (a.0 - b.0).abs()).collect();
+    shifts.sort_by(f64::total_cmp);
+    assert!(
+        shifts[shifts.len() / 2] < 0.005,
+        "median timing difference {} s",
+        shifts[shifts.len() / 2]
+    );
+    // The device follows the same trajectory: every 20 ms of the 1.5 s session, the replayed
+    // device is where the original was within 50 mrad, allowing 250 ms of time shift (this
+    // machine is shared: a loaded scheduler stalls either run for 100-200 ms now and then; a
+    // replay at the wrong speed or with other targets is off by far more).
+    let (a, b) = (trajectory(&bag_a), trajectory(&bag_b));
+    let near = |x: &[(f64, f64)], y: &[(f64, f64)], t: f64| {
+        let q = q_at(x, t);
+        (-12..=12).any(|k| (q_at(y, (t + k as f64 * 0.02).max(0.0)) - q).abs() < 0.05)
+    };
     let mut t = 0.0;
     while t <= 1.5 {
-        worst = worst.max((q_at(&a, t) - q_at(&b, t)).abs());
+        assert!(
+            near(&a, &b, t) && near(&b, &a, t),
+            "trajectories differ at {t:.2} s: {:.3} vs {:.3}",
+            q_at(&a, t),
+            q_at(&b, t)
+        );
         t += 0.02;
     }
-    assert!(worst < 0.05, "trajectories differ by up to {worst} rad");
     let (ea, eb) = (a.last().unwrap().1, b.last().unwrap().1);
     assert!(
         (ea + 1.0).abs() < 0.05 && (eb - ea).abs() < 0.02,
@@ -328,4 +367,49 @@ fn replay_refuses_the_robots_domain_without_allow_robot() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--allow-robot"));
+}
+
+#[test]
+fn a_gateway_with_a_record_section_records_from_start_up_and_says_so_in_status() {
+    let domain = 157;
+    let base = scratch("section");
+    let profile = handgate_tests::default_profile_edited(
+        "record_section",
+        &[(
+            "[status]",
+            &format!(
+                "[record]\ndir = \"{}\"\ntopics = [\"/dex3/*\", \"/handgate/status\"]\n\n[status]",
+                base.display()
+            ),
+        )],
+    );
+    let mut gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
+    let n = node(domain);
+    let mut status = handgate_tests::Latest::<handgate_idl::handgate::GatewayStatus_>::new(
+        &n,
+        "rt/handgate/status",
+        Qos::Reliable { depth: 1 },
+    );
+    let s = poll(Duration::from_secs(20), || {
+        status.update().filter(|s| s.record_messages > 0).cloned()
+    })
+    .expect("status reports the recorder's messages");
+    assert_eq!(s.record_dropped, 0);
+    gw.signal(handgate_tests::Signal::Int).unwrap();
+    assert!(gw.wait_exit(Duration::from_secs(10)).is_some_and(|s| s.success()));
+    let dirs: Vec<PathBuf> = std::fs::read_dir(&base).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(dirs.len(), 1, "{dirs:?}");
+    let name = dirs[0].file_name().unwrap().to_string_lossy().to_string();
+    assert!(name.starts_with("default_"), "{name}");
+    let r = python_read(&dirs[0].join(format!("{name}_0.mcap")), false);
+    let topics = r["topics"].as_object().unwrap();
+    assert!(
+        topics.contains_key("/dex3/left/state") && topics.contains_key("/handgate/status"),
+        "{r}"
+    );
+    assert!(
+        !topics.contains_key("/dex1/left/state"),
+        "only the selected topics: {r}"
+    );
+    assert_eq!(r["metadata"]["handgate"]["dropped_messages"], "0");
 }

@@ -37,6 +37,8 @@ pub enum RuntimeError {
     },
     #[error("front bound to unknown device {0:?}")]
     UnknownDevice(String),
+    #[error("[record]: {0}")]
+    Record(#[from] handgate_record::RecordError),
 }
 
 /// Per-device counters kept by the fronts bound to it.
@@ -73,6 +75,8 @@ pub struct Runtime {
     pub shared: Shared,
     /// Every reader and writer on the gateway's domain (its own thread; docs/discovery.md).
     pub discovery: Discovery,
+    /// The `[record]` recorder (its own threads; never on a device path).
+    recorder: Option<handgate_record::Recorder>,
 }
 
 impl Runtime {
@@ -104,7 +108,24 @@ impl Runtime {
         for f in &plan.fronts {
             tasks.push(fronts::spawn_front(&env, f, &by_name, shutdown_rx.clone())?);
         }
-        tasks.push(status::spawn_status(&node, plan, devices.clone(), shutdown_rx.clone())?);
+        // Started after the fronts, so it subscribes what they serve.
+        let recorder = match &plan.record {
+            Some(r) => {
+                let opts = crate::recording::options(&r.dir, r.max_mb, r.max_seconds, r.zstd);
+                let rec = handgate_record::Recorder::start(&node, crate::recording::topics(plan, &r.topics), opts)?;
+                tracing::info!(dir = %r.dir.display(), topics = rec.topics.len(), "recording");
+                Some(rec)
+            }
+            None => None,
+        };
+        let record_stats = recorder.as_ref().map(|r| r.stats());
+        tasks.push(status::spawn_status(
+            &node,
+            plan,
+            devices.clone(),
+            record_stats,
+            shutdown_rx.clone(),
+        )?);
         Ok(Self {
             node,
             devices,
@@ -113,6 +134,7 @@ impl Runtime {
             started: Instant::now(),
             shared,
             discovery,
+            recorder,
         })
     }
 
@@ -121,10 +143,22 @@ impl Runtime {
     }
 
     /// Safe state on every device (each device's configured safe action), then stop.
-    pub async fn shutdown(self) -> Vec<(String, Result<(), DeviceError>)> {
+    pub async fn shutdown(mut self) -> Vec<(String, Result<(), DeviceError>)> {
         let _ = self.shutdown.send(true);
-        for t in self.tasks {
+        for t in std::mem::take(&mut self.tasks) {
             let _ = t.await;
+        }
+        if let Some(rec) = self.recorder.take() {
+            match tokio::task::spawn_blocking(move || rec.stop()).await {
+                Ok(Ok(s)) => tracing::info!(
+                    messages = s.messages,
+                    dropped = s.dropped,
+                    files = s.files.len(),
+                    "recording finished"
+                ),
+                Ok(Err(e)) => tracing::warn!(error = %e, "recording not finished cleanly"),
+                Err(e) => tracing::warn!(error = %e, "recording not finished cleanly"),
+            }
         }
         let mut out = Vec::new();
         let futs = self.devices.iter().map(|d| {

@@ -19,6 +19,7 @@ pub(super) fn spawn_status(
     node: &Node,
     plan: &Plan,
     devices: Vec<Arc<DeviceSlot>>,
+    record: Option<Arc<handgate_record::RecordStats>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let mut writer = node.writer::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::Reliable { depth: 1 })?;
@@ -32,7 +33,11 @@ pub(super) fn spawn_status(
             tokio::select! {
                 _ = tick.tick() => {
                     let now = Instant::now();
-                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![] };
+                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![], ..Default::default() };
+                    if let Some(r) = &record {
+                        msg.record_messages = r.written.load(Ordering::Relaxed);
+                        msg.record_dropped = r.dropped.load(Ordering::Relaxed);
+                    }
                     for d in &devices {
                         let s = d.device.stats();
                         let st = d.device.state().borrow().clone();
