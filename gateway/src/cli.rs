@@ -128,7 +128,7 @@ pub enum Command {
 /// Recording options shared by `handgate record` and the profile's `[record]` section.
 #[derive(Debug, Clone, Args)]
 pub struct RecordArgs {
-    /// Topics to record, as globs on DDS or ROS 2 names (`/dex3/*`); repeatable; default all.
+    /// Topics to record, as globs on DDS or ROS 2 names (`/handgate/*`); repeatable; default all.
     #[arg(long = "topics")]
     pub topics: Vec<String>,
     /// Start a new file after this many MB of messages.
@@ -179,7 +179,7 @@ pub struct ReplayCmd {
     /// Start again at the end, until Ctrl-C.
     #[arg(long = "loop")]
     pub looped: bool,
-    /// Topics to replay, as globs on DDS or ROS 2 names (`/dex3/*/cmd`); repeatable;
+    /// Topics to replay, as globs on DDS or ROS 2 names (`/handgate/*/cmd`); repeatable;
     /// default all.
     #[arg(long = "topics")]
     pub topics: Vec<String>,
@@ -206,11 +206,12 @@ pub struct ExportCmd {
     /// Frames per second.
     #[arg(long, default_value_t = 30.0)]
     pub rate: f64,
-    /// ROS 2 topic prefix of the left hand's state/cmd topics.
-    #[arg(long, default_value = "/dex3/left")]
+    /// ROS 2 topic prefix of the left hand's state/cmd topics (default: xr_teleoperate's
+    /// G1 hand service).
+    #[arg(long, default_value = handgate_record::export::DEFAULT_LEFT)]
     pub left: String,
     /// ROS 2 topic prefix of the right hand's state/cmd topics.
-    #[arg(long, default_value = "/dex3/right")]
+    #[arg(long, default_value = handgate_record::export::DEFAULT_RIGHT)]
     pub right: String,
     /// Export only the left hand.
     #[arg(long, conflicts_with = "only_right")]

@@ -21,6 +21,12 @@ use crate::bag::{Bag, BagMessage};
 use crate::RecordError;
 use handgate_idl::{from_cdr, handgate, unitree_go, unitree_hg, DdsTypeName};
 
+/// The left hand's topic prefix by default: the G1's Dex3 hand service, the hand
+/// xr_teleoperate records by default.
+pub const DEFAULT_LEFT: &str = "/dex3/left";
+/// The right hand's.
+pub const DEFAULT_RIGHT: &str = "/dex3/right";
+
 /// One stream's values at one message: (names if the message carries them, q, dq, tau).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Joints {

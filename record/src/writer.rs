@@ -484,3 +484,147 @@ fn file_name(p: &Path) -> String {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bag::Bag;
+    use handgate_adapters::dds::Qos;
+    use handgate_idl::{to_cdr_le, unitree_hg, DdsTypeName};
+
+    fn tmp(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("handgate-writer-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    fn channel() -> ChannelSpec {
+        ChannelSpec {
+            dds_topic: "rt/dex3/left/cmd".into(),
+            dds_type: unitree_hg::HandCmd_::DDS_TYPE_NAME.into(),
+            qos: Qos::Reliable { depth: 10 }.served(),
+        }
+    }
+
+    fn cmd(q: f32) -> Vec<u8> {
+        let mut c = unitree_hg::HandCmd_::sdk_default();
+        c.motor_cmd[5].q = q;
+        to_cdr_le(&c).unwrap()
+    }
+
+    #[test]
+    fn messages_written_read_back_in_order_across_rollovers() {
+        let dir = tmp("roll").join("roll");
+        let mut o = RecordOptions::new(&dir);
+        o.max_bytes = Some(20_000);
+        let w = BagWriter::start(o, vec![channel()]).unwrap();
+        let tx = w.sender();
+        for k in 0..1000u64 {
+            tx.send(QueuedMessage {
+                channel: 0,
+                publish_time: 1_000_000 + k,
+                log_time: 2_000_000 + k,
+                data: cmd(k as f32),
+            });
+        }
+        drop(tx);
+        let s = w.finish().unwrap();
+        assert_eq!((s.messages, s.dropped), (1000, 0));
+        assert!(s.files.len() > 1, "{:?}", s.files);
+        let bag = Bag::open(&dir).unwrap();
+        assert!(bag.truncated.is_empty(), "{:?}", bag.truncated);
+        let qs: Vec<f32> = bag
+            .messages
+            .iter()
+            .map(|m| {
+                handgate_idl::from_cdr::<unitree_hg::HandCmd_>(&m.data)
+                    .unwrap()
+                    .motor_cmd[5]
+                    .q
+            })
+            .collect();
+        assert_eq!(qs, (0..1000).map(|k| k as f32).collect::<Vec<_>>());
+        assert_eq!(bag.messages[3].publish_time, 1_000_003);
+        assert_eq!(bag.messages[0].ros_topic, "/dex3/left/cmd");
+        assert_eq!(bag.messages[0].dds_topic, "rt/dex3/left/cmd");
+        let meta = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+        assert!(meta.contains("message_count: 1000"), "{meta}");
+        assert!(meta.contains("type: unitree_hg/msg/HandCmd"), "{meta}");
+        assert!(meta.contains(&format!("- roll_{}.mcap", s.files.len() - 1)), "{meta}");
+        // An existing, non-empty directory is refused.
+        assert!(BagWriter::start(RecordOptions::new(&dir), vec![channel()]).is_err());
+    }
+
+    #[test]
+    fn a_full_queue_drops_whole_messages_and_counts_them_in_the_file() {
+        let dir = tmp("drop").join("drop");
+        let mut o = RecordOptions::new(&dir);
+        o.queue = 4;
+        let w = BagWriter::start(o, vec![channel()]).unwrap();
+        let tx = w.sender();
+        let n = 20_000u64;
+        for k in 0..n {
+            tx.send(QueuedMessage {
+                channel: 0,
+                publish_time: k + 1,
+                log_time: k + 1,
+                data: cmd(k as f32),
+            });
+        }
+        drop(tx);
+        let s = w.finish().unwrap();
+        assert_eq!(s.messages + s.dropped, n);
+        let bag = Bag::open(&dir).unwrap();
+        assert_eq!(bag.messages.len() as u64, s.messages);
+        // Every message in the file is whole (decodes), in order.
+        let mut last = -1.0;
+        for m in &bag.messages {
+            let q = handgate_idl::from_cdr::<unitree_hg::HandCmd_>(&m.data)
+                .unwrap()
+                .motor_cmd[5]
+                .q;
+            assert!(q > last);
+            last = q;
+        }
+        let meta = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+        assert!(
+            meta.contains(&format!("handgate.dropped_messages: \"{}\"", s.dropped)),
+            "{meta}"
+        );
+        let buf = std::fs::read(dir.join("drop_0.mcap")).unwrap();
+        let summary = mcap::read::Summary::read(&buf).unwrap().unwrap();
+        let idx = &summary.metadata_indexes[0];
+        let m = mcap::read::metadata(&buf, idx).unwrap();
+        assert_eq!(m.metadata["dropped_messages"], s.dropped.to_string());
+    }
+
+    #[test]
+    fn a_sender_without_room_counts_instead_of_blocking() {
+        let (tx, _rx) = mpsc::sync_channel(1);
+        let stats = Arc::new(RecordStats::default());
+        let s = MessageSender {
+            tx,
+            stats: stats.clone(),
+        };
+        for _ in 0..3 {
+            s.send(QueuedMessage {
+                channel: 0,
+                publish_time: 0,
+                log_time: 0,
+                data: vec![],
+            });
+        }
+        assert_eq!(stats.dropped.load(Ordering::Relaxed), 2);
+    }
+
+    #[test]
+    fn offered_qos_is_rosbag2s_yaml() {
+        let y = offered_qos_yaml(&Qos::BestEffort.served());
+        assert!(
+            y.starts_with("- history: 1\n  depth: 1\n  reliability: 2\n  durability: 2\n"),
+            "{y}"
+        );
+        let y = offered_qos_yaml(&Qos::Reliable { depth: 10 }.served());
+        assert!(y.contains("reliability: 1") && y.contains("depth: 10"), "{y}");
+    }
+}
