@@ -29,6 +29,22 @@ pub fn topics(plan: &Plan, globs: &[String]) -> Vec<TopicSpec> {
     out
 }
 
+/// Recording options from the CLI's / profile's values.
+pub fn options(
+    dir: &std::path::Path,
+    max_mb: Option<f64>,
+    max_seconds: Option<f64>,
+    zstd: bool,
+) -> handgate_record::RecordOptions {
+    let mut o = handgate_record::RecordOptions::new(dir);
+    o.max_bytes = max_mb.filter(|m| *m > 0.0).map(|m| (m * 1e6) as u64);
+    o.max_duration = max_seconds.filter(|s| *s > 0.0).map(std::time::Duration::from_secs_f64);
+    if zstd {
+        o.compression = handgate_record::Compression::Zstd;
+    }
+    o
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -56,20 +72,4 @@ mod tests {
         let cmds = topics(&plan, &["/dex3/*/cmd".into()]);
         assert_eq!(cmds.len(), 2, "{cmds:?}");
     }
-}
-
-/// Recording options from the CLI's / profile's values.
-pub fn options(
-    dir: &std::path::Path,
-    max_mb: Option<f64>,
-    max_seconds: Option<f64>,
-    zstd: bool,
-) -> handgate_record::RecordOptions {
-    let mut o = handgate_record::RecordOptions::new(dir);
-    o.max_bytes = max_mb.filter(|m| *m > 0.0).map(|m| (m * 1e6) as u64);
-    o.max_duration = max_seconds.filter(|s| *s > 0.0).map(std::time::Duration::from_secs_f64);
-    if zstd {
-        o.compression = handgate_record::Compression::Zstd;
-    }
-    o
 }

@@ -235,11 +235,14 @@ fn fit<V: Serialize + DeserializeOwned>(body: &[u8]) -> (bool, Option<usize>) {
     (false, decoded_len)
 }
 
+/// [`fit`] for one layout.
+type Fit = fn(&[u8]) -> (bool, Option<usize>);
+
 /// A type with a layout history: its current layout and the older ones, newest first.
 struct History {
     type_name: &'static str,
-    current: fn(&[u8]) -> (bool, Option<usize>),
-    older: &'static [(&'static str, fn(&[u8]) -> (bool, Option<usize>))],
+    current: Fit,
+    older: &'static [(&'static str, Fit)],
 }
 
 const HISTORIES: &[History] = &[

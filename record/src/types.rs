@@ -74,12 +74,17 @@ where
     }
 }
 
+/// Subscribes a topic as one wire type.
+type SubscribeFn = fn(&Node, &str, Qos) -> Result<Box<dyn Source>, DdsError>;
+/// Makes a writer of one wire type.
+type PublisherFn = fn(&Node, &str, Qos) -> Result<Box<dyn Sink>, DdsError>;
+
 /// One recordable wire type.
 #[derive(Debug, Clone, Copy)]
 pub struct WireType {
     pub schema: &'static MsgSchema,
-    subscribe: fn(&Node, &str, Qos) -> Result<Box<dyn Source>, DdsError>,
-    publisher: fn(&Node, &str, Qos) -> Result<Box<dyn Sink>, DdsError>,
+    subscribe: SubscribeFn,
+    publisher: PublisherFn,
 }
 
 impl WireType {
@@ -116,7 +121,7 @@ where
 macro_rules! wire_types {
     ($($ty:ty),* $(,)?) => {
         /// The DDS type name and entry of every recordable type.
-        fn table() -> &'static [(&'static str, fn(&Node, &str, Qos) -> Result<Box<dyn Source>, DdsError>, fn(&Node, &str, Qos) -> Result<Box<dyn Sink>, DdsError>)] {
+        fn table() -> &'static [(&'static str, SubscribeFn, PublisherFn)] {
             &[$((<$ty as DdsTypeName>::DDS_TYPE_NAME, subscribe::<$ty>, publisher::<$ty>)),*]
         }
     };
