@@ -482,7 +482,7 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     }
     o.push_str(&body);
     o.push_str(
-        "\n## Running\n\n```sh\nmake bench                 # everything, about 5 minutes; rewrites this file\n\
+        "\n## Running\n\n```sh\nmake bench                 # everything, about 15 minutes; rewrites this file\n\
          BENCH_QUICK=1 make bench   # short runs (smoke check of the harness; do not commit its output)\n```\n\n\
          The harness: `scripts/bench.sh` builds the release binaries, runs each benchmark, writes JSON results \
          to `$CARGO_TARGET_DIR/bench-results/` (default `target/`), then `handgate-bench report` writes this file \

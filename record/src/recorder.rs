@@ -22,10 +22,13 @@ pub struct TopicSpec {
 }
 
 /// How often the recorder polls its readers; each reader keeps [`READER_DEPTH`] samples, so
-/// a topic faster than `READER_DEPTH / POLL` (12.8 kHz) would lose samples in DDS.
-pub const POLL: Duration = Duration::from_millis(5);
+/// a topic faster than `READER_DEPTH / POLL` (6.4 kHz; a 1 kHz topic leaves room for a 128 ms
+/// stall of the poll thread) would lose samples in DDS. 20 ms, not 5: every poll takes from
+/// every reader, and polling 4 times as often cost the default fleet's recording 6.7 % of a
+/// core instead of the figure in docs/benchmarks.md.
+pub const POLL: Duration = Duration::from_millis(20);
 /// History depth of each recording reader.
-pub const READER_DEPTH: i32 = 64;
+pub const READER_DEPTH: i32 = 128;
 
 /// A running recording.
 #[derive(Debug)]

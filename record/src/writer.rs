@@ -449,13 +449,9 @@ fn write_metadata_yaml(
             total.per_channel.get(i).copied().unwrap_or(0)
         ));
     }
-    let compression = match opts.compression {
-        Compression::None => "\"\"",
-        Compression::Zstd => "zstd",
-    };
-    y.push_str(&format!(
-        "  compression_format: {compression}\n  compression_mode: \"\"\n"
-    ));
+    // rosbag2's own (file or message) compression is not used: zstd, when chosen, compresses
+    // the MCAP chunks, which rosbag2 also reports as no compression here.
+    y.push_str("  compression_format: \"\"\n  compression_mode: \"\"\n");
     y.push_str("  relative_file_paths:\n");
     for (p, _, _) in files {
         y.push_str(&format!("    - {}\n", file_name(p)));
