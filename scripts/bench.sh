@@ -9,19 +9,20 @@
 #                 unitree_sdk2py relay, at 200 Hz and 1 kHz
 #   4. fleet      16 Dex3 + 16 Dex1 emulated in one gateway, 30 s
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
+#   6. record     handgate record of every topic of the default fleet beside a gateway, 600 s
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop busy hop fleet simall" to run a subset (the report keeps only what this run made).
+# BENCH_ONLY="codec loop busy hop fleet simall record" to run a subset (the report keeps only what this run made).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop busy hop fleet simall"}
+only=${BENCH_ONLY:-"codec loop busy hop fleet simall record"}
 quick=${BENCH_QUICK:-0}
 
-loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000
-if [ "$quick" = 1 ]; then loop_secs=5; busy_secs=5; fleet_secs=5; samples=300; fi
+loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600
+if [ "$quick" = 1 ]; then loop_secs=5; busy_secs=5; fleet_secs=5; samples=300; record_secs=10; fi
 
 want() { [[ " $only " == *" $1 "* ]]; }
 
@@ -80,6 +81,12 @@ fi
 if want simall; then
   echo "bench: 4b. sim-all, every kind at its own rates (${fleet_secs} s)"
   "$bin/handgate-bench" profile --handgate "$bin/handgate" --profile sim-all --secs "$fleet_secs" --out "$results/simall.json"
+fi
+
+if want record; then
+  echo "bench: 6. recording the default fleet (${record_secs} s)"
+  "$bin/handgate-bench" record --handgate "$bin/handgate" --secs "$record_secs" \
+    --dir "$target/bench-recording/fleet" --out "$results/record.json"
 fi
 
 "$bin/handgate-bench" machine --out "$results/machine_end.json"

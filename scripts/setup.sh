@@ -68,6 +68,12 @@ if ! "$vpy" -m pip show -q unitree-sdk2 >/dev/null 2>&1; then
   echo "setup: installing unitree-sdk2==1.0.1 (unitree_sdk2py)"
   "$vpy" -m pip install -q "unitree-sdk2==1.0.1"
 fi
+# Independent MCAP readers for the recording tests (docs/recording.md).
+if [ "$("$vpy" -m pip show mcap-ros2-support 2>/dev/null | sed -n 's/^Version: //p')" != "0.6.0" ] \
+  || [ "$("$vpy" -m pip show mcap 2>/dev/null | sed -n 's/^Version: //p')" != "1.6.0" ]; then
+  echo "setup: installing mcap==1.6.0 and mcap-ros2-support==0.6.0"
+  "$vpy" -m pip install -q "mcap==1.6.0" "mcap-ros2-support==0.6.0"
+fi
 # unitree-sdk2 1.0.1's __init__ imports a subpackage `b2` that the wheel does not ship
 # (docs/sources.md §8). Give it an empty one inside our venv so `import unitree_sdk2py` works.
 site=$("$vpy" -c "import sysconfig; print(sysconfig.get_paths()['purelib'])")

@@ -52,6 +52,9 @@ pub enum Qos {
     BestEffort,
     /// Reliable, keep last `depth`: commands and status (unitree_sdk2's default for channels).
     Reliable { depth: i32 },
+    /// Best effort, keep last `depth`: a reader that polls and must not lose the samples that
+    /// arrive between two polls (the recorder); matches best-effort and reliable writers.
+    BestEffortDepth { depth: i32 },
 }
 
 /// DURABILITY of an endpoint.
@@ -96,6 +99,7 @@ impl Qos {
         let (reliability, history) = match self {
             Qos::BestEffort => (Reliability::BestEffort, History::KeepLast(1)),
             Qos::Reliable { depth } => (Reliability::Reliable, History::KeepLast(depth.max(1))),
+            Qos::BestEffortDepth { depth } => (Reliability::BestEffort, History::KeepLast(depth.max(1))),
         };
         crate::discovery::diagnose::ServedQos {
             reliability,
@@ -126,6 +130,13 @@ impl Qos {
                 q.set_reliability(
                     dds_reliability_kind::DDS_RELIABILITY_RELIABLE,
                     Duration::from_millis(100),
+                );
+                q.set_history(dds_history_kind::DDS_HISTORY_KEEP_LAST, depth.max(1));
+            }
+            Qos::BestEffortDepth { depth } => {
+                q.set_reliability(
+                    dds_reliability_kind::DDS_RELIABILITY_BEST_EFFORT,
+                    Duration::from_millis(0),
                 );
                 q.set_history(dds_history_kind::DDS_HISTORY_KEEP_LAST, depth.max(1));
             }
@@ -655,6 +666,37 @@ impl<T: TopicType + Clone> Reader<T> {
         let mut out = Vec::new();
         take_each(self.reader.entity(), |s, _| out.push(s));
         out
+    }
+
+    /// Takes every available sample, oldest first, with its source timestamp (ns since the
+    /// epoch, the writer's clock).
+    pub fn take_stamped(&self, out: &mut Vec<(T, i64)>) -> usize {
+        const BATCH: usize = 16;
+        let mut total = 0;
+        loop {
+            let mut buf = SampleBuffer::<T>::new(BATCH);
+            // SAFETY: only the pointer to the buffer's sample-info array is kept; the array
+            // is not reallocated while `buf` lives, and it is read after the take filled it.
+            let (_, info) = unsafe { buf.as_mut_ptr() };
+            let n = match DdsReader::<T>::readn_from_entity_now(self.reader.entity(), &mut buf, true) {
+                Ok(n) => n,
+                Err(_) => break,
+            };
+            for i in 0..n {
+                if buf.is_valid_sample(i) {
+                    if let Some(s) = buf.get(i).try_deref() {
+                        // SAFETY: i < n <= BATCH, the length of the info array.
+                        let stamp = unsafe { (*info.add(i)).source_timestamp };
+                        out.push((s.clone(), stamp));
+                        total += 1;
+                    }
+                }
+            }
+            if n < BATCH {
+                break;
+            }
+        }
+        total
     }
 
     /// Polls until at least one sample arrives.

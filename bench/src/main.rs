@@ -7,6 +7,7 @@ mod criterion;
 mod device_loop;
 mod fleet;
 mod hop;
+mod record;
 mod report;
 mod stats;
 
@@ -129,6 +130,21 @@ enum Cmd {
         secs: f64,
         #[arg(long, default_value_t = 111)]
         domain: u32,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The recorder's cost: `handgate record` of every topic of the default fleet beside a
+    /// release gateway.
+    Record {
+        #[arg(long)]
+        handgate: PathBuf,
+        #[arg(long, default_value_t = 600.0)]
+        secs: f64,
+        #[arg(long, default_value_t = 158)]
+        domain: u32,
+        /// The recording directory (removed first).
+        #[arg(long)]
+        dir: PathBuf,
         #[arg(long)]
         out: PathBuf,
     },
@@ -347,6 +363,20 @@ fn main() -> anyhow::Result<()> {
             gw.stop();
             let r = r?;
             eprintln!("profile: {r:?}");
+            save(&out, &r)?;
+        }
+        Cmd::Record {
+            handgate,
+            secs,
+            domain,
+            dir,
+            out,
+        } => {
+            let gw = gateway(&handgate, domain, None, None)?;
+            let r = record::measure(&handgate, gw.pid(), domain, secs, &dir);
+            gw.stop();
+            let r = r?;
+            eprintln!("record: {r:?}");
             save(&out, &r)?;
         }
         Cmd::Criterion { dir, since, out } => save(&out, &criterion::collect(&dir, since)?)?,

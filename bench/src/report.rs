@@ -514,18 +514,65 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     }
     notes(repo, "ezgripper", &mut body);
 
+    // 6. Recording
+    body.push_str("\n## 6. Recording (`handgate record`)\n\n");
+    match read::<crate::record::RecordResult>(results, "record.json") {
+        Some(r) => {
+            let _ = writeln!(
+                body,
+                "`handgate-bench record`: a release gateway on the default profile (every front at its rate, no \
+                 client) and `handgate record` of all its topics ({} channels) as a separate process, on DDS \
+                 domain {}; the recorder's CPU measured over {:.0} s after a 3 s warm-up (`/proc/PID/stat`), the \
+                 file and message figures over the whole recording (metadata.yaml). Target: under 5 % of one core, \
+                 nothing dropped.\n",
+                r.topics, r.domain, r.secs
+            );
+            body.push_str("| figure | value |\n|---|---|\n");
+            let _ = writeln!(body, "| recorder CPU | {:.1} % of one core |", r.cpu_pct);
+            let _ = writeln!(
+                body,
+                "| gateway CPU (same window, for scale) | {:.1} % of one core |",
+                r.gateway_cpu_pct
+            );
+            let _ = writeln!(body, "| recorder RSS (end) | {:.1} MB |", r.rss_mb);
+            let _ = writeln!(body, "| messages | {} ({:.0} per s) |", r.messages, r.msgs_per_s);
+            let _ = writeln!(body, "| dropped | {} |", r.dropped);
+            let _ = writeln!(
+                body,
+                "| file size | {:.1} MB in {} file(s) ({:.2} MB/s written) |",
+                r.file_bytes as f64 / 1e6,
+                r.files,
+                r.mb_per_s
+            );
+            summary.push((
+                "recording the default fleet: recorder CPU".into(),
+                format!("{:.1} % of one core", r.cpu_pct),
+                "< 5 %".into(),
+                verdict(r.cpu_pct < 5.0),
+            ));
+            summary.push((
+                "recording the default fleet: dropped messages".into(),
+                r.dropped.to_string(),
+                "0".into(),
+                verdict(r.dropped == 0),
+            ));
+        }
+        None => body.push_str("Not measured in this run.\n"),
+    }
+    notes(repo, "record", &mut body);
+
     o.push_str("\n## Summary\n\n| benchmark | measured | target | |\n|---|---|---|---|\n");
     for (a, b, c, d) in &summary {
         let _ = writeln!(o, "| {a} | {b} | {c} | {d} |");
     }
     o.push_str(&body);
     o.push_str(
-        "\n## Running\n\n```sh\nmake bench                 # everything, about 5 minutes; rewrites this file\n\
+        "\n## Running\n\n```sh\nmake bench                 # everything, about 15 minutes; rewrites this file\n\
          BENCH_QUICK=1 make bench   # short runs (smoke check of the harness; do not commit its output)\n```\n\n\
          The harness: `scripts/bench.sh` builds the release binaries, runs each benchmark, writes JSON results \
          to `$CARGO_TARGET_DIR/bench-results/` (default `target/`), then `handgate-bench report` writes this file \
          and the script copies the results to `docs/benchmarks/raw/` (commit them with this file). \
-         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 110 (fleet), 111 (sim-all).\n",
+         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 110 (fleet), 111 (sim-all), 158 (recording).\n",
     );
     std::fs::write(out_path, o)?;
     Ok(())

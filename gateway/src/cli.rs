@@ -152,6 +152,110 @@ pub enum Command {
         #[arg(long)]
         force: bool,
     },
+    /// Record the fleet's DDS traffic (every front's command and state topics, the canonical
+    /// states, `rt/joint_states`, status) into a rosbag2-shaped MCAP directory NAME
+    /// (NAME/NAME_0.mcap + metadata.yaml) until Ctrl-C or --duration (docs/recording.md).
+    Record(RecordCmd),
+    /// Re-publish a recording's messages on their topics with their original timing.
+    Replay(ReplayCmd),
+    /// Export a recording's hand streams.
+    Export(ExportCmd),
+}
+
+/// Recording options shared by `handgate record` and the profile's `[record]` section.
+#[derive(Debug, Clone, Args)]
+pub struct RecordArgs {
+    /// Topics to record, as globs on DDS or ROS 2 names (`/handgate/*`); repeatable; default all.
+    #[arg(long = "topics")]
+    pub topics: Vec<String>,
+    /// Start a new file after this many MB of messages.
+    #[arg(long)]
+    pub max_mb: Option<f64>,
+    /// Start a new file after this many seconds.
+    #[arg(long)]
+    pub max_seconds: Option<f64>,
+    /// zstd chunk compression (handgate built with the `zstd` feature).
+    #[arg(long)]
+    pub zstd: bool,
+}
+
+/// `handgate record`.
+#[derive(Debug, Clone, Args)]
+pub struct RecordCmd {
+    /// The recording directory to create (its last component names the files).
+    pub name: PathBuf,
+    /// Profile whose topics are recorded (as for `run --profile`); default: the embedded one.
+    #[arg(long)]
+    pub profile: Option<String>,
+    #[command(flatten)]
+    pub overrides: OverrideArgs,
+    #[command(flatten)]
+    pub record: RecordArgs,
+    /// Stop after this many seconds (default: at Ctrl-C / SIGTERM).
+    #[arg(long)]
+    pub duration: Option<f64>,
+}
+
+/// `handgate replay`.
+#[derive(Debug, Clone, Args)]
+pub struct ReplayCmd {
+    /// A recording directory (or one .mcap file).
+    pub dir: PathBuf,
+    /// DDS domain to publish on; 0 (a robot's) needs --allow-robot.
+    #[arg(long, default_value_t = 1)]
+    pub domain: u32,
+    /// Network interface for DDS, e.g. eth0.
+    #[arg(long)]
+    pub interface: Option<String>,
+    /// Allow domain 0: replaying commands into a real robot moves it.
+    #[arg(long)]
+    pub allow_robot: bool,
+    /// Speed factor (2: twice as fast).
+    #[arg(long, default_value_t = 1.0)]
+    pub rate: f64,
+    /// Start again at the end, until Ctrl-C.
+    #[arg(long = "loop")]
+    pub looped: bool,
+    /// Topics to replay, as globs on DDS or ROS 2 names (`/handgate/*/cmd`); repeatable;
+    /// default all.
+    #[arg(long = "topics")]
+    pub topics: Vec<String>,
+    /// Seconds to wait for the readers on every replayed topic before starting.
+    #[arg(long, default_value_t = 5.0)]
+    pub wait: f64,
+    /// Matched readers to wait for on every replayed topic (e.g. 2: a gateway's front and a
+    /// recorder).
+    #[arg(long, default_value_t = 1)]
+    pub readers: u32,
+}
+
+/// `handgate export`.
+#[derive(Debug, Clone, Args)]
+pub struct ExportCmd {
+    /// A recording directory (or one .mcap file).
+    pub dir: PathBuf,
+    /// xr_teleoperate episode `data.json` hand fields (the only format so far).
+    #[arg(long, required = true)]
+    pub xr_teleoperate: bool,
+    /// Output file (default: stdout).
+    #[arg(long, short)]
+    pub output: Option<PathBuf>,
+    /// Frames per second.
+    #[arg(long, default_value_t = 30.0)]
+    pub rate: f64,
+    /// ROS 2 topic prefix of the left hand's state/cmd topics (default: xr_teleoperate's
+    /// G1 hand service).
+    #[arg(long, default_value = handgate_record::export::DEFAULT_LEFT)]
+    pub left: String,
+    /// ROS 2 topic prefix of the right hand's state/cmd topics.
+    #[arg(long, default_value = handgate_record::export::DEFAULT_RIGHT)]
+    pub right: String,
+    /// Export only the left hand.
+    #[arg(long, conflicts_with = "only_right")]
+    pub only_left: bool,
+    /// Export only the right hand.
+    #[arg(long)]
+    pub only_right: bool,
 }
 
 /// `handgate emulate <kind>`.

@@ -5,6 +5,7 @@ pub mod diagnostics;
 pub mod doctor;
 pub mod plan;
 pub mod profile;
+pub mod recording;
 pub mod resolve;
 pub mod runtime;
 pub mod ticker;

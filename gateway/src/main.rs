@@ -270,6 +270,119 @@ fn main() -> anyhow::Result<ExitCode> {
                 }
             }
         }
+        Command::Record(cmd) => {
+            let l = match load(cmd.profile, cmd.overrides) {
+                Ok(l) => l,
+                Err(code) => return Ok(code),
+            };
+            let plan = match resolve::plan(&l.profile) {
+                Ok(p) => p,
+                Err(errors) => {
+                    for e in errors {
+                        eprintln!("{}: {e}", l.origin);
+                    }
+                    return Ok(ExitCode::from(EXIT_INVALID));
+                }
+            };
+            init_logging(&l.profile.log.level, l.profile.log.format);
+            let node = handgate_adapters::dds::Node::new(plan.domain, plan.interface.as_deref())?;
+            let topics = handgate_gateway::recording::topics(&plan, &cmd.record.topics);
+            let opts = handgate_gateway::recording::options(
+                &cmd.name,
+                cmd.record.max_mb,
+                cmd.record.max_seconds,
+                cmd.record.zstd,
+            );
+            let rec = handgate_record::Recorder::start(&node, topics, opts)?;
+            println!(
+                "recording {} topic(s) of profile {} on DDS domain {} into {}",
+                rec.topics.len(),
+                plan.profile,
+                plan.domain,
+                cmd.name.display()
+            );
+            let rt = tokio::runtime::Runtime::new()?;
+            rt.block_on(async {
+                match cmd.duration {
+                    Some(d) => tokio::select! {
+                        r = wait_for_signal() => r.map(|_| ()),
+                        _ = tokio::time::sleep(Duration::from_secs_f64(d.max(0.0))) => Ok(()),
+                    },
+                    None => wait_for_signal().await.map(|_| ()),
+                }
+            })?;
+            let s = rec.stop()?;
+            println!(
+                "recorded {} message(s), {} dropped, {} bytes of messages in {} file(s)",
+                s.messages,
+                s.dropped,
+                s.bytes,
+                s.files.len()
+            );
+        }
+        Command::Replay(cmd) => {
+            if cmd.domain == 0 && !cmd.allow_robot {
+                eprintln!(
+                    "refusing to replay on DDS domain 0 (a robot's): replayed commands move real hands; \
+                     pass --allow-robot to do it anyway"
+                );
+                return Ok(ExitCode::from(EXIT_INVALID));
+            }
+            let bag = handgate_record::bag::Bag::open(&cmd.dir)?;
+            for (f, e) in &bag.truncated {
+                eprintln!("{}: read up to a damaged record ({e})", f.display());
+            }
+            let node = handgate_adapters::dds::Node::new(cmd.domain, cmd.interface.as_deref())?;
+            let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+            let s2 = stop.clone();
+            let rt = tokio::runtime::Runtime::new()?;
+            rt.spawn(async move {
+                if wait_for_signal().await.is_ok() {
+                    s2.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+            });
+            let opts = handgate_record::replay::ReplayOptions {
+                rate: cmd.rate,
+                looped: cmd.looped,
+                topics: cmd.topics,
+                wait_match: Duration::from_secs_f64(cmd.wait.max(0.0)),
+                readers: cmd.readers,
+            };
+            println!("replaying {} on DDS domain {}", cmd.dir.display(), cmd.domain);
+            let s = handgate_record::replay::replay(&node, &bag, &opts, || {
+                stop.load(std::sync::atomic::Ordering::Relaxed)
+            })?;
+            for t in &s.unmatched {
+                eprintln!(
+                    "{t}: fewer than {} reader(s) matched when the replay started",
+                    cmd.readers
+                );
+            }
+            println!(
+                "replayed {} message(s) on {} topic(s), {} pass(es)",
+                s.published,
+                s.topics.len(),
+                s.passes
+            );
+            rt.shutdown_timeout(Duration::from_millis(100));
+        }
+        Command::Export(cmd) => {
+            let bag = handgate_record::bag::Bag::open(&cmd.dir)?;
+            let opts = handgate_record::export::ExportOptions {
+                rate_hz: cmd.rate,
+                left: (!cmd.only_right).then_some(cmd.left),
+                right: (!cmd.only_left).then_some(cmd.right),
+            };
+            let v = handgate_record::export::xr_teleoperate(&bag, &opts)?;
+            let text = serde_json::to_string_pretty(&v)?;
+            match cmd.output {
+                Some(p) => {
+                    std::fs::write(&p, text)?;
+                    println!("wrote {}", p.display());
+                }
+                None => println!("{text}"),
+            }
+        }
         Command::Send {
             device,
             dds,

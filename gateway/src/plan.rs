@@ -51,6 +51,17 @@ impl DevicePlan {
 
 pub use handgate_adapters::front::plan::{Binding, FrontPlan, SilencePlan};
 
+/// The gateway's own recording (`[record]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordPlan {
+    /// The recording directory of this start (`DIR/<profile>_<unix seconds>`).
+    pub dir: std::path::PathBuf,
+    pub topics: Vec<String>,
+    pub max_mb: Option<f64>,
+    pub max_seconds: Option<f64>,
+    pub zstd: bool,
+}
+
 /// The whole fleet.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
@@ -68,6 +79,8 @@ pub struct Plan {
     pub discovery_max_wait: Duration,
     /// Announce handgate as a ROS node in this namespace (`[dds] ros_node`); `None`: not.
     pub namespace: Option<handgate_adapters::ros::Namespace>,
+    /// `[record]`: record from start-up.
+    pub record: Option<RecordPlan>,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

@@ -212,6 +212,20 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         foreign_state_writers: p.dds.foreign_state_writers,
         discovery_settle: p.dds.discovery_settle_ms.as_duration(),
         discovery_max_wait: p.dds.discovery_max_wait_ms.as_duration(),
+        record: p.record.as_ref().map(|r| crate::plan::RecordPlan {
+            dir: std::path::Path::new(&r.dir).join(format!(
+                "{}_{}",
+                p.name,
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map(|d| d.as_secs())
+                    .unwrap_or(0)
+            )),
+            topics: r.topics.clone(),
+            max_mb: r.max_mb,
+            max_seconds: r.max_seconds,
+            zstd: r.zstd,
+        }),
         devices,
         fronts,
     })

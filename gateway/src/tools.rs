@@ -85,6 +85,13 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         let _ = writeln!(out, "  {} {} [{}]: {}", d.owner, d.topic, d.kind, d.detail);
         let _ = writeln!(out, "    fix: {}", d.fix);
     }
+    if s.record_messages > 0 || s.record_dropped > 0 {
+        let _ = writeln!(
+            out,
+            "recording: {} message(s) written, {} dropped",
+            s.record_messages, s.record_dropped
+        );
+    }
     out
 }
 
@@ -163,6 +170,13 @@ mod tests {
         let t = render_status(&s);
         assert!(t.contains("left_hand") && t.contains("STALE") && t.contains("uptime 1.5 s"));
         assert!(t.contains("diagnostics: none"), "{t}");
+        assert!(!t.contains("recording"));
+        let t = render_status(&hg::GatewayStatus_ {
+            record_messages: 10,
+            record_dropped: 2,
+            ..s
+        });
+        assert!(t.contains("recording: 10 message(s) written, 2 dropped"), "{t}");
     }
 
     #[test]

@@ -133,5 +133,9 @@ pub struct GatewayStatus_ {
     pub devices: Vec<DeviceStatus_>,
     pub endpoints: Vec<EndpointStatus_>,
     pub diagnostics: Vec<Diagnostic_>,
+    /// Messages the gateway's `[record]` recorder wrote (0 without one).
+    pub record_messages: u64,
+    /// Whole messages it dropped because the disk was slower than the stream.
+    pub record_dropped: u64,
 }
 keyless_topic_type!(GatewayStatus_, "handgate::msg::dds_::GatewayStatus_");

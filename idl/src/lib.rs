@@ -16,6 +16,7 @@ pub mod handgate;
 pub mod inspire;
 pub mod layout;
 pub mod ros2;
+pub mod ros2msg;
 pub mod type_hash;
 pub mod unitree_go;
 pub mod unitree_hg;

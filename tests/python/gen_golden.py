@@ -205,7 +205,8 @@ def canonical_typical(key):
         return hg_diagnostic_typical()
     if key == "handgate/GatewayStatus_":
         return c[key](profile="default", uptime_ms=3_600_000, devices=[hg_device_status_typical(i) for i in range(3)],
-                      endpoints=[hg_endpoint_status_typical()], diagnostics=[hg_diagnostic_typical()])
+                      endpoints=[hg_endpoint_status_typical()], diagnostics=[hg_diagnostic_typical()],
+                      record_messages=1_234_567, record_dropped=3)
     if key == "builtin_interfaces/Time_":
         return c[key](sec=1_763_712_000, nanosec=123_456_789)
     if key == "std_msgs/Header_":

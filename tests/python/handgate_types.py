@@ -116,6 +116,8 @@ class GatewayStatus_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatus_")
     devices: types.sequence[DeviceStatus_]
     endpoints: types.sequence[EndpointStatus_]
     diagnostics: types.sequence[Diagnostic_]
+    record_messages: types.uint64
+    record_dropped: types.uint64
 
 
 @dataclass

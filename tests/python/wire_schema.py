@@ -132,6 +132,7 @@ SCHEMA.update({
         ("profile", "string"), ("uptime_ms", "u64"), ("devices", ("seq", "handgate/DeviceStatus_")),
         ("endpoints", ("seq", "handgate/EndpointStatus_")),
         ("diagnostics", ("seq", "handgate/Diagnostic_")),
+        ("record_messages", "u64"), ("record_dropped", "u64"),
     ],
     "builtin_interfaces/Time_": [("sec", "i32"), ("nanosec", "u32")],
     "std_msgs/Header_": [("stamp", ("struct", "builtin_interfaces/Time_")), ("frame_id", "string")],

@@ -968,7 +968,9 @@ plain_struct!(handgate::GatewayStatus_ {
     uptime_ms,
     devices,
     endpoints,
-    diagnostics
+    diagnostics,
+    record_messages,
+    record_dropped
 });
 plain_struct!(ros2::Time_ { sec, nanosec });
 plain_struct!(ros2::Header_ { stamp, frame_id });

@@ -30,6 +30,14 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     );
     let _ = writeln!(s, "log: {} {}", p.log.format, p.log.level);
     let _ = writeln!(s, "status: {} at {}", p.status_topic(), p.status.rate_hz);
+    if let Some(r) = &p.record {
+        let topics = if r.topics.is_empty() {
+            "every topic".to_string()
+        } else {
+            r.topics.join(" ")
+        };
+        let _ = writeln!(s, "record: into {}/ ({topics})", r.dir);
+    }
     let _ = writeln!(s, "devices ({}):", p.devices.len());
     for d in &p.devices {
         let _ = write!(

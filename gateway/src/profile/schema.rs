@@ -90,6 +90,8 @@ pub struct Profile {
     pub dds: DdsConfig,
     pub log: LogConfig,
     pub status: StatusConfig,
+    /// `[record]`: record from start-up (docs/recording.md).
+    pub record: Option<RecordConfig>,
     pub devices: Vec<DeviceConfig>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -104,6 +106,7 @@ pub struct RawProfile {
     pub dds: DdsConfig,
     pub log: LogConfig,
     pub status: StatusConfig,
+    pub record: Option<RecordConfig>,
     pub devices: Vec<Value>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -142,6 +145,7 @@ impl RawProfile {
             dds: self.dds,
             log: self.log,
             status: self.status,
+            record: self.record,
             devices,
             fronts: self.fronts,
         }
@@ -233,6 +237,37 @@ impl Default for StatusConfig {
         StatusConfig {
             topic: Topic::new("rt/handgate/status"),
             rate_hz: RateHz(1.0),
+        }
+    }
+}
+
+/// `[record]`: the gateway records its topics from start-up into a new directory
+/// `DIR/<profile>_<unix seconds>` (docs/recording.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecordConfig {
+    /// Directory that receives one recording per gateway start.
+    pub dir: String,
+    /// Topic globs (DDS or ROS 2 names); empty: every served topic and status.
+    pub topics: Vec<String>,
+    /// Start a new file after this many MB of messages.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_mb: Option<f64>,
+    /// Start a new file after this many seconds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_seconds: Option<f64>,
+    /// zstd chunk compression (handgate built with the `zstd` feature).
+    pub zstd: bool,
+}
+
+impl Default for RecordConfig {
+    fn default() -> Self {
+        RecordConfig {
+            dir: "recordings".into(),
+            topics: Vec::new(),
+            max_mb: None,
+            max_seconds: None,
+            zstd: false,
         }
     }
 }

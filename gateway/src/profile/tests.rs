@@ -1589,3 +1589,24 @@ fn namespaced_topics_are_checked_for_clashes() {
         )]
     );
 }
+
+#[test]
+fn record_section_errors_name_their_keys() {
+    let text = format!("{DEX3}[record]\ndir = \"\"\nmax_mb = 0\nmax_seconds = -1\n");
+    let (path, r) = load_text(&text);
+    let lines = r.unwrap_err().lines();
+    let want = ["record.dir", "record.max_mb", "record.max_seconds"];
+    assert_eq!(lines.len(), want.len(), "{lines:#?}");
+    for (line, key) in lines.iter().zip(want) {
+        assert!(line.starts_with(&format!("{}: {key}: ", path.display())), "{line}");
+    }
+    let (_, r) = load_text(&format!(
+        "{DEX3}[record]\ndir = \"rec\"\ntopics = [\"/x/*\"]\nmax_mb = 5\n"
+    ));
+    let p = r.unwrap().profile;
+    let rec = p.record.expect("[record] parsed");
+    assert_eq!(
+        (rec.dir.as_str(), rec.topics.len(), rec.max_mb, rec.zstd),
+        ("rec", 1, Some(5.0), false)
+    );
+}

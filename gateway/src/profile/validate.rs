@@ -98,6 +98,26 @@ impl Checker {
                 format!("`{}` is not a log filter: {e}", p.log.level),
             );
         }
+        // record
+        if let Some(r) = &p.record {
+            let k = root().key("record");
+            if r.dir.trim().is_empty() {
+                self.err(k.key("dir"), "is empty (a directory for the recordings)".to_string());
+            }
+            for (key, v) in [("max_mb", r.max_mb), ("max_seconds", r.max_seconds)] {
+                if let Some(v) = v {
+                    if !(v.is_finite() && v > 0.0) {
+                        self.err(k.key(key), format!("must be > 0, got {v}"));
+                    }
+                }
+            }
+            if r.zstd && !cfg!(feature = "zstd") {
+                self.err(
+                    k.key("zstd"),
+                    "needs handgate built with the `zstd` feature (cargo build --features zstd)".to_string(),
+                );
+            }
+        }
         // status
         self.topic(root().key("status").key("topic"), &p.status.topic);
         self.rate(

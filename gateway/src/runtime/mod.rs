@@ -42,6 +42,8 @@ pub enum RuntimeError {
     /// Another process already writes a state topic a front would write.
     #[error("{0}")]
     ForeignStateWriter(String),
+    #[error("[record]: {0}")]
+    Record(#[from] handgate_record::RecordError),
 }
 
 /// Per-device counters kept by the fronts bound to it.
@@ -81,6 +83,8 @@ pub struct Runtime {
     pub shared: Shared,
     /// Every reader and writer on the gateway's domain (its own thread; docs/discovery.md).
     pub discovery: Discovery,
+    /// The `[record]` recorder (its own threads; never on a device path).
+    recorder: Option<handgate_record::Recorder>,
 }
 
 impl Runtime {
@@ -117,11 +121,23 @@ impl Runtime {
         }
         let (diag_task, diagnosis) = crate::diagnostics::spawn(served, discovery.subscribe(), shutdown_rx.clone());
         tasks.push(diag_task);
+        // Started after the fronts, so it subscribes what they serve.
+        let recorder = match &plan.record {
+            Some(r) => {
+                let opts = crate::recording::options(&r.dir, r.max_mb, r.max_seconds, r.zstd);
+                let rec = handgate_record::Recorder::start(&node, crate::recording::topics(plan, &r.topics), opts)?;
+                tracing::info!(dir = %r.dir.display(), topics = rec.topics.len(), "recording");
+                Some(rec)
+            }
+            None => None,
+        };
+        let record_stats = recorder.as_ref().map(|r| r.stats());
         tasks.push(status::spawn_status(
             &node,
             plan,
             devices.clone(),
             diagnosis,
+            record_stats,
             shutdown_rx.clone(),
         )?);
         if let Some(ns) = &plan.namespace {
@@ -135,6 +151,7 @@ impl Runtime {
             started: Instant::now(),
             shared,
             discovery,
+            recorder,
         })
     }
 
@@ -143,10 +160,22 @@ impl Runtime {
     }
 
     /// Safe state on every device (each device's configured safe action), then stop.
-    pub async fn shutdown(self) -> Vec<(String, Result<(), DeviceError>)> {
+    pub async fn shutdown(mut self) -> Vec<(String, Result<(), DeviceError>)> {
         let _ = self.shutdown.send(true);
-        for t in self.tasks {
+        for t in std::mem::take(&mut self.tasks) {
             let _ = t.await;
+        }
+        if let Some(rec) = self.recorder.take() {
+            match tokio::task::spawn_blocking(move || rec.stop()).await {
+                Ok(Ok(s)) => tracing::info!(
+                    messages = s.messages,
+                    dropped = s.dropped,
+                    files = s.files.len(),
+                    "recording finished"
+                ),
+                Ok(Err(e)) => tracing::warn!(error = %e, "recording not finished cleanly"),
+                Err(e) => tracing::warn!(error = %e, "recording not finished cleanly"),
+            }
         }
         let mut out = Vec::new();
         let futs = self.devices.iter().map(|d| {

@@ -20,6 +20,7 @@ pub(super) fn spawn_status(
     plan: &Plan,
     devices: Vec<Arc<DeviceSlot>>,
     diagnosis: watch::Receiver<Arc<crate::diagnostics::Diagnosis>>,
+    record: Option<Arc<handgate_record::RecordStats>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let mut writer = node.writer::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::Reliable { depth: 1 })?;
@@ -34,7 +35,11 @@ pub(super) fn spawn_status(
                 _ = tick.tick() => {
                     let now = Instant::now();
                     let (endpoints, diagnostics) = crate::diagnostics::to_status(&diagnosis.borrow());
-                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![], endpoints, diagnostics };
+                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![], endpoints, diagnostics, ..Default::default() };
+                    if let Some(r) = &record {
+                        msg.record_messages = r.written.load(Ordering::Relaxed);
+                        msg.record_dropped = r.dropped.load(Ordering::Relaxed);
+                    }
                     for d in &devices {
                         let s = d.device.stats();
                         let st = d.device.state().borrow().clone();

@@ -1,0 +1,100 @@
+//! What a plan records: every endpoint it serves on DDS ([`crate::diagnostics::served`]:
+//! each front's command and state topics, each DDS-client device's topics, the canonical
+//! state and `rt/joint_states` fronts) plus the status topic, filtered by topic globs.
+
+use handgate_adapters::dds::Qos;
+use handgate_idl::{handgate, DdsTypeName};
+use handgate_record::TopicSpec;
+
+use crate::plan::Plan;
+
+/// The topics of `plan` selected by `globs` (DDS or ROS 2 names; none: all).
+pub fn topics(plan: &Plan, globs: &[String]) -> Vec<TopicSpec> {
+    let mut out: Vec<TopicSpec> = Vec::new();
+    // A front that follows its clients' types (Dex1 `auto`) serves several types on one
+    // topic: each is a channel of its own.
+    let served = crate::diagnostics::served(plan).into_iter().flat_map(|s| {
+        let s = s.served;
+        std::iter::once(s.type_name)
+            .chain(s.also)
+            .map(|ty| TopicSpec {
+                dds_topic: s.topic.clone(),
+                dds_type: ty,
+                qos: s.qos,
+            })
+            .collect::<Vec<_>>()
+    });
+    let status = TopicSpec {
+        dds_topic: plan.status_topic.clone(),
+        dds_type: handgate::GatewayStatus_::DDS_TYPE_NAME.to_string(),
+        qos: Qos::Reliable { depth: 1 }.served(),
+    };
+    for t in served.chain(std::iter::once(status)) {
+        if handgate_record::selected(globs, &t.dds_topic)
+            && !out
+                .iter()
+                .any(|o| o.dds_topic == t.dds_topic && o.dds_type == t.dds_type)
+        {
+            out.push(t);
+        }
+    }
+    out
+}
+
+/// Recording options from the CLI's / profile's values.
+pub fn options(
+    dir: &std::path::Path,
+    max_mb: Option<f64>,
+    max_seconds: Option<f64>,
+    zstd: bool,
+) -> handgate_record::RecordOptions {
+    let mut o = handgate_record::RecordOptions::new(dir);
+    o.max_bytes = max_mb.filter(|m| *m > 0.0).map(|m| (m * 1e6) as u64);
+    o.max_duration = max_seconds.filter(|s| *s > 0.0).map(std::time::Duration::from_secs_f64);
+    if zstd {
+        o.compression = handgate_record::Compression::Zstd;
+    }
+    o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_fleet_records_every_front_topic_and_status() {
+        let loaded = crate::profile::load(&crate::profile::LoadOptions {
+            env: crate::profile::EnvLayer::Ignore,
+            search_dirs: Some(vec![]),
+            ..Default::default()
+        })
+        .unwrap();
+        let plan = crate::resolve::plan(&loaded.profile).unwrap();
+        let all = topics(&plan, &[]);
+        let names: Vec<&str> = all.iter().map(|t| t.dds_topic.as_str()).collect();
+        for f in &plan.fronts {
+            if let Some(c) = &f.cmd_topic {
+                assert!(names.contains(&c.as_str()), "{c}: {names:?}");
+            }
+        }
+        assert!(
+            names.contains(&"rt/joint_states") && names.contains(&plan.status_topic.as_str()),
+            "{names:?}"
+        );
+        let cmds = topics(&plan, &["/dex3/*/cmd".into()]);
+        assert_eq!(cmds.len(), 2, "{cmds:?}");
+        // The `auto` Dex1 fronts: go and hg on each topic.
+        let dex1 = topics(&plan, &["/dex1/left/*".into()]);
+        let types: Vec<&str> = dex1.iter().map(|t| t.dds_type.as_str()).collect();
+        assert_eq!(
+            types,
+            [
+                "unitree_go::msg::dds_::MotorCmds_",
+                "unitree_hg::msg::dds_::HandCmd_",
+                "unitree_go::msg::dds_::MotorStates_",
+                "unitree_hg::msg::dds_::HandState_"
+            ],
+            "{dex1:?}"
+        );
+    }
+}
