@@ -572,7 +572,7 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
          The harness: `scripts/bench.sh` builds the release binaries, runs each benchmark, writes JSON results \
          to `$CARGO_TARGET_DIR/bench-results/` (default `target/`), then `handgate-bench report` writes this file \
          and the script copies the results to `docs/benchmarks/raw/` (commit them with this file). \
-         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 110 (fleet), 111 (sim-all), 158 (recording).\n",
+         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 110 (fleet), 111 (sim-all), 114 (busy domain), 158 (recording).\n",
     );
     std::fs::write(out_path, o)?;
     Ok(())

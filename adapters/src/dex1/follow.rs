@@ -75,11 +75,27 @@ fn who(s: &Snapshot, e: &Endpoint) -> String {
     out
 }
 
+/// The process name CycloneDDS reports (`__ProcessName`) for the handgate binary.
+pub const HANDGATE_PROCESS: &str = "handgate";
+
 /// The clients on the watched topics, one (the first in the snapshot's order: writers
 /// before readers of a topic) per variant.
+///
+/// A reader in a handgate process ([`HANDGATE_PROCESS`]: `handgate record`, `handgate doctor`)
+/// is an observer, not a client: it reads whatever the front serves, and following it would
+/// make a recording change what it records (an `hg` state stream nobody asked for). A
+/// handgate that drives this front as a device writes its command topic, and is followed.
 pub fn clients(s: &Snapshot, w: &Watched) -> BTreeMap<Variant, Client> {
+    let observer = |e: &Endpoint| {
+        e.role == Role::Reader
+            && s.participant(&e.participant).and_then(|p| p.process_name.as_deref()) == Some(HANDGATE_PROCESS)
+    };
     let mut out = BTreeMap::new();
-    for e in s.endpoints.iter().filter(|e| e.origin == Origin::Remote) {
+    for e in s
+        .endpoints
+        .iter()
+        .filter(|e| e.origin == Origin::Remote && !observer(e))
+    {
         if let Some(v) = variant_of(w, e) {
             out.entry(v).or_insert_with(|| Client {
                 endpoint: e.clone(),
@@ -131,14 +147,16 @@ mod tests {
 
     fn snap(endpoints: Vec<Endpoint>) -> Snapshot {
         let mut s = Snapshot::empty(130, Guid::default());
-        s.participants = vec![Participant {
-            key: Guid([7; 16]).participant(),
-            hostname: Some(Arc::from("pc")),
-            pid: Some(4242),
-            process_name: Some(Arc::from("python3")),
-            network_addresses: vec![],
-            origin: Origin::Remote,
-        }];
+        s.participants = [(7, "python3"), (9, HANDGATE_PROCESS)]
+            .map(|(n, name)| Participant {
+                key: Guid([n; 16]).participant(),
+                hostname: Some(Arc::from("pc")),
+                pid: Some(4242),
+                process_name: Some(Arc::from(name)),
+                network_addresses: vec![],
+                origin: Origin::Remote,
+            })
+            .to_vec();
         s.endpoints = endpoints;
         s
     }
@@ -178,6 +196,20 @@ mod tests {
         assert_eq!(served(vec![e], false), vec![Variant::Hg]);
         let e = ep(7, Role::Reader, "rt/dex1/left/state", GO_STATE, Origin::Remote);
         assert_eq!(served(vec![e], false), vec![Variant::Go]);
+    }
+
+    #[test]
+    fn a_handgate_observer_reading_state_is_no_client_but_a_handgate_writing_commands_is() {
+        // `handgate record` / `doctor` in another process: readers of both types.
+        let observers = vec![
+            ep(9, Role::Reader, "rt/dex1/left/state", HG_STATE, Origin::Remote),
+            ep(9, Role::Reader, "rt/unitree_actuator/state", GO_STATE, Origin::Remote),
+        ];
+        assert_eq!(served(observers.clone(), true), vec![Variant::Go]);
+        // A handgate device on this front writes its command topic (e.g. `handgate replay`).
+        let mut with_writer = observers;
+        with_writer.push(ep(9, Role::Writer, "rt/dex1/left/cmd", HG_CMD, Origin::Remote));
+        assert_eq!(served(with_writer, true), vec![Variant::Hg]);
     }
 
     #[test]
