@@ -299,6 +299,12 @@ impl Node {
             }
             None => None,
         };
+        Self::join(domain_id, domain)
+    }
+
+    /// A participant on `domain_id`, holding `domain` (an explicitly configured domain) as
+    /// long as it lives.
+    fn join(domain_id: u32, domain: Option<DdsDomain>) -> Result<Self, DdsError> {
         let participant = ParticipantBuilder::new()
             .with_domain(domain_id)
             .create()
@@ -353,21 +359,7 @@ impl Node {
             _ => ours,
         };
         let domain = DdsDomain::create(domain_id, Some(&cfg)).map_err(dds_err("domain create"))?;
-        let participant = ParticipantBuilder::new()
-            .with_domain(domain_id)
-            .create()
-            .map_err(dds_err("participant create"))?;
-        // SAFETY: only reads the integer handle out of the wrapper.
-        let guid = entity_guid(unsafe { participant.entity().entity() })?;
-        Ok(Self {
-            inner: Arc::new(NodeInner {
-                participant,
-                domain_id,
-                guid,
-                endpoints: Mutex::new((Vec::new(), 0)),
-                _domain: Some(domain),
-            }),
-        })
+        Self::join(domain_id, Some(domain))
     }
 
     pub fn domain_id(&self) -> u32 {

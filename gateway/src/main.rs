@@ -24,6 +24,24 @@ fn load(profile: Option<String>, overrides: handgate_gateway::cli::OverrideArgs)
     })
 }
 
+/// Loads `profile` and resolves its plan; errors printed (each naming the profile's origin)
+/// and `Err(code)` when either step fails.
+fn load_plan(
+    profile: Option<String>,
+    overrides: handgate_gateway::cli::OverrideArgs,
+) -> Result<(profile::Loaded, handgate_gateway::plan::Plan), ExitCode> {
+    let l = load(profile, overrides)?;
+    match resolve::plan(&l.profile) {
+        Ok(p) => Ok((l, p)),
+        Err(errors) => {
+            for e in errors {
+                eprintln!("{}: {e}", l.origin);
+            }
+            Err(ExitCode::from(EXIT_INVALID))
+        }
+    }
+}
+
 /// Loads `profile`, opens its device `name` alone and runs `f` on it (then moves it to its
 /// safe state). `Err(code)` when the profile is invalid.
 fn with_device<F, Fut>(
@@ -36,18 +54,9 @@ where
     F: FnOnce(std::sync::Arc<dyn handgate_adapters::device::HandDevice>) -> Fut,
     Fut: std::future::Future<Output = anyhow::Result<String>>,
 {
-    let l = match load(profile, overrides) {
-        Ok(l) => l,
+    let (_, plan) = match load_plan(profile, overrides) {
+        Ok(lp) => lp,
         Err(code) => return Ok(Err(code)),
-    };
-    let plan = match resolve::plan(&l.profile) {
-        Ok(p) => p,
-        Err(errors) => {
-            for e in errors {
-                eprintln!("{}: {e}", l.origin);
-            }
-            return Ok(Err(ExitCode::from(EXIT_INVALID)));
-        }
     };
     let Some(safe) = plan.devices.iter().find(|d| d.name == name).map(|d| d.safe_action) else {
         let names: Vec<&str> = plan.devices.iter().map(|d| d.name.as_str()).collect();
@@ -104,18 +113,9 @@ fn main() -> anyhow::Result<ExitCode> {
             Err(code) => return Ok(code),
         },
         Command::Run { profile, overrides } => {
-            let l = match load(profile, overrides) {
-                Ok(l) => l,
+            let (l, plan) = match load_plan(profile, overrides) {
+                Ok(lp) => lp,
                 Err(code) => return Ok(code),
-            };
-            let plan = match resolve::plan(&l.profile) {
-                Ok(p) => p,
-                Err(errors) => {
-                    for e in errors {
-                        eprintln!("{}: {e}", l.origin);
-                    }
-                    return Ok(ExitCode::from(EXIT_INVALID));
-                }
             };
             init_logging(&l.profile.log.level, l.profile.log.format);
             print!("{}", profile::render_fleet(&l.profile, &l.origin));
@@ -166,18 +166,9 @@ fn main() -> anyhow::Result<ExitCode> {
                     })
                 })
                 .flatten();
-            let l = match load(profile, overrides) {
-                Ok(l) => l,
+            let (_, plan) = match load_plan(profile, overrides) {
+                Ok(lp) => lp,
                 Err(code) => return Ok(code),
-            };
-            let plan = match resolve::plan(&l.profile) {
-                Ok(p) => p,
-                Err(errors) => {
-                    for e in errors {
-                        eprintln!("{}: {e}", l.origin);
-                    }
-                    return Ok(ExitCode::from(EXIT_INVALID));
-                }
             };
             let scan = if count_only { Vec::new() } else { scan };
             let out = doctor::run(&plan, &doctor::Options { listen, scan, sweep })?;
@@ -271,18 +262,9 @@ fn main() -> anyhow::Result<ExitCode> {
             }
         }
         Command::Record(cmd) => {
-            let l = match load(cmd.profile, cmd.overrides) {
-                Ok(l) => l,
+            let (l, plan) = match load_plan(cmd.profile, cmd.overrides) {
+                Ok(lp) => lp,
                 Err(code) => return Ok(code),
-            };
-            let plan = match resolve::plan(&l.profile) {
-                Ok(p) => p,
-                Err(errors) => {
-                    for e in errors {
-                        eprintln!("{}: {e}", l.origin);
-                    }
-                    return Ok(ExitCode::from(EXIT_INVALID));
-                }
             };
             init_logging(&l.profile.log.level, l.profile.log.format);
             let node = handgate_adapters::dds::Node::new(plan.domain, plan.interface.as_deref())?;

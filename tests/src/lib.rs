@@ -1313,6 +1313,44 @@ pub fn temp_profile(tag: &str, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// The legacy actuator pair's command (`rt/unitree_actuator/cmd`): two elements, right then
+/// left, wire q (0 closed, 5.4 open), kp 5, kd 0.05, as old xr_teleoperate sends.
+pub fn actuator_cmd(right: f32, left: f32) -> unitree_go::MotorCmds_ {
+    let mut c = unitree_go::MotorCmds_::with_len(2);
+    for (m, q) in c.cmds.iter_mut().zip([right, left]) {
+        *m = unitree_go::MotorCmd_ {
+            q,
+            kp: 5.0,
+            kd: 0.05,
+            ..Default::default()
+        };
+    }
+    c
+}
+
+/// `handgate doctor <args>` (in network namespace `netns`, if any) with no `HANDGATE_*`
+/// variables from this environment: its exit code and its stdout then stderr.
+pub fn run_doctor(netns: Option<&str>, args: &[&str]) -> (i32, String) {
+    let mut cmd = in_netns(netns, &handgate_bin());
+    cmd.arg("doctor").args(args);
+    for (k, _) in std::env::vars() {
+        if k.starts_with("HANDGATE_") {
+            cmd.env_remove(k);
+        }
+    }
+    let out = cmd
+        .current_dir(repo_root())
+        .stdin(Stdio::null())
+        .output()
+        .expect("handgate doctor runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.code().unwrap_or(-1), text)
+}
+
 /// A `[[devices]]` table of an emulated device.
 pub fn emulated_device(name: &str, kind: &str, side: &str) -> String {
     format!("[[devices]]\nname = \"{name}\"\nkind = \"{kind}\"\nside = \"{side}\"\nbackend = \"emulator\"\n")

@@ -19,8 +19,8 @@ use std::time::{Duration, Instant};
 use handgate_adapters::dds::Qos;
 use handgate_idl::unitree_go;
 use handgate_tests::{
-    handgate_bin, interop_interface, node, poll, repo_root, serial, stream_until, temp_profile, Gateway, Latest,
-    PyProcess,
+    actuator_cmd, handgate_bin, interop_interface, node, poll, repo_root, serial, stream_until, temp_profile, Gateway,
+    Latest, PyProcess,
 };
 use serde_json::Value;
 
@@ -140,20 +140,6 @@ fn per_side_profile(name: &str, sides: &[&str]) -> std::path::PathBuf {
         text.push_str(&format!("[[fronts]]\nkind = \"dex1\"\ndevice = \"grip_{side}\"\n"));
     }
     temp_profile("dex1-auto", name, &text)
-}
-
-/// Two elements, wire q (0 closed, 5.4 open), kp 5, kd 0.05, as old xr_teleoperate sends.
-fn actuator_cmd(right: f32, left: f32) -> unitree_go::MotorCmds_ {
-    let mut c = unitree_go::MotorCmds_::with_len(2);
-    for (m, q) in c.cmds.iter_mut().zip([right, left]) {
-        *m = unitree_go::MotorCmd_ {
-            q,
-            kp: 5.0,
-            kd: 0.05,
-            ..Default::default()
-        };
-    }
-    c
 }
 
 #[test]

@@ -2,10 +2,9 @@
 //! unitree_sdk2py (`tests/python/doctor_client.py`). DDS domains 140–149
 //! (docs/development.md); every domain scan stays inside them.
 
-use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use handgate_tests::{emulated_device, handgate_bin, interop_interface, repo_root, temp_profile, Gateway, PyProcess};
+use handgate_tests::{emulated_device, interop_interface, run_doctor, temp_profile, Gateway, PyProcess};
 
 /// How long the doctor listens in these tests (its own default is 3 s).
 const LISTEN: &str = "2";
@@ -19,27 +18,12 @@ fn doctor(args: &[&str]) -> (i32, String) {
 
 /// `handgate doctor <args> [--interface <interface>]`: exit code and output.
 fn doctor_on(args: &[&str], interface: Option<&str>) -> (i32, String) {
-    let mut cmd = Command::new(handgate_bin());
-    cmd.arg("doctor").arg("--seconds").arg(LISTEN).args(args);
+    let mut all = vec!["--seconds", LISTEN];
+    all.extend_from_slice(args);
     if let Some(iface) = interface {
-        cmd.arg("--interface").arg(iface);
+        all.extend(["--interface", iface]);
     }
-    for (k, _) in std::env::vars() {
-        if k.starts_with("HANDGATE_") {
-            cmd.env_remove(k);
-        }
-    }
-    let out = cmd
-        .current_dir(repo_root())
-        .stdin(Stdio::null())
-        .output()
-        .expect("handgate doctor runs");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (out.status.code().unwrap_or(-1), text)
+    run_doctor(None, &all)
 }
 
 /// A `doctor_client.py` on `domain` with `args`, once its endpoints exist.

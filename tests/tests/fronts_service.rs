@@ -19,8 +19,8 @@ use handgate_adapters::dds::{Node, Qos, Reader};
 use handgate_idl::handgate as hg;
 use handgate_idl::{ros2, unitree_go, unitree_hg, TopicType};
 use handgate_tests::{
-    default_profile_with_watchdog, interop_interface, node, poll, serial, status_device as device, stream_until,
-    Gateway, Latest, PyProcess,
+    actuator_cmd, default_profile_with_watchdog, interop_interface, node, poll, serial, status_device as device,
+    stream_until, Gateway, Latest, PyProcess,
 };
 use serde_json::Value;
 
@@ -286,20 +286,6 @@ devices = {devices}
     )
     .unwrap();
     p
-}
-
-/// Two elements, wire q (0 closed, 5.4 open), kp 5, kd 0.05, as old xr_teleoperate sends.
-fn actuator_cmd(right: f32, left: f32) -> unitree_go::MotorCmds_ {
-    let mut c = unitree_go::MotorCmds_::with_len(2);
-    for (m, q) in c.cmds.iter_mut().zip([right, left]) {
-        *m = unitree_go::MotorCmd_ {
-            q,
-            kp: 5.0,
-            kd: 0.05,
-            ..Default::default()
-        };
-    }
-    c
 }
 
 #[test]

@@ -9,9 +9,7 @@
 
 use std::time::Duration;
 
-use std::process::Stdio;
-
-use handgate_tests::{handgate_bin, in_netns, repo_root, Gateway, NetNs, NetNsError, PyProcess};
+use handgate_tests::{run_doctor, Gateway, NetNs, NetNsError, PyProcess};
 use serde_json::Value;
 
 const DOMAIN: u32 = 181;
@@ -115,31 +113,8 @@ fn an_sdk_client_on_another_host_drives_a_device_across_the_link() {
 /// `handgate doctor --domain 181 --no-scan --no-sweep --seconds 2 <args>` in namespace `ns`:
 /// exit code and output.
 fn doctor_in(ns: &str, args: &[&str]) -> (i32, String) {
-    let mut cmd = in_netns(Some(ns), &handgate_bin());
-    cmd.args([
-        "doctor",
-        "--domain",
-        &DOMAIN.to_string(),
-        "--no-scan",
-        "--no-sweep",
-        "--seconds",
-        "2",
-    ])
-    .args(args);
-    for (k, _) in std::env::vars() {
-        if k.starts_with("HANDGATE_") {
-            cmd.env_remove(k);
-        }
-    }
-    let out = cmd
-        .current_dir(repo_root())
-        .stdin(Stdio::null())
-        .output()
-        .expect("handgate doctor runs");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (out.status.code().unwrap_or(-1), text)
+    let domain = DOMAIN.to_string();
+    let mut all = vec!["--domain", &domain, "--no-scan", "--no-sweep", "--seconds", "2"];
+    all.extend_from_slice(args);
+    run_doctor(Some(ns), &all)
 }
