@@ -239,6 +239,7 @@ pub struct BusStats {
     pub rounds_per_s: f64,
     pub timeouts: u64,
     pub crc_errors: u64,
+    /// Malformed frames: an impossible length field, or a body with an unstuffed `FF FF FD`.
     pub bad_length: u64,
     /// Status packets that arrived after their transaction had timed out.
     pub late_replies: u64,
@@ -548,6 +549,11 @@ impl Link {
                         waiting.retain(|&w| w != id);
                     }
                     Err(FrameError::BadLength { .. }) => out.bad_length += 1,
+                    Err(FrameError::Unstuffed { id }) => {
+                        // Malformed like an impossible length; the reply will not be repeated.
+                        out.bad_length += 1;
+                        waiting.retain(|&w| w != id);
+                    }
                 }
             }
             if waiting.is_empty() {
@@ -591,7 +597,7 @@ impl Link {
                 Ok(pk) if pk.instruction == Instruction::Status as u8 => self.tally.late += 1,
                 Ok(_) => {}
                 Err(FrameError::BadCrc { id, .. }) => *self.tally.crc.entry(id).or_default() += 1,
-                Err(FrameError::BadLength { .. }) => self.tally.bad_length += 1,
+                Err(FrameError::BadLength { .. } | FrameError::Unstuffed { .. }) => self.tally.bad_length += 1,
             }
         }
         self.dec.reset();

@@ -147,20 +147,25 @@ pub fn stuff(data: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Removes byte stuffing: `FF FF FD FD` becomes `FF FF FD`.
-pub fn unstuff(data: &[u8]) -> Vec<u8> {
+/// Removes byte stuffing: `FF FF FD FD` becomes `FF FF FD`. `None` when `data` has an
+/// `FF FF FD` without its stuffing byte: a sender must stuff every one (Protocol 2.0), so such
+/// a body is malformed (and would not re-encode to the same length).
+pub fn unstuff(data: &[u8]) -> Option<Vec<u8>> {
     let mut out = Vec::with_capacity(data.len());
     let mut i = 0;
     while i < data.len() {
         let b = data[i];
         out.push(b);
         let n = out.len();
-        if n >= 3 && out[n - 3] == 0xFF && out[n - 2] == 0xFF && out[n - 1] == 0xFD && data.get(i + 1) == Some(&0xFD) {
+        if n >= 3 && out[n - 3] == 0xFF && out[n - 2] == 0xFF && out[n - 1] == 0xFD {
+            if data.get(i + 1) != Some(&0xFD) {
+                return None;
+            }
             i += 1; // skip the stuffing byte
         }
         i += 1;
     }
-    out
+    Some(out)
 }
 
 /// A decoded packet with its parameters unstuffed. For a status packet `params[0]` is the
@@ -463,6 +468,8 @@ pub enum FrameError {
     BadCrc { id: u8, expected: u16, got: u16 },
     /// A header whose length field is impossible (< 3 or > [`MAX_LENGTH_FIELD`]).
     BadLength { id: u8, len: usize },
+    /// A frame with a good CRC whose body has an `FF FF FD` without its stuffing byte.
+    Unstuffed { id: u8 },
 }
 
 /// Counters kept by [`Decoder`].
@@ -471,6 +478,8 @@ pub struct DecoderStats {
     pub packets: u64,
     pub bad_crc: u64,
     pub bad_length: u64,
+    /// Frames with a good CRC and an unstuffed `FF FF FD` in their body.
+    pub unstuffed: u64,
     /// Partial frames dropped by [`Decoder::reset`] (the sender stopped mid-packet).
     pub truncated: u64,
     /// Bytes skipped while looking for a header.
@@ -555,7 +564,12 @@ impl Decoder {
                 self.buf.drain(..1);
                 return Some(Err(FrameError::BadCrc { id, expected, got }));
             }
-            let body = unstuff(&self.buf[PREFIX_LEN..total - 2]);
+            let Some(body) = unstuff(&self.buf[PREFIX_LEN..total - 2]) else {
+                self.stats.unstuffed += 1;
+                // As for a bad CRC: a real packet may start inside it (at that FF FF FD).
+                self.buf.drain(..1);
+                return Some(Err(FrameError::Unstuffed { id }));
+            };
             self.buf.drain(..total);
             let Some((&instruction, params)) = body.split_first() else {
                 continue;

@@ -181,7 +181,71 @@ fn ezgripper_byte_stuffing() {
     let pk = decode_all(&b).pop().unwrap().unwrap();
     assert_eq!(Request::from_packet(&pk).unwrap(), req);
     assert_eq!(stuff(&[0xFF, 0xFF, 0xFD, 0xFD]), vec![0xFF, 0xFF, 0xFD, 0xFD, 0xFD]);
-    assert_eq!(unstuff(&[0xFF, 0xFF, 0xFD, 0xFD, 0xFD]), vec![0xFF, 0xFF, 0xFD, 0xFD]);
+    assert_eq!(
+        unstuff(&[0xFF, 0xFF, 0xFD, 0xFD, 0xFD]),
+        Some(vec![0xFF, 0xFF, 0xFD, 0xFD])
+    );
+    // Without its stuffing byte (mid-body or at the end) the body is malformed.
+    assert_eq!(unstuff(&[0x01, 0xFF, 0xFF, 0xFD, 0x00]), None);
+    assert_eq!(unstuff(&[0x01, 0xFF, 0xFF, 0xFD]), None);
+}
+
+/// A frame with a good CRC around `body` as it is (no stuffing added).
+fn raw_frame(id: u8, body: &[u8]) -> Vec<u8> {
+    let mut f = vec![0xFF, 0xFF, 0xFD, 0x00, id];
+    f.extend_from_slice(&((body.len() + 2) as u16).to_le_bytes());
+    f.extend_from_slice(body);
+    let crc = crc16(&f);
+    f.extend_from_slice(&crc.to_le_bytes());
+    f
+}
+
+#[test]
+fn ezgripper_decoder_refuses_an_unstuffed_body_and_resynchronises() {
+    // A status packet whose parameters hold FF FF FD without the stuffing FD (found by the
+    // dynamixel_packet fuzz target: decoded, it did not re-encode within the length limit).
+    let bad = raw_frame(1, &[0x55, 0x00, 0xFF, 0xFF, 0xFD, 0x01]);
+    let mut stream = bad.clone();
+    stream.extend(hex(WRITE_STATUS_ID1));
+    let mut d = Decoder::new();
+    d.push(&stream);
+    assert_eq!(d.next_frame(), Some(Err(FrameError::Unstuffed { id: 1 })));
+    let good: Vec<_> = std::iter::from_fn(|| d.next_frame()).collect();
+    assert_eq!(good.last().cloned().unwrap().unwrap().id, 1, "{good:?}");
+    assert_eq!(d.stats().unstuffed, 1);
+    // The same body stuffed decodes.
+    let ok = raw_frame(1, &stuff(&[0x55, 0x00, 0xFF, 0xFF, 0xFD, 0x01]));
+    let mut d = Decoder::new();
+    d.push(&ok);
+    assert_eq!(
+        d.next_frame().unwrap().unwrap().params,
+        vec![0x00, 0xFF, 0xFF, 0xFD, 0x01]
+    );
+}
+
+/// The `dynamixel_packet` fuzz target's crash (CI's fuzz smoke, 2026-11-24): a frame whose body
+/// held unstuffed `FF FF FD`s decoded, and re-encoding it exceeded the length limit. The
+/// target's property on that input: every packet decoded re-encodes and decodes the same.
+#[test]
+fn ezgripper_fuzz_crash_84185e6d_every_decoded_packet_re_encodes() {
+    let data = include_bytes!("../../../tests/fixtures/fuzz/dynamixel_packet-84185e6d.bin");
+    let (&step, body) = data.split_first().unwrap();
+    let mut d = Decoder::new();
+    for chunk in body.chunks(step as usize % 64 + 1) {
+        d.push(chunk);
+        while let Some(frame) = d.next_frame() {
+            let Ok(p) = frame else { continue };
+            let bytes = encode_packet(p.id, p.instruction, &p.params).expect("a decoded packet re-encodes");
+            let mut again = Decoder::new();
+            again.push(&bytes);
+            assert_eq!(again.next_frame().and_then(Result::ok).as_ref(), Some(&p));
+        }
+    }
+    assert!(
+        d.stats().unstuffed > 0,
+        "the input's malformed frame is refused: {:?}",
+        d.stats()
+    );
 }
 
 #[test]
@@ -329,7 +393,7 @@ proptest! {
     #[test]
     fn ezgripper_stuffing_round_trips(data in proptest::collection::vec(prop_oneof![Just(0xFFu8), Just(0xFD), Just(0x00), any::<u8>()], 0..256)) {
         let s = stuff(&data);
-        prop_assert_eq!(unstuff(&s), data);
+        prop_assert_eq!(unstuff(&s), Some(data));
         // After stuffing, FF FF FD is always followed by FD.
         for i in 0..s.len().saturating_sub(2) {
             if s[i] == 0xFF && s[i + 1] == 0xFF && s[i + 2] == 0xFD {
