@@ -227,6 +227,11 @@ pub struct ReplayCmd {
     /// recorder).
     #[arg(long, default_value_t = 1)]
     pub readers: u32,
+    /// Milliseconds to wait after the readers matched before the first message, so that they
+    /// have discovered the replay's writers too (a best-effort reader drops samples from a
+    /// writer it does not know yet).
+    #[arg(long = "settle-ms", default_value_t = 200)]
+    pub settle_ms: u64,
 }
 
 /// `handgate export`.

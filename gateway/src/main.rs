@@ -329,6 +329,7 @@ fn main() -> anyhow::Result<ExitCode> {
                 topics: cmd.topics,
                 wait_match: Duration::from_secs_f64(cmd.wait.max(0.0)),
                 readers: cmd.readers,
+                settle: Duration::from_millis(cmd.settle_ms),
             };
             println!("replaying {} on DDS domain {}", cmd.dir.display(), cmd.domain);
             let s = handgate_record::replay::replay(&node, &bag, &opts, || {

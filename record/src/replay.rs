@@ -23,6 +23,14 @@ pub struct ReplayOptions {
     pub wait_match: Duration,
     /// Matched readers to wait for on every replayed topic (at least 1).
     pub readers: u32,
+    /// After the readers matched, how long to wait before the first message. A writer sees a
+    /// reader matched as soon as it discovers it, but the reader may not have discovered the
+    /// writer yet, and a best-effort reader (a recorder, a service's default) drops what it
+    /// receives from a writer it does not know: without this pause a replay can lose its first
+    /// messages to exactly the readers it waited for. There is no readiness signal for that
+    /// side; 200 ms (the default of `handgate replay --settle-ms`) is a few discovery round
+    /// trips on one host or a LAN.
+    pub settle: Duration,
 }
 
 /// What a replay did.
@@ -83,6 +91,11 @@ pub fn replay(
     let want = opts.readers.max(1);
     while sinks.iter().any(|s| s.matched() < want) && Instant::now() < deadline && !stop() {
         std::thread::sleep(Duration::from_millis(2));
+    }
+    // Let the matched readers discover the writers too (see `ReplayOptions::settle`).
+    let settle_until = Instant::now() + opts.settle;
+    while Instant::now() < settle_until && !stop() {
+        std::thread::sleep(Duration::from_millis(5).min(settle_until.saturating_duration_since(Instant::now())));
     }
     let unmatched: Vec<String> = sinks
         .iter()

@@ -8,9 +8,10 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::Qos;
+use handgate_idl::handgate;
 use handgate_idl::unitree_hg as hg;
 use handgate_record::bag::Bag;
-use handgate_tests::{handgate_bin, node, poll, python_script, repo_root, venv_python, Gateway};
+use handgate_tests::{handgate_bin, node, poll, python_script, repo_root, venv_python, Gateway, Latest};
 
 /// A temporary directory for recordings (removed first).
 fn scratch(tag: &str) -> PathBuf {
@@ -96,6 +97,21 @@ fn drive_left_index(domain: u32) -> Vec<f32> {
     // The gateway's Dex3 front and the recorder.
     w.wait_matched(2, Duration::from_secs(10))
         .expect("the front and the recorder match");
+    // This writer sees the front's reader matched, but the front may not know this writer yet,
+    // and a volatile reader never gets what a writer sent before it discovered it: wait until
+    // the gateway's status lists this writer among the front's matched writers.
+    let mut status = Latest::<handgate::GatewayStatus_>::new(&n, "rt/handgate/status", Qos::Reliable { depth: 1 });
+    poll(Duration::from_secs(20), || {
+        status
+            .update()
+            .filter(|s| {
+                s.endpoints
+                    .iter()
+                    .any(|e| e.owner == "front dex3_left" && e.topic == "rt/dex3/left/cmd" && e.matched >= 1)
+            })
+            .map(|_| ())
+    })
+    .expect("the gateway lists the client among the front's matched writers");
     let mut sent = Vec::new();
     let start = Instant::now();
     for k in 0..150u32 {
