@@ -52,6 +52,76 @@ pub struct Counters {
     pub missed_cycles: AtomicU64,
     pub reseeds: AtomicU64,
     pub link_up: AtomicU64,
+    /// Device-loop iterations (a loop that stops counting is hung: the systemd watchdog).
+    pub cycles: AtomicU64,
+    /// The device loop's cycle-to-cycle periods.
+    pub periods: LoopPeriods,
+}
+
+/// Upper bounds, seconds, of the loop-period histogram's buckets (Prometheus `le`; a last
+/// `+Inf` bucket is implied): fine around the 1 kHz and 500 Hz loops, coarse beyond.
+pub const PERIOD_BOUNDS_S: [f64; 12] = [
+    0.0002, 0.0005, 0.0009, 0.0011, 0.0015, 0.0019, 0.0021, 0.005, 0.01, 0.025, 0.05, 0.25,
+];
+
+/// Buckets of [`PERIOD_BOUNDS_S`] plus `+Inf`.
+pub const PERIOD_BUCKETS: usize = PERIOD_BOUNDS_S.len() + 1;
+
+/// A lock-free histogram of a device loop's periods (observed on the loop thread, read by
+/// `/metrics` without touching the loop).
+#[derive(Debug, Default)]
+pub struct LoopPeriods {
+    counts: [AtomicU64; PERIOD_BUCKETS],
+    sum_ns: AtomicU64,
+}
+
+/// A snapshot of [`LoopPeriods`]: per-bucket counts (not cumulative; the last is `+Inf`)
+/// and the sum of the periods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PeriodBuckets {
+    pub counts: [u64; PERIOD_BUCKETS],
+    pub sum_ns: u64,
+}
+
+impl PeriodBuckets {
+    pub fn count(&self) -> u64 {
+        self.counts.iter().sum()
+    }
+}
+
+impl LoopPeriods {
+    pub fn observe(&self, d: std::time::Duration) {
+        let s = d.as_secs_f64();
+        let i = PERIOD_BOUNDS_S
+            .iter()
+            .position(|b| s <= *b)
+            .unwrap_or(PERIOD_BOUNDS_S.len());
+        self.counts[i].fetch_add(1, Ordering::Relaxed);
+        self.sum_ns
+            .fetch_add(d.as_nanos().min(u64::MAX as u128) as u64, Ordering::Relaxed);
+    }
+
+    pub fn snapshot(&self) -> PeriodBuckets {
+        PeriodBuckets {
+            counts: std::array::from_fn(|i| self.counts[i].load(Ordering::Relaxed)),
+            sum_ns: self.sum_ns.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// Counts one device-loop iteration at `now` (and the period since the previous one).
+#[derive(Debug, Default)]
+pub struct CycleClock {
+    last: Option<std::time::Instant>,
+}
+
+impl CycleClock {
+    pub fn tick(&mut self, counters: &Counters, now: std::time::Instant) {
+        Counters::inc(&counters.cycles);
+        if let Some(l) = self.last.replace(now) {
+            counters.periods.observe(now.saturating_duration_since(l));
+        }
+    }
 }
 
 impl Counters {
@@ -70,6 +140,8 @@ impl Counters {
             missed_cycles: g(&self.missed_cycles),
             reseeds: g(&self.reseeds),
             link_up: g(&self.link_up) != 0,
+            cycles: g(&self.cycles),
+            periods: self.periods.snapshot(),
         }
     }
 }
@@ -193,6 +265,14 @@ impl CommandState {
     pub fn applied(&self) -> (u64, u32) {
         let g = self.lock();
         (g.last_seq, g.last_tag)
+    }
+
+    /// The joint positions in force (canonical), `None` while nothing was commanded.
+    pub fn targets(&self) -> Option<Vec<f32>> {
+        match &self.lock().active {
+            Active::Idle => None,
+            Active::Command(t) | Active::Safe(_, t) => Some(t.iter().map(|c| c.q).collect()),
+        }
     }
 
     /// Whether a safe state is in force.

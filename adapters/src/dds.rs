@@ -511,6 +511,8 @@ pub struct WriterInfo {
     pub participant: Option<crate::discovery::Guid>,
     /// The writer's USER_DATA QoS, at most [`MAX_USER_DATA`] bytes.
     pub user_data: Vec<u8>,
+    /// A writer that is not a DDS endpoint (a dashboard page): how logs name it.
+    pub label: Option<String>,
 }
 
 mod ffi {

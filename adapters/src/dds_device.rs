@@ -145,8 +145,10 @@ impl DdsDevice {
                 let mut k: u64 = 0;
                 let mut current = HandState::empty(n);
                 let mut link = crate::link::LinkTracker::default();
+                let mut clock = crate::control::CycleClock::default();
                 while !stop2.load(Ordering::Relaxed) {
                     let now = Instant::now();
+                    clock.tick(&loop_cmd.counters, now);
                     let sample = shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
                     if let Some(s) = sample {
                         if let Some(mut st) = codec.decode(&s, &table) {
@@ -259,6 +261,10 @@ impl HandDevice for DdsDevice {
         self.state_rx.clone()
     }
 
+    fn commanded(&self) -> Option<Vec<f32>> {
+        self.cmd.targets()
+    }
+
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
         self.cmd.request_safe(action);
         self.cycles(2).await
@@ -306,6 +312,9 @@ impl HandDevice for WithPeer {
     }
     fn state(&self) -> watch::Receiver<HandState> {
         self.device.state()
+    }
+    fn commanded(&self) -> Option<Vec<f32>> {
+        self.device.commanded()
     }
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
         self.device.safe_state(action).await

@@ -73,6 +73,10 @@ pub struct DeviceStats {
     /// Setpoints replaced by a hold at the measured position after the link came back.
     pub reseeds: u64,
     pub link_up: bool,
+    /// Device-loop iterations so far (a loop that stops counting is hung).
+    pub cycles: u64,
+    /// The device loop's periods (`/metrics`).
+    pub periods: crate::control::PeriodBuckets,
 }
 
 /// Device errors. [`DeviceError::is_transient`] tells a failure the link may recover from
@@ -168,6 +172,12 @@ pub trait HandDevice: Send + Sync {
 
     /// The latest canonical state.
     fn state(&self) -> watch::Receiver<HandState>;
+
+    /// The joint positions in force (canonical, the table's joint order): what the device is
+    /// commanded to, after clamps and per-step limits; `None` while nothing was commanded.
+    fn commanded(&self) -> Option<Vec<f32>> {
+        None
+    }
 
     /// Moves to a safe state and stays there until the next command.
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError>;

@@ -191,11 +191,73 @@ pub struct FleetMember<'a> {
 /// A problem found across devices: the device index, then as [`Problem`].
 pub type FleetProblem = (usize, Problem);
 
+/// Where one tactile pad sits on a schematic drawing of the hand (the dashboard's pressure
+/// map): the unit square of the hand seen palm towards the viewer, fingers up, `x` to the
+/// right, `y` down.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PadPlace {
+    /// The pad's name, as in [`crate::model::Pad::name`].
+    pub name: &'static str,
+    pub x: f32,
+    pub y: f32,
+    pub w: f32,
+    pub h: f32,
+}
+
+/// How a kind's raw taxel values read on a 0..1 scale: `zero` reads 0, `full` reads 1 (a
+/// display scale, not a calibration); values below `valid_min` are "no reading".
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PadScale {
+    pub valid_min: f32,
+    pub zero: f32,
+    pub full: f32,
+}
+
+impl PadScale {
+    /// `v` on the 0..1 scale, or -1 for "no reading".
+    pub fn normalise(&self, v: f32) -> f32 {
+        if !v.is_finite() || v < self.valid_min {
+            return -1.0;
+        }
+        ((v - self.zero) / (self.full - self.zero)).clamp(0.0, 1.0)
+    }
+}
+
+/// A kind's tactile pads as the dashboard draws them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PadLayout {
+    /// Right hand; the left hand is its mirror image (`x` → `1 - x - w`).
+    pub right: &'static [PadPlace],
+    pub scale: PadScale,
+}
+
+impl PadLayout {
+    /// The places for `side`.
+    pub fn places(&self, side: Side) -> Vec<PadPlace> {
+        self.right
+            .iter()
+            .map(|p| match side {
+                Side::Left => PadPlace {
+                    x: 1.0 - p.x - p.w,
+                    ..*p
+                },
+                _ => *p,
+            })
+            .collect()
+    }
+}
+
 /// What a kind tells handgate about itself. Each kind folder exports one unit struct
 /// implementing it; [`crate::kinds::KINDS`] lists them.
 pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
     /// The kind's name in profiles (`kind = "..."`), logs and status.
     fn name(&self) -> &'static str;
+
+    /// Where its tactile pads sit and how their values read (the dashboard); `None`: no
+    /// tactile pads.
+    fn pads(&self) -> Option<&'static PadLayout> {
+        None
+    }
 
     /// Canonical joint names, canonical order.
     fn joints(&self) -> &'static [&'static str];

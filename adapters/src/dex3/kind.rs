@@ -14,7 +14,7 @@ use super::{JOINTS, PAD_COUNT};
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{
     a, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, FleetMember, FleetProblem, KindConfig,
-    KindFactory, Problem, SectionSpec,
+    KindFactory, PadLayout, PadPlace, PadScale, Problem, SectionSpec,
 };
 use crate::mapping::DeviceTable;
 use crate::model::Side;
@@ -25,6 +25,85 @@ impl DeviceKind {
     #[allow(non_upper_case_globals)]
     pub const Dex3: DeviceKind = DeviceKind::of(&Dex3Factory);
 }
+
+/// Where the dashboard draws the Dex3-1's nine pads (right hand, palm towards the viewer).
+/// Which pad id sits where is not public (docs/sources.md §2): the places follow the
+/// emulator's assumed layout (`Dex3Tuning::pads`: 0–1 thumb tip and finger pad, 2–3 middle,
+/// 4–5 index, 6–8 palm). Each pad's 12 slots are drawn as a 1 × 12 strip.
+static PADS: PadLayout = PadLayout {
+    right: &[
+        PadPlace {
+            name: "pad_0",
+            x: 0.72,
+            y: 0.28,
+            w: 0.24,
+            h: 0.06,
+        },
+        PadPlace {
+            name: "pad_1",
+            x: 0.66,
+            y: 0.40,
+            w: 0.24,
+            h: 0.06,
+        },
+        PadPlace {
+            name: "pad_2",
+            x: 0.10,
+            y: 0.04,
+            w: 0.24,
+            h: 0.06,
+        },
+        PadPlace {
+            name: "pad_3",
+            x: 0.10,
+            y: 0.18,
+            w: 0.24,
+            h: 0.06,
+        },
+        PadPlace {
+            name: "pad_4",
+            x: 0.38,
+            y: 0.04,
+            w: 0.24,
+            h: 0.06,
+        },
+        PadPlace {
+            name: "pad_5",
+            x: 0.38,
+            y: 0.18,
+            w: 0.24,
+            h: 0.06,
+        },
+        PadPlace {
+            name: "pad_6",
+            x: 0.14,
+            y: 0.56,
+            w: 0.46,
+            h: 0.08,
+        },
+        PadPlace {
+            name: "pad_7",
+            x: 0.14,
+            y: 0.70,
+            w: 0.46,
+            h: 0.08,
+        },
+        PadPlace {
+            name: "pad_8",
+            x: 0.14,
+            y: 0.84,
+            w: 0.46,
+            h: 0.08,
+        },
+    ],
+    // Raw readings start at PRESS_VALID_MIN (30000 = no reading); the full scale is a display
+    // choice: ten times the smallest reading (assumption; no calibration is public).
+    scale: PadScale {
+        valid_min: super::PRESS_VALID_MIN,
+        zero: super::PRESS_VALID_MIN,
+        full: 10.0 * super::PRESS_VALID_MIN,
+    },
+};
 
 /// The Dex3-1's factory.
 #[derive(Debug, Clone, Copy)]
@@ -117,6 +196,10 @@ impl Dex3Profile {
 impl KindFactory for Dex3Factory {
     fn name(&self) -> &'static str {
         NAME
+    }
+
+    fn pads(&self) -> Option<&'static PadLayout> {
+        Some(&PADS)
     }
 
     fn joints(&self) -> &'static [&'static str] {

@@ -90,8 +90,11 @@ impl EzGripperDevice {
                 rt.block_on(async move {
                     let mut link = crate::link::LinkTracker::default();
                     let mut cal_failure_logged = false;
+                    let mut clock = crate::control::CycleClock::default();
                     while !b_stop.load(Ordering::Relaxed) {
                         let changed = tokio::time::timeout(Duration::from_millis(50), rx.changed()).await;
+                        // One bus cycle (or the bridge's 50 ms wait for one).
+                        clock.tick(&b_cmd.counters, std::time::Instant::now());
                         if matches!(changed, Ok(Err(_))) {
                             break;
                         }
@@ -179,6 +182,10 @@ impl HandDevice for EzGripperDevice {
 
     fn state(&self) -> watch::Receiver<HandState> {
         self.state_rx.clone()
+    }
+
+    fn commanded(&self) -> Option<Vec<f32>> {
+        self.cmd.targets()
     }
 
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {

@@ -75,6 +75,9 @@ impl Incoming {
 /// Names a writer for a log line: its process, pid and host where discovery knows its
 /// participant, and its GUID (or only the reader's handle when the writer had gone).
 pub fn describe_writer(w: &WriterInfo, discovery: &crate::discovery::Snapshot) -> String {
+    if let Some(label) = &w.label {
+        return label.clone();
+    }
     let Some(guid) = w.guid else {
         return format!("writer handle {:016x} (no longer matched)", w.handle);
     };

@@ -8,7 +8,8 @@ use serde::{Deserialize, Serialize};
 use super::table::JOINTS;
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{
-    a, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, Problem, SectionSpec,
+    a, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, PadLayout, PadPlace,
+    PadScale, Problem, SectionSpec,
 };
 use crate::mapping::DeviceTable;
 use crate::model::Side;
@@ -19,6 +20,140 @@ impl DeviceKind {
     #[allow(non_upper_case_globals)]
     pub const InspireFtp: DeviceKind = DeviceKind::of(&InspireFtpFactory);
 }
+
+/// Where the dashboard draws the FTP's 17 touch segments (right hand, palm towards the
+/// viewer, fingers up; a schematic after the segment names of docs/sources.md §7, not a
+/// measured drawing).
+static PADS: PadLayout = PadLayout {
+    right: &[
+        PadPlace {
+            name: "pinky_tip",
+            x: 0.075,
+            y: 0.02,
+            w: 0.07,
+            h: 0.05,
+        },
+        PadPlace {
+            name: "pinky_top",
+            x: 0.04,
+            y: 0.08,
+            w: 0.14,
+            h: 0.15,
+        },
+        PadPlace {
+            name: "pinky_pad",
+            x: 0.05,
+            y: 0.25,
+            w: 0.12,
+            h: 0.12,
+        },
+        PadPlace {
+            name: "ring_tip",
+            x: 0.235,
+            y: 0.02,
+            w: 0.07,
+            h: 0.05,
+        },
+        PadPlace {
+            name: "ring_top",
+            x: 0.20,
+            y: 0.08,
+            w: 0.14,
+            h: 0.15,
+        },
+        PadPlace {
+            name: "ring_pad",
+            x: 0.21,
+            y: 0.25,
+            w: 0.12,
+            h: 0.12,
+        },
+        PadPlace {
+            name: "middle_tip",
+            x: 0.395,
+            y: 0.02,
+            w: 0.07,
+            h: 0.05,
+        },
+        PadPlace {
+            name: "middle_top",
+            x: 0.36,
+            y: 0.08,
+            w: 0.14,
+            h: 0.15,
+        },
+        PadPlace {
+            name: "middle_pad",
+            x: 0.37,
+            y: 0.25,
+            w: 0.12,
+            h: 0.12,
+        },
+        PadPlace {
+            name: "index_tip",
+            x: 0.555,
+            y: 0.02,
+            w: 0.07,
+            h: 0.05,
+        },
+        PadPlace {
+            name: "index_top",
+            x: 0.52,
+            y: 0.08,
+            w: 0.14,
+            h: 0.15,
+        },
+        PadPlace {
+            name: "index_pad",
+            x: 0.53,
+            y: 0.25,
+            w: 0.12,
+            h: 0.12,
+        },
+        PadPlace {
+            name: "thumb_tip",
+            x: 0.865,
+            y: 0.28,
+            w: 0.07,
+            h: 0.05,
+        },
+        PadPlace {
+            name: "thumb_top",
+            x: 0.83,
+            y: 0.34,
+            w: 0.14,
+            h: 0.15,
+        },
+        PadPlace {
+            name: "thumb_middle",
+            x: 0.78,
+            y: 0.52,
+            w: 0.07,
+            h: 0.05,
+        },
+        PadPlace {
+            name: "thumb_pad",
+            x: 0.74,
+            y: 0.58,
+            w: 0.14,
+            h: 0.15,
+        },
+        PadPlace {
+            name: "palm",
+            x: 0.06,
+            y: 0.44,
+            w: 0.60,
+            h: 0.50,
+        },
+    ],
+    // Register values from 0; the full scale is a display choice (assumption: 12-bit taxels,
+    // no range is public).
+    scale: PadScale {
+        valid_min: 0.0,
+        zero: 0.0,
+        full: 4095.0,
+    },
+};
 
 /// The Inspire FTP's factory.
 #[derive(Debug, Clone, Copy)]
@@ -99,6 +234,10 @@ impl InspireFtpProfile {
 impl KindFactory for InspireFtpFactory {
     fn name(&self) -> &'static str {
         NAME
+    }
+
+    fn pads(&self) -> Option<&'static PadLayout> {
+        Some(&PADS)
     }
 
     fn joints(&self) -> &'static [&'static str] {

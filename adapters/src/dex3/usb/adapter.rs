@@ -161,7 +161,10 @@ impl Dex3UsbDevice {
         let mut last_connects = 0;
         // (client seq, tag) of the newest command a measurement reflects.
         let mut echo = (0u64, 0u32);
+        let mut clock = crate::control::CycleClock::default();
         let observer: Observer = Box::new(move |m: &Dex3Measurement, link: Link| {
+            // Called after every cycle (and every failed connect attempt) on the loop thread.
+            clock.tick(&b_cmd.counters, std::time::Instant::now());
             let mut st = to_hand_state(&table, m, link.connected);
             if link.connects != last_connects && m.seq > 0 && !m.stale {
                 // The loop itself holds the first measured state after a (re)connect; forget
@@ -272,6 +275,10 @@ impl HandDevice for Dex3UsbDevice {
 
     fn state(&self) -> watch::Receiver<HandState> {
         self.state_rx.clone()
+    }
+
+    fn commanded(&self) -> Option<Vec<f32>> {
+        self.cmd.targets()
     }
 
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
