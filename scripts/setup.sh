@@ -74,6 +74,13 @@ if [ "$("$vpy" -m pip show mcap-ros2-support 2>/dev/null | sed -n 's/^Version: /
   echo "setup: installing mcap==1.6.0 and mcap-ros2-support==0.6.0"
   "$vpy" -m pip install -q "mcap==1.6.0" "mcap-ros2-support==0.6.0"
 fi
+# The HTTP server's tests: prometheus-client's own text-format parser reads /metrics; the
+# websockets package is the dashboard's protocol client (docs/dashboard.md).
+if [ "$("$vpy" -m pip show prometheus-client 2>/dev/null | sed -n 's/^Version: //p')" != "0.26.0" ] \
+  || [ "$("$vpy" -m pip show websockets 2>/dev/null | sed -n 's/^Version: //p')" != "17.4" ]; then
+  echo "setup: installing prometheus-client==0.26.0 and websockets==17.4"
+  "$vpy" -m pip install -q "prometheus-client==0.26.0" "websockets==17.4"
+fi
 # unitree-sdk2 1.0.1's __init__ imports a subpackage `b2` that the wheel does not ship
 # (docs/sources.md §8). Give it an empty one inside our venv so `import unitree_sdk2py` works.
 site=$("$vpy" -c "import sysconfig; print(sysconfig.get_paths()['purelib'])")

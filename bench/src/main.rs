@@ -181,6 +181,8 @@ fn gateway(
 ) -> anyhow::Result<child::Proc> {
     let mut c = Command::new(bin);
     c.arg("run").arg("--domain").arg(domain.to_string());
+    // The dashboard on any free port (benchmarks may overlap a running gateway).
+    c.args(["--http-port", "0"]);
     if let Some(p) = profile {
         c.arg("--profile").arg(p);
     }

@@ -365,6 +365,9 @@ pub struct OverrideArgs {
     /// Log format (`log.format`).
     #[arg(long, value_enum)]
     pub log_format: Option<LogFormatArg>,
+    /// Port of the dashboard's HTTP server (`http.port`; 0: any free port, logged).
+    #[arg(long)]
+    pub http_port: Option<u16>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -382,6 +385,7 @@ impl From<OverrideArgs> for CliOverrides {
                 LogFormatArg::Human => LogFormat::Human,
                 LogFormatArg::Json => LogFormat::Json,
             }),
+            http_port: a.http_port,
         }
     }
 }

@@ -116,6 +116,16 @@ pub fn kind_str(k: &FindingKind) -> &'static str {
     }
 }
 
+/// `problem` or `note` (a finding that is no fault: a client a front serves on demand), for
+/// a finding kind as [`kind_str`] names it.
+pub fn severity(kind: &str) -> &'static str {
+    if kind == "served_on_demand" {
+        "note"
+    } else {
+        "problem"
+    }
+}
+
 /// What the gateway reports about discovery: per served endpoint its counterparts, and the
 /// findings with their fixes.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]

@@ -3,10 +3,12 @@
 pub mod cli;
 pub mod diagnostics;
 pub mod doctor;
+pub mod http;
 pub mod plan;
 pub mod profile;
 pub mod recording;
 pub mod resolve;
 pub mod runtime;
+pub mod systemd;
 pub mod ticker;
 pub mod tools;

@@ -92,6 +92,63 @@ fn init_logging(level: &str, format: LogFormat) {
     }
 }
 
+/// Under systemd (`Type=notify`): READY once every device is open and every front bound,
+/// then, with `WatchdogSec=`, the watchdog fed while every device loop is alive (a hung loop
+/// stops the feed and systemd restarts the gateway). Outside systemd: nothing.
+fn systemd_ready(gw: &runtime::Runtime, fronts: usize) -> Option<tokio::task::JoinHandle<()>> {
+    use handgate_gateway::systemd;
+    let status = |gw: &runtime::Runtime| {
+        let fresh = gw
+            .devices
+            .iter()
+            .filter(|d| d.device.state().borrow().freshness != handgate_adapters::model::Freshness::Stale)
+            .count();
+        format!(
+            "STATUS=serving {} devices ({fresh} fresh), {fronts} fronts",
+            gw.devices.len()
+        )
+    };
+    match systemd::notify(&format!("READY=1\n{}", status(gw))) {
+        Ok(true) => tracing::info!("systemd: ready"),
+        Ok(false) => return None,
+        Err(e) => tracing::warn!(error = %e, "systemd: cannot notify readiness"),
+    }
+    let every = systemd::watchdog_interval()?;
+    tracing::info!(
+        interval_ms = every.as_millis() as u64,
+        "systemd: feeding the watchdog while every device loop runs"
+    );
+    let devices = gw.devices.clone();
+    Some(tokio::spawn(async move {
+        let mut live = systemd::Liveness::default();
+        let mut tick = tokio::time::interval(every);
+        let mut hung_logged = false;
+        loop {
+            tick.tick().await;
+            let cycles: Vec<u64> = devices.iter().map(|d| d.device.stats().cycles).collect();
+            match live.check(&cycles) {
+                Ok(()) => {
+                    hung_logged = false;
+                    let fresh = devices
+                        .iter()
+                        .filter(|d| d.device.state().borrow().freshness != handgate_adapters::model::Freshness::Stale)
+                        .count();
+                    let _ = systemd::notify(&format!(
+                        "WATCHDOG=1\nSTATUS=serving {} devices ({fresh} fresh), {fronts} fronts",
+                        devices.len()
+                    ));
+                }
+                Err(stalled) if !hung_logged => {
+                    hung_logged = true;
+                    let names: Vec<&str> = stalled.iter().map(|&i| devices[i].plan.name.as_str()).collect();
+                    tracing::error!(devices = %names.join(","), "device loop hung: the systemd watchdog is no longer fed (systemd restarts the gateway)");
+                }
+                Err(_) => {}
+            }
+        }
+    }))
+}
+
 async fn wait_for_signal() -> anyhow::Result<&'static str> {
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
     tokio::select! {
@@ -129,7 +186,12 @@ fn main() -> anyhow::Result<ExitCode> {
                     plan.domain
                 );
                 tracing::info!(profile = %plan.profile, domain = plan.domain, "handgate started");
+                let watchdog = systemd_ready(&gw, plan.fronts.len());
                 let sig = wait_for_signal().await?;
+                if let Some(w) = watchdog {
+                    w.abort();
+                }
+                let _ = handgate_gateway::systemd::notify("STOPPING=1\nSTATUS=moving every device to its safe state");
                 tracing::info!(signal = sig, "stopping: moving every device to its safe state");
                 for (name, r) in gw.shutdown().await {
                     match r {

@@ -62,6 +62,15 @@ pub struct RecordPlan {
     pub zstd: bool,
 }
 
+/// The gateway's HTTP server (`[http]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HttpPlan {
+    pub addr: std::net::SocketAddr,
+    pub commands: bool,
+    pub sample_hz: f64,
+    pub command_watchdog: Duration,
+}
+
 /// The whole fleet.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
@@ -81,6 +90,8 @@ pub struct Plan {
     pub namespace: Option<handgate_adapters::ros::Namespace>,
     /// `[record]`: record from start-up.
     pub record: Option<RecordPlan>,
+    /// `[http]`; `None`: off.
+    pub http: Option<HttpPlan>,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

@@ -226,6 +226,16 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
             max_seconds: r.max_seconds,
             zstd: r.zstd,
         }),
+        http: p.http.enabled.then(|| crate::plan::HttpPlan {
+            // Validated: an IP address.
+            addr: std::net::SocketAddr::new(
+                p.http.bind.parse().unwrap_or(std::net::Ipv4Addr::LOCALHOST.into()),
+                p.http.port,
+            ),
+            commands: p.http.commands,
+            sample_hz: p.http.sample_hz.0,
+            command_watchdog: p.http.command_watchdog_ms.as_duration(),
+        }),
         devices,
         fronts,
     })

@@ -510,6 +510,10 @@ impl Gateway {
             cmd.arg("--interface").arg(iface);
         }
         cmd.args(args);
+        // Tests run in parallel: the dashboard on any free port, unless a test chooses one.
+        if !args.contains(&"--http-port") {
+            cmd.args(["--http-port", "0"]);
+        }
         for (k, _) in std::env::vars() {
             if k.starts_with("HANDGATE_") {
                 cmd.env_remove(k);
@@ -550,6 +554,16 @@ impl Gateway {
             }
         });
         Ok(Gateway { domain, child, out })
+    }
+
+    /// The dashboard's base URL (`http://ADDR/`), from its start-up log line.
+    pub fn http_url(&self) -> Result<String, GatewayError> {
+        let line = self.wait_stdout("http: listening", GATEWAY_START_TIMEOUT)?;
+        Ok(line
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix("url="))
+            .unwrap_or_default()
+            .to_string())
     }
 
     /// The DDS domain it serves.

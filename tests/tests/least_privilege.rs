@@ -258,6 +258,7 @@ fn run_as_unprivileged_user_names_the_serial_port_and_the_fix() {
     cmd.arg("run")
         .arg("--profile")
         .arg(&profile)
+        .args(["--http-port", "0"])
         .current_dir(&dir.0)
         .env("RUST_BACKTRACE", "0")
         .stdin(Stdio::null())

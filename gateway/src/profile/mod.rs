@@ -53,6 +53,8 @@ pub struct CliOverrides {
     pub interface: Option<String>,
     /// `--log-format`: `log.format`.
     pub log_format: Option<LogFormat>,
+    /// `--http-port`: `http.port`.
+    pub http_port: Option<u16>,
 }
 
 const CLI_METADATA_NAME: &str = "command line";
@@ -78,6 +80,11 @@ impl Provider for CliOverrides {
             let mut log = Dict::new();
             log.insert("format".into(), Value::from(f.as_str()));
             root.insert("log".into(), Value::from(log));
+        }
+        if let Some(port) = self.http_port {
+            let mut http = Dict::new();
+            http.insert("port".into(), Value::from(port));
+            root.insert("http".into(), Value::from(http));
         }
         Serialized::defaults(root).data()
     }
@@ -185,6 +192,7 @@ fn cli_flag_for(key: &KeyPath) -> Option<String> {
         "dds.domain" => Some("--domain".into()),
         "dds.interface" => Some("--interface".into()),
         "log.format" => Some("--log-format".into()),
+        "http.port" => Some("--http-port".into()),
         _ => None,
     }
 }

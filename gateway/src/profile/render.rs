@@ -38,6 +38,21 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
         };
         let _ = writeln!(s, "record: into {}/ ({topics})", r.dir);
     }
+    if p.http.enabled {
+        let _ = writeln!(
+            s,
+            "http: dashboard, /metrics, /healthz on {}:{}{}",
+            p.http.bind,
+            p.http.port,
+            if p.http.commands {
+                " (the page may command devices)"
+            } else {
+                " (read-only)"
+            }
+        );
+    } else {
+        let _ = writeln!(s, "http: off");
+    }
     let _ = writeln!(s, "devices ({}):", p.devices.len());
     for d in &p.devices {
         let _ = write!(

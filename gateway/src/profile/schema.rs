@@ -14,6 +14,11 @@ use serde::{Deserialize, Serialize};
 pub const MAX_DOMAIN_ID: u32 = 232;
 /// Highest status publish rate, Hz (the status topic is a slow heartbeat).
 pub const MAX_STATUS_RATE_HZ: f64 = 10.0;
+/// Highest `http.sample_hz` (a browser draws at 60 Hz at best).
+pub const MAX_HTTP_SAMPLE_HZ: f64 = 200.0;
+/// Range of `http.command_watchdog_ms` (the page re-sends every 100 ms).
+pub const MIN_PAGE_WATCHDOG_MS: u32 = 200;
+pub const MAX_PAGE_WATCHDOG_MS: u32 = 10_000;
 /// Watchdog timeouts must lie in this range, ms.
 pub const WATCHDOG_MS_RANGE: (u32, u32) = (10, 10_000);
 
@@ -92,6 +97,8 @@ pub struct Profile {
     pub status: StatusConfig,
     /// `[record]`: record from start-up (docs/recording.md).
     pub record: Option<RecordConfig>,
+    /// `[http]`: the dashboard, `/metrics`, `/healthz` (docs/dashboard.md).
+    pub http: HttpConfig,
     pub devices: Vec<DeviceConfig>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -107,6 +114,7 @@ pub struct RawProfile {
     pub log: LogConfig,
     pub status: StatusConfig,
     pub record: Option<RecordConfig>,
+    pub http: HttpConfig,
     pub devices: Vec<Value>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -146,6 +154,7 @@ impl RawProfile {
             log: self.log,
             status: self.status,
             record: self.record,
+            http: self.http,
             devices,
             fronts: self.fronts,
         }
@@ -268,6 +277,41 @@ impl Default for RecordConfig {
             max_mb: None,
             max_seconds: None,
             zstd: false,
+        }
+    }
+}
+
+/// `[http]`: the gateway's HTTP server: the live dashboard, its WebSocket, `/metrics` and
+/// `/healthz` (docs/dashboard.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HttpConfig {
+    pub enabled: bool,
+    /// Address to bind: loopback unless the profile chooses another (logged at start).
+    pub bind: String,
+    /// TCP port; 0: any free port (the log names it).
+    pub port: u16,
+    /// The page may command devices (a closure slider and a safe button per device), through
+    /// the same rules as any front. Off: the server accepts no command.
+    pub commands: bool,
+    /// Joint samples pushed to each page per second.
+    pub sample_hz: RateHz,
+    /// Commands from the page: after this long without one, the device's safe action.
+    pub command_watchdog_ms: Millis,
+}
+
+/// The dashboard's default port.
+pub const HTTP_DEFAULT_PORT: u16 = 8880;
+
+impl Default for HttpConfig {
+    fn default() -> Self {
+        HttpConfig {
+            enabled: true,
+            bind: "127.0.0.1".into(),
+            port: HTTP_DEFAULT_PORT,
+            commands: false,
+            sample_hz: RateHz(50.0),
+            command_watchdog_ms: Millis(500),
         }
     }
 }

@@ -507,11 +507,14 @@ fn cli_flags_override_the_file() {
             domain: Some(4),
             interface: None,
             log_format: Some(LogFormat::Json),
+            http_port: Some(0),
         },
         ..opts(Some(p.display().to_string()))
     })
     .unwrap();
     assert_eq!(l.profile.dds.domain, DomainId(4));
+    assert_eq!(l.profile.http.port, 0);
+    assert_eq!(l.profile.http.bind, "127.0.0.1", "untouched key kept");
     assert_eq!(l.profile.dds.interface.as_deref(), Some("eth0"), "untouched key kept");
     assert_eq!(l.profile.log.format, LogFormat::Json);
     assert_eq!(l.profile.devices.len(), 1);
@@ -1609,4 +1612,39 @@ fn record_section_errors_name_their_keys() {
         (rec.dir.as_str(), rec.topics.len(), rec.max_mb, rec.zstd),
         ("rec", 1, Some(5.0), false)
     );
+}
+
+#[test]
+fn http_defaults_to_a_read_only_loopback_server() {
+    let l = load(&opts(None)).unwrap();
+    let h = &l.profile.http;
+    assert!(h.enabled && !h.commands, "{h:?}");
+    assert_eq!(
+        (h.bind.as_str(), h.port),
+        ("127.0.0.1", super::schema::HTTP_DEFAULT_PORT)
+    );
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    let hp = plan.http.expect("on by default");
+    assert!(hp.addr.ip().is_loopback(), "{hp:?}");
+}
+
+#[test]
+fn http_section_errors_name_file_and_key() {
+    let p = temp_profile(&format!(
+        "[http]\nbind = \"localhost\"\nsample_hz = 500\ncommand_watchdog_ms = 50\n{DEX3}"
+    ));
+    let err = load(&opts(Some(p.display().to_string()))).unwrap_err();
+    let lines = err.lines();
+    let file = p.display().to_string();
+    for key in ["http.bind", "http.sample_hz", "http.command_watchdog_ms"] {
+        assert!(
+            lines
+                .iter()
+                .any(|l| l.starts_with(&file) && l.contains(&format!(": {key}: "))),
+            "{key}: {lines:?}"
+        );
+    }
+    let off = temp_profile(&format!("[http]\nenabled = false\n{DEX3}"));
+    let l = load(&opts(Some(off.display().to_string()))).unwrap();
+    assert!(crate::resolve::plan(&l.profile).unwrap().http.is_none());
 }

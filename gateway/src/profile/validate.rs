@@ -118,6 +118,24 @@ impl Checker {
                 );
             }
         }
+        // http
+        {
+            let k = root().key("http");
+            if p.http.bind.parse::<std::net::IpAddr>().is_err() {
+                self.err(
+                    k.key("bind"),
+                    format!("`{}` is not an IP address (e.g. \"127.0.0.1\")", p.http.bind),
+                );
+            }
+            self.rate(k.key("sample_hz"), p.http.sample_hz, MAX_HTTP_SAMPLE_HZ);
+            let wd = p.http.command_watchdog_ms.0;
+            if !(MIN_PAGE_WATCHDOG_MS..=MAX_PAGE_WATCHDOG_MS).contains(&wd) {
+                self.err(
+                    k.key("command_watchdog_ms"),
+                    format!("must be {MIN_PAGE_WATCHDOG_MS}..={MAX_PAGE_WATCHDOG_MS} ms, got {wd}"),
+                );
+            }
+        }
         // status
         self.topic(root().key("status").key("topic"), &p.status.topic);
         self.rate(

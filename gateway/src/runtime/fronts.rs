@@ -49,6 +49,11 @@ impl RateLimitedLog {
 /// Identifies the front that sent a device its last command (see [`super::FrontCounters::last_front`]).
 static NEXT_FRONT_ID: AtomicU64 = AtomicU64::new(1);
 
+/// A new front id (see [`super::FrontCounters::last_front`]).
+pub(crate) fn next_front_id() -> u64 {
+    NEXT_FRONT_ID.fetch_add(1, Ordering::Relaxed)
+}
+
 /// A front that publishes state only: its writer over its devices, at its rate.
 fn spawn_state_only(
     mut out: Box<dyn fronts::StateIo>,
@@ -120,28 +125,69 @@ pub(super) fn spawn_front(
     env: &fronts::FrontEnv,
     f: &FrontPlan,
     devices: &HashMap<String, Arc<DeviceSlot>>,
-    mut shutdown: watch::Receiver<bool>,
+    shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
-    let (tx, mut rx) = mpsc::channel::<fronts::Incoming>(64);
+    let (tx, rx) = mpsc::channel::<fronts::Incoming>(64);
     let dropped = Arc::new(AtomicU64::new(0));
     // The front kind's endpoints (readers and writers).
-    let mut out = match fronts::open(env, f, tx, dropped.clone())? {
+    let out = match fronts::open(env, f, tx, dropped.clone())? {
         fronts::Endpoints::Commands(out) => out,
         fronts::Endpoints::StateOnly(out) => return spawn_state_only(out, f, devices, shutdown),
     };
+    let task = FrontTask {
+        id: next_front_id(),
+        name: f.name.clone(),
+        control: f.config.control,
+        hold: f.hold(),
+        state_hz: f.state_hz,
+        bindings: f
+            .bindings
+            .iter()
+            .map(|b| (b.device.clone(), b.element, b.silence, b.table.clone()))
+            .collect(),
+    };
+    run_front(task, out, rx, dropped, devices, env.discovery.clone(), shutdown)
+}
+
+/// What the front task needs of a front: its name, who may command it, its state rate and
+/// its devices (name, element, silence, the front's table for it).
+pub(crate) struct FrontTask {
+    /// Its id ([`next_front_id`]).
+    pub id: u64,
+    pub name: String,
+    pub control: handgate_adapters::front::config::Control,
+    pub hold: Duration,
+    pub state_hz: f64,
+    pub bindings: Vec<(
+        String,
+        usize,
+        SilencePlan,
+        Option<Arc<handgate_adapters::mapping::DeviceTable>>,
+    )>,
+}
+
+/// Runs a front taking commands: samples from `rx` (a DDS front's readers, or the
+/// dashboard's page), decoded by `out` and checked against each device's table, under the
+/// front's ownership and silence rules; state published through `out`.
+pub(crate) fn run_front(
+    f: FrontTask,
+    mut out: Box<dyn fronts::FrontIo>,
+    mut rx: mpsc::Receiver<fronts::Incoming>,
+    dropped: Arc<AtomicU64>,
+    devices: &HashMap<String, Arc<DeviceSlot>>,
+    discovery: watch::Receiver<Arc<handgate_adapters::discovery::Snapshot>>,
+    mut shutdown: watch::Receiver<bool>,
+) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let mut bound = Vec::new();
-    for b in &f.bindings {
+    for (device, element, silence, table) in &f.bindings {
         let slot = devices
-            .get(&b.device)
+            .get(device)
             .cloned()
-            .ok_or_else(|| RuntimeError::UnknownDevice(b.device.clone()))?;
+            .ok_or_else(|| RuntimeError::UnknownDevice(device.clone()))?;
         bound.push(Bound {
-            route: router::Route::bind(
-                b.table.clone().unwrap_or_else(|| slot.table.clone()),
-                slot.table.clone(),
-            ),
-            element: b.element,
-            silence: b.silence,
+            route: router::Route::bind(table.clone().unwrap_or_else(|| slot.table.clone()), slot.table.clone()),
+            element: *element,
+            silence: *silence,
             seq: 0,
             last_valid: None,
             armed: None,
@@ -152,17 +198,10 @@ pub(super) fn spawn_front(
             slot,
         });
     }
-    let f = f.clone();
     let log = RateLimitedLog::default();
-    let mut ownership = Ownership::new(f.config.control, f.hold());
-    let discovery = env.discovery.clone();
-    let front_id = NEXT_FRONT_ID.fetch_add(1, Ordering::Relaxed);
-    let devices_list = f
-        .bindings
-        .iter()
-        .map(|b| b.device.as_str())
-        .collect::<Vec<_>>()
-        .join(",");
+    let mut ownership = Ownership::new(f.control, f.hold);
+    let front_id = f.id;
+    let devices_list = f.bindings.iter().map(|b| b.0.as_str()).collect::<Vec<_>>().join(",");
     let span = tracing::info_span!("front", name = %f.name, devices = %devices_list);
     Ok(tokio::spawn(tracing::Instrument::instrument(
         async move {
@@ -181,7 +220,7 @@ pub(super) fn spawn_front(
             let mut slot_used = false;
             // The writer owning the front (`control = "exclusive"`), to name it in the log.
             let mut owner: Option<Arc<handgate_adapters::dds::WriterInfo>> = None;
-            let hold_ms = f.hold().as_millis() as u64;
+            let hold_ms = f.hold.as_millis() as u64;
             loop {
                 let silence_due = bound.iter().filter_map(Bound::silence_due).min();
                 let awaiting = bound.iter().any(|b| b.awaiting.is_some());
@@ -209,6 +248,8 @@ pub(super) fn spawn_front(
                         match decoded {
                             Ok(cmds) => {
                                 let mut any = false;
+                                // Devices this front now commands (another front did before).
+                                let mut new_commander: Vec<usize> = Vec::new();
                                 for (i, (body, tag, timeout_bit)) in cmds {
                                     let b = &mut bound[i];
                                     if let Some(h) = b.pending_safe.take() {
@@ -228,7 +269,10 @@ pub(super) fn spawn_front(
                                             any = true;
                                             let counters = &b.slot.counters;
                                             counters.accepted.fetch_add(1, Ordering::Relaxed);
-                                            counters.last_front.store(front_id, Ordering::Relaxed);
+                                            counters.mark_accepted();
+                                            if counters.last_front.swap(front_id, Ordering::Relaxed) != front_id {
+                                                new_commander.push(i);
+                                            }
                                             b.last_valid = Some(Instant::now());
                                             b.armed = b.silence.armed(timeout_bit);
                                             b.state_rx.mark_unchanged();
@@ -259,6 +303,14 @@ pub(super) fn spawn_front(
                                                 "{new} took this front over from {old} (forced)"),
                                         }
                                         owner = Some(msg.writer.clone());
+                                        new_commander = (0..bound.len()).collect();
+                                    }
+                                    if !new_commander.is_empty() {
+                                        // Who commands the device (status, dashboard): named on change only.
+                                        let who = format!("{name}: {}", fronts::describe_writer(&msg.writer, &discovery.borrow()));
+                                        for i in new_commander {
+                                            bound[i].slot.counters.set_owner(who.clone());
+                                        }
                                     }
                                 }
                             }

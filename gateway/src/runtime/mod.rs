@@ -5,7 +5,7 @@
 
 mod control;
 mod devices;
-mod fronts;
+pub(crate) mod fronts;
 mod ros;
 mod status;
 
@@ -44,6 +44,8 @@ pub enum RuntimeError {
     ForeignStateWriter(String),
     #[error("[record]: {0}")]
     Record(#[from] handgate_record::RecordError),
+    #[error("[http]: {0}")]
+    Http(#[from] crate::http::HttpError),
 }
 
 /// Per-device counters kept by the fronts bound to it.
@@ -61,6 +63,40 @@ pub struct FrontCounters {
     pub watchdog_trips: AtomicU64,
     /// 1 while a silence action holds the device (until the next accepted command).
     pub tripped: AtomicU64,
+    /// When the last command was accepted, ns since [`epoch`] (0: never).
+    pub last_accepted_ns: AtomicU64,
+    /// Who commands the device: the front and the writer (named when it changes).
+    pub owner: std::sync::Mutex<Option<String>>,
+}
+
+/// The runtime's clock origin (the first call).
+pub fn epoch() -> Instant {
+    static EPOCH: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+    *EPOCH.get_or_init(Instant::now)
+}
+
+impl FrontCounters {
+    /// A command was accepted now.
+    pub fn mark_accepted(&self) {
+        let ns = epoch().elapsed().as_nanos().max(1) as u64;
+        self.last_accepted_ns.store(ns, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// How long ago the last command was accepted (`None`: never).
+    pub fn since_accepted(&self) -> Option<Duration> {
+        match self.last_accepted_ns.load(std::sync::atomic::Ordering::Relaxed) {
+            0 => None,
+            ns => Some(epoch().elapsed().saturating_sub(Duration::from_nanos(ns))),
+        }
+    }
+
+    pub fn set_owner(&self, who: String) {
+        *self.owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(who);
+    }
+
+    pub fn owner(&self) -> Option<String> {
+        self.owner.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
 }
 
 /// A device as the runtime holds it.
@@ -85,6 +121,8 @@ pub struct Runtime {
     pub discovery: Discovery,
     /// The `[record]` recorder (its own threads; never on a device path).
     recorder: Option<handgate_record::Recorder>,
+    /// The latest status the status task computed (the dashboard, `/metrics`).
+    pub status: watch::Receiver<Arc<handgate_idl::handgate::GatewayStatus_>>,
 }
 
 impl Runtime {
@@ -132,14 +170,20 @@ impl Runtime {
             None => None,
         };
         let record_stats = recorder.as_ref().map(|r| r.stats());
+        let (status_tx, status_rx) = watch::channel(Arc::new(handgate_idl::handgate::GatewayStatus_::default()));
         tasks.push(status::spawn_status(
             &node,
             plan,
             devices.clone(),
             diagnosis,
             record_stats,
+            status_tx,
             shutdown_rx.clone(),
         )?);
+        if let Some(h) = &plan.http {
+            let fleet = crate::http::Fleet::new(plan, &devices, discovery.subscribe(), status_rx.clone());
+            tasks.extend(crate::http::spawn(h, fleet, &by_name, shutdown_rx.clone())?);
+        }
         if let Some(ns) = &plan.namespace {
             tasks.push(ros::spawn_presence(&node, ns.clone(), shutdown_rx.clone())?);
         }
@@ -152,6 +196,7 @@ impl Runtime {
             shared,
             discovery,
             recorder,
+            status: status_rx,
         })
     }
 

@@ -21,6 +21,7 @@ pub(super) fn spawn_status(
     devices: Vec<Arc<DeviceSlot>>,
     diagnosis: watch::Receiver<Arc<crate::diagnostics::Diagnosis>>,
     record: Option<Arc<handgate_record::RecordStats>>,
+    latest: watch::Sender<Arc<hgmsg::GatewayStatus_>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let mut writer = node.writer::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::Reliable { depth: 1 })?;
@@ -64,6 +65,7 @@ pub(super) fn spawn_status(
                             age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
                         });
                     }
+                    latest.send_replace(Arc::new(msg.clone()));
                     let _ = writer.write(msg);
                 }
                 _ = shutdown.changed() => break,

@@ -1,0 +1,422 @@
+//! The gateway's HTTP server (`[http]`, docs/dashboard.md): the live dashboard (embedded
+//! page, a WebSocket of JSON frames), `/metrics` (Prometheus text) and `/healthz`. Bound to
+//! loopback unless the profile chooses another address; accepts no command unless the
+//! profile's `commands = true`, and then only through the page's own front (the same
+//! clamps, ownership and watchdog as any client). Never on a device path: it reads the
+//! devices' state channels and lock-free counters.
+
+mod assets;
+mod feed;
+mod metrics;
+mod web_front;
+mod ws;
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use handgate_adapters::discovery::Snapshot;
+use handgate_idl::handgate::GatewayStatus_;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{broadcast, watch};
+
+use crate::plan::{HttpPlan, Plan};
+use crate::runtime::DeviceSlot;
+
+pub use web_front::PageCommand;
+
+/// HTTP server errors (start-up).
+#[derive(Debug, thiserror::Error)]
+pub enum HttpError {
+    #[error(
+        "cannot listen on {addr}: {source} (another process has the port? set [http] port, \
+         `--http-port 0` for any free port, or [http] enabled = false)"
+    )]
+    Bind {
+        addr: SocketAddr,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// A front as the page lists it.
+#[derive(Debug, Clone)]
+pub struct FrontInfo {
+    pub name: String,
+    pub kind: String,
+    pub cmd_topic: Option<String>,
+    pub state_topic: String,
+    pub devices: Vec<String>,
+}
+
+/// What the server shows and serves: the fleet, its latest status, the page's front.
+pub struct Fleet {
+    pub profile: String,
+    pub devices: Vec<Arc<DeviceSlot>>,
+    pub fronts: Vec<FrontInfo>,
+    pub status: watch::Receiver<Arc<GatewayStatus_>>,
+    pub discovery: watch::Receiver<Arc<Snapshot>>,
+    /// The runtime's clock origin (sample times are seconds since it).
+    pub started: Instant,
+    /// Pages connected now.
+    pub clients: AtomicUsize,
+}
+
+impl Fleet {
+    pub fn new(
+        plan: &Plan,
+        devices: &[Arc<DeviceSlot>],
+        discovery: watch::Receiver<Arc<Snapshot>>,
+        status: watch::Receiver<Arc<GatewayStatus_>>,
+    ) -> Self {
+        let fronts = plan
+            .fronts
+            .iter()
+            .map(|f| FrontInfo {
+                name: f.name.clone(),
+                kind: f.kind.as_str().to_string(),
+                cmd_topic: f.cmd_topic.clone(),
+                state_topic: f.state_topic.clone(),
+                devices: if f.bindings.is_empty() {
+                    f.devices.clone()
+                } else {
+                    f.bindings.iter().map(|b| b.device.clone()).collect()
+                },
+            })
+            .collect();
+        Self {
+            profile: plan.profile.clone(),
+            devices: devices.to_vec(),
+            fronts,
+            status,
+            discovery,
+            started: crate::runtime::epoch(),
+            clients: AtomicUsize::new(0),
+        }
+    }
+}
+
+/// Pages served at once at most (each costs a socket and its share of the frames).
+const MAX_CLIENTS: usize = 16;
+/// Longest request head accepted, bytes.
+const MAX_HEAD: usize = 8 * 1024;
+/// How long a client may take to send its request head.
+const HEAD_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// Binds `[http]` (an error names the address and the fix) and serves it until shutdown.
+pub fn spawn(
+    h: &HttpPlan,
+    fleet: Fleet,
+    by_name: &HashMap<String, Arc<DeviceSlot>>,
+    shutdown: watch::Receiver<bool>,
+) -> Result<Vec<tokio::task::JoinHandle<()>>, HttpError> {
+    let std_listener = std::net::TcpListener::bind(h.addr)
+        .and_then(|l| l.set_nonblocking(true).map(|_| l))
+        .map_err(|source| HttpError::Bind { addr: h.addr, source })?;
+    let listener = TcpListener::from_std(std_listener).map_err(|source| HttpError::Bind { addr: h.addr, source })?;
+    let local = listener.local_addr().unwrap_or(h.addr);
+    if local.ip().is_loopback() {
+        tracing::info!(url = %format!("http://{local}/"), commands = h.commands, "http: listening");
+    } else {
+        tracing::warn!(url = %format!("http://{local}/"), commands = h.commands,
+            "http: listening on a non-loopback address ([http] bind): the dashboard and /metrics are reachable from the network");
+    }
+    let fleet = Arc::new(fleet);
+    let mut tasks = Vec::new();
+    let (frames, _) = broadcast::channel::<Arc<str>>(FRAME_QUEUE);
+    tasks.push(feed::spawn(
+        fleet.clone(),
+        h.sample_hz,
+        frames.clone(),
+        shutdown.clone(),
+    ));
+    let page = if h.commands {
+        let (front, task) =
+            web_front::spawn(&fleet, by_name, h.command_watchdog, shutdown.clone()).map_err(|e| HttpError::Bind {
+                addr: local,
+                source: std::io::Error::other(e.to_string()),
+            })?;
+        tasks.push(task);
+        Some(Arc::new(front))
+    } else {
+        None
+    };
+    let server = Server {
+        fleet,
+        frames,
+        page,
+        sample_hz: h.sample_hz,
+    };
+    let server = Arc::new(server);
+    let mut stop = shutdown.clone();
+    tasks.push(tokio::spawn(async move {
+        loop {
+            tokio::select! {
+                r = listener.accept() => match r {
+                    Ok((stream, peer)) => {
+                        let s = server.clone();
+                        let sd = shutdown.clone();
+                        tokio::spawn(async move {
+                            if let Err(e) = s.connection(stream, peer, sd).await {
+                                tracing::debug!(%peer, error = %e, "http: connection ended");
+                            }
+                        });
+                    }
+                    Err(e) => {
+                        tracing::warn!(error = %e, "http: accept failed");
+                        tokio::time::sleep(Duration::from_millis(100)).await;
+                    }
+                },
+                _ = stop.changed() => break,
+            }
+        }
+    }));
+    Ok(tasks)
+}
+
+/// Frames queued per page before a slow page skips some.
+const FRAME_QUEUE: usize = 256;
+
+pub(crate) struct Server {
+    fleet: Arc<Fleet>,
+    frames: broadcast::Sender<Arc<str>>,
+    page: Option<Arc<web_front::PageFront>>,
+    sample_hz: f64,
+}
+
+/// One parsed request head.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Request {
+    pub method: String,
+    pub path: String,
+    pub headers: Vec<(String, String)>,
+}
+
+impl Request {
+    pub fn header(&self, name: &str) -> Option<&str> {
+        self.headers
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case(name))
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// Parses a complete request head (`None`: incomplete; `Err`: malformed).
+    pub fn parse(buf: &[u8]) -> Result<Option<(Request, usize)>, String> {
+        let mut headers = [httparse::EMPTY_HEADER; 48];
+        let mut req = httparse::Request::new(&mut headers);
+        match req.parse(buf) {
+            Ok(httparse::Status::Complete(n)) => Ok(Some((
+                Request {
+                    method: req.method.unwrap_or("").to_string(),
+                    path: req.path.unwrap_or("/").to_string(),
+                    headers: req
+                        .headers
+                        .iter()
+                        .map(|h| (h.name.to_string(), String::from_utf8_lossy(h.value).into_owned()))
+                        .collect(),
+                },
+                n,
+            ))),
+            Ok(httparse::Status::Partial) => Ok(None),
+            Err(e) => Err(e.to_string()),
+        }
+    }
+}
+
+/// Whether a browser's `Origin` is the page's own (same host and port as `Host`). A request
+/// without `Origin` is not from a browser page. Refuses another site's page opening the
+/// WebSocket (cross-site WebSocket hijacking, DNS rebinding).
+pub(crate) fn same_origin(req: &Request) -> bool {
+    let Some(origin) = req.header("origin") else {
+        return true;
+    };
+    let Some(host) = req.header("host") else {
+        return false;
+    };
+    let origin_host = origin
+        .strip_prefix("http://")
+        .or_else(|| origin.strip_prefix("https://"))
+        .unwrap_or("");
+    origin_host.eq_ignore_ascii_case(host)
+}
+
+pub(crate) struct Response {
+    pub status: u16,
+    pub content_type: &'static str,
+    pub body: Vec<u8>,
+}
+
+impl Response {
+    pub fn new(status: u16, content_type: &'static str, body: impl Into<Vec<u8>>) -> Self {
+        Self {
+            status,
+            content_type,
+            body: body.into(),
+        }
+    }
+
+    pub fn text(status: u16, body: impl Into<String>) -> Self {
+        Self::new(status, "text/plain; charset=utf-8", body.into().into_bytes())
+    }
+
+    fn head(&self) -> String {
+        let reason = match self.status {
+            200 => "OK",
+            400 => "Bad Request",
+            403 => "Forbidden",
+            404 => "Not Found",
+            405 => "Method Not Allowed",
+            431 => "Request Header Fields Too Large",
+            503 => "Service Unavailable",
+            _ => "Error",
+        };
+        format!(
+            "HTTP/1.1 {} {reason}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\n\
+             X-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\n",
+            self.status,
+            self.content_type,
+            self.body.len()
+        )
+    }
+}
+
+impl Server {
+    async fn connection(
+        self: Arc<Self>,
+        mut stream: TcpStream,
+        peer: SocketAddr,
+        shutdown: watch::Receiver<bool>,
+    ) -> std::io::Result<()> {
+        let _ = stream.set_nodelay(true);
+        let mut buf = Vec::with_capacity(1024);
+        let parsed = tokio::time::timeout(HEAD_TIMEOUT, async {
+            loop {
+                let mut chunk = [0u8; 1024];
+                let n = stream.read(&mut chunk).await?;
+                if n == 0 {
+                    return Ok::<_, std::io::Error>(None);
+                }
+                buf.extend_from_slice(&chunk[..n]);
+                match Request::parse(&buf) {
+                    Ok(Some((r, _))) => return Ok(Some(Ok(r))),
+                    Ok(None) if buf.len() > MAX_HEAD => return Ok(Some(Err(431))),
+                    Ok(None) => continue,
+                    Err(_) => return Ok(Some(Err(400))),
+                }
+            }
+        })
+        .await;
+        let req = match parsed {
+            Ok(Ok(Some(Ok(r)))) => r,
+            Ok(Ok(Some(Err(code)))) => {
+                return write(&mut stream, Response::text(code, "bad request\n"), false).await;
+            }
+            _ => return Ok(()),
+        };
+        let head_only = req.method == "HEAD";
+        if req.method != "GET" && !head_only {
+            return write(&mut stream, Response::text(405, "only GET\n"), false).await;
+        }
+        let path = req.path.split('?').next().unwrap_or("/").to_string();
+        if path == "/ws" {
+            if !same_origin(&req) {
+                tracing::warn!(%peer, origin = req.header("origin").unwrap_or(""), "http: refused a WebSocket from another site's page");
+                return write(
+                    &mut stream,
+                    Response::text(403, "cross-origin WebSocket refused\n"),
+                    false,
+                )
+                .await;
+            }
+            let Some(key) = req.header("sec-websocket-key").map(str::to_string) else {
+                return write(&mut stream, Response::text(400, "WebSocket upgrade expected\n"), false).await;
+            };
+            if self.fleet.clients.load(Ordering::Relaxed) >= MAX_CLIENTS {
+                return write(&mut stream, Response::text(503, "too many dashboard clients\n"), false).await;
+            }
+            return ws::serve(self, stream, peer, &key, shutdown).await;
+        }
+        let resp = self.route(&path);
+        write(&mut stream, resp, head_only).await
+    }
+
+    fn route(&self, path: &str) -> Response {
+        match path {
+            "/metrics" => Response::new(
+                200,
+                "text/plain; version=0.0.4; charset=utf-8",
+                metrics::render(&self.fleet, self.page.is_some()),
+            ),
+            "/healthz" => {
+                let (ok, text) = metrics::health(&self.fleet, Instant::now());
+                Response::text(if ok { 200 } else { 503 }, text)
+            }
+            "/api/hello" => Response::new(
+                200,
+                "application/json",
+                feed::hello(&self.fleet, self.page.is_some(), self.sample_hz),
+            ),
+            "/api/status" => Response::new(200, "application/json", feed::status(&self.fleet)),
+            _ => match assets::get(path) {
+                Some((ty, bytes)) => Response::new(200, ty, bytes.to_vec()),
+                None => Response::text(404, "not found\n"),
+            },
+        }
+    }
+}
+
+async fn write(stream: &mut TcpStream, r: Response, head_only: bool) -> std::io::Result<()> {
+    stream.write_all(r.head().as_bytes()).await?;
+    if !head_only {
+        stream.write_all(&r.body).await?;
+    }
+    stream.shutdown().await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn req(headers: &[(&str, &str)]) -> Request {
+        Request {
+            method: "GET".into(),
+            path: "/ws".into(),
+            headers: headers.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
+        }
+    }
+
+    #[test]
+    fn request_heads_parse_incomplete_and_malformed_ones_are_told_apart() {
+        let (r, n) = Request::parse(b"GET /metrics HTTP/1.1\r\nHost: 127.0.0.1:8880\r\n\r\nrest")
+            .unwrap()
+            .unwrap();
+        assert_eq!((r.method.as_str(), r.path.as_str(), n), ("GET", "/metrics", 47));
+        assert_eq!(r.header("HOST"), Some("127.0.0.1:8880"));
+        assert_eq!(Request::parse(b"GET /metrics HTTP/1.1\r\nHost: x").unwrap(), None);
+        assert!(Request::parse(b"GET /\x01 HTTP/1.1\r\n\r\n").is_err());
+    }
+
+    #[test]
+    fn only_the_pages_own_origin_may_open_the_websocket() {
+        assert!(
+            same_origin(&req(&[("Host", "127.0.0.1:8880")])),
+            "no Origin: not a browser page"
+        );
+        assert!(same_origin(&req(&[
+            ("Host", "127.0.0.1:8880"),
+            ("Origin", "http://127.0.0.1:8880")
+        ])));
+        assert!(!same_origin(&req(&[
+            ("Host", "127.0.0.1:8880"),
+            ("Origin", "http://evil.example")
+        ])));
+        assert!(!same_origin(&req(&[
+            ("Host", "127.0.0.1:8880"),
+            ("Origin", "http://127.0.0.1:9999")
+        ])));
+        assert!(!same_origin(&req(&[("Origin", "http://127.0.0.1:8880")])), "no Host");
+    }
+}

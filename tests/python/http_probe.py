@@ -1,0 +1,75 @@
+"""Independent clients of handgate's HTTP server (tests/tests/http.rs), one per subcommand.
+
+  metrics URL             parse URL/metrics with prometheus_client's own text parser; print
+                          one JSON line {"families": {name: type}, "samples": {"name{labels}": v}}
+  ws URL [--send F ...] [--every-ms N --for-ms M]
+                          open URL/ws (websockets); print each frame received as "<type> <json>";
+                          send the frames F (re-sent every N ms for M ms, like the page's
+                          slider), then print "sent_done"; "closed" when the server closes.
+"""
+
+import asyncio
+import json
+import sys
+import urllib.request
+
+
+def metrics(url):
+    from prometheus_client.parser import text_string_to_metric_families
+
+    text = urllib.request.urlopen(url + "metrics", timeout=10).read().decode()
+    families = {}
+    samples = {}
+    for fam in text_string_to_metric_families(text):
+        families[fam.name] = fam.type
+        for s in fam.samples:
+            labels = ",".join(f'{k}="{v}"' for k, v in sorted(s.labels.items()))
+            # JSON has no NaN (a never-measured age): null.
+            samples[f"{s.name}{{{labels}}}"] = None if s.value != s.value else s.value
+    print(json.dumps({"families": families, "samples": samples}), flush=True)
+
+
+async def ws(url, args):
+    import argparse
+
+    import websockets
+
+    ap = argparse.ArgumentParser(prog="http_probe.py ws")
+    ap.add_argument("--send", action="append", default=[], help="a frame (JSON text) to send")
+    ap.add_argument("--every-ms", type=float, default=0, help="re-send the frames this often")
+    ap.add_argument("--for-ms", type=float, default=0, help="keep re-sending this long")
+    a = ap.parse_args(args)
+    uri = url.replace("http://", "ws://") + "ws"
+    async with websockets.connect(uri, max_size=2**24) as sock:
+
+        async def pump():
+            async for m in sock:
+                print(f"{json.loads(m).get('type')} {m}", flush=True)
+
+        async def sender():
+            loop = asyncio.get_running_loop()
+            end = loop.time() + a.for_ms / 1000
+            while True:
+                for f in a.send:
+                    await sock.send(f)
+                if a.every_ms <= 0 or loop.time() >= end:
+                    break
+                await asyncio.sleep(a.every_ms / 1000)
+            print("sent_done", flush=True)
+
+        s = asyncio.ensure_future(sender())
+        await pump()
+        s.cancel()
+    print("closed", flush=True)
+
+
+if __name__ == "__main__":
+    cmd, url = sys.argv[1], sys.argv[2]
+    if not url.endswith("/"):
+        url += "/"
+    if cmd == "metrics":
+        metrics(url)
+    elif cmd == "ws":
+        asyncio.run(ws(url, sys.argv[3:]))
+    else:
+        sys.exit(f"unknown subcommand {cmd}")
