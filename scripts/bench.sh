@@ -10,6 +10,8 @@
 #   4. fleet      16 Dex3 + 16 Dex1 emulated in one gateway, 30 s
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
 #   6. record     handgate record of every topic of the default fleet beside a gateway, 600 s
+#   7. dashboard  the default fleet idle vs watched (3 dashboard tabs in headless Chromium and a
+#                 Foxglove client), 30 s per phase, twice (bench/dashboard_cost.py)
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
 # BENCH_ONLY="codec loop busy hop fleet simall record" to run a subset (the report keeps only what this run made).
 set -euo pipefail
@@ -18,11 +20,11 @@ root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop busy hop fleet simall record"}
+only=${BENCH_ONLY:-"codec loop busy hop fleet simall record dashboard"}
 quick=${BENCH_QUICK:-0}
 
-loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600
-if [ "$quick" = 1 ]; then loop_secs=5; busy_secs=5; fleet_secs=5; samples=300; record_secs=10; fi
+loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600; dash_secs=30
+if [ "$quick" = 1 ]; then loop_secs=5; busy_secs=5; fleet_secs=5; samples=300; record_secs=10; dash_secs=5; fi
 
 want() { [[ " $only " == *" $1 "* ]]; }
 
@@ -89,8 +91,16 @@ if want record; then
     --dir "$target/bench-recording/fleet" --out "$results/record.json"
 fi
 
+if want dashboard; then
+  echo "bench: 7. the default fleet idle vs watched (${dash_secs} s per phase)"
+  .venv/bin/python bench/dashboard_cost.py "$bin/handgate" "$results/dashboard.json" --phase "$dash_secs"
+fi
+
 "$bin/handgate-bench" machine --out "$results/machine_end.json"
 "$bin/handgate-bench" report --results "$results" --repo "$root" --out "$root/docs/benchmarks.md"
+if [ -f "$results/dashboard.json" ]; then
+  .venv/bin/python bench/dashboard_cost.py --report "$results/dashboard.json" >> "$root/docs/benchmarks.md"
+fi
 # Keep the raw results of this run next to the report, so every figure can be re-derived.
 raw="$root/docs/benchmarks/raw"
 rm -rf "$raw"
