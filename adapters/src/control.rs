@@ -62,8 +62,8 @@ pub struct Counters {
 /// `+Inf` bucket is implied): 5–10 µs wide around the 1 kHz loops' 1 ms, 10 µs around the
 /// 500 Hz loops' 2 ms, coarse beyond (the benchmark's p99 comes from these).
 pub const PERIOD_BOUNDS_S: [f64; 22] = [
-    0.0002, 0.0005, 0.0009, 0.00095, 0.00098, 0.00099, 0.000995, 0.001005, 0.00101, 0.00102, 0.00105, 0.0011,
-    0.0015, 0.0019, 0.00199, 0.00201, 0.0021, 0.0025, 0.005, 0.01, 0.05, 0.25,
+    0.0002, 0.0005, 0.0009, 0.00095, 0.00098, 0.00099, 0.000995, 0.001005, 0.00101, 0.00102, 0.00105, 0.0011, 0.0015,
+    0.0019, 0.00199, 0.00201, 0.0021, 0.0025, 0.005, 0.01, 0.05, 0.25,
 ];
 
 /// Buckets of [`PERIOD_BOUNDS_S`] plus `+Inf`.
@@ -301,7 +301,10 @@ mod tests {
         assert_eq!(s.counts[at(0.00201)], 1, "2 ms");
         assert_eq!(s.counts[PERIOD_BOUNDS_S.len()], 1, "beyond the last bound: +Inf");
         assert_eq!(s.count(), 6);
-        assert_eq!(s.sum_ns, 1_000_000 * 2 + 1_004_000 + 1_007_000 + 2_000_000 + 900_000_000);
+        assert_eq!(
+            s.sum_ns,
+            1_000_000 * 2 + 1_004_000 + 1_007_000 + 2_000_000 + 900_000_000
+        );
     }
     use crate::model::{DeviceKind, JointId, Side};
 

@@ -140,6 +140,22 @@ fn scopeguard(c: std::process::Child) -> Guard {
     Guard(c)
 }
 
+/// A page (the websockets probe) sending `frame` every 100 ms for `for_ms`, as the
+/// dashboard's slider does while commanding is on.
+fn page(url: &str, frame: &str, for_ms: u32) -> PyProcess {
+    let args = [
+        "ws",
+        url,
+        "--send",
+        frame,
+        "--every-ms",
+        "100",
+        "--for-ms",
+        &for_ms.to_string(),
+    ];
+    PyProcess::spawn("http_probe.py", &args.map(String::from)).unwrap()
+}
+
 /// The frames of one type a probe printed (`<type> <json>` lines), waiting for `n` of them.
 fn frames(p: &PyProcess, ty: &str, n: usize) -> Vec<Value> {
     (0..n)
@@ -155,20 +171,7 @@ fn without_the_profiles_opt_in_the_dashboard_accepts_no_command() {
     let url = gw.http_url().unwrap();
     assert!(url.starts_with("http://127.0.0.1:"), "{url}");
     let cmd = r#"{"type":"command","device":"dex1_left","closure":0.9}"#;
-    let probe = PyProcess::spawn(
-        "http_probe.py",
-        &[
-            "ws".into(),
-            url.clone(),
-            "--send".into(),
-            cmd.into(),
-            "--every-ms".into(),
-            "100".into(),
-            "--for-ms".into(),
-            "600".into(),
-        ],
-    )
-    .unwrap();
+    let probe = page(&url, cmd, 600);
     let hello = &frames(&probe, "hello", 1)[0];
     assert_eq!(hello["commands"], false);
     let names: Vec<&str> = hello["devices"]
@@ -227,20 +230,7 @@ fn with_the_opt_in_page_commands_go_through_the_front_rules_and_its_watchdog() {
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let url = gw.http_url().unwrap();
     let cmd = r#"{"type":"command","device":"jaw","closure":0.8}"#;
-    let probe = PyProcess::spawn(
-        "http_probe.py",
-        &[
-            "ws".into(),
-            url.clone(),
-            "--send".into(),
-            cmd.into(),
-            "--every-ms".into(),
-            "100".into(),
-            "--for-ms".into(),
-            "1500".into(),
-        ],
-    )
-    .unwrap();
+    let probe = page(&url, cmd, 1500);
     assert_eq!(frames(&probe, "hello", 1)[0]["commands"], true);
     // The closure becomes a target (clamped by the table) and the jaw moves towards it.
     let deadline = Instant::now() + WAIT;
