@@ -224,11 +224,13 @@ impl PadScale {
 }
 
 /// A kind's tactile pads as the dashboard draws them.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct PadLayout {
     /// Right hand; the left hand is its mirror image (`x` → `1 - x - w`).
     pub right: &'static [PadPlace],
     pub scale: PadScale,
+    /// A pad's taxel grid, rows × cols, by its name (known before any state arrives).
+    pub shape: fn(&str) -> (u16, u16),
 }
 
 impl PadLayout {

@@ -42,6 +42,15 @@ mod tests {
                 other => panic!("{other} has pads: add what its state carries here"),
             };
             assert_eq!(&names, want, "{kind}");
+            let shapes: Vec<(u16, u16)> = layout.right.iter().map(|p| (layout.shape)(p.name)).collect();
+            let want_shapes: Vec<(u16, u16)> = match kind.as_str() {
+                "dex3" => vec![(1, 12); crate::dex3::PAD_COUNT],
+                _ => crate::inspire_ftp::front::SEGMENTS
+                    .iter()
+                    .map(|(_, r, c)| (*r, *c))
+                    .collect(),
+            };
+            assert_eq!(shapes, want_shapes, "{kind}");
             for side in [Side::Left, Side::Right] {
                 for p in layout.places(side) {
                     assert!(

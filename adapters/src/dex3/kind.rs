@@ -103,6 +103,7 @@ static PADS: PadLayout = PadLayout {
         zero: super::PRESS_VALID_MIN,
         full: 10.0 * super::PRESS_VALID_MIN,
     },
+    shape: |_| (1, super::dds_service_emulator::PAD_POINTS as u16),
 };
 
 /// The Dex3-1's factory.

@@ -153,6 +153,13 @@ static PADS: PadLayout = PadLayout {
         zero: 0.0,
         full: 4095.0,
     },
+    shape: |name| {
+        super::front::SEGMENTS
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map(|(_, r, c)| (*r, *c))
+            .unwrap_or((0, 0))
+    },
 };
 
 /// The Inspire FTP's factory.

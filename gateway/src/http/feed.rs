@@ -62,18 +62,12 @@ pub fn hello(fleet: &Fleet, commands: bool, sample_hz: f64) -> String {
                 .iter()
                 .map(|j| json!({"name": j.name, "min": num(j.limits.min), "max": num(j.limits.max)}))
                 .collect();
-            let state = d.device.state().borrow().clone();
             let pads: Vec<Value> = match p.kind.factory().pads() {
                 Some(layout) => layout
                     .places(p.side)
                     .iter()
                     .map(|place| {
-                        let (rows, cols) = state
-                            .pads
-                            .iter()
-                            .find(|s| s.name == place.name)
-                            .map(|s| (s.rows, s.cols))
-                            .unwrap_or((0, 0));
+                        let (rows, cols) = (layout.shape)(place.name);
                         json!({"name": place.name, "rows": rows, "cols": cols,
                             "x": num(place.x), "y": num(place.y), "w": num(place.w), "h": num(place.h)})
                     })
