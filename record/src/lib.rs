@@ -19,7 +19,7 @@ pub mod types;
 pub mod writer;
 
 pub use recorder::{Recorder, TopicSpec};
-pub use tap::{Sample, Subscribe, Tap, Tapped};
+pub use tap::{Sample, Subscribe, Tap, TapHandle, Tapped};
 pub use writer::{Compression, RecordOptions, RecordStats};
 
 /// Errors of recording, replay and export.

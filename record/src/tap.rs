@@ -85,6 +85,7 @@ pub enum Subscribe {
     OnDemand,
 }
 
+#[derive(Debug)]
 enum Ctl {
     Subscribe(usize),
     Unsubscribe(usize),
@@ -154,6 +155,12 @@ impl Tap {
         let _ = self.ctl.send(Ctl::Unsubscribe(i));
     }
 
+    /// A handle that subscribes and unsubscribes from other threads (after the tap stopped,
+    /// its requests are ignored).
+    pub fn handle(&self) -> TapHandle {
+        TapHandle { ctl: self.ctl.clone() }
+    }
+
     /// Stops after one last poll and waits for the thread (its readers are dropped there).
     pub fn stop(mut self) {
         self.halt();
@@ -164,6 +171,24 @@ impl Tap {
         if let Some(p) = self.poller.take() {
             let _ = p.join();
         }
+    }
+}
+
+/// Asks a [`Tap`] for topics from another thread ([`Tap::handle`]).
+#[derive(Debug, Clone)]
+pub struct TapHandle {
+    ctl: Sender<Ctl>,
+}
+
+impl TapHandle {
+    /// As [`Tap::subscribe`].
+    pub fn subscribe(&self, i: usize) {
+        let _ = self.ctl.send(Ctl::Subscribe(i));
+    }
+
+    /// As [`Tap::unsubscribe`].
+    pub fn unsubscribe(&self, i: usize) {
+        let _ = self.ctl.send(Ctl::Unsubscribe(i));
     }
 }
 
