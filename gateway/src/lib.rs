@@ -3,6 +3,8 @@
 pub mod cli;
 pub mod diagnostics;
 pub mod doctor;
+#[cfg(feature = "foxglove")]
+pub mod live;
 pub mod plan;
 pub mod profile;
 pub mod recording;

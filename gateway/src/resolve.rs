@@ -226,6 +226,15 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
             max_seconds: r.max_seconds,
             zstd: r.zstd,
         }),
+        foxglove: p.foxglove_enabled().then(|| {
+            let f = p.foxglove();
+            crate::plan::FoxglovePlan {
+                // Validated: an IP address.
+                addr: std::net::SocketAddr::new(f.bind.parse().unwrap_or(std::net::Ipv4Addr::LOCALHOST.into()), f.port),
+                topics: f.topics,
+                required: p.foxglove.is_some(),
+            }
+        }),
         devices,
         fronts,
     })

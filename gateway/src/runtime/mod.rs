@@ -44,6 +44,9 @@ pub enum RuntimeError {
     ForeignStateWriter(String),
     #[error("[record]: {0}")]
     Record(#[from] handgate_record::RecordError),
+    #[cfg(feature = "foxglove")]
+    #[error("[foxglove]: {0}")]
+    Foxglove(#[from] crate::live::LiveError),
 }
 
 /// Per-device counters kept by the fronts bound to it.
@@ -85,6 +88,9 @@ pub struct Runtime {
     pub discovery: Discovery,
     /// The `[record]` recorder (its own threads; never on a device path).
     recorder: Option<handgate_record::Recorder>,
+    /// The `[foxglove]` live server (its own threads and runtime; never on a device path).
+    #[cfg(feature = "foxglove")]
+    live: Option<crate::live::Live>,
 }
 
 impl Runtime {
@@ -98,6 +104,11 @@ impl Runtime {
             discovery: discovery.subscribe(),
             shared: Default::default(),
         };
+        // Before any device opens, so a server that cannot listen stops the start without
+        // touching hardware. Its DDS readers exist only while a client subscribes, by then
+        // the fronts serve what it advertises.
+        #[cfg(feature = "foxglove")]
+        let live = start_live(&node, plan)?;
         let mut shared = Shared::default();
         let opened = open_devices(&node, plan, &mut shared)?;
         let served = crate::diagnostics::served(plan);
@@ -152,6 +163,8 @@ impl Runtime {
             shared,
             discovery,
             recorder,
+            #[cfg(feature = "foxglove")]
+            live,
         })
     }
 
@@ -177,6 +190,10 @@ impl Runtime {
                 Err(e) => tracing::warn!(error = %e, "recording not finished cleanly"),
             }
         }
+        #[cfg(feature = "foxglove")]
+        if let Some(live) = self.live.take() {
+            live.stop().await;
+        }
         let mut out = Vec::new();
         let futs = self.devices.iter().map(|d| {
             let d = d.clone();
@@ -192,6 +209,28 @@ impl Runtime {
             out.push(r);
         }
         out
+    }
+}
+
+/// The `[foxglove]` live server. A profile with a `[foxglove]` section needs it: its failure
+/// stops the start.
+/// Without one (the defaults of a handgate built with the feature) a failure, such as the
+/// port taken by another gateway, is a warning and the gateway runs without it.
+#[cfg(feature = "foxglove")]
+fn start_live(node: &Node, plan: &Plan) -> Result<Option<crate::live::Live>, RuntimeError> {
+    let Some(f) = &plan.foxglove else {
+        return Ok(None);
+    };
+    match crate::live::Live::start(node, plan, f) {
+        Ok(l) => Ok(Some(l)),
+        Err(e) if !f.required => {
+            tracing::warn!(
+                error = %e,
+                "foxglove: not serving (no [foxglove] section in the profile: the gateway runs without it)"
+            );
+            Ok(None)
+        }
+        Err(e) => Err(e.into()),
     }
 }
 
