@@ -6,7 +6,8 @@
 #     test's network namespaces); systemd (only for
 #     systemd-analyze, which checks the shipped unit; nothing is started).
 #   - .venv/ (git-ignored): cyclonedds==0.10.2 built against that library, and the official
-#     unitree-sdk2 (unitree_sdk2py) for the interop tests.
+#     unitree-sdk2 (unitree_sdk2py) for the interop tests; mcap readers and websockets for the
+#     recording and Foxglove tests.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -73,6 +74,12 @@ if [ "$("$vpy" -m pip show mcap-ros2-support 2>/dev/null | sed -n 's/^Version: /
   || [ "$("$vpy" -m pip show mcap 2>/dev/null | sed -n 's/^Version: //p')" != "1.6.0" ]; then
   echo "setup: installing mcap==1.6.0 and mcap-ros2-support==0.6.0"
   "$vpy" -m pip install -q "mcap==1.6.0" "mcap-ros2-support==0.6.0"
+fi
+# The Foxglove live server's test speaks foxglove.websocket.v1 itself over the websockets
+# package (tests/python/foxglove_client.py, docs/foxglove.md).
+if [ "$("$vpy" -m pip show websockets 2>/dev/null | sed -n 's/^Version: //p')" != "17.4" ]; then
+  echo "setup: installing websockets==17.4"
+  "$vpy" -m pip install -q "websockets==17.4"
 fi
 # unitree-sdk2 1.0.1's __init__ imports a subpackage `b2` that the wheel does not ship
 # (docs/sources.md §8). Give it an empty one inside our venv so `import unitree_sdk2py` works.
