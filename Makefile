@@ -1,6 +1,7 @@
 # handgate: two commands on a fresh Debian machine with the Rust toolchain.
 #   make run   - install what is missing, build, start the gateway on its embedded default
-#                profile (the simulated fleet on DDS domain 1)
+#                profile (the simulated fleet on DDS domain 1), with the Foxglove live server
+#                on ws://127.0.0.1:8765 (docs/foxglove.md)
 #   make test  - install what is missing (incl. the interop venv), then the whole suite
 #                (with the short reliability suites and a 15 s smoke run of every fuzz target)
 #   make reliability - the full reliability suites (docs/reliability.md): 10,000 malformed
@@ -12,6 +13,9 @@
 SHELL := /bin/bash
 CARGO ?= cargo
 ARGS ?=
+# The gateway's features: the Foxglove WebSocket live server (docs/foxglove.md; about 18 s more
+# of a clean debug build, no TLS or compression). The tests build the binary with it too.
+FEATURES ?= --features handgate/foxglove
 
 .PHONY: run test setup build lint fmt bench reliability mutants fixtures clean-venv
 
@@ -19,21 +23,21 @@ setup:
 	@scripts/setup.sh
 
 build: setup
-	$(CARGO) build --release -p handgate
+	$(CARGO) build --release -p handgate $(FEATURES)
 
 run: build
-	$(CARGO) run --release -p handgate -- run $(ARGS)
+	$(CARGO) run --release -p handgate $(FEATURES) -- run $(ARGS)
 
 test: setup
-	$(CARGO) build --workspace --all-targets
-	$(CARGO) test --workspace --no-fail-fast
+	$(CARGO) build --workspace --all-targets $(FEATURES)
+	$(CARGO) test --workspace --no-fail-fast $(FEATURES)
 	scripts/fuzz.sh smoke 15
-	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	$(CARGO) clippy --workspace --all-targets $(FEATURES) -- -D warnings
 	$(CARGO) fmt --all -- --check
 
 FUZZ_SECS ?= 600
 reliability: setup
-	$(CARGO) build -p handgate
+	$(CARGO) build -p handgate $(FEATURES)
 	HANDGATE_RELIABILITY_FULL=1 $(CARGO) test -p handgate-tests --test reliability -- --nocapture --test-threads=1
 	scripts/fuzz.sh full $(FUZZ_SECS)
 	scripts/mutants.sh all
@@ -48,7 +52,7 @@ bench: setup
 	@scripts/bench.sh
 
 lint:
-	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	$(CARGO) clippy --workspace --all-targets $(FEATURES) -- -D warnings
 	$(CARGO) fmt --all -- --check
 
 fmt:

@@ -6,7 +6,8 @@
 #     test's network namespaces); systemd (only for
 #     systemd-analyze, which checks the shipped unit; nothing is started).
 #   - .venv/ (git-ignored): cyclonedds==0.10.2 built against that library, and the official
-#     unitree-sdk2 (unitree_sdk2py) for the interop tests.
+#     unitree-sdk2 (unitree_sdk2py) for the interop tests; mcap readers and websockets for the
+#     recording and Foxglove tests.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -75,7 +76,9 @@ if [ "$("$vpy" -m pip show mcap-ros2-support 2>/dev/null | sed -n 's/^Version: /
   "$vpy" -m pip install -q "mcap==1.6.0" "mcap-ros2-support==0.6.0"
 fi
 # The HTTP server's tests: prometheus-client's own text-format parser reads /metrics; the
-# websockets package is the dashboard's protocol client (docs/dashboard.md).
+# websockets package is the dashboard's protocol client (docs/dashboard.md) and the Foxglove
+# live server's (tests/python/foxglove_client.py speaks foxglove.websocket.v1 itself,
+# docs/foxglove.md).
 if [ "$("$vpy" -m pip show prometheus-client 2>/dev/null | sed -n 's/^Version: //p')" != "0.26.0" ] \
   || [ "$("$vpy" -m pip show websockets 2>/dev/null | sed -n 's/^Version: //p')" != "17.4" ]; then
   echo "setup: installing prometheus-client==0.26.0 and websockets==17.4"

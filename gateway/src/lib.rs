@@ -4,6 +4,8 @@ pub mod cli;
 pub mod diagnostics;
 pub mod doctor;
 pub mod http;
+#[cfg(feature = "foxglove")]
+pub mod live;
 pub mod plan;
 pub mod profile;
 pub mod recording;

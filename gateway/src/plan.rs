@@ -71,6 +71,18 @@ pub struct HttpPlan {
     pub command_watchdog: Duration,
 }
 
+/// The gateway's Foxglove WebSocket live server (`[foxglove]`, docs/foxglove.md).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FoxglovePlan {
+    pub addr: std::net::SocketAddr,
+    /// Topic globs; empty: the state topics and status.
+    pub topics: Vec<String>,
+    /// The profile has a `[foxglove]` section: a server that cannot listen stops the start.
+    /// Without one (the defaults), it is a warning and the gateway runs without it (a second
+    /// gateway on the machine, a test's gateways).
+    pub required: bool,
+}
+
 /// The whole fleet.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
@@ -92,6 +104,8 @@ pub struct Plan {
     pub record: Option<RecordPlan>,
     /// `[http]`; `None`: off.
     pub http: Option<HttpPlan>,
+    /// `[foxglove]`; `None`: off (or not built in).
+    pub foxglove: Option<FoxglovePlan>,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

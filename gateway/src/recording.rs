@@ -8,19 +8,32 @@ use handgate_record::TopicSpec;
 
 use crate::plan::Plan;
 
-/// The topics of `plan` selected by `globs` (DDS or ROS 2 names; none: all).
-pub fn topics(plan: &Plan, globs: &[String]) -> Vec<TopicSpec> {
-    let mut out: Vec<TopicSpec> = Vec::new();
+/// Every topic `plan` serves (each (topic, type) once, plan order, status last), with
+/// whether it carries commands: what fronts read from clients and what DDS-client devices
+/// write to their robot service.
+fn served_topics(plan: &Plan) -> Vec<(TopicSpec, bool)> {
+    use crate::diagnostics::Owner;
+    use handgate_adapters::discovery::Role;
+    let mut out: Vec<(TopicSpec, bool)> = Vec::new();
     // A front that follows its clients' types (Dex1 `auto`) serves several types on one
     // topic: each is a channel of its own.
     let served = crate::diagnostics::served(plan).into_iter().flat_map(|s| {
+        let command = matches!(
+            (&s.owner, s.served.role),
+            (Owner::Front(_), Role::Reader) | (Owner::Device(_), Role::Writer)
+        );
         let s = s.served;
         std::iter::once(s.type_name)
             .chain(s.also)
-            .map(|ty| TopicSpec {
-                dds_topic: s.topic.clone(),
-                dds_type: ty,
-                qos: s.qos,
+            .map(|ty| {
+                (
+                    TopicSpec {
+                        dds_topic: s.topic.clone(),
+                        dds_type: ty,
+                        qos: s.qos,
+                    },
+                    command,
+                )
             })
             .collect::<Vec<_>>()
     });
@@ -29,16 +42,42 @@ pub fn topics(plan: &Plan, globs: &[String]) -> Vec<TopicSpec> {
         dds_type: handgate::GatewayStatus_::DDS_TYPE_NAME.to_string(),
         qos: Qos::Reliable { depth: 1 }.served(),
     };
-    for t in served.chain(std::iter::once(status)) {
-        if handgate_record::selected(globs, &t.dds_topic)
-            && !out
-                .iter()
-                .any(|o| o.dds_topic == t.dds_topic && o.dds_type == t.dds_type)
+    for (t, command) in served.chain(std::iter::once((status, false))) {
+        if !out
+            .iter()
+            .any(|(o, _)| o.dds_topic == t.dds_topic && o.dds_type == t.dds_type)
         {
-            out.push(t);
+            out.push((t, command));
         }
     }
     out
+}
+
+/// The topics of `plan` selected by `globs` (DDS or ROS 2 names; none: all).
+pub fn topics(plan: &Plan, globs: &[String]) -> Vec<TopicSpec> {
+    served_topics(plan)
+        .into_iter()
+        .filter(|(t, _)| handgate_record::selected(globs, &t.dds_topic))
+        .map(|(t, _)| t)
+        .collect()
+}
+
+/// The topics `[foxglove]` serves live: those selected by `globs` (DDS or ROS 2 names, over
+/// every topic, commands included), or with none every topic that is not a command topic
+/// (each front's state, the canonical states, `rt/joint_states`, a DDS-client device's robot
+/// state) and status.
+pub fn live_topics(plan: &Plan, globs: &[String]) -> Vec<TopicSpec> {
+    served_topics(plan)
+        .into_iter()
+        .filter(|(t, command)| {
+            if globs.is_empty() {
+                !command
+            } else {
+                handgate_record::selected(globs, &t.dds_topic)
+            }
+        })
+        .map(|(t, _)| t)
+        .collect()
 }
 
 /// Recording options from the CLI's / profile's values.
@@ -96,5 +135,39 @@ mod tests {
             ],
             "{dex1:?}"
         );
+    }
+
+    #[test]
+    fn live_topics_are_the_states_and_status_unless_globs_say_otherwise() {
+        let loaded = crate::profile::load(&crate::profile::LoadOptions {
+            env: crate::profile::EnvLayer::Ignore,
+            search_dirs: Some(vec![]),
+            ..Default::default()
+        })
+        .unwrap();
+        let plan = crate::resolve::plan(&loaded.profile).unwrap();
+        let live = live_topics(&plan, &[]);
+        let names: Vec<&str> = live.iter().map(|t| t.dds_topic.as_str()).collect();
+        for f in &plan.fronts {
+            if let Some(c) = &f.cmd_topic {
+                assert!(!names.contains(&c.as_str()), "{c} is a command topic: {names:?}");
+            }
+            assert!(names.contains(&f.state_topic.as_str()), "{}: {names:?}", f.state_topic);
+        }
+        assert!(!names.contains(&"rt/unitree_actuator/cmd"), "{names:?}");
+        for want in [
+            "rt/joint_states",
+            "rt/dex3/left/state",
+            "rt/lf/dex3/left/state",
+            "rt/handgate/dex3_left/state",
+            "rt/dex1/right/state",
+            plan.status_topic.as_str(),
+        ] {
+            assert!(names.contains(&want), "{want}: {names:?}");
+        }
+        // Globs choose among every topic, commands included.
+        let cmds = live_topics(&plan, &["/dex3/*/cmd".into(), "/joint_states".into()]);
+        let names: Vec<&str> = cmds.iter().map(|t| t.dds_topic.as_str()).collect();
+        assert_eq!(names, ["rt/dex3/left/cmd", "rt/dex3/right/cmd", "rt/joint_states"]);
     }
 }

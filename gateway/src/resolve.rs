@@ -236,6 +236,15 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
             sample_hz: p.http.sample_hz.0,
             command_watchdog: p.http.command_watchdog_ms.as_duration(),
         }),
+        foxglove: p.foxglove_enabled().then(|| {
+            let f = p.foxglove();
+            crate::plan::FoxglovePlan {
+                // Validated: an IP address.
+                addr: std::net::SocketAddr::new(f.bind.parse().unwrap_or(std::net::Ipv4Addr::LOCALHOST.into()), f.port),
+                topics: f.topics,
+                required: p.foxglove.is_some(),
+            }
+        }),
         devices,
         fronts,
     })

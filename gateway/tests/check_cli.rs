@@ -156,3 +156,33 @@ fn run_with_an_invalid_profile_exits_2_before_starting() {
         stderr(&o)
     );
 }
+
+#[test]
+fn check_shows_the_foxglove_section_or_how_to_build_it_in() {
+    let o = handgate(&["check"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    let p = write(
+        "foxglove.toml",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n\
+         [foxglove]\nport = 9001\ntopics = [\"/dex1/*\"]\n",
+    );
+    let with = handgate(&["check", p.to_str().unwrap()], &[]);
+    if cfg!(feature = "foxglove") {
+        assert!(
+            out.contains("foxglove: ws://127.0.0.1:8765 (state topics and status)"),
+            "{out}"
+        );
+        assert_eq!(with.status.code(), Some(0), "{}", stderr(&with));
+        assert!(
+            stdout(&with).contains("foxglove: ws://127.0.0.1:9001 (/dex1/*)"),
+            "{}",
+            stdout(&with)
+        );
+    } else {
+        assert!(out.contains("foxglove: not built in"), "{out}");
+        assert_eq!(with.status.code(), Some(2), "{}", stdout(&with));
+        let err = stderr(&with);
+        assert!(err.contains("foxglove") && err.contains("--features foxglove"), "{err}");
+    }
+}

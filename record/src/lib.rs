@@ -4,7 +4,8 @@
 //! exporting a recording's hand streams as xr_teleoperate episode fields.
 //!
 //! The recorder never runs on a device path: its readers are polled by a thread of its own
-//! (DDS only stores samples in their history, as for any reader), the messages go through a
+//! ([`tap`], shared with the gateway's live Foxglove server; DDS only stores samples in their
+//! history, as for any reader), the messages go through a
 //! bounded queue to a writer thread, and when the disk is slower than the stream whole
 //! messages are dropped and counted ([`RecordStats`]), in the file's metadata too.
 //! docs/recording.md says how to use it.
@@ -13,10 +14,12 @@ pub mod bag;
 pub mod export;
 pub mod recorder;
 pub mod replay;
+pub mod tap;
 pub mod types;
 pub mod writer;
 
 pub use recorder::{Recorder, TopicSpec};
+pub use tap::{Sample, Subscribe, Tap, TapHandle, Tapped};
 pub use writer::{Compression, RecordOptions, RecordStats};
 
 /// Errors of recording, replay and export.

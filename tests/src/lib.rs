@@ -328,10 +328,11 @@ impl Drop for PyProcess {
 /// (`target/<profile>/deps/`) holding the running test executable. (Only the gateway crate's
 /// own tests get `CARGO_BIN_EXE_handgate`.)
 ///
-/// The first call in a test process runs `cargo build -p handgate` (same cargo, same target
-/// directory, same profile) so the tests always run the gateway of the current source, never
-/// one built earlier from other code; when the sources did not change that is a no-op taking
-/// well under a second. `HANDGATE_TESTS_NO_BUILD=1` skips it (the binary must then exist).
+/// The first call in a test process runs `cargo build -p handgate --features foxglove` (same
+/// cargo, same target directory, same profile; the features `make test` builds the workspace
+/// with, so the two builds share one binary) so the tests always run the gateway of the current
+/// source, never one built earlier from other code; when the sources did not change that is a
+/// no-op taking well under a second. `HANDGATE_TESTS_NO_BUILD=1` skips it (the binary must then exist).
 /// Panics with cargo's output when the build fails.
 pub fn handgate_bin() -> PathBuf {
     static BUILT: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
@@ -363,7 +364,15 @@ fn build_handgate() -> Result<PathBuf, String> {
         let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
         let mut cmd = Command::new(cargo);
         cmd.current_dir(repo_root())
-            .args(["build", "--quiet", "-p", "handgate", "--target-dir"])
+            .args([
+                "build",
+                "--quiet",
+                "-p",
+                "handgate",
+                "--features",
+                "foxglove",
+                "--target-dir",
+            ])
             .arg(target_dir);
         match profile {
             "debug" => {}
@@ -377,11 +386,11 @@ fn build_handgate() -> Result<PathBuf, String> {
         let out = cmd
             .stdin(Stdio::null())
             .output()
-            .map_err(|e| format!("could not run cargo build -p handgate: {e}"))?;
+            .map_err(|e| format!("could not run cargo build -p handgate --features foxglove: {e}"))?;
         if !out.status.success() {
             return Err(format!(
-                "cargo build -p handgate failed ({}): the end-to-end tests run the gateway of the \
-                 current source.\n{}",
+                "cargo build -p handgate --features foxglove failed ({}): the end-to-end tests run \
+                 the gateway of the current source.\n{}",
                 out.status,
                 String::from_utf8_lossy(&out.stderr)
             ));
@@ -390,7 +399,8 @@ fn build_handgate() -> Result<PathBuf, String> {
     if !bin.exists() {
         return Err(format!(
             "{} is missing: the end-to-end tests run the real gateway binary. Run `cargo build -p \
-             handgate` (with the same CARGO_TARGET_DIR and profile) or `make test` first.",
+             handgate --features foxglove` (with the same CARGO_TARGET_DIR and profile) or `make \
+             test` first.",
             bin.display()
         ));
     }
@@ -612,6 +622,17 @@ impl Gateway {
                 .unwrap_or_else(|e| e.into_inner())
                 .0;
         }
+    }
+
+    /// The Foxglove live server's URL (`ws://ADDR`), from its start-up log line
+    /// (`foxglove: listening url=ws://...`; docs/foxglove.md).
+    pub fn foxglove_url(&self) -> Result<String, GatewayError> {
+        let line = self.wait_stdout("foxglove: listening", GATEWAY_START_TIMEOUT)?;
+        Ok(line
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix("url="))
+            .unwrap_or_default()
+            .to_string())
     }
 
     /// Everything it printed so far (stdout, then stderr).

@@ -106,17 +106,23 @@ const MAX_HEAD: usize = 8 * 1024;
 /// How long a client may take to send its request head.
 const HEAD_TIMEOUT: Duration = Duration::from_secs(5);
 
-/// Binds `[http]` (an error names the address and the fix) and serves it until shutdown.
+/// Binds `[http]`'s address (an error names it and the fixes): called before any device
+/// opens, so a taken port stops the start without touching hardware.
+pub fn bind(h: &HttpPlan) -> Result<std::net::TcpListener, HttpError> {
+    std::net::TcpListener::bind(h.addr)
+        .and_then(|l| l.set_nonblocking(true).map(|_| l))
+        .map_err(|source| HttpError::Bind { addr: h.addr, source })
+}
+
+/// Serves `[http]` on `listener` (from [`bind`]) until shutdown.
 pub fn spawn(
     h: &HttpPlan,
+    listener: std::net::TcpListener,
     fleet: Fleet,
     by_name: &HashMap<String, Arc<DeviceSlot>>,
     shutdown: watch::Receiver<bool>,
 ) -> Result<Vec<tokio::task::JoinHandle<()>>, HttpError> {
-    let std_listener = std::net::TcpListener::bind(h.addr)
-        .and_then(|l| l.set_nonblocking(true).map(|_| l))
-        .map_err(|source| HttpError::Bind { addr: h.addr, source })?;
-    let listener = TcpListener::from_std(std_listener).map_err(|source| HttpError::Bind { addr: h.addr, source })?;
+    let listener = TcpListener::from_std(listener).map_err(|source| HttpError::Bind { addr: h.addr, source })?;
     let local = listener.local_addr().unwrap_or(h.addr);
     if local.ip().is_loopback() {
         tracing::info!(url = %format!("http://{local}/"), commands = h.commands, "http: listening");

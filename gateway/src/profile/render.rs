@@ -53,6 +53,22 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     } else {
         let _ = writeln!(s, "http: off");
     }
+    let f = p.foxglove();
+    if p.foxglove_enabled() {
+        let topics = if f.topics.is_empty() {
+            "state topics and status".to_string()
+        } else {
+            f.topics.join(" ")
+        };
+        let _ = writeln!(s, "foxglove: ws://{} ({topics})", foxglove_addr(&f));
+    } else if cfg!(feature = "foxglove") {
+        let _ = writeln!(s, "foxglove: off ([foxglove] enabled = false)");
+    } else {
+        let _ = writeln!(
+            s,
+            "foxglove: not built in (cargo build --features foxglove, or make run, adds the live server)"
+        );
+    }
     let _ = writeln!(s, "devices ({}):", p.devices.len());
     for d in &p.devices {
         let _ = write!(
@@ -146,4 +162,12 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
         }
     }
     s
+}
+
+/// `HOST:PORT` of `[foxglove]` (an IPv6 address in brackets).
+pub fn foxglove_addr(f: &FoxgloveConfig) -> String {
+    match f.bind.parse::<std::net::IpAddr>() {
+        Ok(ip) => std::net::SocketAddr::new(ip, f.port).to_string(),
+        Err(_) => format!("{}:{}", f.bind, f.port),
+    }
 }

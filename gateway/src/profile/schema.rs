@@ -99,6 +99,9 @@ pub struct Profile {
     pub record: Option<RecordConfig>,
     /// `[http]`: the dashboard, `/metrics`, `/healthz` (docs/dashboard.md).
     pub http: HttpConfig,
+    /// `[foxglove]`: the Foxglove WebSocket live server (docs/foxglove.md); `None`: the
+    /// section is absent (the server runs with its defaults when handgate is built with it).
+    pub foxglove: Option<FoxgloveConfig>,
     pub devices: Vec<DeviceConfig>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -115,6 +118,7 @@ pub struct RawProfile {
     pub status: StatusConfig,
     pub record: Option<RecordConfig>,
     pub http: HttpConfig,
+    pub foxglove: Option<FoxgloveConfig>,
     pub devices: Vec<Value>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -142,6 +146,17 @@ impl Profile {
     pub fn status_topic(&self) -> Topic {
         Topic(self.dds.namespace().topic(self.status.topic.as_str()))
     }
+
+    /// The `[foxglove]` settings in force: the section, or its defaults when absent.
+    pub fn foxglove(&self) -> FoxgloveConfig {
+        self.foxglove.clone().unwrap_or_default()
+    }
+
+    /// Whether `handgate run` serves Foxglove: built with the `foxglove` feature and not
+    /// `enabled = false`.
+    pub fn foxglove_enabled(&self) -> bool {
+        cfg!(feature = "foxglove") && self.foxglove().enabled.unwrap_or(true)
+    }
 }
 
 impl RawProfile {
@@ -155,6 +170,7 @@ impl RawProfile {
             status: self.status,
             record: self.record,
             http: self.http,
+            foxglove: self.foxglove,
             devices,
             fronts: self.fronts,
         }
@@ -312,6 +328,42 @@ impl Default for HttpConfig {
             commands: false,
             sample_hz: RateHz(50.0),
             command_watchdog_ms: Millis(500),
+        }
+    }
+}
+
+/// `[foxglove]`: the Foxglove WebSocket live server (`foxglove.websocket.v1`): the served
+/// topics as live channels (ROS 2 names, `cdr` messages, `ros2msg` schemas), for Foxglove and
+/// PlotJuggler without ROS (docs/foxglove.md). Needs handgate built with the `foxglove`
+/// feature (`make run` builds it so).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FoxgloveConfig {
+    /// Serve it; unset: yes when handgate is built with the `foxglove` feature. Without the
+    /// feature, a profile that enables it (a `[foxglove]` section not saying `enabled =
+    /// false`) is an error naming the build flag.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub enabled: Option<bool>,
+    /// Address to listen on: loopback unless the profile chooses another (logged at warn).
+    pub bind: String,
+    /// TCP port; 0: any free port (the start-up log names it).
+    pub port: u16,
+    /// Topic globs (DDS or ROS 2 names, as `[record] topics`) over every topic the gateway
+    /// serves, commands included; empty: every state topic (each front's state, the canonical
+    /// states, `rt/joint_states`, a DDS-client device's robot state) and status, no commands.
+    pub topics: Vec<String>,
+}
+
+/// The Foxglove WebSocket protocol's customary port (Foxglove's own bridges use it).
+pub const FOXGLOVE_DEFAULT_PORT: u16 = 8765;
+
+impl Default for FoxgloveConfig {
+    fn default() -> Self {
+        FoxgloveConfig {
+            enabled: None,
+            bind: "127.0.0.1".into(),
+            port: FOXGLOVE_DEFAULT_PORT,
+            topics: Vec::new(),
         }
     }
 }

@@ -1648,3 +1648,59 @@ fn http_section_errors_name_file_and_key() {
     let l = load(&opts(Some(off.display().to_string()))).unwrap();
     assert!(crate::resolve::plan(&l.profile).unwrap().http.is_none());
 }
+
+#[test]
+fn foxglove_section_errors_name_their_keys_and_a_lean_build_names_the_feature() {
+    // Keys checked in every build.
+    let (path, r) = load_text(&format!(
+        "{DEX3}[foxglove]\nenabled = false\nbind = \"localhost\"\ntopics = [\" \"]\n"
+    ));
+    let lines = r.unwrap_err().lines();
+    let want = ["foxglove.bind", "foxglove.topics"];
+    assert_eq!(lines.len(), want.len(), "{lines:#?}");
+    for (line, key) in lines.iter().zip(want) {
+        assert!(line.starts_with(&format!("{}: {key}: ", path.display())), "{line}");
+    }
+    // Turned off: valid with or without the feature, and not served.
+    let (_, r) = load_text(&format!("{DEX3}[foxglove]\nenabled = false\n"));
+    let p = r.unwrap().profile;
+    assert!(!p.foxglove_enabled());
+    assert_eq!(crate::resolve::plan(&p).unwrap().foxglove, None);
+
+    // A section that enables it (explicitly, or by giving settings), and none at all.
+    let cases = [
+        ("[foxglove]\nenabled = true\nport = 9000\n", Some("foxglove.enabled")),
+        ("[foxglove]\nport = 9000\nbind = \"::1\"\n", Some("foxglove")),
+    ];
+    for (section, key) in cases {
+        let (path, r) = load_text(&format!("{DEX3}{section}"));
+        if cfg!(feature = "foxglove") {
+            let p = r.unwrap_or_else(|e| panic!("{section}: {e}")).profile;
+            let plan = crate::resolve::plan(&p).unwrap();
+            let f = plan.foxglove.expect("served");
+            assert_eq!(f.addr.port(), 9000);
+            assert!(f.required, "a section of the profile: its failure stops the start");
+        } else {
+            let lines = r.unwrap_err().lines();
+            assert_eq!(lines.len(), 1, "{lines:#?}");
+            let key = key.unwrap();
+            assert!(
+                lines[0].starts_with(&format!("{}: {key}: ", path.display()))
+                    && lines[0].contains("--features foxglove"),
+                "{}",
+                lines[0]
+            );
+        }
+    }
+    let (_, r) = load_text(DEX3);
+    let p = r.unwrap().profile;
+    let plan = crate::resolve::plan(&p).unwrap();
+    if cfg!(feature = "foxglove") {
+        let f = plan.foxglove.expect("on by default when built in");
+        assert_eq!(f.addr.to_string(), "127.0.0.1:8765");
+        assert!(!f.required, "the defaults: a taken port is a warning");
+        assert!(f.topics.is_empty());
+    } else {
+        assert_eq!(plan.foxglove, None, "not built in: off, and no error without a section");
+    }
+}

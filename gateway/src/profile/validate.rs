@@ -136,6 +136,29 @@ impl Checker {
                 );
             }
         }
+        // foxglove
+        if let Some(f) = &p.foxglove {
+            let k = root().key("foxglove");
+            if f.bind.parse::<std::net::IpAddr>().is_err() {
+                self.err(
+                    k.key("bind"),
+                    format!("`{}` is not an IP address (e.g. \"127.0.0.1\")", f.bind),
+                );
+            }
+            if f.topics.iter().any(|g| g.trim().is_empty()) {
+                self.err(k.key("topics"), "has an empty glob".to_string());
+            }
+            if !cfg!(feature = "foxglove") && f.enabled != Some(false) {
+                let key = if f.enabled.is_some() { k.key("enabled") } else { k };
+                self.err(
+                    key,
+                    "the Foxglove live server needs handgate built with the `foxglove` feature \
+                     (cargo build --release -p handgate --features foxglove, or make run); or set \
+                     [foxglove] enabled = false"
+                        .to_string(),
+                );
+            }
+        }
         // status
         self.topic(root().key("status").key("topic"), &p.status.topic);
         self.rate(

@@ -46,6 +46,9 @@ pub enum RuntimeError {
     Record(#[from] handgate_record::RecordError),
     #[error("[http]: {0}")]
     Http(#[from] crate::http::HttpError),
+    #[cfg(feature = "foxglove")]
+    #[error("[foxglove]: {0}")]
+    Foxglove(#[from] crate::live::LiveError),
 }
 
 /// Per-device counters kept by the fronts bound to it.
@@ -123,6 +126,9 @@ pub struct Runtime {
     recorder: Option<handgate_record::Recorder>,
     /// The latest status the status task computed (the dashboard, `/metrics`).
     pub status: watch::Receiver<Arc<handgate_idl::handgate::GatewayStatus_>>,
+    /// The `[foxglove]` live server (its own threads and runtime; never on a device path).
+    #[cfg(feature = "foxglove")]
+    live: Option<crate::live::Live>,
 }
 
 impl Runtime {
@@ -136,6 +142,13 @@ impl Runtime {
             discovery: discovery.subscribe(),
             shared: Default::default(),
         };
+        // Before any device opens, so a server that cannot listen stops the start without
+        // touching hardware. Its DDS readers exist only while a client subscribes, by then
+        // the fronts serve what it advertises.
+        #[cfg(feature = "foxglove")]
+        let live = start_live(&node, plan)?;
+        // Likewise the dashboard's port.
+        let http_listener = plan.http.as_ref().map(crate::http::bind).transpose()?;
         let mut shared = Shared::default();
         let opened = open_devices(&node, plan, &mut shared)?;
         let served = crate::diagnostics::served(plan);
@@ -180,9 +193,9 @@ impl Runtime {
             status_tx,
             shutdown_rx.clone(),
         )?);
-        if let Some(h) = &plan.http {
+        if let (Some(h), Some(listener)) = (&plan.http, http_listener) {
             let fleet = crate::http::Fleet::new(plan, &devices, discovery.subscribe(), status_rx.clone());
-            tasks.extend(crate::http::spawn(h, fleet, &by_name, shutdown_rx.clone())?);
+            tasks.extend(crate::http::spawn(h, listener, fleet, &by_name, shutdown_rx.clone())?);
         }
         if let Some(ns) = &plan.namespace {
             tasks.push(ros::spawn_presence(&node, ns.clone(), shutdown_rx.clone())?);
@@ -197,6 +210,8 @@ impl Runtime {
             discovery,
             recorder,
             status: status_rx,
+            #[cfg(feature = "foxglove")]
+            live,
         })
     }
 
@@ -222,6 +237,10 @@ impl Runtime {
                 Err(e) => tracing::warn!(error = %e, "recording not finished cleanly"),
             }
         }
+        #[cfg(feature = "foxglove")]
+        if let Some(live) = self.live.take() {
+            live.stop().await;
+        }
         let mut out = Vec::new();
         let futs = self.devices.iter().map(|d| {
             let d = d.clone();
@@ -237,6 +256,28 @@ impl Runtime {
             out.push(r);
         }
         out
+    }
+}
+
+/// The `[foxglove]` live server. A profile with a `[foxglove]` section needs it: its failure
+/// stops the start.
+/// Without one (the defaults of a handgate built with the feature) a failure, such as the
+/// port taken by another gateway, is a warning and the gateway runs without it.
+#[cfg(feature = "foxglove")]
+fn start_live(node: &Node, plan: &Plan) -> Result<Option<crate::live::Live>, RuntimeError> {
+    let Some(f) = &plan.foxglove else {
+        return Ok(None);
+    };
+    match crate::live::Live::start(node, plan, f) {
+        Ok(l) => Ok(Some(l)),
+        Err(e) if !f.required => {
+            tracing::warn!(
+                error = %e,
+                "foxglove: not serving (no [foxglove] section in the profile: the gateway runs without it)"
+            );
+            Ok(None)
+        }
+        Err(e) => Err(e.into()),
     }
 }
 
