@@ -153,8 +153,8 @@ def main():
             node = ["node", os.path.join(ROOT, "bench", "dashboard_tabs.mjs"), url, "3", str(a.phase + 10)]
             clients.append(subprocess.Popen(node, cwd=ROOT, stdout=subprocess.PIPE, text=True))
             if fox:
-                py = [sys.executable, os.path.join(ROOT, "tests", "python", "foxglove_client.py"), "--bench", fox,
-                      "--seconds", str(a.phase + 10)]
+                py = [sys.executable, os.path.join(ROOT, "tests", "python", "foxglove_client.py"), fox, "*",
+                      "--quiet", "--seconds", str(a.phase + 10)]
                 clients.append(subprocess.Popen(py, cwd=ROOT, stdout=subprocess.PIPE, text=True))
             # Each client says READY once it receives data.
             for c in clients:

@@ -31,7 +31,8 @@ want() { [[ " $only " == *" $1 "* ]]; }
 [ -x .venv/bin/python ] || scripts/setup.sh
 
 echo "bench: building release binaries"
-$cargo build --release -p handgate -p handgate-bench
+# The gateway as `make run` builds it (with the Foxglove live server: step 7 watches it).
+$cargo build --release -p handgate -p handgate-bench --features handgate/foxglove
 $cargo build --release -p handgate-adapters --example busy_domain
 bin="$target/release"
 

@@ -8,7 +8,10 @@ server (the foxglove crate handgate uses, like foxglove_bridge 3.x) accepts only
 Foxglove's new name for the same v1 protocol, and refuses a client offering only the second
 (HTTP 400). Which one the server chose is printed.
 
-    foxglove_client.py URL TOPIC [TOPIC ...] [--seconds N]
+    foxglove_client.py URL TOPIC [TOPIC ...] [--seconds N] [--quiet]
+
+TOPIC `*` subscribes every advertised channel. `--quiet` (the benchmark's viewer,
+bench/dashboard_cost.py): no MSG lines; `READY` at the first message, `COUNT n` at the end.
 
 It connects with the subprotocol, reads serverInfo and the advertised channels, subscribes the
 channels of the given topics and decodes each message. Prints one line per event:
@@ -168,6 +171,9 @@ def emit(kind, value):
     print(kind, json.dumps(value, separators=(",", ":")), flush=True)
 
 
+QUIET = {"on": False, "count": 0}
+
+
 async def run(url, topics):
     async with websockets.connect(url, subprotocols=SUBPROTOCOLS, max_size=None) as ws:
         subscribed = {}  # subscription id -> advertised channel
@@ -198,7 +204,7 @@ async def run(url, topics):
                     )
                     subs = []
                     for ch in msg["channels"]:
-                        if ch["topic"] in topics:
+                        if ch["topic"] in topics or "*" in topics:
                             sid = len(subscribed) + 1
                             subscribed[sid] = ch
                             subs.append({"id": sid, "channelId": ch["id"]})
@@ -212,6 +218,11 @@ async def run(url, topics):
                     continue
                 sid, time_ns = struct.unpack_from("<IQ", frame, 1)
                 channel = subscribed.get(sid)
+                if QUIET["on"] and channel is not None:
+                    QUIET["count"] += 1
+                    if QUIET["count"] == 1:
+                        print("READY", flush=True)
+                    continue
                 if channel is None:
                     emit("ERROR", f"message data for unknown subscription {sid}")
                     continue
@@ -232,6 +243,9 @@ def main():
         i = args.index("--seconds")
         seconds = float(args[i + 1])
         del args[i : i + 2]
+    if "--quiet" in args:
+        args.remove("--quiet")
+        QUIET["on"] = True
     url, topics = args[0], set(args[1:])
     try:
         asyncio.run(asyncio.wait_for(run(url, topics), seconds))
@@ -239,6 +253,8 @@ def main():
         pass
     except (OSError, websockets.exceptions.WebSocketException) as e:
         emit("ERROR", f"{type(e).__name__}: {e}")
+    if QUIET["on"]:
+        print("COUNT", QUIET["count"], flush=True)
 
 
 if __name__ == "__main__":
