@@ -7,6 +7,9 @@
 
   /** Seconds of history in each chart. */
   const WINDOW_S = 10;
+  /** A chart scrolled out of view is redrawn at most this often (ms); in view, on every
+   *  animation frame with new samples. */
+  const OFFSCREEN_REDRAW_MS = 500;
   /** Reconnect delays after a close, ms (the last one repeats). */
   const BACKOFF_MS = [250, 500, 1000, 2000];
   /** While a device's "command" toggle is on, its slider value is re-sent this often (10 Hz). */
@@ -39,6 +42,9 @@
     /** Animation frames that drew something, and those per second over the last second. */
     drawFrames: 0,
     fps: 0,
+    /** Time spent drawing (charts and pads) in those frames, ms: total and the longest. */
+    drawMs: 0,
+    drawMsMax: 0,
     /** Time of the newest samples frame, s since the gateway started. */
     t: 0,
     /** The last pads frame's arrays of a device (one per pad), or null. */
@@ -151,6 +157,15 @@
   let fpsWindowFrames = 0;
 
   const scaleLut = buildScaleLut();
+  /** Which charts are on screen (or nearly): the others are redrawn less often. */
+  const visibility = new IntersectionObserver((entries) => {
+    for (const e of entries) {
+      const d = [...devices.values()].find((x) => x.chartBox === e.target);
+      if (!d) continue;
+      d.visible = e.isIntersecting;
+      if (d.visible && d.dirty) requestDraw();
+    }
+  }, { rootMargin: '200px' });
 
   // --------------------------------------------------------------------------------------
   // Connection.
@@ -278,6 +293,7 @@
     stopAllCommanding();
     for (const d of devices.values()) {
       if (d.resize) d.resize.disconnect();
+      visibility.unobserve(d.chartBox);
       if (d.padResize) d.padResize.disconnect();
       if (d.chart) d.chart.destroy();
       d.card.remove();
@@ -297,6 +313,8 @@
       ring: new Ring(capacity, joints.length),
       data: [[]].concat(joints.flatMap(() => [[], []])),
       dirty: false,
+      visible: true,
+      lastDraw: -Infinity,
       chart: null,
       pads: dev.pads || [],
       padValues: null,
@@ -373,6 +391,7 @@
       if (w > 0 && Math.abs(w - chart.width) > 1) chart.setSize({ width: w, height: 210 });
     });
     d.resize.observe(d.chartBox);
+    visibility.observe(d.chartBox);
     return chart;
   }
 
@@ -404,10 +423,12 @@
 
   function draw(ts) {
     rafPending = false;
+    const start = performance.now();
     let drew = false;
     for (const d of devices.values()) {
-      if (d.dirty && d.chart) {
+      if (d.dirty && d.chart && (d.visible || ts - d.lastDraw >= OFFSCREEN_REDRAW_MS)) {
         d.dirty = false;
+        d.lastDraw = ts;
         drawChart(d);
         hook.redraws[d.name]++;
         drew = true;
@@ -419,7 +440,10 @@
       }
     }
     if (drew) {
+      const ms = performance.now() - start;
       hook.drawFrames++;
+      hook.drawMs += ms;
+      if (ms > hook.drawMsMax) hook.drawMsMax = ms;
       fpsWindowFrames++;
     }
     if (ts - fpsWindowStart >= 1000) {
@@ -449,7 +473,9 @@
         data[2 + 2 * j][k] = c === c ? c : null;
       }
     }
-    d.chart.setData(data);
+    // batch: uPlot draws before returning (instead of in a microtask), so the frame's drawing
+    // time is measured (hook.drawMs) and the chart never shows data older than the ring's.
+    d.chart.batch(() => d.chart.setData(data));
   }
 
   // --------------------------------------------------------------------------------------
