@@ -47,8 +47,8 @@ const OWNER_DEX1_LEFT: &str = r#"#fleet tr[data-row="dex1_left"] td[data-col="ow
 // ---------------------------------------------------------------------------------------------
 // The browser
 
-/// Why the browser test cannot run here, or None when it can. Only a missing Chromium skips
-/// (outside CI); a missing node or playwright-core fails, with the fix.
+/// Chromium's path, or why it is missing. Only a missing Chromium skips the tests (outside
+/// CI); a missing node or playwright-core fails them, with the fix.
 fn chromium() -> Result<PathBuf, String> {
     let path = std::env::var_os("CHROMIUM")
         .map(PathBuf::from)
@@ -74,7 +74,7 @@ fn browser_or_skip(test: &str) -> Option<Browser> {
         Ok(_) => {}
         Err(why) if under_ci => panic!("{why}: CI runs the dashboard's browser test"),
         Err(why) => {
-            eprintln!("SKIPPED {test}: {why}. Run scripts/setup.sh to install it.");
+            eprintln!("SKIPPED {test}: {why}");
             return None;
         }
     }
