@@ -10,6 +10,8 @@
   /** A chart scrolled out of view is redrawn at most this often (ms); in view, on every
    *  animation frame with new samples. */
   const OFFSCREEN_REDRAW_MS = 500;
+  /** The protocol version this page speaks (hello.protocol, docs/dashboard.md). */
+  const PROTOCOL = 1;
   /** Reconnect delays after a close, ms (the last one repeats). */
   const BACKOFF_MS = [250, 500, 1000, 2000];
   /** While a device's "command" toggle is on, its slider value is re-sent this often (10 Hz). */
@@ -183,6 +185,7 @@
     const c = $('#conn');
     setText(c, up ? 'connected' : 'disconnected');
     c.className = 'conn ' + (up ? 'up' : 'down');
+    document.body.classList.toggle('offline', !up);
     setText($('#conn-detail'), detail || '');
   }
 
@@ -213,6 +216,7 @@
     sock.onclose = () => {
       if (sock !== ws) return;
       ws = null;
+      hello = null; // nothing is sent until the next hello says what is allowed
       hook.closes++;
       stopAllCommanding();
       scheduleReconnect('');
@@ -286,7 +290,8 @@
       tbody.append(fleetRow(dev.name).tr);
     }
     tNow = 0;
-    setConnected(true, '');
+    setConnected(true, h.protocol === PROTOCOL ? ''
+      : `the gateway speaks protocol ${h.protocol}, this page ${PROTOCOL}: reload the page`);
   }
 
   function teardown() {

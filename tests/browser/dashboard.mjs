@@ -18,6 +18,7 @@
 //   set_closure {device, value}      move the device's closure slider
 //   command {device, on}             switch the device's "command" toggle
 //   safe {device}                    press the device's "safe" button
+//   wait_pads {device, timeout_ms}   wait until a pads frame reached the device's map; state
 //   wait_refused {device, timeout_ms}
 //                                    wait until the device's card shows a refusal; its text
 //   wait_text {selector, contains, timeout_ms}
@@ -46,6 +47,9 @@ async function state() {
       cards: [...document.querySelectorAll('article.card[data-device]')].map((e) => e.dataset.device),
       rows: [...document.querySelectorAll('#fleet tbody tr[data-row]')].map((e) => e.dataset.row),
       controls: document.querySelectorAll('[data-control]').length,
+      padMaps: [...document.querySelectorAll('article.card[data-device] .pads canvas')]
+        .map((e) => e.closest('article').dataset.device),
+      pads: h && h.hello ? Object.fromEntries(h.devices().map((d) => [d, h.pads(d)])) : {},
       controlsByDevice: Object.fromEntries([...document.querySelectorAll('article.card[data-device]')]
         .map((e) => [e.dataset.device, [...e.querySelectorAll('[data-control]')].map((c) => c.dataset.control)])),
       frames: h ? { ...h.frames } : null,
@@ -64,7 +68,7 @@ async function state() {
 /** Waits until fn(arg) is truthy in the page; on timeout fails with describe() and the state. */
 async function waitFn(fn, arg, timeout, describe) {
   try {
-    await page.waitForFunction(fn, arg, { timeout, polling: 'raf' });
+    await page.waitForFunction(fn, arg, { timeout, polling: 100 });
   } catch (e) {
     throw new Error(`${await describe()} within ${timeout} ms (${e.message.split('\n')[0]}): `
       + JSON.stringify(await state()));
@@ -72,11 +76,11 @@ async function waitFn(fn, arg, timeout, describe) {
 }
 
 const ops = {
-  async open({ url, timeout_ms = 20000 }) {
+  async open({ url, timeout_ms = 60000 }) {
     await page.goto(url, { timeout: timeout_ms });
     return ops.ready({ timeout_ms });
   },
-  async ready({ timeout_ms = 20000 }) {
+  async ready({ timeout_ms = 60000 }) {
     // Connected, and every device's chart has been handed samples.
     await waitFn(() => {
       const h = window.__handgate;
@@ -92,7 +96,7 @@ const ops = {
   async plotted({ device, joint }) {
     return page.evaluate(([d, j]) => window.__handgate.plotted(d, j), [device, joint]);
   },
-  async wait_plotted({ device, joint, lo, hi, timeout_ms = 20000 }) {
+  async wait_plotted({ device, joint, lo, hi, timeout_ms = 60000 }) {
     await waitFn(([d, j, a, b]) => {
       const v = window.__handgate.plotted(d, j);
       return typeof v === 'number' && v >= a && v <= b;
@@ -100,7 +104,7 @@ const ops = {
       `plotted(${device}, ${joint}) did not reach [${lo}, ${hi}] (last ${await ops.plotted({ device, joint })})`);
     return ops.plotted({ device, joint });
   },
-  async wait_conn({ text, timeout_ms = 20000 }) {
+  async wait_conn({ text, timeout_ms = 60000 }) {
     await waitFn((t) => document.querySelector('#conn')?.textContent === t, text, timeout_ms,
       () => `#conn did not read ${JSON.stringify(text)}`);
     return state();
@@ -119,14 +123,19 @@ const ops = {
     await page.locator(`${card(device)} [data-control="safe"]`).click();
     return state();
   },
-  async wait_text({ selector, contains, timeout_ms = 20000 }) {
+  async wait_text({ selector, contains, timeout_ms = 60000 }) {
     await waitFn(([sel, c]) => (document.querySelector(sel)?.textContent || '').includes(c),
       [selector, contains], timeout_ms, async () =>
         `${selector} did not contain ${JSON.stringify(contains)} (it reads ${JSON.stringify(
           await page.evaluate((sel) => document.querySelector(sel)?.textContent ?? null, selector))})`);
     return page.evaluate((sel) => document.querySelector(sel).textContent, selector);
   },
-  async wait_refused({ device, timeout_ms = 20000 }) {
+  async wait_pads({ device, timeout_ms = 60000 }) {
+    await waitFn((d) => window.__handgate.pads(d) !== null, device, timeout_ms,
+      () => `no pads frame for ${device}`);
+    return state();
+  },
+  async wait_refused({ device, timeout_ms = 60000 }) {
     const line = page.locator(`${card(device)} .refused`);
     await waitFn((sel) => (document.querySelector(sel)?.textContent || '').length > 0,
       `${card(device)} .refused`, timeout_ms, () => `${device}'s card showed no refusal`);
