@@ -3,8 +3,10 @@
 # Idempotent: every step checks first. Usage: scripts/setup.sh [--no-python]
 #   - Debian packages: cyclonedds-dev 0.10.2 (the version on Unitree robots), its tools,
 #     libclang-dev (bindgen), libusb-1.0-0-dev (rusb), pkg-config, iproute2 (the two-hosts
-#     test's network namespaces); systemd (only for
+#     test's network namespaces), chromium (the dashboard's browser test); systemd (only for
 #     systemd-analyze, which checks the shipped unit; nothing is started).
+#   - tests/browser/node_modules/ (git-ignored): playwright-core from tests/browser's
+#     package-lock.json (npm ci), which drives Debian's chromium in the dashboard's test.
 #   - .venv/ (git-ignored): cyclonedds==0.10.2 built against that library, and the official
 #     unitree-sdk2 (unitree_sdk2py) for the interop tests; mcap readers and websockets for the
 #     recording and Foxglove tests.
@@ -18,7 +20,7 @@ want_python=1
 sudo_cmd=""
 [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
 
-pkgs=(cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config iproute2)
+pkgs=(cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config iproute2 chromium)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -41,6 +43,27 @@ case "$ver" in
   0.10.2*) ;;
   *) echo "setup: warning: cyclonedds-dev is $ver; Unitree robots and cyclonedds-rs 0.6.5 want 0.10.2" >&2 ;;
 esac
+
+# The dashboard's browser test (tests/tests/dashboard.rs) drives Debian's chromium (above) with
+# playwright-core, which downloads no browser of its own. npm ci installs exactly the lock's
+# versions; skipped when node_modules already holds them.
+browser="$root/tests/browser"
+if command -v npm >/dev/null 2>&1 && command -v node >/dev/null 2>&1; then
+  if ! node -e '
+    const fs = require("fs"), path = require("path"), dir = process.argv[1];
+    const lock = JSON.parse(fs.readFileSync(path.join(dir, "package-lock.json"), "utf8"));
+    for (const [p, meta] of Object.entries(lock.packages || {})) {
+      if (!p.startsWith("node_modules/")) continue;
+      let have = null;
+      try { have = JSON.parse(fs.readFileSync(path.join(dir, p, "package.json"), "utf8")).version; } catch (e) {}
+      if (have !== meta.version) process.exit(1);
+    }' "$browser"; then
+    echo "setup: installing tests/browser's npm packages (playwright-core) with npm ci"
+    (cd "$browser" && npm ci --no-audit --no-fund --loglevel=error)
+  fi
+else
+  echo "setup: warning: node and npm not found; the dashboard's browser test (tests/tests/dashboard.rs) needs Node.js >= 20" >&2
+fi
 
 [ "$want_python" -eq 1 ] || exit 0
 
