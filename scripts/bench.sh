@@ -100,7 +100,7 @@ fi
 "$bin/handgate-bench" machine --out "$results/machine_end.json"
 "$bin/handgate-bench" report --results "$results" --repo "$root" --out "$root/docs/benchmarks.md"
 if [ -f "$results/dashboard.json" ]; then
-  .venv/bin/python bench/dashboard_cost.py --report "$results/dashboard.json" >> "$root/docs/benchmarks.md"
+  .venv/bin/python bench/dashboard_cost.py --report "$results/dashboard.json" --into "$root/docs/benchmarks.md"
 fi
 # Keep the raw results of this run next to the report, so every figure can be re-derived.
 raw="$root/docs/benchmarks/raw"

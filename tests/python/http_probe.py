@@ -38,13 +38,19 @@ async def ws(url, args):
     ap.add_argument("--send", action="append", default=[], help="a frame (JSON text) to send")
     ap.add_argument("--every-ms", type=float, default=0, help="re-send the frames this often")
     ap.add_argument("--for-ms", type=float, default=0, help="keep re-sending this long")
+    ap.add_argument("--quiet", action="store_true", help="READY at hello, then only count frames (a benchmark's viewer)")
     a = ap.parse_args(args)
     uri = url.replace("http://", "ws://") + "ws"
     async with websockets.connect(uri, max_size=2**24) as sock:
 
         async def pump():
+            n = 0
             async for m in sock:
-                print(f"{json.loads(m).get('type')} {m}", flush=True)
+                n += 1
+                if not a.quiet:
+                    print(f"{json.loads(m).get('type')} {m}", flush=True)
+                elif n == 1:
+                    print("READY", flush=True)
 
         async def sender():
             loop = asyncio.get_running_loop()
