@@ -245,13 +245,7 @@ mod tests {
 
     #[test]
     fn channels_of_the_default_fleet_are_ros_names_with_unique_names_per_type() {
-        let loaded = crate::profile::load(&crate::profile::LoadOptions {
-            env: crate::profile::EnvLayer::Ignore,
-            search_dirs: Some(vec![]),
-            ..Default::default()
-        })
-        .unwrap();
-        let plan = crate::resolve::plan(&loaded.profile).unwrap();
+        let plan = crate::resolve::default_plan();
         let c = channels(&tappable(crate::recording::live_topics(&plan, &[]), "test"));
         let find = |name: &str| {
             c.iter()

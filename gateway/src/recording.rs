@@ -102,13 +102,7 @@ mod tests {
 
     #[test]
     fn the_default_fleet_records_every_front_topic_and_status() {
-        let loaded = crate::profile::load(&crate::profile::LoadOptions {
-            env: crate::profile::EnvLayer::Ignore,
-            search_dirs: Some(vec![]),
-            ..Default::default()
-        })
-        .unwrap();
-        let plan = crate::resolve::plan(&loaded.profile).unwrap();
+        let plan = crate::resolve::default_plan();
         let all = topics(&plan, &[]);
         let names: Vec<&str> = all.iter().map(|t| t.dds_topic.as_str()).collect();
         for f in &plan.fronts {
@@ -139,13 +133,7 @@ mod tests {
 
     #[test]
     fn live_topics_are_the_states_and_status_unless_globs_say_otherwise() {
-        let loaded = crate::profile::load(&crate::profile::LoadOptions {
-            env: crate::profile::EnvLayer::Ignore,
-            search_dirs: Some(vec![]),
-            ..Default::default()
-        })
-        .unwrap();
-        let plan = crate::resolve::plan(&loaded.profile).unwrap();
+        let plan = crate::resolve::default_plan();
         let live = live_topics(&plan, &[]);
         let names: Vec<&str> = live.iter().map(|t| t.dds_topic.as_str()).collect();
         for f in &plan.fronts {

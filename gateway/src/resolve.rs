@@ -249,3 +249,15 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         fronts,
     })
 }
+
+/// The embedded default profile's plan (no environment, no search path): for tests.
+#[cfg(test)]
+pub(crate) fn default_plan() -> Plan {
+    let loaded = crate::profile::load(&crate::profile::LoadOptions {
+        env: crate::profile::EnvLayer::Ignore,
+        search_dirs: Some(vec![]),
+        ..Default::default()
+    })
+    .expect("the embedded default profile is valid");
+    plan(&loaded.profile).expect("the embedded default profile resolves")
+}
