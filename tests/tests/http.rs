@@ -156,6 +156,17 @@ fn page(url: &str, frame: &str, for_ms: u32) -> PyProcess {
     PyProcess::spawn("http_probe.py", &args.map(String::from)).unwrap()
 }
 
+/// Device `name`'s row of a status frame.
+fn device(status: &Value, name: &str) -> Value {
+    status["devices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|d| d["device"] == name)
+        .unwrap_or_else(|| panic!("no {name} in {status}"))
+        .clone()
+}
+
 /// The frames of one type a probe printed (`<type> <json>` lines), waiting for `n` of them.
 fn frames(p: &PyProcess, ty: &str, n: usize) -> Vec<Value> {
     (0..n)
@@ -195,12 +206,7 @@ fn without_the_profiles_opt_in_the_dashboard_accepts_no_command() {
         b.contains("dex1_left")
     });
     let status: Value = serde_json::from_str(&status).unwrap();
-    let d = status["devices"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|d| d["device"] == "dex1_left")
-        .unwrap();
+    let d = device(&status, "dex1_left");
     assert_eq!(d["owner"], Value::Null, "{d}");
     // Another site's page may not even open the socket.
     let addr = url.trim_start_matches("http://").trim_end_matches('/');
@@ -246,13 +252,7 @@ fn with_the_opt_in_page_commands_go_through_the_front_rules_and_its_watchdog() {
     };
     assert!(q > 0.0 && target > 0.0, "{target} {q}");
     let status = frames(&probe, "status", 1).remove(0);
-    let d = status["devices"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|d| d["device"] == "jaw")
-        .unwrap()
-        .clone();
+    let d = device(&status, "jaw");
     assert!(
         d["owner"]
             .as_str()
@@ -265,13 +265,7 @@ fn with_the_opt_in_page_commands_go_through_the_front_rules_and_its_watchdog() {
     let deadline = Instant::now() + WAIT;
     loop {
         let s = frames(&probe, "status", 1).remove(0);
-        let d = s["devices"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|d| d["device"] == "jaw")
-            .unwrap()
-            .clone();
+        let d = device(&s, "jaw");
         if d["watchdog_trips"] == 1 && d["safe"] == true {
             break;
         }
