@@ -770,6 +770,35 @@ fn wait_until(timeout: Duration, what: &'static str, mut cond: impl FnMut() -> b
     Ok(())
 }
 
+/// A reader of one topic that keeps each sample's bytes (`handgate doctor`'s layout check).
+pub trait RawTake {
+    fn take_bytes(&self) -> Vec<Vec<u8>>;
+}
+
+impl<T: handgate_idl::DdsTypeName> RawTake for Reader<handgate_idl::layout::Raw<T>> {
+    fn take_bytes(&self) -> Vec<Vec<u8>> {
+        self.take().into_iter().map(|r| r.bytes).collect()
+    }
+}
+
+/// A best-effort reader keeping the raw bytes of `topic`, for the types whose older layouts
+/// `handgate_idl::layout` knows (the Unitree hand messages); `None` for any other type.
+pub fn layout_reader(node: &Node, topic: &str, type_name: &str) -> Result<Option<Box<dyn RawTake>>, DdsError> {
+    use handgate_idl::layout::Raw;
+    use handgate_idl::{unitree_hg, DdsTypeName};
+    Ok(if type_name == unitree_hg::HandCmd_::DDS_TYPE_NAME {
+        Some(Box::new(
+            node.reader::<Raw<unitree_hg::HandCmd_>>(topic, Qos::BestEffort)?,
+        ))
+    } else if type_name == unitree_hg::HandState_::DDS_TYPE_NAME {
+        Some(Box::new(
+            node.reader::<Raw<unitree_hg::HandState_>>(topic, Qos::BestEffort)?,
+        ))
+    } else {
+        None
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -14,13 +14,12 @@ use std::fmt::Write as _;
 use std::net::IpAddr;
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::{DdsError, InterfaceTrace, Node, Qos, Reader};
+use handgate_adapters::dds::{layout_reader, DdsError, InterfaceTrace, Node, RawTake};
 use handgate_adapters::device::Backend;
 use handgate_adapters::discovery::diagnose::{diagnose, FindingKind, RemoteRef, Served};
 use handgate_adapters::discovery::{Discovery, DiscoveryConfig, Guid, Origin, Participant, Role, Snapshot};
 use handgate_adapters::netif::{self, NetIf};
-use handgate_idl::layout::{self, Raw, Verdict};
-use handgate_idl::{unitree_hg, DdsTypeName};
+use handgate_idl::layout::{self, Verdict};
 
 use crate::diagnostics::{served, Owner};
 use crate::plan::Plan;
@@ -84,31 +83,6 @@ impl Outcome {
         let _ = writeln!(self.text, "{indent}  fix: {}", fix.as_ref());
         self.problems.push(what);
     }
-}
-
-/// A reader of one topic that keeps each sample's bytes.
-trait RawTake {
-    fn take_bytes(&self) -> Vec<Vec<u8>>;
-}
-
-impl<T: DdsTypeName> RawTake for Reader<Raw<T>> {
-    fn take_bytes(&self) -> Vec<Vec<u8>> {
-        self.take().into_iter().map(|r| r.bytes).collect()
-    }
-}
-
-fn raw_reader(node: &Node, topic: &str, type_name: &str) -> Result<Option<Box<dyn RawTake>>, DdsError> {
-    Ok(if type_name == unitree_hg::HandCmd_::DDS_TYPE_NAME {
-        Some(Box::new(
-            node.reader::<Raw<unitree_hg::HandCmd_>>(topic, Qos::BestEffort)?,
-        ))
-    } else if type_name == unitree_hg::HandState_::DDS_TYPE_NAME {
-        Some(Box::new(
-            node.reader::<Raw<unitree_hg::HandState_>>(topic, Qos::BestEffort)?,
-        ))
-    } else {
-        None
-    })
 }
 
 /// The samples of one topic checked for their layout.
@@ -279,7 +253,7 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
         if s.served.role != Role::Reader || is_emulated(plan, &s.owner) {
             continue;
         }
-        if let Some(reader) = raw_reader(&node, &s.served.topic, &s.served.type_name)? {
+        if let Some(reader) = layout_reader(&node, &s.served.topic, &s.served.type_name)? {
             probes.push(Probe {
                 owner: s.owner.clone(),
                 topic: s.served.topic.clone(),
@@ -370,13 +344,13 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
         }
         out.line(owner.describe());
         let mut any_matched = false;
-        // A client on a topic the front serves once it is discovered (a Dex1 `auto` front's
+        // A client on a topic the front serves once it is discovered (an `auto` front's
         // actuator pair): a client, on topics not served yet.
         let mut on_demand = false;
         let mut unmatched: Vec<String> = Vec::new();
         for (s, t) in all.iter().zip(&report.topics).filter(|(s, _)| &s.owner == owner) {
             let want = role_word(s.served.role.counterpart());
-            // A front that follows its clients' types (Dex1 `auto`) serves several.
+            // A front that follows its clients' types (a variant `auto`) serves several.
             let types = std::iter::once(&s.served.type_name)
                 .chain(&s.served.also)
                 .map(String::as_str)
@@ -849,7 +823,7 @@ fn subnet_problem(who: &str, ip: IpAddr, selected: &[&NetIf], ifs: &[NetIf]) -> 
     })
 }
 
-/// `unitree_hg::msg::dds_::HandCmd_` -> `HandCmd_`.
+/// `<package>::msg::dds_::<Type>` -> `<Type>`.
 fn short_type(t: &str) -> &str {
     t.rsplit("::").next().unwrap_or(t)
 }

@@ -4,11 +4,12 @@
 //!
 //! The same topics, schemas and bytes as a recording: each (topic, type) of
 //! [`crate::recording::live_topics`] is a channel named as the recorder names its MCAP
-//! channel (the ROS 2 name, `rt/dex3/left/state` → `/dex3/left/state`), message encoding
+//! channel (the ROS 2 name, `rt/<x>/state` → `/<x>/state`), message encoding
 //! `cdr` (little endian, with its encapsulation header), schema encoding `ros2msg` with the
-//! record crate's `.msg` text. A topic served with several types (a Dex1 `auto` front) keeps
+//! record crate's `.msg` text. A topic served with several types (a front following its
+//! clients' variant, `auto`) keeps
 //! its name for its first type; each further type's channel is named `<name>/<package>`
-//! (`/dex1/left/state/unitree_hg`): Foxglove refuses two channels of one topic name.
+//! (`/<x>/state/<package>`): Foxglove refuses two channels of one topic name.
 //!
 //! Never on a device path: the DDS readers exist only while a client subscribes to their
 //! channel, polled by a [`Tap`] thread of their own; the server runs on a tokio runtime of its

@@ -15,7 +15,7 @@ fn served_topics(plan: &Plan) -> Vec<(TopicSpec, bool)> {
     use crate::diagnostics::Owner;
     use handgate_adapters::discovery::Role;
     let mut out: Vec<(TopicSpec, bool)> = Vec::new();
-    // A front that follows its clients' types (Dex1 `auto`) serves several types on one
+    // A front that follows its clients' types (a variant `auto`) serves several types on one
     // topic: each is a channel of its own.
     let served = crate::diagnostics::served(plan).into_iter().flat_map(|s| {
         let command = matches!(

@@ -6,7 +6,7 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use handgate_adapters::model::{faults, Freshness, HandState};
+use handgate_adapters::model::{faults, Freshness};
 use handgate_idl::handgate as hg;
 use serde_json::{json, Map, Value};
 use tokio::sync::{broadcast, watch};
@@ -113,15 +113,20 @@ pub fn status(fleet: &Fleet) -> String {
         .iter()
         .map(|d| {
             let slot = fleet.devices.iter().find(|s| s.plan.name == d.device);
-            let state = slot.map(|s| s.device.state().borrow().clone());
+            // Only the fault bits and the closure: no copy of the whole state (pads).
+            let state = slot.map(|s| {
+                let rx = s.device.state();
+                let st = rx.borrow();
+                (st.faults, st.closure)
+            });
             json!({
                 "device": d.device, "kind": d.kind, "backend": d.backend,
                 "freshness": freshness(d.freshness), "safe": d.safe,
                 "age_ms": num(d.age_ms), "cmd_rate_hz": num(d.cmd_rate_hz), "state_rate_hz": num(d.state_rate_hz),
                 "crc_errors": d.crc_errors, "bad_input": d.bad_input, "watchdog_trips": d.watchdog_trips,
                 "reconnects": d.reconnects, "missed_cycles": d.missed_cycles, "foreign_cmd": d.foreign_cmd,
-                "faults": state.as_ref().map(|s| fault_names(s.faults)).unwrap_or_default(),
-                "closure": state.as_ref().map(|s| num(s.closure)).unwrap_or(Value::Null),
+                "faults": state.map(|(f, _)| fault_names(f)).unwrap_or_default(),
+                "closure": state.map(|(_, c)| num(c)).unwrap_or(Value::Null),
                 "owner": slot.and_then(|s| s.counters.owner()),
             })
         })
@@ -168,14 +173,29 @@ pub fn pads(fleet: &Fleet) -> Option<String> {
         let Some(layout) = d.plan.kind.factory().pads() else {
             continue;
         };
-        let state: HandState = d.device.state().borrow().clone();
-        let stale = state.freshness == Freshness::Stale;
-        let arrays: Vec<Value> = layout
-            .right
-            .iter()
-            .map(|place| match state.pads.iter().find(|p| p.name == place.name) {
-                Some(p) if !stale => nums(p.pressure.iter().map(|v| layout.scale.normalise(*v))),
-                _ => Value::Array(Vec::new()),
+        // The raw taxels only, copied while the state is borrowed (the device loop waits for
+        // the borrow to end before it publishes); scaled and encoded after.
+        let raw: Vec<Option<Vec<f32>>> = {
+            let rx = d.device.state();
+            let state = rx.borrow();
+            let stale = state.freshness == Freshness::Stale;
+            layout
+                .right
+                .iter()
+                .map(|place| {
+                    state
+                        .pads
+                        .iter()
+                        .find(|p| p.name == place.name && !stale)
+                        .map(|p| p.pressure.clone())
+                })
+                .collect()
+        };
+        let arrays: Vec<Value> = raw
+            .into_iter()
+            .map(|p| match p {
+                Some(p) => nums(p.into_iter().map(|v| layout.scale.normalise(v))),
+                None => Value::Array(Vec::new()),
             })
             .collect();
         devices.insert(d.plan.name.clone(), Value::Array(arrays));

@@ -44,6 +44,13 @@ impl<'a> Family<'a> {
     }
 }
 
+/// What `/metrics` reads of a device's state.
+struct Seen {
+    freshness: Freshness,
+    age: Option<std::time::Duration>,
+    faults: u32,
+}
+
 /// The whole exposition.
 pub fn render(fleet: &Fleet, commands: bool) -> String {
     let status = fleet.status.borrow().clone();
@@ -59,7 +66,16 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
                 esc(d.plan.kind.as_str()),
                 esc(d.plan.backend.as_str())
             );
-            let st = d.device.state().borrow().clone();
+            // What the families below read of the state (no copy of its pads).
+            let st = {
+                let rx = d.device.state();
+                let st = rx.borrow();
+                Seen {
+                    freshness: st.freshness,
+                    age: st.age(now),
+                    faults: st.faults,
+                }
+            };
             let s = d.device.stats();
             let row = status.devices.iter().find(|r| r.device == d.plan.name).cloned();
             (d, labels, st, s, row)
@@ -117,7 +133,7 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         f.sample(
             "handgate_device_state_age_seconds",
             l,
-            st.age(now).map(|a| a.as_secs_f64()).unwrap_or(f64::NAN),
+            st.age.map(|a| a.as_secs_f64()).unwrap_or(f64::NAN),
         );
     }
     let mut f = Family::new(
@@ -285,15 +301,19 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
 pub fn health(fleet: &Fleet, now: Instant) -> (bool, String) {
     let mut bad = Vec::new();
     for d in &fleet.devices {
-        let st = d.device.state().borrow().clone();
-        match st.freshness {
+        let (freshness, age) = {
+            let rx = d.device.state();
+            let st = rx.borrow();
+            (st.freshness, st.age(now))
+        };
+        match freshness {
             Freshness::CommandedOnly => continue,
             Freshness::Fresh => {
-                if let Some(age) = st.age(now).filter(|a| *a > d.plan.stale_after) {
+                if let Some(age) = age.filter(|a| *a > d.plan.stale_after) {
                     bad.push(format!("{}: no state for {} ms", d.plan.name, age.as_millis()));
                 }
             }
-            Freshness::Stale => bad.push(match st.age(now) {
+            Freshness::Stale => bad.push(match age {
                 Some(age) => format!("{}: stale (last state {} ms ago)", d.plan.name, age.as_millis()),
                 None => format!("{}: stale (never measured)", d.plan.name),
             }),
