@@ -54,7 +54,17 @@ pub fn run(
     let node = Node::new(domain, None)?;
     let disc = Discovery::start(&node, DiscoveryConfig::default())?;
     let (spin, fifo, slack) = device_loop::by_name(config)?;
-    let phase = |label: &str| device_loop::run(&format!("{label} ({config})"), secs, spin, fifo, slack);
+    let phase = |label: &str| {
+        device_loop::run(
+            &format!("{label} ({config})"),
+            secs,
+            spin,
+            fifo,
+            slack,
+            Default::default(),
+            None,
+        )
+    };
     let quiet = phase("quiet domain")?;
     let l0 = crate::stats::loadavg();
 

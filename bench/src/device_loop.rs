@@ -1,13 +1,14 @@
 //! Benchmark 2: the Dex3 USB device loop at 1 kHz against the in-process MCU emulator
-//! (the transport seam hardware would use), for a fixed time.
+//! (the transport seam hardware would use), for a fixed time; optionally fed commands at a
+//! fixed rate, with the loop aligned to them or not.
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dex3::usb::{
-    Dex3Emulator, Dex3UsbLoop, EmulatorClock, EmulatorConfig, EmulatorTransport, LoopConfig,
+    Align, Dex3Emulator, Dex3UsbLoop, EmulatorClock, EmulatorConfig, EmulatorTransport, LoopConfig,
 };
-use handgate_adapters::dex3::Side;
+use handgate_adapters::dex3::{Dex3Command, Side};
 use serde::{Deserialize, Serialize};
 
 use crate::stats::cpu_seconds;
@@ -35,6 +36,49 @@ pub struct LoopResult {
     pub good_frames: u64,
     /// CPU of this process during the run, % of one core.
     pub cpu_pct: f64,
+    /// The loop's alignment (`off`, `early:GAP_US`, `phase:SHIFT_US`).
+    #[serde(default)]
+    pub align: Option<String>,
+    /// Commands fed per second (`None`: none).
+    #[serde(default)]
+    pub cmd_hz: Option<f64>,
+    /// Exchanges per second of wall time.
+    #[serde(default)]
+    pub exchanges_per_s: Option<f64>,
+    /// Exchanges started early for a command.
+    #[serde(default)]
+    pub early: Option<u64>,
+    /// Command set -> the start of the exchange sending it: median, p99, max, µs (upper
+    /// edges of 5 µs buckets).
+    #[serde(default)]
+    pub cmd_wait_us: Option<[f64; 3]>,
+    /// Shortest period, ms.
+    #[serde(default)]
+    pub min_ms: Option<f64>,
+    /// The feeding thread's cost of one `set_command` (slot + wake): median, p99, µs.
+    #[serde(default)]
+    pub set_command_us: Option<[f64; 2]>,
+}
+
+/// An alignment by name: `off`, `early[:MIN_GAP_US]` (default 500), `phase[:MAX_SHIFT_US]`
+/// (default 20; lead 50 µs).
+pub fn align_by_name(name: &str) -> anyhow::Result<Align> {
+    let (mode, n) = match name.split_once(':') {
+        Some((m, n)) => (m, Some(n.parse::<u64>()?)),
+        None => (name, None),
+    };
+    let us = Duration::from_micros;
+    Ok(match mode {
+        "off" => Align::Off,
+        "early" => Align::Early {
+            min_gap: us(n.unwrap_or(500)),
+        },
+        "phase" => Align::Phase {
+            max_shift: us(n.unwrap_or(20)),
+            lead: us(50),
+        },
+        other => anyhow::bail!("unknown alignment {other:?}"),
+    })
 }
 
 /// Sets the calling thread's scheduling policy; threads it creates inherit it (glibc's
@@ -78,7 +122,16 @@ pub fn by_name(name: &str) -> anyhow::Result<(Duration, bool, Option<u64>)> {
     })
 }
 
-pub fn run(label: &str, secs: f64, spin: Duration, fifo: bool, slack_ns: Option<u64>) -> anyhow::Result<LoopResult> {
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    label: &str,
+    secs: f64,
+    spin: Duration,
+    fifo: bool,
+    slack_ns: Option<u64>,
+    align: Align,
+    cmd_hz: Option<f64>,
+) -> anyhow::Result<LoopResult> {
     let emu = Arc::new(Mutex::new(Dex3Emulator::new(
         Side::Left,
         EmulatorConfig {
@@ -88,6 +141,7 @@ pub fn run(label: &str, secs: f64, spin: Duration, fifo: bool, slack_ns: Option<
     )));
     let cfg = LoopConfig {
         spin,
+        align,
         ..LoopConfig::default()
     };
     let period = cfg.period;
@@ -105,14 +159,62 @@ pub fn run(label: &str, secs: f64, spin: Duration, fifo: bool, slack_ns: Option<
         set_timer_slack(50_000)?;
     }
     let h = h?;
+    // Commands are only sent on a connection that is up when they are set.
+    let up = Instant::now() + Duration::from_secs(10);
+    while cmd_hz.is_some() && h.latest().seq == 0 && Instant::now() < up {
+        std::thread::sleep(Duration::from_millis(1));
+    }
     let pid = std::process::id();
     let c0 = cpu_seconds(pid).unwrap_or(f64::NAN);
     let t0 = Instant::now();
-    std::thread::sleep(Duration::from_secs_f64(secs));
+    let end = t0 + Duration::from_secs_f64(secs);
+    let mut set_cost = Vec::new();
+    match cmd_hz {
+        None => std::thread::sleep(Duration::from_secs_f64(secs)),
+        Some(hz) => {
+            // As the hop client: each command at a uniformly random point of its period.
+            let period = Duration::from_secs_f64(1.0 / hz);
+            let cmd = Dex3Command::damping(0.1);
+            let mut rng: u64 = 0x9E37_79B9_7F4A_7C15;
+            let mut i: u32 = 0;
+            let mut anchor = t0;
+            loop {
+                rng ^= rng << 13;
+                rng ^= rng >> 7;
+                rng ^= rng << 17;
+                let at = anchor + period * i + period.mul_f64((rng >> 11) as f64 / (1u64 << 53) as f64);
+                if at >= end {
+                    break;
+                }
+                let now = Instant::now();
+                if at > now {
+                    std::thread::sleep(at - now);
+                } else if now - at > period {
+                    anchor = now - period * i;
+                }
+                let c = Instant::now();
+                h.set_command(cmd);
+                set_cost.push(c.elapsed().as_secs_f64() * 1e6);
+                i += 1;
+            }
+            let now = Instant::now();
+            if end > now {
+                std::thread::sleep(end - now);
+            }
+        }
+    }
     let s = h.stats();
     let wall = t0.elapsed().as_secs_f64();
     let c1 = cpu_seconds(pid).unwrap_or(f64::NAN);
     h.stop();
+    let wq = |p| {
+        s.cmd_wait
+            .quantile(p)
+            .map(|d| d.as_secs_f64() * 1e6)
+            .unwrap_or(f64::NAN)
+    };
+    set_cost.sort_by(f64::total_cmp);
+    let pick = |q: f64| set_cost[((q * set_cost.len() as f64) as usize).min(set_cost.len() - 1)];
     let q = |p| s.period.quantile(p).map(|d| d.as_secs_f64() * 1e3).unwrap_or(f64::NAN);
     let p99 = q(0.99);
     Ok(LoopResult {
@@ -131,5 +233,12 @@ pub fn run(label: &str, secs: f64, spin: Duration, fifo: bool, slack_ns: Option<
         misses: s.misses,
         good_frames: s.good_frames,
         cpu_pct: 100.0 * (c1 - c0) / wall,
+        align: Some(format!("{align:?}")),
+        cmd_hz,
+        exchanges_per_s: Some(s.exchanges as f64 / wall),
+        early: Some(s.early),
+        cmd_wait_us: (s.cmd_wait.count() > 0).then(|| [wq(0.5), wq(0.99), s.cmd_wait.max().as_secs_f64() * 1e6]),
+        min_ms: s.period.min().map(|d| d.as_secs_f64() * 1e3),
+        set_command_us: (!set_cost.is_empty()).then(|| [pick(0.5), pick(0.99)]),
     })
 }

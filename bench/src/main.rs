@@ -40,6 +40,14 @@ enum Cmd {
         /// CAP_SYS_NICE), spin0, slack (spin 0, timer slack 1 ns), slack-spin.
         #[arg(long, value_delimiter = ',', default_value = "default")]
         configs: Vec<String>,
+        /// Alignment modes to run each configuration with: off, early[:MIN_GAP_US],
+        /// phase[:MAX_SHIFT_US] (docs/dex3-usb.md, "Aligning the exchange to commands").
+        #[arg(long, value_delimiter = ',', default_value = "off")]
+        aligns: Vec<String>,
+        /// Feed the loop commands at this rate (each at a random point of its period, as the
+        /// hop client does); none by default.
+        #[arg(long)]
+        cmd_hz: Option<f64>,
         #[arg(long)]
         out: PathBuf,
     },
@@ -87,6 +95,10 @@ enum Cmd {
         /// Only these peers (floor, floor-1khz, handgate, python).
         #[arg(long, value_delimiter = ',', default_value = "floor,floor-1khz,handgate,python")]
         only: Vec<String>,
+        /// Run the `handgate` peer on these profiles instead of the default, one after the
+        /// other, each labelled `handgate LABEL` (repeatable: LABEL=PATH).
+        #[arg(long)]
+        handgate_profile: Vec<String>,
         #[arg(long)]
         out: PathBuf,
     },
@@ -213,16 +225,30 @@ fn main() -> anyhow::Result<()> {
                 },
             )?;
         }
-        Cmd::Loop { secs, configs, out } => {
+        Cmd::Loop {
+            secs,
+            configs,
+            aligns,
+            cmd_hz,
+            out,
+        } => {
             let mut v = Vec::new();
             for name in &configs {
-                let (spin, fifo, slack) = device_loop::by_name(name)?;
-                match device_loop::run(name, secs, spin, fifo, slack) {
-                    Ok(r) => {
-                        eprintln!("loop: {r:?}");
-                        v.push(r);
+                for align in &aligns {
+                    let (spin, fifo, slack) = device_loop::by_name(name)?;
+                    let a = device_loop::align_by_name(align)?;
+                    let label = if aligns.len() > 1 || a != Default::default() {
+                        format!("{name}, align {align}")
+                    } else {
+                        name.clone()
+                    };
+                    match device_loop::run(&label, secs, spin, fifo, slack, a, cmd_hz) {
+                        Ok(r) => {
+                            eprintln!("loop: {r:?}");
+                            v.push(r);
+                        }
+                        Err(e) => eprintln!("loop: {label} skipped: {e}"),
                     }
-                    Err(e) => eprintln!("loop: {name} skipped: {e}"),
                 }
             }
             save(&out, &v)?;
@@ -258,13 +284,28 @@ fn main() -> anyhow::Result<()> {
             domain_base,
             interface,
             only,
+            handgate_profile,
             out,
         } => {
             let iface = interface.as_deref();
             let (cmd_t, st_t) = ("rt/dex3/left/cmd", "rt/dex3/left/state");
             let mut results = Vec::new();
+            // (peer, handgate label and profile): `handgate` once per --handgate-profile.
+            let mut peers: Vec<(&str, Option<(String, PathBuf)>)> = Vec::new();
             for peer in &only {
-                let (label, domain, proc_) = match peer.as_str() {
+                if peer == "handgate" && !handgate_profile.is_empty() {
+                    for p in &handgate_profile {
+                        let (l, path) = p
+                            .split_once('=')
+                            .ok_or_else(|| anyhow::anyhow!("--handgate-profile takes LABEL=PATH, got {p:?}"))?;
+                        peers.push((peer, Some((format!("handgate {l}"), PathBuf::from(path)))));
+                    }
+                } else {
+                    peers.push((peer, None));
+                }
+            }
+            for (peer, hg_profile) in peers {
+                let (label, domain, proc_) = match peer {
                     "floor" => {
                         let mut c = Command::new(std::env::current_exe()?);
                         c.args(["echo", "--domain", &(domain_base + 1).to_string()]);
@@ -289,7 +330,14 @@ fn main() -> anyhow::Result<()> {
                             child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
                         )
                     }
-                    "handgate" => ("handgate", domain_base, gateway(&handgate, domain_base, iface, None)?),
+                    "handgate" => match &hg_profile {
+                        None => ("handgate", domain_base, gateway(&handgate, domain_base, iface, None)?),
+                        Some((l, p)) => (
+                            l.as_str(),
+                            domain_base,
+                            gateway(&handgate, domain_base, iface, Some(p))?,
+                        ),
+                    },
                     "python" => {
                         let Some(py) = python.as_ref().filter(|p| p.exists()) else {
                             eprintln!("hop: no venv python: the Python relay is skipped");

@@ -543,3 +543,56 @@ fn slot_rules(key: &[&str], s: BusSlot, max_id: u8, out: &mut Vec<Problem>) {
         });
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dex3::usb::Align;
+    use std::time::Duration;
+
+    fn problems(u: UsbConfig) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        validate_usb(&u, &mut out);
+        out.into_iter().map(|p| (p.key.join("."), p.message)).collect()
+    }
+
+    #[test]
+    fn align_keys_are_validated_and_mapped() {
+        assert!(problems(UsbConfig::default()).is_empty());
+        let bad = UsbConfig {
+            align_min_gap_us: 10,
+            align_max_shift_us: 0,
+            align_lead_us: 900,
+            ..Default::default()
+        };
+        let keys: Vec<String> = problems(bad).into_iter().map(|(k, _)| k).collect();
+        assert_eq!(
+            keys,
+            ["usb.align_min_gap_us", "usb.align_max_shift_us", "usb.align_lead_us"]
+        );
+        let u = UsbConfig {
+            align: AlignMode::Phase,
+            align_max_shift_us: 30,
+            align_lead_us: 40,
+            ..Default::default()
+        };
+        assert_eq!(
+            u.align(),
+            Align::Phase {
+                max_shift: Duration::from_micros(30),
+                lead: Duration::from_micros(40)
+            }
+        );
+        let u = UsbConfig {
+            align: AlignMode::Off,
+            ..Default::default()
+        };
+        assert_eq!(u.align(), Align::Off);
+        assert_eq!(
+            UsbConfig::default().align(),
+            Align::Early {
+                min_gap: Duration::from_micros(align_defaults::MIN_GAP_US)
+            }
+        );
+    }
+}

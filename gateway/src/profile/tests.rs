@@ -1291,6 +1291,26 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             dex3("usb", "[devices.usb]\ntimeout_bit = false"),
         ),
         (
+            "devices.usb.align",
+            dex3("usb", ""),
+            dex3("usb", "[devices.usb]\nalign = \"off\""),
+        ),
+        (
+            "devices.usb.align_min_gap_us",
+            dex3("usb", "[devices.usb]\nalign = \"early\""),
+            dex3("usb", "[devices.usb]\nalign = \"early\"\nalign_min_gap_us = 250"),
+        ),
+        (
+            "devices.usb.align_max_shift_us",
+            dex3("usb", "[devices.usb]\nalign = \"phase\""),
+            dex3("usb", "[devices.usb]\nalign = \"phase\"\nalign_max_shift_us = 30"),
+        ),
+        (
+            "devices.usb.align_lead_us",
+            dex3("usb", "[devices.usb]\nalign = \"phase\""),
+            dex3("usb", "[devices.usb]\nalign = \"phase\"\nalign_lead_us = 80"),
+        ),
+        (
             "devices.usb.wiring.joints.NAME",
             dex3("usb", ""),
             dex3("usb", "[devices.usb.wiring.joints]\nthumb_0 = { bus = 3, id = 5 }"),
