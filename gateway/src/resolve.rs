@@ -92,6 +92,8 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
         backend: d.backend,
         table: Arc::new(table),
         rate_hz,
+        forward_on_arrival: d.forward_on_arrival.unwrap_or(true),
+        max_send_hz: d.max_send_hz.map(|r| r.0),
         stale_after: DEFAULT_STALE_AFTER,
         safe_action: d.watchdog.safe_action,
         emulator: d.emulator.clone().unwrap_or_default(),

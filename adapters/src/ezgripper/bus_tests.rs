@@ -222,6 +222,8 @@ fn profile_object_at_stops_the_jaw_and_grasps() {
             backend: Backend::Emulator,
             rate_hz: 100.0,
             stale_after: Duration::from_millis(200),
+            forward_on_arrival: true,
+            max_send_hz: None,
             table: &table,
             emulator: &section,
             config: &profile,

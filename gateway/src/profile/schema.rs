@@ -396,6 +396,12 @@ pub struct DeviceConfig {
     pub backend: Backend,
     /// Device loop / publish rate; `None` = the kind's default (see [`DeviceConfig::rate`]).
     pub rate_hz: Option<RateHz>,
+    /// A client of a DDS service publishes an accepted command at once (default), or only at
+    /// its loop's next tick (`false`).
+    pub forward_on_arrival: Option<bool>,
+    /// The most samples a second such a device publishes to its service, ticks included;
+    /// `None` = twice the loop rate.
+    pub max_send_hz: Option<RateHz>,
     pub limits: LimitsConfig,
     pub watchdog: WatchdogConfig,
     pub closure: ClosureConfig,
@@ -409,7 +415,17 @@ pub struct DeviceConfig {
 
 /// The keys every `[[devices]]` table may have; the others are the kind's.
 pub const COMMON_DEVICE_KEYS: &[&str] = &[
-    "name", "kind", "side", "backend", "rate_hz", "limits", "watchdog", "closure", "emulator",
+    "name",
+    "kind",
+    "side",
+    "backend",
+    "rate_hz",
+    "forward_on_arrival",
+    "max_send_hz",
+    "limits",
+    "watchdog",
+    "closure",
+    "emulator",
 ];
 
 /// The common keys as deserialized.
@@ -422,6 +438,10 @@ struct DeviceCommon {
     backend: Backend,
     #[serde(default)]
     rate_hz: Option<RateHz>,
+    #[serde(default)]
+    forward_on_arrival: Option<bool>,
+    #[serde(default)]
+    max_send_hz: Option<RateHz>,
     #[serde(default)]
     limits: LimitsConfig,
     #[serde(default)]
@@ -442,6 +462,8 @@ impl Default for DeviceConfig {
             side: Side::Left,
             backend: Backend::Emulator,
             rate_hz: None,
+            forward_on_arrival: None,
+            max_send_hz: None,
             limits: LimitsConfig::default(),
             watchdog: WatchdogConfig::default(),
             closure: ClosureConfig::default(),
@@ -589,6 +611,8 @@ impl DeviceConfig {
             side: c.side,
             backend: c.backend,
             rate_hz: c.rate_hz,
+            forward_on_arrival: c.forward_on_arrival,
+            max_send_hz: c.max_send_hz,
             limits: c.limits,
             watchdog: c.watchdog,
             closure: c.closure,

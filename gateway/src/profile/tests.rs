@@ -180,6 +180,18 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "at most 2000",
     ),
     (
+        "max_send_hz below the loop rate",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nrate_hz = 500\nmax_send_hz = 400\n",
+        "devices[0].max_send_hz",
+        "below the device's loop rate",
+    ),
+    (
+        "forward_on_arrival not a bool",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nforward_on_arrival = \"yes\"\n",
+        "devices[0].forward_on_arrival",
+        "bool",
+    ),
+    (
         "watchdog too short",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nwatchdog = { timeout_ms = 5 }\n",
         "devices[0].watchdog.timeout_ms",

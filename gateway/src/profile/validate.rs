@@ -405,6 +405,21 @@ impl Checker {
         if let Some(r) = d.rate_hz {
             self.rate(k.key("rate_hz"), r, MAX_RATE_HZ);
         }
+        if let Some(m) = d.max_send_hz {
+            self.rate(k.key("max_send_hz"), m, 2.0 * MAX_RATE_HZ);
+            if let DeviceRate::Hz(r) = d.rate() {
+                if m.0.is_finite() && m.0 < r.0 {
+                    self.err(
+                        k.key("max_send_hz"),
+                        format!(
+                            "is {} Hz, below the device's loop rate ({} Hz): the loop's own keep-alive would exceed it; \
+                             raise it or lower rate_hz",
+                            m.0, r.0
+                        ),
+                    );
+                }
+            }
+        }
 
         // limits
         let lk = k.key("limits");
