@@ -2,13 +2,15 @@
 # make bench: runs every benchmark (release builds) and rewrites docs/benchmarks.md.
 #   1. codec      cargo bench -p handgate-adapters --bench dex3_usb (criterion), and --bench
 #                 ezgripper when adapters/benches/ezgripper.rs exists
-#   2. loop       the Dex3 USB device loop at 1 kHz on the emulator, 60 s (default, SCHED_FIFO)
+#   2. loop       the Dex3 USB device loop at 1 kHz on the emulator, 60 s (default, SCHED_FIFO),
+#                 beside a reference loop that only sleeps to absolute deadlines
 #   2b. busy      the same loop while discovery runs on a domain with 500 remote endpoints
 #                 (50 re-created a second), against the same loop with the domain quiet, 30 s each
-#   3. hop        end-to-end HandCmd_ -> HandState_ through handgate vs a Rust echo (floor) and a
-#                 unitree_sdk2py relay, at 200 Hz and 1 kHz
-#   4. fleet      16 Dex3 + 16 Dex1 emulated in one gateway, 30 s
+#   3. hop        end-to-end HandCmd_ -> HandState_ through handgate vs a Rust echo (floor), the echo
+#                 plus one emulated Dex3 USB exchange, and a unitree_sdk2py relay, at 200 Hz and 1 kHz
+#   4. fleet      32 Dex3 + 32 Dex1 emulated in one gateway, 30 s
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
+#   4c. startup   handgate run on sim-all, 5 starts: spawn -> every device fresh, a state on every front
 #   6. record     handgate record of every topic of the default fleet beside a gateway, 600 s
 #   7. dashboard  the default fleet idle vs watched (3 dashboard tabs in headless Chromium and a
 #                 Foxglove client), 30 s per phase, twice (bench/dashboard_cost.py)
@@ -20,7 +22,7 @@ root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop busy hop fleet simall record dashboard"}
+only=${BENCH_ONLY:-"codec loop busy hop fleet simall startup record dashboard"}
 quick=${BENCH_QUICK:-0}
 
 loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600; dash_secs=30
@@ -84,6 +86,11 @@ fi
 if want simall; then
   echo "bench: 4b. sim-all, every kind at its own rates (${fleet_secs} s)"
   "$bin/handgate-bench" profile --handgate "$bin/handgate" --profile sim-all --secs "$fleet_secs" --out "$results/simall.json"
+fi
+
+if want startup; then
+  echo "bench: 4c. start-up of sim-all (5 starts)"
+  "$bin/handgate-bench" startup --handgate "$bin/handgate" --profile sim-all --runs 5 --out "$results/startup.json"
 fi
 
 if want record; then

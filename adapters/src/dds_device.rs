@@ -564,14 +564,21 @@ mod tests {
         assert!(sent.len() >= 990, "the budget's own rate goes through: {}", sent.len());
         // Any 100 ms window holds at most BURST + 100.
         for (i, t) in sent.iter().enumerate() {
-            let in_window = sent[i..].iter().take_while(|u| **u < *t + Duration::from_millis(100)).count();
+            let in_window = sent[i..]
+                .iter()
+                .take_while(|u| **u < *t + Duration::from_millis(100))
+                .count();
             assert!(in_window <= 102, "{in_window} in the 100 ms from {i}");
         }
         // Drained: the next token is 1 ms of refill away, not now.
         let now = t0 + Duration::from_secs(1);
         while b.take(now) {}
         let ready = b.ready_at(now);
-        assert!(ready > now && ready <= now + Duration::from_millis(1), "{:?}", ready - now);
+        assert!(
+            ready > now && ready <= now + Duration::from_millis(1),
+            "{:?}",
+            ready - now
+        );
         assert!(b.take(ready), "a token at ready_at");
     }
 

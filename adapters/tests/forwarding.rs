@@ -48,7 +48,9 @@ fn start(domain: u32, rate: f64, forward: Forwarding) -> (Node, Dex1Emulator, Dd
     };
     let dev = DdsDevice::start(&node, info, cfg, Dex1GoCodec::new(Variant::Go, Side::Right)).unwrap();
     let mut rx = dev.state();
-    wait_for("the first fresh state", || rx.borrow_and_update().freshness == Freshness::Fresh);
+    wait_for("the first fresh state", || {
+        rx.borrow_and_update().freshness == Freshness::Fresh
+    });
     (node, emu, dev)
 }
 
@@ -90,7 +92,14 @@ fn a_command_reaches_the_service_before_the_next_tick_and_its_state_comes_back_w
 
 #[test]
 fn with_forwarding_off_a_command_waits_for_the_tick() {
-    let (_node, emu, dev) = start(55, 2.0, Forwarding { on_arrival: false, max_send_hz: 4.0 });
+    let (_node, emu, dev) = start(
+        55,
+        2.0,
+        Forwarding {
+            on_arrival: false,
+            max_send_hz: 4.0,
+        },
+    );
     let c = just_after_a_tick(&dev);
     dev.command(HandCommand::closure(1, 1.0)).unwrap();
     wait_for("the command at the service", || closed_at_service(&emu));
@@ -98,14 +107,24 @@ fn with_forwarding_off_a_command_waits_for_the_tick() {
     // Its state comes at a later tick: the first one that finds a sample taken after it went out.
     let mut rx = dev.state();
     wait_for("the state reflecting it", || rx.borrow_and_update().cmd_seq == 1);
-    assert!(dev.stats().cycles > c + 1, "reflected at a tick after the one that sent it");
+    assert!(
+        dev.stats().cycles > c + 1,
+        "reflected at a tick after the one that sent it"
+    );
 }
 
 /// A client at about 10 kHz against a 50 Hz device bounded at 100 Hz: the service receives at
 /// most `BURST + 100·T` samples in `T` seconds, and the newest command still gets through.
 #[test]
 fn a_flood_reaches_the_service_at_max_send_hz() {
-    let (_node, emu, dev) = start(56, 50.0, Forwarding { on_arrival: true, max_send_hz: 100.0 });
+    let (_node, emu, dev) = start(
+        56,
+        50.0,
+        Forwarding {
+            on_arrival: true,
+            max_send_hz: 100.0,
+        },
+    );
     let before = emu.commands_received();
     let t0 = Instant::now();
     let mut seq = 0;
@@ -121,7 +140,13 @@ fn a_flood_reaches_the_service_at_max_send_hz() {
     wait_for("the last command at the service", || closed_at_service(&emu));
     let got = emu.commands_received() - before;
     let bound = 2.0 + 100.0 * t0.elapsed().as_secs_f64();
-    assert!(sent_by_client > 1000, "the client flooded: {sent_by_client} in {elapsed:.2} s");
+    assert!(
+        sent_by_client > 1000,
+        "the client flooded: {sent_by_client} in {elapsed:.2} s"
+    );
     assert!((got as f64) <= bound, "the service received {got} (bound {bound:.0})");
-    assert!(got as f64 >= 50.0 * elapsed, "at least the loop rate got through: {got}");
+    assert!(
+        got as f64 >= 50.0 * elapsed,
+        "at least the loop rate got through: {got}"
+    );
 }

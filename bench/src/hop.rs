@@ -138,16 +138,68 @@ pub fn client(
     })
 }
 
+/// One emulated Dex3 USB exchange, what the floor + exchange peer does per command: the
+/// command frame built and encoded as the device loop does, exchanged with the MCU emulator
+/// at the transport seam, the reply decoded into a measurement.
+pub struct Exchange {
+    transport: Box<dyn handgate_adapters::dex3::usb::Dex3Transport>,
+    cfg: handgate_adapters::dex3::usb::LoopConfig,
+    meas: handgate_adapters::dex3::Dex3Measurement,
+    cmd_buf: [u8; handgate_adapters::dex3::usb::CMD_FRAME_LEN],
+    st_buf: [u8; handgate_adapters::dex3::usb::STATE_FRAME_LEN],
+}
+
+impl Exchange {
+    pub fn new() -> anyhow::Result<Self> {
+        use handgate_adapters::dex3::usb::{Dex3Emulator, EmulatorClock, EmulatorConfig, EmulatorTransport};
+        let emu = Arc::new(Mutex::new(Dex3Emulator::new(
+            handgate_adapters::dex3::Side::Left,
+            EmulatorConfig {
+                clock: EmulatorClock::Wall,
+                ..EmulatorConfig::default()
+            },
+        )));
+        Ok(Self {
+            transport: EmulatorTransport::factory(emu)()?,
+            cfg: handgate_adapters::dex3::usb::LoopConfig::default(),
+            meas: handgate_adapters::dex3::Dex3Measurement::empty(Instant::now()),
+            cmd_buf: [0; handgate_adapters::dex3::usb::CMD_FRAME_LEN],
+            st_buf: [0; handgate_adapters::dex3::usb::STATE_FRAME_LEN],
+        })
+    }
+
+    /// Sends `c` (positions and gains of its 7 motors) in one exchange.
+    pub fn run(&mut self, c: &HandCmd_) -> anyhow::Result<()> {
+        use handgate_adapters::dex3::usb::codec::McuToLinuxState;
+        use handgate_adapters::dex3::usb::convert::{apply_state, build_command};
+        let mut cmd = handgate_adapters::dex3::Dex3Command::default();
+        for (m, w) in cmd.motors.iter_mut().zip(&c.motor_cmd) {
+            m.q = w.q;
+            m.kp = w.kp;
+            m.kd = w.kd;
+        }
+        build_command(&cmd, &self.cfg.wiring, &self.cfg.scalings, true).encode_into(&mut self.cmd_buf);
+        self.transport
+            .exchange(&self.cmd_buf, &mut self.st_buf, self.cfg.exchange_timeout)?;
+        let st = McuToLinuxState::decode(&self.st_buf)?;
+        apply_state(&mut self.meas, &st, &self.cfg.wiring, &self.cfg.scalings);
+        Ok(())
+    }
+}
+
 /// The floor: answers every HandCmd_ at once, from the DDS listener thread, with a HandState_
-/// of 7 motors and 9 pads echoing `reserve[0]`. With `tick`, an ideal gateway in front of a
-/// device polled at that period instead: the newest tag is answered at the next tick of its
-/// own clock (no device, no work: only the wait for the next cycle). Runs until killed.
+/// of 7 motors and 9 pads echoing `reserve[0]`. With `exchange`, each command first goes
+/// through one emulated Dex3 USB exchange ([`Exchange`]): the least a gateway in front of a
+/// USB hand must do. With `tick`, an ideal gateway in front of a device polled at that period
+/// instead: the newest tag is answered at the next tick of its own clock (no device, no work:
+/// only the wait for the next cycle). Runs until killed.
 pub fn echo(
     domain: u32,
     iface: Option<&str>,
     cmd_topic: &str,
     state_topic: &str,
     tick: Option<Duration>,
+    exchange: bool,
 ) -> anyhow::Result<()> {
     let node = Node::new(domain, iface)?;
     let writer = node.writer::<HandState_>(state_topic, Qos::BestEffort)?;
@@ -156,6 +208,7 @@ pub fn echo(
         s.reserve[0] = tag;
         let _ = w.write(s);
     };
+    let mut ex = if exchange { Some(Exchange::new()?) } else { None };
     let pending: Arc<Mutex<Option<u32>>> = Arc::default();
     let p = pending.clone();
     let (mut direct, ticked) = match tick {
@@ -166,6 +219,11 @@ pub fn echo(
         let mut v = Vec::new();
         h.take_into(&mut v);
         for c in v {
+            if let Some(ex) = ex.as_mut() {
+                if let Err(e) = ex.run(&c) {
+                    eprintln!("echo: exchange failed: {e}");
+                }
+            }
             match direct.as_mut() {
                 Some(w) => answer(w, c.reserve[0]),
                 None => *p.lock().unwrap_or_else(|e| e.into_inner()) = Some(c.reserve[0]),

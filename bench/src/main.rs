@@ -9,6 +9,7 @@ mod fleet;
 mod hop;
 mod record;
 mod report;
+mod startup;
 mod stats;
 
 use std::path::PathBuf;
@@ -79,13 +80,18 @@ enum Cmd {
         samples: usize,
         #[arg(long, default_value_t = 200)]
         warmup: usize,
-        /// Domains: base (handgate), base+1 (floor), base+2 (relay), base+3 (floor + tick).
+        /// Domains: base (handgate), base+1 (floor), base+2 (relay), base+3 (floor + tick),
+        /// base+12 (floor + one emulated exchange).
         #[arg(long, default_value_t = 100)]
         domain_base: u32,
         #[arg(long)]
         interface: Option<String>,
-        /// Only these peers (floor, floor-1khz, handgate, python).
-        #[arg(long, value_delimiter = ',', default_value = "floor,floor-1khz,handgate,python")]
+        /// Only these peers (floor, floor-exchange, floor-1khz, handgate, python).
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "floor,floor-exchange,floor-1khz,handgate,python"
+        )]
         only: Vec<String>,
         #[arg(long)]
         out: PathBuf,
@@ -103,19 +109,35 @@ enum Cmd {
         /// Answer at the next tick of this period (µs) instead of at once.
         #[arg(long)]
         tick_us: Option<u64>,
+        /// One emulated Dex3 USB exchange per command before answering.
+        #[arg(long)]
+        exchange: bool,
     },
     /// Fleet scale: one gateway with many emulated devices.
     Fleet {
         #[arg(long)]
         handgate: PathBuf,
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 32)]
         dex3: usize,
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 32)]
         dex1: usize,
         #[arg(long, default_value_t = 30.0)]
         secs: f64,
         #[arg(long, default_value_t = 110)]
         domain: u32,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Start-up: from `handgate run` to every device fresh and a first state on every front.
+    Startup {
+        #[arg(long)]
+        handgate: PathBuf,
+        #[arg(long, default_value = "sim-all")]
+        profile: String,
+        #[arg(long, default_value_t = 113)]
+        domain: u32,
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
         #[arg(long)]
         out: PathBuf,
     },
@@ -289,6 +311,18 @@ fn main() -> anyhow::Result<()> {
                             child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
                         )
                     }
+                    "floor-exchange" => {
+                        let mut c = Command::new(std::env::current_exe()?);
+                        c.args(["echo", "--exchange", "--domain", &(domain_base + 12).to_string()]);
+                        if let Some(i) = iface {
+                            c.args(["--interface", i]);
+                        }
+                        (
+                            "floor + exchange",
+                            domain_base + 12,
+                            child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
+                        )
+                    }
                     "handgate" => ("handgate", domain_base, gateway(&handgate, domain_base, iface, None)?),
                     "python" => {
                         let Some(py) = python.as_ref().filter(|p| p.exists()) else {
@@ -327,13 +361,25 @@ fn main() -> anyhow::Result<()> {
             cmd_topic,
             state_topic,
             tick_us,
+            exchange,
         } => hop::echo(
             domain,
             interface.as_deref(),
             &cmd_topic,
             &state_topic,
             tick_us.map(Duration::from_micros),
+            exchange,
         )?,
+        Cmd::Startup {
+            handgate,
+            profile,
+            domain,
+            runs,
+            out,
+        } => {
+            let r = startup::run(&handgate, &profile, domain, runs)?;
+            save(&out, &r)?;
+        }
         Cmd::Fleet {
             handgate,
             dex3,
