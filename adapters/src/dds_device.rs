@@ -285,6 +285,7 @@ impl DdsDevice {
         let thread = std::thread::Builder::new()
             .name(format!("dev-{name}"))
             .spawn(move || {
+                crate::realtime::enter_device_loop(); // [realtime]: this thread only
                 let shared = sh;
                 let _ = shared.wake.thread.set(std::thread::current());
                 let _span = span.enter();

@@ -112,6 +112,8 @@ pub struct Plan {
     pub http: Option<HttpPlan>,
     /// `[foxglove]`; `None`: off (or not built in).
     pub foxglove: Option<FoxglovePlan>,
+    /// `[realtime]`: what the device-loop threads run with (default: unchanged).
+    pub realtime: handgate_adapters::realtime::Settings,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

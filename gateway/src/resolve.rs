@@ -247,6 +247,13 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
                 required: p.foxglove.is_some(),
             }
         }),
+        realtime: handgate_adapters::realtime::Settings {
+            policy: p.realtime.policy,
+            // Validated: present with a real-time policy, absent otherwise.
+            priority: p.realtime.priority.unwrap_or(0),
+            cpus: p.realtime.cpus.clone(),
+            mlockall: p.realtime.mlockall,
+        },
         devices,
         fronts,
     })

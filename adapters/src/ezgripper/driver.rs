@@ -387,7 +387,10 @@ impl EzGripperBus {
         let worker = Worker::new(cfg.clone(), connector, shared.clone(), states.clone(), stop.clone());
         let thread = std::thread::Builder::new()
             .name("ezgripper-bus".into())
-            .spawn(move || worker.run(Some(link)))
+            .spawn(move || {
+                crate::realtime::enter_device_loop(); // [realtime]: this thread only
+                worker.run(Some(link))
+            })
             .map_err(EzError::Thread)?;
         Ok(Self {
             shared,

@@ -102,6 +102,9 @@ pub struct Profile {
     /// `[foxglove]`: the Foxglove WebSocket live server (docs/foxglove.md); `None`: the
     /// section is absent (the server runs with its defaults when handgate is built with it).
     pub foxglove: Option<FoxgloveConfig>,
+    /// `[realtime]`: scheduling, CPU affinity and memory locking of the device loops
+    /// (docs/deployment.md, "Real-time"); the defaults change nothing.
+    pub realtime: RealtimeConfig,
     pub devices: Vec<DeviceConfig>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -119,6 +122,7 @@ pub struct RawProfile {
     pub record: Option<RecordConfig>,
     pub http: HttpConfig,
     pub foxglove: Option<FoxgloveConfig>,
+    pub realtime: RealtimeConfig,
     pub devices: Vec<Value>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -171,6 +175,7 @@ impl RawProfile {
             record: self.record,
             http: self.http,
             foxglove: self.foxglove,
+            realtime: self.realtime,
             devices,
             fronts: self.fronts,
         }
@@ -367,6 +372,25 @@ impl Default for FoxgloveConfig {
         }
     }
 }
+
+/// `[realtime]`: how the device-loop threads run (docs/deployment.md, "Real-time"). Opt-in:
+/// the defaults leave every thread as the kernel starts it. Applied to the device loops only,
+/// never to the tokio workers, the DDS threads or the emulators.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RealtimeConfig {
+    /// `other` (default: time-sharing, as without the section), `fifo` or `rr`.
+    pub policy: RealtimePolicy,
+    /// Real-time priority, 1..=99; required with `fifo` / `rr`, refused with `other`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub priority: Option<u32>,
+    /// CPUs the device loops may run on; empty: not pinned.
+    pub cpus: Vec<usize>,
+    /// Lock the whole process's memory at start (`mlockall(MCL_CURRENT | MCL_FUTURE)`).
+    pub mlockall: bool,
+}
+
+pub use handgate_adapters::realtime::{Policy as RealtimePolicy, PRIORITY_MAX, PRIORITY_MIN};
 
 /// How fast a device loop runs.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1716,3 +1716,92 @@ fn foxglove_section_errors_name_their_keys_and_a_lean_build_names_the_feature() 
         assert_eq!(plan.foxglove, None, "not built in: off, and no error without a section");
     }
 }
+
+#[test]
+fn realtime_defaults_change_nothing() {
+    let l = load(&opts(None)).unwrap();
+    assert_eq!(l.profile.realtime, RealtimeConfig::default());
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    assert!(plan.realtime.is_default(), "{:?}", plan.realtime);
+    assert!(!render_fleet(&l.profile, &l.origin).contains("realtime"));
+}
+
+#[test]
+fn realtime_section_reaches_the_plan() {
+    let cpu = *handgate_adapters::realtime::allowed_cpus().unwrap().last().unwrap();
+    let (_, r) = load_text(&format!(
+        "{DEX3}[realtime]\npolicy = \"rr\"\npriority = 20\ncpus = [{cpu}]\nmlockall = true\n"
+    ));
+    let l = r.unwrap();
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    assert_eq!(
+        plan.realtime,
+        handgate_adapters::realtime::Settings {
+            policy: RealtimePolicy::Rr,
+            priority: 20,
+            cpus: vec![cpu],
+            mlockall: true,
+        }
+    );
+    let shown = render_fleet(&l.profile, &l.origin);
+    assert!(
+        shown.contains(&format!("realtime: device loops SCHED_RR priority 20, CPUs {cpu}, memory locked")),
+        "{shown}"
+    );
+}
+
+#[test]
+fn realtime_section_errors_name_file_and_key() {
+    let allowed = handgate_adapters::realtime::allowed_cpus().unwrap();
+    let shown = handgate_adapters::realtime::CpuList(&allowed).to_string();
+    let outside = handgate_adapters::realtime::MAX_CPUS + 3;
+    // (section, key, message fragment): each gives exactly this one line.
+    let cases: Vec<(String, &str, String)> = vec![
+        (
+            "policy = \"fifo\"\n".into(),
+            "realtime.priority",
+            "required with policy = \"fifo\" (a real-time priority, 1..=99)".into(),
+        ),
+        (
+            "policy = \"rr\"\npriority = 0\n".into(),
+            "realtime.priority",
+            "must be 1..=99, got 0".into(),
+        ),
+        (
+            "policy = \"fifo\"\npriority = 100\n".into(),
+            "realtime.priority",
+            "must be 1..=99, got 100".into(),
+        ),
+        (
+            "priority = 10\n".into(),
+            "realtime.priority",
+            "only applies to policy = \"fifo\" or \"rr\"".into(),
+        ),
+        (
+            "policy = \"deadline\"\n".into(),
+            "realtime.policy",
+            "unknown variant: found `deadline`, expected `one of `other`, `fifo`, `rr``".into(),
+        ),
+        (
+            format!("cpus = [{}, {outside}]\n", allowed[0]),
+            "realtime.cpus[1]",
+            format!("CPU {outside} is not one this process may run on (allowed: {shown})"),
+        ),
+        (
+            format!("cpus = [{0}, {0}]\n", allowed[0]),
+            "realtime.cpus[1]",
+            format!("CPU {} is listed twice", allowed[0]),
+        ),
+        ("mlock = true\n".into(), "realtime.mlock", "unknown key".into()),
+    ];
+    for (section, key, want) in cases {
+        let (path, r) = load_text(&format!("{DEX3}[realtime]\n{section}"));
+        let lines = r.unwrap_err().lines();
+        assert_eq!(lines.len(), 1, "{section}: {lines:#?}");
+        assert!(
+            lines[0].starts_with(&format!("{}: {key}: ", path.display())) && lines[0].contains(&want),
+            "{section}: want {key}: {want}, got {}",
+            lines[0]
+        );
+    }
+}
