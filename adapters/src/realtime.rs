@@ -251,19 +251,14 @@ pub enum RealtimeError {
         cap_sys_nice: Option<bool>,
     },
     /// `sched_setscheduler` failed otherwise.
-    #[error("[realtime] policy = \"{policy}\", priority = {priority}: the kernel refused {} at priority {priority}: {source}", .policy.sched_name())]
-    Sched {
-        policy: Policy,
-        priority: u32,
-        #[source]
-        source: io::Error,
-    },
+    #[error("[realtime] policy = \"{policy}\", priority = {priority}: the kernel refused {} at priority {priority}: {os}", .policy.sched_name())]
+    Sched { policy: Policy, priority: u32, os: io::Error },
     /// A CPU of `cpus` this process may not run on.
-    #[error("[realtime] cpus = [{}]: {} (this process may use CPUs {}){}", .requested.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "), cpus_refused(.requested, .allowed), CpuList(.allowed), .source.as_ref().map(|e| format!("; sched_setaffinity: {e}")).unwrap_or_default())]
+    #[error("[realtime] cpus = [{}]: {} (this process may use CPUs {}){}", .requested.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "), cpus_refused(.requested, .allowed), CpuList(.allowed), .os.as_ref().map(|e| format!("; sched_setaffinity: {e}")).unwrap_or_default())]
     Cpus {
         requested: Vec<usize>,
         allowed: Vec<usize>,
-        source: Option<io::Error>,
+        os: Option<io::Error>,
     },
     /// Memory cannot be locked (or would stop growing once locked).
     #[error("{}", mlock_refused(.cause, .memlock, *.cap_ipc_lock))]
@@ -274,10 +269,10 @@ pub enum RealtimeError {
     },
     /// The CPUs this process may use cannot be read.
     #[error("[realtime] cannot read this process's CPU affinity: {0}")]
-    Affinity(#[source] io::Error),
+    Affinity(io::Error),
     /// The probe thread could not be started.
     #[error("[realtime] cannot start the probe thread: {0}")]
-    Probe(#[source] io::Error),
+    Probe(io::Error),
     /// A second [`install`] in one process with other settings.
     #[error("[realtime] this process already runs its device loops with {installed}; it cannot switch to {requested}")]
     AlreadyInstalled { installed: Settings, requested: Settings },
@@ -352,7 +347,7 @@ pub fn apply_to_current_thread(s: &Settings) -> Result<(), RealtimeError> {
                 return Err(RealtimeError::Cpus {
                     requested: s.cpus.clone(),
                     allowed: allowed_cpus().unwrap_or_default(),
-                    source: None,
+                    os: None,
                 });
             }
             unsafe { libc::CPU_SET(c, &mut set) };
@@ -363,7 +358,7 @@ pub fn apply_to_current_thread(s: &Settings) -> Result<(), RealtimeError> {
             return Err(RealtimeError::Cpus {
                 requested: s.cpus.clone(),
                 allowed: allowed_cpus().unwrap_or_default(),
-                source: Some(source),
+                os: Some(source),
             });
         }
     }
@@ -386,7 +381,7 @@ pub fn apply_to_current_thread(s: &Settings) -> Result<(), RealtimeError> {
                 RealtimeError::Sched {
                     policy: s.policy,
                     priority: s.priority,
-                    source,
+                    os: source,
                 }
             });
         }
@@ -406,7 +401,7 @@ fn check_cpus(cpus: &[usize]) -> Result<(), RealtimeError> {
         Err(RealtimeError::Cpus {
             requested: cpus.to_vec(),
             allowed,
-            source: None,
+            os: None,
         })
     }
 }
@@ -575,7 +570,7 @@ mod tests {
         let c = RealtimeError::Cpus {
             requested: vec![0, 7],
             allowed: vec![0, 1],
-            source: None,
+            os: None,
         }
         .to_string();
         assert!(

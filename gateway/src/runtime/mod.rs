@@ -43,7 +43,7 @@ pub enum RuntimeError {
     #[error("{0}")]
     ForeignStateWriter(String),
     /// `[realtime]` asks for what this process may not do (the message names the fix).
-    #[error("{0}")]
+    #[error(transparent)]
     Realtime(#[from] handgate_adapters::realtime::RealtimeError),
     #[error("[record]: {0}")]
     Record(#[from] handgate_record::RecordError),
