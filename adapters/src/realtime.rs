@@ -252,7 +252,11 @@ pub enum RealtimeError {
     },
     /// `sched_setscheduler` failed otherwise.
     #[error("[realtime] policy = \"{policy}\", priority = {priority}: the kernel refused {} at priority {priority}: {os}", .policy.sched_name())]
-    Sched { policy: Policy, priority: u32, os: io::Error },
+    Sched {
+        policy: Policy,
+        priority: u32,
+        os: io::Error,
+    },
     /// A CPU of `cpus` this process may not run on.
     #[error("[realtime] cpus = [{}]: {} (this process may use CPUs {}){}", .requested.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "), cpus_refused(.requested, .allowed), CpuList(.allowed), .os.as_ref().map(|e| format!("; sched_setaffinity: {e}")).unwrap_or_default())]
     Cpus {
@@ -282,7 +286,8 @@ fn sched_refused(policy: Policy, priority: u32, rtprio: &Option<Limit>, cap: Opt
     let mut s = format!(
         "[realtime] policy = \"{policy}\", priority = {priority}: the kernel refused {} at priority {priority} \
          (EPERM): it needs {} or RLIMIT_RTPRIO of at least {priority} (now {}). Fix: in the systemd unit add \
-         `LimitRTPRIO={priority}` or `AmbientCapabilities=CAP_SYS_NICE` (docs/deployment.md, \"Real-time\"); \
+         `LimitRTPRIO={priority}`, or `AmbientCapabilities=CAP_SYS_NICE` with CAP_SYS_NICE in \
+         `CapabilityBoundingSet=` (docs/deployment.md, \"Real-time\"); \
          from a shell, `ulimit -r {priority}` (up to the hard limit) or an `rtprio` line in \
          /etc/security/limits.conf; or remove `policy` from [realtime] (default \"other\")",
         policy.sched_name(),
@@ -314,8 +319,8 @@ fn cpus_refused(requested: &[usize], allowed: &[usize]) -> String {
 fn mlock_refused(cause: &str, memlock: &Option<Limit>, cap: Option<bool>) -> String {
     format!(
         "[realtime] mlockall = true: {cause}: locking the gateway's memory needs RLIMIT_MEMLOCK = unlimited \
-         (now {}) or {}. Fix: in the systemd unit add `LimitMEMLOCK=infinity` or \
-         `AmbientCapabilities=CAP_IPC_LOCK` (docs/deployment.md, \"Real-time\"); from a shell, \
+         (now {}) or {}. Fix: in the systemd unit add `LimitMEMLOCK=infinity`, or \
+         `AmbientCapabilities=CAP_IPC_LOCK` with CAP_IPC_LOCK in `CapabilityBoundingSet=` (docs/deployment.md, \"Real-time\"); from a shell, \
          `ulimit -l unlimited`; or set mlockall = false",
         Shown(*memlock, true),
         cap_phrase("CAP_IPC_LOCK", cap),
@@ -330,9 +335,7 @@ pub fn allowed_cpus() -> io::Result<Vec<usize>> {
     if unsafe { libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) } != 0 {
         return Err(io::Error::last_os_error());
     }
-    Ok((0..MAX_CPUS)
-        .filter(|&c| unsafe { libc::CPU_ISSET(c, &set) })
-        .collect())
+    Ok((0..MAX_CPUS).filter(|&c| unsafe { libc::CPU_ISSET(c, &set) }).collect())
 }
 
 /// Applies `s` to the calling thread: CPU affinity, then the scheduling policy (with
@@ -423,7 +426,7 @@ fn probe(s: &Settings) -> Result<(), RealtimeError> {
 fn lock_memory() -> Result<(), RealtimeError> {
     let memlock = Limit::memlock();
     let cap = has_capability(CAP_IPC_LOCK);
-    let limited = memlock.is_none_or(|l| l.soft.is_some());
+    let limited = memlock.map_or(true, |l| l.soft.is_some());
     if cap != Some(true) && limited {
         return Err(RealtimeError::Mlockall {
             cause: "with MCL_FUTURE every later allocation is locked too, and past RLIMIT_MEMLOCK it fails".into(),
@@ -584,7 +587,10 @@ mod tests {
         let allowed = allowed_cpus().unwrap();
         // SAFETY: no preconditions.
         let now = unsafe { libc::sched_getcpu() };
-        assert!(now >= 0 && allowed.contains(&(now as usize)), "{now} not in {allowed:?}");
+        assert!(
+            now >= 0 && allowed.contains(&(now as usize)),
+            "{now} not in {allowed:?}"
+        );
     }
 
     #[test]
@@ -607,7 +613,9 @@ mod tests {
             cpus: vec![MAX_CPUS + 1],
             ..Settings::default()
         };
-        let e = std::thread::spawn(move || apply_to_current_thread(&bad)).join().unwrap();
+        let e = std::thread::spawn(move || apply_to_current_thread(&bad))
+            .join()
+            .unwrap();
         assert!(matches!(e, Err(RealtimeError::Cpus { .. })), "{e:?}");
     }
 }

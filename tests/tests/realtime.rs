@@ -122,7 +122,12 @@ fn tasks(pid: u32) -> Vec<Task> {
             continue; // the thread ended meanwhile
         };
         // Fields after "pid (comm) ": field 3 first, so field N is at N - 3.
-        let rest: Vec<&str> = stat.rsplit_once(") ").expect("stat has (comm)").1.split_whitespace().collect();
+        let rest: Vec<&str> = stat
+            .rsplit_once(") ")
+            .expect("stat has (comm)")
+            .1
+            .split_whitespace()
+            .collect();
         let field = |n: usize| rest[n - 3].parse::<u32>().expect("a number");
         out.push(Task {
             tid,
@@ -244,16 +249,23 @@ fn device_loops_run_fifo_pinned_and_nothing_else_does() {
     for t in &seen {
         if is_loop(t) {
             if (t.policy, t.rt_priority, &t.cpus) != (SCHED_FIFO, PRIORITY, &vec![pin]) {
-                problems.push(format!("device loop {} (tid {}) {t:?}: want SCHED_FIFO {PRIORITY} on CPU {pin}", t.comm, t.tid));
+                problems.push(format!(
+                    "device loop {} (tid {}) {t:?}: want SCHED_FIFO {PRIORITY} on CPU {pin}",
+                    t.comm, t.tid
+                ));
             }
         } else if (t.policy, t.rt_priority, &t.cpus) != (SCHED_OTHER, 0, &all) {
-            problems.push(format!("{} (tid {}) {t:?}: want SCHED_OTHER on CPUs {all:?} (not a device loop)", t.comm, t.tid));
+            problems.push(format!(
+                "{} (tid {}) {t:?}: want SCHED_OTHER on CPUs {all:?} (not a device loop)",
+                t.comm, t.tid
+            ));
         }
     }
     let workers = seen.iter().filter(|t| t.comm.starts_with("tokio-")).count();
     assert!(workers >= 1, "no tokio worker among {seen:#?}");
     assert!(
-        seen.iter().any(|t| t.comm.ends_with("-emu") || t.comm.contains("-emu-")),
+        seen.iter()
+            .any(|t| t.comm.ends_with("-emu") || t.comm.contains("-emu-")),
         "no emulator thread among {seen:#?}"
     );
     assert!(problems.is_empty(), "{}\nall threads: {seen:#?}", problems.join("\n"));
@@ -287,7 +299,9 @@ fn run_refused(prefix: &[&str], profile: &Path) -> (bool, String, String) {
             cmd.env_remove(k);
         }
     }
-    let mut child = cmd.spawn().unwrap_or_else(|e| panic!("spawn {prefix:?} handgate run: {e}"));
+    let mut child = cmd
+        .spawn()
+        .unwrap_or_else(|e| panic!("spawn {prefix:?} handgate run: {e}"));
     let start = Instant::now();
     loop {
         if child.try_wait().expect("wait").is_some() {
@@ -318,7 +332,11 @@ fn without(limit: &str, cap: &str) -> Result<Vec<String>, String> {
     let mut prefix = vec!["prlimit".to_string(), limit.to_string()];
     if root {
         // Root keeps every capability of its bounding set across exec: drop it there.
-        prefix.extend(["setpriv".into(), format!("--inh-caps=-{cap}"), format!("--bounding-set=-{cap}")]);
+        prefix.extend([
+            "setpriv".into(),
+            format!("--inh-caps=-{cap}"),
+            format!("--bounding-set=-{cap}"),
+        ]);
     }
     let mut probe = Command::new(&prefix[0]);
     probe.args(&prefix[1..]).arg("true");
@@ -340,7 +358,10 @@ fn assert_refused(what: &str, (ok, stdout, stderr): (bool, String, String), want
     assert!(!ok, "{what}: handgate run succeeded:\n{stdout}\n{stderr}");
     // Stopped before serving, and before any device opened (the Dex3 loop logs its connect).
     for never in ["handgate serving", "dex3 usb: connected", "device loop started"] {
-        assert!(!stdout.contains(never), "{what}: {never:?} printed:\n{stdout}\n{stderr}");
+        assert!(
+            !stdout.contains(never),
+            "{what}: {never:?} printed:\n{stdout}\n{stderr}"
+        );
     }
     for w in want {
         assert!(stderr.contains(w.as_str()), "{what}: missing {w:?} in:\n{stderr}");
@@ -427,7 +448,11 @@ fn a_cpu_the_process_may_not_use_is_a_profile_error() {
         }
     };
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "handgate check exit code; stderr:\n{stderr}");
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "handgate check exit code; stderr:\n{stderr}"
+    );
     let want = format!(
         "{}: realtime.cpus[0]: CPU {last} is not one this process may run on (allowed: {first})",
         profile.display()

@@ -1745,7 +1745,9 @@ fn realtime_section_reaches_the_plan() {
     );
     let shown = render_fleet(&l.profile, &l.origin);
     assert!(
-        shown.contains(&format!("realtime: device loops SCHED_RR priority 20, CPUs {cpu}, memory locked")),
+        shown.contains(&format!(
+            "realtime: device loops SCHED_RR priority 20, CPUs {cpu}, memory locked"
+        )),
         "{shown}"
     );
 }
