@@ -1248,6 +1248,16 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             dex3("emulator", "rate_hz = 700"),
         ),
         (
+            "devices.forward_on_arrival",
+            dex1("emulator", ""),
+            dex1("emulator", "forward_on_arrival = false"),
+        ),
+        (
+            "devices.max_send_hz",
+            dex1("emulator", ""),
+            dex1("emulator", "max_send_hz = 1500"),
+        ),
+        (
             "devices.limits.max_step",
             dex3("emulator", ""),
             dex3("emulator", "limits = { max_step = 0.1 }"),
