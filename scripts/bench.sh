@@ -8,6 +8,8 @@
 #                 (50 re-created a second), against the same loop with the domain quiet, 30 s each
 #   3. hop        end-to-end HandCmd_ -> HandState_ through handgate vs a Rust echo (floor), the echo
 #                 plus one emulated Dex3 USB exchange, and a unitree_sdk2py relay, at 200 Hz and 1 kHz
+#   3b. shim      a Dex1 client driving a Dex3 served by the G1-service emulator (its own process)
+#                 through handgate vs a raw Rust relay (two DDS hops) and a unitree_sdk2py shim
 #   4. fleet      32 Dex3 + 32 Dex1 emulated in one gateway, 30 s
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
 #   4c. startup   handgate run on sim-all, 5 starts: spawn -> every device fresh, a state on every front
@@ -15,14 +17,14 @@
 #   7. dashboard  the default fleet idle vs watched (3 dashboard tabs in headless Chromium and a
 #                 Foxglove client), 30 s per phase, twice (bench/dashboard_cost.py)
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop busy hop fleet simall record" to run a subset (the report keeps only what this run made).
+# BENCH_ONLY="codec loop busy hop shim fleet simall record" to run a subset (the report keeps only what this run made).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop busy hop fleet simall startup record dashboard"}
+only=${BENCH_ONLY:-"codec loop busy hop shim fleet simall startup record dashboard"}
 quick=${BENCH_QUICK:-0}
 
 loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600; dash_secs=30
@@ -76,6 +78,12 @@ if want hop; then
   echo "bench: 3. end-to-end hop ($samples samples per rate)"
   "$bin/handgate-bench" hop --handgate "$bin/handgate" --python "$root/.venv/bin/python" \
     --relay "$root/bench/python/relay.py" --samples "$samples" --out "$results/hop.json"
+fi
+
+if want shim; then
+  echo "bench: 3b. shim hop through a DDS-client device ($samples samples per rate)"
+  "$bin/handgate-bench" shim --handgate "$bin/handgate" --python "$root/.venv/bin/python" \
+    --script "$root/bench/python/shim.py" --samples "$samples" --out "$results/shim.json"
 fi
 
 if want fleet; then

@@ -8,6 +8,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, DEX3_MOTORS, DEX3_PRESS_SENSORS};
+use handgate_idl::TopicType;
 use serde::{Deserialize, Serialize};
 
 use crate::stats::{cpu_seconds, Summary};
@@ -52,30 +53,86 @@ pub fn client(
     warmup: usize,
     peer_pid: u32,
 ) -> anyhow::Result<HopResult> {
+    let run = tagged_client(
+        node,
+        cmd_topic,
+        state_topic,
+        rate_hz,
+        samples,
+        warmup,
+        &[peer_pid],
+        command,
+        |s: &HandState_| Some(s.reserve[0]),
+    )?;
+    Ok(HopResult {
+        target: target.into(),
+        rate_hz,
+        sent: run.sent,
+        echoed: run.latency_us.len(),
+        latency_us: Summary::of(&run.latency_us),
+        peer_cpu_pct: run.cpu_pct[0],
+    })
+}
+
+/// What one run of [`tagged_client`] measured.
+#[derive(Debug, Clone)]
+pub struct TaggedRun {
+    /// Commands sent after the warm-up.
+    pub sent: usize,
+    /// Latency of each of those a state came back for, µs.
+    pub latency_us: Vec<f64>,
+    /// CPU of each watched process during the run, % of one core (NaN if unreadable).
+    pub cpu_pct: Vec<f64>,
+}
+
+/// The tagged client every hop benchmark runs: publishes `make(tag)` on `cmd_topic` at
+/// `rate_hz` (a unique tag per command, each at a uniformly random point of its period) and
+/// times the first sample on `state_topic` whose `tag_of` is that tag (timestamps taken in
+/// the client's DDS listener). Stops once `samples` commands after the `warmup` ones came
+/// back (or 4 × `samples` were sent); the CPU of `pids` is measured over the sending.
+#[allow(clippy::too_many_arguments)]
+pub fn tagged_client<C, S, M, T>(
+    node: &Node,
+    cmd_topic: &str,
+    state_topic: &str,
+    rate_hz: f64,
+    samples: usize,
+    warmup: usize,
+    pids: &[u32],
+    make: M,
+    tag_of: T,
+) -> anyhow::Result<TaggedRun>
+where
+    C: TopicType,
+    S: TopicType + Clone + 'static,
+    M: Fn(u32) -> C,
+    T: Fn(&S) -> Option<u32> + Send + 'static,
+{
     let max_sent = warmup + 4 * samples;
     // Tags unique to this run: a time-derived base, then one per command.
     let base: u32 = 1 + (SystemTime::now().duration_since(UNIX_EPOCH)?.as_millis() % 3000) as u32 * 1_000_000;
     let recv: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(vec![None; max_sent]));
     let r = recv.clone();
-    let reader = node.reader_with_callback::<HandState_, _>(state_topic, Qos::BestEffort, move |h| {
+    let reader = node.reader_with_callback::<S, _>(state_topic, Qos::BestEffort, move |h| {
         let now = Instant::now();
         let mut v = Vec::new();
         h.take_into(&mut v);
         let mut g = r.lock().unwrap_or_else(|e| e.into_inner());
         for s in v {
-            let i = s.reserve[0].wrapping_sub(base) as usize;
+            let Some(tag) = tag_of(&s) else { continue };
+            let i = tag.wrapping_sub(base) as usize;
             if let Some(slot) = g.get_mut(i) {
                 slot.get_or_insert(now);
             }
         }
     })?;
-    let mut writer = node.writer::<HandCmd_>(cmd_topic, Qos::Reliable { depth: 16 })?;
+    let mut writer = node.writer::<C>(cmd_topic, Qos::Reliable { depth: 16 })?;
     writer.wait_matched(1, Duration::from_secs(30))?;
     reader.wait_matched(1, Duration::from_secs(30))?;
 
     let period = Duration::from_secs_f64(1.0 / rate_hz);
     let mut sent_at: Vec<Instant> = Vec::with_capacity(max_sent);
-    let c0 = cpu_seconds(peer_pid).unwrap_or(f64::NAN);
+    let c0: Vec<f64> = pids.iter().map(|&p| cpu_seconds(p).unwrap_or(f64::NAN)).collect();
     let t0 = Instant::now();
     let mut anchor = t0;
     let mut i = 0usize;
@@ -101,7 +158,7 @@ pub fn client(
             anchor = now - period * i as u32;
         }
         sent_at.push(Instant::now());
-        writer.write(command(base + i as u32))?;
+        writer.write(make(base + i as u32))?;
         i += 1;
         if i >= warmup + samples && i % 50 == 0 {
             let got = recv.lock().unwrap_or_else(|e| e.into_inner())[warmup..i]
@@ -114,7 +171,11 @@ pub fn client(
         }
     }
     let wall = t0.elapsed().as_secs_f64();
-    let c1 = cpu_seconds(peer_pid).unwrap_or(f64::NAN);
+    let cpu_pct = pids
+        .iter()
+        .zip(&c0)
+        .map(|(&p, c0)| 100.0 * (cpu_seconds(p).unwrap_or(f64::NAN) - c0) / wall)
+        .collect();
     // Let the last answers arrive (a late one only adds a sample; nothing waits on it).
     let settle = Instant::now() + Duration::from_millis(300);
     while Instant::now() < settle {
@@ -125,16 +186,13 @@ pub fn client(
     }
     drop(reader);
     let g = recv.lock().unwrap_or_else(|e| e.into_inner());
-    let lat: Vec<f64> = (warmup..i)
+    let latency_us: Vec<f64> = (warmup..i)
         .filter_map(|k| g[k].map(|r| r.saturating_duration_since(sent_at[k]).as_secs_f64() * 1e6))
         .collect();
-    Ok(HopResult {
-        target: target.into(),
-        rate_hz,
+    Ok(TaggedRun {
         sent: i - warmup,
-        echoed: lat.len(),
-        latency_us: Summary::of(&lat),
-        peer_cpu_pct: 100.0 * (c1 - c0) / wall,
+        latency_us,
+        cpu_pct,
     })
 }
 

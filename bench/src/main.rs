@@ -10,6 +10,7 @@ mod hop;
 mod record;
 mod report;
 mod startup;
+mod shim;
 mod stats;
 
 use std::path::PathBuf;
@@ -112,6 +113,41 @@ enum Cmd {
         /// One emulated Dex3 USB exchange per command before answering.
         #[arg(long)]
         exchange: bool,
+    },
+    /// The shim hop: a Dex1 client driving a Dex3 served by the G1-service emulator (its own
+    /// process) through handgate, a raw Rust relay and a unitree_sdk2py shim (bench/src/shim.rs).
+    Shim {
+        #[arg(long)]
+        handgate: PathBuf,
+        /// The venv interpreter with unitree_sdk2py (skip the Python shim when absent).
+        #[arg(long)]
+        python: Option<PathBuf>,
+        /// bench/python/shim.py
+        #[arg(long)]
+        script: PathBuf,
+        #[arg(long, value_delimiter = ',', default_value = "200,1000")]
+        rates: Vec<f64>,
+        #[arg(long, default_value_t = 2000)]
+        samples: usize,
+        #[arg(long, default_value_t = 200)]
+        warmup: usize,
+        #[arg(long, default_value_t = 107)]
+        domain: u32,
+        #[arg(long)]
+        interface: Option<String>,
+        /// Peers, in this order (handgate first: it refuses to start beside another writer
+        /// of its front's state topic).
+        #[arg(long, value_delimiter = ',', default_value = "handgate,relay,python")]
+        only: Vec<String>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The shim benchmark's raw relay (internal to `shim`).
+    ShimRelay {
+        #[arg(long)]
+        domain: u32,
+        #[arg(long)]
+        interface: Option<String>,
     },
     /// Fleet scale: one gateway with many emulated devices.
     Fleet {
@@ -379,6 +415,34 @@ fn main() -> anyhow::Result<()> {
         } => {
             let r = startup::run(&handgate, &profile, domain, runs)?;
             save(&out, &r)?;
+        }
+        Cmd::Shim {
+            handgate,
+            python,
+            script,
+            rates,
+            samples,
+            warmup,
+            domain,
+            interface,
+            only,
+            out,
+        } => {
+            let r = shim::run(&shim::Plan {
+                handgate: &handgate,
+                python: python.as_deref().map(|p| (p, script.as_path())),
+                rates: &rates,
+                samples,
+                warmup,
+                domain,
+                iface: interface.as_deref(),
+                only: &only,
+                out: &out,
+            })?;
+            save(&out, &r)?;
+        }
+        Cmd::ShimRelay { domain, interface } => {
+            shim::relay(domain, interface.as_deref(), handgate_adapters::model::Side::Left)?
         }
         Cmd::Fleet {
             handgate,

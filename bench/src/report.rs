@@ -21,7 +21,7 @@ pub struct Machine {
     pub load_start: [f64; 3],
 }
 
-fn read<T: DeserializeOwned>(dir: &Path, name: &str) -> Option<T> {
+pub(crate) fn read<T: DeserializeOwned>(dir: &Path, name: &str) -> Option<T> {
     let s = std::fs::read_to_string(dir.join(name)).ok()?;
     serde_json::from_str(&s).ok()
 }
@@ -36,7 +36,7 @@ fn cmd_line(prog: &str, args: &[&str]) -> String {
         .unwrap_or_else(|| "unknown".into())
 }
 
-fn notes(repo: &Path, section: &str, out: &mut String) {
+pub(crate) fn notes(repo: &Path, section: &str, out: &mut String) {
     if let Ok(s) = std::fs::read_to_string(repo.join("bench").join("notes").join(format!("{section}.md"))) {
         out.push('\n');
         out.push_str(s.trim_end());
@@ -44,7 +44,7 @@ fn notes(repo: &Path, section: &str, out: &mut String) {
     }
 }
 
-fn verdict(ok: bool) -> &'static str {
+pub(crate) fn verdict(ok: bool) -> &'static str {
     if ok {
         "met"
     } else {
@@ -60,7 +60,7 @@ fn ns(v: f64) -> String {
     }
 }
 
-fn us(v: f64) -> String {
+pub(crate) fn us(v: f64) -> String {
     if v >= 1000.0 {
         format!("{:.2} ms", v / 1000.0)
     } else {
@@ -68,7 +68,7 @@ fn us(v: f64) -> String {
     }
 }
 
-fn row4(s: &Summary, f: fn(f64) -> String) -> String {
+pub(crate) fn row4(s: &Summary, f: fn(f64) -> String) -> String {
     format!("{} | {} | {} | {}", f(s.median), f(s.p90), f(s.p99), f(s.max))
 }
 
@@ -418,6 +418,9 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     }
     notes(repo, "hop", &mut body);
 
+    // 3b. Shim through a DDS-client device
+    crate::shim::report_section(results, repo, &mut body, &mut summary);
+
     // 4. Fleet
     body.push_str("\n## 4. Fleet scale\n\n");
     match read::<FleetResult>(results, "fleet.json") {
@@ -705,7 +708,7 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
          The harness: `scripts/bench.sh` builds the release binaries, runs each benchmark, writes JSON results \
          to `$CARGO_TARGET_DIR/bench-results/` (default `target/`), then `handgate-bench report` writes this file \
          and the script copies the results to `docs/benchmarks/raw/` (commit them with this file). \
-         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 110 (fleet), 111 (sim-all), 114 (busy domain), 158 (recording).\n",
+         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 107 (shim), 110 (fleet), 111 (sim-all), 114 (busy domain), 158 (recording).\n",
     );
     std::fs::write(out_path, o)?;
     Ok(())
