@@ -2,6 +2,11 @@
 //! asserts timing figures.
 
 use handgate_adapters::dex3::usb::device_loop::{Dex3UsbHandle, Dex3UsbLoop, LoopConfig};
+use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
+use handgate_adapters::dex3::usb::adapter::{Dex3UsbDevice, UsbSource};
+use handgate_adapters::dex3::usb::Align;
+use handgate_adapters::mapping::TableOverrides;
+use handgate_adapters::model::{CommandBody, DeviceKind, Freshness, HandCommand, JointCommand, JointId};
 use handgate_adapters::dex3::usb::emulator::{lock, Dex3Emulator, EmulatorConfig, EmulatorTransport, SharedEmulator};
 use handgate_adapters::dex3::{Dex3Command, Dex3Measurement, Joint, MotorCommand, Side};
 use std::sync::{Arc, Mutex};
@@ -247,4 +252,96 @@ fn invalid_configuration_is_refused() {
         ..LoopConfig::default()
     };
     assert!(Dex3UsbLoop::spawn(EmulatorTransport::factory(emu), zero).is_err());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Aligning the exchange to commands (`Align::Early`). The period is longer than any wait here
+// (`LONG` > `DEADLINE`): the exchange that sends a command set after the connect's can only be
+// an early one, so these wait on the measurement carrying the command and assert order, never
+// durations (without the early exchange they fail at `DEADLINE`).
+
+const LONG: Duration = Duration::from_secs(60);
+
+fn early(min_gap_us: u64) -> LoopConfig {
+    LoopConfig {
+        period: LONG,
+        align: Align::Early {
+            min_gap: Duration::from_micros(min_gap_us),
+        },
+        ..LoopConfig::default()
+    }
+}
+
+#[test]
+fn early_sends_a_command_before_the_next_deadline() {
+    let (emu, h) = setup(Side::Left, early(200));
+    let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
+    assert_eq!(m0.seq, 1, "one exchange at the connect, the next deadline a minute away");
+    for (i, q) in [0.3f32, 0.5, 0.7].into_iter().enumerate() {
+        let seq = h.set_command(one_joint(m0.positions(), Joint::Index0, q));
+        let m = wait_meas(DEADLINE, &h, "the measurement carrying the command", |m| m.cmd_seq == seq);
+        // Exactly one exchange per command: the early one sent it.
+        assert_eq!(m.seq, 2 + i as u64);
+        let lc = lock(&emu).last_command(Joint::Index0).unwrap();
+        assert!((lc.q - q).abs() < 1e-3, "the hand saw {}, not {q}", lc.q);
+    }
+    let s = h.stats();
+    assert_eq!(s.early, 3);
+    assert_eq!(s.cmd_wait.count(), 3);
+    assert_eq!(s.misses, 0);
+    h.stop();
+}
+
+#[test]
+fn early_ignores_commands_set_before_the_connect() {
+    // Off-grid wakes follow only commands the loop may send: one set before the connect is
+    // never sent, so it wakes nothing (the loop stays on its minute-long grid).
+    let emu: SharedEmulator = Arc::new(Mutex::new(Dex3Emulator::new(Side::Right, EmulatorConfig::default())));
+    lock(&emu).unplug();
+    let h = Dex3UsbLoop::spawn(EmulatorTransport::factory(emu.clone()), early(200)).unwrap();
+    wait_for(DEADLINE, "a failed connect", || (h.stats().connect_failures > 0).then_some(()));
+    let before = h.set_command(Dex3Command::damping(0.1));
+    lock(&emu).replug();
+    let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
+    let seq = h.set_command(one_joint(m0.positions(), Joint::Thumb1, 0.4));
+    assert!(seq > before);
+    let m = wait_meas(DEADLINE, &h, "the command after the connect", |m| m.cmd_seq == seq);
+    assert_eq!(m.seq, m0.seq + 1);
+    assert_eq!(h.stats().early, 1);
+}
+
+#[test]
+fn early_device_echoes_a_client_command_before_the_next_deadline() {
+    // The same through the adapter: a client command in, the state echoing its seq and tag
+    // out, with the next scheduled exchange a minute away.
+    let side = Side::Left;
+    let table = Arc::new(DeviceKind::Dex3.table(side, &TableOverrides::default()).unwrap());
+    let info = DeviceInfo {
+        name: "align".into(),
+        kind: DeviceKind::Dex3,
+        side,
+        backend: Backend::Emulator,
+        table: table.clone(),
+    };
+    let dev = Dex3UsbDevice::start(info, UsbSource::Emulator(Box::default()), early(300)).unwrap();
+    let rx = dev.state();
+    wait_for(DEADLINE, "a fresh state", || {
+        (rx.borrow().freshness == Freshness::Fresh).then_some(())
+    });
+    let j = table.joint_by_name("index_0").unwrap().index();
+    for seq in 1..=3u64 {
+        let body = CommandBody::Joints(vec![(JointId(j as u8), JointCommand::hold(0.2 * seq as f32, 1.5, 0.1))]);
+        dev.command(HandCommand {
+            seq,
+            body,
+            tag: 100 + seq as u32,
+        })
+        .unwrap();
+        let (s, t) = wait_for(DEADLINE, "the state echoing the command", || {
+            let st = rx.borrow();
+            (st.cmd_seq == seq).then_some((st.cmd_seq, st.cmd_tag))
+        });
+        assert_eq!((s, t), (seq, 100 + seq as u32));
+    }
+    assert_eq!(dev.stats().state_samples, 4, "the connect's exchange and one per command");
 }

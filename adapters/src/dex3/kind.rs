@@ -150,6 +150,60 @@ pub struct UsbConfig {
     /// Overrides of the motor-frame scalings (docs/sources.md §3, "scaling conflict").
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scalings: Option<Scalings>,
+    /// How the device loop's exchanges follow the commands (docs/dex3-usb.md, "Aligning the
+    /// exchange to commands").
+    pub align: AlignMode,
+    /// `early`: never two exchanges closer than this, µs (assumption: what the MCU tolerates).
+    pub align_min_gap_us: u64,
+    /// `phase`: the most the grid moves in one cycle, µs.
+    pub align_max_shift_us: u64,
+    /// `phase`: how long before a deadline the commands should arrive, µs.
+    pub align_lead_us: u64,
+}
+
+/// `usb.align`: the device loop's [`crate::dex3::usb::Align`] without its numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AlignMode {
+    /// Fixed 1 kHz grid (the loop before alignment existed).
+    Off,
+    /// Exchange when a new command arrives, `align_min_gap_us` after the previous at the soonest.
+    Early,
+    /// Fixed period, its phase moved by at most `align_max_shift_us` per cycle.
+    Phase,
+}
+
+/// The defaults of the `usb.align*` keys (docs/dex3-usb.md has the measurements behind them).
+pub mod align_defaults {
+    use super::AlignMode;
+    pub const MODE: AlignMode = AlignMode::Early;
+    /// Assumption: the MCU takes exchanges half a period apart (docs/dex3-usb.md).
+    pub const MIN_GAP_US: u64 = 500;
+    /// Under the 50 µs jitter target (docs/benchmarks.md §2).
+    pub const MAX_SHIFT_US: u64 = 20;
+    pub const LEAD_US: u64 = 50;
+    /// The smallest `align_min_gap_us` accepted: no exchange storms.
+    pub const MIN_GAP_FLOOR_US: u64 = 100;
+    /// The largest `align_max_shift_us` and `align_lead_us` accepted.
+    pub const SHIFT_CEIL_US: u64 = 500;
+}
+
+impl UsbConfig {
+    /// The loop's alignment from `align` and its numbers.
+    pub fn align(&self) -> crate::dex3::usb::Align {
+        use crate::dex3::usb::Align;
+        use std::time::Duration;
+        match self.align {
+            AlignMode::Off => Align::Off,
+            AlignMode::Early => Align::Early {
+                min_gap: Duration::from_micros(self.align_min_gap_us),
+            },
+            AlignMode::Phase => Align::Phase {
+                max_shift: Duration::from_micros(self.align_max_shift_us),
+                lead: Duration::from_micros(self.align_lead_us),
+            },
+        }
+    }
 }
 
 impl Default for UsbConfig {
@@ -160,6 +214,10 @@ impl Default for UsbConfig {
             timeout_bit: true,
             wiring: None,
             scalings: None,
+            align: align_defaults::MODE,
+            align_min_gap_us: align_defaults::MIN_GAP_US,
+            align_max_shift_us: align_defaults::MAX_SHIFT_US,
+            align_lead_us: align_defaults::LEAD_US,
         }
     }
 }
@@ -429,6 +487,31 @@ fn validate_usb(u: &UsbConfig, out: &mut Vec<Problem>) {
                     format!("bus {} id {} is also wired to {o}", slot.bus, slot.id),
                 ));
             }
+        }
+    }
+    if u.align_min_gap_us < align_defaults::MIN_GAP_FLOOR_US {
+        out.push(Problem::new(
+            &["usb", "align_min_gap_us"],
+            format!(
+                "must be at least {} µs (exchanges closer than that are a storm, not a schedule), got {}",
+                align_defaults::MIN_GAP_FLOOR_US,
+                u.align_min_gap_us
+            ),
+        ));
+    }
+    for (key, v) in [
+        ("align_max_shift_us", u.align_max_shift_us),
+        ("align_lead_us", u.align_lead_us),
+    ] {
+        if v > align_defaults::SHIFT_CEIL_US || (key == "align_max_shift_us" && v == 0) {
+            out.push(Problem::new(
+                &["usb", key],
+                format!(
+                    "must be between {} and {} µs, got {v}",
+                    (key == "align_max_shift_us") as u8,
+                    align_defaults::SHIFT_CEIL_US
+                ),
+            ));
         }
     }
     if let Some(s) = &u.scalings {

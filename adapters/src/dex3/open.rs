@@ -119,6 +119,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<Dex3Open, DeviceError> {
         hold_kd: spec.table.hold_kd,
         wiring: wiring(usb.wiring.as_ref())?,
         scalings: usb.scalings.unwrap_or_default(),
+        align: usb.align(),
         // The spin before each deadline buys period jitter for real hardware; an emulated
         // hand has no use for it, and a fleet of them would burn a core on it
         // (docs/benchmarks.md, fleet scale).

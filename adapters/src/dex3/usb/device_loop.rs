@@ -3,6 +3,9 @@
 //! last [`LoopConfig::spin`]).
 //!
 //! - Latest-command semantics: one slot, never a queue; every cycle sends the newest command.
+//! - When the exchange happens is [`LoopConfig::align`]'s ([`super::align`]): on the fixed
+//!   grid (`off`), early when a command arrives (`early`, the wait is woken by
+//!   [`Dex3UsbHandle::set_command`]), or on a grid whose phase follows the commands (`phase`).
 //! - The motor timeout bit is set explicitly on every motor packet ([`LoopConfig::timeout_bit`]).
 //! - On (re)connect the old command is never replayed: setpoints are re-seeded from the first
 //!   measured state (hold the measured position with [`LoopConfig::hold_kp`]/[`LoopConfig::hold_kd`])
@@ -12,6 +15,7 @@
 //! - A failed exchange (timeout, bad frame CRC, transport error) keeps the last good values and
 //!   marks the measurement `stale`.
 
+use super::align::{Align, Schedule};
 use super::codec::{McuToLinuxState, CMD_FRAME_LEN, STATE_FRAME_LEN};
 use super::convert::{apply_state, build_command};
 use super::scaling::Scalings;
@@ -47,6 +51,8 @@ pub struct LoopConfig {
     pub backoff_max: Duration,
     /// On every (re)connect, send the first exchange with the timeout bit at 0.
     pub clear_timeouts_on_connect: bool,
+    /// How the exchanges follow the commands (default: the fixed grid).
+    pub align: Align,
     pub wiring: WiringMap,
     pub scalings: Scalings,
 }
@@ -65,6 +71,7 @@ impl Default for LoopConfig {
             backoff_min: Duration::from_millis(20),
             backoff_max: Duration::from_secs(2),
             clear_timeouts_on_connect: true,
+            align: Align::Off,
             wiring: WiringMap::default(),
             scalings: Scalings::default(),
         }
@@ -89,6 +96,7 @@ pub struct PeriodHistogram {
     counts: Vec<u64>,
     overflow: u64,
     max: Duration,
+    min: Duration,
     n: u64,
 }
 
@@ -101,6 +109,7 @@ impl PeriodHistogram {
             counts: vec![0; Self::BUCKETS],
             overflow: 0,
             max: Duration::ZERO,
+            min: Duration::MAX,
             n: 0,
         }
     }
@@ -112,6 +121,7 @@ impl PeriodHistogram {
             None => self.overflow += 1,
         }
         self.max = self.max.max(d);
+        self.min = self.min.min(d);
         self.n += 1;
     }
 
@@ -121,6 +131,11 @@ impl PeriodHistogram {
 
     pub fn max(&self) -> Duration {
         self.max
+    }
+
+    /// The shortest value recorded; `None` when empty.
+    pub fn min(&self) -> Option<Duration> {
+        (self.n > 0).then_some(self.min)
     }
 
     /// The `q` quantile (0..=1), to bucket resolution (upper edge of the bucket); `None` when
@@ -171,14 +186,20 @@ pub struct LoopStats {
     pub connect_failures: u64,
     /// Deadlines missed (cycles that started late by at least one period).
     pub misses: u64,
+    /// Exchanges started before their deadline for a new command ([`Align::Early`]).
+    pub early: u64,
     pub connected: bool,
     pub period: PeriodHistogram,
+    /// From a command's [`Dex3UsbHandle::set_command`] to the start of the exchange that
+    /// sends it (commands superseded before an exchange are not counted).
+    pub cmd_wait: PeriodHistogram,
 }
 
 struct Shared {
     stop: AtomicBool,
     cmd_seq: AtomicU64,
-    cmd: Mutex<Option<(u64, Dex3Command)>>,
+    /// The newest command: (seq, command, when it was set).
+    cmd: Mutex<Option<(u64, Dex3Command, Instant)>>,
     clear_timeouts: AtomicBool,
     stats: Mutex<LoopStats>,
 }
@@ -225,6 +246,7 @@ impl Dex3UsbLoop {
             stats: Mutex::new(LoopStats::default()),
         });
         let (tx, rx) = watch::channel(Dex3Measurement::empty(Instant::now()));
+        let wake = config.align.wakes_on_command();
         let thread = {
             let shared = shared.clone();
             std::thread::Builder::new()
@@ -237,6 +259,7 @@ impl Dex3UsbLoop {
         Ok(Dex3UsbHandle {
             shared,
             rx,
+            wake,
             thread: Some(thread),
         })
     }
@@ -246,6 +269,8 @@ impl Dex3UsbLoop {
 pub struct Dex3UsbHandle {
     shared: Arc<Shared>,
     rx: watch::Receiver<Dex3Measurement>,
+    /// Wake the loop on every new command ([`Align::wakes_on_command`]).
+    wake: bool,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -257,10 +282,20 @@ impl Dex3UsbHandle {
     ///
     /// Returns the command's sequence number: the measurements of exchanges that sent it carry
     /// it in [`Dex3Measurement::cmd_seq`].
+    ///
+    /// With [`Align::Early`] it also wakes the loop (one futex wake when the loop sleeps).
     pub fn set_command(&self, cmd: Dex3Command) -> u64 {
-        let mut slot = self.shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
-        let seq = self.shared.cmd_seq.fetch_add(1, Ordering::SeqCst) + 1;
-        *slot = Some((seq, cmd));
+        let seq = {
+            let mut slot = self.shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
+            let seq = self.shared.cmd_seq.fetch_add(1, Ordering::SeqCst) + 1;
+            *slot = Some((seq, cmd, Instant::now()));
+            seq
+        };
+        if self.wake {
+            if let Some(t) = &self.thread {
+                t.thread().unpark();
+            }
+        }
         seq
     }
 
@@ -321,9 +356,38 @@ fn park_until(deadline: Instant, stop: &AtomicBool) -> bool {
     }
 }
 
-/// `t0 + k·period` without accumulating rounding.
-fn deadline(t0: Instant, period: Duration, k: u64) -> Instant {
-    t0 + Duration::from_nanos((period.as_nanos() * k as u128).min(u64::MAX as u128) as u64)
+/// The arrival of the newest command not sent yet: set after `sent_seq` (the last one an
+/// exchange sent) and after the connect (`floor_seq`). Locks the slot only when the sequence
+/// moved.
+fn pending(shared: &Shared, sent_seq: u64, floor_seq: u64) -> Option<Instant> {
+    let seq = shared.cmd_seq.load(Ordering::SeqCst);
+    if seq <= sent_seq.max(floor_seq) {
+        return None;
+    }
+    let slot = shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
+    slot.as_ref()
+        .filter(|(s, _, _)| *s > sent_seq.max(floor_seq))
+        .map(|(_, _, at)| *at)
+}
+
+/// [`wait_until`] the schedule's due time, recomputed whenever a new command wakes the loop
+/// (park/unpark; spinning the last `spin`, watching the command sequence); `false` if stopped.
+fn wait_for_due(sched: &Schedule, spin: Duration, shared: &Shared, sent_seq: u64, floor_seq: u64) -> bool {
+    loop {
+        if shared.stop.load(Ordering::SeqCst) {
+            return false;
+        }
+        let due = sched.due(pending(shared, sent_seq, floor_seq));
+        let now = Instant::now();
+        if now >= due {
+            return true;
+        }
+        if due - now > spin {
+            std::thread::park_timeout(due - now - spin);
+        } else {
+            std::hint::spin_loop();
+        }
+    }
 }
 
 /// Sleeps until `spin` before `deadline`, then spins.
@@ -340,6 +404,9 @@ fn wait_until(deadline: Instant, spin: Duration) {
 struct Session {
     /// Commands with a sequence number up to this one predate the connect: never sent.
     floor_seq: u64,
+    /// The newest command an exchange of this session sent (0: none yet).
+    sent_seq: u64,
+    sched: Schedule,
     hold: [Option<MotorCommand>; MOTOR_COUNT],
     first_exchange: bool,
     consecutive_failures: u32,
@@ -365,8 +432,6 @@ fn run(
     let mut last_connect_error = String::new();
     let mut cmd_buf = [0u8; CMD_FRAME_LEN];
     let mut st_buf = [0u8; STATE_FRAME_LEN];
-    let mut t0 = Instant::now();
-    let mut k: u64 = 0;
     let mut last_start: Option<Instant> = None;
     let stats = |f: &mut dyn FnMut(&mut LoopStats)| f(&mut shared.stats.lock().unwrap_or_else(|e| e.into_inner()));
 
@@ -380,6 +445,8 @@ fn run(
                     last_connect_error.clear();
                     session = Some(Session {
                         floor_seq: shared.cmd_seq.load(Ordering::SeqCst),
+                        sent_seq: 0,
+                        sched: Schedule::new(cfg.period, cfg.align, Instant::now()),
                         hold: [None; MOTOR_COUNT],
                         first_exchange: true,
                         consecutive_failures: 0,
@@ -398,8 +465,6 @@ fn run(
                         s.connected = true;
                     });
                     connects += 1;
-                    t0 = Instant::now();
-                    k = 0;
                     last_start = None;
                 }
                 Err(e) => {
@@ -429,10 +494,25 @@ fn run(
         // Choose what to send.
         let user = {
             let slot = shared.cmd.lock().unwrap_or_else(|e| e.into_inner());
-            slot.filter(|(seq, _)| *seq > sess.floor_seq)
+            slot.filter(|(seq, _, _)| *seq > sess.floor_seq)
         };
-        let sent_seq = user.filter(|_| !sess.first_exchange).map(|(seq, _)| seq);
-        let cmd = match user.map(|(_, c)| c) {
+        let sent_seq = user.filter(|_| !sess.first_exchange).map(|(seq, _, _)| seq);
+        // The arrival of the command this exchange sends for the first time.
+        let fresh = user
+            .filter(|(seq, _, _)| !sess.first_exchange && *seq > sess.sent_seq)
+            .map(|(_, _, at)| at);
+        let early = start < sess.sched.deadline();
+        sess.sched.begin(start, fresh);
+        if let Some(seq) = sent_seq {
+            sess.sent_seq = seq;
+        }
+        if let Some(at) = fresh {
+            stats(&mut |s| {
+                s.cmd_wait.record(start.saturating_duration_since(at));
+                s.early += early as u64;
+            });
+        }
+        let cmd = match user.map(|(_, c, _)| c) {
             Some(c) => c,
             None => {
                 let mut c = Dex3Command::damping(cfg.hold_kd);
@@ -528,20 +608,21 @@ fn run(
         }
         observe(&meas, true, connects);
 
-        // Absolute deadlines: next = t0 + k·period.
-        k += 1;
-        let mut next = deadline(t0, cfg.period, k);
-        let now = Instant::now();
-        if now > next {
-            let behind = ((now - next).as_nanos() / cfg.period.as_nanos()) as u64 + 1;
+        // Absolute deadlines on the schedule's grid (super::align).
+        let behind = sess.sched.end(Instant::now());
+        if behind > 0 {
             stats(&mut |s| s.misses += behind);
-            k += behind;
-            next = deadline(t0, cfg.period, k);
         }
         if shared.stop.load(Ordering::SeqCst) {
             break;
         }
-        wait_until(next, cfg.spin);
+        if cfg.align.wakes_on_command() {
+            if !wait_for_due(&sess.sched, cfg.spin, &shared, sess.sent_seq, sess.floor_seq) {
+                break;
+            }
+        } else {
+            wait_until(sess.sched.deadline(), cfg.spin);
+        }
     }
     stats(&mut |s| s.connected = false);
 }

@@ -4,6 +4,7 @@
 //! 1 kHz device loop. See docs/dex3-usb.md.
 
 pub mod adapter;
+pub mod align;
 pub mod codec;
 pub mod convert;
 pub mod crc;
@@ -16,6 +17,7 @@ pub mod socket;
 pub mod transport;
 pub mod wiring;
 
+pub use align::Align;
 pub use codec::{BusId, DeviceId, CMD_FRAME_LEN, STATE_FRAME_LEN};
 pub use device_loop::{Dex3UsbHandle, Dex3UsbLoop, Link, LoopConfig, LoopError, LoopStats, Observer, PeriodHistogram};
 pub use discovery::{discover, DiscoveryOptions, DiscoveryReport};
