@@ -1,14 +1,14 @@
 //! Device loop + in-process emulator. Every wait polls a condition with a deadline; nothing
 //! asserts timing figures.
 
-use handgate_adapters::dex3::usb::device_loop::{Dex3UsbHandle, Dex3UsbLoop, LoopConfig};
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
 use handgate_adapters::dex3::usb::adapter::{Dex3UsbDevice, UsbSource};
+use handgate_adapters::dex3::usb::device_loop::{Dex3UsbHandle, Dex3UsbLoop, LoopConfig};
+use handgate_adapters::dex3::usb::emulator::{lock, Dex3Emulator, EmulatorConfig, EmulatorTransport, SharedEmulator};
 use handgate_adapters::dex3::usb::Align;
+use handgate_adapters::dex3::{Dex3Command, Dex3Measurement, Joint, MotorCommand, Side};
 use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{CommandBody, DeviceKind, Freshness, HandCommand, JointCommand, JointId};
-use handgate_adapters::dex3::usb::emulator::{lock, Dex3Emulator, EmulatorConfig, EmulatorTransport, SharedEmulator};
-use handgate_adapters::dex3::{Dex3Command, Dex3Measurement, Joint, MotorCommand, Side};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -276,10 +276,15 @@ fn early(min_gap_us: u64) -> LoopConfig {
 fn early_sends_a_command_before_the_next_deadline() {
     let (emu, h) = setup(Side::Left, early(200));
     let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
-    assert_eq!(m0.seq, 1, "one exchange at the connect, the next deadline a minute away");
+    assert_eq!(
+        m0.seq, 1,
+        "one exchange at the connect, the next deadline a minute away"
+    );
     for (i, q) in [0.3f32, 0.5, 0.7].into_iter().enumerate() {
         let seq = h.set_command(one_joint(m0.positions(), Joint::Index0, q));
-        let m = wait_meas(DEADLINE, &h, "the measurement carrying the command", |m| m.cmd_seq == seq);
+        let m = wait_meas(DEADLINE, &h, "the measurement carrying the command", |m| {
+            m.cmd_seq == seq
+        });
         // Exactly one exchange per command: the early one sent it.
         assert_eq!(m.seq, 2 + i as u64);
         let lc = lock(&emu).last_command(Joint::Index0).unwrap();
@@ -299,7 +304,9 @@ fn early_ignores_commands_set_before_the_connect() {
     let emu: SharedEmulator = Arc::new(Mutex::new(Dex3Emulator::new(Side::Right, EmulatorConfig::default())));
     lock(&emu).unplug();
     let h = Dex3UsbLoop::spawn(EmulatorTransport::factory(emu.clone()), early(200)).unwrap();
-    wait_for(DEADLINE, "a failed connect", || (h.stats().connect_failures > 0).then_some(()));
+    wait_for(DEADLINE, "a failed connect", || {
+        (h.stats().connect_failures > 0).then_some(())
+    });
     let before = h.set_command(Dex3Command::damping(0.1));
     lock(&emu).replug();
     let m0 = wait_meas(DEADLINE, &h, "first state", all_present);
@@ -343,5 +350,9 @@ fn early_device_echoes_a_client_command_before_the_next_deadline() {
         });
         assert_eq!((s, t), (seq, 100 + seq as u32));
     }
-    assert_eq!(dev.stats().state_samples, 4, "the connect's exchange and one per command");
+    assert_eq!(
+        dev.stats().state_samples,
+        4,
+        "the connect's exchange and one per command"
+    );
 }

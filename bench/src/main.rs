@@ -9,8 +9,8 @@ mod fleet;
 mod hop;
 mod record;
 mod report;
-mod startup;
 mod shim;
+mod startup;
 mod stats;
 
 use std::path::PathBuf;

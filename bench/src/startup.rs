@@ -39,13 +39,12 @@ fn epoch_ns() -> u64 {
         .map_or(0, |d| d.as_nanos() as u64)
 }
 
+/// One start's times, ms after the spawn: `handgate serving`, every device fresh, every front
+/// topic with a sample, per topic, per device.
+type Once = (f64, f64, f64, BTreeMap<String, f64>, BTreeMap<String, f64>);
+
 /// One start of `bin` on `profile` (a name or path) on `domain`.
-fn once(
-    bin: &std::path::Path,
-    profile: &str,
-    domain: u32,
-    timeout: Duration,
-) -> anyhow::Result<(f64, f64, f64, BTreeMap<String, f64>, BTreeMap<String, f64>)> {
+fn once(bin: &std::path::Path, profile: &str, domain: u32, timeout: Duration) -> anyhow::Result<Once> {
     let loaded = handgate_gateway::profile::load(&handgate_gateway::profile::LoadOptions {
         profile: Some(profile.to_string()),
         ..Default::default()

@@ -176,7 +176,13 @@ mod tests {
     /// `t`), the loop wakes on each (when its mode does) and at every due time, an exchange
     /// takes `took`. Returns (start, arrival of the new command it sent) per exchange, until
     /// `until`.
-    fn run(align: Align, start: Instant, arrivals: &[Instant], took: Duration, until: Instant) -> Vec<(Instant, Option<Instant>)> {
+    fn run(
+        align: Align,
+        start: Instant,
+        arrivals: &[Instant],
+        took: Duration,
+        until: Instant,
+    ) -> Vec<(Instant, Option<Instant>)> {
         let mut s = Schedule::new(P, align, start);
         let mut t = start;
         let mut sent_upto = 0; // arrivals[..sent_upto] are sent or superseded
@@ -229,7 +235,11 @@ mod tests {
 
     /// A fixed pseudo-random phase in 0..d.
     fn scatter(d: Duration) -> impl Fn(u32) -> Duration {
-        move |i| Duration::from_nanos((u64::from(i).wrapping_mul(2_654_435_761) % 1_000_003) * d.as_nanos() as u64 / 1_000_003)
+        move |i| {
+            Duration::from_nanos(
+                (u64::from(i).wrapping_mul(2_654_435_761) % 1_000_003) * d.as_nanos() as u64 / 1_000_003,
+            )
+        }
     }
 
     #[test]
@@ -252,7 +262,11 @@ mod tests {
         assert_eq!(s.due(Some(t0)), t0);
         s.begin(t0, Some(t0));
         assert_eq!(s.end(t0 + us(10)), 0);
-        assert_eq!(s.due(Some(t0 + us(20))), t0 + P, "a command does not move an off schedule");
+        assert_eq!(
+            s.due(Some(t0 + us(20))),
+            t0 + P,
+            "a command does not move an off schedule"
+        );
         s.begin(t0 + P, None);
         // Ends 2.5 periods later: deadlines 2 and 3 are missed, the next is 4.
         assert_eq!(s.end(t0 + us(3500)), 2);
@@ -285,23 +299,31 @@ mod tests {
                 let got = run(Align::Early { min_gap }, t0, &cmds, us(8), t0 + us(400_000));
                 for w in got.windows(2) {
                     let gap = w[1].0 - w[0].0;
-                    assert!(gap >= min_gap, "gap {gap:?} < min_gap {min_gap:?} (commands every {every:?})");
+                    assert!(
+                        gap >= min_gap,
+                        "gap {gap:?} < min_gap {min_gap:?} (commands every {every:?})"
+                    );
                     assert!(gap <= P, "gap {gap:?} > period (commands every {every:?})");
                 }
                 // Every command is sent (or superseded) by the first exchange at or after
                 // max(its arrival, previous exchange + min_gap): never later than that.
                 let last = got.last().expect("exchanges").0;
                 for (i, a) in cmds.iter().enumerate().filter(|(_, a)| **a + P < last) {
-                    let superseded = cmds.get(i + 1).is_some_and(|b| {
-                        got.iter().find(|(s, _)| *s >= *a).is_some_and(|(s, _)| b <= s)
-                    });
+                    let superseded = cmds
+                        .get(i + 1)
+                        .is_some_and(|b| got.iter().find(|(s, _)| *s >= *a).is_some_and(|(s, _)| b <= s));
                     if superseded {
                         continue;
                     }
                     let (s, sent) = *got.iter().find(|(s, _)| *s >= *a).expect("sent");
                     assert_eq!(sent, Some(*a));
                     let prev = got.iter().rev().find(|(p, _)| *p < *a).map(|(p, _)| *p).unwrap_or(t0);
-                    assert!(s <= (*a).max(prev + min_gap), "command at {:?} sent at {:?}", *a - t0, s - t0);
+                    assert!(
+                        s <= (*a).max(prev + min_gap),
+                        "command at {:?} sent at {:?}",
+                        *a - t0,
+                        s - t0
+                    );
                 }
             }
         }
@@ -347,7 +369,11 @@ mod tests {
         let periods = (until - t0).as_nanos() / P.as_nanos();
         assert!(got.len() as u128 <= (until - t0).as_nanos() / min_gap.as_nanos() + 1);
         assert!(got.len() as u128 <= periods + n as u128, "{} exchanges", got.len());
-        assert!(got.len() as u128 >= periods, "{} exchanges in {periods} periods", got.len());
+        assert!(
+            got.len() as u128 >= periods,
+            "{} exchanges in {periods} periods",
+            got.len()
+        );
     }
 
     #[test]
@@ -358,7 +384,12 @@ mod tests {
             max_shift,
             lead: us(50),
         };
-        for (every, jitter) in [(us(1000), us(0)), (us(5000), us(0)), (us(1000), us(1000)), (us(2000), us(700))] {
+        for (every, jitter) in [
+            (us(1000), us(0)),
+            (us(5000), us(0)),
+            (us(1000), us(1000)),
+            (us(2000), us(700)),
+        ] {
             let cmds = stream(t0 + us(610), every, 200, scatter(jitter));
             let got = run(align, t0, &cmds, us(8), t0 + every * 200);
             for w in got.windows(2) {
@@ -384,16 +415,16 @@ mod tests {
         };
         let cmds = stream(t0 + us(610), P, 200, |_| Duration::ZERO);
         let got = run(align, t0, &cmds, us(8), t0 + us(200_000));
-        let waits: Vec<Duration> = got
-            .iter()
-            .filter_map(|(s, sent)| sent.map(|a| *s - a))
-            .collect();
+        let waits: Vec<Duration> = got.iter().filter_map(|(s, sent)| sent.map(|a| *s - a)).collect();
         assert!(waits[0] > us(300), "starts far: {:?}", waits[0]);
         let tail = &waits[waits.len() - 50..];
         assert!(tail.iter().all(|w| *w == lead), "settles at lead: {tail:?}");
         // The same client against `off` waits the same 390 µs forever.
         let off = run(Align::Off, t0, &cmds, us(8), t0 + us(200_000));
-        assert!(off.iter().filter_map(|(s, sent)| sent.map(|a| *s - a)).all(|w| w == us(390)));
+        assert!(off
+            .iter()
+            .filter_map(|(s, sent)| sent.map(|a| *s - a))
+            .all(|w| w == us(390)));
     }
 
     #[test]
