@@ -2,25 +2,29 @@
 # make bench: runs every benchmark (release builds) and rewrites docs/benchmarks.md.
 #   1. codec      cargo bench -p handgate-adapters --bench dex3_usb (criterion), and --bench
 #                 ezgripper when adapters/benches/ezgripper.rs exists
-#   2. loop       the Dex3 USB device loop at 1 kHz on the emulator, 60 s (default, SCHED_FIFO)
+#   2. loop       the Dex3 USB device loop at 1 kHz on the emulator, 60 s (default, SCHED_FIFO),
+#                 beside a reference loop that only sleeps to absolute deadlines
 #   2b. busy      the same loop while discovery runs on a domain with 500 remote endpoints
 #                 (50 re-created a second), against the same loop with the domain quiet, 30 s each
-#   3. hop        end-to-end HandCmd_ -> HandState_ through handgate vs a Rust echo (floor) and a
-#                 unitree_sdk2py relay, at 200 Hz and 1 kHz
-#   4. fleet      16 Dex3 + 16 Dex1 emulated in one gateway, 30 s
+#   3. hop        end-to-end HandCmd_ -> HandState_ through handgate vs a Rust echo (floor), the echo
+#                 plus one emulated Dex3 USB exchange, and a unitree_sdk2py relay, at 200 Hz and 1 kHz
+#   3b. shim      a Dex1 client driving a Dex3 served by the G1-service emulator (its own process)
+#                 through handgate vs a raw Rust relay (two DDS hops) and a unitree_sdk2py shim
+#   4. fleet      32 Dex3 + 32 Dex1 emulated in one gateway, 30 s
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
+#   4c. startup   handgate run on sim-all, 5 starts: spawn -> every device fresh, a state on every front
 #   6. record     handgate record of every topic of the default fleet beside a gateway, 600 s
 #   7. dashboard  the default fleet idle vs watched (3 dashboard tabs in headless Chromium and a
 #                 Foxglove client), 30 s per phase, twice (bench/dashboard_cost.py)
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop busy hop fleet simall record" to run a subset (the report keeps only what this run made).
+# BENCH_ONLY="codec loop busy hop shim fleet simall record" to run a subset (the report keeps only what this run made).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop busy hop fleet simall record dashboard"}
+only=${BENCH_ONLY:-"codec loop busy hop shim fleet simall startup record dashboard"}
 quick=${BENCH_QUICK:-0}
 
 loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600; dash_secs=30
@@ -76,6 +80,12 @@ if want hop; then
     --relay "$root/bench/python/relay.py" --samples "$samples" --out "$results/hop.json"
 fi
 
+if want shim; then
+  echo "bench: 3b. shim hop through a DDS-client device ($samples samples per rate)"
+  "$bin/handgate-bench" shim --handgate "$bin/handgate" --python "$root/.venv/bin/python" \
+    --script "$root/bench/python/shim.py" --samples "$samples" --out "$results/shim.json"
+fi
+
 if want fleet; then
   echo "bench: 4. fleet scale (${fleet_secs} s)"
   "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --out "$results/fleet.json"
@@ -84,6 +94,11 @@ fi
 if want simall; then
   echo "bench: 4b. sim-all, every kind at its own rates (${fleet_secs} s)"
   "$bin/handgate-bench" profile --handgate "$bin/handgate" --profile sim-all --secs "$fleet_secs" --out "$results/simall.json"
+fi
+
+if want startup; then
+  echo "bench: 4c. start-up of sim-all (5 starts)"
+  "$bin/handgate-bench" startup --handgate "$bin/handgate" --profile sim-all --runs 5 --out "$results/startup.json"
 fi
 
 if want record; then

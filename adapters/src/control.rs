@@ -56,6 +56,10 @@ pub struct Counters {
     pub cycles: AtomicU64,
     /// The device loop's cycle-to-cycle periods.
     pub periods: LoopPeriods,
+    /// Times the published state went from fresh to stale ([`crate::link::stamp`] counts them).
+    pub stale_events: AtomicU64,
+    /// Whether the last published state was fresh.
+    pub(crate) published_fresh: AtomicBool,
 }
 
 /// Upper bounds, seconds, of the loop-period histogram's buckets (Prometheus `le`; a last
@@ -144,6 +148,7 @@ impl Counters {
             link_up: g(&self.link_up) != 0,
             cycles: g(&self.cycles),
             periods: self.periods.snapshot(),
+            stale_events: g(&self.stale_events),
         }
     }
 }

@@ -1,10 +1,19 @@
 //! A generic DDS-client device: a device loop thread at a fixed rate that folds the latest
 //! canonical command into targets, encodes them with a per-kind [`DdsCodec`], publishes, and
-//! turns the peer's state samples back into canonical state. Used by the Dex3-over-DDS,
-//! Dex1-1 and rt/hand_sdk adapters; each kind only supplies its codec.
+//! turns the peer's state samples back into canonical state. Used by every kind that is a
+//! client of a DDS service (Dex3 over DDS, Dex1-1, rt/hand_sdk, Inspire, BrainCo); each kind
+//! only supplies its codec.
+//!
+//! **Forwarding on arrival** (docs/fronts.md, "Latency"): a command a front hands the device
+//! wakes the loop thread, which publishes it to the service at once instead of at the next
+//! tick; the first state sample that arrives after that publish wakes the loop again and is
+//! published as the state reflecting the command. The periodic tick stays: keep-alive, ramps,
+//! watchdogs and stale detection run on it. Every publish spends a token of a
+//! [`SendBudget`] (`max_send_hz`, default twice the loop rate), so a client flooding a front
+//! at 10 kHz cannot flood the service.
 
-use std::sync::atomic::Ordering;
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
@@ -47,6 +56,82 @@ pub struct DdsDeviceConfig {
     pub rate_hz: f64,
     /// State older than this is stale (and the link is considered down).
     pub stale_after: Duration,
+    /// Commands published on arrival, and the bound on what the service receives.
+    pub forward: Forwarding,
+}
+
+/// How commands reach the service: on arrival (bounded) or only at the loop's ticks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Forwarding {
+    /// Publish an accepted command at once (`false`: only at the next tick, as before).
+    pub on_arrival: bool,
+    /// The most samples a second the service receives from this device, ticks included.
+    pub max_send_hz: f64,
+}
+
+impl Forwarding {
+    /// The default bound: twice the loop rate.
+    pub const DEFAULT_FACTOR: f64 = 2.0;
+
+    /// On arrival, bounded at [`Self::DEFAULT_FACTOR`] × `rate_hz`.
+    pub fn default_for(rate_hz: f64) -> Self {
+        Self {
+            on_arrival: true,
+            max_send_hz: rate_hz * Self::DEFAULT_FACTOR,
+        }
+    }
+}
+
+/// A token bucket over the samples a device publishes to its service: tokens come back at
+/// `rate` a second up to [`SendBudget::BURST`], every publish spends one. Over any window of
+/// `T` seconds the service receives at most `BURST + rate·T` samples, whatever the clients
+/// send; a command that finds no token waits for the next one (latest wins meanwhile).
+#[derive(Debug, Clone)]
+pub struct SendBudget {
+    rate: f64,
+    tokens: f64,
+    last: Instant,
+}
+
+impl SendBudget {
+    /// Tokens the bucket holds at most: a command right after a tick goes out at once.
+    pub const BURST: f64 = 2.0;
+
+    pub fn new(rate: f64, now: Instant) -> Self {
+        Self {
+            rate: rate.max(1.0),
+            tokens: Self::BURST,
+            last: now,
+        }
+    }
+
+    fn refill(&mut self, now: Instant) {
+        let dt = now.saturating_duration_since(self.last).as_secs_f64();
+        self.tokens = (self.tokens + dt * self.rate).min(Self::BURST);
+        self.last = self.last.max(now);
+    }
+
+    /// Spends a token when one is there.
+    pub fn take(&mut self, now: Instant) -> bool {
+        self.refill(now);
+        if self.tokens >= 1.0 {
+            self.tokens -= 1.0;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// When the next token is there (`now` when one is).
+    pub fn ready_at(&mut self, now: Instant) -> Instant {
+        self.refill(now);
+        if self.tokens >= 1.0 {
+            now
+        } else {
+            // Rounded up (and at least 1 ns): a token is there at the instant returned.
+            now + Duration::from_nanos((((1.0 - self.tokens) / self.rate) * 1e9).ceil().max(1.0) as u64)
+        }
+    }
 }
 
 /// The QoS of a DDS-client device's command writer.
@@ -78,7 +163,59 @@ impl DdsDeviceConfig {
 }
 
 struct Shared<S> {
-    latest: Mutex<Option<S>>,
+    /// The newest state sample and when it was taken from the reader.
+    latest: Mutex<Option<(S, Instant)>>,
+    wake: Arc<Wake>,
+}
+
+/// Wakes the device loop between its ticks.
+#[derive(Default)]
+struct Wake {
+    thread: OnceLock<std::thread::Thread>,
+    /// A command arrived (forwarding on arrival).
+    command: AtomicBool,
+    /// A forwarded command awaits the first state sample after it: the reader wakes the loop.
+    awaiting: AtomicBool,
+}
+
+impl Wake {
+    fn unpark(&self) {
+        if let Some(t) = self.thread.get() {
+            t.unpark();
+        }
+    }
+}
+
+/// The seq and tag of a command published at `at` (what a later state sample reflects).
+#[derive(Debug, Clone, Copy, Default)]
+struct Sent {
+    at: Option<Instant>,
+    seq: u64,
+    tag: u32,
+}
+
+/// The last two publishes: a sample reflects the newest one published before it arrived.
+#[derive(Debug, Default)]
+struct SentLog {
+    last: Sent,
+    before: Sent,
+}
+
+impl SentLog {
+    /// A publish of `seq`/`tag` at `at`; a re-publish of the same command keeps its first time.
+    fn push(&mut self, seq: u64, tag: u32, at: Instant) {
+        if self.last.at.is_none() || (seq, tag) != (self.last.seq, self.last.tag) {
+            self.before = self.last;
+            self.last = Sent { at: Some(at), seq, tag };
+        }
+    }
+
+    /// The command a sample taken at `arrived` reflects.
+    fn reflected_by(&self, arrived: Instant) -> Option<Sent> {
+        [self.last, self.before]
+            .into_iter()
+            .find(|s| s.at.is_some_and(|t| t <= arrived))
+    }
 }
 
 /// A running DDS-client device.
@@ -89,6 +226,10 @@ pub struct DdsDevice {
     cycles: watch::Receiver<u64>,
     stop: Arc<std::sync::atomic::AtomicBool>,
     thread: Mutex<Option<JoinHandle<()>>>,
+    /// Wakes the loop for a command to forward.
+    wake: Arc<Wake>,
+    /// Commands are forwarded on arrival ([`Forwarding::on_arrival`]).
+    on_arrival: bool,
 }
 
 impl DdsDevice {
@@ -101,10 +242,13 @@ impl DdsDevice {
     ) -> Result<Self, DdsError> {
         let table = info.table.clone();
         let cmd = CommandState::new(table.clone());
+        let config_on_arrival = config.forward.on_arrival;
         let mut writer = node.writer::<C::Cmd>(&config.cmd_topic, CMD_QOS)?;
         let shared: Arc<Shared<C::State>> = Arc::new(Shared {
             latest: Mutex::new(None),
+            wake: Arc::new(Wake::default()),
         });
+        let wake = shared.wake.clone();
         let counters = cmd.counters.clone();
         let reader = match &config.state_topic {
             Some(t) => {
@@ -114,7 +258,11 @@ impl DdsDevice {
                     let mut v = Vec::new();
                     if h.take_into(&mut v) > 0 {
                         ctr.state_samples.fetch_add(v.len() as u64, Ordering::Relaxed);
-                        *sh.latest.lock().unwrap_or_else(|p| p.into_inner()) = v.pop();
+                        let taken = Instant::now();
+                        *sh.latest.lock().unwrap_or_else(|p| p.into_inner()) = v.pop().map(|s| (s, taken));
+                        if sh.wake.awaiting.load(Ordering::Acquire) {
+                            sh.wake.unpark();
+                        }
                     }
                 })?)
             }
@@ -133,37 +281,62 @@ impl DdsDevice {
         let loop_cmd = cmd.clone();
         let name = info.name.clone();
         let span = tracing::info_span!("device", name = %info.name, kind = %info.kind, backend = info.backend.as_str());
+        let sh = shared.clone();
         let thread = std::thread::Builder::new()
             .name(format!("dev-{name}"))
             .spawn(move || {
+                crate::realtime::enter_device_loop(); // [realtime]: this thread only
+                let shared = sh;
+                let _ = shared.wake.thread.set(std::thread::current());
                 let _span = span.enter();
-                tracing::debug!(rate_hz = config.rate_hz, cmd = %config.cmd_topic, "device loop started");
+                tracing::debug!(rate_hz = config.rate_hz, cmd = %config.cmd_topic,
+                    on_arrival = config.forward.on_arrival, max_send_hz = config.forward.max_send_hz, "device loop started");
                 let _keep_reader = reader;
                 let period = Duration::from_secs_f64(1.0 / config.rate_hz.max(1.0));
-                let dt = period.as_secs_f32();
                 let start = Instant::now();
+                let at = |k: u64| start + Duration::from_nanos((period.as_nanos() as u64).saturating_mul(k));
+                let mut next = start;
                 let mut k: u64 = 0;
                 let mut current = HandState::empty(n);
                 let mut link = crate::link::LinkTracker::default();
                 let mut clock = crate::control::CycleClock::default();
+                let mut budget = SendBudget::new(config.forward.max_send_hz.max(config.rate_hz), start);
+                let mut sent = SentLog::default();
+                let mut last_encode: Option<Instant> = None;
+                // Targets wait for a token of the budget (a tick or a command found none).
+                let mut want_send = false;
+                let mut active = Active::Idle;
+                let has_state = config.state_topic.is_some();
                 while !stop2.load(Ordering::Relaxed) {
                     let now = Instant::now();
-                    clock.tick(&loop_cmd.counters, now);
+                    let tick = now >= next;
+                    let command = shared.wake.command.swap(false, Ordering::AcqRel);
+                    if tick {
+                        clock.tick(&loop_cmd.counters, now);
+                    }
                     let sample = shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
-                    if let Some(s) = sample {
+                    let mut measured = false;
+                    if let Some((s, taken)) = sample {
                         if let Some(mut st) = codec.decode(&s, &table) {
-                            st.measured_at = Some(now);
-                            st.measured_wall = Some(SystemTime::now());
+                            st.measured_at = Some(taken);
+                            st.measured_wall = Some(SystemTime::now() - now.saturating_duration_since(taken));
                             st.freshness = Freshness::Fresh;
                             st.closure = table.closure_of(&st.joints.iter().map(|j| j.q).collect::<Vec<_>>());
+                            // The command this sample reflects: the newest one published before it came.
+                            let reflected = sent.reflected_by(taken).unwrap_or_default();
+                            (st.cmd_seq, st.cmd_tag) = (reflected.seq, reflected.tag);
+                            if sent.last.at.is_some_and(|t| t <= taken) {
+                                shared.wake.awaiting.store(false, Ordering::Release);
+                            }
                             current = st;
+                            measured = true;
                             if link.observe(true, &current.joints, &loop_cmd) {
                                 // The peer came back: never replay what was in force before.
                                 tracing::info!("peer back: holding the measured position until the next command");
                             }
                         }
                     }
-                    if config.state_topic.is_some() {
+                    if tick && has_state {
                         let stale = current.age(now).map(|a| a > config.stale_after).unwrap_or(true);
                         if stale {
                             if link.is_up() {
@@ -177,30 +350,61 @@ impl DdsDevice {
                             link.observe(false, &current.joints, &loop_cmd);
                         }
                     }
-                    let active = loop_cmd.step(&current.joints);
+                    if tick || command {
+                        active = loop_cmd.step(&current.joints);
+                        want_send = true;
+                    }
                     // Never "hold" a position that was never measured.
-                    if config.state_topic.is_some() && crate::link::blind_hold(link.ever_measured(), &active) {
-                        // stay silent
-                    } else if let Some(msg) = codec.encode(&active, &table, dt) {
-                        if writer.write(msg).is_ok() {
-                            Counters::inc(&loop_cmd.counters.sent);
+                    if want_send && has_state && crate::link::blind_hold(link.ever_measured(), &active) {
+                        want_send = false; // stay silent
+                    }
+                    if want_send && budget.take(now) {
+                        want_send = false;
+                        // Ramps advance by the time since the last publish (a forwarded command
+                        // comes between ticks), at most a few periods after a stall.
+                        let dt = last_encode.map_or(period, |t| now.saturating_duration_since(t).min(period * 5));
+                        if let Some(msg) = codec.encode(&active, &table, dt.as_secs_f32()) {
+                            last_encode = Some(now);
+                            if writer.write(msg).is_ok() {
+                                Counters::inc(&loop_cmd.counters.sent);
+                                let (seq, tag) = loop_cmd.applied();
+                                sent.push(seq, tag, Instant::now());
+                                if has_state && command {
+                                    shared.wake.awaiting.store(true, Ordering::Release);
+                                }
+                            }
                         }
                     }
-                    let mut out = if config.state_topic.is_none() {
-                        codec.commanded_state(&table).unwrap_or_else(|| current.clone())
-                    } else {
-                        current.clone()
-                    };
-                    crate::link::stamp(&mut out, &loop_cmd, matches!(active, Active::Safe(..)), false);
-                    let _ = state_tx.send(out);
-                    k += 1;
-                    let _ = cycle_tx.send(k);
-                    let next = start + period * (k as u32);
+                    if tick || measured || (command && !has_state) {
+                        let mut out = if has_state {
+                            current.clone()
+                        } else {
+                            codec.commanded_state(&table).unwrap_or_else(|| current.clone())
+                        };
+                        let reflected = (out.cmd_seq, out.cmd_tag);
+                        crate::link::stamp(&mut out, &loop_cmd, matches!(active, Active::Safe(..)), false);
+                        if has_state {
+                            // A state reflects the command published before it was measured,
+                            // not one applied since.
+                            (out.cmd_seq, out.cmd_tag) = reflected;
+                        }
+                        let _ = state_tx.send(out);
+                    }
+                    if tick {
+                        k += 1;
+                        let _ = cycle_tx.send(k);
+                        next = at(k);
+                        let now = Instant::now();
+                        if now > next + period {
+                            Counters::inc(&loop_cmd.counters.missed_cycles);
+                        }
+                    }
+                    // Sleep until the next tick, a token for waiting targets, a command or
+                    // (while a forwarded command awaits it) a state sample.
+                    let until = if want_send { next.min(budget.ready_at(Instant::now())) } else { next };
                     let now = Instant::now();
-                    if next > now {
-                        std::thread::sleep(next - now);
-                    } else if now - next > period {
-                        Counters::inc(&loop_cmd.counters.missed_cycles);
+                    if until > now && !shared.wake.command.load(Ordering::Acquire) {
+                        std::thread::park_timeout(until - now);
                     }
                 }
             })
@@ -212,12 +416,23 @@ impl DdsDevice {
             cycles,
             stop,
             thread: Mutex::new(Some(thread)),
+            wake,
+            on_arrival: config_on_arrival,
         })
+    }
+
+    /// Wakes the loop to publish the command just submitted (forwarding on arrival).
+    fn forward(&self) {
+        if self.on_arrival {
+            self.wake.command.store(true, Ordering::Release);
+            self.wake.unpark();
+        }
     }
 
     /// Stops the loop thread (after the caller put the device in a safe state).
     pub fn stop(&self) {
         self.stop.store(true, Ordering::Relaxed);
+        self.wake.unpark();
         if let Some(t) = self.thread.lock().unwrap_or_else(|p| p.into_inner()).take() {
             let _ = t.join();
         }
@@ -249,11 +464,14 @@ impl HandDevice for DdsDevice {
     }
 
     fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
-        Ok(self.cmd.submit(cmd)?)
+        self.cmd.submit(cmd)?;
+        self.forward();
+        Ok(())
     }
 
     fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
         self.cmd.submit_checked(seq, body, tag);
+        self.forward();
         Ok(())
     }
 
@@ -267,6 +485,7 @@ impl HandDevice for DdsDevice {
 
     async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
         self.cmd.request_safe(action);
+        self.forward();
         self.cycles(2).await
     }
 
@@ -321,5 +540,82 @@ impl HandDevice for WithPeer {
     }
     fn stats(&self) -> DeviceStats {
         self.device.stats()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A client at 10 kHz against a budget of 1 kHz: the service receives at most
+    /// `BURST + rate·T` samples over any window, and a token is there again when `ready_at` says.
+    #[test]
+    fn the_send_budget_bounds_what_the_service_receives() {
+        let t0 = Instant::now();
+        let mut b = SendBudget::new(1000.0, t0);
+        let mut sent = Vec::new();
+        for i in 0..10_000u64 {
+            let now = t0 + Duration::from_micros(100 * i);
+            if b.take(now) {
+                sent.push(now);
+            }
+        }
+        // One second of 10 kHz: 1000 refilled plus the initial burst.
+        assert!(sent.len() <= 1000 + SendBudget::BURST as usize, "{}", sent.len());
+        assert!(sent.len() >= 990, "the budget's own rate goes through: {}", sent.len());
+        // Any 100 ms window holds at most BURST + 100.
+        for (i, t) in sent.iter().enumerate() {
+            let in_window = sent[i..]
+                .iter()
+                .take_while(|u| **u < *t + Duration::from_millis(100))
+                .count();
+            assert!(in_window <= 102, "{in_window} in the 100 ms from {i}");
+        }
+        // Drained: the next token is 1 ms of refill away, not now.
+        let now = t0 + Duration::from_secs(1);
+        while b.take(now) {}
+        let ready = b.ready_at(now);
+        assert!(
+            ready > now && ready <= now + Duration::from_millis(1),
+            "{:?}",
+            ready - now
+        );
+        assert!(b.take(ready), "a token at ready_at");
+    }
+
+    /// A client slower than the budget is never held back: every command goes out at once.
+    #[test]
+    fn a_client_under_the_budget_is_forwarded_every_time() {
+        let t0 = Instant::now();
+        let mut b = SendBudget::new(1000.0, t0);
+        // Ticks at 500 Hz plus a client at 400 Hz (900 Hz in all, under the 1 kHz budget).
+        let mut events: Vec<(u64, bool)> = (0..500).map(|i| (i * 2000, false)).collect();
+        events.extend((0..400).map(|i| (i * 2500 + 700, true)));
+        events.sort();
+        for (us, is_cmd) in events {
+            let ok = b.take(t0 + Duration::from_micros(us));
+            if is_cmd {
+                assert!(ok, "the command at {us} us waited");
+            }
+        }
+    }
+
+    /// A sample reflects the newest command published before it was taken; a re-publish of a
+    /// command (the keep-alive tick) keeps the time it first went out.
+    #[test]
+    fn a_sample_reflects_the_command_published_before_it() {
+        let t0 = Instant::now();
+        let ms = |n: u64| t0 + Duration::from_millis(n);
+        let mut log = SentLog::default();
+        assert!(log.reflected_by(ms(0)).is_none(), "nothing published yet");
+        log.push(1, 11, ms(1));
+        log.push(1, 11, ms(3)); // keep-alive
+        log.push(2, 22, ms(5));
+        let r = |t| log.reflected_by(ms(t)).map(|s| (s.seq, s.tag));
+        assert_eq!(r(0), None, "taken before anything went out");
+        assert_eq!(r(2), Some((1, 11)));
+        assert_eq!(r(4), Some((1, 11)), "the keep-alive did not move seq 1's time");
+        assert_eq!(r(5), Some((2, 22)));
+        assert_eq!(r(9), Some((2, 22)));
     }
 }

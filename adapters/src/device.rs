@@ -77,6 +77,9 @@ pub struct DeviceStats {
     pub cycles: u64,
     /// The device loop's periods (`/metrics`).
     pub periods: crate::control::PeriodBuckets,
+    /// Times the device's published state went from fresh to stale (a link loss, a missed
+    /// reply past the stale bound, a peer that fell silent), whatever the kind.
+    pub stale_events: u64,
 }
 
 /// Device errors. [`DeviceError::is_transient`] tells a failure the link may recover from

@@ -25,6 +25,7 @@ pub mod mapping;
 pub mod model;
 pub mod netif;
 pub mod open;
+pub mod realtime;
 pub mod ros;
 pub mod route;
 pub mod sim;

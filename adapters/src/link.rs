@@ -8,7 +8,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Instant, SystemTime};
 
 use crate::control::{Active, CommandState, Counters};
-use crate::model::{faults, HandState, JointState, SafeAction};
+use crate::model::{faults, Freshness, HandState, JointState, SafeAction};
 
 /// The link as the device loop sees it, one measurement at a time.
 #[derive(Debug, Default)]
@@ -59,8 +59,15 @@ pub fn blind_hold_request(st: &HandState, action: SafeAction) -> bool {
 }
 
 /// Stamps `st` with the seq and tag of the last applied command, the safe-state fault and,
-/// when `wall` is set, the wall-clock time of its measurement.
+/// when `wall` is set, the wall-clock time of its measurement. Every device loop calls it on
+/// each state it publishes, so it also counts the fresh → stale transitions
+/// (`Counters::stale_events`).
 pub fn stamp(st: &mut HandState, cmd: &CommandState, safe: bool, wall: bool) {
+    let fresh = st.freshness == Freshness::Fresh;
+    let was_fresh = cmd.counters.published_fresh.swap(fresh, Ordering::Relaxed);
+    if was_fresh && st.freshness == Freshness::Stale {
+        Counters::inc(&cmd.counters.stale_events);
+    }
     (st.cmd_seq, st.cmd_tag) = cmd.applied();
     if wall {
         st.measured_wall = st
@@ -71,5 +78,39 @@ pub fn stamp(st: &mut HandState, cmd: &CommandState, safe: bool, wall: bool) {
         st.faults |= faults::SAFE_STATE;
     } else {
         st.faults &= !faults::SAFE_STATE;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::model::{DeviceKind, Side};
+
+    /// Only a fresh state followed by a stale one counts: the stale states before the first
+    /// measurement, a stale spell's further states and a device without feedback do not.
+    #[test]
+    fn stale_events_count_fresh_to_stale_transitions_only() {
+        let table = Arc::new(DeviceKind::Dex1.table(Side::Left, &Default::default()).unwrap());
+        let cmd = CommandState::new(table);
+        let publish = |f: Freshness| {
+            let mut st = HandState::empty(1);
+            st.freshness = f;
+            stamp(&mut st, &cmd, false, false);
+            cmd.counters.stale_events.load(Ordering::Relaxed)
+        };
+        use Freshness::{CommandedOnly, Fresh, Stale};
+        assert_eq!(publish(Stale), 0, "never measured yet");
+        assert_eq!(publish(Stale), 0);
+        assert_eq!(publish(Fresh), 0);
+        assert_eq!(publish(Fresh), 0);
+        assert_eq!(publish(Stale), 1, "fresh -> stale");
+        assert_eq!(publish(Stale), 1, "the same stale spell");
+        assert_eq!(publish(Fresh), 1);
+        assert_eq!(publish(Stale), 2, "a second spell");
+        assert_eq!(publish(CommandedOnly), 2);
+        assert_eq!(publish(Stale), 2, "commanded-only is not fresh");
+        assert_eq!(cmd.counters.snapshot().stale_events, 2);
     }
 }

@@ -121,6 +121,11 @@ pub struct DeviceSpec<'a> {
     pub rate_hz: f64,
     /// A measurement older than this is stale (and the link down).
     pub stale_after: Duration,
+    /// Devices that are clients of a DDS service: commands published on arrival (`false`:
+    /// only at the loop's ticks) and the bound on the samples a second the service receives
+    /// (`None`: [`crate::dds_device::Forwarding::DEFAULT_FACTOR`] × the loop rate).
+    pub forward_on_arrival: bool,
+    pub max_send_hz: Option<f64>,
     /// The device's table (profile overrides applied).
     pub table: &'a Arc<DeviceTable>,
     pub emulator: &'a EmulatorSection,
@@ -129,6 +134,15 @@ pub struct DeviceSpec<'a> {
 }
 
 impl DeviceSpec<'_> {
+    /// How a DDS-client device whose loop runs at `rate_hz` forwards commands.
+    pub fn forwarding(&self, rate_hz: f64) -> crate::dds_device::Forwarding {
+        let default = crate::dds_device::Forwarding::default_for(rate_hz);
+        crate::dds_device::Forwarding {
+            on_arrival: self.forward_on_arrival,
+            max_send_hz: self.max_send_hz.unwrap_or(default.max_send_hz).max(rate_hz),
+        }
+    }
+
     /// The identity every adapter reports.
     pub fn info(&self) -> DeviceInfo {
         DeviceInfo {

@@ -306,6 +306,7 @@ fn client_device_drives_the_emulated_service_and_goes_stale_when_it_stops() {
             state_topic: Some("rt/brainco/right/state".into()),
             rate_hz: 100.0,
             stale_after: Duration::from_millis(200),
+            forward: handgate_adapters::dds_device::Forwarding::default_for(100.0),
         },
         BraincoCodec::new(0.8),
     )
@@ -388,6 +389,8 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
         backend: Backend::Emulator,
         rate_hz: 100.0,
         stale_after: Duration::from_millis(200),
+        forward_on_arrival: true,
+        max_send_hz: None,
         table: &table,
         emulator: &emulator,
         config: &*config,

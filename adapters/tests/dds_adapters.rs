@@ -44,6 +44,7 @@ fn cfg(cmd: &str, state: Option<&str>, rate: f64) -> DdsDeviceConfig {
         state_topic: state.map(Into::into),
         rate_hz: rate,
         stale_after: Duration::from_millis(150),
+        forward: handgate_adapters::dds_device::Forwarding::default_for(rate),
     }
 }
 

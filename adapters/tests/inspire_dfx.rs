@@ -333,6 +333,7 @@ fn device(node: &Node, side: Side, name: &str) -> DdsDevice {
         state_topic: Some(PAIR_TOPICS.1.into()),
         rate_hz: 100.0,
         stale_after: Duration::from_millis(200),
+        forward: handgate_adapters::dds_device::Forwarding::default_for(100.0),
     };
     DdsDevice::start(node, info, cfg, DfxCodec::new(side).unwrap()).unwrap()
 }

@@ -204,6 +204,7 @@ fn c_client_device_drives_the_emulated_driver_and_goes_stale_without_it() {
             state_topic: Some(st),
             rate_hz: 100.0,
             stale_after: Duration::from_millis(200),
+            forward: handgate_adapters::dds_device::Forwarding::default_for(100.0),
         },
         codec,
     )

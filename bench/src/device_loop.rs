@@ -1,15 +1,19 @@
 //! Benchmark 2: the Dex3 USB device loop at 1 kHz against the in-process MCU emulator
-//! (the transport seam hardware would use), for a fixed time; optionally fed commands at a
-//! fixed rate, with the loop aligned to them or not.
+//! (the transport seam hardware would use), for a fixed time, next to a reference loop that
+//! runs at the same time on the same machine and does nothing but sleep to absolute deadlines
+//! at the same period (with the same scheduling policy): the best any user-space loop gets
+//! here, measured with the same histogram and the same rule for a missed cycle;
+//! optionally fed commands at a fixed rate, with the loop aligned to them or not.
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dex3::usb::{
-    Align, Dex3Emulator, Dex3UsbLoop, EmulatorClock, EmulatorConfig, EmulatorTransport, LoopConfig,
+    Align, Dex3Emulator, Dex3UsbLoop, EmulatorClock, EmulatorConfig, EmulatorTransport, LoopConfig, PeriodHistogram,
 };
 use handgate_adapters::dex3::{Dex3Command, Side};
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::stats::cpu_seconds;
 
@@ -58,6 +62,9 @@ pub struct LoopResult {
     /// The feeding thread's cost of one `set_command` (slot + wake): median, p99, µs.
     #[serde(default)]
     pub set_command_us: Option<[f64; 2]>,
+    /// The reference loop over the same window (`None` in results of older runs).
+    #[serde(default)]
+    pub reference: Option<Reference>,
 }
 
 /// An alignment by name: `off`, `early[:MIN_GAP_US]` (default 500), `phase[:MAX_SHIFT_US]`
@@ -79,6 +86,49 @@ pub fn align_by_name(name: &str) -> anyhow::Result<Align> {
         },
         other => anyhow::bail!("unknown alignment {other:?}"),
     })
+}
+
+/// The reference loop's periods: the same quantities as the device loop's.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Reference {
+    pub cycles: u64,
+    pub median_ms: f64,
+    pub p90_ms: f64,
+    pub p99_ms: f64,
+    pub max_ms: f64,
+    pub p99_jitter_us: f64,
+    pub misses: u64,
+}
+
+/// Runs a loop that only sleeps to absolute deadlines (`t0 + k·period`, a late wake-up
+/// skips the deadlines it missed and counts them, as the device loop does) until `stop`.
+fn reference_loop(period: Duration, stop: Arc<AtomicBool>) -> (PeriodHistogram, u64) {
+    let mut hist = PeriodHistogram::new();
+    let mut misses = 0u64;
+    let t0 = Instant::now();
+    let mut last: Option<Instant> = None;
+    let mut k: u64 = 0;
+    let at = |k: u64| t0 + Duration::from_nanos(period.as_nanos() as u64 * k);
+    while !stop.load(Ordering::Relaxed) {
+        let now = Instant::now();
+        if let Some(l) = last.replace(now) {
+            hist.record(now - l);
+        }
+        k += 1;
+        let mut next = at(k);
+        let now = Instant::now();
+        if now > next {
+            let behind = ((now - next).as_nanos() / period.as_nanos()) as u64 + 1;
+            misses += behind;
+            k += behind;
+            next = at(k);
+        }
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        }
+    }
+    (hist, misses)
 }
 
 /// Sets the calling thread's scheduling policy; threads it creates inherit it (glibc's
@@ -152,6 +202,12 @@ pub fn run(
         set_timer_slack(ns)?;
     }
     let h = Dex3UsbLoop::spawn(EmulatorTransport::factory(emu), cfg);
+    // The reference inherits the same policy and slack (created while they are set).
+    let stop_ref = Arc::new(AtomicBool::new(false));
+    let sr = stop_ref.clone();
+    let reference = std::thread::Builder::new()
+        .name("reference-loop".into())
+        .spawn(move || reference_loop(period, sr))?;
     if fifo {
         set_fifo(None)?;
     }
@@ -204,6 +260,7 @@ pub fn run(
         }
     }
     let s = h.stats();
+    stop_ref.store(true, Ordering::Relaxed);
     let wall = t0.elapsed().as_secs_f64();
     let c1 = cpu_seconds(pid).unwrap_or(f64::NAN);
     h.stop();
@@ -215,6 +272,20 @@ pub fn run(
     };
     set_cost.sort_by(f64::total_cmp);
     let pick = |q: f64| set_cost[((q * set_cost.len() as f64) as usize).min(set_cost.len() - 1)];
+    let (rh, rmiss) = reference
+        .join()
+        .map_err(|_| anyhow::anyhow!("the reference loop panicked"))?;
+    let rq = |p| rh.quantile(p).map(|d| d.as_secs_f64() * 1e3).unwrap_or(f64::NAN);
+    let nominal_ms = period.as_secs_f64() * 1e3;
+    let reference = Reference {
+        cycles: rh.count(),
+        median_ms: rq(0.5),
+        p90_ms: rq(0.9),
+        p99_ms: rq(0.99),
+        max_ms: rh.max().as_secs_f64() * 1e3,
+        p99_jitter_us: (rq(0.99) - nominal_ms).abs() * 1e3,
+        misses: rmiss,
+    };
     let q = |p| s.period.quantile(p).map(|d| d.as_secs_f64() * 1e3).unwrap_or(f64::NAN);
     let p99 = q(0.99);
     Ok(LoopResult {
@@ -240,5 +311,6 @@ pub fn run(
         cmd_wait_us: (s.cmd_wait.count() > 0).then(|| [wq(0.5), wq(0.99), s.cmd_wait.max().as_secs_f64() * 1e6]),
         min_ms: s.period.min().map(|d| d.as_secs_f64() * 1e3),
         set_command_us: (!set_cost.is_empty()).then(|| [pick(0.5), pick(0.99)]),
+        reference: Some(reference),
     })
 }

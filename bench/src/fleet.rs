@@ -11,7 +11,7 @@ use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::handgate::GatewayStatus_;
 use serde::{Deserialize, Serialize};
 
-use crate::stats::{cpu_seconds, status_kb, Summary};
+use crate::stats::{cpu_seconds, group_cpu, status_kb, task_cpu, Summary};
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FleetResult {
@@ -31,6 +31,14 @@ pub struct FleetResult {
     pub dex1_missed: u64,
     /// Devices reported by the last status sample.
     pub devices_seen: usize,
+    /// Gateway CPU per device cycle (CPU time over the window / the state samples all devices
+    /// produced in it), µs.
+    #[serde(default)]
+    pub cpu_us_per_cycle: Option<f64>,
+    /// % of one core per thread group over the window (emulator threads included: they are
+    /// in-process here), largest first.
+    #[serde(default)]
+    pub threads_cpu: Vec<(String, f64)>,
 }
 
 /// The profile: `n3` Dex3 + `n1` Dex1 on emulators with their fronts on `rt/bench/...`.
@@ -87,6 +95,16 @@ struct Window {
     rate: HashMap<String, f64>,
     /// Cycles missed during the window, per device.
     missed: HashMap<String, u64>,
+    /// % of one core per thread group.
+    threads_cpu: Vec<(String, f64)>,
+}
+
+impl Window {
+    /// CPU per device cycle, µs: CPU time over the window / the state samples of every device.
+    fn cpu_us_per_cycle(&self) -> Option<f64> {
+        let cycles: f64 = self.rate.values().sum::<f64>() * self.wall;
+        (cycles > 0.0).then(|| self.cpu_pct / 100.0 * self.wall * 1e6 / cycles)
+    }
 }
 
 impl Window {
@@ -125,6 +143,7 @@ fn window(
     let _ = reader.take();
     let first = reader.wait_take(Duration::from_secs(5))?.pop().expect("one sample");
     let c0 = cpu_seconds(pid).unwrap_or(f64::NAN);
+    let tasks0 = task_cpu(pid);
     let t0 = Instant::now();
     let mut rates: HashMap<String, Vec<f64>> = HashMap::new();
     let mut last = first.clone();
@@ -142,6 +161,7 @@ fn window(
     }
     let wall = t0.elapsed().as_secs_f64();
     let c1 = cpu_seconds(pid).unwrap_or(f64::NAN);
+    let threads_cpu = group_cpu(&tasks0, &task_cpu(pid), wall);
     let missed0: HashMap<&str, u64> = first
         .devices
         .iter()
@@ -168,6 +188,7 @@ fn window(
         last,
         rate,
         missed,
+        threads_cpu,
     })
 }
 
@@ -197,6 +218,8 @@ pub fn measure(node: &Node, pid: u32, n3: usize, n1: usize, secs: f64, warm: Dur
         dex1_state_hz,
         dex1_missed,
         devices_seen: w.last.devices.len(),
+        cpu_us_per_cycle: w.cpu_us_per_cycle(),
+        threads_cpu: w.threads_cpu.clone(),
     })
 }
 

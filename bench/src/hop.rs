@@ -8,6 +8,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, DEX3_MOTORS, DEX3_PRESS_SENSORS};
+use handgate_idl::TopicType;
 use serde::{Deserialize, Serialize};
 
 use crate::stats::{cpu_seconds, Summary};
@@ -52,30 +53,86 @@ pub fn client(
     warmup: usize,
     peer_pid: u32,
 ) -> anyhow::Result<HopResult> {
+    let run = tagged_client(
+        node,
+        cmd_topic,
+        state_topic,
+        rate_hz,
+        samples,
+        warmup,
+        &[peer_pid],
+        command,
+        |s: &HandState_| Some(s.reserve[0]),
+    )?;
+    Ok(HopResult {
+        target: target.into(),
+        rate_hz,
+        sent: run.sent,
+        echoed: run.latency_us.len(),
+        latency_us: Summary::of(&run.latency_us),
+        peer_cpu_pct: run.cpu_pct[0],
+    })
+}
+
+/// What one run of [`tagged_client`] measured.
+#[derive(Debug, Clone)]
+pub struct TaggedRun {
+    /// Commands sent after the warm-up.
+    pub sent: usize,
+    /// Latency of each of those a state came back for, µs.
+    pub latency_us: Vec<f64>,
+    /// CPU of each watched process during the run, % of one core (NaN if unreadable).
+    pub cpu_pct: Vec<f64>,
+}
+
+/// The tagged client every hop benchmark runs: publishes `make(tag)` on `cmd_topic` at
+/// `rate_hz` (a unique tag per command, each at a uniformly random point of its period) and
+/// times the first sample on `state_topic` whose `tag_of` is that tag (timestamps taken in
+/// the client's DDS listener). Stops once `samples` commands after the `warmup` ones came
+/// back (or 4 × `samples` were sent); the CPU of `pids` is measured over the sending.
+#[allow(clippy::too_many_arguments)]
+pub fn tagged_client<C, S, M, T>(
+    node: &Node,
+    cmd_topic: &str,
+    state_topic: &str,
+    rate_hz: f64,
+    samples: usize,
+    warmup: usize,
+    pids: &[u32],
+    make: M,
+    tag_of: T,
+) -> anyhow::Result<TaggedRun>
+where
+    C: TopicType,
+    S: TopicType + Clone + 'static,
+    M: Fn(u32) -> C,
+    T: Fn(&S) -> Option<u32> + Send + 'static,
+{
     let max_sent = warmup + 4 * samples;
     // Tags unique to this run: a time-derived base, then one per command.
     let base: u32 = 1 + (SystemTime::now().duration_since(UNIX_EPOCH)?.as_millis() % 3000) as u32 * 1_000_000;
     let recv: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(vec![None; max_sent]));
     let r = recv.clone();
-    let reader = node.reader_with_callback::<HandState_, _>(state_topic, Qos::BestEffort, move |h| {
+    let reader = node.reader_with_callback::<S, _>(state_topic, Qos::BestEffort, move |h| {
         let now = Instant::now();
         let mut v = Vec::new();
         h.take_into(&mut v);
         let mut g = r.lock().unwrap_or_else(|e| e.into_inner());
         for s in v {
-            let i = s.reserve[0].wrapping_sub(base) as usize;
+            let Some(tag) = tag_of(&s) else { continue };
+            let i = tag.wrapping_sub(base) as usize;
             if let Some(slot) = g.get_mut(i) {
                 slot.get_or_insert(now);
             }
         }
     })?;
-    let mut writer = node.writer::<HandCmd_>(cmd_topic, Qos::Reliable { depth: 16 })?;
+    let mut writer = node.writer::<C>(cmd_topic, Qos::Reliable { depth: 16 })?;
     writer.wait_matched(1, Duration::from_secs(30))?;
     reader.wait_matched(1, Duration::from_secs(30))?;
 
     let period = Duration::from_secs_f64(1.0 / rate_hz);
     let mut sent_at: Vec<Instant> = Vec::with_capacity(max_sent);
-    let c0 = cpu_seconds(peer_pid).unwrap_or(f64::NAN);
+    let c0: Vec<f64> = pids.iter().map(|&p| cpu_seconds(p).unwrap_or(f64::NAN)).collect();
     let t0 = Instant::now();
     let mut anchor = t0;
     let mut i = 0usize;
@@ -101,7 +158,7 @@ pub fn client(
             anchor = now - period * i as u32;
         }
         sent_at.push(Instant::now());
-        writer.write(command(base + i as u32))?;
+        writer.write(make(base + i as u32))?;
         i += 1;
         if i >= warmup + samples && i % 50 == 0 {
             let got = recv.lock().unwrap_or_else(|e| e.into_inner())[warmup..i]
@@ -114,7 +171,11 @@ pub fn client(
         }
     }
     let wall = t0.elapsed().as_secs_f64();
-    let c1 = cpu_seconds(peer_pid).unwrap_or(f64::NAN);
+    let cpu_pct = pids
+        .iter()
+        .zip(&c0)
+        .map(|(&p, c0)| 100.0 * (cpu_seconds(p).unwrap_or(f64::NAN) - c0) / wall)
+        .collect();
     // Let the last answers arrive (a late one only adds a sample; nothing waits on it).
     let settle = Instant::now() + Duration::from_millis(300);
     while Instant::now() < settle {
@@ -125,29 +186,78 @@ pub fn client(
     }
     drop(reader);
     let g = recv.lock().unwrap_or_else(|e| e.into_inner());
-    let lat: Vec<f64> = (warmup..i)
+    let latency_us: Vec<f64> = (warmup..i)
         .filter_map(|k| g[k].map(|r| r.saturating_duration_since(sent_at[k]).as_secs_f64() * 1e6))
         .collect();
-    Ok(HopResult {
-        target: target.into(),
-        rate_hz,
+    Ok(TaggedRun {
         sent: i - warmup,
-        echoed: lat.len(),
-        latency_us: Summary::of(&lat),
-        peer_cpu_pct: 100.0 * (c1 - c0) / wall,
+        latency_us,
+        cpu_pct,
     })
 }
 
+/// One emulated Dex3 USB exchange, what the floor + exchange peer does per command: the
+/// command frame built and encoded as the device loop does, exchanged with the MCU emulator
+/// at the transport seam, the reply decoded into a measurement.
+pub struct Exchange {
+    transport: Box<dyn handgate_adapters::dex3::usb::Dex3Transport>,
+    cfg: handgate_adapters::dex3::usb::LoopConfig,
+    meas: handgate_adapters::dex3::Dex3Measurement,
+    cmd_buf: [u8; handgate_adapters::dex3::usb::CMD_FRAME_LEN],
+    st_buf: [u8; handgate_adapters::dex3::usb::STATE_FRAME_LEN],
+}
+
+impl Exchange {
+    pub fn new() -> anyhow::Result<Self> {
+        use handgate_adapters::dex3::usb::{Dex3Emulator, EmulatorClock, EmulatorConfig, EmulatorTransport};
+        let emu = Arc::new(Mutex::new(Dex3Emulator::new(
+            handgate_adapters::dex3::Side::Left,
+            EmulatorConfig {
+                clock: EmulatorClock::Wall,
+                ..EmulatorConfig::default()
+            },
+        )));
+        Ok(Self {
+            transport: EmulatorTransport::factory(emu)()?,
+            cfg: handgate_adapters::dex3::usb::LoopConfig::default(),
+            meas: handgate_adapters::dex3::Dex3Measurement::empty(Instant::now()),
+            cmd_buf: [0; handgate_adapters::dex3::usb::CMD_FRAME_LEN],
+            st_buf: [0; handgate_adapters::dex3::usb::STATE_FRAME_LEN],
+        })
+    }
+
+    /// Sends `c` (positions and gains of its 7 motors) in one exchange.
+    pub fn run(&mut self, c: &HandCmd_) -> anyhow::Result<()> {
+        use handgate_adapters::dex3::usb::codec::McuToLinuxState;
+        use handgate_adapters::dex3::usb::convert::{apply_state, build_command};
+        let mut cmd = handgate_adapters::dex3::Dex3Command::default();
+        for (m, w) in cmd.motors.iter_mut().zip(&c.motor_cmd) {
+            m.q = w.q;
+            m.kp = w.kp;
+            m.kd = w.kd;
+        }
+        build_command(&cmd, &self.cfg.wiring, &self.cfg.scalings, true).encode_into(&mut self.cmd_buf);
+        self.transport
+            .exchange(&self.cmd_buf, &mut self.st_buf, self.cfg.exchange_timeout)?;
+        let st = McuToLinuxState::decode(&self.st_buf)?;
+        apply_state(&mut self.meas, &st, &self.cfg.wiring, &self.cfg.scalings);
+        Ok(())
+    }
+}
+
 /// The floor: answers every HandCmd_ at once, from the DDS listener thread, with a HandState_
-/// of 7 motors and 9 pads echoing `reserve[0]`. With `tick`, an ideal gateway in front of a
-/// device polled at that period instead: the newest tag is answered at the next tick of its
-/// own clock (no device, no work: only the wait for the next cycle). Runs until killed.
+/// of 7 motors and 9 pads echoing `reserve[0]`. With `exchange`, each command first goes
+/// through one emulated Dex3 USB exchange ([`Exchange`]): the least a gateway in front of a
+/// USB hand must do. With `tick`, an ideal gateway in front of a device polled at that period
+/// instead: the newest tag is answered at the next tick of its own clock (no device, no work:
+/// only the wait for the next cycle). Runs until killed.
 pub fn echo(
     domain: u32,
     iface: Option<&str>,
     cmd_topic: &str,
     state_topic: &str,
     tick: Option<Duration>,
+    exchange: bool,
 ) -> anyhow::Result<()> {
     let node = Node::new(domain, iface)?;
     let writer = node.writer::<HandState_>(state_topic, Qos::BestEffort)?;
@@ -156,6 +266,7 @@ pub fn echo(
         s.reserve[0] = tag;
         let _ = w.write(s);
     };
+    let mut ex = if exchange { Some(Exchange::new()?) } else { None };
     let pending: Arc<Mutex<Option<u32>>> = Arc::default();
     let p = pending.clone();
     let (mut direct, ticked) = match tick {
@@ -166,6 +277,11 @@ pub fn echo(
         let mut v = Vec::new();
         h.take_into(&mut v);
         for c in v {
+            if let Some(ex) = ex.as_mut() {
+                if let Err(e) = ex.run(&c) {
+                    eprintln!("echo: exchange failed: {e}");
+                }
+            }
             match direct.as_mut() {
                 Some(w) => answer(w, c.reserve[0]),
                 None => *p.lock().unwrap_or_else(|e| e.into_inner()) = Some(c.reserve[0]),

@@ -9,6 +9,8 @@ mod fleet;
 mod hop;
 mod record;
 mod report;
+mod shim;
+mod startup;
 mod stats;
 
 use std::path::PathBuf;
@@ -87,13 +89,18 @@ enum Cmd {
         samples: usize,
         #[arg(long, default_value_t = 200)]
         warmup: usize,
-        /// Domains: base (handgate), base+1 (floor), base+2 (relay), base+3 (floor + tick).
+        /// Domains: base (handgate), base+1 (floor), base+2 (relay), base+3 (floor + tick),
+        /// base+12 (floor + one emulated exchange).
         #[arg(long, default_value_t = 100)]
         domain_base: u32,
         #[arg(long)]
         interface: Option<String>,
-        /// Only these peers (floor, floor-1khz, handgate, python).
-        #[arg(long, value_delimiter = ',', default_value = "floor,floor-1khz,handgate,python")]
+        /// Only these peers (floor, floor-exchange, floor-1khz, handgate, python).
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "floor,floor-exchange,floor-1khz,handgate,python"
+        )]
         only: Vec<String>,
         /// Run the `handgate` peer on these profiles instead of the default, one after the
         /// other, each labelled `handgate LABEL` (repeatable: LABEL=PATH).
@@ -115,19 +122,70 @@ enum Cmd {
         /// Answer at the next tick of this period (µs) instead of at once.
         #[arg(long)]
         tick_us: Option<u64>,
+        /// One emulated Dex3 USB exchange per command before answering.
+        #[arg(long)]
+        exchange: bool,
+    },
+    /// The shim hop: a Dex1 client driving a Dex3 served by the G1-service emulator (its own
+    /// process) through handgate, a raw Rust relay and a unitree_sdk2py shim (bench/src/shim.rs).
+    Shim {
+        #[arg(long)]
+        handgate: PathBuf,
+        /// The venv interpreter with unitree_sdk2py (skip the Python shim when absent).
+        #[arg(long)]
+        python: Option<PathBuf>,
+        /// bench/python/shim.py
+        #[arg(long)]
+        script: PathBuf,
+        #[arg(long, value_delimiter = ',', default_value = "200,1000")]
+        rates: Vec<f64>,
+        #[arg(long, default_value_t = 2000)]
+        samples: usize,
+        #[arg(long, default_value_t = 200)]
+        warmup: usize,
+        #[arg(long, default_value_t = 107)]
+        domain: u32,
+        #[arg(long)]
+        interface: Option<String>,
+        /// Peers, in this order (handgate first: it refuses to start beside another writer
+        /// of its front's state topic).
+        #[arg(long, value_delimiter = ',', default_value = "handgate,relay,python")]
+        only: Vec<String>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The shim benchmark's raw relay (internal to `shim`).
+    ShimRelay {
+        #[arg(long)]
+        domain: u32,
+        #[arg(long)]
+        interface: Option<String>,
     },
     /// Fleet scale: one gateway with many emulated devices.
     Fleet {
         #[arg(long)]
         handgate: PathBuf,
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 32)]
         dex3: usize,
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 32)]
         dex1: usize,
         #[arg(long, default_value_t = 30.0)]
         secs: f64,
         #[arg(long, default_value_t = 110)]
         domain: u32,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Start-up: from `handgate run` to every device fresh and a first state on every front.
+    Startup {
+        #[arg(long)]
+        handgate: PathBuf,
+        #[arg(long, default_value = "sim-all")]
+        profile: String,
+        #[arg(long, default_value_t = 113)]
+        domain: u32,
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
         #[arg(long)]
         out: PathBuf,
     },
@@ -330,6 +388,18 @@ fn main() -> anyhow::Result<()> {
                             child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
                         )
                     }
+                    "floor-exchange" => {
+                        let mut c = Command::new(std::env::current_exe()?);
+                        c.args(["echo", "--exchange", "--domain", &(domain_base + 12).to_string()]);
+                        if let Some(i) = iface {
+                            c.args(["--interface", i]);
+                        }
+                        (
+                            "floor + exchange",
+                            domain_base + 12,
+                            child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
+                        )
+                    }
                     "handgate" => match &hg_profile {
                         None => ("handgate", domain_base, gateway(&handgate, domain_base, iface, None)?),
                         Some((l, p)) => (
@@ -375,13 +445,53 @@ fn main() -> anyhow::Result<()> {
             cmd_topic,
             state_topic,
             tick_us,
+            exchange,
         } => hop::echo(
             domain,
             interface.as_deref(),
             &cmd_topic,
             &state_topic,
             tick_us.map(Duration::from_micros),
+            exchange,
         )?,
+        Cmd::Startup {
+            handgate,
+            profile,
+            domain,
+            runs,
+            out,
+        } => {
+            let r = startup::run(&handgate, &profile, domain, runs)?;
+            save(&out, &r)?;
+        }
+        Cmd::Shim {
+            handgate,
+            python,
+            script,
+            rates,
+            samples,
+            warmup,
+            domain,
+            interface,
+            only,
+            out,
+        } => {
+            let r = shim::run(&shim::Plan {
+                handgate: &handgate,
+                python: python.as_deref().map(|p| (p, script.as_path())),
+                rates: &rates,
+                samples,
+                warmup,
+                domain,
+                iface: interface.as_deref(),
+                only: &only,
+                out: &out,
+            })?;
+            save(&out, &r)?;
+        }
+        Cmd::ShimRelay { domain, interface } => {
+            shim::relay(domain, interface.as_deref(), handgate_adapters::model::Side::Left)?
+        }
         Cmd::Fleet {
             handgate,
             dex3,

@@ -77,6 +77,63 @@ pub fn cpu_seconds(pid: u32) -> Option<f64> {
     Some((utime + stime) / hz.max(1.0))
 }
 
+/// CPU seconds of each thread of `pid`, by tid: (thread name, utime+stime).
+pub fn task_cpu(pid: u32) -> std::collections::HashMap<u32, (String, f64)> {
+    let mut out = std::collections::HashMap::new();
+    let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
+        return out;
+    };
+    // SAFETY: sysconf has no preconditions.
+    let hz = (unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64).max(1.0);
+    for e in dir.flatten() {
+        let Some(tid) = e.file_name().to_str().and_then(|t| t.parse::<u32>().ok()) else {
+            continue;
+        };
+        let Ok(s) = std::fs::read_to_string(e.path().join("stat")) else {
+            continue;
+        };
+        let (Some(open), Some(close)) = (s.find('('), s.rfind(')')) else {
+            continue;
+        };
+        let name = s[open + 1..close].to_string();
+        let f: Vec<&str> = s[close + 2..].split_whitespace().collect();
+        let (Some(u), Some(st)) = (
+            f.get(11).and_then(|v| v.parse::<f64>().ok()),
+            f.get(12).and_then(|v| v.parse::<f64>().ok()),
+        ) else {
+            continue;
+        };
+        out.insert(tid, (name, (u + st) / hz));
+    }
+    out
+}
+
+/// A thread's group for per-thread CPU tables: DDS device loops (`dev-<device>`) as one,
+/// other names without their digits (`tokio-runtime-w`, `dex3-usb-loop`, emulator threads).
+pub fn thread_group(name: &str) -> String {
+    if name.starts_with("dev-") {
+        return "dev-* (DDS-client device loops)".into();
+    }
+    name.chars().filter(|c| !c.is_ascii_digit()).collect()
+}
+
+/// % of one core per thread group between two [`task_cpu`] readings `wall` seconds apart
+/// (threads that ended in between are not counted), largest first.
+pub fn group_cpu(
+    before: &std::collections::HashMap<u32, (String, f64)>,
+    after: &std::collections::HashMap<u32, (String, f64)>,
+    wall: f64,
+) -> Vec<(String, f64)> {
+    let mut g: std::collections::BTreeMap<String, f64> = std::collections::BTreeMap::new();
+    for (tid, (name, c1)) in after {
+        let c0 = before.get(tid).map_or(0.0, |b| b.1);
+        *g.entry(thread_group(name)).or_default() += 100.0 * (c1 - c0) / wall.max(1e-9);
+    }
+    let mut v: Vec<(String, f64)> = g.into_iter().collect();
+    v.sort_by(|a, b| b.1.total_cmp(&a.1));
+    v
+}
+
 /// A `/proc/<pid>/status` field in kB (VmRSS, VmHWM).
 pub fn status_kb(pid: u32, key: &str) -> Option<f64> {
     std::fs::read_to_string(format!("/proc/{pid}/status"))

@@ -24,6 +24,10 @@ pub struct DevicePlan {
     /// The device's table: its kind's, with the profile's limits, step limit and closure.
     pub table: Arc<DeviceTable>,
     pub rate_hz: f64,
+    /// A client of a DDS service publishes commands on arrival (`[[devices]] forward_on_arrival`).
+    pub forward_on_arrival: bool,
+    /// `[[devices]] max_send_hz` (`None`: twice the loop rate).
+    pub max_send_hz: Option<f64>,
     pub stale_after: Duration,
     pub safe_action: SafeAction,
     /// `[devices.emulator]` (defaults when absent).
@@ -42,6 +46,8 @@ impl DevicePlan {
             backend: self.backend,
             rate_hz: self.rate_hz,
             stale_after: self.stale_after,
+            forward_on_arrival: self.forward_on_arrival,
+            max_send_hz: self.max_send_hz,
             table: &self.table,
             emulator: &self.emulator,
             config: &*self.config,
@@ -106,6 +112,8 @@ pub struct Plan {
     pub http: Option<HttpPlan>,
     /// `[foxglove]`; `None`: off (or not built in).
     pub foxglove: Option<FoxglovePlan>,
+    /// `[realtime]`: what the device-loop threads run with (default: unchanged).
+    pub realtime: handgate_adapters::realtime::Settings,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

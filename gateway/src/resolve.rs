@@ -92,6 +92,8 @@ fn device(i: usize, d: &DeviceConfig) -> Result<DevicePlan, ResolveError> {
         backend: d.backend,
         table: Arc::new(table),
         rate_hz,
+        forward_on_arrival: d.forward_on_arrival.unwrap_or(true),
+        max_send_hz: d.max_send_hz.map(|r| r.0),
         stale_after: DEFAULT_STALE_AFTER,
         safe_action: d.watchdog.safe_action,
         emulator: d.emulator.clone().unwrap_or_default(),
@@ -245,6 +247,13 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
                 required: p.foxglove.is_some(),
             }
         }),
+        realtime: handgate_adapters::realtime::Settings {
+            policy: p.realtime.policy,
+            // Validated: present with a real-time policy, absent otherwise.
+            priority: p.realtime.priority.unwrap_or(0),
+            cpus: p.realtime.cpus.clone(),
+            mlockall: p.realtime.mlockall,
+        },
         devices,
         fronts,
     })

@@ -153,6 +153,7 @@ fn a_standalone_emulate_brainco_process_is_driven_by_the_client_device() {
             state_topic: Some("rt/brainco/left/state".into()),
             rate_hz: 100.0,
             stale_after: Duration::from_millis(200),
+            forward: handgate_adapters::dds_device::Forwarding::default_for(100.0),
         },
         BraincoCodec::default(),
     )

@@ -60,6 +60,8 @@ fn open(node: &Node, name: &str, side: Side, dds: DdsConfig) -> Box<dyn HandDevi
         backend: Backend::Dds,
         rate_hz: 100.0,
         stale_after: Duration::from_millis(300),
+        forward_on_arrival: true,
+        max_send_hz: None,
         table: &table,
         emulator: &emulator,
         config: &config,

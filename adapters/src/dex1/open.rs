@@ -28,6 +28,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<Dex1Open, DeviceError> {
         state_topic: Some(state_topic),
         rate_hz: spec.rate_hz,
         stale_after: spec.stale_after,
+        forward: spec.forwarding(spec.rate_hz),
     };
     if spec.backend == Backend::Dds {
         let (Some(cmd), Some(state)) = super::kind::dds_topics(&profile, spec.side) else {

@@ -106,6 +106,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<Dex3Open, DeviceError> {
             state_topic: Some(state_topic),
             rate_hz: spec.rate_hz,
             stale_after: spec.stale_after,
+            forward: spec.forwarding(spec.rate_hz),
         };
         return Ok(Dex3Open::Dds { config, timeout_bit });
     }

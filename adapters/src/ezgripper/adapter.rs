@@ -83,6 +83,7 @@ impl EzGripperDevice {
         let bridge = std::thread::Builder::new()
             .name(format!("ezgripper-{}", info.name))
             .spawn(move || {
+                crate::realtime::enter_device_loop(); // [realtime]: this thread only
                 let _span = span.enter();
                 let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_time().build() else {
                     return;

@@ -263,9 +263,14 @@ struct Shared {
     targets: HashMap<u8, Target>,
     cmds: VecDeque<Cmd>,
     stats: BusStats,
-    periods: VecDeque<Duration>,
+    /// Round periods, kept only once someone asked for them ([`EzGripperBus::take_round_periods`]:
+    /// the benchmark); a gateway never does, so its buses keep none (kept unasked, up to
+    /// [`MAX_PERIODS`] of them grew a gateway's memory by about 4 MiB per bus over its first
+    /// minutes: docs/reliability.md §6).
+    periods: Option<VecDeque<Duration>>,
 }
 
+/// Round periods kept between two [`EzGripperBus::take_round_periods`] calls at most.
 const MAX_PERIODS: usize = 200_000;
 /// Attempts for a unicast request during open and init.
 const UNICAST_ATTEMPTS: usize = 3;
@@ -387,7 +392,10 @@ impl EzGripperBus {
         let worker = Worker::new(cfg.clone(), connector, shared.clone(), states.clone(), stop.clone());
         let thread = std::thread::Builder::new()
             .name("ezgripper-bus".into())
-            .spawn(move || worker.run(Some(link)))
+            .spawn(move || {
+                crate::realtime::enter_device_loop(); // [realtime]: this thread only
+                worker.run(Some(link))
+            })
             .map_err(EzError::Thread)?;
         Ok(Self {
             shared,
@@ -444,9 +452,16 @@ impl EzGripperBus {
     }
 
     /// Drains the recorded round periods (time between the starts of consecutive rounds
-    /// that read at least one gripper), oldest first.
+    /// that read at least one gripper), oldest first. Recording starts at the first call,
+    /// which returns nothing.
     pub fn take_round_periods(&self) -> Vec<Duration> {
-        self.lock().periods.drain(..).collect()
+        match &mut self.lock().periods {
+            Some(p) => p.drain(..).collect(),
+            p @ None => {
+                *p = Some(VecDeque::new());
+                Vec::new()
+            }
+        }
     }
 
     /// Stops the bus thread (also done on drop).
@@ -996,11 +1011,11 @@ impl Worker {
                 }
             }
             if !rep.replies.is_empty() {
-                if let Some(prev) = self.last_round_start {
-                    if sh.periods.len() >= MAX_PERIODS {
-                        sh.periods.pop_front();
+                if let (Some(prev), Some(periods)) = (self.last_round_start, sh.periods.as_mut()) {
+                    if periods.len() >= MAX_PERIODS {
+                        periods.pop_front();
                     }
-                    sh.periods.push_back(round_start - prev);
+                    periods.push_back(round_start - prev);
                 }
                 self.last_round_start = Some(round_start);
             }

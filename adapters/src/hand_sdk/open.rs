@@ -38,6 +38,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<HandSdkOpen, DeviceError> {
             state_topic: None,
             rate_hz: section.publish_hz.unwrap_or(spec.rate_hz),
             stale_after: spec.stale_after,
+            forward: spec.forwarding(section.publish_hz.unwrap_or(spec.rate_hz)),
         },
         ramp: profile.ramp(),
         peer,

@@ -77,6 +77,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<DfxOpen, DeviceError> {
         state_topic: Some(state_topic),
         rate_hz: spec.rate_hz,
         stale_after: spec.stale_after,
+        forward: spec.forwarding(spec.rate_hz),
     };
     if spec.backend == Backend::Dds {
         let profile = spec.config::<DfxProfile>().cloned().unwrap_or_default();

@@ -42,6 +42,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<FtpOpen, DeviceError> {
         state_topic: Some(t.state.clone()),
         rate_hz: spec.rate_hz,
         stale_after: spec.stale_after,
+        forward: spec.forwarding(spec.rate_hz),
     };
     let codec = profile.codec();
     if spec.backend == Backend::Dds {

@@ -185,7 +185,7 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         }
     }
     type Counter = fn(&handgate_adapters::device::DeviceStats, &crate::runtime::FrontCounters) -> u64;
-    let counters: [(&str, &str, Counter); 11] = [
+    let counters: [(&str, &str, Counter); 12] = [
         (
             "handgate_device_commands_total",
             "Commands accepted from fronts.",
@@ -220,6 +220,11 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
             "handgate_device_watchdog_trips_total",
             "Silence actions run.",
             |_, c| c.watchdog_trips.load(Ordering::Relaxed),
+        ),
+        (
+            "handgate_device_stale_events_total",
+            "Times the device's state went from fresh to stale.",
+            |s, _| s.stale_events,
         ),
         (
             "handgate_device_reconnects_total",

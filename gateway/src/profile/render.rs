@@ -69,6 +69,20 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
             "foxglove: not built in (cargo build --features foxglove, or make run, adds the live server)"
         );
     }
+    if p.realtime != RealtimeConfig::default() {
+        let r = &p.realtime;
+        let mut line = format!("realtime: device loops {}", r.policy.sched_name());
+        if let Some(n) = r.priority {
+            let _ = write!(line, " priority {n}");
+        }
+        if !r.cpus.is_empty() {
+            let _ = write!(line, ", CPUs {}", handgate_adapters::realtime::CpuList(&r.cpus));
+        }
+        if r.mlockall {
+            line.push_str(", memory locked (mlockall)");
+        }
+        let _ = writeln!(s, "{line}");
+    }
     let _ = writeln!(s, "devices ({}):", p.devices.len());
     for d in &p.devices {
         let _ = write!(

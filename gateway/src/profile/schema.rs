@@ -102,6 +102,9 @@ pub struct Profile {
     /// `[foxglove]`: the Foxglove WebSocket live server (docs/foxglove.md); `None`: the
     /// section is absent (the server runs with its defaults when handgate is built with it).
     pub foxglove: Option<FoxgloveConfig>,
+    /// `[realtime]`: scheduling, CPU affinity and memory locking of the device loops
+    /// (docs/deployment.md, "Real-time"); the defaults change nothing.
+    pub realtime: RealtimeConfig,
     pub devices: Vec<DeviceConfig>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -119,6 +122,7 @@ pub struct RawProfile {
     pub record: Option<RecordConfig>,
     pub http: HttpConfig,
     pub foxglove: Option<FoxgloveConfig>,
+    pub realtime: RealtimeConfig,
     pub devices: Vec<Value>,
     pub fronts: Vec<FrontConfig>,
 }
@@ -171,6 +175,7 @@ impl RawProfile {
             record: self.record,
             http: self.http,
             foxglove: self.foxglove,
+            realtime: self.realtime,
             devices,
             fronts: self.fronts,
         }
@@ -368,6 +373,25 @@ impl Default for FoxgloveConfig {
     }
 }
 
+/// `[realtime]`: how the device-loop threads run (docs/deployment.md, "Real-time"). Opt-in:
+/// the defaults leave every thread as the kernel starts it. Applied to the device loops only,
+/// never to the tokio workers, the DDS threads or the emulators.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RealtimeConfig {
+    /// `other` (default: time-sharing, as without the section), `fifo` or `rr`.
+    pub policy: RealtimePolicy,
+    /// Real-time priority, 1..=99; required with `fifo` / `rr`, refused with `other`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub priority: Option<u32>,
+    /// CPUs the device loops may run on; empty: not pinned.
+    pub cpus: Vec<usize>,
+    /// Lock the whole process's memory at start (`mlockall(MCL_CURRENT | MCL_FUTURE)`).
+    pub mlockall: bool,
+}
+
+pub use handgate_adapters::realtime::{Policy as RealtimePolicy, PRIORITY_MAX, PRIORITY_MIN};
+
 /// How fast a device loop runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum DeviceRate {
@@ -396,6 +420,12 @@ pub struct DeviceConfig {
     pub backend: Backend,
     /// Device loop / publish rate; `None` = the kind's default (see [`DeviceConfig::rate`]).
     pub rate_hz: Option<RateHz>,
+    /// A client of a DDS service publishes an accepted command at once (default), or only at
+    /// its loop's next tick (`false`).
+    pub forward_on_arrival: Option<bool>,
+    /// The most samples a second such a device publishes to its service, ticks included;
+    /// `None` = twice the loop rate.
+    pub max_send_hz: Option<RateHz>,
     pub limits: LimitsConfig,
     pub watchdog: WatchdogConfig,
     pub closure: ClosureConfig,
@@ -409,7 +439,17 @@ pub struct DeviceConfig {
 
 /// The keys every `[[devices]]` table may have; the others are the kind's.
 pub const COMMON_DEVICE_KEYS: &[&str] = &[
-    "name", "kind", "side", "backend", "rate_hz", "limits", "watchdog", "closure", "emulator",
+    "name",
+    "kind",
+    "side",
+    "backend",
+    "rate_hz",
+    "forward_on_arrival",
+    "max_send_hz",
+    "limits",
+    "watchdog",
+    "closure",
+    "emulator",
 ];
 
 /// The common keys as deserialized.
@@ -422,6 +462,10 @@ struct DeviceCommon {
     backend: Backend,
     #[serde(default)]
     rate_hz: Option<RateHz>,
+    #[serde(default)]
+    forward_on_arrival: Option<bool>,
+    #[serde(default)]
+    max_send_hz: Option<RateHz>,
     #[serde(default)]
     limits: LimitsConfig,
     #[serde(default)]
@@ -442,6 +486,8 @@ impl Default for DeviceConfig {
             side: Side::Left,
             backend: Backend::Emulator,
             rate_hz: None,
+            forward_on_arrival: None,
+            max_send_hz: None,
             limits: LimitsConfig::default(),
             watchdog: WatchdogConfig::default(),
             closure: ClosureConfig::default(),
@@ -589,6 +635,8 @@ impl DeviceConfig {
             side: c.side,
             backend: c.backend,
             rate_hz: c.rate_hz,
+            forward_on_arrival: c.forward_on_arrival,
+            max_send_hz: c.max_send_hz,
             limits: c.limits,
             watchdog: c.watchdog,
             closure: c.closure,

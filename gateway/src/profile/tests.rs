@@ -180,6 +180,18 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "at most 2000",
     ),
     (
+        "max_send_hz below the loop rate",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nrate_hz = 500\nmax_send_hz = 400\n",
+        "devices[0].max_send_hz",
+        "below the device's loop rate",
+    ),
+    (
+        "forward_on_arrival not a bool",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nforward_on_arrival = \"yes\"\n",
+        "devices[0].forward_on_arrival",
+        "bool",
+    ),
+    (
         "watchdog too short",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\nwatchdog = { timeout_ms = 5 }\n",
         "devices[0].watchdog.timeout_ms",
@@ -1236,6 +1248,16 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             dex3("emulator", "rate_hz = 700"),
         ),
         (
+            "devices.forward_on_arrival",
+            dex1("emulator", ""),
+            dex1("emulator", "forward_on_arrival = false"),
+        ),
+        (
+            "devices.max_send_hz",
+            dex1("emulator", ""),
+            dex1("emulator", "max_send_hz = 1500"),
+        ),
+        (
             "devices.limits.max_step",
             dex3("emulator", ""),
             dex3("emulator", "limits = { max_step = 0.1 }"),
@@ -1722,5 +1744,96 @@ fn foxglove_section_errors_name_their_keys_and_a_lean_build_names_the_feature() 
         assert!(f.topics.is_empty());
     } else {
         assert_eq!(plan.foxglove, None, "not built in: off, and no error without a section");
+    }
+}
+
+#[test]
+fn realtime_defaults_change_nothing() {
+    let l = load(&opts(None)).unwrap();
+    assert_eq!(l.profile.realtime, RealtimeConfig::default());
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    assert!(plan.realtime.is_default(), "{:?}", plan.realtime);
+    assert!(!render_fleet(&l.profile, &l.origin).contains("realtime"));
+}
+
+#[test]
+fn realtime_section_reaches_the_plan() {
+    let cpu = *handgate_adapters::realtime::allowed_cpus().unwrap().last().unwrap();
+    let (_, r) = load_text(&format!(
+        "{DEX3}[realtime]\npolicy = \"rr\"\npriority = 20\ncpus = [{cpu}]\nmlockall = true\n"
+    ));
+    let l = r.unwrap();
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    assert_eq!(
+        plan.realtime,
+        handgate_adapters::realtime::Settings {
+            policy: RealtimePolicy::Rr,
+            priority: 20,
+            cpus: vec![cpu],
+            mlockall: true,
+        }
+    );
+    let shown = render_fleet(&l.profile, &l.origin);
+    assert!(
+        shown.contains(&format!(
+            "realtime: device loops SCHED_RR priority 20, CPUs {cpu}, memory locked"
+        )),
+        "{shown}"
+    );
+}
+
+#[test]
+fn realtime_section_errors_name_file_and_key() {
+    let allowed = handgate_adapters::realtime::allowed_cpus().unwrap();
+    let shown = handgate_adapters::realtime::CpuList(&allowed).to_string();
+    let outside = handgate_adapters::realtime::MAX_CPUS + 3;
+    // (section, key, message fragment): each gives exactly this one line.
+    let cases: Vec<(String, &str, String)> = vec![
+        (
+            "policy = \"fifo\"\n".into(),
+            "realtime.priority",
+            "required with policy = \"fifo\" (a real-time priority, 1..=99)".into(),
+        ),
+        (
+            "policy = \"rr\"\npriority = 0\n".into(),
+            "realtime.priority",
+            "must be 1..=99, got 0".into(),
+        ),
+        (
+            "policy = \"fifo\"\npriority = 100\n".into(),
+            "realtime.priority",
+            "must be 1..=99, got 100".into(),
+        ),
+        (
+            "priority = 10\n".into(),
+            "realtime.priority",
+            "only applies to policy = \"fifo\" or \"rr\"".into(),
+        ),
+        (
+            "policy = \"deadline\"\n".into(),
+            "realtime.policy",
+            "unknown variant: found `deadline`, expected `one of `other`, `fifo`, `rr``".into(),
+        ),
+        (
+            format!("cpus = [{}, {outside}]\n", allowed[0]),
+            "realtime.cpus[1]",
+            format!("CPU {outside} is not one this process may run on (allowed: {shown})"),
+        ),
+        (
+            format!("cpus = [{0}, {0}]\n", allowed[0]),
+            "realtime.cpus[1]",
+            format!("CPU {} is listed twice", allowed[0]),
+        ),
+        ("mlock = true\n".into(), "realtime.mlock", "unknown key".into()),
+    ];
+    for (section, key, want) in cases {
+        let (path, r) = load_text(&format!("{DEX3}[realtime]\n{section}"));
+        let lines = r.unwrap_err().lines();
+        assert_eq!(lines.len(), 1, "{section}: {lines:#?}");
+        assert!(
+            lines[0].starts_with(&format!("{}: {key}: ", path.display())) && lines[0].contains(&want),
+            "{section}: want {key}: {want}, got {}",
+            lines[0]
+        );
     }
 }

@@ -54,6 +54,57 @@ impl Checker {
         }
     }
 
+    /// `[realtime]`: a priority exactly with a real-time policy, CPUs this process may use.
+    fn realtime(&mut self, r: &RealtimeConfig) {
+        let k = root().key("realtime");
+        match (r.policy.is_realtime(), r.priority) {
+            (true, None) => self.err(
+                k.key("priority"),
+                format!(
+                    "required with policy = \"{}\" (a real-time priority, {PRIORITY_MIN}..={PRIORITY_MAX})",
+                    r.policy
+                ),
+            ),
+            (true, Some(n)) if !(PRIORITY_MIN..=PRIORITY_MAX).contains(&n) => self.err(
+                k.key("priority"),
+                format!("must be {PRIORITY_MIN}..={PRIORITY_MAX}, got {n}"),
+            ),
+            (false, Some(n)) => self.err(
+                k.key("priority"),
+                format!(
+                    "only applies to policy = \"fifo\" or \"rr\"; with policy = \"{}\" remove it (got {n})",
+                    r.policy
+                ),
+            ),
+            _ => {}
+        }
+        if r.cpus.is_empty() {
+            return;
+        }
+        let mut seen = std::collections::BTreeSet::new();
+        for (i, c) in r.cpus.iter().enumerate() {
+            if !seen.insert(*c) {
+                self.err(k.key("cpus").index(i), format!("CPU {c} is listed twice"));
+            }
+        }
+        match handgate_adapters::realtime::allowed_cpus() {
+            Ok(allowed) => {
+                for (i, c) in r.cpus.iter().enumerate() {
+                    if !allowed.contains(c) {
+                        self.err(
+                            k.key("cpus").index(i),
+                            format!(
+                                "CPU {c} is not one this process may run on (allowed: {})",
+                                handgate_adapters::realtime::CpuList(&allowed)
+                            ),
+                        );
+                    }
+                }
+            }
+            Err(e) => self.err(k.key("cpus"), format!("cannot read the CPUs this process may use: {e}")),
+        }
+    }
+
     fn profile(&mut self, p: &Profile) {
         // dds
         if p.dds.domain.0 > MAX_DOMAIN_ID {
@@ -136,6 +187,7 @@ impl Checker {
                 );
             }
         }
+        self.realtime(&p.realtime);
         // foxglove
         if let Some(f) = &p.foxglove {
             let k = root().key("foxglove");
@@ -404,6 +456,21 @@ impl Checker {
         }
         if let Some(r) = d.rate_hz {
             self.rate(k.key("rate_hz"), r, MAX_RATE_HZ);
+        }
+        if let Some(m) = d.max_send_hz {
+            self.rate(k.key("max_send_hz"), m, 2.0 * MAX_RATE_HZ);
+            if let DeviceRate::Hz(r) = d.rate() {
+                if m.0.is_finite() && m.0 < r.0 {
+                    self.err(
+                        k.key("max_send_hz"),
+                        format!(
+                            "is {} Hz, below the device's loop rate ({} Hz): the loop's own keep-alive would exceed it; \
+                             raise it or lower rate_hz",
+                            m.0, r.0
+                        ),
+                    );
+                }
+            }
         }
 
         // limits

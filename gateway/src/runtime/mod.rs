@@ -42,6 +42,9 @@ pub enum RuntimeError {
     /// Another process already writes a state topic a front would write.
     #[error("{0}")]
     ForeignStateWriter(String),
+    /// `[realtime]` asks for what this process may not do (the message names the fix).
+    #[error(transparent)]
+    Realtime(#[from] handgate_adapters::realtime::RealtimeError),
     #[error("[record]: {0}")]
     Record(#[from] handgate_record::RecordError),
     #[error("[http]: {0}")]
@@ -134,6 +137,9 @@ pub struct Runtime {
 impl Runtime {
     /// Starts every device and front of `plan`. Must be called inside a tokio runtime.
     pub fn start(plan: &Plan) -> Result<Self, RuntimeError> {
+        // `[realtime]`: checked (on a probe thread) before anything starts, so a missing
+        // privilege stops the start naming it; the device loops apply it as they start.
+        handgate_adapters::realtime::install(plan.realtime.clone())?;
         let node = Node::new(plan.domain, plan.interface.as_deref())?;
         // Started first, so what is already on the domain is known by the time fronts open.
         let discovery = Discovery::start(&node, DiscoveryConfig::default())?;

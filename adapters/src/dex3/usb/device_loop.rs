@@ -251,7 +251,10 @@ impl Dex3UsbLoop {
             let shared = shared.clone();
             std::thread::Builder::new()
                 .name("dex3-usb-loop".into())
-                .spawn(move || run(factory, config, shared, tx, observer))?
+                .spawn(move || {
+                    crate::realtime::enter_device_loop(); // [realtime]: this thread only
+                    run(factory, config, shared, tx, observer)
+                })?
         };
         Ok(Dex3UsbHandle {
             shared,

@@ -743,6 +743,8 @@ mod tests {
                     backend: Backend::Emulator,
                     rate_hz: 500.0,
                     stale_after: Duration::from_millis(100),
+                    forward_on_arrival: true,
+                    max_send_hz: None,
                     table: &table,
                     emulator: &section,
                     config: &profile,
