@@ -351,8 +351,13 @@ impl DdsDevice {
                         }
                     }
                     if tick || command {
-                        active = loop_cmd.step(&current.joints);
                         want_send = true;
+                    }
+                    if want_send || tick {
+                        // Resolved now, not when the send was wanted: a reseed after the peer
+                        // came back (a hold at the new measurement) must never be overtaken by
+                        // the targets in force before it went away.
+                        active = loop_cmd.step(&current.joints);
                     }
                     // Never "hold" a position that was never measured.
                     if want_send && has_state && crate::link::blind_hold(link.ever_measured(), &active) {
