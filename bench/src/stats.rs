@@ -66,15 +66,19 @@ pub fn nproc() -> usize {
 
 /// utime + stime of a process, seconds.
 pub fn cpu_seconds(pid: u32) -> Option<f64> {
-    let s = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    stat_cpu(&std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?).map(|(_, c)| c)
+}
+
+/// The command name and utime+stime, seconds, of a `/proc/<pid>[/task/<tid>]/stat` text.
+fn stat_cpu(s: &str) -> Option<(String, f64)> {
+    let (open, close) = (s.find('(')?, s.rfind(')')?);
     // Fields after the ")" that closes the command name: state is field 3, utime 14, stime 15.
-    let rest = &s[s.rfind(')')? + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
+    let f: Vec<&str> = s.get(close + 2..)?.split_whitespace().collect();
     let utime: f64 = f.get(11)?.parse().ok()?;
     let stime: f64 = f.get(12)?.parse().ok()?;
     // SAFETY: sysconf has no preconditions.
     let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64;
-    Some((utime + stime) / hz.max(1.0))
+    Some((s[open + 1..close].to_string(), (utime + stime) / hz.max(1.0)))
 }
 
 /// CPU seconds of each thread of `pid`, by tid: (thread name, utime+stime).
@@ -83,27 +87,17 @@ pub fn task_cpu(pid: u32) -> std::collections::HashMap<u32, (String, f64)> {
     let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
         return out;
     };
-    // SAFETY: sysconf has no preconditions.
-    let hz = (unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64).max(1.0);
     for e in dir.flatten() {
         let Some(tid) = e.file_name().to_str().and_then(|t| t.parse::<u32>().ok()) else {
             continue;
         };
-        let Ok(s) = std::fs::read_to_string(e.path().join("stat")) else {
-            continue;
-        };
-        let (Some(open), Some(close)) = (s.find('('), s.rfind(')')) else {
-            continue;
-        };
-        let name = s[open + 1..close].to_string();
-        let f: Vec<&str> = s[close + 2..].split_whitespace().collect();
-        let (Some(u), Some(st)) = (
-            f.get(11).and_then(|v| v.parse::<f64>().ok()),
-            f.get(12).and_then(|v| v.parse::<f64>().ok()),
-        ) else {
-            continue;
-        };
-        out.insert(tid, (name, (u + st) / hz));
+        if let Some(c) = std::fs::read_to_string(e.path().join("stat"))
+            .ok()
+            .as_deref()
+            .and_then(stat_cpu)
+        {
+            out.insert(tid, c);
+        }
     }
     out
 }
