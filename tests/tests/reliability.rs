@@ -1888,9 +1888,9 @@ fn loadavg() -> String {
 /// window) exceeds the largest reading of the warm-up by less than [`RSS_GROWTH_KIB`]. The
 /// warm-up's maximum, not its last reading, is the baseline: allocator arenas and DDS buffers
 /// grow in steps and are returned in steps, and a baseline taken in a dip would count the
-/// next step as growth. 1 MiB is about 1 % of the debug gateway's RSS on sim-all and far
-/// below what a per-sample leak would show (a leak of one 64-byte allocation per command
-/// received is about 6 MiB over the 10-minute soak; see docs/reliability.md §6).
+/// next step as growth. 1 MiB is about 3 % of the debug gateway's RSS on sim-all (33 MiB); a
+/// leak of one 64-byte allocation per command received would be about 70 MiB over the
+/// 10-minute soak (docs/reliability.md §6).
 const RSS_GROWTH_KIB: u64 = 1024;
 /// The share of the soak window that is warm-up for the memory check.
 const WARMUP_SHARE: f64 = 0.2;
