@@ -5,8 +5,10 @@
 #   make test  - install what is missing (incl. the interop venv), then the whole suite
 #                (with the short reliability suites and a 15 s smoke run of every fuzz target)
 #   make reliability - the full reliability suites (docs/reliability.md): 10,000 malformed
-#                samples per front, every fault cycle repeated, each fuzz target 10 minutes,
-#                and mutation testing of the safety core (make mutants)
+#                samples per front, every fault cycle repeated, a 10-minute soak of the sim-all
+#                fleet with a client on every front, isolation (one front flooded or driven at
+#                10 kHz for 60 s), each fuzz target 10 minutes, and mutation testing of the
+#                safety core (make mutants)
 #   make mutants - cargo-mutants on the safety core (scripts/mutants.sh; hours for the gateway
 #                set); not part of make test
 #   make bench - release benchmarks (minutes); rewrites docs/benchmarks.md

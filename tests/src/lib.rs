@@ -1474,6 +1474,71 @@ impl Drop for Emulation {
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// The gateway's HTTP endpoints and its process, as the soak and HTTP tests read them.
+
+/// `GET url+path` over a plain socket (`url` as [`Gateway::http_url`] gives it): (status code,
+/// body).
+pub fn http_get(url: &str, path: &str) -> (u16, String) {
+    use std::io::Write;
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    let mut s = std::net::TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect {addr}: {e}"));
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    write!(s, "GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    let mut buf = String::new();
+    s.read_to_string(&mut buf).unwrap();
+    let code = buf
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or_else(|| panic!("no status line: {buf:?}"));
+    let body = buf
+        .split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_string())
+        .unwrap_or_default();
+    (code, body)
+}
+
+/// The per-device samples of a `/metrics` text: `(metric, device label) -> value` for every
+/// sample line with a `device="..."` label (histogram buckets excluded).
+pub fn device_metrics(text: &str) -> std::collections::HashMap<(String, String), f64> {
+    let mut out = std::collections::HashMap::new();
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let Some((name, rest)) = line.split_once('{') else {
+            continue;
+        };
+        let Some((labels, value)) = rest.rsplit_once("} ") else {
+            continue;
+        };
+        if labels.contains("le=\"") {
+            continue;
+        }
+        let Some(device) = labels
+            .split(',')
+            .find_map(|l| l.strip_prefix("device=\""))
+            .and_then(|d| d.strip_suffix('"'))
+        else {
+            continue;
+        };
+        let v = match value.trim() {
+            "NaN" => f64::NAN,
+            "+Inf" => f64::INFINITY,
+            "-Inf" => f64::NEG_INFINITY,
+            v => v.parse().unwrap_or_else(|_| panic!("not a number in {line:?}")),
+        };
+        out.insert((name.to_string(), device.to_string()), v);
+    }
+    out
+}
+
+/// The resident set size of process `pid` (`VmRSS` of `/proc/<pid>/status`), KiB.
+pub fn vm_rss_kib(pid: u32) -> Option<u64> {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    s.lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+}
+
 #[cfg(test)]
 mod unit {
     use super::*;

@@ -9,30 +9,10 @@ use std::net::TcpStream;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use handgate_tests::{handgate_bin, repo_root, Gateway, PyProcess};
+use handgate_tests::{handgate_bin, http_get as get, repo_root, Gateway, PyProcess};
 use serde_json::Value;
 
 const WAIT: Duration = Duration::from_secs(20);
-
-/// `GET url+path` over a plain socket: (status code, body).
-fn get(url: &str, path: &str) -> (u16, String) {
-    let addr = url.trim_start_matches("http://").trim_end_matches('/');
-    let mut s = TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect {addr}: {e}"));
-    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-    write!(s, "GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
-    let mut buf = String::new();
-    s.read_to_string(&mut buf).unwrap();
-    let code = buf
-        .split_whitespace()
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or_else(|| panic!("no status line: {buf:?}"));
-    let body = buf
-        .split_once("\r\n\r\n")
-        .map(|(_, b)| b.to_string())
-        .unwrap_or_default();
-    (code, body)
-}
 
 /// Polls `GET path` until `ok(code, body)`, at most [`WAIT`].
 fn wait_get(url: &str, path: &str, what: &str, ok: impl Fn(u16, &str) -> bool) -> (u16, String) {
@@ -120,12 +100,25 @@ fn metrics_parse_with_prometheus_client_and_healthz_flips_when_the_service_goes_
         .as_f64()
         .unwrap();
     assert!(count > 10.0 && count == inf, "count {count}, +Inf bucket {inf}");
+    assert_eq!(
+        s[format!("handgate_device_stale_events_total{{{labels}}}")],
+        0.0,
+        "fresh since the start: {s}"
+    );
 
     // The service goes away: /healthz says which device and why.
     let _ = emu.0.kill();
     let _ = emu.0.wait();
     let (_, body) = wait_get(&url, "/healthz", "stale after the service stopped", |c, _| c == 503);
     assert!(body.contains("gripper: stale"), "{body}");
+    // The stale spell is counted once (fresh -> stale), however long it lasts.
+    let (_, text) = get(&url, "/metrics");
+    let line = "handgate_device_stale_events_total{device=\"gripper\",kind=\"dex1\",backend=\"dds\"} ";
+    let stale = text
+        .lines()
+        .find_map(|l| l.strip_prefix(line))
+        .unwrap_or_else(|| panic!("no {line}in {text}"));
+    assert_eq!(stale, "1", "{text}");
     drop(gw);
 }
 
