@@ -107,6 +107,11 @@ struct Bound {
     acted: bool,
     /// The state reflecting this accepted command (`cmd_seq`) is awaited for a prompt publish.
     awaiting: Option<u64>,
+    /// `cmd_seq` of the newest state seen while awaiting, and of the newest one published.
+    /// A client streaming faster than the device reflects never sees a state of its newest
+    /// command; a state reflecting a newer command than the last published goes out at once.
+    reflected: u64,
+    published: u64,
     state_rx: watch::Receiver<HandState>,
     /// The silence action, running in its own task.
     pending_safe: Option<tokio::task::JoinHandle<()>>,
@@ -193,6 +198,8 @@ pub(crate) fn run_front(
             armed: None,
             acted: false,
             awaiting: None,
+            reflected: 0,
+            published: 0,
             state_rx: slot.device.state(),
             pending_safe: None,
             slot,
@@ -214,8 +221,11 @@ pub(crate) fn run_front(
             let mut dropped_reported = (0u64, Instant::now() - Duration::from_secs(2));
             // Prompt state: after a command is accepted, the first state that reflects it on
             // every device it went to (`cmd_seq`) is published at once instead of at the next
-            // deadline. Each period carries one publish: a prompt one stands in for the
-            // periodic one due at the end of its period, so the rate stays the nominal one.
+            // deadline; so is a state reflecting a newer command than the last published
+            // (a client streaming faster than the device applies never sees its newest
+            // command reflected, and would otherwise wait for every tick). Each period
+            // carries one publish: a prompt one stands in for the periodic one due at the
+            // end of its period, so the rate stays the nominal one.
             let mut prompt_since: Option<Instant> = None;
             let mut slot_used = false;
             // The writer owning the front (`control = "exclusive"`), to name it in the log.
@@ -357,15 +367,17 @@ pub(crate) fn run_front(
                         };
                         let b = &mut bound[i];
                         let st = b.state_rx.borrow_and_update().clone();
-                        if b.awaiting == Some(st.cmd_seq) {
+                        if b.awaiting.is_some_and(|a| st.cmd_seq >= a) {
                             b.awaiting = None;
                         }
+                        b.reflected = st.cmd_seq;
                         let expired = prompt_since.is_some_and(|t| t.elapsed() > PROMPT_STATE_WAIT);
                         if expired {
                             // Superseded by another front's command, or never applied.
                             for b in bound.iter_mut() { b.awaiting = None; }
-                        } else if bound.iter().all(|b| b.awaiting.is_none()) && !slot_used {
+                        } else if !slot_used && bound.iter().all(|b| b.awaiting.is_none() || b.reflected > b.published) {
                             out.publish(&views(&bound), false);
+                            for b in bound.iter_mut() { b.published = b.published.max(b.reflected); }
                             slot_used = true;
                         }
                     }
@@ -374,6 +386,7 @@ pub(crate) fn run_front(
                             // This period's sample went out promptly.
                         } else {
                             out.publish(&views(&bound), false);
+                            for b in bound.iter_mut() { b.published = b.state_rx.borrow().cmd_seq; }
                         }
                         let d = dropped.load(Ordering::Relaxed);
                         if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
