@@ -14,7 +14,6 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
 use async_trait::async_trait;
@@ -171,7 +170,8 @@ struct Shared<S> {
 /// Wakes the device loop between its ticks.
 #[derive(Default)]
 struct Wake {
-    thread: OnceLock<std::thread::Thread>,
+    /// Runs the device's loop between its ticks (set once the loop is spawned).
+    poker: OnceLock<crate::loops::Poker>,
     /// A command arrived (forwarding on arrival).
     command: AtomicBool,
     /// A forwarded command awaits the first state sample after it: the reader wakes the loop.
@@ -180,8 +180,8 @@ struct Wake {
 
 impl Wake {
     fn unpark(&self) {
-        if let Some(t) = self.thread.get() {
-            t.unpark();
+        if let Some(p) = self.poker.get() {
+            p.poke();
         }
     }
 }
@@ -218,14 +218,164 @@ impl SentLog {
     }
 }
 
+/// The device loop: one [`crate::loops::Task`] iteration per tick, forwarded command or
+/// awaited state sample.
+struct DdsLoop<C: DdsCodec> {
+    span: tracing::Span,
+    shared: Arc<Shared<C::State>>,
+    _reader: Option<crate::dds::Reader<C::State>>,
+    writer: crate::dds::Writer<C::Cmd>,
+    codec: C,
+    table: Arc<DeviceTable>,
+    has_state: bool,
+    config: DdsDeviceConfig,
+    cmd: CommandState,
+    state_tx: watch::Sender<HandState>,
+    cycle_tx: watch::Sender<u64>,
+    period: Duration,
+    start: Instant,
+    /// The next tick (`start + k·period`).
+    next: Instant,
+    k: u64,
+    current: HandState,
+    link: crate::link::LinkTracker,
+    clock: crate::control::CycleClock,
+    budget: SendBudget,
+    sent: SentLog,
+    last_encode: Option<Instant>,
+    /// Targets wait for a token of the budget (a tick or a command found none).
+    want_send: bool,
+    active: Active,
+    started: bool,
+}
+
+impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
+    fn run(&mut self, now: Instant) -> Option<Instant> {
+        let _span = self.span.enter();
+        if !std::mem::replace(&mut self.started, true) {
+            tracing::debug!(rate_hz = self.config.rate_hz, cmd = %self.config.cmd_topic,
+                on_arrival = self.config.forward.on_arrival, max_send_hz = self.config.forward.max_send_hz,
+                "device loop started");
+        }
+        let (table, config, loop_cmd) = (&self.table, &self.config, &self.cmd);
+        let has_state = self.has_state;
+        let period = self.period;
+        let tick = now >= self.next;
+        let command = self.shared.wake.command.swap(false, Ordering::AcqRel);
+        if tick {
+            self.clock.tick(&loop_cmd.counters, now);
+        }
+        let sample = self.shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
+        let mut measured = false;
+        if let Some((s, taken)) = sample {
+            if let Some(mut st) = self.codec.decode(&s, table) {
+                st.measured_at = Some(taken);
+                st.measured_wall = Some(SystemTime::now() - now.saturating_duration_since(taken));
+                st.freshness = Freshness::Fresh;
+                st.closure = table.closure_of(&st.joints.iter().map(|j| j.q).collect::<Vec<_>>());
+                // The command this sample reflects: the newest one published before it came.
+                let reflected = self.sent.reflected_by(taken).unwrap_or_default();
+                (st.cmd_seq, st.cmd_tag) = (reflected.seq, reflected.tag);
+                if self.sent.last.at.is_some_and(|t| t <= taken) {
+                    self.shared.wake.awaiting.store(false, Ordering::Release);
+                }
+                self.current = st;
+                measured = true;
+                if self.link.observe(true, &self.current.joints, loop_cmd) {
+                    // The peer came back: never replay what was in force before.
+                    tracing::info!("peer back: holding the measured position until the next command");
+                }
+            }
+        }
+        if tick && has_state {
+            let stale = self.current.age(now).map(|a| a > config.stale_after).unwrap_or(true);
+            if stale {
+                if self.link.is_up() {
+                    tracing::warn!(
+                        stale_after_ms = config.stale_after.as_millis() as u64,
+                        "peer state stale: link down"
+                    );
+                }
+                self.current.freshness = Freshness::Stale;
+                self.current.faults |= faults::LINK_DOWN;
+                self.link.observe(false, &self.current.joints, loop_cmd);
+            }
+        }
+        if tick || command {
+            self.want_send = true;
+        }
+        if self.want_send || tick {
+            // Resolved now, not when the send was wanted: a reseed after the peer came back
+            // (a hold at the new measurement) must never be overtaken by the targets in
+            // force before it went away.
+            self.active = loop_cmd.step(&self.current.joints);
+        }
+        // Never "hold" a position that was never measured.
+        if self.want_send && has_state && crate::link::blind_hold(self.link.ever_measured(), &self.active) {
+            self.want_send = false; // stay silent
+        }
+        if self.want_send && self.budget.take(now) {
+            self.want_send = false;
+            // Ramps advance by the time since the last publish (a forwarded command comes
+            // between ticks), at most a few periods after a stall.
+            let dt = self
+                .last_encode
+                .map_or(period, |t| now.saturating_duration_since(t).min(period * 5));
+            if let Some(msg) = self.codec.encode(&self.active, table, dt.as_secs_f32()) {
+                self.last_encode = Some(now);
+                if self.writer.write(msg).is_ok() {
+                    Counters::inc(&loop_cmd.counters.sent);
+                    let (seq, tag) = loop_cmd.applied();
+                    self.sent.push(seq, tag, Instant::now());
+                    if has_state && command {
+                        self.shared.wake.awaiting.store(true, Ordering::Release);
+                    }
+                }
+            }
+        }
+        if tick || measured || (command && !has_state) {
+            let mut out = if has_state {
+                self.current.clone()
+            } else {
+                self.codec
+                    .commanded_state(table)
+                    .unwrap_or_else(|| self.current.clone())
+            };
+            let reflected = (out.cmd_seq, out.cmd_tag);
+            crate::link::stamp(&mut out, loop_cmd, matches!(self.active, Active::Safe(..)), false);
+            if has_state {
+                // A state reflects the command published before it was measured, not one
+                // applied since.
+                (out.cmd_seq, out.cmd_tag) = reflected;
+            }
+            let _ = self.state_tx.send(out);
+        }
+        if tick {
+            self.k += 1;
+            let _ = self.cycle_tx.send(self.k);
+            self.next = self.start + Duration::from_nanos((period.as_nanos() as u64).saturating_mul(self.k));
+            if Instant::now() > self.next + period {
+                Counters::inc(&loop_cmd.counters.missed_cycles);
+            }
+        }
+        // Run again at the next tick, or when a token comes for waiting targets; a command
+        // or (while a forwarded command awaits it) a state sample pokes the loop earlier.
+        Some(if self.want_send {
+            self.next.min(self.budget.ready_at(Instant::now()))
+        } else {
+            self.next
+        })
+    }
+}
+
 /// A running DDS-client device.
 pub struct DdsDevice {
     info: DeviceInfo,
     cmd: CommandState,
     state_rx: watch::Receiver<HandState>,
     cycles: watch::Receiver<u64>,
-    stop: Arc<std::sync::atomic::AtomicBool>,
-    thread: Mutex<Option<JoinHandle<()>>>,
+    /// The device loop (crate::loops: on a shared thread, or its own with `loop_threads = 0`).
+    handle: crate::loops::Handle,
     /// Wakes the loop for a command to forward.
     wake: Arc<Wake>,
     /// Commands are forwarded on arrival ([`Forwarding::on_arrival`]).
@@ -238,12 +388,12 @@ impl DdsDevice {
         node: &Node,
         info: DeviceInfo,
         config: DdsDeviceConfig,
-        mut codec: C,
+        codec: C,
     ) -> Result<Self, DdsError> {
         let table = info.table.clone();
         let cmd = CommandState::new(table.clone());
         let config_on_arrival = config.forward.on_arrival;
-        let mut writer = node.writer::<C::Cmd>(&config.cmd_topic, CMD_QOS)?;
+        let writer = node.writer::<C::Cmd>(&config.cmd_topic, CMD_QOS)?;
         let shared: Arc<Shared<C::State>> = Arc::new(Shared {
             latest: Mutex::new(None),
             wake: Arc::new(Wake::default()),
@@ -276,151 +426,48 @@ impl DdsDevice {
         };
         let (state_tx, state_rx) = watch::channel(initial);
         let (cycle_tx, cycles) = watch::channel(0u64);
-        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
-        let stop2 = stop.clone();
-        let loop_cmd = cmd.clone();
         let name = info.name.clone();
         let span = tracing::info_span!("device", name = %info.name, kind = %info.kind, backend = info.backend.as_str());
-        let sh = shared.clone();
-        let thread = std::thread::Builder::new()
-            .name(format!("dev-{name}"))
-            .spawn(move || {
-                crate::realtime::enter_device_loop(); // [realtime]: this thread only
-                let shared = sh;
-                let _ = shared.wake.thread.set(std::thread::current());
-                let _span = span.enter();
-                tracing::debug!(rate_hz = config.rate_hz, cmd = %config.cmd_topic,
-                    on_arrival = config.forward.on_arrival, max_send_hz = config.forward.max_send_hz, "device loop started");
-                let _keep_reader = reader;
-                let period = Duration::from_secs_f64(1.0 / config.rate_hz.max(1.0));
-                let start = Instant::now();
-                let at = |k: u64| start + Duration::from_nanos((period.as_nanos() as u64).saturating_mul(k));
-                let mut next = start;
-                let mut k: u64 = 0;
-                let mut current = HandState::empty(n);
-                let mut link = crate::link::LinkTracker::default();
-                let mut clock = crate::control::CycleClock::default();
-                let mut budget = SendBudget::new(config.forward.max_send_hz.max(config.rate_hz), start);
-                let mut sent = SentLog::default();
-                let mut last_encode: Option<Instant> = None;
-                // Targets wait for a token of the budget (a tick or a command found none).
-                let mut want_send = false;
-                let mut active = Active::Idle;
-                let has_state = config.state_topic.is_some();
-                while !stop2.load(Ordering::Relaxed) {
-                    let now = Instant::now();
-                    let tick = now >= next;
-                    let command = shared.wake.command.swap(false, Ordering::AcqRel);
-                    if tick {
-                        clock.tick(&loop_cmd.counters, now);
-                    }
-                    let sample = shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
-                    let mut measured = false;
-                    if let Some((s, taken)) = sample {
-                        if let Some(mut st) = codec.decode(&s, &table) {
-                            st.measured_at = Some(taken);
-                            st.measured_wall = Some(SystemTime::now() - now.saturating_duration_since(taken));
-                            st.freshness = Freshness::Fresh;
-                            st.closure = table.closure_of(&st.joints.iter().map(|j| j.q).collect::<Vec<_>>());
-                            // The command this sample reflects: the newest one published before it came.
-                            let reflected = sent.reflected_by(taken).unwrap_or_default();
-                            (st.cmd_seq, st.cmd_tag) = (reflected.seq, reflected.tag);
-                            if sent.last.at.is_some_and(|t| t <= taken) {
-                                shared.wake.awaiting.store(false, Ordering::Release);
-                            }
-                            current = st;
-                            measured = true;
-                            if link.observe(true, &current.joints, &loop_cmd) {
-                                // The peer came back: never replay what was in force before.
-                                tracing::info!("peer back: holding the measured position until the next command");
-                            }
-                        }
-                    }
-                    if tick && has_state {
-                        let stale = current.age(now).map(|a| a > config.stale_after).unwrap_or(true);
-                        if stale {
-                            if link.is_up() {
-                                tracing::warn!(
-                                    stale_after_ms = config.stale_after.as_millis() as u64,
-                                    "peer state stale: link down"
-                                );
-                            }
-                            current.freshness = Freshness::Stale;
-                            current.faults |= faults::LINK_DOWN;
-                            link.observe(false, &current.joints, &loop_cmd);
-                        }
-                    }
-                    if tick || command {
-                        want_send = true;
-                    }
-                    if want_send || tick {
-                        // Resolved now, not when the send was wanted: a reseed after the peer
-                        // came back (a hold at the new measurement) must never be overtaken by
-                        // the targets in force before it went away.
-                        active = loop_cmd.step(&current.joints);
-                    }
-                    // Never "hold" a position that was never measured.
-                    if want_send && has_state && crate::link::blind_hold(link.ever_measured(), &active) {
-                        want_send = false; // stay silent
-                    }
-                    if want_send && budget.take(now) {
-                        want_send = false;
-                        // Ramps advance by the time since the last publish (a forwarded command
-                        // comes between ticks), at most a few periods after a stall.
-                        let dt = last_encode.map_or(period, |t| now.saturating_duration_since(t).min(period * 5));
-                        if let Some(msg) = codec.encode(&active, &table, dt.as_secs_f32()) {
-                            last_encode = Some(now);
-                            if writer.write(msg).is_ok() {
-                                Counters::inc(&loop_cmd.counters.sent);
-                                let (seq, tag) = loop_cmd.applied();
-                                sent.push(seq, tag, Instant::now());
-                                if has_state && command {
-                                    shared.wake.awaiting.store(true, Ordering::Release);
-                                }
-                            }
-                        }
-                    }
-                    if tick || measured || (command && !has_state) {
-                        let mut out = if has_state {
-                            current.clone()
-                        } else {
-                            codec.commanded_state(&table).unwrap_or_else(|| current.clone())
-                        };
-                        let reflected = (out.cmd_seq, out.cmd_tag);
-                        crate::link::stamp(&mut out, &loop_cmd, matches!(active, Active::Safe(..)), false);
-                        if has_state {
-                            // A state reflects the command published before it was measured,
-                            // not one applied since.
-                            (out.cmd_seq, out.cmd_tag) = reflected;
-                        }
-                        let _ = state_tx.send(out);
-                    }
-                    if tick {
-                        k += 1;
-                        let _ = cycle_tx.send(k);
-                        next = at(k);
-                        let now = Instant::now();
-                        if now > next + period {
-                            Counters::inc(&loop_cmd.counters.missed_cycles);
-                        }
-                    }
-                    // Sleep until the next tick, a token for waiting targets, a command or
-                    // (while a forwarded command awaits it) a state sample.
-                    let until = if want_send { next.min(budget.ready_at(Instant::now())) } else { next };
-                    let now = Instant::now();
-                    if until > now && !shared.wake.command.load(Ordering::Acquire) {
-                        std::thread::park_timeout(until - now);
-                    }
-                }
-            })
+        let period = Duration::from_secs_f64(1.0 / config.rate_hz.max(1.0));
+        // On the process-wide grid, so that device loops of one rate wake together
+        // (crate::loops); the first tick at the next grid instant.
+        let start = crate::loops::first_deadline(period);
+        let budget = SendBudget::new(config.forward.max_send_hz.max(config.rate_hz), start);
+        let task = DdsLoop {
+            span,
+            shared: shared.clone(),
+            _reader: reader,
+            writer,
+            codec,
+            table: table.clone(),
+            has_state: config.state_topic.is_some(),
+            config,
+            cmd: cmd.clone(),
+            state_tx,
+            cycle_tx,
+            period,
+            start,
+            next: start,
+            k: 0,
+            current: HandState::empty(n),
+            link: crate::link::LinkTracker::default(),
+            clock: crate::control::CycleClock::default(),
+            budget,
+            sent: SentLog::default(),
+            last_encode: None,
+            want_send: false,
+            active: Active::Idle,
+            started: false,
+        };
+        let handle = crate::loops::spawn(crate::loops::Class::Devices, &format!("dev-{name}"), start, task)
             .map_err(|e| DdsError::Thread(e.to_string()))?;
+        let _ = wake.poker.set(handle.poker());
         Ok(Self {
             info,
             cmd,
             state_rx,
             cycles,
-            stop,
-            thread: Mutex::new(Some(thread)),
+            handle,
             wake,
             on_arrival: config_on_arrival,
         })
@@ -436,11 +483,7 @@ impl DdsDevice {
 
     /// Stops the loop thread (after the caller put the device in a safe state).
     pub fn stop(&self) {
-        self.stop.store(true, Ordering::Relaxed);
-        self.wake.unpark();
-        if let Some(t) = self.thread.lock().unwrap_or_else(|p| p.into_inner()).take() {
-            let _ = t.join();
-        }
+        self.handle.stop();
     }
 
     /// Waits until the loop has run `n` more cycles.

@@ -2,9 +2,6 @@
 //! `hand_sdk::emulator`): the hand side, a rate newtype, the emulator error type and a
 //! stoppable background loop paced at a fixed rate.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crate::dds::DdsError;
@@ -48,55 +45,29 @@ pub(crate) fn ensure_finite(what: &str, values: &[f32]) -> Result<(), EmulatorEr
     }
 }
 
-/// A background thread running `tick` at a fixed period until stopped (explicitly or on drop).
+/// An emulated peer's control loop: `tick` at a fixed period until stopped (explicitly or on
+/// drop), on the emulators' shared thread (crate::loops; its deadlines on the process-wide
+/// grid, so that emulators of one rate wake together).
 pub(crate) struct Worker {
-    stop: Arc<AtomicBool>,
-    handle: Option<JoinHandle<()>>,
+    handle: crate::loops::Handle,
 }
 
 impl Worker {
-    /// Spawns a thread named `name` calling `tick(now)` every `period` (absolute schedule:
-    /// a late cycle is not made up by bursts, the schedule skips ahead instead).
-    pub(crate) fn spawn<F>(name: &str, period: Duration, mut tick: F) -> Result<Self, EmulatorError>
+    /// Starts calling `tick(now)` every `period` (absolute schedule: a late cycle is not made
+    /// up by bursts, the schedule skips ahead instead); `name` names it in logs.
+    pub(crate) fn spawn<F>(name: &str, period: Duration, tick: F) -> Result<Self, EmulatorError>
     where
         F: FnMut(Instant) + Send + 'static,
     {
-        let stop = Arc::new(AtomicBool::new(false));
-        let stop2 = stop.clone();
-        let handle = std::thread::Builder::new().name(name.to_string()).spawn(move || {
-            let mut next = Instant::now();
-            while !stop2.load(Ordering::Acquire) {
-                let now = Instant::now();
-                if now < next {
-                    // Pacing of the emulated peer's own control loop, not a test wait.
-                    std::thread::sleep(next - now);
-                    continue;
-                }
-                tick(now);
-                next += period;
-                if next + period < now {
-                    next = now + period;
-                }
-            }
-        })?;
-        Ok(Self {
-            stop,
-            handle: Some(handle),
-        })
+        let first = crate::loops::first_deadline(period);
+        let task = crate::loops::Periodic::new(period, first, tick);
+        let handle = crate::loops::spawn(crate::loops::Class::Emulators, name, first, task)?;
+        Ok(Self { handle })
     }
 
-    /// Stops the loop and joins the thread (idempotent).
+    /// Stops the loop: on return `tick` never runs again (idempotent).
     pub(crate) fn stop(&mut self) {
-        self.stop.store(true, Ordering::Release);
-        if let Some(h) = self.handle.take() {
-            let _ = h.join();
-        }
-    }
-}
-
-impl Drop for Worker {
-    fn drop(&mut self) {
-        self.stop();
+        self.handle.stop();
     }
 }
 
@@ -141,6 +112,8 @@ pub(crate) fn isolated_test_domain(id: u32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::atomic::Ordering;
+    use std::sync::Arc;
 
     #[test]
     fn hz_period_validates() {
@@ -165,7 +138,7 @@ mod tests {
         }
         drop(w);
         let after = n.load(Ordering::Relaxed);
-        // The thread is joined: the counter can no longer move.
+        // Stopped: the tick was dropped and the counter can no longer move.
         std::thread::yield_now();
         assert_eq!(n.load(Ordering::Relaxed), after);
     }

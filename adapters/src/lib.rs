@@ -21,6 +21,7 @@ pub mod inspire_ftp;
 pub mod kind;
 pub mod kinds;
 pub mod link;
+pub mod loops;
 pub mod mapping;
 pub mod model;
 pub mod netif;

@@ -114,6 +114,8 @@ pub struct Plan {
     pub foxglove: Option<FoxglovePlan>,
     /// `[realtime]`: what the device-loop threads run with (default: unchanged).
     pub realtime: handgate_adapters::realtime::Settings,
+    /// `[realtime] loop_threads`: threads the DDS-client device loops share (0: one each).
+    pub loop_threads: usize,
     pub devices: Vec<DevicePlan>,
     pub fronts: Vec<FrontPlan>,
 }

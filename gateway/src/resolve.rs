@@ -254,6 +254,7 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
             cpus: p.realtime.cpus.clone(),
             mlockall: p.realtime.mlockall,
         },
+        loop_threads: p.realtime.loop_threads,
         devices,
         fronts,
     })

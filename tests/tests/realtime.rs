@@ -4,7 +4,7 @@
 //! `Cpus_allowed_list` and `VmLck` of `status`):
 //!
 //! * every device-loop thread (the Dex3 USB loop `dex3-usb-loop`, the DDS-client device loop
-//!   `dev-<name>`, the EZGripper bus worker `ezgripper-bus` and its device `ezgripper-<name>`)
+//!   on its shared thread `dev-shared-0` (docs/deployment.md, "Loop threads"), the EZGripper bus worker `ezgripper-bus` and its device `ezgripper-<name>`)
 //!   runs `SCHED_FIFO` at the priority, pinned to the CPU; every other thread (tokio workers,
 //!   CycloneDDS, the in-process emulators, main) stays `SCHED_OTHER` on every CPU; memory is
 //!   locked;
@@ -221,7 +221,7 @@ fn device_loops_run_fifo_pinned_and_nothing_else_does() {
         "{fleet_line}"
     );
     let pid = gw.id();
-    let device_loops: Vec<String> = ["dex3-usb-loop", "dev-jaw", "ezgripper-bus", "ezgripper-grip"]
+    let device_loops: Vec<String> = ["dex3-usb-loop", "dev-shared-0", "ezgripper-bus", "ezgripper-grip"]
         .iter()
         .map(|n| comm(n))
         .collect();

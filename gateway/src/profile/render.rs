@@ -81,6 +81,14 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
         if r.mlockall {
             line.push_str(", memory locked (mlockall)");
         }
+        if r.loop_threads != handgate_adapters::loops::DEFAULT_THREADS {
+            match r.loop_threads {
+                0 => line.push_str(", a thread per device loop"),
+                n => {
+                    let _ = write!(line, ", {n} shared loop threads");
+                }
+            }
+        }
         let _ = writeln!(s, "{line}");
     }
     let _ = writeln!(s, "devices ({}):", p.devices.len());

@@ -376,7 +376,7 @@ impl Default for FoxgloveConfig {
 /// `[realtime]`: how the device-loop threads run (docs/deployment.md, "Real-time"). Opt-in:
 /// the defaults leave every thread as the kernel starts it. Applied to the device loops only,
 /// never to the tokio workers, the DDS threads or the emulators.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RealtimeConfig {
     /// `other` (default: time-sharing, as without the section), `fifo` or `rr`.
@@ -388,6 +388,21 @@ pub struct RealtimeConfig {
     pub cpus: Vec<usize>,
     /// Lock the whole process's memory at start (`mlockall(MCL_CURRENT | MCL_FUTURE)`).
     pub mlockall: bool,
+    /// Threads the non-blocking device loops (every DDS-client device) share; 0: one thread
+    /// per device (docs/deployment.md, "Loop threads").
+    pub loop_threads: usize,
+}
+
+impl Default for RealtimeConfig {
+    fn default() -> Self {
+        Self {
+            policy: RealtimePolicy::default(),
+            priority: None,
+            cpus: Vec::new(),
+            mlockall: false,
+            loop_threads: handgate_adapters::loops::DEFAULT_THREADS,
+        }
+    }
 }
 
 pub use handgate_adapters::realtime::{Policy as RealtimePolicy, PRIORITY_MAX, PRIORITY_MIN};

@@ -57,6 +57,16 @@ impl Checker {
     /// `[realtime]`: a priority exactly with a real-time policy, CPUs this process may use.
     fn realtime(&mut self, r: &RealtimeConfig) {
         let k = root().key("realtime");
+        if r.loop_threads > handgate_adapters::loops::MAX_THREADS {
+            self.err(
+                k.key("loop_threads"),
+                format!(
+                    "must be 0..={} (0: one thread per device loop), got {}",
+                    handgate_adapters::loops::MAX_THREADS,
+                    r.loop_threads
+                ),
+            );
+        }
         match (r.policy.is_realtime(), r.priority) {
             (true, None) => self.err(
                 k.key("priority"),

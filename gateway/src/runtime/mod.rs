@@ -140,6 +140,14 @@ impl Runtime {
         // `[realtime]`: checked (on a probe thread) before anything starts, so a missing
         // privilege stops the start naming it; the device loops apply it as they start.
         handgate_adapters::realtime::install(plan.realtime.clone())?;
+        if let Err(already) = handgate_adapters::loops::configure_device_threads(plan.loop_threads) {
+            // Only a process that started another gateway before (tests): its pool stays.
+            tracing::warn!(
+                loop_threads = plan.loop_threads,
+                already,
+                "device loops already run on {already} shared threads"
+            );
+        }
         let node = Node::new(plan.domain, plan.interface.as_deref())?;
         // Started first, so what is already on the domain is known by the time fronts open.
         let discovery = Discovery::start(&node, DiscoveryConfig::default())?;
