@@ -10,21 +10,22 @@
 #                 plus one emulated Dex3 USB exchange, and a unitree_sdk2py relay, at 200 Hz and 1 kHz
 #   3b. shim      a Dex1 client driving a Dex3 served by the G1-service emulator (its own process)
 #                 through handgate vs a raw Rust relay (two DDS hops) and a unitree_sdk2py shim
-#   4. fleet      32 Dex3 + 32 Dex1 emulated in one gateway, 30 s
+#   4. fleet      32 Dex3 + 32 Dex1 emulated in one gateway, 30 s; again with loop_threads = 0
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
 #   4c. startup   handgate run on sim-all, 5 starts: spawn -> every device fresh, a state on every front
+#   4d. timers    64 empty loops at 1 kHz, a thread each vs handgate's shared loop threads, 30 s each
 #   6. record     handgate record of every topic of the default fleet beside a gateway, 600 s
 #   7. dashboard  the default fleet idle vs watched (3 dashboard tabs in headless Chromium and a
 #                 Foxglove client), 30 s per phase, twice (bench/dashboard_cost.py)
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop busy hop shim fleet simall record" to run a subset (the report keeps only what this run made).
+# BENCH_ONLY="codec loop busy hop shim fleet simall startup timers record" to run a subset (the report keeps only what this run made).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop busy hop shim fleet simall startup record dashboard"}
+only=${BENCH_ONLY:-"codec loop busy hop shim fleet simall startup timers record dashboard"}
 quick=${BENCH_QUICK:-0}
 
 loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600; dash_secs=30
@@ -89,6 +90,8 @@ fi
 if want fleet; then
   echo "bench: 4. fleet scale (${fleet_secs} s)"
   "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --out "$results/fleet.json"
+  echo "bench: 4. fleet scale, a thread per DDS-client device loop (loop_threads = 0, ${fleet_secs} s)"
+  "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --loop-threads 0 --out "$results/fleet_own.json"
 fi
 
 if want simall; then
@@ -99,6 +102,11 @@ fi
 if want startup; then
   echo "bench: 4c. start-up of sim-all (5 starts)"
   "$bin/handgate-bench" startup --handgate "$bin/handgate" --profile sim-all --runs 5 --out "$results/startup.json"
+fi
+
+if want timers; then
+  echo "bench: 4d. loop threads: 64 loops at 1 kHz, a thread each vs shared (${busy_secs} s each)"
+  "$bin/handgate-bench" timers --loops 64 --hz 1000 --secs "$busy_secs" --out "$results/timers.json"
 fi
 
 if want record; then

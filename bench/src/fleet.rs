@@ -223,8 +223,13 @@ pub fn measure(node: &Node, pid: u32, n3: usize, n1: usize, secs: f64, warm: Dur
     })
 }
 
-pub fn write_profile(path: &Path, n3: usize, n1: usize) -> anyhow::Result<()> {
-    std::fs::write(path, profile(n3, n1))?;
+/// `loop_threads`: the profile's `[realtime] loop_threads` (None: the default).
+pub fn write_profile(path: &Path, n3: usize, n1: usize, loop_threads: Option<usize>) -> anyhow::Result<()> {
+    let mut p = profile(n3, n1);
+    if let Some(n) = loop_threads {
+        let _ = write!(p, "[realtime]\nloop_threads = {n}\n");
+    }
+    std::fs::write(path, p)?;
     Ok(())
 }
 

@@ -12,6 +12,7 @@ mod report;
 mod shim;
 mod startup;
 mod stats;
+mod timers;
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -173,6 +174,22 @@ enum Cmd {
         secs: f64,
         #[arg(long, default_value_t = 110)]
         domain: u32,
+        /// `[realtime] loop_threads` of the gateway (default: the profile default; 0: a
+        /// thread per device loop).
+        #[arg(long)]
+        loop_threads: Option<usize>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// What a loop's own thread costs: `n` empty loops on their own threads, then as tasks
+    /// of the shared loop threads (handgate_adapters::loops), CPU and lateness of each.
+    Timers {
+        #[arg(long, default_value_t = 64)]
+        loops: usize,
+        #[arg(long, default_value_t = 1000.0)]
+        hz: f64,
+        #[arg(long, default_value_t = 10.0)]
+        secs: f64,
         #[arg(long)]
         out: PathBuf,
     },
@@ -454,6 +471,11 @@ fn main() -> anyhow::Result<()> {
             tick_us.map(Duration::from_micros),
             exchange,
         )?,
+        Cmd::Timers { loops, hz, secs, out } => {
+            let r = timers::run(loops, hz, secs);
+            eprintln!("timers: {r:?}");
+            save(&out, &r)?;
+        }
         Cmd::Startup {
             handgate,
             profile,
@@ -498,10 +520,11 @@ fn main() -> anyhow::Result<()> {
             dex1,
             secs,
             domain,
+            loop_threads,
             out,
         } => {
             let profile = out.with_extension("toml");
-            fleet::write_profile(&profile, dex3, dex1)?;
+            fleet::write_profile(&profile, dex3, dex1, loop_threads)?;
             let gw = gateway(&handgate, domain, None, Some(&profile))?;
             let node = Node::new(domain, None)?;
             let r = fleet::measure(&node, gw.pid(), dex3, dex1, secs, Duration::from_secs(3));

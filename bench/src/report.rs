@@ -469,7 +469,8 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                 body.push_str(
                     "\nCPU per thread group over the same window, % of one core (`/proc/<pid>/task/*/stat`; the \
                      emulated hands run inside the gateway here: the Dex3 MCU emulator inside each \
-                     `dex3-usb-loop`'s exchange, the Dex1 peers in their own threads):\n\n\
+                     `dex3-usb-loop`'s exchange, the Dex1 peers on the emulators' shared thread `emu-shared-0`; the \
+                     DDS-client device loops on `dev-shared-*`, docs/deployment.md \"Loop threads\"):\n\n\
                      | threads | % of one core |\n|---|---|\n",
                 );
                 for (g, pct) in f.threads_cpu.iter().filter(|(_, p)| *p >= 0.5) {
@@ -497,7 +498,77 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
         }
         None => body.push_str("Not measured in this run.\n"),
     }
+    if let (Some(f), Some(own)) = (
+        read::<FleetResult>(results, "fleet.json"),
+        read::<FleetResult>(results, "fleet_own.json"),
+    ) {
+        let group = |r: &FleetResult| {
+            r.threads_cpu
+                .iter()
+                .filter(|(g, _)| g.starts_with("dev-"))
+                .map(|(_, p)| p)
+                .sum::<f64>()
+        };
+        let _ = writeln!(
+            body,
+            "\nThe same fleet right after with `[realtime] loop_threads = 0` (a thread per DDS-client device \
+             loop, as before shared loop threads), {:.0} s:\n\n\
+             | | shared loop threads (default) | a thread per device loop |\n|---|---|---|\n\
+             | gateway CPU, % of one core | {:.0} % | {:.0} % |\n\
+             | DDS-client device loops (`dev-*`), % of one core | {:.1} % | {:.1} % |\n\
+             | threads | {:.0} | {:.0} |\n\
+             | CPU per device cycle | {} | {} |\n\
+             | Dex1 missed cycles (all devices) | {} | {} |",
+            own.secs,
+            f.cpu_pct,
+            own.cpu_pct,
+            group(&f),
+            group(&own),
+            f.threads,
+            own.threads,
+            f.cpu_us_per_cycle.map_or("—".into(), |c| format!("{c:.1} µs")),
+            own.cpu_us_per_cycle.map_or("—".into(), |c| format!("{c:.1} µs")),
+            f.dex1_missed,
+            own.dex1_missed,
+        );
+    }
     notes(repo, "fleet", &mut body);
+
+    // 4d. What a loop's own thread costs
+    body.push_str("\n### 4d. Loop threads: what a thread per loop costs\n\n");
+    match read::<crate::timers::Result>(results, "timers.json").filter(|r| r.ways.len() == 2) {
+        Some(t) => {
+            let (own, shared) = (&t.ways[0], &t.ways[1]);
+            let _ = writeln!(
+                body,
+                "`handgate-bench timers`: {} empty loops at {:.0} Hz in one process, {:.0} s each way, one way \
+                 after the other: each on a thread of its own sleeping to absolute deadlines (phases spread \
+                 over the period, as independent starts give), then as tasks of `handgate_adapters::loops` \
+                 (the code the DDS-client device loops run on, docs/deployment.md \"Loop threads\"). CPU is the \
+                 process's; lateness is how long after its deadline each iteration started.\n\n\
+                 | way | CPU, % of one core | CPU per loop cycle | lateness median | p99 | max | load (1 min) |\n\
+                 |---|---|---|---|---|---|---|",
+                own.loops, own.hz, own.secs
+            );
+            for w in [own, shared] {
+                let (m, p, x) = w.late_us.as_ref().map_or(("—".into(), "—".into(), "—".into()), |s| {
+                    (us(s.median), us(s.p99), us(s.max))
+                });
+                let _ = writeln!(
+                    body,
+                    "| {} | {:.1} % | {:.2} µs | {m} | {p} | {x} | {:.2} |",
+                    w.way, w.cpu_pct, w.cpu_us_per_cycle, w.load1
+                );
+            }
+            summary.push((
+                format!("{} loops at {:.0} Hz: CPU shared / own threads", own.loops, own.hz),
+                format!("{:.2}", shared.cpu_pct / own.cpu_pct.max(1e-9)),
+                "measure and choose".into(),
+                "measured",
+            ));
+        }
+        None => body.push_str("Not measured in this run.\n"),
+    }
 
     // 4b. Every kind at its own rates
     body.push_str("\n### 4b. Every kind at its own rates (`sim-all`)\n\n");
