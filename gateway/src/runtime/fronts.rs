@@ -105,16 +105,46 @@ struct Bound {
     armed: Option<(Duration, SafeAction)>,
     /// The silence action has run since the last accepted command.
     acted: bool,
-    /// The state reflecting this accepted command (`cmd_seq`) is awaited for a prompt publish.
-    awaiting: Option<u64>,
-    /// `cmd_seq` of the newest state seen while awaiting, and of the newest one published.
-    /// A client streaming faster than the device reflects never sees a state of its newest
-    /// command; a state reflecting a newer command than the last published goes out at once.
-    reflected: u64,
-    published: u64,
+    /// Which state this front publishes at once (the prompt publish).
+    prompt: Prompt,
     state_rx: watch::Receiver<HandState>,
     /// The silence action, running in its own task.
     pending_safe: Option<tokio::task::JoinHandle<()>>,
+}
+
+/// The prompt publish of one bound device: the state reflecting an accepted command goes out
+/// at once, not at the next state deadline.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+struct Prompt {
+    /// The state reflecting this accepted command (`cmd_seq`) is awaited.
+    awaiting: Option<u64>,
+    /// `cmd_seq` of the newest state seen while awaiting, and of the newest one published.
+    /// A client streaming faster than the device applies never sees a state of its newest
+    /// command; a state reflecting a newer command than the last published goes out at once.
+    reflected: u64,
+    published: u64,
+}
+
+impl Prompt {
+    /// A state of the device reflecting command `cmd_seq` came: what was awaited has arrived
+    /// once a state reflects it or a newer command.
+    fn reflect(&mut self, cmd_seq: u64) {
+        if self.awaiting.is_some_and(|a| cmd_seq >= a) {
+            self.awaiting = None;
+        }
+        self.reflected = cmd_seq;
+    }
+
+    /// This device lets the front publish at once: nothing awaited, or its newest state
+    /// reflects a newer command than the last one published.
+    fn ready(&self) -> bool {
+        self.awaiting.is_none() || self.reflected > self.published
+    }
+
+    /// The front published the newest state seen.
+    fn mark_published(&mut self) {
+        self.published = self.published.max(self.reflected);
+    }
 }
 
 impl Bound {
@@ -197,9 +227,7 @@ pub(crate) fn run_front(
             last_valid: None,
             armed: None,
             acted: false,
-            awaiting: None,
-            reflected: 0,
-            published: 0,
+            prompt: Prompt::default(),
             state_rx: slot.device.state(),
             pending_safe: None,
             slot,
@@ -233,7 +261,7 @@ pub(crate) fn run_front(
             let hold_ms = f.hold.as_millis() as u64;
             loop {
                 let silence_due = bound.iter().filter_map(Bound::silence_due).min();
-                let awaiting = bound.iter().any(|b| b.awaiting.is_some());
+                let awaiting = bound.iter().any(|b| b.prompt.awaiting.is_some());
                 tokio::select! {
                     msg = rx.recv() => {
                         let Some(msg) = msg else { break };
@@ -286,7 +314,7 @@ pub(crate) fn run_front(
                                             b.last_valid = Some(Instant::now());
                                             b.armed = b.silence.armed(timeout_bit);
                                             b.state_rx.mark_unchanged();
-                                            b.awaiting = Some(b.seq);
+                                            b.prompt.awaiting = Some(b.seq);
                                             if counters.tripped.swap(0, Ordering::Relaxed) != 0 {
                                                 info!(front = %name, device = %b.slot.plan.name, "commands resumed after the silence action");
                                             }
@@ -362,22 +390,19 @@ pub(crate) fn run_front(
                     }
                     changed = first_change(&mut bound), if awaiting => {
                         let Some(i) = changed else {
-                            for b in bound.iter_mut() { b.awaiting = None; }
+                            for b in bound.iter_mut() { b.prompt.awaiting = None; }
                             continue;
                         };
                         let b = &mut bound[i];
                         let st = b.state_rx.borrow_and_update().clone();
-                        if b.awaiting.is_some_and(|a| st.cmd_seq >= a) {
-                            b.awaiting = None;
-                        }
-                        b.reflected = st.cmd_seq;
+                        b.prompt.reflect(st.cmd_seq);
                         let expired = prompt_since.is_some_and(|t| t.elapsed() > PROMPT_STATE_WAIT);
                         if expired {
                             // Superseded by another front's command, or never applied.
-                            for b in bound.iter_mut() { b.awaiting = None; }
-                        } else if !slot_used && bound.iter().all(|b| b.awaiting.is_none() || b.reflected > b.published) {
+                            for b in bound.iter_mut() { b.prompt.awaiting = None; }
+                        } else if !slot_used && bound.iter().all(|b| b.prompt.ready()) {
                             out.publish(&views(&bound), false);
-                            for b in bound.iter_mut() { b.published = b.published.max(b.reflected); }
+                            for b in bound.iter_mut() { b.prompt.mark_published(); }
                             slot_used = true;
                         }
                     }
@@ -386,7 +411,7 @@ pub(crate) fn run_front(
                             // This period's sample went out promptly.
                         } else {
                             out.publish(&views(&bound), false);
-                            for b in bound.iter_mut() { b.published = b.state_rx.borrow().cmd_seq; }
+                            for b in bound.iter_mut() { b.prompt.published = b.state_rx.borrow().cmd_seq; }
                         }
                         let d = dropped.load(Ordering::Relaxed);
                         if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
@@ -418,7 +443,7 @@ async fn first_change(bound: &mut [Bound]) -> Option<usize> {
     let futs = bound
         .iter_mut()
         .enumerate()
-        .filter(|(_, b)| b.awaiting.is_some())
+        .filter(|(_, b)| b.prompt.awaiting.is_some())
         .map(|(i, b)| Box::pin(async move { b.state_rx.changed().await.ok().map(|_| i) }));
     futures_select_first(futs.collect()).await
 }
@@ -480,6 +505,39 @@ mod tests {
         );
         assert_eq!(log.admit("non_finite", ms(1500)), None);
         assert_eq!(log.admit("non_finite", ms(2100)), Some(1));
+    }
+
+    /// The prompt-publish rule on its own: a client streaming faster than the device applies
+    /// (each state reflects an older command than the newest accepted) still gets each newer
+    /// reflected command published at once, never the same one twice.
+    #[test]
+    fn a_state_of_a_newer_command_than_published_is_prompt_even_while_a_newer_one_is_awaited() {
+        let mut p = Prompt::default();
+        assert!(p.ready(), "nothing awaited");
+        // A 1 kHz client: command 7 accepted while the device's states reflect older ones.
+        p.awaiting = Some(7);
+        p.reflect(5);
+        assert!(p.ready(), "reflects 5, newer than the last published (0): at once");
+        p.mark_published();
+        assert!(!p.ready(), "5 is out: the same state again waits");
+        p.reflect(5);
+        assert!(!p.ready(), "still 5: waits for the tick");
+        p.reflect(6);
+        assert!(p.ready(), "6 is newer than 5");
+        assert_eq!(p.awaiting, Some(7), "6 does not answer 7");
+        p.mark_published();
+        p.reflect(8);
+        assert_eq!(
+            p.awaiting, None,
+            "a state of a newer command answers the awaited one too"
+        );
+        assert!(p.ready());
+        // Awaiting 9 with nothing newer than published: not ready.
+        p.mark_published();
+        p.awaiting = Some(9);
+        assert!(!p.ready());
+        p.reflect(9);
+        assert!(p.ready() && p.awaiting.is_none(), "the awaited command's own state");
     }
 
     /// The silence branch of the front task sleeps until the earliest device's deadline (it
