@@ -203,11 +203,14 @@ struct SentLog {
 
 impl SentLog {
     /// A publish of `seq`/`tag` at `at`; a re-publish of the same command keeps its first time.
-    fn push(&mut self, seq: u64, tag: u32, at: Instant) {
-        if self.last.at.is_none() || (seq, tag) != (self.last.seq, self.last.tag) {
+    /// True when this publish carried a command for the first time.
+    fn push(&mut self, seq: u64, tag: u32, at: Instant) -> bool {
+        let new = self.last.at.is_none() || (seq, tag) != (self.last.seq, self.last.tag);
+        if new {
             self.before = self.last;
             self.last = Sent { at: Some(at), seq, tag };
         }
+        new
     }
 
     /// The command a sample taken at `arrived` reflects.
@@ -301,7 +304,13 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
                 self.link.observe(false, &self.current.joints, loop_cmd);
             }
         }
-        if tick || command {
+        // A tick is the keep-alive: redundant, and not worth a token of the budget, when a
+        // forwarded command went out less than half a period ago (a 1 kHz client on a 500 Hz
+        // device would otherwise share the budget with the ticks and wait for tokens).
+        let heard_lately = self
+            .last_encode
+            .is_some_and(|t| now.saturating_duration_since(t) < period / 2);
+        if command || (tick && !heard_lately) {
             self.want_send = true;
         }
         if self.want_send || tick {
@@ -326,8 +335,9 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
                 if self.writer.write(msg).is_ok() {
                     Counters::inc(&loop_cmd.counters.sent);
                     let (seq, tag) = loop_cmd.applied();
-                    self.sent.push(seq, tag, Instant::now());
-                    if has_state && command {
+                    // A command out for the first time (forwarded now, or after waiting for a
+                    // token, or on a tick): the first sample after it wakes the loop.
+                    if self.sent.push(seq, tag, Instant::now()) && has_state && config.forward.on_arrival {
                         self.shared.wake.awaiting.store(true, Ordering::Release);
                     }
                 }
@@ -656,9 +666,9 @@ mod tests {
         let ms = |n: u64| t0 + Duration::from_millis(n);
         let mut log = SentLog::default();
         assert!(log.reflected_by(ms(0)).is_none(), "nothing published yet");
-        log.push(1, 11, ms(1));
-        log.push(1, 11, ms(3)); // keep-alive
-        log.push(2, 22, ms(5));
+        assert!(log.push(1, 11, ms(1)), "a first publish of seq 1");
+        assert!(!log.push(1, 11, ms(3)), "a keep-alive is not a new command");
+        assert!(log.push(2, 22, ms(5)));
         let r = |t| log.reflected_by(ms(t)).map(|s| (s.seq, s.tag));
         assert_eq!(r(0), None, "taken before anything went out");
         assert_eq!(r(2), Some((1, 11)));
