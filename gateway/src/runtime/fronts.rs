@@ -251,11 +251,13 @@ pub(crate) fn run_front(
             // every device it went to (`cmd_seq`) is published at once instead of at the next
             // deadline; so is a state reflecting a newer command than the last published
             // (a client streaming faster than the device applies never sees its newest
-            // command reflected, and would otherwise wait for every tick). Each period
-            // carries one publish: a prompt one stands in for the periodic one due at the
-            // end of its period, so the rate stays the nominal one.
+            // command reflected, and would otherwise wait for every tick). A prompt publish
+            // stands in for the periodic one: the next tick comes a full period after it.
+            // Prompt publishes are at least half a period apart, so a client streaming faster
+            // than nominal gets at most twice the nominal rate, and an idle front the nominal.
             let mut prompt_since: Option<Instant> = None;
-            let mut slot_used = false;
+            let mut last_prompt: Option<Instant> = None;
+            let min_spacing = state_tick.period() / 2;
             // The writer owning the front (`control = "exclusive"`), to name it in the log.
             let mut owner: Option<Arc<handgate_adapters::dds::WriterInfo>> = None;
             let hold_ms = f.hold.as_millis() as u64;
@@ -313,7 +315,10 @@ pub(crate) fn run_front(
                                             }
                                             b.last_valid = Some(Instant::now());
                                             b.armed = b.silence.armed(timeout_bit);
-                                            b.state_rx.mark_unchanged();
+                                            // No `mark_unchanged` here: a state that came just before
+                                            // this command still reflects a newer command than the
+                                            // last published (`Prompt::ready`), and dropping it would
+                                            // hold it until the tick (a 1 kHz client lost one in two).
                                             b.prompt.awaiting = Some(b.seq);
                                             if counters.tripped.swap(0, Ordering::Relaxed) != 0 {
                                                 info!(front = %name, device = %b.slot.plan.name, "commands resumed after the silence action");
@@ -400,19 +405,18 @@ pub(crate) fn run_front(
                         if expired {
                             // Superseded by another front's command, or never applied.
                             for b in bound.iter_mut() { b.prompt.awaiting = None; }
-                        } else if !slot_used && bound.iter().all(|b| b.prompt.ready()) {
+                        } else if !last_prompt.is_some_and(|t| t.elapsed() < min_spacing)
+                            && bound.iter().all(|b| b.prompt.ready())
+                        {
                             out.publish(&views(&bound), false);
                             for b in bound.iter_mut() { b.prompt.mark_published(); }
-                            slot_used = true;
+                            last_prompt = Some(Instant::now());
+                            state_tick.restart();
                         }
                     }
                     _ = state_tick.tick() => {
-                        if std::mem::take(&mut slot_used) {
-                            // This period's sample went out promptly.
-                        } else {
-                            out.publish(&views(&bound), false);
-                            for b in bound.iter_mut() { b.prompt.published = b.state_rx.borrow().cmd_seq; }
-                        }
+                        out.publish(&views(&bound), false);
+                        for b in bound.iter_mut() { b.prompt.published = b.state_rx.borrow().cmd_seq; }
                         let d = dropped.load(Ordering::Relaxed);
                         if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
                             warn!(front = %name, dropped = d - dropped_reported.0,
