@@ -40,11 +40,6 @@ impl Ticker {
         self.next
     }
 
-    /// The period between ticks.
-    pub fn period(&self) -> Duration {
-        self.period
-    }
-
     /// Restarts the grid one period from now (a sample published off the grid stands in for
     /// the tick that was due: the next one comes a full period after it).
     pub fn restart(&mut self) {

@@ -253,11 +253,10 @@ pub(crate) fn run_front(
             // (a client streaming faster than the device applies never sees its newest
             // command reflected, and would otherwise wait for every tick). A prompt publish
             // stands in for the periodic one: the next tick comes a full period after it.
-            // Prompt publishes are at least half a period apart, so a client streaming faster
-            // than nominal gets at most twice the nominal rate, and an idle front the nominal.
+            // Each prompt publish needs a state of a command not yet published, so they are
+            // never more frequent than the device's measured states; an idle front publishes
+            // at `state_hz`.
             let mut prompt_since: Option<Instant> = None;
-            let mut last_prompt: Option<Instant> = None;
-            let min_spacing = state_tick.period() / 2;
             // The writer owning the front (`control = "exclusive"`), to name it in the log.
             let mut owner: Option<Arc<handgate_adapters::dds::WriterInfo>> = None;
             let hold_ms = f.hold.as_millis() as u64;
@@ -405,12 +404,9 @@ pub(crate) fn run_front(
                         if expired {
                             // Superseded by another front's command, or never applied.
                             for b in bound.iter_mut() { b.prompt.awaiting = None; }
-                        } else if !last_prompt.is_some_and(|t| t.elapsed() < min_spacing)
-                            && bound.iter().all(|b| b.prompt.ready())
-                        {
+                        } else if bound.iter().all(|b| b.prompt.ready()) {
                             out.publish(&views(&bound), false);
                             for b in bound.iter_mut() { b.prompt.mark_published(); }
-                            last_prompt = Some(Instant::now());
                             state_tick.restart();
                         }
                     }
