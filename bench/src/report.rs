@@ -534,42 +534,6 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     }
     notes(repo, "fleet", &mut body);
 
-    // 4d. What a loop's own thread costs
-    body.push_str("\n### 4d. Loop threads: what a thread per loop costs\n\n");
-    match read::<crate::timers::Result>(results, "timers.json").filter(|r| r.ways.len() == 2) {
-        Some(t) => {
-            let (own, shared) = (&t.ways[0], &t.ways[1]);
-            let _ = writeln!(
-                body,
-                "`handgate-bench timers`: {} empty loops at {:.0} Hz in one process, {:.0} s each way, one way \
-                 after the other: each on a thread of its own sleeping to absolute deadlines (phases spread \
-                 over the period, as independent starts give), then as tasks of `handgate_adapters::loops` \
-                 (the code the DDS-client device loops run on, docs/deployment.md \"Loop threads\"). CPU is the \
-                 process's; lateness is how long after its deadline each iteration started.\n\n\
-                 | way | CPU, % of one core | CPU per loop cycle | lateness median | p99 | max | load (1 min) |\n\
-                 |---|---|---|---|---|---|---|",
-                own.loops, own.hz, own.secs
-            );
-            for w in [own, shared] {
-                let (m, p, x) = w.late_us.as_ref().map_or(("—".into(), "—".into(), "—".into()), |s| {
-                    (us(s.median), us(s.p99), us(s.max))
-                });
-                let _ = writeln!(
-                    body,
-                    "| {} | {:.1} % | {:.2} µs | {m} | {p} | {x} | {:.2} |",
-                    w.way, w.cpu_pct, w.cpu_us_per_cycle, w.load1
-                );
-            }
-            summary.push((
-                format!("{} loops at {:.0} Hz: CPU shared / own threads", own.loops, own.hz),
-                format!("{:.2}", shared.cpu_pct / own.cpu_pct.max(1e-9)),
-                "measure and choose".into(),
-                "measured",
-            ));
-        }
-        None => body.push_str("Not measured in this run.\n"),
-    }
-
     // 4b. Every kind at its own rates
     body.push_str("\n### 4b. Every kind at its own rates (`sim-all`)\n\n");
     match read::<ProfileResult>(results, "simall.json") {
@@ -669,6 +633,42 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
         None => body.push_str("Not measured in this run.\n"),
     }
     notes(repo, "startup", &mut body);
+
+    // 4d. What a loop's own thread costs
+    body.push_str("\n### 4d. Loop threads: what a thread per loop costs\n\n");
+    match read::<crate::timers::Result>(results, "timers.json").filter(|r| r.ways.len() == 2) {
+        Some(t) => {
+            let (own, shared) = (&t.ways[0], &t.ways[1]);
+            let _ = writeln!(
+                body,
+                "`handgate-bench timers`: {} empty loops at {:.0} Hz in one process, {:.0} s each way, one way \
+                 after the other: each on a thread of its own sleeping to absolute deadlines (phases spread \
+                 over the period, as independent starts give), then as tasks of `handgate_adapters::loops` \
+                 (the code the DDS-client device loops run on, docs/deployment.md \"Loop threads\"). CPU is the \
+                 process's; lateness is how long after its deadline each iteration started.\n\n\
+                 | way | CPU, % of one core | CPU per loop cycle | lateness median | p99 | max | load (1 min) |\n\
+                 |---|---|---|---|---|---|---|",
+                own.loops, own.hz, own.secs
+            );
+            for w in [own, shared] {
+                let (m, p, x) = w.late_us.as_ref().map_or(("—".into(), "—".into(), "—".into()), |s| {
+                    (us(s.median), us(s.p99), us(s.max))
+                });
+                let _ = writeln!(
+                    body,
+                    "| {} | {:.1} % | {:.2} µs | {m} | {p} | {x} | {:.2} |",
+                    w.way, w.cpu_pct, w.cpu_us_per_cycle, w.load1
+                );
+            }
+            summary.push((
+                format!("{} loops at {:.0} Hz: CPU shared / own threads", own.loops, own.hz),
+                format!("{:.2}", shared.cpu_pct / own.cpu_pct.max(1e-9)),
+                "measure and choose".into(),
+                "measured",
+            ));
+        }
+        None => body.push_str("Not measured in this run.\n"),
+    }
 
     // 5. EZGripper
     body.push_str("\n## 5. EZGripper (Dynamixel)\n\n");
@@ -774,12 +774,12 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     }
     o.push_str(&body);
     o.push_str(
-        "\n## Running\n\n```sh\nmake bench                 # everything, about 15 minutes; rewrites this file\n\
+        "\n## Running\n\n```sh\nmake bench                 # everything, about 30 minutes; rewrites this file\n\
          BENCH_QUICK=1 make bench   # short runs (smoke check of the harness; do not commit its output)\n```\n\n\
          The harness: `scripts/bench.sh` builds the release binaries, runs each benchmark, writes JSON results \
          to `$CARGO_TARGET_DIR/bench-results/` (default `target/`), then `handgate-bench report` writes this file \
          and the script copies the results to `docs/benchmarks/raw/` (commit them with this file). \
-         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 107 (shim), 110 (fleet), 111 (sim-all), 114 (busy domain), 158 (recording).\n",
+         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 104 (dashboard), 107 (shim), 110 (fleet), 111 (sim-all), 112 (floor + exchange), 113 (start-up), 114 (busy domain), 158 (recording).\n",
     );
     std::fs::write(out_path, o)?;
     Ok(())
