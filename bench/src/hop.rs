@@ -29,6 +29,21 @@ pub struct HopResult {
     pub peer_cpu_pct: f64,
 }
 
+impl HopResult {
+    /// The report's first cells: path, command rate, sent, echoed, median, p90, p99, max.
+    pub fn cells(&self) -> String {
+        let lat = self
+            .latency_us
+            .as_ref()
+            .map(|s| crate::report::row4(s, crate::report::us))
+            .unwrap_or_else(|| "— | — | — | —".into());
+        format!(
+            "{} | {:.0} Hz | {} | {} | {lat}",
+            self.target, self.rate_hz, self.sent, self.echoed
+        )
+    }
+}
+
 /// A valid Dex3 left-hand command (RIS mode: motor id i, FOC), all joints at their
 /// position 0 with a light hold.
 fn command(tag: u32) -> HandCmd_ {

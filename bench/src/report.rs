@@ -333,16 +333,7 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                  |---|---|---|---|---|---|---|---|---|\n",
             );
             for r in &v {
-                let lat = r
-                    .latency_us
-                    .as_ref()
-                    .map(|s| row4(s, us))
-                    .unwrap_or_else(|| "— | — | — | —".into());
-                let _ = writeln!(
-                    body,
-                    "| {} | {:.0} Hz | {} | {} | {} | {:.0} |",
-                    r.target, r.rate_hz, r.sent, r.echoed, lat, r.peer_cpu_pct
-                );
+                let _ = writeln!(body, "| {} | {:.0} |", r.cells(), r.peer_cpu_pct);
             }
             body.push_str("\nRatios (same run, same rate):\n\n");
             body.push_str(

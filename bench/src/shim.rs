@@ -203,14 +203,9 @@ fn wait_for_stop() {
 /// One client run against one shim at one command rate.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ShimResult {
-    pub target: String,
-    pub rate_hz: f64,
-    pub sent: usize,
-    pub echoed: usize,
-    /// Latency, µs.
-    pub latency_us: Option<Summary>,
-    /// CPU of the shim process during the run, % of one core.
-    pub peer_cpu_pct: f64,
+    /// What the hop benchmark measures of a run (`peer_cpu_pct`: the shim process).
+    #[serde(flatten)]
+    pub hop: crate::hop::HopResult,
     /// CPU of the emulator process during the same run, % of one core.
     pub emulator_cpu_pct: f64,
     /// Load averages (1/5/15 min) when this run started and ended.
@@ -295,12 +290,14 @@ pub fn client(
         |s: &MotorStates_| s.states.first().map(|m| m.reserve[0]),
     )?;
     Ok(ShimResult {
-        target: target.into(),
-        rate_hz,
-        sent: run.sent,
-        echoed: run.latency_us.len(),
-        latency_us: Summary::of(&run.latency_us),
-        peer_cpu_pct: run.cpu_pct[0],
+        hop: crate::hop::HopResult {
+            target: target.into(),
+            rate_hz,
+            sent: run.sent,
+            echoed: run.latency_us.len(),
+            latency_us: Summary::of(&run.latency_us),
+            peer_cpu_pct: run.cpu_pct[0],
+        },
         emulator_cpu_pct: run.cpu_pct[1],
         load_start,
         load_end: loadavg(),
@@ -430,7 +427,7 @@ pub fn report_section(
     body: &mut String,
     summary: &mut Vec<(String, String, String, &'static str)>,
 ) {
-    use crate::report::{notes, read, row4, us, verdict};
+    use crate::report::{notes, read, verdict};
     use std::fmt::Write as _;
     body.push_str("\n### 3b. Shim through a DDS-client device: a Dex1 client driving a Dex3 service\n\n");
     let Some(run) = read::<ShimRun>(results, "shim.json").filter(|r| !r.results.is_empty()) else {
@@ -472,20 +469,11 @@ pub fn report_section(
          |---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in &run.results {
-        let lat = r
-            .latency_us
-            .as_ref()
-            .map(|s| row4(s, us))
-            .unwrap_or_else(|| "— | — | — | —".into());
         let _ = writeln!(
             body,
-            "| {} | {:.0} Hz | {} | {} | {} | {:.1} | {:.1} | {:.2} → {:.2} |",
-            r.target,
-            r.rate_hz,
-            r.sent,
-            r.echoed,
-            lat,
-            r.peer_cpu_pct,
+            "| {} | {:.1} | {:.1} | {:.2} → {:.2} |",
+            r.hop.cells(),
+            r.hop.peer_cpu_pct,
             r.emulator_cpu_pct,
             r.load_start[0],
             r.load_end[0]
@@ -497,20 +485,20 @@ pub fn report_section(
          | command rate | handgate / raw relay, median | handgate / raw relay, p99 | python / handgate, median | python / handgate, p99 | handgate CPU / python CPU |\n\
          |---|---|---|---|---|---|\n",
     );
-    let mut rates: Vec<f64> = run.results.iter().map(|r| r.rate_hz).collect();
+    let mut rates: Vec<f64> = run.results.iter().map(|r| r.hop.rate_hz).collect();
     rates.sort_by(f64::total_cmp);
     rates.dedup();
     let x = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.2}×"));
     for rate in rates {
-        let get = |t: &str| run.results.iter().find(|r| r.target == t && r.rate_hz == rate);
+        let get = |t: &str| run.results.iter().find(|r| r.hop.target == t && r.hop.rate_hz == rate);
         let (h, raw, py) = (get("handgate"), get("raw relay"), get("python shim"));
-        let lat = |r: Option<&ShimResult>| r.and_then(|r| r.latency_us);
+        let lat = |r: Option<&ShimResult>| r.and_then(|r| r.hop.latency_us);
         let ratio = |a: Option<Summary>, b: Option<Summary>, f: fn(&Summary) -> f64| Some(f(&a?) / f(&b?));
         let med = |s: &Summary| s.median;
         let p99 = |s: &Summary| s.p99;
         let h_raw = ratio(lat(h), lat(raw), med);
         let py_h = ratio(lat(py), lat(h), p99);
-        let cpu = h.zip(py).map(|(h, p)| h.peer_cpu_pct / p.peer_cpu_pct);
+        let cpu = h.zip(py).map(|(h, p)| h.hop.peer_cpu_pct / p.hop.peer_cpu_pct);
         let _ = writeln!(
             body,
             "| {rate:.0} Hz | {} | {} | {} | {} | {} |",
