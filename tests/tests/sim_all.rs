@@ -90,12 +90,23 @@ fn every_kind_of_sim_all_is_fresh_and_every_front_publishes() {
     let b = bc.next(DEADLINE).expect("rt/brainco/left/state");
     assert_eq!(b.states.len(), 6);
 
-    // rt/joint_states carries every joint of every device.
-    let mut js = Latest::<ros2::JointState_>::new(&n, "rt/joint_states", Qos::BestEffort);
-    let j = js.next(DEADLINE).expect("rt/joint_states");
-    let joints: usize = DEVICES.iter().map(|(_, _, n)| n).sum();
-    assert_eq!(j.name.len(), joints, "{:?}", j.name);
-    assert!(j.position.iter().all(|q| q.is_finite()), "{j:?}");
+    // The three JointState topics together carry every joint of every device, each name
+    // once per topic (the Inspire FTP and EZGripper pairs share URDF names with the Inspire
+    // DFX and Dex1 pairs: they publish on their own topics).
+    let mut joints = 0;
+    for topic in [
+        "rt/joint_states",
+        "rt/inspire_ftp/joint_states",
+        "rt/ezgripper/joint_states",
+    ] {
+        let mut js = Latest::<ros2::JointState_>::new(&n, topic, Qos::BestEffort);
+        let j = js.next(DEADLINE).unwrap_or_else(|| panic!("{topic}"));
+        let unique: std::collections::BTreeSet<&String> = j.name.iter().collect();
+        assert_eq!(unique.len(), j.name.len(), "{topic} names a joint twice: {:?}", j.name);
+        assert!(j.position.iter().all(|q| q.is_finite()), "{j:?}");
+        joints += j.name.len();
+    }
+    assert_eq!(joints, DEVICES.iter().map(|(_, _, n)| n).sum::<usize>());
 }
 
 /// The official-SDK clients of the three G1 hands handgate serves besides Dex3 and Dex1,

@@ -93,6 +93,55 @@ pub struct ElementDevices {
     pub left: Option<DeviceName>,
 }
 
+/// A front's `devices`: the grippers of a message carrying several, by element
+/// (`{ right = "..", left = ".." }`), or the list of devices a state-only front publishes
+/// (`["a", "b"]`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(untagged)]
+pub enum FrontDevices {
+    Elements(ElementDevices),
+    List(Vec<DeviceName>),
+}
+
+impl FrontDevices {
+    /// The by-element form, if this is it.
+    pub fn elements(&self) -> Option<&ElementDevices> {
+        match self {
+            FrontDevices::Elements(e) => Some(e),
+            FrontDevices::List(_) => None,
+        }
+    }
+
+    /// The list form, if this is it.
+    pub fn list(&self) -> Option<&[DeviceName]> {
+        match self {
+            FrontDevices::List(l) => Some(l),
+            FrontDevices::Elements(_) => None,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for FrontDevices {
+    /// A table is the by-element form, an array the list form; each is parsed by its own type,
+    /// so its errors (an unknown element, a bad name) keep their key path.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = FrontDevices;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a table of elements (`{ right = \"..\", left = \"..\" }`) or a list of device names")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, m: A) -> Result<Self::Value, A::Error> {
+                ElementDevices::deserialize(serde::de::value::MapAccessDeserializer::new(m)).map(FrontDevices::Elements)
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, s: A) -> Result<Self::Value, A::Error> {
+                Vec::<DeviceName>::deserialize(serde::de::value::SeqAccessDeserializer::new(s)).map(FrontDevices::List)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
 impl ElementDevices {
     /// (side, device) for every bound element, in element order.
     pub fn bound(&self) -> Vec<(Side, &DeviceName)> {
@@ -112,14 +161,16 @@ pub struct FrontConfig {
     /// and what it serves ([`FrontConfig::display_name`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
-    /// The device this front drives. Required, except for `joint_state` where omitting it
-    /// publishes every device, and for an `actuator` dex1 front bound with `devices`.
+    /// The device this front drives. Required, except for a state-only front (`joint_state`),
+    /// which publishes every device unless `device` or `devices` names them, and for a front
+    /// bound by element with `devices`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub device: Option<DeviceName>,
-    /// `actuator` dex1 fronts: the gripper of each element, `{ right = "..", left = ".." }`;
-    /// an element left out is not driven and reports no measurement.
+    /// Fronts bound by element (`actuator` dex1, inspire_dfx): the device of each element,
+    /// `{ right = "..", left = ".." }`; an element left out is not driven and reports no
+    /// measurement. State-only fronts: the devices published, `["..", ".."]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub devices: Option<ElementDevices>,
+    pub devices: Option<FrontDevices>,
     /// dex3/dex1 fronts: which topic side to serve (default: the device's side).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub side: Option<Side>,

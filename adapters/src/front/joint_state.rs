@@ -3,18 +3,26 @@
 //! or canonical frame, `DeviceTable::urdf_frame`), so robot_state_publisher and rviz see the
 //! hands without a bridge.
 
-use crate::mapping::{DeviceTable, UrdfFrame};
+use crate::mapping::{DeviceTable, JointMap, UrdfFrame};
 use crate::model::HandState;
 use handgate_idl::ros2::{Header_, JointState_, Time_};
 
-/// Appends one device's joints to `out` (a JointState front may carry several devices).
-pub fn append(out: &mut JointState_, device: &DeviceTable, st: &HandState, urdf_names: bool, prefix: &str) {
+/// The name joint `m` of device `device` carries in a JointState: its URDF name, or
+/// `<device>/<canonical name>` with `urdf_names` off.
+pub fn joint_name(m: &JointMap, urdf_names: bool, device: &str) -> String {
+    if urdf_names {
+        m.urdf.clone()
+    } else {
+        format!("{device}/{}", m.name)
+    }
+}
+
+/// Appends the joints of device `device` to `out` (a JointState front may carry several
+/// devices; the profile check refuses two that would publish one name,
+/// `FrontFactory::joint_names`).
+pub fn append(out: &mut JointState_, device: &DeviceTable, st: &HandState, urdf_names: bool, name: &str) {
     for (m, j) in device.joints.iter().zip(&st.joints) {
-        out.name.push(if urdf_names {
-            m.urdf.clone()
-        } else {
-            format!("{prefix}{}", m.name)
-        });
+        out.name.push(joint_name(m, urdf_names, name));
         let (q, dq, tau) = match device.urdf_frame {
             UrdfFrame::Wire => (m.q_to_wire(j.q), m.rate_to_wire(j.dq), m.tau_to_wire(j.tau)),
             UrdfFrame::Canonical => (j.q, j.dq, j.tau),

@@ -1,7 +1,7 @@
 //! The joint_state front's registry entry and writer; its codec is
 //! `crate::front::joint_state`.
 
-use crate::front::joint_state::{append, header, DEFAULT_TOPIC};
+use crate::front::joint_state::{append, header, joint_name, DEFAULT_TOPIC};
 use handgate_idl::ros2::JointState_;
 
 use crate::units::Topic;
@@ -41,6 +41,15 @@ impl crate::front::kind::FrontFactory for JointStateFront {
     fn default_state_hz(&self, device_hz: Option<f64>) -> f64 {
         device_hz.map_or(100.0, |d| d.min(100.0))
     }
+    fn joint_names(
+        &self,
+        f: &crate::front::config::FrontConfig,
+        device: &str,
+        table: &crate::mapping::DeviceTable,
+    ) -> Vec<String> {
+        let urdf = f.urdf_names.unwrap_or(true);
+        table.joints.iter().map(|m| joint_name(m, urdf, device)).collect()
+    }
     fn default_name(&self, f: &crate::front::config::FrontConfig, _side: &str) -> String {
         match &f.topic {
             Some(t) if t.as_str() != DEFAULT_TOPIC => t.0.clone(),
@@ -70,7 +79,7 @@ impl crate::front::kind::FrontFactory for JointStateFront {
                 JOINT_STATES_QOS,
                 &crate::ros::user_data::<JointState_>(),
             )?,
-            urdf_names: f.config.urdf_names.unwrap_or(true),
+            urdf_names: f.config.urdf_names.unwrap_or(true), // as `joint_names` says
         })))
     }
 }
@@ -90,7 +99,7 @@ impl crate::front::serve::StateIo for JointStateIo {
     fn publish(&mut self, devices: &[crate::front::serve::Published<'_>]) {
         let mut msg = header(std::time::SystemTime::now(), "");
         for d in devices {
-            append(&mut msg, d.table, &d.state, self.urdf_names, &format!("{}/", d.device));
+            append(&mut msg, d.table, &d.state, self.urdf_names, d.device);
         }
         let _ = self.writer.write(msg);
     }

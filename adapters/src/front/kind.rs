@@ -87,6 +87,12 @@ pub trait FrontFactory: Sync + Send + fmt::Debug + 'static {
     fn validate(&self, _f: &FrontConfig, _served: Option<Side>, _dangling: bool) -> Vec<(&'static str, String)> {
         vec![]
     }
+    /// The joint names a state-only front publishes for `device` (table `table`) in messages
+    /// readers key by joint name (ROS 2 JointState); the profile check refuses a front on which
+    /// two devices would publish one name. Empty: the front's messages carry no names.
+    fn joint_names(&self, _f: &FrontConfig, _device: &str, _table: &crate::mapping::DeviceTable) -> Vec<String> {
+        vec![]
+    }
     /// Suffix of this front's `handgate check` line.
     fn describe(&self, _f: &FrontConfig) -> Option<String> {
         None

@@ -200,9 +200,11 @@ mod tests {
     fn cfg(toml_devices: Option<(&str, &str)>, side: Option<Side>) -> FrontConfig {
         FrontConfig {
             kind: FrontKind::InspireDfx,
-            devices: toml_devices.map(|(r, l)| crate::front::config::ElementDevices {
-                right: (!r.is_empty()).then(|| crate::units::DeviceName(r.into())),
-                left: (!l.is_empty()).then(|| crate::units::DeviceName(l.into())),
+            devices: toml_devices.map(|(r, l)| {
+                crate::front::config::FrontDevices::Elements(crate::front::config::ElementDevices {
+                    right: (!r.is_empty()).then(|| crate::units::DeviceName(r.into())),
+                    left: (!l.is_empty()).then(|| crate::units::DeviceName(l.into())),
+                })
             }),
             side,
             ..Default::default()

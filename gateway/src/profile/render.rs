@@ -122,11 +122,12 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
         let dev = f.device.as_ref().and_then(lookup);
         let t = p.front_topics(f, dev);
         let target = match (&f.devices, &f.device) {
-            (Some(els), _) => format!(
+            (Some(FrontDevices::Elements(els)), _) => format!(
                 "right={}, left={}",
                 els.right.as_ref().map_or("-", |d| d.as_str()),
                 els.left.as_ref().map_or("-", |d| d.as_str())
             ),
+            (Some(FrontDevices::List(l)), _) => l.iter().map(|d| d.as_str()).collect::<Vec<_>>().join(", "),
             (None, Some(n)) => n.0.clone(),
             (None, None) => "all devices".into(),
         };

@@ -753,7 +753,7 @@ pub struct ClosureConfig {
 /// Options for an emulated device (`[devices.emulator]`, every kind): the adapters' section.
 pub use handgate_adapters::open::EmulatorSection as EmulatorConfig;
 
-pub use handgate_adapters::front::config::{ElementDevices, FrontConfig, FrontTopics};
+pub use handgate_adapters::front::config::{ElementDevices, FrontConfig, FrontDevices, FrontTopics};
 
 /// What the profile derives for a front from its bound device (its side, name, topics and
 /// rates): the front kind's defaults applied to the device's configuration.
@@ -781,7 +781,7 @@ impl FrontConfigExt for FrontConfig {
     /// a by-element front's elements (`devices`, or `device` on the served side), otherwise
     /// `device` on the served side. Names only; `lookup` finds a device's config.
     fn bindings<'a>(&'a self, lookup: impl Fn(&DeviceName) -> Option<&'a DeviceConfig>) -> Vec<(Side, &'a DeviceName)> {
-        if let Some(d) = &self.devices {
+        if let Some(d) = self.devices.as_ref().and_then(|d| d.elements()) {
             return d.bound();
         }
         match &self.device {

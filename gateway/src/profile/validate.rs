@@ -266,13 +266,21 @@ impl Checker {
         for (i, f) in p.fronts.iter().enumerate() {
             let k = root().key("fronts").index(i);
             let mut missing = false;
-            if let Some(els) = &f.devices {
+            if let Some(FrontDevices::List(list)) = &f.devices {
+                missing = self.device_list(&k, f, list, &by_name, &known);
+            }
+            if let Some(FrontDevices::Elements(els)) = &f.devices {
                 if !f.by_element() {
                     self.err(
                         k.key("devices"),
                         format!(
-                            "only {} binds devices by element; use `device`",
-                            FrontKind::binding_elements()
+                            "only {} binds devices by element; use `device`{}",
+                            FrontKind::binding_elements(),
+                            if f.kind.takes_commands() {
+                                ""
+                            } else {
+                                ", or list them: `devices = [\"..\", \"..\"]`"
+                            }
                         ),
                     );
                 }
@@ -353,6 +361,9 @@ impl Checker {
                 }
             }
             let topics = p.front_topics(f, dev);
+            if let (false, Some(t)) = (missing, &topics.state) {
+                self.joint_names(&k, f, p, t);
+            }
             let mut cmd_clash = None;
             if let Some(t) = &topics.cmd {
                 if t == &status_topic {
@@ -408,6 +419,100 @@ impl Checker {
                     }
                 }
             }
+        }
+    }
+
+    /// A state-only front's `devices = [..]`: known, distinct, not beside `device`. Returns
+    /// whether a name is missing (reported).
+    fn device_list(
+        &mut self,
+        k: &KeyPath,
+        f: &FrontConfig,
+        list: &[DeviceName],
+        by_name: &HashMap<&str, usize>,
+        known: &dyn Fn() -> String,
+    ) -> bool {
+        if f.kind.takes_commands() {
+            let how = match f.kind.factory().binds_elements() {
+                Some(_) => "bind by element, `devices = { right = \"..\", left = \"..\" }`, or give `device`",
+                None => "give `device`",
+            };
+            self.err(
+                k.key("devices"),
+                format!(
+                    "a list of devices is for fronts that publish state only; {} takes commands: {how}",
+                    a(f.kind.as_str())
+                ),
+            );
+        }
+        if f.device.is_some() {
+            self.err(
+                k.key("devices"),
+                "give either `device` (one device) or `devices` (a list), not both",
+            );
+        }
+        if list.is_empty() {
+            self.err(
+                k.key("devices"),
+                "list at least one device, or leave `devices` out to publish every device",
+            );
+        }
+        let mut missing = false;
+        let mut seen = std::collections::HashSet::new();
+        for (j, n) in list.iter().enumerate() {
+            if !by_name.contains_key(n.as_str()) {
+                missing = true;
+                self.err(
+                    k.key("devices").index(j),
+                    format!("no device named `{n}` (devices: {})", known()),
+                );
+            } else if !seen.insert(n.as_str()) {
+                self.err(k.key("devices").index(j), format!("`{n}` is listed twice"));
+            }
+        }
+        missing
+    }
+
+    /// A state-only front whose messages readers key by joint name (ROS 2 JointState): no two
+    /// of its devices may publish one name, or a reader sees one of them and loses the other.
+    fn joint_names(&mut self, k: &KeyPath, f: &FrontConfig, p: &Profile, topic: &Topic) {
+        let devices: Vec<&DeviceConfig> = match (&f.devices, &f.device) {
+            // A device listed twice is reported by `device_list`.
+            (Some(FrontDevices::List(l)), _) => p.devices.iter().filter(|d| l.contains(&d.name)).collect(),
+            (Some(FrontDevices::Elements(_)), _) => return,
+            (None, Some(n)) => p.devices.iter().filter(|d| &d.name == n).collect(),
+            (None, None) => p.devices.iter().collect(),
+        };
+        // name -> the first device publishing it; per pair of devices, the names both publish.
+        let mut first: HashMap<String, usize> = HashMap::new();
+        let mut clashes: BTreeMap<(usize, usize), Vec<String>> = BTreeMap::new();
+        for (i, d) in devices.iter().enumerate() {
+            let table = d.kind.factory().table(d.side, &*d.config);
+            for name in f.kind.factory().joint_names(f, d.name.as_str(), &table) {
+                match first.get(&name) {
+                    Some(&j) => clashes.entry((j, i)).or_default().push(name),
+                    None => {
+                        first.insert(name, i);
+                    }
+                }
+            }
+        }
+        for ((a, b), names) in clashes {
+            let shown: Vec<String> = names.iter().take(3).map(|n| format!("`{n}`")).collect();
+            let more = match names.len() {
+                n if n > 3 => format!(" and {} more", n - 3),
+                _ => String::new(),
+            };
+            self.err(
+                k.key("devices"),
+                format!(
+                    "`{}` and `{}` would both publish {}{more} on `{topic}`: a reader keyed by joint name (every ROS tool) sees one of them and loses the other. Publish one of them on its own topic (a second `{}` front with `topic` and `devices = [..]`, and `devices` here), or set `urdf_names = false` (names `<device>/<joint>`)",
+                    devices[a].name,
+                    devices[b].name,
+                    shown.join(", "),
+                    f.kind.as_str(),
+                ),
+            );
         }
     }
 
