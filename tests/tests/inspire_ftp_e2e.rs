@@ -52,7 +52,10 @@ fn open(node: &Node, name: &str, side: Side, dds: DdsConfig) -> Box<dyn HandDevi
     let kind = DeviceKind::by_name("inspire_ftp").expect("registered");
     let table = Arc::new(kind.table(side, &TableOverrides::default()).unwrap());
     let emulator = EmulatorSection::default();
-    let config = InspireFtpProfile { dds: Some(dds) };
+    let config = InspireFtpProfile {
+        dds: Some(dds),
+        ..Default::default()
+    };
     let spec = DeviceSpec {
         name,
         kind,

@@ -1419,8 +1419,8 @@ const SIM_ALL: &[(&str, Nominal)] = &[
     ("inspire_dfx_right", Nominal::Hz(100.0)),
     ("inspire_ftp_left", Nominal::Hz(50.0)),
     ("inspire_ftp_right", Nominal::Hz(50.0)),
-    ("brainco_left", Nominal::Hz(100.0)),
-    ("brainco_right", Nominal::Hz(100.0)),
+    ("brainco_left", Nominal::Hz(500.0)),
+    ("brainco_right", Nominal::Hz(500.0)),
     ("hand_sdk", Nominal::NoState),
 ];
 

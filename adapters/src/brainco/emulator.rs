@@ -15,8 +15,9 @@
 //!   fully open before any client speaks.
 //!
 //! Assumed (no hardware here; [`BraincoTuning`] and [`BraincoConfig`], docs/adapters.md's
-//! assumptions table): the loop rate (100 Hz default of the 100 / 500 / 1000 Hz §7 found),
-//! the finger motion (first order toward the target, at most `full_speed` of the stroke per
+//! assumptions table): that the loop keeps its 500 Hz (`main.cpp` sleeps what is left of 2 ms
+//! after writing the targets and reading the status over Modbus RTU; whether the bus leaves
+//! room for that is not known here), the finger motion (first order toward the target, at most `full_speed` of the stroke per
 //! second times the commanded speed), the currents, the rest posture, the handling of a
 //! malformed command (ignored and counted), and the measurement noise.
 
@@ -29,9 +30,9 @@ use crate::dds::{Node, Qos};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
 use crate::sim::{Noise, Sensor};
 
-/// Default loop rate, Hz: the lower of the two `main.cpp` periods §7 read (10 ms; the other
-/// is 2 ms, and the single-hand `brainco_service.cpp` targets 1 ms). An assumption.
-pub const BRAINCO_DEFAULT_HZ: f64 = 100.0;
+/// The service's loop and state rate, Hz: `main.cpp` targets a 2 ms period (docs/sources.md
+/// §7). That the hand's Modbus exchange leaves room for it is an assumption.
+pub const BRAINCO_DEFAULT_HZ: f64 = 500.0;
 
 /// Where an emulated hand rests before the service opens it (wire, 0 = open): a relaxed,
 /// unpowered hand sits slightly flexed. An assumption; profiles set their own

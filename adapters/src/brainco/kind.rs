@@ -90,8 +90,8 @@ impl KindFactory for BraincoFactory {
         }
     }
 
-    /// 100 Hz: what xr_teleoperate publishes at (docs/sources.md §7), and the emulated
-    /// service's default loop.
+    /// 500 Hz: the service's loop (docs/sources.md §7); the emulated service runs at the
+    /// device's rate.
     fn default_rate_hz(&self, _backend: Backend) -> Option<f64> {
         Some(super::emulator::BRAINCO_DEFAULT_HZ)
     }

@@ -87,8 +87,8 @@ impl FrontFactory for BraincoFront {
         let std = lr.and_then(super::topics);
         (std.as_ref().map(|t| Topic(t.0.clone())), std.map(|t| Topic(t.1)), None)
     }
-    /// The service publishes state once per 100 Hz loop (the emulated service's default,
-    /// docs/sources.md §7), whatever the bound device's rate.
+    /// The service publishes state once per loop, 500 Hz (docs/sources.md §7), whatever the
+    /// bound device's rate.
     fn default_state_hz(&self, _device_hz: Option<f64>) -> f64 {
         BRAINCO_DEFAULT_HZ
     }
@@ -181,7 +181,7 @@ mod tests {
         assert_eq!(f.default_topics(&cfg(None, false), None, "x"), (None, None, None));
         assert_eq!(f.default_lf_state_hz(), None);
         for d in [None, Some(1000.0), Some(30.0)] {
-            assert_eq!(f.default_state_hz(d), 100.0);
+            assert_eq!(f.default_state_hz(d), 500.0);
         }
     }
 

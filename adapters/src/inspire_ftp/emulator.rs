@@ -12,8 +12,9 @@
 //!   bit leaves that register alone; mode 0 is a no-op. An array whose bit is set but whose
 //!   length is not 6 is not written (the driver would fail to write it; counted).
 //! - No timeout: silence changes nothing, the hand keeps its last targets (§7, inference).
-//! - Loop: read all state registers (plus touch over TCP), publish, sleep 20 ms: about 50 Hz
-//!   over TCP; about 20 Hz over RS-485 (§7; [`FtpTransport::rate`]).
+//! - Loop: read all state registers (plus touch over TCP), publish, sleep 1 ms: the rate is
+//!   the Modbus time's, not known here; 50 Hz over TCP is assumed, about 20 Hz over RS-485
+//!   is Unitree's figure (§7; [`FtpTransport::rate`], `[devices.driver] rate_hz`).
 //! - Before any command: no targets are written; the hand stays where it was left
 //!   ([`FtpConfig::initial`], default [`REST_ANGLE`]).
 //!
@@ -69,8 +70,11 @@ pub enum FtpTransport {
 }
 
 impl FtpTransport {
-    /// The driver's loop rate: read, publish, sleep 20 ms (about 50 Hz, less the Modbus time)
-    /// over TCP; about 20 Hz over RS-485 (Unitree's page). docs/sources.md §7.
+    /// The driver's loop rate. The driver reads (24 Modbus requests per cycle over TCP, with
+    /// touch), publishes and sleeps 1 ms, so its rate is set by the Modbus time, which no
+    /// public source gives: 50 Hz over TCP is an **assumption** (docs/profiles.md
+    /// "Assumptions"; `[devices.driver] rate_hz` on the emulator backend, the front's
+    /// `state_hz`); about 20 Hz over RS-485 is Unitree's page. docs/sources.md §7.
     pub fn rate(self) -> Hz {
         match self {
             FtpTransport::Tcp => Hz(50.0),

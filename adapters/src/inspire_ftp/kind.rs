@@ -8,8 +8,8 @@ use serde::{Deserialize, Serialize};
 use super::table::JOINTS;
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{
-    a, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, PadLayout, PadPlace,
-    PadScale, Problem, SectionSpec,
+    a, check_rate, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, PadLayout,
+    PadPlace, PadScale, Problem, SectionSpec,
 };
 use crate::mapping::DeviceTable;
 use crate::model::Side;
@@ -195,12 +195,25 @@ pub struct DdsConfig {
     pub speed: Option<i16>,
 }
 
+/// `[devices.driver]` of an emulated Inspire FTP hand: the emulated driver.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DriverConfig {
+    /// The driver's loop and state rate, Hz (default
+    /// [`super::emulator::FtpTransport::rate`] over Modbus TCP: an assumption, docs/profiles.md
+    /// "Assumptions").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rate_hz: Option<f64>,
+}
+
 /// An Inspire FTP hand's own profile keys.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct InspireFtpProfile {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dds: Option<DdsConfig>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub driver: Option<DriverConfig>,
 }
 
 /// The resolved `[devices.dds]` of a hand on `side`.
@@ -226,6 +239,14 @@ impl InspireFtpProfile {
             state: d.state_topic.unwrap_or(state),
             touch: d.touch.unwrap_or(true).then(|| d.touch_topic.unwrap_or(touch)),
         }
+    }
+
+    /// The emulated driver's loop rate, Hz (`driver.rate_hz`, else the Modbus TCP driver's).
+    pub fn driver_hz(&self) -> f64 {
+        self.driver
+            .as_ref()
+            .and_then(|d| d.rate_hz)
+            .unwrap_or(super::emulator::FtpTransport::Tcp.rate().0)
     }
 
     /// The codec for these keys.
@@ -273,10 +294,16 @@ impl KindFactory for InspireFtpFactory {
     }
 
     fn sections(&self) -> &'static [SectionSpec] {
-        &[SectionSpec {
-            key: "dds",
-            backends: &[Backend::Dds],
-        }]
+        &[
+            SectionSpec {
+                key: "dds",
+                backends: &[Backend::Dds],
+            },
+            SectionSpec {
+                key: "driver",
+                backends: &[Backend::Emulator],
+            },
+        ]
     }
 
     fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError> {
@@ -362,6 +389,11 @@ impl KindConfig for InspireFtpProfile {
                         ));
                     }
                 }
+            }
+        }
+        if let Some(hz) = self.driver.as_ref().and_then(|d| d.rate_hz) {
+            if let Err(e) = check_rate(hz, 1000.0) {
+                out.push(Problem::new(&["driver", "rate_hz"], e));
             }
         }
         out

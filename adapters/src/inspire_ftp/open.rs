@@ -67,6 +67,7 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<FtpOpen, DeviceError> {
     }
     peer.noise = spec.emulator.noise_for(spec.name, ANGLE_NOISE);
     peer.noisy = spec.emulator.noise != Some(false);
+    peer.rate = crate::emu_common::Hz(profile.driver_hz());
     peer.topics = Some((
         topics.cmd.clone(),
         topics.state.clone(),

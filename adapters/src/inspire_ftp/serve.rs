@@ -121,8 +121,8 @@ impl FrontFactory for InspireFtpFront {
             _ => (None, None, None),
         }
     }
-    /// The driver's loop over Modbus TCP (read, publish, sleep 20 ms: 50 Hz), whatever the
-    /// device's rate.
+    /// The driver's loop over Modbus TCP (assumed 50 Hz, [`FtpTransport::rate`]), whatever
+    /// the device's rate.
     fn default_state_hz(&self, _device_hz: Option<f64>) -> f64 {
         FtpTransport::Tcp.rate().0
     }
@@ -269,7 +269,7 @@ mod tests {
         );
         assert_eq!(f.default_topics(&cfg(None), None, "x"), (None, None, None));
         assert_eq!(f.default_lf_state_hz(), None);
-        // The driver publishes once per 20 ms loop, whatever the bound device's rate.
+        // The driver publishes once per loop (assumed 50 Hz), whatever the bound device's rate.
         for d in [None, Some(1000.0), Some(20.0)] {
             assert_eq!(f.default_state_hz(d), 50.0);
         }

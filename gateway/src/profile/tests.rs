@@ -335,6 +335,36 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "devices[1].dds",
         "also sends commands on `rt/dex3/left/cmd`",
     ),
+    (
+        "two devices publishing one joint name on one JointState topic",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"e\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\n",
+        "fronts[0].devices",
+        "`g` and `e` would both publish `left_gripper_joint` on `rt/joint_states`",
+    ),
+    (
+        "a device list on a front taking commands",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevices = [\"g\"]\n",
+        "fronts[0].devices",
+        "a list of devices is for fronts that publish state only",
+    ),
+    (
+        "a joint_state device list naming a missing device",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\ndevices = [\"g\", \"nope\"]\n",
+        "fronts[0].devices[1]",
+        "no device named `nope`",
+    ),
+    (
+        "a joint_state device list naming a device twice",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\ndevices = [\"g\", \"g\"]\n",
+        "fronts[0].devices[1]",
+        "listed twice",
+    ),
+    (
+        "an empty joint_state device list",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\ndevices = []\n",
+        "fronts[0].devices",
+        "list at least one device",
+    ),
     ("status rate", "[status]\nrate_hz = 50\n", "status.rate_hz", "at most 10 Hz"),
     ("bad topic", "[status]\ntopic = \"rt/a b\"\n", "status.topic", "not a topic name"),
 ];
@@ -730,6 +760,39 @@ fn one_actuator_front_binds_both_grippers_by_element() {
     assert!(
         lines[0].contains("one actuator front serves both grippers"),
         "{lines:?}"
+    );
+}
+
+/// Devices whose joints share URDF names publish on JointState topics of their own (or under
+/// `<device>/` names): the plan's fronts list exactly the devices each publishes.
+#[test]
+fn joint_state_fronts_split_devices_sharing_joint_names() {
+    let two = "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"e\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"emulator\"\n";
+    let (_, r) = load_text(&format!(
+        "{two}[[fronts]]\nkind = \"joint_state\"\ndevices = [\"g\"]\n[[fronts]]\nkind = \"joint_state\"\ntopic = \"rt/grip/joint_states\"\ndevices = [\"e\"]\n"
+    ));
+    let l = r.unwrap();
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    let fronts: Vec<(&str, Vec<String>)> = plan
+        .fronts
+        .iter()
+        .map(|f| (f.state_topic.as_str(), f.devices.clone()))
+        .collect();
+    assert_eq!(
+        fronts,
+        [
+            ("rt/joint_states", vec!["g".to_string()]),
+            ("rt/grip/joint_states", vec!["e".to_string()])
+        ]
+    );
+    assert!(render_fleet(&l.profile, &l.origin).contains("joint_state -> g "));
+    // Names under the device's: no two devices can share one.
+    let (_, r) = load_text(&format!(
+        "{two}[[fronts]]\nkind = \"joint_state\"\nurdf_names = false\n"
+    ));
+    assert_eq!(
+        crate::resolve::plan(&r.unwrap().profile).unwrap().fronts[0].devices,
+        ["g", "e"]
     );
 }
 
@@ -1395,6 +1458,11 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
         ),
         ("devices.dds.speed", ftp(""), ftp("[devices.dds]\nspeed = 500")),
         (
+            "devices.driver.rate_hz",
+            one_device("inspire_ftp", "left", "emulator", ""),
+            one_device("inspire_ftp", "left", "emulator", "[devices.driver]\nrate_hz = 30"),
+        ),
+        (
             "devices.dds.speed",
             one_device("brainco", "left", "dds", ""),
             one_device("brainco", "left", "dds", "[devices.dds]\nspeed = 0.5"),
@@ -1522,6 +1590,15 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "fronts.devices",
             format!("{pair}devices = {{ left = \"g\" }}\n"),
             format!("{pair}devices = {{ left = \"g\", right = \"h\" }}\n"),
+        ),
+        (
+            "fronts.devices",
+            format!("{}{}", dex1("emulator", "").replace("\"d\"", "\"e\""), js("")),
+            format!(
+                "{}{}",
+                dex1("emulator", "").replace("\"d\"", "\"e\""),
+                js("devices = [\"d\"]")
+            ),
         ),
         ("fronts.side", front(""), front("side = \"right\"")),
         ("fronts.cmd_topic", front(""), front("cmd_topic = \"rt/x/cmd\"")),
