@@ -2,8 +2,9 @@
 //! page, a WebSocket of JSON frames), `/metrics` (Prometheus text) and `/healthz`. Bound to
 //! loopback unless the profile chooses another address; accepts no command unless the
 //! profile's `commands = true`, and then only through the page's own front (the same
-//! clamps, ownership and watchdog as any client). Never on a device path: it reads the
-//! devices' state channels and lock-free counters.
+//! clamps, ownership and watchdog as any client). Answers only requests whose `Host` names it
+//! and, on the WebSocket, pages of that origin (`host.rs`: DNS rebinding). Never on a device
+//! path: it reads the devices' state channels and lock-free counters.
 
 mod assets;
 mod feed;
