@@ -75,6 +75,9 @@ pub struct HttpPlan {
     pub commands: bool,
     pub sample_hz: f64,
     pub command_watchdog: Duration,
+    /// `[http] allowed_hosts`: names and addresses a request's `Host` may name besides the
+    /// loopback ones and the address the connection reached.
+    pub allowed_hosts: Vec<crate::http::host::Host>,
 }
 
 /// The gateway's Foxglove WebSocket live server (`[foxglove]`, docs/foxglove.md).

@@ -238,6 +238,13 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
             commands: p.http.commands,
             sample_hz: p.http.sample_hz.0,
             command_watchdog: p.http.command_watchdog_ms.as_duration(),
+            // Validated: each a host name or an IP address.
+            allowed_hosts: p
+                .http
+                .allowed_hosts
+                .iter()
+                .filter_map(|h| crate::http::host::Host::parse(h).ok())
+                .collect(),
         }),
         foxglove: p.foxglove_enabled().then(|| {
             let f = p.foxglove();

@@ -9,9 +9,16 @@ Foxglove's new name for the same v1 protocol, and refuses a client offering only
 (HTTP 400). Which one the server chose is printed.
 
     foxglove_client.py URL TOPIC [TOPIC ...] [--seconds N] [--quiet]
+                       [--as-host NAME] [--origin ORIGIN] [--try-write TOPIC]
 
 TOPIC `*` subscribes every advertised channel. `--quiet` (the benchmark's viewer,
 bench/dashboard_cost.py): no MSG lines; `READY` at the first message, `COUNT n` at the end.
+`--as-host NAME`: the request names NAME (and URL's port) in `Host`, as a browser does for a
+page of a domain rebound to the server's address; it still connects to URL's address.
+`--origin ORIGIN`: the `Origin` such a page sends. `--try-write TOPIC`: once the channels are
+advertised, try every way the protocol has to send the server something: advertise a client
+channel on TOPIC and publish a message on it, set a parameter, call a service; prints
+`WRITE_TRIED`, then the server's answers as STATUS / SERVICE_FAILURE lines.
 
 It connects with the subprotocol, reads serverInfo and the advertised channels, subscribes the
 channels of the given topics and decodes each message. Prints one line per event:
@@ -20,6 +27,7 @@ channels of the given topics and decodes each message. Prints one line per event
     CHANNELS [{"id", "topic", "encoding", "schemaName", "schemaEncoding", "schema"}, ...]
     SUBSCRIBED {"TOPIC": subscription id, ...}
     MSG {"topic": ..., "time": ns, "bytes": payload size, ...the decoded fields}
+    STATUS {the server's status message}      SERVICE_FAILURE {its serviceCallFailure}
     ERROR text
 
 Decoded: sensor_msgs/msg/JointState (stamp, frame_id, name, position, velocity, effort) and
@@ -31,11 +39,15 @@ import asyncio
 import json
 import struct
 import sys
+import urllib.parse
 
 import websockets
 
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
 OP_MESSAGE_DATA = 0x01
+# Client to server binary opcodes (ws-protocol spec).
+OP_CLIENT_MESSAGE_DATA = 0x01
+OP_SERVICE_CALL_REQUEST = 0x02
 
 
 class Cdr:
@@ -172,10 +184,32 @@ def emit(kind, value):
 
 
 QUIET = {"on": False, "count": 0}
+OPTS = {"as_host": None, "origin": None, "try_write": None}
+
+
+async def try_write(ws, topic):
+    """Every way a client may send the server data: a client channel and a message on it, a
+    parameter, a service call."""
+    ch = {"id": 1, "topic": topic, "encoding": "cdr", "schemaName": "unitree_hg/msg/HandCmd"}
+    await ws.send(json.dumps({"op": "advertise", "channels": [ch]}))
+    # CDR_LE encapsulation header and a few zero bytes.
+    await ws.send(struct.pack("<BI", OP_CLIENT_MESSAGE_DATA, 1) + b"\x00\x01\x00\x00" + bytes(8))
+    await ws.send(json.dumps({"op": "setParameters", "parameters": [{"name": "closure", "value": 1.0}]}))
+    enc = b"cdr"
+    await ws.send(struct.pack("<BIII", OP_SERVICE_CALL_REQUEST, 1, 1, len(enc)) + enc + bytes(4))
+    print("WRITE_TRIED", flush=True)
 
 
 async def run(url, topics):
-    async with websockets.connect(url, subprotocols=SUBPROTOCOLS, max_size=None) as ws:
+    kwargs = {}
+    if OPTS["as_host"]:
+        # Connect to URL's address while the request names another host.
+        target = urllib.parse.urlsplit(url)
+        kwargs.update(host=target.hostname, port=target.port, proxy=None)
+        url = f"ws://{OPTS['as_host']}:{target.port}"
+    if OPTS["origin"]:
+        kwargs["origin"] = OPTS["origin"]
+    async with websockets.connect(url, subprotocols=SUBPROTOCOLS, max_size=None, **kwargs) as ws:
         subscribed = {}  # subscription id -> advertised channel
         info = None
         async for frame in ws:
@@ -211,8 +245,13 @@ async def run(url, topics):
                     if subs:
                         await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
                         emit("SUBSCRIBED", {ch["topic"]: sid for sid, ch in subscribed.items()})
+                    if OPTS["try_write"]:
+                        topic, OPTS["try_write"] = OPTS["try_write"], None
+                        await try_write(ws, topic)
                 elif op == "status":
                     emit("STATUS", msg)
+                elif op == "serviceCallFailure":
+                    emit("SERVICE_FAILURE", msg)
             else:
                 if len(frame) < 13 or frame[0] != OP_MESSAGE_DATA:
                     continue
@@ -246,6 +285,11 @@ def main():
     if "--quiet" in args:
         args.remove("--quiet")
         QUIET["on"] = True
+    for opt in ("--as-host", "--origin", "--try-write"):
+        if opt in args:
+            i = args.index(opt)
+            OPTS[opt[2:].replace("-", "_")] = args[i + 1]
+            del args[i : i + 2]
     url, topics = args[0], set(args[1:])
     try:
         asyncio.run(asyncio.wait_for(run(url, topics), seconds))

@@ -2,10 +2,11 @@
 
   metrics URL             parse URL/metrics with prometheus_client's own text parser; print
                           one JSON line {"families": {name: type}, "samples": {"name{labels}": v}}
-  ws URL [--send F ...] [--every-ms N --for-ms M]
+  ws URL [--send F ...] [--every-ms N --for-ms M] [--origin O]
                           open URL/ws (websockets); print each frame received as "<type> <json>";
                           send the frames F (re-sent every N ms for M ms, like the page's
                           slider), then print "sent_done"; "closed" when the server closes.
+                          --origin: send Origin O, as a browser page does (none by default).
 """
 
 import asyncio
@@ -39,9 +40,10 @@ async def ws(url, args):
     ap.add_argument("--every-ms", type=float, default=0, help="re-send the frames this often")
     ap.add_argument("--for-ms", type=float, default=0, help="keep re-sending this long")
     ap.add_argument("--quiet", action="store_true", help="READY at hello, then only count frames (a benchmark's viewer)")
+    ap.add_argument("--origin", help="the Origin header a browser page would send")
     a = ap.parse_args(args)
     uri = url.replace("http://", "ws://") + "ws"
-    async with websockets.connect(uri, max_size=2**24) as sock:
+    async with websockets.connect(uri, max_size=2**24, origin=a.origin) as sock:
 
         async def pump():
             n = 0

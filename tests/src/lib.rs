@@ -1530,11 +1530,18 @@ impl Drop for Emulation {
 /// `GET url+path` over a plain socket (`url` as [`Gateway::http_url`] gives it): (status code,
 /// body).
 pub fn http_get(url: &str, path: &str) -> (u16, String) {
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    http_raw(url, &format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n"))
+}
+
+/// `request` (a whole request head, as written) sent to the server of `url`, read until the
+/// server closes: (status code, body).
+pub fn http_raw(url: &str, request: &str) -> (u16, String) {
     use std::io::Write;
     let addr = url.trim_start_matches("http://").trim_end_matches('/');
     let mut s = std::net::TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect {addr}: {e}"));
     s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-    write!(s, "GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    s.write_all(request.as_bytes()).unwrap();
     let mut buf = String::new();
     s.read_to_string(&mut buf).unwrap();
     let code = buf

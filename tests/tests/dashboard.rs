@@ -8,7 +8,8 @@
 //!   `index_0` of `dex3_left` and the chart's data follows to the position the hand reports on
 //!   DDS; after SIGINT stops the gateway the page reads `disconnected`, and it reconnects by
 //!   itself to a gateway started again on the same port;
-//! - `[http] commands = true`: every card has its controls; the slider with "command" on moves
+//! - `[http] commands = true`, the page opened as `http://localhost:PORT/` (the read-only test
+//!   opens `127.0.0.1`): every card has its controls; the slider with "command" on moves
 //!   the hand (seen on DDS and on the chart) and the fleet table names the page as its owner;
 //!   "safe" puts the device in its safe state (the status topic says so); a device another front commands is refused and the
 //!   card shows the reason.
@@ -425,6 +426,10 @@ fn with_commands_enabled_the_slider_moves_the_hand_safe_stops_it_and_a_foreign_o
     let names = fleet_names(&profile);
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let url = gw.http_url().unwrap_or_else(|e| panic!("{e}"));
+    // Opened as `localhost` (the read-only test opens 127.0.0.1): the Host and Origin the
+    // server checks (docs/dashboard.md, "Security") are that name's.
+    assert!(url.starts_with("http://127.0.0.1:"), "{url}");
+    let url = url.replacen("127.0.0.1", "localhost", 1);
 
     let st = b.call(json!({"op": "open", "url": url}), &gw);
     assert_eq!(st["commands"], true, "{st}");

@@ -1,5 +1,5 @@
 //! The Foxglove WebSocket live server (`[foxglove]`, docs/foxglove.md) end to end, on DDS
-//! domains 77–79: the real `handgate run` (built with the `foxglove` feature, as
+//! domains 77–79 and 188: the real `handgate run` (built with the `foxglove` feature, as
 //! [`handgate_bin`] builds it) and a client written against the protocol spec alone
 //! (`tests/python/foxglove_client.py`: the websockets package, CDR decoded by hand).
 
@@ -10,7 +10,10 @@ use std::time::Duration;
 use handgate_adapters::dds::Qos;
 use handgate_idl::unitree_hg as hg;
 use handgate_idl::{ros2, DdsTypeName};
-use handgate_tests::{default_profile_edited, node, serial, stream_until, Gateway, GatewayError, Latest, PyProcess};
+use handgate_tests::{
+    default_profile_edited, device_metrics, http_get, node, serial, stream_until, Gateway, GatewayError, Latest,
+    PyProcess,
+};
 use serde_json::Value;
 
 const WAIT: Duration = Duration::from_secs(30);
@@ -258,5 +261,75 @@ fn a_taken_port_is_a_warning_by_default_and_an_error_when_the_profile_asks() {
     assert!(
         matches!(err, GatewayError::Exited { .. }),
         "it exits before serving: {text}"
+    );
+}
+
+/// What protects the live server from a page of a rebound domain (docs/foxglove.md,
+/// "Security"): the foxglove crate has no hook to see the upgrade's `Host` or `Origin`, so such
+/// a page connects and reads; the server offers no capability a client could write with, so
+/// nothing it sends reaches a device.
+#[test]
+fn a_rebinding_page_reads_the_live_topics_but_cannot_write_anything() {
+    let _serial = serial();
+    let domain = 188;
+    // The command channel too: the worst case, a command topic in view.
+    let profile = profile_with(
+        "foxglove-rebinding",
+        "[foxglove]\nport = 0\ntopics = [\"/dex3/left/*\"]",
+    );
+    let gw = Gateway::start(domain, &["--profile", &profile]);
+    let url = gw.foxglove_url().unwrap();
+    let port = url.rsplit(':').next().unwrap();
+    let evil = format!("evil.example:{port}");
+    let py = PyProcess::spawn(
+        "foxglove_client.py",
+        &[
+            url.clone(),
+            "/dex3/left/state".into(),
+            "--as-host".into(),
+            "evil.example".into(),
+            "--origin".into(),
+            format!("http://{evil}"),
+            "--try-write".into(),
+            "/dex3/left/cmd".into(),
+        ],
+    )
+    .unwrap();
+    // Accepted, and it reads: the exposure docs/foxglove.md states.
+    let info = next(&py, "SERVERINFO");
+    assert_eq!(
+        info["capabilities"],
+        Value::Array(vec![]),
+        "no clientPublish, parameters, services, assets, connectionGraph: {info}"
+    );
+    py.wait_line("WRITE_TRIED", WAIT).unwrap_or_else(|e| panic!("{e}"));
+    // Every write refused by the server, in the order sent.
+    let mut said = Vec::new();
+    for _ in 0..3 {
+        said.push(next(&py, "STATUS")["message"].as_str().unwrap_or_default().to_string());
+    }
+    let failure = next(&py, "SERVICE_FAILURE");
+    assert!(
+        said[0].contains("does not support clientPublish")
+            && said[1].contains("Unknown channel")
+            && said[2].contains("does not support parameters"),
+        "{said:?}"
+    );
+    assert!(
+        failure["message"]
+            .as_str()
+            .unwrap_or_default()
+            .contains("does not support services"),
+        "{failure}"
+    );
+    let dex3 = next_msg(&py, "/dex3/left/state");
+    assert_eq!(dex3["motors"], 7, "{dex3}");
+    // Nothing reached the device.
+    let (_, text) = http_get(&gw.http_url().unwrap(), "/metrics");
+    let m = device_metrics(&text);
+    assert_eq!(
+        m[&("handgate_device_commands_total".to_string(), "dex3_left".to_string())],
+        0.0,
+        "{text}"
     );
 }

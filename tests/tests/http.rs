@@ -1,15 +1,15 @@
 //! The gateway's HTTP server through the binary (docs/dashboard.md): `/metrics` read by
 //! prometheus-client's own parser, `/healthz` flipping to 503 when a device's service goes
 //! away, the loopback default, and the dashboard's commands: refused without the profile's
-//! opt-in, and with it taken through the page's front (the table's checks, the watchdog).
-//! Domains 176–179 (docs/development.md).
+//! opt-in, and with it taken through the page's front (the table's checks, the watchdog);
+//! with commands on, a DNS-rebinding page (another site's name in `Host` and `Origin`) refused
+//! before anything is done, while the page works from `localhost`, `127.0.0.1` and the
+//! profile's `allowed_hosts`. Domains 176–179 and 187 (docs/development.md).
 
-use std::io::{Read, Write};
-use std::net::TcpStream;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use handgate_tests::{handgate_bin, http_get as get, repo_root, Gateway, PyProcess};
+use handgate_tests::{device_metrics, handgate_bin, http_get as get, http_raw, repo_root, Gateway, PyProcess};
 use serde_json::Value;
 
 const WAIT: Duration = Duration::from_secs(20);
@@ -134,9 +134,10 @@ fn scopeguard(c: std::process::Child) -> Guard {
 }
 
 /// A page (the websockets probe) sending `frame` every 100 ms for `for_ms`, as the
-/// dashboard's slider does while commanding is on.
-fn page(url: &str, frame: &str, for_ms: u32) -> PyProcess {
-    let args = [
+/// dashboard's slider does while commanding is on; with `origin`, the `Origin` a browser page
+/// of that origin sends.
+fn page(url: &str, frame: &str, for_ms: u32, origin: Option<&str>) -> PyProcess {
+    let mut args: Vec<String> = [
         "ws",
         url,
         "--send",
@@ -145,8 +146,13 @@ fn page(url: &str, frame: &str, for_ms: u32) -> PyProcess {
         "100",
         "--for-ms",
         &for_ms.to_string(),
-    ];
-    PyProcess::spawn("http_probe.py", &args.map(String::from)).unwrap()
+    ]
+    .map(String::from)
+    .into();
+    if let Some(o) = origin {
+        args.extend(["--origin".to_string(), o.to_string()]);
+    }
+    PyProcess::spawn("http_probe.py", &args).unwrap()
 }
 
 /// Device `name`'s row of a status frame.
@@ -175,7 +181,7 @@ fn without_the_profiles_opt_in_the_dashboard_accepts_no_command() {
     let url = gw.http_url().unwrap();
     assert!(url.starts_with("http://127.0.0.1:"), "{url}");
     let cmd = r#"{"type":"command","device":"dex1_left","closure":0.9}"#;
-    let probe = page(&url, cmd, 600);
+    let probe = page(&url, cmd, 600, None);
     let hello = &frames(&probe, "hello", 1)[0];
     assert_eq!(hello["commands"], false);
     let names: Vec<&str> = hello["devices"]
@@ -203,16 +209,17 @@ fn without_the_profiles_opt_in_the_dashboard_accepts_no_command() {
     assert_eq!(d["owner"], Value::Null, "{d}");
     // Another site's page may not even open the socket.
     let addr = url.trim_start_matches("http://").trim_end_matches('/');
-    let mut s = TcpStream::connect(addr).unwrap();
-    write!(
-        s,
-        "GET /ws HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://evil.example\r\nUpgrade: websocket\r\n\
-         Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    let (code, body) = http_raw(&url, &upgrade(addr, Some("http://evil.example")));
+    assert_eq!(code, 403, "{body}");
+}
+
+/// A WebSocket upgrade of `/ws` naming `host`, with `origin` as a browser page sends it.
+fn upgrade(host: &str, origin: Option<&str>) -> String {
+    let origin = origin.map(|o| format!("Origin: {o}\r\n")).unwrap_or_default();
+    format!(
+        "GET /ws HTTP/1.1\r\nHost: {host}\r\n{origin}Upgrade: websocket\r\nConnection: Upgrade\r\n\
+         Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
     )
-    .unwrap();
-    let mut buf = String::new();
-    s.read_to_string(&mut buf).unwrap();
-    assert!(buf.starts_with("HTTP/1.1 403"), "{buf}");
 }
 
 #[test]
@@ -229,7 +236,7 @@ fn with_the_opt_in_page_commands_go_through_the_front_rules_and_its_watchdog() {
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let url = gw.http_url().unwrap();
     let cmd = r#"{"type":"command","device":"jaw","closure":0.8}"#;
-    let probe = page(&url, cmd, 1500);
+    let probe = page(&url, cmd, 1500, None);
     assert_eq!(frames(&probe, "hello", 1)[0]["commands"], true);
     // The closure becomes a target (clamped by the table) and the jaw moves towards it.
     let deadline = Instant::now() + WAIT;
@@ -294,4 +301,132 @@ fn a_non_loopback_bind_is_an_explicit_choice_and_logged() {
         line.contains("WARN") && line.contains("non-loopback") && line.contains("url=http://0.0.0.0:"),
         "{line}"
     );
+}
+
+/// `handgate_http_refused_total` of a `/metrics` text: (host, origin).
+fn refused(metrics: &str) -> (f64, f64) {
+    let get = |reason: &str| {
+        let prefix = format!("handgate_http_refused_total{{reason=\"{reason}\"}} ");
+        metrics
+            .lines()
+            .find_map(|l| l.strip_prefix(&prefix))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no {prefix}in {metrics}"))
+    };
+    (get("host"), get("origin"))
+}
+
+#[test]
+fn with_commands_on_a_rebinding_page_is_refused_before_anything_and_nothing_moves() {
+    let domain = 187;
+    let profile = temp_profile(
+        "rebinding.toml",
+        &format!(
+            "name = \"http-rebinding\"\n[dds]\ndomain = {domain}\n[http]\ncommands = true\n\
+             allowed_hosts = [\"hand-pc.example\"]\n\
+             [[devices]]\nname = \"jaw\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n"
+        ),
+    );
+    let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
+    let url = gw.http_url().unwrap();
+    let port = url.trim_end_matches('/').rsplit(':').next().unwrap().to_string();
+    let evil = format!("evil.example:{port}");
+    let commands =
+        |text: &str| device_metrics(text)[&("handgate_device_commands_total".to_string(), "jaw".to_string())];
+
+    // The page of the issue: its own rebound name in Host and in Origin. No upgrade: 421, and
+    // the server closed the connection (http_raw read to its end), so no frame can follow.
+    let (code, body) = http_raw(&url, &upgrade(&evil, Some(&format!("http://{evil}"))));
+    assert_eq!(code, 421, "{body}");
+    assert!(
+        body.contains("evil.example") && body.contains("[http] allowed_hosts"),
+        "the refusal names the Host and the fix: {body}"
+    );
+    let mut hosts_refused = 1;
+    // Every route refuses another name before anything else: no page, no metrics, no fleet.
+    let lookalikes = [
+        evil.clone(),
+        format!("localhost.evil.example:{port}"),
+        format!("127.0.0.1.evil.example:{port}"),
+    ];
+    for path in [
+        "/",
+        "/metrics",
+        "/healthz",
+        "/api/hello",
+        "/api/status",
+        "/assets/app.js",
+    ] {
+        for host in &lookalikes {
+            let (code, body) = http_raw(&url, &format!("GET {path} HTTP/1.1\r\nHost: {host}\r\n\r\n"));
+            assert_eq!(code, 421, "{path} for {host}: {body}");
+            assert!(!body.contains("jaw") && !body.contains("handgate_"), "{body}");
+            hosts_refused += 1;
+        }
+    }
+    let (code, _) = http_raw(&url, &format!("POST / HTTP/1.1\r\nHost: {evil}\r\n\r\n"));
+    assert_eq!(code, 421, "the Host before the method");
+    hosts_refused += 1;
+    // Malformed, repeated or (HTTP/1.1) missing Host: 400.
+    for req in [
+        format!("GET / HTTP/1.1\r\nHost: 127.0.0.1@evil.example:{port}\r\n\r\n"),
+        format!("GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nHost: {evil}\r\n\r\n"),
+        "GET / HTTP/1.1\r\n\r\n".to_string(),
+    ] {
+        let (code, body) = http_raw(&url, &req);
+        assert_eq!(code, 400, "{req:?}: {body}");
+        hosts_refused += 1;
+    }
+    // A Host of this server, but a page of another site, another local site (port) or none.
+    let origins = [format!("http://{evil}"), "http://localhost:3000".into(), "null".into()];
+    for origin in &origins {
+        let (code, body) = http_raw(&url, &upgrade(&format!("localhost:{port}"), Some(origin)));
+        assert_eq!(code, 403, "Origin {origin}: {body}");
+    }
+    // Nothing reached the device; every refusal counted and the first logged.
+    let (_, text) = get(&url, "/metrics");
+    assert_eq!(commands(&text), 0.0, "{text}");
+    assert_eq!(refused(&text), (hosts_refused as f64, origins.len() as f64));
+    let line = gw.wait_stdout("http: refused a request", WAIT).unwrap();
+    assert!(line.contains("WARN") && line.contains("evil.example"), "{line}");
+
+    // HTTP/1.0 without Host: no browser sends it, so no page is behind it; served.
+    let (code, body) = http_raw(&url, "GET /api/hello HTTP/1.0\r\n\r\n");
+    assert_eq!(code, 200, "{body}");
+    assert!(body.contains("\"jaw\""), "{body}");
+
+    // The page itself from localhost, 127.0.0.1 and the profile's name (any case, a
+    // trailing dot).
+    for host in [
+        format!("localhost:{port}"),
+        format!("127.0.0.1:{port}"),
+        format!("hand-pc.example:{port}"),
+        format!("LocalHost.:{port}"),
+    ] {
+        let (code, body) = http_raw(&url, &format!("GET / HTTP/1.1\r\nHost: {host}\r\n\r\n"));
+        assert_eq!(code, 200, "{host}: {body}");
+        assert!(body.starts_with("<!doctype html>"), "{host}: {body}");
+    }
+    // Its WebSocket opened by a page of localhost (a name resolved to loopback here): its
+    // commands move the jaw, which is what the refused page's would have done.
+    let cmd = r#"{"type":"command","device":"jaw","closure":0.8}"#;
+    let local = format!("http://localhost:{port}/");
+    let probe = page(&local, cmd, 1000, Some(&format!("http://localhost:{port}")));
+    assert_eq!(frames(&probe, "hello", 1)[0]["commands"], true);
+    let deadline = Instant::now() + WAIT;
+    loop {
+        let s = frames(&probe, "samples", 1).remove(0);
+        if s["devices"]["jaw"]["cmd"][0].as_f64().is_some_and(|t| t > 0.0) {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the localhost page never commanded the jaw: {s}"
+        );
+    }
+    let (_, text) = get(&url, "/metrics");
+    assert!(commands(&text) > 0.0, "{text}");
+    // ... and by a page of 127.0.0.1.
+    let ip_page = page(&url, cmd, 0, Some(&format!("http://127.0.0.1:{port}")));
+    assert_eq!(frames(&ip_page, "hello", 1)[0]["commands"], true);
 }

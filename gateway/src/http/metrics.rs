@@ -109,6 +109,19 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         "1 when the profile lets the dashboard command devices ([http] commands).",
     );
     f.sample("handgate_dashboard_commands_enabled", "", commands as u8 as f64);
+    let mut f = Family::new(
+        &mut out,
+        "handgate_http_refused_total",
+        "counter",
+        "Requests refused for their Host (not a name of this server, or malformed) or, opening the WebSocket, their Origin.",
+    );
+    for (reason, n) in [("host", &fleet.refused.host), ("origin", &fleet.refused.origin)] {
+        f.sample(
+            "handgate_http_refused_total",
+            &format!("reason=\"{reason}\""),
+            n.load(Ordering::Relaxed) as f64,
+        );
+    }
 
     let mut f = Family::new(
         &mut out,

@@ -2,17 +2,19 @@
 //! page, a WebSocket of JSON frames), `/metrics` (Prometheus text) and `/healthz`. Bound to
 //! loopback unless the profile chooses another address; accepts no command unless the
 //! profile's `commands = true`, and then only through the page's own front (the same
-//! clamps, ownership and watchdog as any client). Never on a device path: it reads the
-//! devices' state channels and lock-free counters.
+//! clamps, ownership and watchdog as any client). Answers only requests whose `Host` names it
+//! and, on the WebSocket, pages of that origin (`host.rs`: DNS rebinding). Never on a device
+//! path: it reads the devices' state channels and lock-free counters.
 
 mod assets;
 mod feed;
+pub mod host;
 mod metrics;
 mod web_front;
 mod ws;
 
 use std::collections::HashMap;
-use std::net::SocketAddr;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -24,6 +26,7 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{broadcast, watch};
 
 use crate::plan::{HttpPlan, Plan};
+use crate::runtime::fronts::RateLimitedLog;
 use crate::runtime::DeviceSlot;
 
 pub use web_front::PageCommand;
@@ -63,6 +66,8 @@ pub struct Fleet {
     pub started: Instant,
     /// Pages connected now.
     pub clients: AtomicUsize,
+    /// Requests refused for their `Host` or `Origin`.
+    pub refused: host::Refused,
 }
 
 impl Fleet {
@@ -95,6 +100,7 @@ impl Fleet {
             discovery,
             started: crate::runtime::epoch(),
             clients: AtomicUsize::new(0),
+            refused: host::Refused::default(),
         }
     }
 }
@@ -155,6 +161,10 @@ pub fn spawn(
         frames,
         page,
         sample_hz: h.sample_hz,
+        allowed: host::Allowed {
+            extra: h.allowed_hosts.clone(),
+        },
+        log: RateLimitedLog::default(),
     };
     let server = Arc::new(server);
     let mut stop = shutdown.clone();
@@ -191,6 +201,10 @@ pub(crate) struct Server {
     frames: broadcast::Sender<Arc<str>>,
     page: Option<Arc<web_front::PageFront>>,
     sample_hz: f64,
+    /// The names it answers to besides the built-in ones (`[http] allowed_hosts`).
+    allowed: host::Allowed,
+    /// Refused requests' log lines.
+    log: RateLimitedLog,
 }
 
 /// One parsed request head.
@@ -198,15 +212,23 @@ pub(crate) struct Server {
 pub(crate) struct Request {
     pub method: String,
     pub path: String,
+    /// HTTP/1.`minor`.
+    pub minor: u8,
     pub headers: Vec<(String, String)>,
 }
 
 impl Request {
     pub fn header(&self, name: &str) -> Option<&str> {
+        self.headers_named(name).first().copied()
+    }
+
+    /// Every value of the header `name`, in order.
+    pub fn headers_named(&self, name: &str) -> Vec<&str> {
         self.headers
             .iter()
-            .find(|(k, _)| k.eq_ignore_ascii_case(name))
+            .filter(|(k, _)| k.eq_ignore_ascii_case(name))
             .map(|(_, v)| v.as_str())
+            .collect()
     }
 
     /// Parses a complete request head (`None`: incomplete; `Err`: malformed).
@@ -218,6 +240,7 @@ impl Request {
                 Request {
                     method: req.method.unwrap_or("").to_string(),
                     path: req.path.unwrap_or("/").to_string(),
+                    minor: req.version.unwrap_or(1),
                     headers: req
                         .headers
                         .iter()
@@ -230,23 +253,6 @@ impl Request {
             Err(e) => Err(e.to_string()),
         }
     }
-}
-
-/// Whether a browser's `Origin` is the page's own (same host and port as `Host`). A request
-/// without `Origin` is not from a browser page. Refuses another site's page opening the
-/// WebSocket (cross-site WebSocket hijacking, DNS rebinding).
-pub(crate) fn same_origin(req: &Request) -> bool {
-    let Some(origin) = req.header("origin") else {
-        return true;
-    };
-    let Some(host) = req.header("host") else {
-        return false;
-    };
-    let origin_host = origin
-        .strip_prefix("http://")
-        .or_else(|| origin.strip_prefix("https://"))
-        .unwrap_or("");
-    origin_host.eq_ignore_ascii_case(host)
 }
 
 pub(crate) struct Response {
@@ -275,6 +281,7 @@ impl Response {
             403 => "Forbidden",
             404 => "Not Found",
             405 => "Method Not Allowed",
+            421 => "Misdirected Request",
             431 => "Request Header Fields Too Large",
             503 => "Service Unavailable",
             _ => "Error",
@@ -322,20 +329,24 @@ impl Server {
             }
             _ => return Ok(()),
         };
+        // Whom the request is for, before anything else (DNS rebinding: host.rs).
+        let local = stream
+            .local_addr()
+            .map(|a| a.ip())
+            .unwrap_or(IpAddr::V4(Ipv4Addr::UNSPECIFIED));
+        let hosts = req.headers_named("host");
+        let host = match self.allowed.check(&hosts, req.minor == 0, local) {
+            Ok(h) => h,
+            Err(r) => return self.refuse(&mut stream, peer, r).await,
+        };
         let head_only = req.method == "HEAD";
         if req.method != "GET" && !head_only {
             return write(&mut stream, Response::text(405, "only GET\n"), false).await;
         }
         let path = req.path.split('?').next().unwrap_or("/").to_string();
         if path == "/ws" {
-            if !same_origin(&req) {
-                tracing::warn!(%peer, origin = req.header("origin").unwrap_or(""), "http: refused a WebSocket from another site's page");
-                return write(
-                    &mut stream,
-                    Response::text(403, "cross-origin WebSocket refused\n"),
-                    false,
-                )
-                .await;
+            if let Err(r) = host::same_origin(req.header("origin"), host.as_ref()) {
+                return self.refuse(&mut stream, peer, r).await;
             }
             let Some(key) = req.header("sec-websocket-key").map(str::to_string) else {
                 return write(&mut stream, Response::text(400, "WebSocket upgrade expected\n"), false).await;
@@ -347,6 +358,16 @@ impl Server {
         }
         let resp = self.route(&path);
         write(&mut stream, resp, head_only).await
+    }
+
+    /// Answers a refused request with its status and reason; counted, and logged at most once
+    /// a second per reason (with how many were not logged).
+    async fn refuse(&self, stream: &mut TcpStream, peer: SocketAddr, r: host::Refusal) -> std::io::Result<()> {
+        self.fleet.refused.count(&r);
+        if let Some(suppressed) = self.log.admit(r.reason(), Instant::now()) {
+            tracing::warn!(%peer, suppressed, "http: refused a request: {r}");
+        }
+        write(stream, Response::text(r.status(), format!("{r}\n")), false).await
     }
 
     fn route(&self, path: &str) -> Response {
@@ -386,43 +407,28 @@ async fn write(stream: &mut TcpStream, r: Response, head_only: bool) -> std::io:
 mod tests {
     use super::*;
 
-    fn req(headers: &[(&str, &str)]) -> Request {
-        Request {
-            method: "GET".into(),
-            path: "/ws".into(),
-            headers: headers.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
-        }
-    }
-
     #[test]
     fn request_heads_parse_incomplete_and_malformed_ones_are_told_apart() {
         let (r, n) = Request::parse(b"GET /metrics HTTP/1.1\r\nHost: 127.0.0.1:8880\r\n\r\nrest")
             .unwrap()
             .unwrap();
-        assert_eq!((r.method.as_str(), r.path.as_str(), n), ("GET", "/metrics", 47));
+        assert_eq!(
+            (r.method.as_str(), r.path.as_str(), r.minor, n),
+            ("GET", "/metrics", 1, 47)
+        );
         assert_eq!(r.header("HOST"), Some("127.0.0.1:8880"));
         assert_eq!(Request::parse(b"GET /metrics HTTP/1.1\r\nHost: x").unwrap(), None);
         assert!(Request::parse(b"GET /\x01 HTTP/1.1\r\n\r\n").is_err());
     }
 
     #[test]
-    fn only_the_pages_own_origin_may_open_the_websocket() {
-        assert!(
-            same_origin(&req(&[("Host", "127.0.0.1:8880")])),
-            "no Origin: not a browser page"
-        );
-        assert!(same_origin(&req(&[
-            ("Host", "127.0.0.1:8880"),
-            ("Origin", "http://127.0.0.1:8880")
-        ])));
-        assert!(!same_origin(&req(&[
-            ("Host", "127.0.0.1:8880"),
-            ("Origin", "http://evil.example")
-        ])));
-        assert!(!same_origin(&req(&[
-            ("Host", "127.0.0.1:8880"),
-            ("Origin", "http://127.0.0.1:9999")
-        ])));
-        assert!(!same_origin(&req(&[("Origin", "http://127.0.0.1:8880")])), "no Host");
+    fn every_host_header_is_seen_and_the_version_read() {
+        let (r, _) = Request::parse(b"GET / HTTP/1.0\r\nHost: localhost\r\nhost: evil.example\r\n\r\n")
+            .unwrap()
+            .unwrap();
+        assert_eq!(r.minor, 0);
+        assert_eq!(r.headers_named("Host"), ["localhost", "evil.example"]);
+        let (r, _) = Request::parse(b"GET / HTTP/1.0\r\n\r\n").unwrap().unwrap();
+        assert_eq!((r.minor, r.header("host")), (0, None));
     }
 }

@@ -41,13 +41,18 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     if p.http.enabled {
         let _ = writeln!(
             s,
-            "http: dashboard, /metrics, /healthz on {}:{}{}",
+            "http: dashboard, /metrics, /healthz on {}:{}{}{}",
             p.http.bind,
             p.http.port,
             if p.http.commands {
                 " (the page may command devices)"
             } else {
                 " (read-only)"
+            },
+            if p.http.allowed_hosts.is_empty() {
+                String::new()
+            } else {
+                format!(", also as {}", p.http.allowed_hosts.join(" "))
             }
         );
     } else {

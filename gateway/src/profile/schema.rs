@@ -319,6 +319,10 @@ pub struct HttpConfig {
     pub sample_hz: RateHz,
     /// Commands from the page: after this long without one, the device's safe action.
     pub command_watchdog_ms: Millis,
+    /// Host names (or IP addresses) a request's `Host` may name besides `localhost`, the
+    /// loopback addresses and the address the connection reached (DNS rebinding:
+    /// docs/dashboard.md, "Security").
+    pub allowed_hosts: Vec<String>,
 }
 
 /// The dashboard's default port.
@@ -333,6 +337,7 @@ impl Default for HttpConfig {
             commands: false,
             sample_hz: RateHz(50.0),
             command_watchdog_ms: Millis(500),
+            allowed_hosts: Vec::new(),
         }
     }
 }

@@ -1769,6 +1769,32 @@ fn http_section_errors_name_file_and_key() {
 }
 
 #[test]
+fn http_allowed_hosts_are_names_or_addresses_resolved_once() {
+    let (_, r) = load_text(&format!(
+        "[http]\nallowed_hosts = [\"Robot.LAN.\", \"10.0.0.5\", \"[fd00::5]\"]\n{DEX3}"
+    ));
+    let plan = crate::resolve::plan(&r.unwrap().profile).unwrap();
+    let h = plan.http.expect("on");
+    let shown: Vec<String> = h.allowed_hosts.iter().map(ToString::to_string).collect();
+    assert_eq!(shown, ["robot.lan", "10.0.0.5", "[fd00::5]"]);
+
+    let (path, r) = load_text(&format!(
+        "[http]\nallowed_hosts = [\"robot.lan:8880\", \"http://robot.lan\", \"ok.lan\"]\n{DEX3}"
+    ));
+    let lines = r.unwrap_err().lines();
+    let file = path.display().to_string();
+    let bad: Vec<&String> = lines
+        .iter()
+        .filter(|l| l.starts_with(&file) && l.contains(": http.allowed_hosts: "))
+        .collect();
+    assert_eq!(bad.len(), 2, "one line per bad entry: {lines:?}");
+    assert!(
+        bad[0].contains("`robot.lan:8880`") && bad[0].contains("without scheme or port"),
+        "{lines:?}"
+    );
+}
+
+#[test]
 fn foxglove_section_errors_name_their_keys_and_a_lean_build_names_the_feature() {
     // Keys checked in every build.
     let (path, r) = load_text(&format!(

@@ -196,6 +196,14 @@ impl Checker {
                     format!("must be {MIN_PAGE_WATCHDOG_MS}..={MAX_PAGE_WATCHDOG_MS} ms, got {wd}"),
                 );
             }
+            for h in &p.http.allowed_hosts {
+                if let Err(e) = crate::http::host::Host::parse(h) {
+                    self.err(
+                        k.key("allowed_hosts"),
+                        format!("{e}: each entry is a host name or an IP address, without scheme or port"),
+                    );
+                }
+            }
         }
         self.realtime(&p.realtime);
         // foxglove

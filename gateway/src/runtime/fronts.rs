@@ -16,9 +16,10 @@ use crate::ticker::Ticker;
 use handgate_adapters::front::serve as fronts;
 use handgate_adapters::route as router;
 
-/// Logs at most once per second per key.
+/// Logs at most once per second per key (rejected commands here, refused requests in
+/// `crate::http`).
 #[derive(Debug, Default)]
-struct RateLimitedLog {
+pub(crate) struct RateLimitedLog {
     last: Mutex<HashMap<&'static str, (Instant, u64)>>,
 }
 
@@ -32,7 +33,7 @@ impl RateLimitedLog {
     /// Whether an event of `key` at `now` is logged: `Some(n)`, the number of events of `key`
     /// suppressed since the last one logged, when a second has passed since then (or none was
     /// logged yet); `None` otherwise.
-    fn admit(&self, key: &'static str, now: Instant) -> Option<u64> {
+    pub(crate) fn admit(&self, key: &'static str, now: Instant) -> Option<u64> {
         let mut g = self.last.lock().unwrap_or_else(|p| p.into_inner());
         let e = g.entry(key).or_insert((now - Duration::from_secs(2), 0));
         e.1 += 1;
