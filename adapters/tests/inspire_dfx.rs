@@ -451,15 +451,16 @@ fn right_targets(emu: &DfxEmulator) -> Option<Vec<f32>> {
 fn c_the_untouched_hand_is_held_at_one_target_and_taken_again_after_a_reconnect() {
     isolated_domain(230);
     let emu_node = Node::new(230, None).unwrap();
-    let service = |right_at: f32| {
+    let service = |right_at: f32, max_speed: f32| {
         let mut cfg = DfxConfig {
             topics: Some((HOLD_TOPICS.0.into(), HOLD_TOPICS.1.into())),
             ..DfxConfig::default()
         };
         cfg.initial[..6].copy_from_slice(&[right_at; 6]);
+        cfg.tuning.max_speed = max_speed;
         DfxEmulator::start(&emu_node, cfg).unwrap()
     };
-    let emu = service(DFX_REST_Q);
+    let emu = service(DFX_REST_Q, DfxConfig::default().tuning.max_speed);
     let node = Node::new(230, None).unwrap();
     let left = device_on(&node, Side::Left, "left", HOLD_TOPICS);
     let ls = left.state();
@@ -489,10 +490,12 @@ fn c_the_untouched_hand_is_held_at_one_target_and_taken_again_after_a_reconnect(
     wait_for("the left device's link down", || {
         (ls.borrow().freshness == Freshness::Stale).then_some(())
     });
-    let emu = service(0.6);
+    // Messages sent while the link was down (the old hold) may reach the new service before
+    // the device reads its first state: its fingers are slow (at most 1e-4 of the range per
+    // second), so the hand is still where it came back when the device measures it. From the
+    // reseed on, every message holds the right hand there.
+    let emu = service(0.6, 1e-4);
     wait_for("the left device's reseed", || (left.stats().reseeds == 1).then_some(()));
-    // Messages sent while the link was down (the old hold) may still reach the new service
-    // first; from the reseed on, every message holds the right hand where it is now.
     let right_sent = |emu: &DfxEmulator| -> Option<Vec<f32>> {
         let c = emu.snapshot().last_command?;
         Some(c.cmds[..6].iter().map(|m| m.q).collect())
