@@ -1,9 +1,9 @@
 //! The Inspire DFX kind (docs/sources.md §7 "Inspire DFX"): (a) its table against an
 //! independent oracle written out from the source, (b) the DDS-client codec (layout, the other
 //! hand held where it was measured when the hold began, silent until measured, lost/stale
-//! rules), (c) the
-//! emulated DFX_inspire_service over real CycloneDDS (domain 230: the two DDS tests use
-//! different topics, so they never see each other; the range's 233 and 234 are unusable,
+//! rules), (c) the emulated DFX_inspire_service over real CycloneDDS (domain 230: the three
+//! DDS tests use different topics, so they never see each other; the range's 233 and 234 are
+//! unusable,
 //! since RTPS's default port mapping 7400 + 250·domain leaves 0..65535 above domain 232).
 
 use std::sync::Arc;
