@@ -217,7 +217,9 @@ impl CommandState {
         }
     }
 
-    /// Requests a safe state (watchdog, shutdown).
+    /// Requests a safe state (watchdog, shutdown). Resolved once, against the measured state,
+    /// in [`Self::step`]; a request for the safe state already in force changes nothing (a
+    /// hold keeps the position it took when it began).
     pub fn request_safe(&self, action: SafeAction) {
         let mut g = self.lock();
         g.pending = None;
@@ -237,12 +239,30 @@ impl CommandState {
         g.active = Active::Safe(SafeAction::Hold, self.table.hold_measured(measured));
     }
 
+    /// The device was measured for the first time: a hold requested before (resolved against
+    /// no measurement, and kept silent by the device loop, `link::blind_hold`) takes its
+    /// position now, once.
+    pub fn first_measurement(&self, measured: &[JointState]) {
+        let mut g = self.lock();
+        if matches!(g.active, Active::Safe(SafeAction::Hold, _)) {
+            g.active = Active::Safe(SafeAction::Hold, self.table.hold_measured(measured));
+        }
+    }
+
     /// One device-loop step: folds in the pending command or safe request, resolved against
     /// `measured`, and returns the targets in force.
+    ///
+    /// A hold takes the measured position once, when it begins, and keeps it until a client
+    /// commands again: a request for the safe state already in force (a watchdog and a
+    /// client's `hold` both, a client streaming `hold`) keeps the targets in force. Re-taken
+    /// from the measurement, a hold would integrate whatever the measurement sags under a
+    /// load, every cycle (docs/adapters.md, "Holds").
     pub fn step(&self, measured: &[JointState]) -> Active {
         let mut g = self.lock();
         if let Some(a) = g.pending_safe.take() {
-            g.active = Active::Safe(a, self.table.safe_targets(a, measured));
+            if !matches!(g.active, Active::Safe(now, _) if now == a) {
+                g.active = Active::Safe(a, self.table.safe_targets(a, measured));
+            }
         }
         if let Some(cmd) = g.pending.take() {
             let prev = match &g.active {
@@ -288,9 +308,145 @@ impl CommandState {
     }
 }
 
+/// A hold of positions that no command of this device sets (the other hand of a shared
+/// message, a `limp` a kind can only send as a hold): the newest measurement, taken once when
+/// the hold begins ([`Self::hold`]) and kept until it ends ([`Self::release`]). Re-taking it
+/// every cycle would integrate whatever the measurement sags under a load (docs/adapters.md,
+/// "Holds").
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MeasuredHold<T: Copy> {
+    measured: Option<T>,
+    held: Option<T>,
+}
+
+impl<T: Copy> MeasuredHold<T> {
+    /// A new measurement (a hold in force keeps its position).
+    pub fn measure(&mut self, m: T) {
+        self.measured = Some(m);
+    }
+
+    /// The newest measurement, if any.
+    pub fn measured(&self) -> Option<T> {
+        self.measured
+    }
+
+    /// The position to hold: the one taken when the hold began, or, when it begins now, the
+    /// newest measurement. `None` while nothing was measured: nothing to hold.
+    pub fn hold(&mut self) -> Option<T> {
+        if self.held.is_none() {
+            self.held = self.measured;
+        }
+        self.held
+    }
+
+    /// The hold ends (the positions got targets of their own, the messages stopped, the link
+    /// came back): the next [`Self::hold`] takes the newest measurement.
+    pub fn release(&mut self) {
+        self.held = None;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_measured_hold_takes_the_measurement_once_until_released() {
+        let mut h = MeasuredHold::default();
+        assert_eq!(h.hold(), None, "nothing measured: nothing to hold");
+        h.measure(1.0);
+        assert_eq!(h.hold(), Some(1.0));
+        h.measure(0.9);
+        h.measure(0.8);
+        assert_eq!(h.hold(), Some(1.0), "kept while the measurement moves");
+        assert_eq!(h.measured(), Some(0.8));
+        h.release();
+        assert_eq!(h.hold(), Some(0.8), "a new hold: the newest measurement");
+    }
+
+    /// Every hold is resolved once, when it begins: a repeated hold request, a client
+    /// streaming `hold`, a hold after a reseed keep the position taken first, whatever the
+    /// measurement does meanwhile (a joint that sags under a load); a client command ends it,
+    /// and the next hold takes the measurement again.
+    #[test]
+    fn a_hold_takes_the_measured_position_once_and_keeps_it() {
+        let table = Arc::new(DeviceKind::Dex3.table(Side::Left, &Default::default()).unwrap());
+        let cmd = CommandState::new(table);
+        cmd.mark_measured();
+        let at = |q: f32| {
+            vec![
+                JointState {
+                    q,
+                    ..Default::default()
+                };
+                7
+            ]
+        };
+        let held = |a: Active| match a {
+            Active::Safe(SafeAction::Hold, t) => t[3].q,
+            a => panic!("{a:?}"),
+        };
+        cmd.submit(HandCommand::closure(1, 0.5)).unwrap();
+        assert!(matches!(cmd.step(&at(0.3)), Active::Command(_)));
+        cmd.request_safe(SafeAction::Hold);
+        assert_eq!(held(cmd.step(&at(0.30))), 0.30, "the hold begins: measured once");
+        for (i, q) in [0.31, 0.32, 0.33].into_iter().enumerate() {
+            cmd.request_safe(SafeAction::Hold);
+            assert_eq!(held(cmd.step(&at(q))), 0.30, "a repeated request");
+            cmd.submit(HandCommand {
+                seq: 2 + i as u64,
+                body: CommandBody::Safe(SafeAction::Hold),
+                tag: 0,
+            })
+            .unwrap();
+            assert_eq!(held(cmd.step(&at(q))), 0.30, "a client's hold");
+            assert_eq!(held(cmd.step(&at(q + 0.005))), 0.30, "a cycle");
+        }
+        cmd.reseed(&at(0.4));
+        assert_eq!(held(cmd.step(&at(0.4))), 0.4, "a reconnect: a new hold");
+        cmd.request_safe(SafeAction::Hold);
+        assert_eq!(held(cmd.step(&at(0.45))), 0.4, "the reseed's hold is kept");
+        cmd.request_safe(SafeAction::Limp);
+        assert!(matches!(cmd.step(&at(0.45)), Active::Safe(SafeAction::Limp, _)));
+        cmd.request_safe(SafeAction::Hold);
+        assert_eq!(held(cmd.step(&at(0.5))), 0.5, "limp, then a new hold");
+        cmd.submit(HandCommand::closure(9, 0.5)).unwrap();
+        assert!(matches!(cmd.step(&at(0.5)), Active::Command(_)));
+        cmd.request_safe(SafeAction::Hold);
+        assert_eq!(held(cmd.step(&at(0.6))), 0.6, "a command, then a new hold");
+    }
+
+    /// A hold requested before the first measurement (the loop keeps it silent) takes the
+    /// first measured position, once.
+    #[test]
+    fn a_hold_requested_blind_takes_the_first_measurement() {
+        let table = Arc::new(DeviceKind::Dex3.table(Side::Left, &Default::default()).unwrap());
+        let cmd = CommandState::new(table);
+        let at = |q: f32| {
+            vec![
+                JointState {
+                    q,
+                    ..Default::default()
+                };
+                7
+            ]
+        };
+        cmd.submit(HandCommand::closure(1, 0.5)).unwrap();
+        cmd.step(&[]);
+        cmd.request_safe(SafeAction::Hold);
+        cmd.step(&[]);
+        cmd.first_measurement(&at(0.7));
+        match cmd.step(&at(0.75)) {
+            Active::Safe(SafeAction::Hold, t) => assert!((t[3].q - 0.7).abs() < 1e-6, "{t:?}"),
+            a => panic!("{a:?}"),
+        }
+        // A command in force is not a hold: the first measurement leaves it.
+        let cmd = CommandState::new(cmd.table().clone());
+        cmd.submit(HandCommand::closure(1, 0.5)).unwrap();
+        let before = cmd.step(&[]);
+        cmd.first_measurement(&at(0.7));
+        assert_eq!(cmd.step(&at(0.7)), before);
+    }
 
     #[test]
     fn loop_periods_land_in_the_first_bucket_that_holds_them() {

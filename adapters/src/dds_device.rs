@@ -43,6 +43,11 @@ pub trait DdsCodec: Send + 'static {
     fn commanded_state(&self, _table: &DeviceTable) -> Option<HandState> {
         None
     }
+
+    /// The peer's state came back after it went stale (the command state was reseeded to a
+    /// hold at the new measurement): a hold the codec keeps of its own
+    /// ([`crate::control::MeasuredHold`]) begins again there too.
+    fn reconnected(&mut self) {}
 }
 
 /// Topics and timing of a DDS-client device.
@@ -285,6 +290,7 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
                 self.current = st;
                 measured = true;
                 if self.link.observe(true, &self.current.joints, loop_cmd) {
+                    self.codec.reconnected();
                     // The peer came back: never replay what was in force before.
                     tracing::info!("peer back: holding the measured position until the next command");
                 }

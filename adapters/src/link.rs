@@ -20,12 +20,17 @@ pub struct LinkTracker {
 impl LinkTracker {
     /// A fresh measurement (`up`) or its absence. When the link comes back after being down,
     /// whatever target was in force is replaced by a hold at `measured` (counted as a
-    /// reconnect) and `true` is returned: the client must command again to move.
+    /// reconnect) and `true` is returned: the client must command again to move. The first
+    /// measurement gives a hold requested before it its position
+    /// ([`CommandState::first_measurement`]).
     pub fn observe(&mut self, up: bool, measured: &[JointState], cmd: &CommandState) -> bool {
         let back = up && !self.up && self.ever_up;
         if back {
             Counters::inc(&cmd.counters.reconnects);
             cmd.reseed(measured);
+        }
+        if up && !self.ever_up {
+            cmd.first_measurement(measured);
         }
         if up {
             cmd.mark_measured();

@@ -1,7 +1,18 @@
 //! A simple physical joint model shared by every emulator: one rigid joint driven by the
 //! motor law real Unitree motors run (`tau = kp*(q_des-q) + kd*(dq_des-dq) + tau_ff`), with
-//! torque saturation, viscous friction, hard position stops and an optional object that the
-//! joint closes on (contact stiffness), so grasp, pressure and current can be emulated.
+//! torque saturation, viscous friction, hard position stops, an optional object that the
+//! joint closes on (contact stiffness), so grasp, pressure and current can be emulated, and an
+//! optional constant load ([`JointModel::load`]).
+//!
+//! **Sag under a constant load.** A position servo of finite stiffness `kp` holding a joint
+//! against a constant load (gravity on a finger, a spring, the weight of what it holds)
+//! settles `load / kp` short of its target, and stays there: a fixed target under a fixed load
+//! is a fixed position. A controller that re-took its target from that measurement every cycle
+//! would move the target by the sag every cycle, and the joint would creep without end at
+//! (sag reached per cycle) × (cycle rate) (docs/adapters.md, "Holds"). [`JointModel::load`]
+//! gives the PD joints this load; the emulators whose fingers follow a first-order position
+//! loop instead of a torque law (Inspire DFX, Inspire FTP, BrainCo) take the servo's
+//! steady-state error directly, as a [`Sag`].
 //!
 //! Also the measurement side every emulator shares: [`Noise`] (per-kind standard deviations
 //! of position, velocity and torque noise plus a seed) and [`Sensor`], which reads a
@@ -76,6 +87,9 @@ pub struct JointModel {
     /// Contact torque from the object in the last step (>= 0).
     pub contact_tau: f32,
     pub contact: Option<Contact>,
+    /// A constant external torque on the joint, N*m, positive toward +q (0: none). Under a
+    /// PD target it is the steady-state error `load / kp` (module docs, "Sag").
+    pub load: f32,
 }
 
 impl JointModel {
@@ -87,6 +101,7 @@ impl JointModel {
             tau: 0.0,
             contact_tau: 0.0,
             contact: None,
+            load: 0.0,
         }
     }
 
@@ -104,12 +119,12 @@ impl JointModel {
         let motor = (t.kp * (t.q - self.q) + t.kd * (t.dq - self.dq) + t.tau).clamp(-p.tau_max, p.tau_max);
         self.tau = motor;
         self.contact_tau = 0.0;
-        let mut external = 0.0;
+        let mut external = if self.load.is_finite() { self.load } else { 0.0 };
         if let Some(c) = self.contact {
             let pen = (self.q - c.at) * c.dir;
             if pen > 0.0 {
                 self.contact_tau = c.stiffness * pen;
-                external = -c.dir * self.contact_tau;
+                external -= c.dir * self.contact_tau;
             }
         }
         // Semi-implicit Euler in sub-steps small enough for stiff gains to stay stable.
@@ -131,6 +146,37 @@ impl JointModel {
                 self.q = p.q_max;
                 self.dq = self.dq.min(0.0);
             }
+        }
+    }
+}
+
+/// The steady-state error of a first-order position servo under a constant load, in the
+/// device's own position units, signed (module docs, "Sag"): the servo settles at
+/// `target + sag` instead of `target`. For a servo of stiffness `kp` under a load `tau`,
+/// [`Sag::of`] gives `tau / kp`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Sag(pub f32);
+
+impl Sag {
+    /// No load.
+    pub const NONE: Sag = Sag(0.0);
+
+    /// The sag of a servo of stiffness `kp` (torque per position unit) under a constant load
+    /// `tau` (positive toward +q); none without stiffness.
+    pub fn of(tau: f32, kp: f32) -> Self {
+        if kp > 0.0 && (tau / kp).is_finite() {
+            Sag(tau / kp)
+        } else {
+            Sag::NONE
+        }
+    }
+
+    /// Where the servo settles when it holds `target` (a non-finite sag is none).
+    pub fn goal(self, target: f32) -> f32 {
+        if self.0.is_finite() {
+            target + self.0
+        } else {
+            target
         }
     }
 }
@@ -331,6 +377,33 @@ mod tests {
         }
         assert!(j.q > 0.5 && j.q < 0.6, "q = {}", j.q);
         assert!(j.contact_tau > 0.5);
+    }
+
+    /// A constant load moves a held joint once, by `load / kp`, and never again: a fixed target
+    /// under a fixed load is a fixed position.
+    #[test]
+    fn a_constant_load_sags_a_held_joint_by_load_over_kp_and_no_further() {
+        let mut j = JointModel::new(JointParams::dex3_finger(-1.6, 1.6), 0.5);
+        j.load = -0.05;
+        let t = MotorTarget {
+            q: 0.5,
+            kp: 2.0,
+            kd: 0.1,
+            ..Default::default()
+        };
+        for _ in 0..3000 {
+            j.step(&t, 0.001);
+        }
+        let settled = j.q;
+        assert!((settled - (0.5 - 0.025)).abs() < 1e-4, "q = {settled}");
+        for _ in 0..60_000 {
+            j.step(&t, 0.001);
+        }
+        assert!((j.q - settled).abs() < 1e-6, "{} then {}", settled, j.q);
+        assert_eq!(Sag::of(-0.05, 2.0), Sag(-0.025));
+        assert_eq!(Sag::of(1.0, 0.0), Sag::NONE);
+        assert_eq!(Sag(-0.025).goal(0.5), 0.475);
+        assert_eq!(Sag(f32::NAN).goal(0.5), 0.5);
     }
 
     #[test]

@@ -126,7 +126,7 @@ fn codec_sends_six_positions_and_the_speed_and_reads_state_back() {
 }
 
 #[test]
-fn limp_is_the_last_measured_position_and_never_blind() {
+fn limp_is_the_position_measured_when_it_began_and_never_blind() {
     let t = table(Side::Left);
     let mut c = BraincoCodec::default();
     let limp = Active::Safe(SafeAction::Limp, vec![JointCommand::default(); 6]);
@@ -139,6 +139,10 @@ fn limp_is_the_last_measured_position_and_never_blind() {
         vec![0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
         "stop where the fingers are, never open"
     );
+    // Held where the limp began, whatever is measured afterwards (docs/adapters.md, "Holds").
+    c.decode(&states([0.19, 0.29, 0.39, 0.49, 0.59, 0.69]), &t).unwrap();
+    let m = c.encode(&limp, &t, 0.01).unwrap();
+    assert_eq!(m.cmds.iter().map(|e| e.q).collect::<Vec<_>>(), q, "kept while it sags");
     // The open safe state opens the hand (q 0 everywhere).
     let open = Active::Safe(SafeAction::Open, t.safe_targets(SafeAction::Open, &[]));
     assert!(c.encode(&open, &t, 0.01).unwrap().cmds.iter().all(|e| e.q == 0.0));

@@ -1,8 +1,9 @@
 //! The Inspire DFX kind (docs/sources.md §7 "Inspire DFX"): (a) its table against an
 //! independent oracle written out from the source, (b) the DDS-client codec (layout, the other
-//! hand held at its last measurement, silent until measured, lost/stale rules), (c) the
-//! emulated DFX_inspire_service over real CycloneDDS (domain 230: the two DDS tests use
-//! different topics, so they never see each other; the range's 233 and 234 are unusable,
+//! hand held where it was measured when the hold began, silent until measured, lost/stale
+//! rules), (c) the emulated DFX_inspire_service over real CycloneDDS (domain 230: the three
+//! DDS tests use different topics, so they never see each other; the range's 233 and 234 are
+//! unusable,
 //! since RTPS's default port mapping 7400 + 250·domain leaves 0..65535 above domain 232).
 
 use std::sync::Arc;
@@ -180,6 +181,44 @@ fn b_silent_until_the_other_hand_is_measured_then_holds_it_at_its_measurement() 
     assert!((c.encode(&open, &r, 0.01).unwrap().cmds[0].q - 1.0).abs() < 1e-6);
 }
 
+/// The other hand (no device of ours drives it) is held where it was measured when the hold
+/// began, whatever it measures afterwards: re-taken every cycle, a measurement that sags
+/// under a load would walk it away (docs/adapters.md, "Holds"). A new hold begins after our
+/// messages stopped (idle, limp) and after a reconnect; the other device's own targets end it.
+#[test]
+fn b_the_other_hand_is_held_where_it_was_measured_when_the_hold_began() {
+    let r = table(Side::Right);
+    let shared = handgate_adapters::inspire_dfx::adapter::SharedTargets::default();
+    let mut c = DfxCodec::with_shared(Side::Right, shared.clone()).unwrap();
+    let left = |c: &mut DfxCodec| -> Vec<f32> {
+        let msg = c.encode(&targets(&r, 0.5), &r, 0.01).unwrap();
+        msg.cmds[6..].iter().map(|m| m.q).collect()
+    };
+    c.decode(&state12([0.5; 12]), &r).unwrap();
+    assert_eq!(left(&mut c), vec![0.5; 6], "the hold begins");
+    c.decode(&state12([0.499; 12]), &r).unwrap();
+    c.decode(&state12([0.498; 12]), &r).unwrap();
+    assert_eq!(left(&mut c), vec![0.5; 6], "kept while the measurement sags");
+    assert_eq!(c.other_q(), Some([0.498; 6]));
+    // Silent (limp: the service cannot express it), then sending again: a new hold.
+    let limp = Active::Safe(SafeAction::Limp, vec![JointCommand::default(); 6]);
+    assert!(c.encode(&limp, &r, 0.01).is_none());
+    assert_eq!(left(&mut c), vec![0.498; 6], "a new hold after a silence");
+    c.decode(&state12([0.45; 12]), &r).unwrap();
+    assert_eq!(left(&mut c), vec![0.498; 6]);
+    c.reconnected();
+    assert_eq!(left(&mut c), vec![0.45; 6], "a new hold after a reconnect");
+    // The left hand's own device sends targets: they replace the hold.
+    let l = table(Side::Left);
+    let mut cl = DfxCodec::with_shared(Side::Left, shared).unwrap();
+    cl.decode(&state12([0.45; 12]), &l).unwrap();
+    cl.encode(&targets(&l, 0.0), &l, 0.01).unwrap();
+    assert!(
+        left(&mut c).iter().all(|q| (q - 1.0).abs() < 1e-6),
+        "the left's own targets"
+    );
+}
+
 #[test]
 fn b_the_left_hand_writes_entries_6_to_11() {
     let l = table(Side::Left);
@@ -321,6 +360,10 @@ fn c_service_starts_at_rest_follows_a_client_stops_at_hard_stops_and_goes_quiet_
 const PAIR_TOPICS: (&str, &str) = ("rt/test_dfx_pair/cmd", "rt/test_dfx_pair/state");
 
 fn device(node: &Node, side: Side, name: &str) -> DdsDevice {
+    device_on(node, side, name, PAIR_TOPICS)
+}
+
+fn device_on(node: &Node, side: Side, name: &str, topics: (&str, &str)) -> DdsDevice {
     let info = DeviceInfo {
         name: name.into(),
         kind: DeviceKind::InspireDfx,
@@ -329,8 +372,8 @@ fn device(node: &Node, side: Side, name: &str) -> DdsDevice {
         table: Arc::new(table(side)),
     };
     let cfg = DdsDeviceConfig {
-        cmd_topic: PAIR_TOPICS.0.into(),
-        state_topic: Some(PAIR_TOPICS.1.into()),
+        cmd_topic: topics.0.into(),
+        state_topic: Some(topics.1.into()),
         rate_hz: 100.0,
         stale_after: Duration::from_millis(200),
         forward: handgate_adapters::dds_device::Forwarding::default_for(100.0),
@@ -390,4 +433,83 @@ fn c_a_left_and_a_right_device_share_the_service_without_disturbing_each_other()
         let s = rs.borrow().clone();
         (s.freshness == Freshness::Stale && s.faults & faults::LINK_DOWN != 0).then_some(())
     });
+}
+
+/// The third DDS test's private topics (domain 230 too).
+const HOLD_TOPICS: (&str, &str) = ("rt/test_dfx_hold/cmd", "rt/test_dfx_hold/state");
+
+/// The right hand's six targets as the emulated service last wrote them (all or none).
+fn right_targets(emu: &DfxEmulator) -> Option<Vec<f32>> {
+    emu.snapshot().fingers[..6].iter().map(|f| f.target).collect()
+}
+
+/// Through `DdsDevice`'s loop: the hand no device drives is held at ONE target while the other
+/// hand moves (a measurement flickering by a register count never moves it), and after the
+/// service came back it is held where it is measured then (a new hold: never the old target
+/// replayed onto a hand that may have moved meanwhile).
+#[test]
+fn c_the_untouched_hand_is_held_at_one_target_and_taken_again_after_a_reconnect() {
+    isolated_domain(230);
+    let emu_node = Node::new(230, None).unwrap();
+    let service = |right_at: f32, max_speed: f32| {
+        let mut cfg = DfxConfig {
+            topics: Some((HOLD_TOPICS.0.into(), HOLD_TOPICS.1.into())),
+            ..DfxConfig::default()
+        };
+        cfg.initial[..6].copy_from_slice(&[right_at; 6]);
+        cfg.tuning.max_speed = max_speed;
+        DfxEmulator::start(&emu_node, cfg).unwrap()
+    };
+    let emu = service(DFX_REST_Q, DfxConfig::default().tuning.max_speed);
+    let node = Node::new(230, None).unwrap();
+    let left = device_on(&node, Side::Left, "left", HOLD_TOPICS);
+    let ls = left.state();
+    let fresh = || (ls.borrow().freshness == Freshness::Fresh).then_some(());
+    wait_for("a fresh left state", fresh);
+    let held = (1..=4u64)
+        .map(|seq| {
+            // The left hand moves; the right hand's target never changes.
+            let c = [0.5, 0.2, 0.7, 0.4][seq as usize - 1];
+            left.command(HandCommand::closure(seq, c)).unwrap();
+            let wire = 1.0 - c;
+            wait_for("the left hand at its closure", || {
+                let f = emu.snapshot().fingers;
+                f[6..10].iter().all(|f| (f.q - wire).abs() < 3e-3).then_some(())
+            });
+            right_targets(&emu).expect("the right hand is held")
+        })
+        .collect::<Vec<_>>();
+    assert!(held.iter().all(|t| *t == held[0]), "one hold: {held:?}");
+    assert!(
+        held[0].iter().all(|q| (q - DFX_REST_Q).abs() < 4e-3),
+        "held where it rested: {:?}",
+        held[0]
+    );
+    // The service goes away, then comes back with the right hand moved meanwhile.
+    drop(emu);
+    wait_for("the left device's link down", || {
+        (ls.borrow().freshness == Freshness::Stale).then_some(())
+    });
+    // Messages sent while the link was down (the old hold) may reach the new service before
+    // the device reads its first state: its fingers are slow (at most 1e-4 of the range per
+    // second), so the hand is still where it came back when the device measures it. From the
+    // reseed on, every message holds the right hand there.
+    let emu = service(0.6, 1e-4);
+    wait_for("the left device's reseed", || (left.stats().reseeds == 1).then_some(()));
+    let right_sent = |emu: &DfxEmulator| -> Option<Vec<f32>> {
+        let c = emu.snapshot().last_command?;
+        Some(c.cmds[..6].iter().map(|m| m.q).collect())
+    };
+    let again = wait_for("the right hand held where it is now", || {
+        right_sent(&emu).filter(|q| q.iter().all(|q| (q - 0.6).abs() < 4e-3))
+    });
+    let n = emu.snapshot().commands;
+    wait_for("20 more commands", || (emu.snapshot().commands >= n + 20).then_some(()));
+    assert_eq!(
+        right_sent(&emu),
+        Some(again.clone()),
+        "one hold again, not {:?}",
+        held[0]
+    );
+    assert_eq!(left.stats().reseeds, 1);
 }

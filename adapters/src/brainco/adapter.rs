@@ -5,9 +5,10 @@
 //! Command: every entry carries the joint's normalised position `q` in [0, 1] (1 = closed,
 //! from the table) and the profile's speed in `dq` (0..1, default 1.0 as xr_teleoperate
 //! sends); `tau`, `kp`, `kd` and `mode` are 0 (the service ignores them). The service holds its
-//! last command forever (no timeout), so a safe "limp" cannot be expressed: it is sent as the
-//! last measured position (the fingers stop where they are), and nothing is sent before a
-//! position was measured. State: `q` = position, `dq` = speed, `tau_est` = motor current (A,
+//! last command forever (no timeout), so a safe "limp" cannot be expressed: it is sent as a
+//! hold of the position measured when the limp began (the fingers stop where they are), kept
+//! until it ends (never re-taken from each new measurement: docs/adapters.md, "Holds"), and
+//! nothing is sent before a position was measured. State: `q` = position, `dq` = speed, `tau_est` = motor current (A,
 //! an inference of §7; reported as the joint's `tau` unchanged). A sample that is not 6
 //! entries or has a non-finite `q` is not this hand's state and is dropped; stale/lost
 //! handling is `DdsDevice`'s (no sample for `stale_after` → stale, link down).
@@ -15,7 +16,7 @@
 use handgate_idl::unitree_go;
 
 use super::WIRE_LEN;
-use crate::control::Active;
+use crate::control::{Active, MeasuredHold};
 use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
 use crate::model::{HandState, SafeAction};
@@ -25,8 +26,8 @@ use crate::model::{HandState, SafeAction};
 pub struct BraincoCodec {
     /// `dq` of every entry: the fingers' speed, (0, 1].
     pub speed: f32,
-    /// The last measured wire positions (for the "limp" safe state).
-    measured: Option<[f32; WIRE_LEN]>,
+    /// The measured wire positions, and the hold of them the "limp" safe state sends.
+    limp: MeasuredHold<[f32; WIRE_LEN]>,
 }
 
 impl BraincoCodec {
@@ -34,7 +35,7 @@ impl BraincoCodec {
     pub fn new(speed: f32) -> Self {
         Self {
             speed: if speed.is_finite() { speed.clamp(0.0, 1.0) } else { 1.0 },
-            measured: None,
+            limp: MeasuredHold::default(),
         }
     }
 
@@ -77,10 +78,13 @@ impl DdsCodec for BraincoCodec {
     type State = unitree_go::MotorStates_;
 
     fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
+        if !matches!(active, Active::Safe(SafeAction::Limp, _)) {
+            self.limp.release();
+        }
         match active {
             Active::Idle => None,
             Active::Safe(SafeAction::Limp, _) => {
-                let m = self.measured?;
+                let m = self.limp.hold()?;
                 Some(self.message(m.into_iter()))
             }
             Active::Command(t) | Active::Safe(_, t) => {
@@ -99,7 +103,7 @@ impl DdsCodec for BraincoCodec {
         for (m, s) in m.iter_mut().zip(&s.states) {
             *m = s.q;
         }
-        self.measured = Some(m);
+        self.limp.measure(m);
         Some(st)
     }
 }

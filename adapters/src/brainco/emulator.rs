@@ -20,6 +20,9 @@
 //! room for that is not known here), the finger motion (first order toward the target, at most `full_speed` of the stroke per
 //! second times the commanded speed), the currents, the rest posture, the handling of a
 //! malformed command (ignored and counted), and the measurement noise.
+//!
+//! Option (tests): a constant load per finger ([`BraincoConfig::sag`], default none): its
+//! position loop then settles that far from its target (`crate::sim`, "Sag").
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -28,7 +31,7 @@ use handgate_idl::unitree_go::{MotorCmds_, MotorState_, MotorStates_};
 use super::WIRE_LEN;
 use crate::dds::{Node, Qos};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
-use crate::sim::{Noise, Sensor};
+use crate::sim::{Noise, Sag, Sensor};
 
 /// The service's loop and state rate, Hz: `main.cpp` targets a 2 ms period (docs/sources.md
 /// §7). That the hand's Modbus exchange leaves room for it is an assumption.
@@ -93,6 +96,9 @@ pub struct BraincoConfig {
     pub noise: Noise,
     /// Per entry, the wire position at which the finger meets an object while closing.
     pub object: [Option<f32>; WIRE_LEN],
+    /// Per entry, a constant load on the finger as its position loop's steady-state error
+    /// (wire, signed; default none).
+    pub sag: [Sag; WIRE_LEN],
     pub tuning: BraincoTuning,
     /// (command, state) topics; `None` = the side's standard ones ([`super::topics`]).
     pub topics: Option<(String, String)>,
@@ -106,6 +112,7 @@ impl BraincoConfig {
             initial: BRAINCO_REST_Q,
             noise: BRAINCO_NOISE,
             object: [None; WIRE_LEN],
+            sag: [Sag::NONE; WIRE_LEN],
             tuning: BraincoTuning::default(),
             topics: None,
         }
@@ -147,6 +154,7 @@ pub struct BraincoCore {
     tuning: BraincoTuning,
     fingers: [FingerView; WIRE_LEN],
     object: [Option<f32>; WIRE_LEN],
+    sag: [Sag; WIRE_LEN],
     sensor: Sensor,
     last_command: Option<MotorCmds_>,
     commands: u64,
@@ -162,6 +170,7 @@ impl BraincoCore {
         let t = &config.tuning;
         ensure_finite("initial", &config.initial)?;
         ensure_finite("object", &config.object.iter().flatten().copied().collect::<Vec<_>>())?;
+        ensure_finite("sag", &config.sag.map(|s| s.0))?;
         ensure_finite(
             "tuning",
             &[
@@ -195,6 +204,7 @@ impl BraincoCore {
             tuning: t.clone(),
             fingers,
             object: config.object,
+            sag: config.sag,
             sensor: Sensor::new(config.noise),
             last_command: None,
             commands: 0,
@@ -230,15 +240,17 @@ impl BraincoCore {
     pub fn step(&mut self, dt: f32) {
         let t = &self.tuning;
         let (lo, hi) = HARD_STOPS;
-        for (f, obj) in self.fingers.iter_mut().zip(self.object) {
+        for ((f, obj), sag) in self.fingers.iter_mut().zip(self.object).zip(self.sag) {
             let vmax = t.full_speed * f.target_speed;
-            let v = ((f.target_q - f.q) / t.time_constant_s).clamp(-vmax, vmax);
+            // Under a load the position loop settles short of its target.
+            let goal = sag.goal(f.target_q).clamp(lo, hi);
+            let v = ((goal - f.q) / t.time_constant_s).clamp(-vmax, vmax);
             let before = f.q;
             let mut q = f.q + v * dt;
             // The hand's position loop resolves one register count: within half a count of
             // the target it is there (a first-order approach alone never arrives).
-            if (f.target_q - q).abs() < REGISTER_STEP * 0.5 && v.abs() > 0.0 {
-                q = f.target_q;
+            if (goal - q).abs() < REGISTER_STEP * 0.5 && v.abs() > 0.0 {
+                q = goal;
             }
             let mut q = q.clamp(lo, hi);
             f.contact = false;

@@ -10,7 +10,7 @@
 
 use handgate_idl::{unitree_go, unitree_hg};
 
-use crate::control::Active;
+use crate::control::{Active, MeasuredHold};
 use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, JointCommand, Side};
@@ -107,9 +107,10 @@ pub type SharedElements = std::sync::Arc<std::sync::Mutex<[Option<unitree_go::Mo
 pub struct Dex1GoCodec {
     pub variant: Variant,
     pub side: Side,
-    /// Actuator variant: the other gripper's last measured wire q, so our messages hold it
-    /// where it is when no handgate device drives it.
-    other_q: Option<f32>,
+    /// Actuator variant: the other gripper's measured wire q, and the hold of it our messages
+    /// carry while no handgate device drives it: where it was when the hold began, kept (never
+    /// re-taken from each new measurement: docs/adapters.md, "Holds").
+    other: MeasuredHold<f32>,
     /// Actuator variant: the targets of the devices sharing the command topic.
     shared: SharedElements,
 }
@@ -125,7 +126,7 @@ impl Dex1GoCodec {
         Self {
             variant,
             side,
-            other_q: None,
+            other: MeasuredHold::default(),
             shared,
         }
     }
@@ -165,18 +166,26 @@ impl DdsCodec for Dex1GoCodec {
     type State = unitree_go::MotorStates_;
 
     fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
-        let w = table.to_wire(targets(active)?);
+        let Some(t) = targets(active) else {
+            // Our messages stop holding the other gripper: the next one begins a new hold.
+            self.other.release();
+            return None;
+        };
+        let w = table.to_wire(t);
         match self.variant {
             Variant::Actuator => {
                 let own = go_cmd(&w[0]);
                 let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
                 shared[self.index()] = Some(own);
                 // The other gripper: its own device's latest command, else held where it was
-                // last measured; without either we cannot hold it: stay silent.
+                // measured when this hold began; without either we cannot hold it: stay silent.
                 let other = match &shared[1 - self.index()] {
-                    Some(c) => *c,
+                    Some(c) => {
+                        self.other.release();
+                        *c
+                    }
                     None => unitree_go::MotorCmd_ {
-                        q: self.other_q?,
+                        q: self.other.hold()?,
                         kp: table.hold_kp,
                         kd: table.hold_kd,
                         ..Default::default()
@@ -193,13 +202,17 @@ impl DdsCodec for Dex1GoCodec {
         }
     }
 
+    fn reconnected(&mut self) {
+        self.other.release();
+    }
+
     fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
         let need = if self.variant == Variant::Actuator { 2 } else { 1 };
         if s.states.len() < need {
             return None;
         }
         if self.variant == Variant::Actuator {
-            self.other_q = Some(s.states[1 - self.index()].q);
+            self.other.measure(s.states[1 - self.index()].q);
         }
         Some(decode_go_state(&s.states[self.index()], table))
     }
@@ -273,6 +286,31 @@ mod tests {
         assert_eq!(msg.cmds.len(), 2);
         assert!((msg.cmds[0].q - 2.7).abs() < 1e-5);
         assert_eq!(msg.cmds[1].q, 4.0);
+    }
+
+    /// The other gripper is held where it was measured when the hold began, not re-taken from
+    /// every new measurement (docs/adapters.md, "Holds"); a silence or a reconnect begins a
+    /// new hold.
+    #[test]
+    fn actuator_variant_holds_the_other_gripper_where_the_hold_began() {
+        let t = crate::dex1::table::table(Side::Right, 5.4);
+        let mut c = Dex1GoCodec::new(Variant::Actuator, Side::Right);
+        let tg = Active::Command(t.closure_targets(0.5, None).unwrap());
+        let mut st = unitree_go::MotorStates_::with_len(2);
+        let mut left_at = |c: &mut Dex1GoCodec, q: f32| {
+            st.states[1].q = q;
+            c.decode(&st, &t).unwrap();
+        };
+        left_at(&mut c, 4.0);
+        assert_eq!(c.encode(&tg, &t, 0.002).unwrap().cmds[1].q, 4.0);
+        left_at(&mut c, 3.99);
+        left_at(&mut c, 3.98);
+        assert_eq!(c.encode(&tg, &t, 0.002).unwrap().cmds[1].q, 4.0, "kept while it sags");
+        assert!(c.encode(&Active::Idle, &t, 0.002).is_none());
+        assert_eq!(c.encode(&tg, &t, 0.002).unwrap().cmds[1].q, 3.98, "a new hold");
+        left_at(&mut c, 3.5);
+        c.reconnected();
+        assert_eq!(c.encode(&tg, &t, 0.002).unwrap().cmds[1].q, 3.5, "after a reconnect");
     }
 
     /// Two actuator devices (right and left) sharing the topic: every message carries both

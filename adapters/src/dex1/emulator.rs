@@ -104,6 +104,9 @@ pub struct Dex1Config {
     pub noise: Noise,
     /// Position (rad) at which the jaws meet a graspable object while closing; `None`: none.
     pub object: Option<f32>,
+    /// A constant load on every jaw, N*m toward +q (opening; default 0): the jaw settles
+    /// `load / kp` from its target (`crate::sim`, "Sag").
+    pub load: f32,
     pub tuning: Dex1Tuning,
     /// (command, state) topics; `None` = the variant's standard topics. The gateway's
     /// emulator backend puts the service on private topics.
@@ -120,6 +123,7 @@ impl Dex1Config {
             initial_q: DEX1_REST_Q,
             noise: crate::dex3::physical::HG_MOTOR_NOISE,
             object: None,
+            load: 0.0,
             tuning: Dex1Tuning::default(),
             topics: None,
         }
@@ -191,7 +195,7 @@ impl Dex1Core {
             return Err(EmulatorError::InvalidConfig(format!("bad range {:?}", config.range)));
         }
         let t = &config.tuning;
-        ensure_finite("initial_q", &[config.initial_q])?;
+        ensure_finite("initial_q", &[config.initial_q, config.load])?;
         config.noise.validate().map_err(EmulatorError::InvalidConfig)?;
         ensure_finite("object", &config.object.into_iter().collect::<Vec<_>>())?;
         ensure_finite(
@@ -220,7 +224,8 @@ impl Dex1Core {
             .layout(config.side)
             .into_iter()
             .map(|side| {
-                let joint = JointModel::new(params, config.initial_q);
+                let mut joint = JointModel::new(params, config.initial_q);
+                joint.load = config.load;
                 Gripper {
                     side,
                     target: MotorTarget {

@@ -7,9 +7,11 @@
 //! (a left and a right device on one service: they share [`SharedTargets`]), every message
 //! carries that hand's own latest target, so both devices send the same picture of both
 //! hands and neither can starve the other (the service applies the latest message per loop);
-//! when it is not, the other hand's **last measured** `q` (what the service just reported),
-//! and nothing at all until that hand has been measured once (the pattern of the Dex1
-//! `actuator` variant).
+//! when it is not, a hold of the other hand where it was **measured when the hold began**
+//! (the first message that carries it, after a silence or a reconnect), kept until that
+//! hand's own device sends targets: never re-taken from each new measurement, which would
+//! integrate the hand's sag under a load (docs/adapters.md, "Holds"). Nothing at all is sent
+//! until that hand has been measured once (the pattern of the Dex1 `actuator` variant).
 //!
 //! State: `q` per entry (the hand's ANGLE_ACT / 1000); `lost` counts failed serial reads per
 //! entry: a hand whose `lost` grew since the previous sample was not read this cycle
@@ -18,7 +20,7 @@
 use handgate_idl::unitree_go;
 
 use super::{ENTRIES, HAND_ENTRIES};
-use crate::control::Active;
+use crate::control::{Active, MeasuredHold};
 use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, SafeAction, Side};
@@ -32,9 +34,9 @@ pub type SharedTargets = std::sync::Arc<std::sync::Mutex<[Option<f32>; ENTRIES]>
 pub struct DfxCodec {
     /// This hand's element: 0 right, 1 left.
     element: usize,
-    /// The other hand's last measured wire q (entries in its order), so our messages hold
-    /// it where it is instead of commanding it anywhere.
-    other_q: Option<[f32; HAND_ENTRIES]>,
+    /// The other hand's measured wire q (entries in its order), and the hold of it our
+    /// messages carry while no device of ours drives it: where it was when the hold began.
+    other: MeasuredHold<[f32; HAND_ENTRIES]>,
     /// This hand's `lost` counters in the previous sample.
     last_lost: Option<[u32; HAND_ENTRIES]>,
     /// Targets of the devices sharing this command topic.
@@ -52,7 +54,7 @@ impl DfxCodec {
     pub fn with_shared(side: Side, shared: SharedTargets) -> Option<Self> {
         Some(Self {
             element: super::element(side)?,
-            other_q: None,
+            other: MeasuredHold::default(),
             last_lost: None,
             shared,
         })
@@ -69,7 +71,7 @@ impl DfxCodec {
 
     /// The other hand's last measured wire q, if it was measured.
     pub fn other_q(&self) -> Option<[f32; HAND_ENTRIES]> {
-        self.other_q
+        self.other.measured()
     }
 }
 
@@ -88,10 +90,13 @@ impl DdsCodec for DfxCodec {
 
     fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
         let targets = match active {
-            Active::Idle => return None,
             // The service has no limp: it only writes angles. Stay silent; after its 1 s
             // timeout it stops writing and the hand holds its last target (docs/sources.md §7).
-            Active::Safe(SafeAction::Limp, _) => return None,
+            // Our messages stop holding the other hand: the next one begins a new hold.
+            Active::Idle | Active::Safe(SafeAction::Limp, _) => {
+                self.other.release();
+                return None;
+            }
             Active::Command(t) | Active::Safe(_, t) => t,
         };
         let w = table.to_wire(targets);
@@ -99,11 +104,14 @@ impl DdsCodec for DfxCodec {
         for (i, e) in self.own_range().enumerate() {
             shared[e] = w.get(i).map(|w| w.q).filter(|q| q.is_finite());
         }
-        // The other hand: its own device's latest targets, else where it was last measured;
-        // without either we cannot hold it: stay silent.
+        // The other hand: its own device's latest targets, else held where it was measured
+        // when this hold began; without either we cannot hold it: stay silent.
         let other: [f32; HAND_ENTRIES] = match self.other_range().map(|e| shared[e]).collect::<Option<Vec<f32>>>() {
-            Some(t) => t.try_into().ok()?,
-            None => self.other_q?,
+            Some(t) => {
+                self.other.release();
+                t.try_into().ok()?
+            }
+            None => self.other.hold()?,
         };
         drop(shared);
         let mut msg = unitree_go::MotorCmds_::with_len(ENTRIES);
@@ -117,6 +125,10 @@ impl DdsCodec for DfxCodec {
         msg.cmds.iter().all(|c| c.q.is_finite()).then_some(msg)
     }
 
+    fn reconnected(&mut self) {
+        self.other.release();
+    }
+
     fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
         if s.states.len() != ENTRIES {
             return None;
@@ -125,7 +137,7 @@ impl DdsCodec for DfxCodec {
         if other.iter().all(|q| q.is_finite()) {
             let mut o = [0.0; HAND_ENTRIES];
             o.copy_from_slice(&other);
-            self.other_q = Some(o);
+            self.other.measure(o);
         }
         let own = &s.states[self.own_range()];
         let q: Vec<f32> = own.iter().map(|m| m.q).collect();

@@ -22,6 +22,11 @@
 //! register (1/1000) and its span; `lost` stays 0 (the emulated serial link never fails); the
 //! loop runs at the nominal 100 Hz also while commands stream (the real one is slower then:
 //! four 5 ms serial transactions per cycle, docs/sources.md §7 inference).
+//!
+//! Option (tests): a constant load per entry ([`DfxConfig::sag`], default none): the finger's
+//! position loop then settles that far from its ANGLE_SET instead of on it (a servo of finite
+//! stiffness under a load, `crate::sim` "Sag"), so a client that re-takes its target from the
+//! reported angle every loop makes the finger creep (docs/adapters.md, "Holds").
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -31,7 +36,7 @@ use handgate_idl::unitree_go::{MotorCmds_, MotorState_, MotorStates_};
 use super::{CMD_TOPIC, ENTRIES, SERVICE_RATE_HZ, SERVICE_TIMEOUT, STATE_TOPIC};
 use crate::dds::{Node, Qos, Reader, Writer};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
-use crate::sim::{Noise, Sensor};
+use crate::sim::{Noise, Sag, Sensor};
 
 /// Where an emulated finger rests before the first command (wire q): nearly open. A hand
 /// powers up wherever it was left; this picks "left open, as xr_teleoperate's start-up
@@ -93,6 +98,10 @@ pub struct DfxConfig {
     pub object_at: [Option<f32>; ENTRIES],
     /// Measurement noise on the reported q (default [`DFX_NOISE`]).
     pub noise: Noise,
+    /// Per entry, a constant load on the finger as its position loop's steady-state error
+    /// (wire q, signed; default none): while the service holds a target the finger settles
+    /// there instead of on the target.
+    pub sag: [Sag; ENTRIES],
     pub tuning: DfxTuning,
     /// (command, state) topics; `None` = `rt/inspire/cmd`, `rt/inspire/state`. The gateway's
     /// emulator backend puts the service on private topics.
@@ -106,6 +115,7 @@ impl Default for DfxConfig {
             initial: [DFX_REST_Q; ENTRIES],
             object_at: [None; ENTRIES],
             noise: DFX_NOISE,
+            sag: [Sag::NONE; ENTRIES],
             tuning: DfxTuning::default(),
             topics: None,
         }
@@ -146,6 +156,7 @@ struct Finger {
     target: Option<f32>,
     object: Option<f32>,
     blocked: bool,
+    sag: Sag,
 }
 
 /// The service logic without DDS.
@@ -184,6 +195,7 @@ impl DfxCore {
             &config.object_at.iter().flatten().copied().collect::<Vec<_>>(),
         )?;
         ensure_finite("tuning", &[t.time_constant_s, t.max_speed])?;
+        ensure_finite("sag", &config.sag.map(|s| s.0))?;
         if t.time_constant_s <= 0.0 || t.max_speed <= 0.0 {
             return Err(EmulatorError::InvalidConfig(
                 "time_constant_s and max_speed must be > 0".into(),
@@ -196,10 +208,12 @@ impl DfxCore {
             target: None,
             object: None,
             blocked: false,
+            sag: Sag::NONE,
         }; ENTRIES];
         for (i, f) in fingers.iter_mut().enumerate() {
             f.q = config.initial[i].clamp(lo, hi);
             f.object = config.object_at[i];
+            f.sag = config.sag[i];
         }
         Ok(Self {
             tuning: t.clone(),
@@ -257,6 +271,8 @@ impl DfxCore {
         let t = &self.tuning;
         for f in &mut self.fingers {
             let Some(target) = f.target else { continue };
+            // Under a load the position loop settles short of its target.
+            let target = f.sag.goal(target).clamp(lo, hi);
             // An object stops a closing finger (closing = decreasing q) where it meets it.
             let floor = f.object.filter(|o| f.q >= *o);
             let goal = floor.map_or(target, |o| target.max(o));
@@ -520,6 +536,29 @@ mod tests {
             s.fingers
         );
         assert!(s.fingers[6..].iter().all(|f| f.q == HARD_STOPS.1));
+    }
+
+    /// A load (`DfxConfig::sag`) moves a finger held at a fixed ANGLE_SET once, by the sag,
+    /// and never further; the other fingers settle on their target.
+    #[test]
+    fn a_loaded_finger_settles_off_its_target_by_the_sag_and_stays() {
+        let mut cfg = exact();
+        cfg.sag[5] = Sag(-0.003);
+        let mut core = DfxCore::new(&cfg).unwrap();
+        let t0 = Instant::now();
+        core.on_cmd(&cmd([0.5; 12]), t0);
+        run(&mut core, t0, 0, 900);
+        let s = core.snapshot();
+        assert!((s.fingers[5].q - 0.497).abs() < 1e-6, "{:?}", s.fingers[5]);
+        assert_eq!(s.fingers[4].q, 0.5);
+        // The service times out after 1 s; the hand keeps its target, the finger its sag.
+        run(&mut core, t0, 900, 60_000);
+        assert!((core.snapshot().fingers[5].q - 0.497).abs() < 1e-6);
+        assert!(DfxCore::new(&DfxConfig {
+            sag: [Sag(f32::NAN); ENTRIES],
+            ..exact()
+        })
+        .is_err());
     }
 
     #[test]

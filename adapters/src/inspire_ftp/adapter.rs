@@ -21,11 +21,11 @@ use handgate_idl::inspire::{
     InspireHandCtrl, InspireHandState, InspireHandTouch, ACTUATORS, MODE_ANGLE, MODE_FORCE, MODE_SPEED,
 };
 
-use crate::control::Active;
+use crate::control::{Active, MeasuredHold};
 use crate::dds::Reader;
 use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
-use crate::model::{faults, HandState, Pad};
+use crate::model::{faults, HandState, Pad, SafeAction};
 
 use super::front::{ERR_MOTOR_FAULT, STATUS_ACTUATOR_FAULT};
 
@@ -39,6 +39,9 @@ pub struct FtpCodec {
     pub force_limit: Option<i16>,
     /// `speed_set` for every actuator (0–1000), sent with bit 3 on every command.
     pub speed: Option<i16>,
+    /// The measured angles (`angle_act`, wire order), and the hold of them the "limp" safe
+    /// state sends.
+    pub(super) limp: MeasuredHold<[i16; ACTUATORS]>,
 }
 
 impl FtpCodec {
@@ -76,11 +79,14 @@ impl DdsCodec for FtpCodec {
 
     fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
         let targets = match active {
+            // The hand has no torque-off: a limp safe state is a hold of the angles measured
+            // when it began, kept until it ends (never re-taken from each new measurement:
+            // docs/adapters.md, "Holds"); nothing before the hand was measured.
+            Active::Safe(SafeAction::Limp, _) => return self.limp.hold().map(|a| self.message(a)),
             Active::Idle => return None,
             Active::Command(t) | Active::Safe(_, t) => t,
         };
-        // The hand has no torque-off: a limp safe state is the hold of its targets (the
-        // measured position), the same as hold.
+        self.limp.release();
         let wire = table.to_wire(targets);
         let mut angles = [1000i16; ACTUATORS];
         for (map, w) in table.joints.iter().zip(&wire) {
@@ -98,6 +104,9 @@ impl DdsCodec for FtpCodec {
             .iter()
             .map(|m| f32::from(s.angle_act[m.wire_index]))
             .collect();
+        let mut act = [0i16; ACTUATORS];
+        act.copy_from_slice(&s.angle_act);
+        self.limp.measure(act);
         let zeros = vec![0.0; table.joint_count()];
         let mut joints = table.state_from_wire(&q, &zeros, &zeros);
         for (j, m) in joints.iter_mut().zip(&table.joints) {
@@ -182,11 +191,44 @@ mod tests {
         let mut c = FtpCodec {
             force_limit: Some(300),
             speed: Some(700),
+            ..Default::default()
         };
         let m = c
             .encode(&Active::Command(t.closure_targets(0.0, None).unwrap()), &t, 0.01)
             .unwrap();
         assert_eq!(m.mode, MODE_ANGLE | MODE_FORCE | MODE_SPEED);
         assert_eq!((m.force_set[0], m.speed_set[5]), (300, 700));
+    }
+
+    /// The hand has no torque-off: `limp` holds the angles measured when it began (never the
+    /// table's zeros, which would open the hand), kept while the measurement moves; nothing
+    /// before a measurement.
+    #[test]
+    fn limp_holds_the_angles_measured_when_it_began() {
+        let t = super::super::table::table(Side::Left);
+        let mut c = FtpCodec::default();
+        let limp = Active::Safe(SafeAction::Limp, t.safe_targets(SafeAction::Limp, &[]));
+        assert!(c.encode(&limp, &t, 0.01).is_none(), "nothing measured: silent");
+        let mut s = InspireHandState::sdk_default();
+        s.angle_act = vec![400, 410, 420, 430, 440, 450];
+        c.decode(&s, &t).unwrap();
+        assert_eq!(
+            c.encode(&limp, &t, 0.01).unwrap().angle_set,
+            vec![400, 410, 420, 430, 440, 450]
+        );
+        s.angle_act = vec![399, 409, 419, 429, 439, 449];
+        c.decode(&s, &t).unwrap();
+        let m = c.encode(&limp, &t, 0.01).unwrap();
+        assert_eq!(
+            (m.mode, m.angle_set),
+            (MODE_ANGLE, vec![400, 410, 420, 430, 440, 450]),
+            "kept"
+        );
+        // A command ends the limp; the next one begins at the newest measurement.
+        c.encode(&Active::Command(t.closure_targets(0.0, None).unwrap()), &t, 0.01);
+        assert_eq!(
+            c.encode(&limp, &t, 0.01).unwrap().angle_set,
+            vec![399, 409, 419, 429, 439, 449]
+        );
     }
 }

@@ -26,6 +26,9 @@
 //! stiffness of [`FtpTuning::contact_units_per_angle`] force units per angle unit and stops when
 //! the force reaches `force_set` (status 3, "stopped at force"); its tactile pads then read
 //! pressure in proportion to the force.
+//!
+//! Option (tests): a constant load per actuator ([`FtpConfig::sag`], default none): its
+//! position loop then settles that far from its ANGLE_SET (`crate::sim`, "Sag").
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
@@ -37,7 +40,7 @@ use handgate_idl::inspire::{
 
 use crate::dds::{Node, Qos, Reader, Writer};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
-use crate::sim::{Noise, Sensor};
+use crate::sim::{Noise, Sag, Sensor};
 
 use super::front::{touch_fields_mut, SEGMENTS};
 use super::table::URDF_RANGE;
@@ -153,6 +156,9 @@ pub struct FtpConfig {
     /// Angle (register units) at which an object blocks each closing actuator; `None`: none.
     /// The thumb rotation never touches.
     pub object: [Option<f32>; ACTUATORS],
+    /// Per actuator, a constant load as its position loop's steady-state error (register
+    /// units, signed; default none).
+    pub sag: [Sag; ACTUATORS],
     /// Angle noise (`q`, canonical rad) and the seed of every draw.
     pub noise: Noise,
     /// Noise on force, current and taxels too ([`FtpTuning`]); `false` with [`Noise::OFF`]
@@ -171,6 +177,7 @@ impl FtpConfig {
             rate: FtpTransport::Tcp.rate(),
             initial: REST_ANGLE,
             object: [None; ACTUATORS],
+            sag: [Sag::NONE; ACTUATORS],
             noise: ANGLE_NOISE,
             noisy: true,
             tuning: FtpTuning::default(),
@@ -239,6 +246,7 @@ struct Actuator {
     force: f32,
     status: u8,
     object: Option<f32>,
+    sag: Sag,
 }
 
 /// The driver and hand without DDS.
@@ -267,6 +275,7 @@ impl FtpCore {
     pub fn new(config: &FtpConfig) -> Result<Self, EmulatorError> {
         ensure_finite("initial", &config.initial)?;
         ensure_finite("object", &config.object.iter().flatten().copied().collect::<Vec<_>>())?;
+        ensure_finite("sag", &config.sag.map(|s| s.0))?;
         config.noise.validate().map_err(EmulatorError::InvalidConfig)?;
         let t = &config.tuning;
         ensure_finite(
@@ -297,10 +306,12 @@ impl FtpCore {
             force: 0.0,
             status: status::AT_POSITION,
             object: None,
+            sag: Sag::NONE,
         }; ACTUATORS];
         for (i, a) in act.iter_mut().enumerate() {
             a.angle = config.initial[i].clamp(0.0, MAX);
             a.target = a.angle;
+            a.sag = config.sag[i];
         }
         let mut core = Self {
             tuning: config.tuning.clone(),
@@ -367,12 +378,14 @@ impl FtpCore {
         let t = &self.tuning;
         for a in &mut self.act {
             let vmax = t.max_speed * f32::from(a.speed_set) / MAX;
-            let want = ((a.target - a.angle) / t.time_constant_s).clamp(-vmax, vmax);
+            // Under a load the position loop settles short of its target.
+            let goal = a.sag.goal(a.target).clamp(0.0, MAX);
+            let want = ((goal - a.angle) / t.time_constant_s).clamp(-vmax, vmax);
             let mut next = (a.angle + want * dt).clamp(0.0, MAX);
             // The hand's position loop settles on the register value within one unit (its
             // resolution; assumed), so a reached target reads exactly.
-            if (a.target - next).abs() < 1.0 {
-                next = a.target;
+            if (goal - next).abs() < 1.0 {
+                next = goal;
             }
             // Closing = decreasing angle. Pressing into an object raises the force; the
             // finger stops where the force reaches force_set.

@@ -255,6 +255,7 @@ impl InspireFtpProfile {
         super::adapter::FtpCodec {
             force_limit: d.force_limit,
             speed: d.speed,
+            ..Default::default()
         }
     }
 }
