@@ -1072,12 +1072,20 @@ impl Worker {
         Ok(())
     }
 
+    /// Gripper `i` did not answer this round. One missed reply is not a stale measurement:
+    /// the last one stays good until it is older than `stale_after` (the device's, as for
+    /// every other kind), so a loaded host, whose emulated or USB-latency-bound replies come
+    /// late now and then, does not look like an unplug (which would reseed: a hold, the
+    /// client's target dropped). `offline_after_misses` misses in a row take the gripper
+    /// offline: stale, re-initialised when it answers, never replaying a target.
     fn miss(&mut self, i: usize) {
+        let stale_after = Duration::from_millis(self.cfg.stale_after_ms);
         let r = &mut self.rt[i];
         r.misses += 1;
-        r.state.online = false;
-        r.state.stale = true;
+        r.state.stale = r.state.stale || r.state.measured_at.elapsed() > stale_after;
         if r.misses >= self.cfg.offline_after_misses {
+            r.state.online = false;
+            r.state.stale = true;
             r.initialised = false;
         }
     }

@@ -17,10 +17,6 @@ use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{EmulateArgs, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
-/// A measurement older than this is stale: the same bound as the DDS-side devices, so a
-/// loaded host does not look like an unplug.
-pub const STALE_AFTER_MS: u64 = 200;
-
 /// The pseudo-terminal an emulated bus keyed `key` is linked at.
 fn pty_link(key: &str) -> PathBuf {
     let safe: String = key
@@ -62,7 +58,14 @@ pub fn bus_config(devices: &[DeviceSpec<'_>]) -> Result<BusConfig, DeviceError> 
             .iter()
             .any(|d| section(d).calibrate_on_start || d.backend == Backend::Emulator),
         response_timeout_ms: first.response_timeout_ms.unwrap_or(defaults.response_timeout_ms),
-        stale_after_ms: STALE_AFTER_MS,
+        // A measurement older than the devices' `stale_after` is stale (the same bound as
+        // every other kind's; the shortest of the bus's devices).
+        stale_after_ms: devices
+            .iter()
+            .map(|d| d.stale_after)
+            .min()
+            .unwrap_or_default()
+            .as_millis() as u64,
         ezgripper: super::EzGripperParams {
             // The profile's max_open_percent is both the Dex1 scale and the clamp.
             max_open_pct: f32::from(first.max_open_percent),
