@@ -10,7 +10,7 @@ use crate::mapping::{CheckedBody, DeviceTable, MappingError};
 use crate::model::{CommandBody, HandCommand, JointCommand, JointState, SafeAction};
 
 /// What the loop should send this cycle.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub enum Active {
     /// Nothing commanded yet: send nothing (or the device's idle frame).
     Idle,
@@ -20,11 +20,41 @@ pub enum Active {
     Safe(SafeAction, Vec<JointCommand>),
 }
 
+/// `clone_from` reuses the targets' buffer (a device loop copies the targets every cycle).
+impl Clone for Active {
+    fn clone(&self) -> Self {
+        let mut a = Active::Idle;
+        a.clone_from(self);
+        a
+    }
+
+    fn clone_from(&mut self, src: &Self) {
+        let mut buf = match std::mem::replace(self, Active::Idle) {
+            Active::Command(t) | Active::Safe(_, t) => t,
+            Active::Idle => Vec::new(),
+        };
+        *self = match src {
+            Active::Idle => Active::Idle,
+            Active::Command(t) => {
+                buf.clone_from(t);
+                Active::Command(buf)
+            }
+            Active::Safe(a, t) => {
+                buf.clone_from(t);
+                Active::Safe(*a, buf)
+            }
+        };
+    }
+}
+
 #[derive(Debug)]
 struct Inner {
     pending: Option<HandCommand>,
     pending_safe: Option<SafeAction>,
     active: Active,
+    /// Where a command is resolved before it replaces the targets of `active` (whose buffer
+    /// it then takes over): resolving allocates nothing once both buffers have grown.
+    resolved: Vec<JointCommand>,
     last_seq: u64,
     last_tag: u32,
 }
@@ -161,6 +191,7 @@ impl CommandState {
                 pending: None,
                 pending_safe: None,
                 active: Active::Idle,
+                resolved: Vec::new(),
                 last_seq: 0,
                 last_tag: 0,
             })),
@@ -258,7 +289,16 @@ impl CommandState {
     /// from the measurement, a hold would integrate whatever the measurement sags under a
     /// load, every cycle (docs/adapters.md, "Holds").
     pub fn step(&self, measured: &[JointState]) -> Active {
-        let mut g = self.lock();
+        let mut active = Active::Idle;
+        self.step_into(measured, &mut active);
+        active
+    }
+
+    /// [`Self::step`] into `active`, its buffer reused: a loop that keeps its `Active`
+    /// steps without allocating (a safe request still builds its targets).
+    pub fn step_into(&self, measured: &[JointState], active: &mut Active) {
+        let mut guard = self.lock();
+        let g = &mut *guard;
         if let Some(a) = g.pending_safe.take() {
             if !matches!(g.active, Active::Safe(now, _) if now == a) {
                 g.active = Active::Safe(a, self.table.safe_targets(a, measured));
@@ -266,7 +306,7 @@ impl CommandState {
         }
         if let Some(cmd) = g.pending.take() {
             let prev = match &g.active {
-                Active::Command(t) | Active::Safe(_, t) => Some(t.clone()),
+                Active::Command(t) | Active::Safe(_, t) => Some(t.as_slice()),
                 Active::Idle => None,
             };
             if prev.is_none() && !self.measured.load(Ordering::Relaxed) && self.table.is_partial(&cmd.body) {
@@ -274,18 +314,22 @@ impl CommandState {
                 // and nothing was measured yet: it waits for the first measurement (never
                 // hold a position that was never measured).
                 g.pending = Some(cmd);
-                return g.active.clone();
+                active.clone_from(&g.active);
+                return;
             }
-            match self.table.resolve(&cmd.body, prev.as_deref(), measured) {
-                Ok(t) => {
-                    g.active = Active::Command(t);
+            match self.table.resolve_into(&cmd.body, prev, measured, &mut g.resolved) {
+                Ok(()) => {
+                    let old = std::mem::replace(&mut g.active, Active::Command(std::mem::take(&mut g.resolved)));
+                    if let Active::Command(t) | Active::Safe(_, t) = old {
+                        g.resolved = t;
+                    }
                     g.last_seq = cmd.seq;
                     g.last_tag = cmd.tag;
                 }
                 Err(_) => Counters::inc(&self.counters.rejected),
             }
         }
-        g.active.clone()
+        active.clone_from(&g.active);
     }
 
     /// seq and tag of the last applied client command.

@@ -441,6 +441,7 @@ impl Node {
         let topic = self.topic::<T>(name)?;
         let listener = cyclonedds_rs::DdsListenerBuilder::new()
             .on_data_available(move |entity| {
+                let _within = Enter::new(Within::Callback);
                 let handle = DdsReaderHandle::<T> {
                     entity,
                     _p: PhantomData,
@@ -589,6 +590,45 @@ fn take_each<T: TopicType + Clone>(entity: &cyclonedds_sys::DdsEntity, mut each:
     total
 }
 
+/// Where this thread is in the DDS layer: what a device loop allocates inside a write is
+/// cyclonedds-rs's and CycloneDDS's, and inside a reader callback its reader's (docs/deployment.md,
+/// "Real-time"). `adapters/tests/rt_alloc.rs` counts those apart from the loop's own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Within {
+    /// In none of the below.
+    Caller,
+    /// Inside [`Writer::write`]: the binding and CycloneDDS handling one sample.
+    Write,
+    /// Inside a callback of [`Node::reader_with_callback`]. CycloneDDS delivers a sample to a
+    /// reader of the same process on the writing thread: an in-process reader's callback runs
+    /// inside the write, on the writer's thread.
+    Callback,
+}
+
+thread_local! {
+    static WITHIN: std::cell::Cell<Within> = const { std::cell::Cell::new(Within::Caller) };
+}
+
+/// Where this thread is in the DDS layer; reading it never allocates.
+pub fn within() -> Within {
+    WITHIN.with(std::cell::Cell::get)
+}
+
+/// This thread is `Within` something until dropped (then back where it was).
+struct Enter(Within);
+
+impl Enter {
+    fn new(w: Within) -> Self {
+        Enter(WITHIN.with(|c| c.replace(w)))
+    }
+}
+
+impl Drop for Enter {
+    fn drop(&mut self) {
+        WITHIN.with(|c| c.set(self.0));
+    }
+}
+
 /// A typed writer.
 pub struct Writer<T: TopicType> {
     writer: DdsWriter<T>,
@@ -607,7 +647,21 @@ unsafe impl<T: TopicType> Send for Writer<T> {}
 
 impl<T: TopicType> Writer<T> {
     pub fn write(&mut self, sample: T) -> Result<(), DdsError> {
+        let _within = Enter::new(Within::Write);
         self.writer.write(Arc::new(sample)).map_err(dds_err("write"))
+    }
+
+    /// Writes a copy of `sample`, which the caller keeps to fill again. cyclonedds-rs takes
+    /// each sample as an owned `Arc` and CycloneDDS holds on to it after the call (the
+    /// writer's history, in-process readers), so every write hands over a new copy: made
+    /// here, inside the write, where it belongs to the binding's part (docs/deployment.md,
+    /// "Real-time").
+    pub fn write_copy(&mut self, sample: &T) -> Result<(), DdsError>
+    where
+        T: Clone,
+    {
+        let _within = Enter::new(Within::Write);
+        self.writer.write(Arc::new(sample.clone())).map_err(dds_err("write"))
     }
 
     pub fn topic(&self) -> &str {

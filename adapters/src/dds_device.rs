@@ -26,22 +26,39 @@ use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandCommand, HandState, SafeAction};
 
-/// Per-kind wire encoding for a DDS-client device.
+/// Per-kind wire encoding for a DDS-client device. The device loop calls the `_into`
+/// methods every cycle with buffers it keeps: once those have grown, a cycle allocates
+/// nothing (docs/deployment.md, "Real-time").
 pub trait DdsCodec: Send + 'static {
-    type Cmd: TopicType + Clone + Send + 'static;
+    type Cmd: TopicType + Clone + Default + Send + 'static;
     type State: TopicType + Clone + Send + 'static;
 
-    /// The message to publish this cycle for the targets in force, or None to stay silent.
-    /// `dt` is the loop period in seconds.
-    fn encode(&mut self, active: &Active, table: &DeviceTable, dt: f32) -> Option<Self::Cmd>;
+    /// Fills `msg` with the message to publish this cycle for the targets in force; `false`
+    /// to stay silent. `msg` is the device's message buffer, holding the last message
+    /// encoded: every field is set, the sequences' buffers reused. `dt` is the loop period in
+    /// seconds.
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, dt: f32, msg: &mut Self::Cmd) -> bool;
 
-    /// Canonical state from one state sample (joints in canonical order), or None if the
-    /// sample does not carry this device (wrong size, other side).
-    fn decode(&mut self, sample: &Self::State, table: &DeviceTable) -> Option<HandState>;
+    /// Canonical state from one state sample into `st` (joints in canonical order); `false`
+    /// if the sample does not carry this device (wrong size, other side). `st` is the
+    /// codec's own buffer, holding its last result: every field the codec reports is set,
+    /// the others stay as they are (their defaults).
+    fn decode_into(&mut self, sample: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool;
 
-    /// For devices without feedback: the state to publish (what is commanded).
-    fn commanded_state(&self, _table: &DeviceTable) -> Option<HandState> {
-        None
+    /// For devices without feedback: sets in `st` (the state to publish, empty otherwise)
+    /// what is commanded.
+    fn commanded_state(&self, _table: &DeviceTable, _st: &mut HandState) {}
+
+    /// [`Self::encode_into`] a new message, or `None` to stay silent.
+    fn encode(&mut self, active: &Active, table: &DeviceTable, dt: f32) -> Option<Self::Cmd> {
+        let mut msg = Self::Cmd::default();
+        self.encode_into(active, table, dt, &mut msg).then_some(msg)
+    }
+
+    /// [`Self::decode_into`] a new state, or `None` if the sample does not carry this device.
+    fn decode(&mut self, sample: &Self::State, table: &DeviceTable) -> Option<HandState> {
+        let mut st = HandState::default();
+        self.decode_into(sample, table, &mut st).then_some(st)
     }
 
     /// The peer's state came back after it went stale (the command state was reseeded to a
@@ -246,6 +263,10 @@ struct DdsLoop<C: DdsCodec> {
     next: Instant,
     k: u64,
     current: HandState,
+    /// The codec's decoding buffer.
+    decoded: HandState,
+    /// The message buffer the codec encodes into.
+    msg: C::Cmd,
     link: crate::link::LinkTracker,
     clock: crate::control::CycleClock,
     budget: SendBudget,
@@ -276,18 +297,19 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
         let sample = self.shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
         let mut measured = false;
         if let Some((s, taken)) = sample {
-            if let Some(mut st) = self.codec.decode(&s, table) {
+            if self.codec.decode_into(&s, table, &mut self.decoded) {
+                let st = &mut self.current;
+                st.clone_from(&self.decoded);
                 st.measured_at = Some(taken);
                 st.measured_wall = Some(SystemTime::now() - now.saturating_duration_since(taken));
                 st.freshness = Freshness::Fresh;
-                st.closure = table.closure_of(&st.joints.iter().map(|j| j.q).collect::<Vec<_>>());
+                st.closure = table.closure_of_state(&st.joints);
                 // The command this sample reflects: the newest one published before it came.
                 let reflected = self.sent.reflected_by(taken).unwrap_or_default();
                 (st.cmd_seq, st.cmd_tag) = (reflected.seq, reflected.tag);
                 if self.sent.last.at.is_some_and(|t| t <= taken) {
                     self.shared.wake.awaiting.store(false, Ordering::Release);
                 }
-                self.current = st;
                 measured = true;
                 if self.link.observe(true, &self.current.joints, loop_cmd) {
                     self.codec.reconnected();
@@ -323,7 +345,7 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
             // Resolved now, not when the send was wanted: a reseed after the peer came back
             // (a hold at the new measurement) must never be overtaken by the targets in
             // force before it went away.
-            self.active = loop_cmd.step(&self.current.joints);
+            loop_cmd.step_into(&self.current.joints, &mut self.active);
         }
         // Never "hold" a position that was never measured.
         if self.want_send && has_state && crate::link::blind_hold(self.link.ever_measured(), &self.active) {
@@ -336,9 +358,12 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
             let dt = self
                 .last_encode
                 .map_or(period, |t| now.saturating_duration_since(t).min(period * 5));
-            if let Some(msg) = self.codec.encode(&self.active, table, dt.as_secs_f32()) {
+            if self
+                .codec
+                .encode_into(&self.active, table, dt.as_secs_f32(), &mut self.msg)
+            {
                 self.last_encode = Some(now);
-                if self.writer.write(msg).is_ok() {
+                if self.writer.write_copy(&self.msg).is_ok() {
                     Counters::inc(&loop_cmd.counters.sent);
                     let (seq, tag) = loop_cmd.applied();
                     // A command out for the first time (forwarded now, or after waiting for a
@@ -350,21 +375,21 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
             }
         }
         if tick || measured || (command && !has_state) {
-            let mut out = if has_state {
-                self.current.clone()
-            } else {
-                self.codec
-                    .commanded_state(table)
-                    .unwrap_or_else(|| self.current.clone())
-            };
-            let reflected = (out.cmd_seq, out.cmd_tag);
-            crate::link::stamp(&mut out, loop_cmd, matches!(self.active, Active::Safe(..)), false);
-            if has_state {
-                // A state reflects the command published before it was measured, not one
-                // applied since.
-                (out.cmd_seq, out.cmd_tag) = reflected;
-            }
-            let _ = self.state_tx.send(out);
+            let (current, codec, safe) = (&self.current, &self.codec, matches!(self.active, Active::Safe(..)));
+            // In place: the published state's buffers are reused.
+            self.state_tx.send_modify(|out| {
+                out.clone_from(current);
+                if !has_state {
+                    codec.commanded_state(table, out);
+                }
+                let reflected = (out.cmd_seq, out.cmd_tag);
+                crate::link::stamp(out, loop_cmd, safe, false);
+                if has_state {
+                    // A state reflects the command published before it was measured, not one
+                    // applied since.
+                    (out.cmd_seq, out.cmd_tag) = reflected;
+                }
+            });
         }
         if tick {
             self.k += 1;
@@ -435,11 +460,11 @@ impl DdsDevice {
             None => None,
         };
         let n = table.joint_count();
-        let initial = match &config.state_topic {
+        let mut initial = HandState::empty(n);
+        if config.state_topic.is_none() {
             // A device without feedback reports what is commanded from the start.
-            None => codec.commanded_state(&table).unwrap_or_else(|| HandState::empty(n)),
-            Some(_) => HandState::empty(n),
-        };
+            codec.commanded_state(&table, &mut initial);
+        }
         let (state_tx, state_rx) = watch::channel(initial);
         let (cycle_tx, cycles) = watch::channel(0u64);
         let name = info.name.clone();
@@ -466,6 +491,8 @@ impl DdsDevice {
             next: start,
             k: 0,
             current: HandState::empty(n),
+            decoded: HandState::default(),
+            msg: C::Cmd::default(),
             link: crate::link::LinkTracker::default(),
             clock: crate::control::CycleClock::default(),
             budget,

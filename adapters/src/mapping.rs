@@ -306,10 +306,23 @@ impl DeviceTable {
 
     /// Canonical targets for a closure in [0, 1] (clamped).
     pub fn closure_targets(&self, closure: f32, stiffness: Option<f32>) -> Result<Vec<JointCommand>, MappingError> {
+        let mut out = Vec::with_capacity(self.joints.len());
+        self.closure_targets_into(closure, stiffness, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Self::closure_targets`] into `out`, its buffer reused.
+    pub fn closure_targets_into(
+        &self,
+        closure: f32,
+        stiffness: Option<f32>,
+        out: &mut Vec<JointCommand>,
+    ) -> Result<(), MappingError> {
         if !closure.is_finite() {
             return Err(MappingError::BadClosure(closure));
         }
         let c = closure.clamp(0.0, 1.0);
+        out.clear();
         match &self.closure {
             ClosureMap::Postures { open, closed, kp, kd } => {
                 if open.len() != self.joints.len() || closed.len() != self.joints.len() {
@@ -320,38 +333,44 @@ impl DeviceTable {
                     ));
                 }
                 let kp = stiffness.filter(|s| s.is_finite()).unwrap_or(*kp);
-                Ok(self
-                    .joints
-                    .iter()
-                    .enumerate()
-                    .map(|(i, j)| JointCommand::hold(j.limits.clamp(open[i] + c * (closed[i] - open[i])), kp, *kd))
-                    .collect())
+                out.extend(
+                    self.joints
+                        .iter()
+                        .enumerate()
+                        .map(|(i, j)| JointCommand::hold(j.limits.clamp(open[i] + c * (closed[i] - open[i])), kp, *kd)),
+                );
             }
             ClosureMap::Torque { open, closed } => {
                 let tau = open + c * (closed - open);
-                Ok(self
-                    .joints
-                    .iter()
-                    .map(|_| JointCommand {
-                        tau,
-                        ..Default::default()
-                    })
-                    .collect())
+                out.extend(self.joints.iter().map(|_| JointCommand {
+                    tau,
+                    ..Default::default()
+                }));
             }
         }
+        Ok(())
     }
 
     /// Estimated closure [0, 1] of canonical joint positions (mean over joints that move
     /// between the postures). Torque-mapped devices report NaN-free 0 unless `q` says more.
     pub fn closure_of(&self, q: &[f32]) -> f32 {
+        self.closure_by(q.iter().copied())
+    }
+
+    /// [`Self::closure_of`] the positions of canonical joint states.
+    pub fn closure_of_state(&self, joints: &[JointState]) -> f32 {
+        self.closure_by(joints.iter().map(|j| j.q))
+    }
+
+    fn closure_by(&self, q: impl Iterator<Item = f32>) -> f32 {
         match &self.closure {
             ClosureMap::Postures { open, closed, .. } => {
                 let mut sum = 0.0;
                 let mut n = 0;
-                for i in 0..self.joints.len().min(q.len()).min(open.len()).min(closed.len()) {
-                    let span = closed[i] - open[i];
-                    if span.abs() > 1e-6 && q[i].is_finite() {
-                        sum += ((q[i] - open[i]) / span).clamp(0.0, 1.0);
+                for ((o, c), q) in open.iter().zip(closed).zip(q).take(self.joints.len()) {
+                    let span = c - o;
+                    if span.abs() > 1e-6 && q.is_finite() {
+                        sum += ((q - o) / span).clamp(0.0, 1.0);
                         n += 1;
                     }
                 }
@@ -421,26 +440,43 @@ impl DeviceTable {
         previous: Option<&[JointCommand]>,
         measured: &[JointState],
     ) -> Result<Vec<JointCommand>, MappingError> {
+        let mut out = Vec::with_capacity(self.joints.len());
+        self.resolve_into(body, previous, measured, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Self::resolve`] into `out`, its buffer reused (a device loop resolves every command
+    /// without allocating). After an error `out` holds no valid targets.
+    pub fn resolve_into(
+        &self,
+        body: &CommandBody,
+        previous: Option<&[JointCommand]>,
+        measured: &[JointState],
+        out: &mut Vec<JointCommand>,
+    ) -> Result<(), MappingError> {
         let meas = |i: usize| measured.get(i).map(|s| s.q);
-        let raw: Vec<JointCommand> = match body {
+        out.clear();
+        match body {
             CommandBody::Joints(list) => {
-                let mut out: Vec<JointCommand> = match previous {
-                    Some(p) if p.len() == self.joints.len() => p.to_vec(),
-                    _ => self.hold_measured(measured),
-                };
+                match previous {
+                    Some(p) if p.len() == self.joints.len() => out.extend_from_slice(p),
+                    _ => out.extend(self.hold_measured(measured)),
+                }
                 for (id, c) in list {
                     self.joint(*id)?;
                     out[id.index()] = *c;
                 }
-                out
             }
-            CommandBody::Closure { closure, stiffness } => self.closure_targets(*closure, *stiffness)?,
-            CommandBody::Safe(a) => return Ok(self.safe_targets(*a, measured)),
-        };
-        raw.iter()
-            .enumerate()
-            .map(|(i, c)| self.sanitize(JointId(i as u8), c, meas(i)))
-            .collect()
+            CommandBody::Closure { closure, stiffness } => self.closure_targets_into(*closure, *stiffness, out)?,
+            CommandBody::Safe(a) => {
+                out.extend(self.safe_targets(*a, measured));
+                return Ok(());
+            }
+        }
+        for (i, c) in out.iter_mut().enumerate() {
+            *c = self.sanitize(JointId(i as u8), c, meas(i))?;
+        }
+        Ok(())
     }
 
     /// Targets for a safe action.
@@ -457,10 +493,19 @@ impl DeviceTable {
     /// Canonical targets → wire targets in wire order (length [`Self::wire_len`]).
     pub fn to_wire(&self, targets: &[JointCommand]) -> Vec<WireTarget> {
         let mut out = vec![WireTarget::LIMP; self.wire_len()];
-        for (j, c) in self.joints.iter().zip(targets) {
-            out[j.wire_index] = j.to_wire(c);
+        for (i, w) in self.wire_targets(targets) {
+            out[i] = w;
         }
         out
+    }
+
+    /// Canonical targets → (wire index, wire target) of each joint, in canonical order,
+    /// without allocating.
+    pub fn wire_targets<'a>(&'a self, targets: &'a [JointCommand]) -> impl Iterator<Item = (usize, WireTarget)> + 'a {
+        self.joints
+            .iter()
+            .zip(targets)
+            .map(|(j, c)| (j.wire_index, j.to_wire(c)))
     }
 
     /// Wire commands (wire order) → canonical commands (canonical order). Entries missing
@@ -474,18 +519,34 @@ impl DeviceTable {
 
     /// Wire measurements (q, dq, tau in wire order) → canonical joint states.
     pub fn state_from_wire(&self, q: &[f32], dq: &[f32], tau: &[f32]) -> Vec<JointState> {
-        self.joints
-            .iter()
-            .map(|j| {
-                let i = j.wire_index;
-                JointState {
-                    q: q.get(i).map(|v| j.q_from_wire(*v)).unwrap_or(f32::NAN),
-                    dq: dq.get(i).map(|v| j.rate_from_wire(*v)).unwrap_or(0.0),
-                    tau: tau.get(i).map(|v| j.tau_from_wire(*v)).unwrap_or(0.0),
-                    temperature: None,
-                }
-            })
-            .collect()
+        let mut out = Vec::with_capacity(self.joints.len());
+        self.state_from_wire_into(&mut out, |i| {
+            Some((
+                *q.get(i)?,
+                dq.get(i).copied().unwrap_or(0.0),
+                tau.get(i).copied().unwrap_or(0.0),
+            ))
+        });
+        out
+    }
+
+    /// Wire measurements → canonical joint states in `out` (one per joint, its buffer
+    /// reused): `wire(i)` is (q, dq, tau) at wire index `i`, `None` where nothing was measured
+    /// (q NaN, dq and tau 0). Temperatures are `None`.
+    pub fn state_from_wire_into(&self, out: &mut Vec<JointState>, wire: impl Fn(usize) -> Option<(f32, f32, f32)>) {
+        out.clear();
+        out.extend(self.joints.iter().map(|j| {
+            let (q, dq, tau) = match wire(j.wire_index) {
+                Some((q, dq, tau)) => (j.q_from_wire(q), j.rate_from_wire(dq), j.tau_from_wire(tau)),
+                None => (f32::NAN, 0.0, 0.0),
+            };
+            JointState {
+                q,
+                dq,
+                tau,
+                temperature: None,
+            }
+        }));
     }
 
     /// Canonical joint states → wire (q, dq, tau) in wire order, for fronts that publish a

@@ -218,7 +218,7 @@ pub struct Power {
 }
 
 /// One tactile pad of any size: a name, a rows × cols shape and its taxels row by row.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, PartialEq, Default)]
 pub struct Pad {
     /// The device's name for the pad (`pad_0` … on a Dex3; `index_top` … on an Inspire FTP).
     pub name: String,
@@ -231,16 +231,52 @@ pub struct Pad {
     pub temperature: Vec<f32>,
 }
 
+/// `Clone` whose `clone_from` reuses every buffer, field by field (a device loop copies its
+/// state every cycle); `clone` goes through it. The list must name every field: a forgotten
+/// one does not compile.
+macro_rules! clone_reusing_buffers {
+    ($t:ident { $($field:ident),* $(,)? }) => {
+        impl Clone for $t {
+            fn clone(&self) -> Self {
+                let mut c = Self::default();
+                c.clone_from(self);
+                c
+            }
+
+            fn clone_from(&mut self, src: &Self) {
+                let $t { $($field),* } = src;
+                $(self.$field.clone_from($field);)*
+            }
+        }
+    };
+}
+
+clone_reusing_buffers!(Pad {
+    name,
+    rows,
+    cols,
+    pressure,
+    temperature
+});
+
 impl Pad {
     /// A Dex3 pad (`pad_{index}`, 1 × 12 taxels with their temperatures).
     pub fn dex3(index: usize, pressure: [f32; 12], temperature: [f32; 12]) -> Self {
-        Self {
-            name: format!("pad_{index}"),
-            rows: 1,
-            cols: 12,
-            pressure: pressure.to_vec(),
-            temperature: temperature.to_vec(),
-        }
+        let mut p = Self::default();
+        p.set_dex3(index, pressure, temperature);
+        p
+    }
+
+    /// Makes this pad Dex3 pad `index` with these taxels, reusing its buffers.
+    pub fn set_dex3(&mut self, index: usize, pressure: [f32; 12], temperature: [f32; 12]) {
+        use std::fmt::Write;
+        self.name.clear();
+        let _ = write!(self.name, "pad_{index}");
+        (self.rows, self.cols) = (1, 12);
+        self.pressure.clear();
+        self.pressure.extend_from_slice(&pressure);
+        self.temperature.clear();
+        self.temperature.extend_from_slice(&temperature);
     }
 
     /// The first `N` values of `v`, `fill` where `v` is shorter (a fixed-size wire array).
@@ -266,7 +302,7 @@ pub mod faults {
 }
 
 /// Canonical state of one device.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, PartialEq, Default)]
 pub struct HandState {
     /// Joints in canonical order.
     pub joints: Vec<JointState>,
@@ -289,6 +325,21 @@ pub struct HandState {
     /// Device-specific status byte (EZGripper grasp state, Dex1 service mode...).
     pub mode: u8,
 }
+
+clone_reusing_buffers!(HandState {
+    joints,
+    pads,
+    imu,
+    power,
+    closure,
+    faults,
+    freshness,
+    measured_at,
+    measured_wall,
+    cmd_seq,
+    cmd_tag,
+    mode,
+});
 
 impl HandState {
     /// A state with `n` zero joints, stale.

@@ -15,7 +15,7 @@ use handgate_adapters::dds::{Node, Qos};
 use handgate_adapters::dds_device::{DdsCodec, DdsDevice, DdsDeviceConfig};
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
 use handgate_adapters::mapping::{DeviceTable, TableOverrides};
-use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, JointCommand, SafeAction, Side};
+use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, JointCommand, SafeAction, Side};
 use handgate_adapters::sim::Noise;
 use handgate_idl::unitree_go::{MotorCmd_, MotorCmds_, MotorStates_};
 
@@ -118,8 +118,12 @@ fn codec_sends_six_positions_and_the_speed_and_reads_state_back() {
     assert!((s.joints[3].q - 0.73305).abs() < 1e-4);
     assert_eq!(s.joints[2].tau, 0.3);
     // Not this hand's state: wrong entry count or a non-finite position.
-    assert!(decode_state(&MotorStates_::with_len(12), &t).is_none());
-    assert!(decode_state(&MotorStates_::with_len(5), &t).is_none());
+    assert!(!decode_state(
+        &MotorStates_::with_len(12),
+        &t,
+        &mut HandState::default()
+    ));
+    assert!(!decode_state(&MotorStates_::with_len(5), &t, &mut HandState::default()));
     let mut bad = states([0.1; 6]);
     bad.states[4].q = f32::NAN;
     assert!(c.decode(&bad, &t).is_none());

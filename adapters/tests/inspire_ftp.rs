@@ -195,7 +195,7 @@ fn c_client_device_drives_the_emulated_driver_and_goes_stale_without_it() {
             "rt/inspire_hand/touch/l"
         )
     );
-    let codec = FtpClient::new(FtpCodec::default(), Some(node.reader(&touch, Qos::BestEffort).unwrap()));
+    let codec = FtpClient::new(&node, FtpCodec::default(), Some(&touch)).unwrap();
     let dev = DdsDevice::start(
         &node,
         info(Side::Left),

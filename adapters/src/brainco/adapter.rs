@@ -18,7 +18,7 @@ use handgate_idl::unitree_go;
 use super::WIRE_LEN;
 use crate::control::{Active, MeasuredHold};
 use crate::dds_device::DdsCodec;
-use crate::mapping::DeviceTable;
+use crate::mapping::{DeviceTable, WireTarget};
 use crate::model::{HandState, SafeAction};
 
 /// Codec of one BrainCo hand.
@@ -39,16 +39,14 @@ impl BraincoCodec {
         }
     }
 
-    fn message(&self, q: impl Iterator<Item = f32>) -> unitree_go::MotorCmds_ {
-        unitree_go::MotorCmds_ {
-            cmds: q
-                .map(|q| unitree_go::MotorCmd_ {
-                    q: if q.is_finite() { q.clamp(0.0, 1.0) } else { 0.0 },
-                    dq: self.speed,
-                    ..Default::default()
-                })
-                .collect(),
-        }
+    /// Fills `msg` with one entry per wire position in `q` (its buffer reused).
+    fn message(&self, q: impl Iterator<Item = f32>, msg: &mut unitree_go::MotorCmds_) {
+        msg.cmds.clear();
+        msg.cmds.extend(q.map(|q| unitree_go::MotorCmd_ {
+            q: if q.is_finite() { q.clamp(0.0, 1.0) } else { 0.0 },
+            dq: self.speed,
+            ..Default::default()
+        }));
     }
 }
 
@@ -58,52 +56,56 @@ impl Default for BraincoCodec {
     }
 }
 
-/// Canonical state from one hand's `MotorStates_`, or `None` if it is not 6 entries with
-/// finite positions.
-pub fn decode_state(s: &unitree_go::MotorStates_, table: &DeviceTable) -> Option<HandState> {
+/// Canonical state from one hand's `MotorStates_` into `st` (its buffers reused); `false` if
+/// it is not 6 entries with finite positions.
+pub fn decode_state(s: &unitree_go::MotorStates_, table: &DeviceTable, st: &mut HandState) -> bool {
     if s.states.len() != WIRE_LEN || s.states.iter().any(|m| !m.q.is_finite()) {
-        return None;
+        return false;
     }
-    let q: Vec<f32> = s.states.iter().map(|m| m.q).collect();
-    let dq: Vec<f32> = s.states.iter().map(|m| m.dq).collect();
-    let tau: Vec<f32> = s.states.iter().map(|m| m.tau_est).collect();
-    Some(HandState {
-        joints: table.state_from_wire(&q, &dq, &tau),
-        ..Default::default()
-    })
+    table.state_from_wire_into(&mut st.joints, |i| s.states.get(i).map(|m| (m.q, m.dq, m.tau_est)));
+    true
 }
 
 impl DdsCodec for BraincoCodec {
     type Cmd = unitree_go::MotorCmds_;
     type State = unitree_go::MotorStates_;
 
-    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut Self::Cmd) -> bool {
         if !matches!(active, Active::Safe(SafeAction::Limp, _)) {
             self.limp.release();
         }
         match active {
-            Active::Idle => None,
-            Active::Safe(SafeAction::Limp, _) => {
-                let m = self.limp.hold()?;
-                Some(self.message(m.into_iter()))
-            }
-            Active::Command(t) | Active::Safe(_, t) => {
-                let w = table.to_wire(t);
-                if w.len() != WIRE_LEN {
-                    return None;
+            Active::Idle => false,
+            Active::Safe(SafeAction::Limp, _) => match self.limp.hold() {
+                Some(m) => {
+                    self.message(m.into_iter(), msg);
+                    true
                 }
-                Some(self.message(w.iter().map(|w| w.q)))
+                None => false,
+            },
+            Active::Command(t) | Active::Safe(_, t) => {
+                if table.wire_len() != WIRE_LEN {
+                    return false;
+                }
+                let mut q = [WireTarget::LIMP.q; WIRE_LEN];
+                for (i, w) in table.wire_targets(t) {
+                    q[i] = w.q;
+                }
+                self.message(q.into_iter(), msg);
+                true
             }
         }
     }
 
-    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
-        let st = decode_state(s, table)?;
+    fn decode_into(&mut self, s: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
+        if !decode_state(s, table, st) {
+            return false;
+        }
         let mut m = [0.0; WIRE_LEN];
         for (m, s) in m.iter_mut().zip(&s.states) {
             *m = s.q;
         }
         self.limp.measure(m);
-        Some(st)
+        true
     }
 }

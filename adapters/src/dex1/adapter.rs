@@ -12,8 +12,8 @@ use handgate_idl::{unitree_go, unitree_hg};
 
 use crate::control::{Active, MeasuredHold};
 use crate::dds_device::DdsCodec;
-use crate::mapping::DeviceTable;
-use crate::model::{faults, HandState, JointCommand, Side};
+use crate::mapping::{DeviceTable, WireTarget};
+use crate::model::{faults, HandState, Side};
 
 /// Which Dex1 interface the peer speaks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, serde::Serialize, serde::Deserialize)]
@@ -91,7 +91,7 @@ pub const LOST_FAULT: u32 = 0xFFFF_FFFF;
 pub const MODE_FAULT: u8 = 255;
 
 /// `mode` 0: dex1_1_service ignores it.
-fn go_cmd(w: &crate::mapping::WireTarget) -> unitree_go::MotorCmd_ {
+fn go_cmd(w: &WireTarget) -> unitree_go::MotorCmd_ {
     (*w).into()
 }
 
@@ -138,43 +138,50 @@ impl Dex1GoCodec {
     }
 }
 
-fn targets(active: &Active) -> Option<&[JointCommand]> {
+/// The wire target of the gripper (wire index 0) for the targets in force.
+fn wire_target(active: &Active, table: &DeviceTable) -> Option<WireTarget> {
     match active {
         Active::Idle => None,
-        Active::Command(t) | Active::Safe(_, t) => Some(t),
+        Active::Command(t) | Active::Safe(_, t) => Some(
+            table
+                .wire_targets(t)
+                .find(|(i, _)| *i == 0)
+                .map_or(WireTarget::LIMP, |(_, w)| w),
+        ),
     }
 }
 
-/// Canonical state from one gripper's unitree_go MotorState_.
-pub fn decode_go_state(m: &unitree_go::MotorState_, table: &DeviceTable) -> HandState {
-    let mut joints = table.state_from_wire(&[m.q], &[m.dq], &[m.tau_est]);
-    joints[0].temperature = Some(m.temperature as f32);
+/// The gripper's joint (wire index 0) from its measured (q, dq, tau), into `st`.
+fn gripper_joint(table: &DeviceTable, st: &mut HandState, (q, dq, tau): (f32, f32, f32), temperature: f32) {
+    table.state_from_wire_into(&mut st.joints, |i| (i == 0).then_some((q, dq, tau)));
+    st.joints[0].temperature = Some(temperature);
+}
+
+/// Canonical state from one gripper's unitree_go MotorState_, into `st` (its buffers reused).
+pub fn decode_go_state(m: &unitree_go::MotorState_, table: &DeviceTable, st: &mut HandState) {
+    gripper_joint(table, st, (m.q, m.dq, m.tau_est), m.temperature as f32);
     let mut f = 0;
     if m.mode == MODE_FAULT || m.lost == LOST_FAULT {
         f |= faults::HARDWARE;
     }
-    HandState {
-        joints,
-        faults: f,
-        mode: m.mode,
-        ..Default::default()
-    }
+    st.faults = f;
+    st.mode = m.mode;
 }
 
 impl DdsCodec for Dex1GoCodec {
     type Cmd = unitree_go::MotorCmds_;
     type State = unitree_go::MotorStates_;
 
-    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
-        let Some(t) = targets(active) else {
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut Self::Cmd) -> bool {
+        let Some(w) = wire_target(active, table) else {
             // Our messages stop holding the other gripper: the next one begins a new hold.
             self.other.release();
-            return None;
+            return false;
         };
-        let w = table.to_wire(t);
+        let own = go_cmd(&w);
+        msg.cmds.clear();
         match self.variant {
             Variant::Actuator => {
-                let own = go_cmd(&w[0]);
                 let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
                 shared[self.index()] = Some(own);
                 // The other gripper: its own device's latest command, else held where it was
@@ -184,37 +191,38 @@ impl DdsCodec for Dex1GoCodec {
                         self.other.release();
                         *c
                     }
-                    None => unitree_go::MotorCmd_ {
-                        q: self.other.hold()?,
-                        kp: table.hold_kp,
-                        kd: table.hold_kd,
-                        ..Default::default()
+                    None => match self.other.hold() {
+                        Some(q) => unitree_go::MotorCmd_ {
+                            q,
+                            kp: table.hold_kp,
+                            kd: table.hold_kd,
+                            ..Default::default()
+                        },
+                        None => return false,
                     },
                 };
-                let mut msg = unitree_go::MotorCmds_::with_len(2);
-                msg.cmds[self.index()] = own;
+                msg.cmds.resize(2, own);
                 msg.cmds[1 - self.index()] = other;
-                Some(msg)
             }
-            _ => Some(unitree_go::MotorCmds_ {
-                cmds: vec![go_cmd(&w[0])],
-            }),
+            _ => msg.cmds.push(own),
         }
+        true
     }
 
     fn reconnected(&mut self) {
         self.other.release();
     }
 
-    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
+    fn decode_into(&mut self, s: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
         let need = if self.variant == Variant::Actuator { 2 } else { 1 };
         if s.states.len() < need {
-            return None;
+            return false;
         }
         if self.variant == Variant::Actuator {
             self.other.measure(s.states[1 - self.index()].q);
         }
-        Some(decode_go_state(&s.states[self.index()], table))
+        decode_go_state(&s.states[self.index()], table, st);
+        true
     }
 }
 
@@ -226,24 +234,24 @@ impl DdsCodec for Dex1HgCodec {
     type Cmd = unitree_hg::HandCmd_;
     type State = unitree_hg::HandState_;
 
-    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
-        let w = table.to_wire(targets(active)?);
-        let mut msg = unitree_hg::HandCmd_::with_motors(1);
-        msg.motor_cmd[0] = w[0].into();
-        Some(msg)
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut Self::Cmd) -> bool {
+        let Some(w) = wire_target(active, table) else {
+            return false;
+        };
+        msg.motor_cmd.clear();
+        msg.motor_cmd.push(w.into());
+        msg.reserve = [0; 4];
+        true
     }
 
-    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
-        let m = s.motor_state.first()?;
-        let mut joints = table.state_from_wire(&[m.q], &[m.dq], &[m.tau_est]);
-        joints[0].temperature = Some(m.temperature[0] as f32);
-        let f = if m.motorstate != 0 { faults::MOTOR_ERROR } else { 0 };
-        Some(HandState {
-            joints,
-            faults: f,
-            mode: m.mode,
-            ..Default::default()
-        })
+    fn decode_into(&mut self, s: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
+        let Some(m) = s.motor_state.first() else {
+            return false;
+        };
+        gripper_joint(table, st, (m.q, m.dq, m.tau_est), m.temperature[0] as f32);
+        st.faults = if m.motorstate != 0 { faults::MOTOR_ERROR } else { 0 };
+        st.mode = m.mode;
+        true
     }
 }
 
@@ -350,6 +358,8 @@ mod tests {
             lost: LOST_FAULT,
             ..Default::default()
         };
-        assert_ne!(decode_go_state(&m, &t).faults & faults::HARDWARE, 0);
+        let mut st = HandState::default();
+        decode_go_state(&m, &t, &mut st);
+        assert_ne!(st.faults & faults::HARDWARE, 0);
     }
 }

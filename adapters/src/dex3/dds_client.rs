@@ -3,13 +3,13 @@
 //! byte set explicitly on every motor, reads `HandState_` from `rt/dex3/{side}/state` (or the
 //! low-frequency copy `rt/lf/dex3/{side}/state`, by profile). docs/sources.md §2.
 
-use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorCmd_};
+use handgate_idl::unitree_hg::{HandCmd_, HandState_};
 
 use super::RisMode;
 use crate::control::Active;
 use crate::dds_device::DdsCodec;
-use crate::mapping::DeviceTable;
-use crate::model::{faults, HandState, Imu, JointState, Pad, Power, SafeAction, Side};
+use crate::mapping::{DeviceTable, WireTarget};
+use crate::model::{faults, HandState, Imu, Pad, Power, SafeAction, Side};
 
 /// Which state topic to read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, serde::Serialize, serde::Deserialize)]
@@ -54,30 +54,34 @@ impl Default for Dex3DdsCodec {
     }
 }
 
-/// Builds the HandCmd_ for wire targets (IDL order).
-pub fn encode_hand_cmd(table: &DeviceTable, targets: &[crate::model::JointCommand], timeout_bit: bool) -> HandCmd_ {
-    let wire = table.to_wire(targets);
-    let mut msg = HandCmd_::with_motors(wire.len());
-    for (i, (m, w)) in msg.motor_cmd.iter_mut().zip(&wire).enumerate() {
-        *m = MotorCmd_ {
-            mode: RisMode::foc(i as u8, timeout_bit).encode(),
-            ..MotorCmd_::from(*w)
-        };
+/// Fills `msg` with the HandCmd_ for canonical targets: IDL order, the RIS mode byte on every
+/// motor (its buffer reused).
+pub fn encode_hand_cmd(
+    table: &DeviceTable,
+    targets: &[crate::model::JointCommand],
+    timeout_bit: bool,
+    msg: &mut HandCmd_,
+) {
+    msg.motor_cmd.clear();
+    msg.motor_cmd.resize(table.wire_len(), WireTarget::LIMP.into());
+    for (i, w) in table.wire_targets(targets) {
+        msg.motor_cmd[i] = w.into();
     }
-    msg
+    for (i, m) in msg.motor_cmd.iter_mut().enumerate() {
+        m.mode = RisMode::foc(i as u8, timeout_bit).encode();
+    }
+    msg.reserve = [0; 4];
 }
 
-/// Canonical state from a HandState_ (None unless it has all 7 motors).
-pub fn decode_hand_state(s: &HandState_, table: &DeviceTable) -> Option<HandState> {
+/// Canonical state from a HandState_ into `st` (its buffers reused); `false` unless it has
+/// all 7 motors.
+pub fn decode_hand_state(s: &HandState_, table: &DeviceTable, st: &mut HandState) -> bool {
     if s.motor_state.len() < table.wire_len() {
-        return None;
+        return false;
     }
-    let q: Vec<f32> = s.motor_state.iter().map(|m| m.q).collect();
-    let dq: Vec<f32> = s.motor_state.iter().map(|m| m.dq).collect();
-    let tau: Vec<f32> = s.motor_state.iter().map(|m| m.tau_est).collect();
-    let mut joints: Vec<JointState> = table.state_from_wire(&q, &dq, &tau);
+    table.state_from_wire_into(&mut st.joints, |i| s.motor_state.get(i).map(|m| (m.q, m.dq, m.tau_est)));
     let mut fault_bits = 0;
-    for (j, map) in joints.iter_mut().zip(&table.joints) {
+    for (j, map) in st.joints.iter_mut().zip(&table.joints) {
         let m = &s.motor_state[map.wire_index];
         j.temperature = Some(m.temperature[0] as f32);
         if RisMode::decode(m.mode).timeout {
@@ -90,42 +94,39 @@ pub fn decode_hand_state(s: &HandState_, table: &DeviceTable) -> Option<HandStat
     if s.error.iter().any(|e| *e != 0) {
         fault_bits |= faults::HARDWARE;
     }
-    let pads = s
-        .press_sensor_state
-        .iter()
-        .enumerate()
-        .map(|(i, p)| Pad::dex3(i, p.pressure, p.temperature))
-        .collect();
-    Some(HandState {
-        joints,
-        pads,
-        imu: Some(Imu {
-            quaternion: s.imu_state.quaternion,
-            gyroscope: s.imu_state.gyroscope,
-            accelerometer: s.imu_state.accelerometer,
-        }),
-        power: Some(Power {
-            voltage: s.power_v,
-            current: s.power_a,
-        }),
-        faults: fault_bits,
-        ..Default::default()
-    })
+    st.pads.resize_with(s.press_sensor_state.len(), Pad::default);
+    for (i, (pad, p)) in st.pads.iter_mut().zip(&s.press_sensor_state).enumerate() {
+        pad.set_dex3(i, p.pressure, p.temperature);
+    }
+    st.imu = Some(Imu {
+        quaternion: s.imu_state.quaternion,
+        gyroscope: s.imu_state.gyroscope,
+        accelerometer: s.imu_state.accelerometer,
+    });
+    st.power = Some(Power {
+        voltage: s.power_v,
+        current: s.power_a,
+    });
+    st.faults = fault_bits;
+    true
 }
 
 impl DdsCodec for Dex3DdsCodec {
     type Cmd = HandCmd_;
     type State = HandState_;
 
-    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<HandCmd_> {
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut HandCmd_) -> bool {
         match active {
-            Active::Idle => None,
-            Active::Command(t) | Active::Safe(_, t) => Some(encode_hand_cmd(table, t, self.timeout_bit)),
+            Active::Idle => false,
+            Active::Command(t) | Active::Safe(_, t) => {
+                encode_hand_cmd(table, t, self.timeout_bit, msg);
+                true
+            }
         }
     }
 
-    fn decode(&mut self, sample: &HandState_, table: &DeviceTable) -> Option<HandState> {
-        decode_hand_state(sample, table)
+    fn decode_into(&mut self, sample: &HandState_, table: &DeviceTable, st: &mut HandState) -> bool {
+        decode_hand_state(sample, table, st)
     }
 }
 
@@ -145,7 +146,8 @@ mod tests {
         let mut targets = vec![JointCommand::hold(0.0, 1.5, 0.1); 7];
         let idx0 = t.joint_by_name("index_0").unwrap();
         targets[idx0.index()].q = 1.0;
-        let msg = encode_hand_cmd(&t, &targets, true);
+        let mut msg = HandCmd_::default();
+        encode_hand_cmd(&t, &targets, true, &mut msg);
         assert_eq!(msg.motor_cmd.len(), 7);
         for (i, m) in msg.motor_cmd.iter().enumerate() {
             assert_eq!(m.mode, 0x90 | i as u8);

@@ -23,15 +23,18 @@ use crate::model::{faults, Freshness, HandCommand, HandState, JointState, SafeAc
 /// canonical joint torque is `effort_pct / 10` ("N·m-like", positive = squeezing).
 pub const EFFORT_PCT_PER_TAU: f32 = 10.0;
 
-/// Canonical state of one gripper.
-pub fn to_hand_state(table: &DeviceTable, g: &GripperState) -> HandState {
+/// Canonical state of one gripper, into `st` (its buffers reused: the bridge does this every
+/// bus round). Sets every field but the command echo and the wall-clock time
+/// (`link::stamp`'s).
+pub fn to_hand_state(table: &DeviceTable, g: &GripperState, st: &mut HandState) {
     let j = &table.joints[0];
-    let joints = vec![JointState {
+    st.joints.clear();
+    st.joints.push(JointState {
         q: j.q_from_wire(g.position_pct),
         dq: j.rate_from_wire(g.velocity_pct_s),
         tau: g.effort_pct / EFFORT_PCT_PER_TAU,
         temperature: g.online.then_some(g.temperature_c as f32),
-    }];
+    });
     let mut f = 0;
     if !g.hardware_error.is_empty() {
         f |= faults::HARDWARE;
@@ -45,15 +48,11 @@ pub fn to_hand_state(table: &DeviceTable, g: &GripperState) -> HandState {
         f |= faults::HARDWARE;
     }
     let fresh = g.online && !g.stale && g.round > 0;
-    HandState {
-        closure: table.closure_of(&[joints[0].q]),
-        joints,
-        faults: f,
-        freshness: if fresh { Freshness::Fresh } else { Freshness::Stale },
-        measured_at: (g.round > 0).then_some(g.measured_at),
-        mode: g.grasp.code(),
-        ..Default::default()
-    }
+    st.closure = table.closure_of_state(&st.joints);
+    st.faults = f;
+    st.freshness = if fresh { Freshness::Fresh } else { Freshness::Stale };
+    st.measured_at = (g.round > 0).then_some(g.measured_at);
+    st.mode = g.grasp.code();
 }
 
 /// One EZGripper on a (possibly shared) bus.
@@ -92,6 +91,10 @@ impl EzGripperDevice {
                     let mut link = crate::link::LinkTracker::default();
                     let mut cal_failure_logged = false;
                     let mut clock = crate::control::CycleClock::default();
+                    // The gripper's state and the one built from it every round, their
+                    // buffers reused.
+                    let mut g = rx.borrow().clone();
+                    let mut st = HandState::empty(table.joint_count());
                     while !b_stop.load(Ordering::Relaxed) {
                         let changed = tokio::time::timeout(Duration::from_millis(50), rx.changed()).await;
                         // One bus cycle (or the bridge's 50 ms wait for one).
@@ -99,7 +102,7 @@ impl EzGripperDevice {
                         if matches!(changed, Ok(Err(_))) {
                             break;
                         }
-                        let g = rx.borrow_and_update().clone();
+                        g.clone_from(&rx.borrow_and_update());
                         match (&g.calibration, cal_failure_logged) {
                             (Calibration::Failed { reason }, false) => {
                                 tracing::error!(%reason, "calibration failed: targets are not applied until a calibration succeeds (restart with calibrate_on_start, or set ezgripper.zero_ticks in the profile)");
@@ -108,7 +111,7 @@ impl EzGripperDevice {
                             (Calibration::Calibrated { .. }, true) => cal_failure_logged = false,
                             _ => {}
                         }
-                        let mut st = to_hand_state(&table, &g);
+                        to_hand_state(&table, &g, &mut st);
                         let online = st.freshness == Freshness::Fresh;
                         if link.observe(online, &st.joints, &b_cmd) {
                             // Back after an unplug or a silent servo: never replay.
@@ -118,7 +121,7 @@ impl EzGripperDevice {
                             Counters::inc(&b_cmd.counters.state_samples);
                         }
                         crate::link::stamp(&mut st, &b_cmd, b_cmd.is_safe(), true);
-                        let _ = tx.send(st);
+                        tx.send_modify(|out| out.clone_from(&st));
                     }
                 });
             })
@@ -264,14 +267,17 @@ mod tests {
     #[test]
     fn a_failed_calibration_is_a_hardware_fault_not_a_closed_gripper() {
         let t = super::super::table::table(Side::Left, 5.4, 100.0);
-        let failed = to_hand_state(
+        let mut failed = HandState::default();
+        to_hand_state(
             &t,
             &measured(Calibration::Failed {
                 reason: "jaw did not come to rest".into(),
             }),
+            &mut failed,
         );
         assert_ne!(failed.faults & faults::HARDWARE, 0, "{failed:?}");
-        let ok = to_hand_state(&t, &measured(Calibration::Calibrated { zero_ticks: 100 }));
+        let mut ok = HandState::default();
+        to_hand_state(&t, &measured(Calibration::Calibrated { zero_ticks: 100 }), &mut ok);
         assert_eq!(ok.faults & faults::HARDWARE, 0, "{ok:?}");
     }
 }

@@ -17,7 +17,7 @@ use super::control_table::{
     VOLTAGE_V_PER_UNIT,
 };
 use super::protocol::{
-    le_i16, le_i32, wire_time, CodecError, Decoder, FrameError, Instruction, Request, ServoId, Status,
+    le_i16, le_i32, wire_time, CodecError, Decoder, FrameError, Instruction, Request, ServoId, Status, StatusRef,
 };
 use super::transport::{Connector, SerialConnector, Transport, TransportError};
 
@@ -483,13 +483,20 @@ impl Drop for EzGripperBus {
     }
 }
 
-/// An open transport plus its decoder.
+/// An open transport plus its decoder, and the buffers of its transactions (reused: a bus
+/// round allocates nothing once they have grown).
 struct Link {
     t: Box<dyn Transport>,
     dec: Decoder,
     baud: u32,
     grace: Duration,
     buf: Vec<u8>,
+    /// The encoded request.
+    tx: Vec<u8>,
+    /// The ids a transaction still waits for.
+    waiting: Vec<u8>,
+    /// The replies of the last transaction.
+    reply: Reply,
     /// Errors of every transaction (rounds, init, open) since the last drain.
     tally: Tally,
 }
@@ -502,11 +509,54 @@ struct Tally {
     late: u64,
 }
 
+/// The status packets of one transaction. Its buffers stay from one transaction to the next:
+/// `statuses[..len]` are this transaction's.
 #[derive(Debug, Default)]
 struct Reply {
-    replies: HashMap<u8, Status>,
-    bad_crc: HashMap<u8, u64>,
+    statuses: Vec<Status>,
+    len: usize,
+    /// Ids whose reply failed its CRC, with the count.
+    bad_crc: Vec<(u8, u64)>,
     bad_length: u64,
+}
+
+impl Reply {
+    fn clear(&mut self) {
+        self.len = 0;
+        self.bad_crc.clear();
+        self.bad_length = 0;
+    }
+
+    fn add(&mut self, st: StatusRef<'_>) {
+        match self.statuses.get_mut(self.len) {
+            Some(slot) => {
+                (slot.id, slot.error) = (st.id, st.error);
+                slot.params.clear();
+                slot.params.extend_from_slice(st.params);
+            }
+            None => self.statuses.push(st.to_status()),
+        }
+        self.len += 1;
+    }
+
+    fn get(&self, id: u8) -> Option<&Status> {
+        self.statuses[..self.len].iter().find(|s| s.id == id)
+    }
+
+    fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    fn count_bad_crc(&mut self, id: u8) {
+        match self.bad_crc.iter_mut().find(|(i, _)| *i == id) {
+            Some((_, n)) => *n += 1,
+            None => self.bad_crc.push((id, 1)),
+        }
+    }
+
+    fn had_bad_crc(&self, id: u8) -> bool {
+        self.bad_crc.iter().any(|(i, _)| *i == id)
+    }
 }
 
 impl Link {
@@ -517,21 +567,24 @@ impl Link {
             baud: cfg.baud,
             grace: Duration::from_millis(cfg.response_timeout_ms),
             buf: vec![0; 4096],
+            tx: Vec::new(),
+            waiting: Vec::new(),
+            reply: Reply::default(),
             tally: Tally::default(),
         }
     }
 
     fn send(&mut self, req: &Request) -> Result<usize, TransportError> {
-        let bytes = req
-            .encode()
+        req.encode_into(&mut self.tx)
             .map_err(|e| TransportError::Io(std::io::Error::other(e.to_string())))?;
-        self.t.write_all(&bytes)?;
-        Ok(bytes.len())
+        self.t.write_all(&self.tx)?;
+        Ok(self.tx.len())
     }
 
-    /// Sends `req` and collects the status packets of `expect` (in any order) until all are
-    /// in or the deadline (wire time of request and replies + grace) passes.
-    fn transact(&mut self, req: &Request, expect: &[u8]) -> Result<Reply, TransportError> {
+    /// Sends `req` and collects the status packets of `expect` (in any order) into
+    /// `self.reply` until all are in or the deadline (wire time of request and replies +
+    /// grace) passes.
+    fn transact(&mut self, req: &Request, expect: &[u8]) -> Result<(), TransportError> {
         self.drain_late()?;
         let sent = self.send(req)?;
         let reply_len = match req {
@@ -540,16 +593,18 @@ impl Link {
             _ => 11,
         };
         let deadline = Instant::now() + wire_time(sent + reply_len * expect.len(), self.baud) + self.grace;
-        let mut out = Reply::default();
-        let mut waiting: Vec<u8> = expect.to_vec();
+        let (out, waiting) = (&mut self.reply, &mut self.waiting);
+        out.clear();
+        waiting.clear();
+        waiting.extend_from_slice(expect);
         while !waiting.is_empty() {
-            while let Some(frame) = self.dec.next_frame() {
+            while let Some(frame) = self.dec.next_frame_ref() {
                 match frame {
                     Ok(pk) if pk.instruction == Instruction::Status as u8 => {
-                        if let Ok(st) = Status::from_packet(&pk) {
+                        if let Ok(st) = StatusRef::from_packet(pk) {
                             if waiting.contains(&st.id) && answers(req, &st) {
                                 waiting.retain(|&id| id != st.id);
-                                out.replies.insert(st.id, st);
+                                out.add(st);
                             } else {
                                 // A late reply to an earlier request (Protocol 2.0 carries
                                 // no sequence number; the shape tells them apart).
@@ -559,7 +614,7 @@ impl Link {
                     }
                     Ok(_) => {} // our own instruction echoed back by a half-duplex adapter
                     Err(FrameError::BadCrc { id, .. }) => {
-                        *out.bad_crc.entry(id).or_default() += 1;
+                        out.count_bad_crc(id);
                         // A corrupted reply will not be repeated: stop waiting for it.
                         waiting.retain(|&w| w != id);
                     }
@@ -579,19 +634,18 @@ impl Link {
                 break;
             }
             let n = self.t.read(&mut self.buf, deadline - now)?;
-            let chunk = self.buf[..n].to_vec();
-            self.dec.push(&chunk);
+            self.dec.push(&self.buf[..n]);
         }
-        for (&id, &n) in &out.bad_crc {
+        for &(id, n) in &out.bad_crc {
             *self.tally.crc.entry(id).or_default() += n;
         }
-        for &id in &waiting {
-            if !out.bad_crc.contains_key(&id) {
+        for &id in waiting.iter() {
+            if !out.had_bad_crc(id) {
                 *self.tally.timeouts.entry(id).or_default() += 1;
             }
         }
         self.tally.bad_length += out.bad_length;
-        Ok(out)
+        Ok(())
     }
 
     /// Reads and accounts what arrived after its transaction's deadline (late replies, a
@@ -604,8 +658,7 @@ impl Link {
                 break;
             }
             budget = budget.saturating_sub(n);
-            let chunk = self.buf[..n].to_vec();
-            self.dec.push(&chunk);
+            self.dec.push(&self.buf[..n]);
         }
         while let Some(frame) = self.dec.next_frame() {
             match frame {
@@ -623,8 +676,9 @@ impl Link {
     /// is lost: init and open should not fail on a single dropped packet.
     fn ask(&mut self, req: &Request, id: u8) -> Result<Option<Status>, TransportError> {
         for _ in 0..UNICAST_ATTEMPTS {
-            if let Some(st) = self.transact(req, &[id])?.replies.remove(&id) {
-                return Ok(Some(st));
+            self.transact(req, &[id])?;
+            if let Some(st) = self.reply.get(id) {
+                return Ok(Some(st.clone()));
             }
         }
         Ok(None)
@@ -677,6 +731,10 @@ struct Runtime {
     contact_rounds: u32,
     /// Goal current sent this round (for the contact decision).
     goal_current: u16,
+    /// The API's target, read at the start of the round.
+    api_target: Option<Target>,
+    /// Initialised when this round started: served by its sync write and read.
+    in_round: bool,
 }
 
 struct CalRun {
@@ -698,6 +756,62 @@ struct Worker {
     round: u64,
     last_round_start: Option<Instant>,
     rate_window: (Instant, u64),
+    requests: RoundRequests,
+}
+
+/// The two requests of a bus round, kept from one round to the next: only their values
+/// change, their buffers stay.
+struct RoundRequests {
+    /// Sync write of the round's goals.
+    goals: Request,
+    /// Sync read of the round's present values.
+    present: Request,
+}
+
+impl RoundRequests {
+    fn new() -> Self {
+        Self {
+            goals: Request::SyncWrite {
+                addr: GOAL_BLOCK.addr,
+                len: GOAL_BLOCK.len,
+                entries: Vec::new(),
+            },
+            present: Request::SyncRead {
+                addr: PRESENT_BLOCK.addr,
+                len: PRESENT_BLOCK.len,
+                ids: Vec::new(),
+            },
+        }
+    }
+
+    /// Sizes both requests for `n` grippers.
+    fn resize(&mut self, n: usize) {
+        if let Request::SyncWrite { entries, .. } = &mut self.goals {
+            entries.resize_with(n, Default::default);
+        }
+        if let Request::SyncRead { ids, .. } = &mut self.present {
+            ids.resize(n, 0);
+        }
+    }
+
+    /// Gripper `k` of the round: servo `id` and its goals.
+    fn set(&mut self, k: usize, id: u8, p: &EzGripperParams, current: u16, goal: i32) {
+        if let Request::SyncWrite { entries, .. } = &mut self.goals {
+            entries[k].0 = id;
+            goal_block_into(p, current, goal, &mut entries[k].1);
+        }
+        if let Request::SyncRead { ids, .. } = &mut self.present {
+            ids[k] = id;
+        }
+    }
+
+    /// The round's servo ids, in order.
+    fn ids(&self) -> &[u8] {
+        match &self.present {
+            Request::SyncRead { ids, .. } => ids,
+            _ => &[],
+        }
+    }
 }
 
 impl Worker {
@@ -723,6 +837,8 @@ impl Worker {
                 cal_requested: cfg.calibrate_on_start && g.zero_ticks.is_none(),
                 contact_rounds: 0,
                 goal_current: 0,
+                api_target: None,
+                in_round: false,
             })
             .collect();
         Self {
@@ -736,6 +852,7 @@ impl Worker {
             round: 0,
             last_round_start: None,
             rate_window: (Instant::now(), 0),
+            requests: RoundRequests::new(),
         }
     }
 
@@ -893,10 +1010,13 @@ impl Worker {
     }
 
     fn round(&mut self, l: &mut Link) -> Result<(), TransportError> {
-        // Commands from the API.
-        let (cmds, mut targets): (Vec<Cmd>, HashMap<u8, Target>) = {
-            let mut sh = self.lock();
-            (sh.cmds.drain(..).collect(), sh.targets.clone())
+        // Commands and targets from the API.
+        let cmds: Vec<Cmd> = {
+            let mut sh = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+            for r in &mut self.rt {
+                r.api_target = sh.targets.get(&r.id).copied();
+            }
+            sh.cmds.drain(..).collect()
         };
         for c in cmds {
             match c {
@@ -907,7 +1027,7 @@ impl Worker {
                 }
                 Cmd::Reboot(id) => {
                     if let Some(i) = self.rt.iter().position(|r| r.id == id) {
-                        let _ = l.transact(&Request::Reboot { id }, &[id])?;
+                        l.transact(&Request::Reboot { id }, &[id])?;
                         self.rt[i].initialised = false;
                         self.rt[i].last_init_try = None;
                     }
@@ -926,7 +1046,7 @@ impl Worker {
                     // set before or meanwhile is stale. Hold the position just measured
                     // (`hold_ticks`) until the next set_target; never replay.
                     let id = self.rt[i].id;
-                    targets.remove(&id);
+                    self.rt[i].api_target = None;
                     self.lock().targets.remove(&id);
                     self.rt[i].state.target = None;
                 }
@@ -958,33 +1078,29 @@ impl Worker {
             r.state.calibration = Calibration::Running;
             r.contact_rounds = 0;
         }
-        let active: Vec<usize> = (0..self.rt.len()).filter(|&i| self.rt[i].initialised).collect();
-        if active.is_empty() {
+        for r in &mut self.rt {
+            r.in_round = r.initialised;
+        }
+        let n = self.rt.iter().filter(|r| r.in_round).count();
+        if n == 0 {
             std::thread::sleep(Duration::from_millis(5));
             return Ok(());
         }
         // Goals.
-        let mut entries = Vec::with_capacity(active.len());
-        for &i in &active {
-            let (goal, cur) = self.goal_for(i, &targets);
-            self.rt[i].goal_current = cur;
-            entries.push((self.rt[i].id, goal_block(&self.p, cur, goal)));
+        self.requests.resize(n);
+        let mut k = 0;
+        for i in 0..self.rt.len() {
+            if self.rt[i].in_round {
+                let (goal, cur) = self.goal_for(i);
+                self.rt[i].goal_current = cur;
+                self.requests.set(k, self.rt[i].id, &self.p, cur, goal);
+                k += 1;
+            }
         }
-        let ids: Vec<u8> = active.iter().map(|&i| self.rt[i].id).collect();
         let round_start = Instant::now();
-        l.send(&Request::SyncWrite {
-            addr: GOAL_BLOCK.addr,
-            len: GOAL_BLOCK.len,
-            entries,
-        })?;
-        let rep = l.transact(
-            &Request::SyncRead {
-                addr: PRESENT_BLOCK.addr,
-                len: PRESENT_BLOCK.len,
-                ids: ids.clone(),
-            },
-            &ids,
-        )?;
+        l.send(&self.requests.goals)?;
+        l.transact(&self.requests.present, self.requests.ids())?;
+        let rep = &l.reply;
         let measured_at = Instant::now();
         self.round += 1;
         let round = self.round;
@@ -996,10 +1112,10 @@ impl Worker {
             let ds = l.dec.stats();
             st.truncated = ds.truncated;
             st.garbage_bytes = ds.garbage_bytes;
-            for &id in &ids {
+            for &id in self.requests.ids() {
                 let c = st.per_gripper.entry(id).or_default();
                 c.polls += 1;
-                if let Some(s) = rep.replies.get(&id) {
+                if let Some(s) = rep.get(id) {
                     if s.error.number != super::protocol::ErrorNumber::None {
                         c.status_errors += 1;
                     } else {
@@ -1010,7 +1126,7 @@ impl Worker {
                     }
                 }
             }
-            if !rep.replies.is_empty() {
+            if !rep.is_empty() {
                 if let (Some(prev), Some(periods)) = (self.last_round_start, sh.periods.as_mut()) {
                     if periods.len() >= MAX_PERIODS {
                         periods.pop_front();
@@ -1026,9 +1142,12 @@ impl Worker {
                 self.rate_window = (measured_at, round);
             }
         }
-        for &i in &active {
+        for i in 0..self.rt.len() {
+            if !self.rt[i].in_round {
+                continue;
+            }
             let id = self.rt[i].id;
-            match rep.replies.get(&id) {
+            match rep.get(id) {
                 Some(s)
                     if s.error.number == super::protocol::ErrorNumber::None
                         && s.params.len() == PRESENT_BLOCK.len as usize =>
@@ -1045,11 +1164,7 @@ impl Worker {
                     self.miss(i);
                 }
                 None => {
-                    let why = if rep.bad_crc.contains_key(&id) {
-                        "bad CRC"
-                    } else {
-                        "no answer"
-                    };
+                    let why = if rep.had_bad_crc(id) { "bad CRC" } else { "no answer" };
                     self.rt[i].state.last_error = Some(format!("servo {id}: {why}"));
                     self.miss(i);
                 }
@@ -1066,8 +1181,10 @@ impl Worker {
                 ));
             }
         }
-        for &i in &active {
-            self.publish(i);
+        for i in 0..self.rt.len() {
+            if self.rt[i].in_round {
+                self.publish(i);
+            }
         }
         Ok(())
     }
@@ -1091,7 +1208,7 @@ impl Worker {
     }
 
     /// Goal position and goal current for gripper `i` this round.
-    fn goal_for(&mut self, i: usize, targets: &HashMap<u8, Target>) -> (i32, u16) {
+    fn goal_for(&mut self, i: usize) -> (i32, u16) {
         let p = &self.p;
         let r = &mut self.rt[i];
         if let Some(c) = &r.cal {
@@ -1101,7 +1218,7 @@ impl Worker {
             r.state.target = None;
             return (r.hold_ticks, p.force_to_current(p.idle_force_pct));
         };
-        let Some(t) = targets.get(&r.id).copied().or(r.state.target) else {
+        let Some(t) = r.api_target.or(r.state.target) else {
             return (r.hold_ticks, p.force_to_current(p.idle_force_pct));
         };
         r.state.target = Some(t);
@@ -1203,7 +1320,7 @@ impl Worker {
 
 /// Whether `st` has the shape of a reply to `req`: a read returns its length of data (or an
 /// error without data), a write or reboot returns no data, a ping returns model + firmware.
-fn answers(req: &Request, st: &Status) -> bool {
+fn answers(req: &Request, st: &StatusRef<'_>) -> bool {
     let failed = st.error.number != super::protocol::ErrorNumber::None;
     match req {
         Request::Read { len, .. } | Request::SyncRead { len, .. } => {
@@ -1219,12 +1336,18 @@ fn answers(req: &Request, st: &Status) -> bool {
 /// profile velocity, goal position.
 fn goal_block(p: &EzGripperParams, current: u16, goal: i32) -> Vec<u8> {
     let mut d = Vec::with_capacity(GOAL_BLOCK.len as usize);
+    goal_block_into(p, current, goal, &mut d);
+    d
+}
+
+/// [`goal_block`] into `d` (cleared; its buffer reused).
+fn goal_block_into(p: &EzGripperParams, current: u16, goal: i32, d: &mut Vec<u8>) {
+    d.clear();
     d.extend_from_slice(&(current as i16).to_le_bytes());
     d.extend_from_slice(&0i32.to_le_bytes());
     d.extend_from_slice(&p.profile_acceleration.to_le_bytes());
     d.extend_from_slice(&p.profile_velocity.to_le_bytes());
     d.extend_from_slice(&goal.to_le_bytes());
-    d
 }
 
 #[cfg(test)]

@@ -134,15 +134,25 @@ pub enum CodecError {
     NotStatus(u8),
 }
 
+/// Whether `out` ends with an `FF FF FD` at or after `from`.
+fn ends_with_header(out: &[u8], from: usize) -> bool {
+    out.len() >= from + 3 && out.ends_with(&[0xFF, 0xFF, 0xFD])
+}
+
+/// Pushes `b` onto `out`, stuffing the body that starts at `body`: an `FF FF FD` there gets
+/// an extra `FD`.
+fn push_stuffed(out: &mut Vec<u8>, body: usize, b: u8) {
+    out.push(b);
+    if ends_with_header(out, body) {
+        out.push(0xFD);
+    }
+}
+
 /// Adds byte stuffing: every `FF FF FD` gets an extra `FD`.
 pub fn stuff(data: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(data.len() + data.len() / 3);
     for &b in data {
-        out.push(b);
-        let n = out.len();
-        if n >= 3 && out[n - 3] == 0xFF && out[n - 2] == 0xFF && out[n - 1] == 0xFD {
-            out.push(0xFD);
-        }
+        push_stuffed(&mut out, 0, b);
     }
     out
 }
@@ -152,20 +162,24 @@ pub fn stuff(data: &[u8]) -> Vec<u8> {
 /// a body is malformed (and would not re-encode to the same length).
 pub fn unstuff(data: &[u8]) -> Option<Vec<u8>> {
     let mut out = Vec::with_capacity(data.len());
+    unstuff_into(data, &mut out).then_some(out)
+}
+
+/// [`unstuff`] into `out` (cleared; its buffer reused); `false` for a malformed body.
+pub fn unstuff_into(data: &[u8], out: &mut Vec<u8>) -> bool {
+    out.clear();
     let mut i = 0;
     while i < data.len() {
-        let b = data[i];
-        out.push(b);
-        let n = out.len();
-        if n >= 3 && out[n - 3] == 0xFF && out[n - 2] == 0xFF && out[n - 1] == 0xFD {
+        out.push(data[i]);
+        if ends_with_header(out, 0) {
             if data.get(i + 1) != Some(&0xFD) {
-                return None;
+                return false;
             }
             i += 1; // skip the stuffing byte
         }
         i += 1;
     }
-    Some(out)
+    true
 }
 
 /// A decoded packet with its parameters unstuffed. For a status packet `params[0]` is the
@@ -177,23 +191,76 @@ pub struct Packet {
     pub params: Vec<u8>,
 }
 
+/// A packet with its parameters borrowed (from [`Decoder::next_frame_ref`]'s buffer).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PacketRef<'a> {
+    pub id: u8,
+    pub instruction: u8,
+    pub params: &'a [u8],
+}
+
+impl PacketRef<'_> {
+    pub fn to_packet(&self) -> Packet {
+        Packet {
+            id: self.id,
+            instruction: self.instruction,
+            params: self.params.to_vec(),
+        }
+    }
+}
+
+impl<'a> From<&'a Packet> for PacketRef<'a> {
+    fn from(p: &'a Packet) -> Self {
+        PacketRef {
+            id: p.id,
+            instruction: p.instruction,
+            params: &p.params,
+        }
+    }
+}
+
+/// Writes one packet into a buffer: the header, then the instruction and parameters stuffed
+/// as they come, then length and CRC ([`Self::finish`]).
+struct PacketWriter<'a> {
+    out: &'a mut Vec<u8>,
+}
+
+impl<'a> PacketWriter<'a> {
+    /// Starts a packet in `out` (cleared; its buffer reused).
+    fn start(out: &'a mut Vec<u8>, id: u8, instruction: u8) -> Self {
+        out.clear();
+        out.extend_from_slice(&HEADER);
+        out.push(id);
+        out.extend_from_slice(&[0, 0]); // the length, set by finish
+        push_stuffed(out, PREFIX_LEN, instruction);
+        Self { out }
+    }
+
+    fn extend(&mut self, params: &[u8]) {
+        for &b in params {
+            push_stuffed(self.out, PREFIX_LEN, b);
+        }
+    }
+
+    /// The length field (stuffed body + CRC) and the CRC.
+    fn finish(self) -> Result<(), CodecError> {
+        let len = self.out.len() - PREFIX_LEN + 2;
+        if len > MAX_LENGTH_FIELD {
+            return Err(CodecError::TooLong(len));
+        }
+        self.out[5..PREFIX_LEN].copy_from_slice(&(len as u16).to_le_bytes());
+        let crc = crc16(self.out);
+        self.out.extend_from_slice(&crc.to_le_bytes());
+        Ok(())
+    }
+}
+
 /// Encodes one packet: stuffing, length and CRC.
 pub fn encode_packet(id: u8, instruction: u8, params: &[u8]) -> Result<Vec<u8>, CodecError> {
-    let mut body = Vec::with_capacity(params.len() + 1);
-    body.push(instruction);
-    body.extend_from_slice(params);
-    let stuffed = stuff(&body);
-    let len = stuffed.len() + 2;
-    if len > MAX_LENGTH_FIELD {
-        return Err(CodecError::TooLong(len));
-    }
-    let mut out = Vec::with_capacity(PREFIX_LEN + len);
-    out.extend_from_slice(&HEADER);
-    out.push(id);
-    out.extend_from_slice(&(len as u16).to_le_bytes());
-    out.extend_from_slice(&stuffed);
-    let crc = crc16(&out);
-    out.extend_from_slice(&crc.to_le_bytes());
+    let mut out = Vec::with_capacity(PREFIX_LEN + params.len() + 4);
+    let mut w = PacketWriter::start(&mut out, id, instruction);
+    w.extend(params);
+    w.finish()?;
     Ok(out)
 }
 
@@ -272,8 +339,16 @@ pub struct Status {
     pub params: Vec<u8>,
 }
 
-impl Status {
-    pub fn from_packet(p: &Packet) -> Result<Self, CodecError> {
+/// A status packet with its parameters borrowed (see [`Status`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StatusRef<'a> {
+    pub id: u8,
+    pub error: StatusError,
+    pub params: &'a [u8],
+}
+
+impl<'a> StatusRef<'a> {
+    pub fn from_packet(p: PacketRef<'a>) -> Result<Self, CodecError> {
         if p.instruction != Instruction::Status as u8 {
             return Err(CodecError::NotStatus(p.instruction));
         }
@@ -286,8 +361,22 @@ impl Status {
         Ok(Self {
             id: p.id,
             error: StatusError::from_byte(err),
-            params: params.to_vec(),
+            params,
         })
+    }
+
+    pub fn to_status(&self) -> Status {
+        Status {
+            id: self.id,
+            error: self.error,
+            params: self.params.to_vec(),
+        }
+    }
+}
+
+impl Status {
+    pub fn from_packet(p: &Packet) -> Result<Self, CodecError> {
+        StatusRef::from_packet(p.into()).map(|s| s.to_status())
     }
 
     pub fn encode(&self) -> Result<Vec<u8>, CodecError> {
@@ -354,28 +443,40 @@ impl Request {
 
     /// Encodes the request to wire bytes.
     pub fn encode(&self) -> Result<Vec<u8>, CodecError> {
-        let mut p = Vec::new();
+        let mut out = Vec::new();
+        self.encode_into(&mut out)?;
+        Ok(out)
+    }
+
+    /// [`Self::encode`] into `out` (cleared; its buffer reused: the bus round encodes every
+    /// round without allocating).
+    pub fn encode_into(&self, out: &mut Vec<u8>) -> Result<(), CodecError> {
+        let id = self.packet_id();
+        if id != BROADCAST_ID {
+            check_id(id)?;
+        }
+        let mut p = PacketWriter::start(out, id, self.instruction() as u8);
         match self {
             Request::Ping { .. } | Request::Reboot { .. } => {}
             Request::Read { addr, len, .. } => {
-                p.extend_from_slice(&addr.to_le_bytes());
-                p.extend_from_slice(&len.to_le_bytes());
+                p.extend(&addr.to_le_bytes());
+                p.extend(&len.to_le_bytes());
             }
             Request::Write { addr, data, .. } => {
-                p.extend_from_slice(&addr.to_le_bytes());
-                p.extend_from_slice(data);
+                p.extend(&addr.to_le_bytes());
+                p.extend(data);
             }
             Request::SyncRead { addr, len, ids } => {
-                p.extend_from_slice(&addr.to_le_bytes());
-                p.extend_from_slice(&len.to_le_bytes());
+                p.extend(&addr.to_le_bytes());
+                p.extend(&len.to_le_bytes());
                 for &id in ids {
                     check_id(id)?;
-                    p.push(id);
+                    p.extend(&[id]);
                 }
             }
             Request::SyncWrite { addr, len, entries } => {
-                p.extend_from_slice(&addr.to_le_bytes());
-                p.extend_from_slice(&len.to_le_bytes());
+                p.extend(&addr.to_le_bytes());
+                p.extend(&len.to_le_bytes());
                 for (id, data) in entries {
                     check_id(*id)?;
                     if data.len() != *len as usize {
@@ -385,16 +486,12 @@ impl Request {
                             expected: *len as usize,
                         });
                     }
-                    p.push(*id);
-                    p.extend_from_slice(data);
+                    p.extend(&[*id]);
+                    p.extend(data);
                 }
             }
         }
-        let id = self.packet_id();
-        if id != BROADCAST_ID {
-            check_id(id)?;
-        }
-        encode_packet(id, self.instruction() as u8, &p)
+        p.finish()
     }
 
     /// Interprets a decoded instruction packet (the emulator's side).
@@ -491,6 +588,8 @@ pub struct DecoderStats {
 #[derive(Debug, Default)]
 pub struct Decoder {
     buf: Vec<u8>,
+    /// The unstuffed body of the packet [`Self::next_frame_ref`] returned last.
+    body: Vec<u8>,
     stats: DecoderStats,
 }
 
@@ -524,6 +623,27 @@ impl Decoder {
 
     /// The next complete packet or rejected frame; `None` when more bytes are needed.
     pub fn next_frame(&mut self) -> Option<Result<Packet, FrameError>> {
+        self.next_frame_ref().map(|f| f.map(|p| p.to_packet()))
+    }
+
+    /// [`Self::next_frame`] with the packet's parameters borrowed from the decoder (no
+    /// allocation once its buffers have grown).
+    pub fn next_frame_ref(&mut self) -> Option<Result<PacketRef<'_>, FrameError>> {
+        let id = match self.next_body()? {
+            Ok(id) => id,
+            Err(e) => return Some(Err(e)),
+        };
+        let (&instruction, params) = self.body.split_first()?;
+        Some(Ok(PacketRef {
+            id,
+            instruction,
+            params,
+        }))
+    }
+
+    /// Finds the next complete packet and unstuffs its body (instruction first, never empty)
+    /// into `self.body`: its id, or the rejected frame; `None` when more bytes are needed.
+    fn next_body(&mut self) -> Option<Result<u8, FrameError>> {
         loop {
             // Find a header.
             let start = find_header(&self.buf);
@@ -564,22 +684,18 @@ impl Decoder {
                 self.buf.drain(..1);
                 return Some(Err(FrameError::BadCrc { id, expected, got }));
             }
-            let Some(body) = unstuff(&self.buf[PREFIX_LEN..total - 2]) else {
+            if !unstuff_into(&self.buf[PREFIX_LEN..total - 2], &mut self.body) {
                 self.stats.unstuffed += 1;
                 // As for a bad CRC: a real packet may start inside it (at that FF FF FD).
                 self.buf.drain(..1);
                 return Some(Err(FrameError::Unstuffed { id }));
-            };
+            }
             self.buf.drain(..total);
-            let Some((&instruction, params)) = body.split_first() else {
+            if self.body.is_empty() {
                 continue;
-            };
+            }
             self.stats.packets += 1;
-            return Some(Ok(Packet {
-                id,
-                instruction,
-                params: params.to_vec(),
-            }));
+            return Some(Ok(id));
         }
     }
 }

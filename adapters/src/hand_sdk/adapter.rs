@@ -68,57 +68,57 @@ impl DdsCodec for HandSdkCodec {
     type Cmd = unitree_go::MotorCmds_;
     type State = unitree_go::MotorStates_;
 
-    fn encode(&mut self, active: &Active, table: &DeviceTable, dt: f32) -> Option<Self::Cmd> {
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, dt: f32, msg: &mut Self::Cmd) -> bool {
         let step = self.ramp.per_second.max(1e-3) * dt;
-        let target = match active {
-            Active::Idle => return None,
-            Active::Command(t) => {
-                self.last = Some(t.clone());
+        match (active, &mut self.last) {
+            (Active::Idle, _) => return false,
+            (Active::Command(t), last) => {
+                match last {
+                    Some(l) => l.clone_from(t),
+                    None => *last = Some(t.clone()),
+                }
                 self.weight = (self.weight + step).min(self.ramp.target.clamp(0.0, 1.0));
-                t.clone()
             }
-            Active::Safe(..) => {
-                // Hand control back to ai_sport smoothly with the last command, then go quiet.
-                let last = self.last.clone()?;
+            // Hand control back to ai_sport smoothly with the last command, then go quiet.
+            (Active::Safe(..), None) => return false,
+            (Active::Safe(..), Some(_)) => {
                 if self.weight <= 0.0 {
-                    return None;
+                    return false;
                 }
                 self.weight = (self.weight - step).max(0.0);
-                last
             }
+        }
+        let Some(target) = &self.last else {
+            return false;
         };
-        let wire = table.to_wire(&target);
-        let mut msg = unitree_go::MotorCmds_::with_len(MOTORS);
-        for (m, w) in msg.cmds.iter_mut().zip(&wire) {
-            *m = (*w).into();
+        msg.cmds.clear();
+        msg.cmds.resize(MOTORS, Default::default());
+        for (i, w) in table.wire_targets(target) {
+            if let Some(m) = msg.cmds.get_mut(i) {
+                *m = w.into();
+            }
         }
         msg.cmds[0].mode = Self::weight_byte(self.weight);
-        Some(msg)
+        true
     }
 
-    fn decode(&mut self, _s: &Self::State, _table: &DeviceTable) -> Option<HandState> {
-        None
+    fn decode_into(&mut self, _s: &Self::State, _table: &DeviceTable, _st: &mut HandState) -> bool {
+        false
     }
 
-    fn commanded_state(&self, table: &DeviceTable) -> Option<HandState> {
-        let joints = match &self.last {
-            Some(t) => t
-                .iter()
-                .map(|c| JointState {
-                    q: c.q,
-                    dq: c.dq,
-                    tau: c.tau,
-                    temperature: None,
-                })
-                .collect(),
-            None => vec![JointState::default(); table.joint_count()],
-        };
-        Some(HandState {
-            joints,
-            freshness: Freshness::CommandedOnly,
-            mode: Self::weight_byte(self.weight),
-            ..Default::default()
-        })
+    fn commanded_state(&self, table: &DeviceTable, st: &mut HandState) {
+        st.joints.clear();
+        match &self.last {
+            Some(t) => st.joints.extend(t.iter().map(|c| JointState {
+                q: c.q,
+                dq: c.dq,
+                tau: c.tau,
+                temperature: None,
+            })),
+            None => st.joints.resize(table.joint_count(), JointState::default()),
+        }
+        st.freshness = Freshness::CommandedOnly;
+        st.mode = Self::weight_byte(self.weight);
     }
 }
 

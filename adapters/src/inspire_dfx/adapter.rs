@@ -88,61 +88,77 @@ impl DdsCodec for DfxCodec {
     type Cmd = unitree_go::MotorCmds_;
     type State = unitree_go::MotorStates_;
 
-    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut Self::Cmd) -> bool {
         let targets = match active {
             // The service has no limp: it only writes angles. Stay silent; after its 1 s
             // timeout it stops writing and the hand holds its last target (docs/sources.md §7).
             // Our messages stop holding the other hand: the next one begins a new hold.
             Active::Idle | Active::Safe(SafeAction::Limp, _) => {
                 self.other.release();
-                return None;
+                return false;
             }
             Active::Command(t) | Active::Safe(_, t) => t,
         };
-        let w = table.to_wire(targets);
+        // This hand's wire q by entry (NaN: no joint there, a table bug).
+        let mut own = [f32::NAN; HAND_ENTRIES];
+        for (i, w) in table.wire_targets(targets) {
+            if let Some(q) = own.get_mut(i) {
+                *q = w.q;
+            }
+        }
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-        for (i, e) in self.own_range().enumerate() {
-            shared[e] = w.get(i).map(|w| w.q).filter(|q| q.is_finite());
+        for (e, q) in self.own_range().zip(own) {
+            shared[e] = Some(q).filter(|q| q.is_finite());
         }
         // The other hand: its own device's latest targets, else held where it was measured
         // when this hold began; without either we cannot hold it: stay silent.
-        let other: [f32; HAND_ENTRIES] = match self.other_range().map(|e| shared[e]).collect::<Option<Vec<f32>>>() {
-            Some(t) => {
-                self.other.release();
-                t.try_into().ok()?
+        let mut sent = [0.0; HAND_ENTRIES];
+        let mut all_sent = true;
+        for (q, e) in sent.iter_mut().zip(self.other_range()) {
+            match shared[e] {
+                Some(v) => *q = v,
+                None => all_sent = false,
             }
-            None => self.other.hold()?,
-        };
-        drop(shared);
-        let mut msg = unitree_go::MotorCmds_::with_len(ENTRIES);
-        for (i, e) in self.own_range().enumerate() {
-            msg.cmds[e] = entry(w.get(i).map_or(f32::NAN, |w| w.q));
         }
-        for (i, e) in self.other_range().enumerate() {
-            msg.cmds[e] = entry(other[i]);
+        drop(shared);
+        let other = if all_sent {
+            self.other.release();
+            sent
+        } else {
+            match self.other.hold() {
+                Some(q) => q,
+                None => return false,
+            }
+        };
+        msg.cmds.clear();
+        msg.cmds.resize(ENTRIES, entry(0.0));
+        for (e, q) in self.own_range().zip(own) {
+            msg.cmds[e] = entry(q);
+        }
+        for (e, q) in self.other_range().zip(other) {
+            msg.cmds[e] = entry(q);
         }
         // A table always covers its six entries; a NaN here would be a table bug: say nothing.
-        msg.cmds.iter().all(|c| c.q.is_finite()).then_some(msg)
+        msg.cmds.iter().all(|c| c.q.is_finite())
     }
 
     fn reconnected(&mut self) {
         self.other.release();
     }
 
-    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
+    fn decode_into(&mut self, s: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
         if s.states.len() != ENTRIES {
-            return None;
+            return false;
         }
-        let other: Vec<f32> = s.states[self.other_range()].iter().map(|m| m.q).collect();
-        if other.iter().all(|q| q.is_finite()) {
+        let other = &s.states[self.other_range()];
+        if other.iter().all(|m| m.q.is_finite()) {
             let mut o = [0.0; HAND_ENTRIES];
-            o.copy_from_slice(&other);
+            for (o, m) in o.iter_mut().zip(other) {
+                *o = m.q;
+            }
             self.other.measure(o);
         }
         let own = &s.states[self.own_range()];
-        let q: Vec<f32> = own.iter().map(|m| m.q).collect();
-        let dq: Vec<f32> = own.iter().map(|m| m.dq).collect();
-        let tau: Vec<f32> = own.iter().map(|m| m.tau_est).collect();
         let mut lost = [0u32; HAND_ENTRIES];
         for (l, m) in lost.iter_mut().zip(own) {
             *l = m.lost;
@@ -151,10 +167,8 @@ impl DdsCodec for DfxCodec {
             .last_lost
             .is_some_and(|prev| prev.iter().zip(&lost).any(|(p, l)| l > p));
         self.last_lost = Some(lost);
-        Some(HandState {
-            joints: table.state_from_wire(&q, &dq, &tau),
-            faults: if missed { faults::HARDWARE } else { 0 },
-            ..Default::default()
-        })
+        table.state_from_wire_into(&mut st.joints, |i| own.get(i).map(|m| (m.q, m.dq, m.tau_est)));
+        st.faults = if missed { faults::HARDWARE } else { 0 };
+        true
     }
 }

@@ -21,9 +21,11 @@ use handgate_idl::inspire::{
     InspireHandCtrl, InspireHandState, InspireHandTouch, ACTUATORS, MODE_ANGLE, MODE_FORCE, MODE_SPEED,
 };
 
+use std::sync::{Arc, Mutex};
+
 use crate::control::{Active, MeasuredHold};
-use crate::dds::Reader;
-use crate::dds_device::DdsCodec;
+use crate::dds::{DdsError, Node, Reader};
+use crate::dds_device::{DdsCodec, STATE_QOS};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, Pad, SafeAction};
 
@@ -45,20 +47,25 @@ pub struct FtpCodec {
 }
 
 impl FtpCodec {
-    /// The `inspire_hand_ctrl` for wire angles `angles` (canonical order = wire order).
-    pub fn message(&self, angles: [i16; ACTUATORS]) -> InspireHandCtrl {
-        let mut m = InspireHandCtrl::sdk_default();
-        m.angle_set = angles.to_vec();
+    /// Fills `m` with the `inspire_hand_ctrl` for wire angles `angles` (canonical order = wire
+    /// order), its buffers reused: the SDK's default message (every array 6 zeros) with
+    /// `angle_set` and the profile's force and speed.
+    pub fn message(&self, angles: [i16; ACTUATORS], m: &mut InspireHandCtrl) {
+        let set = |v: &mut Vec<i16>, values: [i16; ACTUATORS]| {
+            v.clear();
+            v.extend_from_slice(&values);
+        };
+        set(&mut m.pos_set, [0; ACTUATORS]);
+        set(&mut m.angle_set, angles);
+        set(&mut m.force_set, [self.force_limit.unwrap_or(0); ACTUATORS]);
+        set(&mut m.speed_set, [self.speed.unwrap_or(0); ACTUATORS]);
         m.mode = MODE_ANGLE;
-        if let Some(f) = self.force_limit {
-            m.force_set = vec![f; ACTUATORS];
+        if self.force_limit.is_some() {
             m.mode |= MODE_FORCE;
         }
-        if let Some(s) = self.speed {
-            m.speed_set = vec![s; ACTUATORS];
+        if self.speed.is_some() {
             m.mode |= MODE_SPEED;
         }
-        m
     }
 }
 
@@ -77,41 +84,45 @@ impl DdsCodec for FtpCodec {
     type Cmd = InspireHandCtrl;
     type State = InspireHandState;
 
-    fn encode(&mut self, active: &Active, table: &DeviceTable, _dt: f32) -> Option<Self::Cmd> {
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut Self::Cmd) -> bool {
         let targets = match active {
             // The hand has no torque-off: a limp safe state is a hold of the angles measured
             // when it began, kept until it ends (never re-taken from each new measurement:
             // docs/adapters.md, "Holds"); nothing before the hand was measured.
-            Active::Safe(SafeAction::Limp, _) => return self.limp.hold().map(|a| self.message(a)),
-            Active::Idle => return None,
+            Active::Safe(SafeAction::Limp, _) => {
+                return match self.limp.hold() {
+                    Some(a) => {
+                        self.message(a, msg);
+                        true
+                    }
+                    None => false,
+                };
+            }
+            Active::Idle => return false,
             Active::Command(t) | Active::Safe(_, t) => t,
         };
         self.limp.release();
-        let wire = table.to_wire(targets);
         let mut angles = [1000i16; ACTUATORS];
-        for (map, w) in table.joints.iter().zip(&wire) {
-            angles[map.wire_index] = angle_register(w.q);
+        for (i, w) in table.wire_targets(targets) {
+            angles[i] = angle_register(w.q);
         }
-        Some(self.message(angles))
+        self.message(angles, msg);
+        true
     }
 
-    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
+    fn decode_into(&mut self, s: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
         if s.angle_act.len() != ACTUATORS {
-            return None;
+            return false;
         }
-        let q: Vec<f32> = table
-            .joints
-            .iter()
-            .map(|m| f32::from(s.angle_act[m.wire_index]))
-            .collect();
         let mut act = [0i16; ACTUATORS];
         act.copy_from_slice(&s.angle_act);
         self.limp.measure(act);
-        let zeros = vec![0.0; table.joint_count()];
-        let mut joints = table.state_from_wire(&q, &zeros, &zeros);
-        for (j, m) in joints.iter_mut().zip(&table.joints) {
-            j.dq = 0.0;
-            j.tau = 0.0;
+        table.state_from_wire_into(&mut st.joints, |i| {
+            s.angle_act.get(i).map(|a| (f32::from(*a), 0.0, 0.0))
+        });
+        for (j, m) in st.joints.iter_mut().zip(&table.joints) {
+            // Not measured: 0 (not the -0.0 of a mirrored joint).
+            (j.dq, j.tau) = (0.0, 0.0);
             j.temperature = s.temperature.get(m.wire_index).map(|t| f32::from(*t));
         }
         let mut f = 0;
@@ -125,32 +136,47 @@ impl DdsCodec for FtpCodec {
         {
             f |= faults::HARDWARE;
         }
-        let mode = s.status.iter().copied().filter(|st| *st <= 7).max().unwrap_or(0);
-        Some(HandState {
-            joints,
-            faults: f,
-            mode,
-            ..Default::default()
-        })
+        st.faults = f;
+        st.mode = s.status.iter().copied().filter(|st| *st <= 7).max().unwrap_or(0);
+        true
     }
 }
+
+/// The newest touch sample, left by the touch reader's callback (on CycloneDDS's thread) for
+/// the device loop.
+type LatestTouch = Arc<Mutex<Option<InspireHandTouch>>>;
 
 /// The device-side codec: [`FtpCodec`] plus, over Modbus TCP, the touch reader whose latest
 /// sample rides along in every decoded state.
 pub struct FtpClient {
     pub codec: FtpCodec,
-    touch: Option<Reader<InspireHandTouch>>,
+    touch: Option<(Reader<InspireHandTouch>, LatestTouch)>,
     pads: Vec<Pad>,
 }
 
 impl FtpClient {
-    /// `touch`: the reader of the hand's touch topic (None over RS-485).
-    pub fn new(codec: FtpCodec, touch: Option<Reader<InspireHandTouch>>) -> Self {
-        Self {
+    /// `touch`: the hand's touch topic (None over RS-485), read on `node`.
+    pub fn new(node: &Node, codec: FtpCodec, touch: Option<&str>) -> Result<Self, DdsError> {
+        let touch = match touch {
+            Some(topic) => {
+                let latest = LatestTouch::default();
+                let l = latest.clone();
+                let reader = node.reader_with_callback::<InspireHandTouch, _>(topic, STATE_QOS, move |h| {
+                    let mut v = Vec::new();
+                    h.take_into(&mut v);
+                    if let Some(t) = v.pop() {
+                        *l.lock().unwrap_or_else(|p| p.into_inner()) = Some(t);
+                    }
+                })?;
+                Some((reader, latest))
+            }
+            None => None,
+        };
+        Ok(Self {
             codec,
             touch,
             pads: Vec::new(),
-        }
+        })
     }
 }
 
@@ -158,17 +184,23 @@ impl DdsCodec for FtpClient {
     type Cmd = InspireHandCtrl;
     type State = InspireHandState;
 
-    fn encode(&mut self, active: &Active, table: &DeviceTable, dt: f32) -> Option<Self::Cmd> {
-        self.codec.encode(active, table, dt)
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, dt: f32, msg: &mut Self::Cmd) -> bool {
+        self.codec.encode_into(active, table, dt, msg)
     }
 
-    fn decode(&mut self, s: &Self::State, table: &DeviceTable) -> Option<HandState> {
-        if let Some(t) = self.touch.as_ref().and_then(|r| r.take().pop()) {
-            self.pads = super::front::pads_from_touch(&t);
+    fn decode_into(&mut self, s: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
+        let touch = self
+            .touch
+            .as_ref()
+            .and_then(|(_, latest)| latest.lock().unwrap_or_else(|p| p.into_inner()).take());
+        if let Some(t) = touch {
+            super::front::pads_from_touch_into(&t, &mut self.pads);
         }
-        let mut st = self.codec.decode(s, table)?;
-        st.pads = self.pads.clone();
-        Some(st)
+        if !self.codec.decode_into(s, table, st) {
+            return false;
+        }
+        st.pads.clone_from(&self.pads);
+        true
     }
 }
 

@@ -127,17 +127,22 @@ pub fn touch_fields_mut(t: &mut InspireHandTouch) -> [&mut Vec<i16>; 17] {
 
 /// The canonical pads of a touch message: one per segment, raw values, no temperature.
 pub fn pads_from_touch(t: &InspireHandTouch) -> Vec<Pad> {
-    SEGMENTS
-        .iter()
-        .zip(touch_fields(t))
-        .map(|(&(name, rows, cols), v)| Pad {
-            name: name.to_string(),
-            rows,
-            cols,
-            pressure: v.iter().map(|x| f32::from(*x)).collect(),
-            temperature: Vec::new(),
-        })
-        .collect()
+    let mut pads = Vec::new();
+    pads_from_touch_into(t, &mut pads);
+    pads
+}
+
+/// [`pads_from_touch`] into `pads`, their buffers reused.
+pub fn pads_from_touch_into(t: &InspireHandTouch, pads: &mut Vec<Pad>) {
+    pads.resize_with(SEGMENTS.len(), Pad::default);
+    for (pad, (&(name, rows, cols), v)) in pads.iter_mut().zip(SEGMENTS.iter().zip(touch_fields(t))) {
+        pad.name.clear();
+        pad.name.push_str(name);
+        (pad.rows, pad.cols) = (rows, cols);
+        pad.pressure.clear();
+        pad.pressure.extend(v.iter().map(|x| f32::from(*x)));
+        pad.temperature.clear();
+    }
 }
 
 /// `inspire_hand_touch` from a device's pads, `None` when it has none of the segments.

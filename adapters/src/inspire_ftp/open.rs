@@ -102,11 +102,7 @@ pub fn served(spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> 
 
 /// The client of the driver (and its touch reader when the topics have one).
 fn client(node: &Node, codec: FtpCodec, topics: &FtpTopics) -> Result<FtpClient, DeviceError> {
-    let touch = match &topics.touch {
-        Some(t) => Some(node.reader(t, STATE_QOS)?),
-        None => None,
-    };
-    Ok(FtpClient::new(codec, touch))
+    Ok(FtpClient::new(node, codec, topics.touch.as_deref())?)
 }
 
 /// Opens an Inspire FTP hand on its backend.

@@ -43,14 +43,13 @@ pub fn to_dex3_command(table: &DeviceTable, targets: &[JointCommand]) -> Dex3Com
     c
 }
 
-/// Canonical state from a loop measurement.
-pub fn to_hand_state(table: &DeviceTable, m: &Dex3Measurement, connected: bool) -> HandState {
-    let q: Vec<f32> = m.motors.iter().map(|x| x.q).collect();
-    let dq: Vec<f32> = m.motors.iter().map(|x| x.dq).collect();
-    let tau: Vec<f32> = m.motors.iter().map(|x| x.tau).collect();
-    let mut joints = table.state_from_wire(&q, &dq, &tau);
+/// Canonical state from a loop measurement, into `st` (its buffers reused: the loop thread
+/// does this every cycle). Sets every field but the command echo, the wall-clock time and
+/// `mode` (`link::stamp` and the observer set the first two; a Dex3 has no mode).
+pub fn to_hand_state(table: &DeviceTable, m: &Dex3Measurement, connected: bool, st: &mut HandState) {
+    table.state_from_wire_into(&mut st.joints, |i| m.motors.get(i).map(|x| (x.q, x.dq, x.tau)));
     let mut f = 0;
-    for (j, map) in joints.iter_mut().zip(&table.joints) {
+    for (j, map) in st.joints.iter_mut().zip(&table.joints) {
         let mm = &m.motors[map.wire_index];
         j.temperature = mm.present.then_some(mm.temperature_winding);
         if mm.error != 0 {
@@ -67,29 +66,23 @@ pub fn to_hand_state(table: &DeviceTable, m: &Dex3Measurement, connected: bool) 
         f |= faults::LINK_DOWN;
     }
     let fresh = connected && !m.stale && m.seq > 0;
-    HandState {
-        closure: table.closure_of(&joints.iter().map(|j| j.q).collect::<Vec<_>>()),
-        joints,
-        pads: m
-            .pads
-            .iter()
-            .enumerate()
-            .map(|(i, p)| Pad::dex3(i, p.pressure, p.temperature))
-            .collect(),
-        imu: Some(Imu {
-            quaternion: [1.0, 0.0, 0.0, 0.0],
-            gyroscope: m.imu.gyro,
-            accelerometer: m.imu.accel,
-        }),
-        power: Some(Power {
-            voltage: m.power.power_v,
-            current: m.power.power_a,
-        }),
-        faults: f,
-        freshness: if fresh { Freshness::Fresh } else { Freshness::Stale },
-        measured_at: (m.seq > 0).then_some(m.measured_at),
-        ..Default::default()
+    st.closure = table.closure_of_state(&st.joints);
+    st.pads.resize_with(m.pads.len(), Pad::default);
+    for (i, (pad, p)) in st.pads.iter_mut().zip(&m.pads).enumerate() {
+        pad.set_dex3(i, p.pressure, p.temperature);
     }
+    st.imu = Some(Imu {
+        quaternion: [1.0, 0.0, 0.0, 0.0],
+        gyroscope: m.imu.gyro,
+        accelerometer: m.imu.accel,
+    });
+    st.power = Some(Power {
+        voltage: m.power.power_v,
+        current: m.power.power_a,
+    });
+    st.faults = f;
+    st.freshness = if fresh { Freshness::Fresh } else { Freshness::Stale };
+    st.measured_at = (m.seq > 0).then_some(m.measured_at);
 }
 
 /// Opens the transport again (after a disconnect, or for discovery).
@@ -162,10 +155,12 @@ impl Dex3UsbDevice {
         // (client seq, tag) of the newest command a measurement reflects.
         let mut echo = (0u64, 0u32);
         let mut clock = crate::control::CycleClock::default();
+        // The state built every cycle, its buffers reused.
+        let mut st = HandState::empty(table.joint_count());
         let observer: Observer = Box::new(move |m: &Dex3Measurement, link: Link| {
             // Called after every cycle (and every failed connect attempt) on the loop thread.
             clock.tick(&b_cmd.counters, std::time::Instant::now());
-            let mut st = to_hand_state(&table, m, link.connected);
+            to_hand_state(&table, m, link.connected, &mut st);
             if link.connects != last_connects && m.seq > 0 && !m.stale {
                 // The loop itself holds the first measured state after a (re)connect; forget
                 // the targets that were in force before.
@@ -187,7 +182,7 @@ impl Dex3UsbDevice {
             crate::link::stamp(&mut st, &b_cmd, b_cmd.is_safe(), true);
             // The echo is the command this measurement's exchange sent, not the last applied.
             (st.cmd_seq, st.cmd_tag) = echo;
-            tx.send_replace(st);
+            tx.send_modify(|out| out.clone_from(&st));
         });
         let handle = Dex3UsbLoop::spawn_observed((self.make)(), self.config.clone(), Some(observer))?;
         *self.handle.lock().unwrap_or_else(|p| p.into_inner()) = Some(handle);

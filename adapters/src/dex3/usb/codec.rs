@@ -619,13 +619,26 @@ impl ParseCounters {
     }
 }
 
+/// One CRC-checked packet from a bus.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Feedback {
+    Motor(MotorFeedbackFrame),
+    Sensor(SensorFrame),
+}
+
 /// Walks one bus buffer's first `state_size` bytes packet by packet (head FC EE → 26-byte
-/// motor feedback, head 7E E7 → 44-byte sensor state), checking every packet's CRC. Never
-/// panics.
-pub fn parse_bus(bus: BusId, buf: &[u8], state_size: u32, out: &mut ParsedFeedback) {
+/// motor feedback, head 7E E7 → 44-byte sensor state), checking every packet's CRC, and hands
+/// each good packet to `each`; problems go to `counters`. Never panics, never allocates.
+pub fn walk_bus(
+    bus: BusId,
+    buf: &[u8],
+    state_size: u32,
+    counters: &mut ParseCounters,
+    mut each: impl FnMut(BusId, Feedback),
+) {
     let mut size = state_size as usize;
     if size > buf.len() {
-        out.counters.oversize += 1;
+        counters.oversize += 1;
         size = buf.len();
     }
     let data = &buf[..size];
@@ -633,7 +646,7 @@ pub fn parse_bus(bus: BusId, buf: &[u8], state_size: u32, out: &mut ParsedFeedba
     while pos < data.len() {
         let rest = &data[pos..];
         if rest.len() < 2 {
-            out.counters.truncated += 1;
+            counters.truncated += 1;
             return;
         }
         let head = [rest[0], rest[1]];
@@ -642,27 +655,56 @@ pub fn parse_bus(bus: BusId, buf: &[u8], state_size: u32, out: &mut ParsedFeedba
         } else if head == SENSOR_HEAD {
             SENSOR_LEN
         } else {
-            out.counters.unknown_header += 1;
+            counters.unknown_header += 1;
             return;
         };
         if rest.len() < len {
-            out.counters.truncated += 1;
+            counters.truncated += 1;
             return;
         }
         let pkt = &rest[..len];
-        if head == MOTOR_FB_HEAD {
-            match MotorFeedbackFrame::decode(pkt) {
-                Ok(f) => out.motors.push((bus, f)),
-                Err(_) => out.counters.bad_crc += 1,
-            }
+        let packet = if head == MOTOR_FB_HEAD {
+            MotorFeedbackFrame::decode(pkt).map(Feedback::Motor)
         } else {
-            match SensorFrame::decode(pkt) {
-                Ok(f) => out.sensors.push((bus, f)),
-                Err(_) => out.counters.bad_crc += 1,
-            }
+            SensorFrame::decode(pkt).map(Feedback::Sensor)
+        };
+        match packet {
+            Ok(f) => each(bus, f),
+            Err(_) => counters.bad_crc += 1,
         }
         pos += len;
     }
+}
+
+impl ParsedFeedback {
+    fn add(&mut self, bus: BusId, f: Feedback) {
+        match f {
+            Feedback::Motor(m) => self.motors.push((bus, m)),
+            Feedback::Sensor(s) => self.sensors.push((bus, s)),
+        }
+    }
+}
+
+/// [`walk_bus`], collecting the packets into `out`.
+pub fn parse_bus(bus: BusId, buf: &[u8], state_size: u32, out: &mut ParsedFeedback) {
+    let mut counters = out.counters;
+    walk_bus(bus, buf, state_size, &mut counters, |bus, f| out.add(bus, f));
+    out.counters = counters;
+}
+
+/// [`walk_bus`] over every bus of a decoded state frame; returns the problems met.
+pub fn for_each_feedback(state: &McuToLinuxState, mut each: impl FnMut(BusId, Feedback)) -> ParseCounters {
+    let mut counters = ParseCounters::default();
+    for bus in BusId::ALL {
+        walk_bus(
+            bus,
+            &state.state[bus.index()],
+            state.state_size[bus.index()],
+            &mut counters,
+            &mut each,
+        );
+    }
+    counters
 }
 
 /// Parses every bus of a decoded state frame.
@@ -672,9 +714,7 @@ pub fn parse_feedback(state: &McuToLinuxState) -> ParsedFeedback {
         sensors: Vec::with_capacity(16),
         counters: ParseCounters::default(),
     };
-    for bus in BusId::ALL {
-        parse_bus(bus, &state.state[bus.index()], state.state_size[bus.index()], &mut out);
-    }
+    out.counters = for_each_feedback(state, |bus, f| out.add(bus, f));
     out
 }
 

@@ -1,7 +1,9 @@
 //! Between the hand-level types ([`Dex3Command`], [`Dex3Measurement`]) and the frames, through
 //! the [`WiringMap`] and the [`Scalings`] table.
 
-use super::codec::{parse_feedback, BusId, LinuxToMcuCmd, McuToLinuxState, MotorCmdFrame, ParseCounters, RisMode};
+use super::codec::{
+    for_each_feedback, Feedback, LinuxToMcuCmd, McuToLinuxState, MotorCmdFrame, ParseCounters, RisMode,
+};
 use super::scaling::Scalings;
 use super::wiring::{BusAddr, WiringMap};
 use crate::dex3::{Dex3Command, Dex3Measurement, Imu, Power, MOTOR_COUNT};
@@ -33,12 +35,10 @@ pub fn motor_frame(m: &crate::dex3::MotorCommand, id: u8, timeout_bit: bool, s: 
 /// The wiring map must be valid ([`WiringMap::validate`]): then every bus fits its buffer.
 pub fn build_command(cmd: &Dex3Command, wiring: &WiringMap, s: &Scalings, timeout_bit: bool) -> LinuxToMcuCmd {
     let mut frame = LinuxToMcuCmd::default();
-    for bus in BusId::ALL {
-        for (id, joint) in wiring.joints_on(bus) {
-            let f = motor_frame(&cmd.motors[joint.index()], id.get(), timeout_bit, s);
-            // Cannot fail for a validated map (at most 12 motors of 20 B per 240 B bus).
-            let _ = frame.buses[bus.index()].push(&f.encode(), bus.index());
-        }
+    for (at, joint) in wiring.motors_in_frame_order() {
+        let f = motor_frame(&cmd.motors[joint.index()], at.id.get(), timeout_bit, s);
+        // Cannot fail for a validated map (at most 12 motors of 20 B per 240 B bus).
+        let _ = frame.buses[at.bus.index()].push(&f.encode(), at.bus.index());
     }
     frame
 }
@@ -81,49 +81,47 @@ pub fn apply_state(
     wiring: &WiringMap,
     s: &Scalings,
 ) -> ApplyReport {
-    let parsed = parse_feedback(state);
-    let mut rep = ApplyReport {
-        counters: parsed.counters,
-        ..Default::default()
-    };
-    for (bus, f) in &parsed.motors {
-        let Ok(id) = super::codec::DeviceId::new(f.mode.id) else {
-            rep.unmapped_motors += 1;
-            continue;
-        };
-        let Some(j) = wiring.joint_at(BusAddr { bus: *bus, id }) else {
-            rep.unmapped_motors += 1;
-            continue;
-        };
-        rep.motors_seen[j.index()] = true;
-        let m = &mut meas.motors[j.index()];
-        m.present = true;
-        m.q = s.decode_fb_position(f.pos);
-        m.dq = s.decode_fb_speed(f.speed);
-        m.tau = s.decode_fb_torque(f.torque);
-        m.temperature_case = f.temp_case as f32;
-        m.temperature_winding = f.temp_winding as f32;
-        m.voltage = s.decode_fb_voltage(f.vol);
-        m.error = f.error;
-        m.status = f.mode.status.raw();
-        m.timeout = f.mode.timeout;
-    }
-    for (bus, f) in &parsed.sensors {
-        let Ok(id) = super::codec::DeviceId::new(f.id()) else {
-            rep.unmapped_sensors += 1;
-            continue;
-        };
-        let Some(p) = wiring.pad_at(BusAddr { bus: *bus, id }) else {
-            rep.unmapped_sensors += 1;
-            continue;
-        };
-        let pad = &mut meas.pads[p];
-        pad.present = true;
-        for i in 0..f.pressure.len() {
-            pad.pressure[i] = f.pressure[i] as f32 * s.pressure_pa_per_count;
-            pad.temperature[i] = f.temperature[i] as f32;
+    let mut rep = ApplyReport::default();
+    rep.counters = for_each_feedback(state, |bus, f| match f {
+        Feedback::Motor(f) => {
+            let Ok(id) = super::codec::DeviceId::new(f.mode.id) else {
+                rep.unmapped_motors += 1;
+                return;
+            };
+            let Some(j) = wiring.joint_at(BusAddr { bus, id }) else {
+                rep.unmapped_motors += 1;
+                return;
+            };
+            rep.motors_seen[j.index()] = true;
+            let m = &mut meas.motors[j.index()];
+            m.present = true;
+            m.q = s.decode_fb_position(f.pos);
+            m.dq = s.decode_fb_speed(f.speed);
+            m.tau = s.decode_fb_torque(f.torque);
+            m.temperature_case = f.temp_case as f32;
+            m.temperature_winding = f.temp_winding as f32;
+            m.voltage = s.decode_fb_voltage(f.vol);
+            m.error = f.error;
+            m.status = f.mode.status.raw();
+            m.timeout = f.mode.timeout;
         }
-    }
+        Feedback::Sensor(f) => {
+            let Ok(id) = super::codec::DeviceId::new(f.id()) else {
+                rep.unmapped_sensors += 1;
+                return;
+            };
+            let Some(p) = wiring.pad_at(BusAddr { bus, id }) else {
+                rep.unmapped_sensors += 1;
+                return;
+            };
+            let pad = &mut meas.pads[p];
+            pad.present = true;
+            for i in 0..f.pressure.len() {
+                pad.pressure[i] = f.pressure[i] as f32 * s.pressure_pa_per_count;
+                pad.temperature[i] = f.temperature[i] as f32;
+            }
+        }
+    });
     meas.imu = imu_from_raw(&state.imu, s);
     meas.power = power_from_raw(state, s);
     meas.error = state.error;

@@ -139,12 +139,18 @@ impl WiringMap {
 
     /// Joints on `bus`, ordered by motor id.
     pub fn joints_on(&self, bus: BusId) -> Vec<(DeviceId, Joint)> {
-        let mut v: Vec<_> = Joint::ALL
-            .iter()
-            .filter(|j| self.motors[j.index()].bus == bus)
-            .map(|j| (self.motors[j.index()].id, *j))
-            .collect();
-        v.sort();
+        self.motors_in_frame_order()
+            .into_iter()
+            .filter(|(at, _)| at.bus == bus)
+            .map(|(at, j)| (at.id, j))
+            .collect()
+    }
+
+    /// Every joint with its address, in command-frame order: by bus, then by motor id (on
+    /// the stack: the device loop builds a frame every cycle).
+    pub fn motors_in_frame_order(&self) -> [(BusAddr, Joint); MOTOR_COUNT] {
+        let mut v = Joint::ALL.map(|j| (self.motors[j.index()], j));
+        v.sort_unstable_by_key(|(at, j)| (at.bus, at.id, *j));
         v
     }
 

@@ -1,0 +1,650 @@
+//! No heap allocation in a device loop's steady-state cycle (issue #26; the idea of
+//! ros2_control's `hardware_interface_testing/test/test_rt_allocation.cpp`).
+//!
+//! This test binary installs a counting global allocator (only here: an integration test is
+//! its own binary, so the library and every other test keep the plain system allocator). It
+//! counts per thread, and each test reads the counters of one device-loop thread only, over
+//! several hundred steady-state cycles after a warm-up: a client streams commands (each one
+//! sent once the state shows the previous one reflected), the loop measures and publishes
+//! state. Allocations on other threads (the client, CycloneDDS's threads, the emulators) are
+//! not the loop's and are not counted.
+//!
+//! What is counted is Rust's global allocator: malloc calls made inside C libraries
+//! (CycloneDDS, libusb) are not seen (docs/deployment.md, "Real-time").
+//!
+//! A DDS-client device's writes go through cyclonedds-rs, which allocates per sample; those
+//! allocations ([`handgate_adapters::dds::within`] tells them) are counted apart,
+//! reported, and bounded per write; handgate's own part of the cycle must allocate nothing.
+//!
+//! Counts are per cycle, never per second: a busy machine makes the window take longer, not
+//! the counts differ. The timeouts below are generous so that a starved peer never sends a
+//! loop down an error path (an error's text allocates; that is not the steady state).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicI32, AtomicU64, AtomicUsize, Ordering::Relaxed};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use handgate_adapters::control::Active;
+use handgate_adapters::dds::{Node, Within};
+use handgate_adapters::dds_device::{DdsCodec, DdsDevice, DdsDeviceConfig, Forwarding};
+use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
+use handgate_adapters::mapping::{DeviceTable, TableOverrides};
+use handgate_adapters::model::{CommandBody, DeviceKind, HandCommand, HandState, JointCommand, JointId, Side};
+
+// ---------------------------------------------------------------------------------------
+// The counting allocator: one slot of counters per thread, found by the kernel thread id.
+
+/// Counters of one thread.
+struct Slot {
+    tid: AtomicI32,
+    allocs: AtomicU64,
+    bytes: AtomicU64,
+    frees: AtomicU64,
+    /// The part of `allocs` / `bytes` made inside a DDS write, outside any reader callback
+    /// (`dds::Within::Write`): the binding's and CycloneDDS's.
+    write_allocs: AtomicU64,
+    write_bytes: AtomicU64,
+    /// The part made inside a reader callback (`dds::Within::Callback`): an in-process peer's
+    /// reader, run by CycloneDDS inside a write on the writing thread.
+    callback_allocs: AtomicU64,
+    callback_bytes: AtomicU64,
+}
+
+impl Slot {
+    const fn new() -> Self {
+        Self {
+            tid: AtomicI32::new(0),
+            allocs: AtomicU64::new(0),
+            bytes: AtomicU64::new(0),
+            frees: AtomicU64::new(0),
+            write_allocs: AtomicU64::new(0),
+            write_bytes: AtomicU64::new(0),
+            callback_allocs: AtomicU64::new(0),
+            callback_bytes: AtomicU64::new(0),
+        }
+    }
+}
+
+/// More than the threads this binary ever starts (test threads, CycloneDDS's, the loops and
+/// emulators); a thread beyond the last slot is not counted.
+const SLOTS: usize = 4096;
+static TABLE: [Slot; SLOTS] = [const { Slot::new() }; SLOTS];
+static NEXT_SLOT: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    /// This thread's slot (`usize::MAX`: none yet). Const-initialised and without a
+    /// destructor: reading it never allocates, also while the thread exits.
+    static MY_SLOT: Cell<usize> = const { Cell::new(usize::MAX) };
+}
+
+fn my_slot() -> Option<&'static Slot> {
+    MY_SLOT
+        .try_with(|s| {
+            if s.get() == usize::MAX {
+                let i = NEXT_SLOT.fetch_add(1, Relaxed);
+                if i >= SLOTS {
+                    return None;
+                }
+                // SAFETY: gettid has no preconditions.
+                TABLE[i].tid.store(unsafe { libc::gettid() }, Relaxed);
+                s.set(i);
+            }
+            TABLE.get(s.get())
+        })
+        .ok()
+        .flatten()
+}
+
+fn count_alloc(size: usize) {
+    if let Some(s) = my_slot() {
+        s.allocs.fetch_add(1, Relaxed);
+        s.bytes.fetch_add(size as u64, Relaxed);
+        let (n, b) = match handgate_adapters::dds::within() {
+            Within::Caller => return,
+            Within::Write => (&s.write_allocs, &s.write_bytes),
+            Within::Callback => (&s.callback_allocs, &s.callback_bytes),
+        };
+        n.fetch_add(1, Relaxed);
+        b.fetch_add(size as u64, Relaxed);
+    }
+}
+
+struct Counting;
+
+// SAFETY: every call is forwarded to System with the caller's arguments (the caller upholds
+// GlobalAlloc's contract for them); the counting beside it never allocates.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count_alloc(layout.size());
+        // SAFETY: forwarded as received.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count_alloc(layout.size());
+        // SAFETY: forwarded as received.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count_alloc(new_size);
+        // SAFETY: forwarded as received.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        if let Some(s) = my_slot() {
+            s.frees.fetch_add(1, Relaxed);
+        }
+        // SAFETY: forwarded as received.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+/// A snapshot of one thread's counters.
+#[derive(Debug, Clone, Copy, Default)]
+struct Counts {
+    allocs: u64,
+    bytes: u64,
+    frees: u64,
+    write_allocs: u64,
+    write_bytes: u64,
+    callback_allocs: u64,
+    callback_bytes: u64,
+}
+
+impl Counts {
+    /// Thread `tid`'s counters (its newest slot: a kernel thread id can be reused).
+    fn of(tid: i32) -> Self {
+        let n = NEXT_SLOT.load(Relaxed).min(SLOTS);
+        TABLE[..n]
+            .iter()
+            .rev()
+            .find(|s| s.tid.load(Relaxed) == tid)
+            .map(|s| Counts {
+                allocs: s.allocs.load(Relaxed),
+                bytes: s.bytes.load(Relaxed),
+                frees: s.frees.load(Relaxed),
+                write_allocs: s.write_allocs.load(Relaxed),
+                write_bytes: s.write_bytes.load(Relaxed),
+                callback_allocs: s.callback_allocs.load(Relaxed),
+                callback_bytes: s.callback_bytes.load(Relaxed),
+            })
+            .unwrap_or_default()
+    }
+
+    fn since(self, before: Counts) -> Counts {
+        Counts {
+            allocs: self.allocs - before.allocs,
+            bytes: self.bytes - before.bytes,
+            frees: self.frees - before.frees,
+            write_allocs: self.write_allocs - before.write_allocs,
+            write_bytes: self.write_bytes - before.write_bytes,
+            callback_allocs: self.callback_allocs - before.callback_allocs,
+            callback_bytes: self.callback_bytes - before.callback_bytes,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Measuring one loop.
+
+/// Cycles run before counting: every buffer reaches its steady-state capacity.
+const WARM_UP: u64 = 200;
+/// Cycles counted.
+const MEASURED: u64 = 500;
+/// Bound on any wait for the loop (a starved machine only makes it slower).
+const DEADLINE: Duration = Duration::from_secs(60);
+
+/// The kernel thread id of this process's thread named `name` (its `comm`).
+fn thread_named(name: &str) -> i32 {
+    let end = Instant::now() + DEADLINE;
+    loop {
+        for e in std::fs::read_dir("/proc/self/task").unwrap().flatten() {
+            let comm = std::fs::read_to_string(e.path().join("comm")).unwrap_or_default();
+            if comm.trim_end() == name {
+                return e.file_name().to_string_lossy().parse().unwrap();
+            }
+        }
+        assert!(Instant::now() < end, "no thread named {name}");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// Waits (polling) until `f` holds.
+fn wait_for(what: &str, mut f: impl FnMut() -> bool) {
+    let end = Instant::now() + DEADLINE;
+    while !f() {
+        assert!(Instant::now() < end, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_micros(200));
+    }
+}
+
+/// What one loop thread allocated over a window of cycles.
+#[derive(Debug)]
+struct Window {
+    cycles: u64,
+    writes: u64,
+    counts: Counts,
+}
+
+impl Window {
+    /// Allocations of the loop's own code (everything but the DDS writes and the reader
+    /// callbacks run inside them).
+    fn own(&self) -> (u64, u64) {
+        let c = &self.counts;
+        (
+            c.allocs - c.write_allocs - c.callback_allocs,
+            c.bytes - c.write_bytes - c.callback_bytes,
+        )
+    }
+
+    fn report(&self, name: &str) -> String {
+        let per = |v: u64| v as f64 / self.cycles as f64;
+        let (own, own_bytes) = self.own();
+        let mut s = format!(
+            "{name}: {} cycles: {own} allocations ({own_bytes} B) of its own = {:.2}/cycle ({:.1} B/cycle); {} frees = {:.2}/cycle",
+            self.cycles,
+            per(own),
+            per(own_bytes),
+            self.counts.frees,
+            per(self.counts.frees),
+        );
+        let c = &self.counts;
+        if self.writes > 0 || c.write_allocs + c.callback_allocs > 0 {
+            let per_write = |v: u64| v as f64 / self.writes.max(1) as f64;
+            s += &format!(
+                "; {} DDS writes: the binding's {} allocations ({} B) = {:.2}/write ({:.1} B/write), \
+                 in-process readers' callbacks inside them {} allocations ({} B) = {:.2}/write",
+                self.writes,
+                c.write_allocs,
+                c.write_bytes,
+                per_write(c.write_allocs),
+                per_write(c.write_bytes),
+                c.callback_allocs,
+                c.callback_bytes,
+                per_write(c.callback_allocs),
+            );
+        }
+        s
+    }
+}
+
+/// A client streaming joint commands toward alternating targets (the joint keeps moving),
+/// each one once the state shows the previous one reflected.
+struct Client<'a> {
+    dev: &'a dyn HandDevice,
+    joint: JointId,
+    targets: [f32; 2],
+    seq: u64,
+}
+
+impl<'a> Client<'a> {
+    fn new(dev: &'a dyn HandDevice, joint: JointId, targets: [f32; 2]) -> Self {
+        Self {
+            dev,
+            joint,
+            targets,
+            seq: 0,
+        }
+    }
+
+    /// Sends the next command and waits until the device's state reflects it.
+    fn step(&mut self) {
+        self.seq += 1;
+        let q = self.targets[self.seq as usize % 2];
+        self.dev
+            .command(HandCommand {
+                seq: self.seq,
+                body: CommandBody::Joints(vec![(self.joint, JointCommand::hold(q, 1.5, 0.1))]),
+                tag: self.seq as u32,
+            })
+            .unwrap();
+        let rx = self.dev.state();
+        wait_for("the state to reflect the command", || rx.borrow().cmd_seq >= self.seq);
+    }
+}
+
+/// Streams commands from `client` and counts what thread `tid` allocates over [`MEASURED`]
+/// cycles after [`WARM_UP`]; `progress` reads the loop's (cycles, DDS writes).
+fn measure(tid: i32, progress: impl Fn() -> (u64, u64), client: &mut Client) -> Window {
+    let (c, _) = progress();
+    while progress().0 < c + WARM_UP {
+        client.step();
+    }
+    let (c0, w0) = progress();
+    let a0 = Counts::of(tid);
+    while progress().0 < c0 + MEASURED {
+        client.step();
+    }
+    let a1 = Counts::of(tid);
+    let (c1, w1) = progress();
+    Window {
+        cycles: c1 - c0,
+        writes: w1 - w0,
+        counts: a1.since(a0),
+    }
+}
+
+fn assert_no_own_allocations(name: &str, w: &Window) {
+    println!("{}", w.report(name));
+    let (own, bytes) = w.own();
+    assert_eq!(
+        own,
+        0,
+        "{name} made {own} heap allocations ({bytes} B) of its own over {} steady-state cycles: a device loop's \
+         cycle must not touch the heap (docs/deployment.md, \"Real-time\"). {}",
+        w.cycles,
+        w.report(name)
+    );
+}
+
+fn info(name: &str, kind: DeviceKind, backend: Backend) -> DeviceInfo {
+    DeviceInfo {
+        name: name.into(),
+        kind,
+        side: Side::Left,
+        backend,
+        table: Arc::new(kind.table(Side::Left, &TableOverrides::default()).unwrap()),
+    }
+}
+
+fn socket_path(what: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("handgate-rt-alloc-{what}-{}", std::process::id()))
+}
+
+/// Installs a tracing subscriber like the gateway's (fmt, `info`), writing nowhere: the
+/// loops' spans and events go through a real subscriber, as they do in the gateway.
+fn tracing_like_the_gateway() {
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::new("info"))
+        .with_writer(std::io::sink)
+        .try_init();
+}
+
+// ---------------------------------------------------------------------------------------
+// The loops.
+
+/// The Dex3-1 USB loop (`dex3-usb-loop`): one frame exchange a cycle over the Unix-socket
+/// transport to the emulated hand (the emulator serves on its own thread, as the hand's MCU
+/// would), plus the adapter's observer turning each measurement into canonical state.
+#[test]
+fn the_dex3_usb_loop_allocates_nothing_per_cycle() {
+    use handgate_adapters::dex3::usb::adapter::{Dex3UsbDevice, UsbSource};
+    use handgate_adapters::dex3::usb::{EmulatorClock, EmulatorConfig, EmulatorServer, LoopConfig};
+
+    tracing_like_the_gateway();
+    let path = socket_path("dex3");
+    let emu = EmulatorConfig {
+        clock: EmulatorClock::Wall,
+        ..EmulatorConfig::default()
+    };
+    let _server = EmulatorServer::spawn(&path, Side::Left, emu).unwrap();
+    let config = LoopConfig {
+        // An emulated hand: no spinning (as `open` sets it), and no timeout a starved
+        // emulator thread could cause.
+        spin: Duration::ZERO,
+        exchange_timeout: Duration::from_secs(5),
+        ..LoopConfig::default()
+    };
+    let dev = Dex3UsbDevice::start(
+        info("hand", DeviceKind::Dex3, Backend::Usb),
+        UsbSource::Socket(path),
+        config,
+    )
+    .unwrap();
+    let rx = dev.state();
+    wait_for("the first measured state", || rx.borrow().measured_at.is_some());
+    let tid = thread_named("dex3-usb-loop");
+    let joint = dev.info().table.joint_by_name("index_0").unwrap();
+    let w = measure(
+        tid,
+        || (dev.stats().cycles, 0),
+        &mut Client::new(&dev, joint, [0.2, 0.6]),
+    );
+    dev.stop();
+    assert_no_own_allocations("dex3-usb-loop", &w);
+}
+
+/// Records the kernel thread id of the thread that runs it (the device loop's).
+struct Probe<C> {
+    codec: C,
+    tid: Arc<AtomicI32>,
+}
+
+impl<C: DdsCodec> DdsCodec for Probe<C> {
+    type Cmd = C::Cmd;
+    type State = C::State;
+
+    fn encode_into(&mut self, active: &Active, table: &DeviceTable, dt: f32, msg: &mut Self::Cmd) -> bool {
+        // SAFETY: gettid has no preconditions.
+        self.tid.store(unsafe { libc::gettid() }, Relaxed);
+        self.codec.encode_into(active, table, dt, msg)
+    }
+
+    fn decode_into(&mut self, sample: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
+        self.codec.decode_into(sample, table, st)
+    }
+}
+
+/// The Dex1-1 client (`unitree_go` MotorCmds_ / MotorStates_) at 500 Hz against the emulated
+/// Dex1-1 service.
+#[test]
+fn a_dds_client_device_task_allocates_nothing_of_its_own_per_cycle() {
+    use handgate_adapters::dex1::adapter::{Dex1GoCodec, Variant};
+    use handgate_adapters::dex1::emulator::{Dex1Config, Dex1Emulator};
+
+    tracing_like_the_gateway();
+    let node = Node::new(57, None).unwrap();
+    let _emu = Dex1Emulator::start(&node, Dex1Config::new(Variant::Go, Side::Left)).unwrap();
+    let tid = Arc::new(AtomicI32::new(0));
+    let rate = 500.0;
+    let dev = DdsDevice::start(
+        &node,
+        info("dex1", DeviceKind::Dex1, Backend::Dds),
+        DdsDeviceConfig {
+            cmd_topic: "rt/dex1/left/cmd".into(),
+            state_topic: Some("rt/dex1/left/state".into()),
+            rate_hz: rate,
+            // Never stale on a starved machine (a link-down spell is not the steady state).
+            stale_after: Duration::from_secs(5),
+            forward: Forwarding::default_for(rate),
+        },
+        Probe {
+            codec: Dex1GoCodec::new(Variant::Go, Side::Left),
+            tid: tid.clone(),
+        },
+    )
+    .unwrap();
+    let rx = dev.state();
+    wait_for("the first measured state", || rx.borrow().measured_at.is_some());
+    let mut client = Client::new(&dev, JointId(0), [1.0, 4.0]);
+    // The first command makes the loop encode: the probe learns the thread.
+    client.step();
+    let tid = tid.load(Relaxed);
+    assert_ne!(tid, 0);
+    let progress = || {
+        let s = dev.stats();
+        (s.cycles, s.sent)
+    };
+    let w = measure(tid, progress, &mut client);
+    dev.stop();
+    assert_no_own_allocations("dds-client task (dex1)", &w);
+    // The binding's part, bounded by what was measured: per sample, the copy its owned
+    // `Arc<T>` API needs (the sample's sequence and the Arc), cyclonedds-rs's SerData of the
+    // sample and the untyped one CycloneDDS's key map asks for, and five for the delivery to
+    // the in-process service's reader (serialise, SerData, iovec list, deserialised sequence,
+    // Arc): 9 (docs/deployment.md, "Real-time"). A write at each end of the window may be
+    // half in it.
+    assert!(
+        w.counts.write_allocs <= (w.writes + 2) * BINDING_ALLOCS_PER_WRITE,
+        "the binding allocated more per write than measured: {}",
+        w.report("dds-client task (dex1)")
+    );
+    assert_eq!(
+        w.counts.callback_allocs, 0,
+        "no in-process reader listens to the command topic"
+    );
+}
+
+/// What one `Writer::write_copy` of a Dex1 command allocates inside cyclonedds-rs, measured
+/// (see the test above).
+const BINDING_ALLOCS_PER_WRITE: u64 = 9;
+
+/// The EZGripper bus round (`ezgripper-bus`: sync-write the goals, sync-read the present
+/// values, publish) over the real serial transport, to the emulated servo behind a pty (its
+/// own thread); and the gripper's bridge (`ezgripper-<device>`) turning each round's
+/// measurement into canonical state.
+#[test]
+fn the_ezgripper_bus_round_and_bridge_allocate_nothing_per_cycle() {
+    use handgate_adapters::ezgripper::adapter::EzGripperDevice;
+    use handgate_adapters::ezgripper::emulator::{EmulatorConfig, VirtualBus};
+    use handgate_adapters::ezgripper::{BusConfig, EzError, EzGripperBus, GripperConfig, ServoId};
+
+    tracing_like_the_gateway();
+    let path = socket_path("ezgripper");
+    let _emu = VirtualBus::start(&path, EmulatorConfig::with_ids(&[1])).unwrap();
+    let id = ServoId::new(1).unwrap();
+    let cfg = BusConfig {
+        grippers: vec![GripperConfig {
+            id,
+            zero_ticks: Some(1000),
+        }],
+        calibrate_on_start: false,
+        // A starved emulator thread must not make a reply miss its deadline.
+        response_timeout_ms: 5000,
+        stale_after_ms: 5000,
+        ..Default::default()
+    };
+    let bus = (0..5)
+        .find_map(|_| match EzGripperBus::open(&path, cfg.clone()) {
+            Ok(b) => Some(b),
+            Err(EzError::NoAnswer { .. }) => None,
+            Err(e) => panic!("open: {e}"),
+        })
+        .expect("the bus opens");
+    let bus = Arc::new(bus);
+    let dev = EzGripperDevice::start(info("g", DeviceKind::Ezgripper, Backend::Serial), bus.clone(), id, 50.0).unwrap();
+    let rx = dev.state();
+    wait_for("the first measured state", || rx.borrow().measured_at.is_some());
+    let (bus_tid, bridge_tid) = (thread_named("ezgripper-bus"), thread_named("ezgripper-g"));
+    let mut client = Client::new(&dev, JointId(0), [1.0, 4.0]);
+    // The bus round: its rounds are its cycles.
+    let w = measure(bus_tid, || (bus.stats().rounds, 0), &mut client);
+    let bridge = measure(bridge_tid, || (dev.stats().cycles, 0), &mut client);
+    dev.stop();
+    assert_no_own_allocations("ezgripper-bus", &w);
+    assert_no_own_allocations("ezgripper bridge", &bridge);
+}
+
+/// Every DDS-client kind's codec as the task calls it each cycle (`encode_into`,
+/// `decode_into`, `commanded_state`, on the buffers the task keeps), on this thread: nothing
+/// allocates once the buffers have grown. The task around them is measured above with the
+/// Dex1 codec; these are the other kinds' parts of its cycle.
+#[test]
+fn every_dds_client_codec_fills_its_buffers_without_allocating() {
+    use handgate_adapters::brainco::adapter::BraincoCodec;
+    use handgate_adapters::dex1::adapter::{Dex1GoCodec, Dex1HgCodec, Variant};
+    use handgate_adapters::dex3::dds_client::Dex3DdsCodec;
+    use handgate_adapters::hand_sdk::adapter::{HandSdkCodec, WeightRamp};
+    use handgate_adapters::inspire_dfx::adapter::DfxCodec;
+    use handgate_adapters::inspire_ftp::adapter::{FtpClient, FtpCodec};
+    use handgate_idl::inspire::{InspireHandState, InspireHandTouch};
+    use handgate_idl::{unitree_go, unitree_hg};
+
+    let go = |n| unitree_go::MotorStates_::with_len(n);
+    let hg = |motors, pads| unitree_hg::HandState_::with_sizes(motors, pads);
+    let ftp_state = InspireHandState::sdk_default();
+    let dex1_go = |variant| Dex1GoCodec::new(variant, Side::Left);
+    check_stateful("dex1 go", DeviceKind::Dex1, dex1_go(Variant::Go), &go(1));
+    check_stateful("dex1 actuator", DeviceKind::Dex1, dex1_go(Variant::Actuator), &go(2));
+    check_stateful("dex1 hg", DeviceKind::Dex1, Dex1HgCodec, &hg(1, 0));
+    check_stateful("dex3 dds", DeviceKind::Dex3, Dex3DdsCodec::default(), &hg(7, 9));
+    check_stateful("brainco", DeviceKind::Brainco, BraincoCodec::default(), &go(6));
+    check_stateful(
+        "inspire_dfx",
+        DeviceKind::InspireDfx,
+        DfxCodec::new(Side::Left).unwrap(),
+        &go(12),
+    );
+    check_stateful("inspire_ftp", DeviceKind::InspireFtp, FtpCodec::default(), &ftp_state);
+    // No feedback: the commanded state instead of a decoded one.
+    let hand_sdk = HandSdkCodec::new(WeightRamp::default());
+    check("hand_sdk", DeviceKind::HandSdk, hand_sdk, &go(4), false, || 0);
+    // The Inspire FTP client over Modbus TCP: a touch sample arrives before every state.
+    // Written on this thread, CycloneDDS runs the client's touch reader here, inside the
+    // write: both are counted apart (`dds::Within`), the codec's decode is what is asserted.
+    let node = Node::new(58, None).unwrap();
+    let topic = "rt/handgate/rt_alloc/touch";
+    let client = FtpClient::new(&node, FtpCodec::default(), Some(topic)).unwrap();
+    let mut touch = node
+        .writer::<InspireHandTouch>(topic, handgate_adapters::dds_device::STATE_QOS)
+        .unwrap();
+    let sample = InspireHandTouch::sdk_default();
+    check(
+        "inspire_ftp + touch",
+        DeviceKind::InspireFtp,
+        client,
+        &ftp_state,
+        true,
+        || {
+            touch.write_copy(&sample).unwrap();
+            1
+        },
+    );
+}
+
+/// [`check`] a codec that decodes `sample`, with nothing arriving between the cycles.
+fn check_stateful<C: DdsCodec>(name: &str, kind: DeviceKind, codec: C, sample: &C::State) {
+    check(name, kind, codec, sample, true, || 0);
+}
+
+/// Calls `codec` as the task does, [`MEASURED`] times after [`WARM_UP`], and asserts that
+/// none of it allocated on this thread (`between` runs before each call: a sample arriving;
+/// it returns the DDS writes it made).
+fn check<C: DdsCodec>(
+    name: &str,
+    kind: DeviceKind,
+    mut codec: C,
+    sample: &C::State,
+    has_state: bool,
+    mut between: impl FnMut() -> u64,
+) {
+    let table = kind.table(Side::Left, &TableOverrides::default()).unwrap();
+    // Targets that move every cycle, built before counting.
+    let targets = [0.2, 0.8].map(|c| Active::Command(table.closure_targets(c, None).unwrap()));
+    let (mut msg, mut st) = (C::Cmd::default(), HandState::default());
+    // One cycle; the DDS writes `between` made.
+    let mut cycle = |i: u64| {
+        let writes = between();
+        if has_state {
+            assert!(
+                codec.decode_into(sample, &table, &mut st),
+                "{name}: the sample is this device's"
+            );
+        } else {
+            codec.commanded_state(&table, &mut st);
+        }
+        assert!(
+            codec.encode_into(&targets[i as usize % 2], &table, 0.002, &mut msg),
+            "{name}: a message for the targets"
+        );
+        writes
+    };
+    for i in 0..WARM_UP {
+        cycle(i);
+    }
+    // SAFETY: gettid has no preconditions.
+    let tid = unsafe { libc::gettid() };
+    let before = Counts::of(tid);
+    let writes = (0..MEASURED).map(&mut cycle).sum();
+    let w = Window {
+        cycles: MEASURED,
+        writes,
+        counts: Counts::of(tid).since(before),
+    };
+    assert_no_own_allocations(&format!("{name} codec"), &w);
+}
