@@ -578,19 +578,16 @@ struct Worker {
     echo: bool,
 }
 
-/// Sleeps until `deadline` with sub-100-us accuracy (sleep most of it, spin the rest).
+/// Sleeps until `deadline`. A plain sleep (Linux wakes it some 50-100 µs late, the timer
+/// slack): the emulated line books its wire time on the clock, so a late wake-up delays the
+/// reply without shortening the next one. No spinning: the emulated servos share the
+/// gateway's CPU, and a thread that spins for its last few hundred µs (what this did before
+/// issue #26) burns about a tenth of a core and, on a machine busy with other work, is
+/// scheduled later for it, which is what made a loaded host's replies miss their deadline.
 fn sleep_until(deadline: Instant) {
-    loop {
-        let now = Instant::now();
-        if now >= deadline {
-            return;
-        }
-        let left = deadline - now;
-        if left > Duration::from_micros(250) {
-            std::thread::sleep(left - Duration::from_micros(150));
-        } else {
-            std::thread::yield_now();
-        }
+    let now = Instant::now();
+    if deadline > now {
+        std::thread::sleep(deadline - now);
     }
 }
 
