@@ -37,6 +37,25 @@ use cyclonedds_sys::*;
 use murmur3::murmur3_32;
 use std::io::Cursor;
 
+// handgate (README.handgate.md): a panic must not unwind out of a callback CycloneDDS calls
+// (since Rust 1.81 the process aborts instead). Every serdata and sertype callback runs its body
+// through this and gives CycloneDDS `fallback` (null, false, 0, nothing) if the body panics.
+pub(crate) fn ffi_guard<R>(fallback: R, body: impl FnOnce() -> R) -> R {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)).unwrap_or(fallback)
+}
+
+// handgate: the sample as CycloneDDS sends it: encapsulation header, CDR, then zero bytes up to
+// a multiple of 4, their number in the low two bits of the options, as CycloneDDS's own
+// serializer does (0.10.2 dds_ostream_add_to_serdata_default). get_size counts these bytes:
+// nn_xmsg_serdata asks to_ser_ref for align4(size) bytes and sends them.
+fn serialize_padded<T: Serialize>(sample: &T) -> Option<Vec<u8>> {
+    let mut buf = cdr::serialize::<_, _, CdrBe>(sample, Infinite).ok()?;
+    let pad = (4 - buf.len() % 4) % 4;
+    *buf.get_mut(3)? |= pad as u8;
+    buf.resize(buf.len() + pad, 0);
+    Some(buf)
+}
+
 #[repr(C)]
 pub struct SerType<T> {
     sertype: ddsi_sertype,
@@ -192,7 +211,7 @@ where
 {
     pub fn try_deref<>(&self) -> Option<&T> {       
             if let Some(serdata) = self.serdata {
-                let serdata = SerData::<T>::mut_ref_from_serdata(serdata);
+                let serdata = SerData::<T>::const_ref_from_serdata(serdata); // handgate: read only
                 match &serdata.sample {
                     SampleData::Uninitialized => None,
                     SampleData::SDKKey => None,
@@ -386,6 +405,7 @@ extern "C" fn realloc_samples<T>(
     old_count: size_t,
     new_count: size_t,
 ) {
+    ffi_guard((), || {
     //println!("realloc");
     let old = unsafe {
         Vec::<*mut Sample<T>>::from_raw_parts(
@@ -418,6 +438,7 @@ extern "C" fn realloc_samples<T>(
     unsafe {
         *ptrs = raw as *mut std::ffi::c_void;
     }
+    })
 }
 
 #[allow(dead_code)]
@@ -429,14 +450,14 @@ extern "C" fn free_samples<T>(
 ) where
     T: TopicType,
 {
+    ffi_guard((), || {
     let ptrs_v: *mut *mut Sample<T> = ptrs as *mut *mut Sample<T>;
 
     if (op & DDS_FREE_ALL_BIT) != 0 {
         let _samples =
             unsafe { Vec::<Sample<T>>::from_raw_parts(*ptrs_v, len as usize, len as usize) };
         // all samples will get freed when samples goes out of scope
-    } else {
-        assert_ne!(op & DDS_FREE_CONTENTS_BIT, 0);
+    } else if (op & DDS_FREE_CONTENTS_BIT) != 0 {
         let mut samples =
             unsafe { Vec::<Sample<T>>::from_raw_parts(*ptrs_v, len as usize, len as usize) };
         for sample in samples.iter_mut() {
@@ -446,10 +467,12 @@ extern "C" fn free_samples<T>(
         }
         let _intentional_leak = samples.leak();
     }
+    })
 }
 
 #[allow(dead_code)]
 unsafe extern "C" fn free_sertype<T>(sertype: *mut cyclonedds_sys::ddsi_sertype) {
+    ffi_guard((), || {
     ddsi_sertype_fini(sertype);
 
     let _sertype_ops = Box::<ddsi_sertype_ops>::from_raw((*sertype).ops as *mut ddsi_sertype_ops);
@@ -460,6 +483,7 @@ unsafe extern "C" fn free_sertype<T>(sertype: *mut cyclonedds_sys::ddsi_sertype)
     // of scope.
     let sertype = sertype as *mut SerType<T>;
     let _it = Box::<SerType<T>>::from_raw(sertype);
+    })
 }
 
 // create ddsi_serdata from a fragchain
@@ -473,6 +497,7 @@ unsafe extern "C" fn serdata_from_fragchain<T>(
 where
     T: DeserializeOwned + TopicType,
 {
+    ffi_guard(std::ptr::null_mut(), || {
     //println!("serdata_from_fragchain");
     let mut off: u32 = 0;
     let size = size as usize;
@@ -480,8 +505,10 @@ where
 
     let mut serdata = SerData::<T>::new(sertype, kind);
 
-    assert_eq!(fragchain_ref.min, 0);
-    assert!(fragchain_ref.maxp1 >= off);
+    // handgate: a chain that does not start at byte 0 gives null, not a panic
+    if fragchain_ref.min != 0 {
+        return std::ptr::null_mut();
+    }
 
     // The scatter gather list
     let mut sg_list = Vec::new();
@@ -495,7 +522,9 @@ where
             let n_bytes = fragchain_ref.maxp1 - off;
             sg_list.push(std::slice::from_raw_parts(src, n_bytes as usize));
             off = fragchain_ref.maxp1;
-            assert!(off as usize <= size);
+            if off as usize > size {
+                return std::ptr::null_mut();
+            }
         }
         fragchain = fragchain_ref.nextfrag;
     }
@@ -524,6 +553,7 @@ where
     let ptr = Box::into_raw(serdata);
     // only we know this ddsi_serdata is really of type SerData
     ptr as *mut ddsi_serdata
+    })
 }
 
 fn copy_raw_key_hash<T>(key: &[u8], serdata: &mut Box<SerData<T>>) {
@@ -564,6 +594,7 @@ unsafe extern "C" fn serdata_from_keyhash<T>(
 where
     T: TopicType,
 {
+    ffi_guard(std::ptr::null_mut(), || {
     let keyhash = (*keyhash).value;
     //println!("serdata_from_keyhash");
 
@@ -587,6 +618,7 @@ where
         // only we know this ddsi_serdata is really of type SerData
         ptr as *mut ddsi_serdata
     }
+    })
 }
 
 #[allow(dead_code)]
@@ -599,6 +631,7 @@ unsafe extern "C" fn serdata_from_sample<T>(
 where
     T: TopicType,
 {
+    ffi_guard(std::ptr::null_mut(), || {
     //println!("Serdata from sample {:?}", sample);
     let mut serdata = SerData::<T>::new(sertype, kind);
     let sample = sample as *const Sample<T>;
@@ -607,19 +640,23 @@ where
     match kind {
         #[allow(non_upper_case_globals)]
         ddsi_serdata_kind_SDK_DATA => {
-            let sample = sample.get().unwrap();
+            // handgate: a sample without data gives null (dds_write fails), not a panic
+            let sample = match sample.get() {
+                Some(sample) => sample,
+                None => return std::ptr::null_mut(),
+            };
             serdata.serdata.hash = sample.hash((*sertype).serdata_basehash);
             serdata.sample = SampleData::SDKData(sample);
         }
-        ddsi_serdata_kind_SDK_KEY => {
-            panic!("Don't know how to create serdata from sample for SDK_KEY");
-        }
-        _ => panic!("Unexpected kind"),
+        // handgate: no key-only serdata from a sample (dds_register_instance, dds_unregister_instance,
+        // dds_dispose, dds_lookup_instance): null makes those calls fail instead of aborting
+        _ => return std::ptr::null_mut(),
     }
 
     let ptr = Box::into_raw(serdata);
     // only we know this ddsi_serdata is really of type SerData
     ptr as *mut ddsi_serdata
+    })
 }
 
 #[allow(dead_code)]
@@ -633,6 +670,7 @@ unsafe extern "C" fn serdata_from_iov<T>(
 where
     T: DeserializeOwned + TopicType,
 {
+    ffi_guard(std::ptr::null_mut(), || {
     let size = size as usize;
     let niov = niov as usize;
     //println!("serdata_from_iov");
@@ -674,10 +712,12 @@ where
     let ptr = Box::into_raw(serdata);
     // only we know this ddsi_serdata is really of type SerData
     ptr as *mut ddsi_serdata
+    })
 }
 
 #[allow(dead_code)]
 unsafe extern "C" fn free_serdata<T>(serdata: *mut ddsi_serdata) {
+    ffi_guard((), || {
     //println!("free_serdata");
     // the pointer is really a *mut SerData
     let ptr = serdata as *mut SerData<T>;
@@ -694,6 +734,7 @@ unsafe extern "C" fn free_serdata<T>(serdata: *mut ddsi_serdata) {
 
     let _data = Box::from_raw(ptr);
     // _data goes out of scope and frees the SerData. Nothing more to do here.
+    })
 }
 
 #[allow(dead_code)]
@@ -701,26 +742,12 @@ unsafe extern "C" fn get_size<T>(serdata: *const ddsi_serdata) -> u32
 where
     T: Serialize + TopicType,
 {
-    let serdata = SerData::<T>::mut_ref_from_serdata(serdata);
-    let size = match &serdata.sample {
-        SampleData::Uninitialized => 0,
-        SampleData::SDKKey => serdata.key_hash.key_length() as u32,
-        // This function asks for the serialized size so we do this even for SHM Data
-        SampleData::SDKData(sample) => {
-            serdata.serialized_size =
-                Some((cdr::calc_serialized_size::<T>(sample.deref())) as u32);
-            *serdata.serialized_size.as_ref().unwrap()
-        }
-        SampleData::SHMData(_sample) => {
-            // we refuse to serialize SHM data so return 0
-            0
-            /*
-            serdata.serialized_size = Some((cdr::calc_serialized_size::<T>(sample.as_ref())) as u32);
-            *serdata.serialized_size.as_ref().unwrap()
-            */
-        }
-    };
-    size
+    // handgate: the size of what to_ser / to_ser_ref serve, padding included (0.6.5 left the
+    // padding out, and CycloneDDS then sent up to 3 bytes from beyond the serialized data)
+    ffi_guard(0, || {
+        let serdata = SerData::<T>::const_ref_from_serdata(serdata);
+        serdata.wire().map_or(0, |wire| wire.len() as u32)
+    })
 }
 
 #[allow(dead_code)]
@@ -728,9 +755,12 @@ unsafe extern "C" fn eqkey<T>(
     serdata_a: *const ddsi_serdata,
     serdata_b: *const ddsi_serdata,
 ) -> bool {
-    let a = SerData::<T>::mut_ref_from_serdata(serdata_a);
-    let b = SerData::<T>::mut_ref_from_serdata(serdata_b);
+    ffi_guard(false, || {
+    // handgate: shared references (both may be the same serdata, read by other threads too)
+    let a = SerData::<T>::const_ref_from_serdata(serdata_a);
+    let b = SerData::<T>::const_ref_from_serdata(serdata_b);
     a.key_hash == b.key_hash
+    })
 }
 
 #[allow(dead_code)]
@@ -742,46 +772,22 @@ unsafe extern "C" fn serdata_to_ser<T>(
 ) where
     T: Serialize + TopicType,
 {
-    //println!("serdata_to_ser");
-    let serdata = SerData::<T>::const_ref_from_serdata(serdata);
-    let buf = buf as *mut u8;
-    let buf = buf.add(offset as usize);
-
-    if size == 0 {
-        return;
-    }
-
-    match &serdata.sample {
-        SampleData::Uninitialized => {
-            panic!("Attempt to serialize uninitialized serdata")
+    // handgate: copies bytes [offset, offset + size) of the serialized sample into buf, which has
+    // room for exactly size bytes (0.6.5 serialized the whole sample at buf + offset: past the
+    // end of buf whenever CycloneDDS asked for a part, or a panic when the part was smaller)
+    ffi_guard((), || {
+        if size == 0 || buf.is_null() {
+            return;
         }
-        SampleData::SDKKey => match &serdata.key_hash {
-            KeyHash::None => {}
-            KeyHash::CdrKey(k) => std::ptr::copy_nonoverlapping(k.as_ptr(), buf, size as usize),
-            KeyHash::RawKey(k) => std::ptr::copy_nonoverlapping(k.as_ptr(), buf, size as usize),
-        },
-        // We may serialize both SDK data as well as SHM Data
-        SampleData::SDKData(serdata) => {
-            let buf_slice = std::slice::from_raw_parts_mut(buf, size as usize);
-            if let Err(e) = cdr::serialize_into::<_, T, _, CdrBe>(
-                buf_slice,
-                serdata.deref(),
-                Bounded(size),
-            ) {
-                panic!("Unable to serialize type {:?} due to {}", T::typename(), e);
-            }
+        let buf = std::slice::from_raw_parts_mut(buf as *mut u8, size as usize);
+        let wire = SerData::<T>::const_ref_from_serdata(serdata).wire().unwrap_or(&[]);
+        let start = (offset as usize).min(wire.len());
+        let part = &wire[start..wire.len().min(start.saturating_add(buf.len()))];
+        buf[..part.len()].copy_from_slice(part);
+        for b in &mut buf[part.len()..] {
+            *b = 0;
         }
-        SampleData::SHMData(serdata) => {
-            let buf_slice = std::slice::from_raw_parts_mut(buf, size as usize);
-            if let Err(e) = cdr::serialize_into::<_, T, _, CdrBe>(
-                buf_slice,
-                serdata.as_ref(),
-                Bounded(size),
-            ) {
-                panic!("Unable to serialize type {:?} due to {}", T::typename(), e);
-            }
-        }
-    }
+    })
 }
 
 #[allow(dead_code)]
@@ -794,84 +800,34 @@ unsafe extern "C" fn serdata_to_ser_ref<T>(
 where
     T: Serialize + TopicType,
 {
-    //println!("serdata_to_ser_ref");
-    let serdata = SerData::<T>::mut_ref_from_serdata(serdata);
-    let iov = &mut *iov;
-
-    match &serdata.sample {
-        SampleData::Uninitialized => panic!("Attempt to serialize uninitialized Sample"),
-        SampleData::SDKKey => {
-            let (p, len) = match &serdata.key_hash {
-                KeyHash::None => (std::ptr::null(), 0),
-                KeyHash::CdrKey(k) => (k.as_ptr(), k.len()),
-                KeyHash::RawKey(k) => (k.as_ptr(), k.len()),
-            };
-
-            iov.iov_base = p as *mut c_void;
-            iov.iov_len = len as size_t;
+    // handgate: references bytes [offset, offset + size) of the serialized sample, iov_len the
+    // number of bytes really there (0.6.5 clamped the slice to len - 1, then reported size)
+    ffi_guard(std::ptr::null_mut(), || {
+        let iov = &mut *iov;
+        iov.iov_base = std::ptr::null_mut();
+        iov.iov_len = 0;
+        let wire = match SerData::<T>::const_ref_from_serdata(serdata).wire() {
+            Some(wire) => wire,
+            None => return std::ptr::null_mut(),
+        };
+        let start = offset as usize;
+        if start > wire.len() {
+            return std::ptr::null_mut();
         }
-        SampleData::SDKData(sample) => {
-            if serdata.cdr.is_none() {
-                serdata.cdr = serialize_type::<T>(sample, serdata.serialized_size).ok();
-            }
-            if let Some(cdr) = &serdata.cdr {
-                let offset = offset as usize;
-                let mut last = offset + size as usize;
-                if last > cdr.len() - 1 {
-                    last = cdr.len() - 1;
-                }
-                let cdr = &cdr[offset..last];
-                // cdds rounds up the length into multiple of 4. We mirror that by allocating extra in the
-                // ``serialize_type`` function.
-                iov.iov_base = cdr.as_ptr() as *mut c_void;
-                iov.iov_len = size; //cdr.len() as size_t;
-            } else {
-                println!("Serialization error!");
-                return std::ptr::null_mut();
-            }
-        }
-
-        SampleData::SHMData(sample) => {
-            if serdata.cdr.is_none() {
-                serdata.cdr = serialize_type::<T>(sample.as_ref(), serdata.serialized_size).ok();
-            }
-            if let Some(cdr) = &serdata.cdr {
-                let offset = offset as usize;
-                let last = offset + size as usize;
-                let cdr = &cdr[offset..last];
-                iov.iov_base = cdr.as_ptr() as *mut c_void;
-                iov.iov_len = cdr.len() as size_t;
-            } else {
-                println!("Serialization error (SHM)!");
-                return std::ptr::null_mut();
-            }
-        }
-    }
-    ddsi_serdata_addref(&serdata.serdata)
-}
-
-fn serialize_type<T: Serialize>(sample: &T, maybe_size: Option<u32>) -> Result<Vec<u8>, ()> {
-    if let Some(size) = maybe_size {
-        // Round up allocation to multiple of four
-        let size = (size + 3) & !3u32;
-        let mut buffer = Vec::<u8>::with_capacity(size as usize);
-        if let Ok(()) = cdr::serialize_into::<_, T, _, CdrBe>(&mut buffer, sample, Infinite) {
-            Ok(buffer)
-        } else {
-            Err(())
-        }
-    } else if let Ok(data) = cdr::serialize::<T, _, CdrBe>(sample, Infinite) {
-        Ok(data)
-    } else {
-        Err(())
-    }
+        let part = &wire[start..wire.len().min(start.saturating_add(size as usize))];
+        iov.iov_base = part.as_ptr() as *mut c_void;
+        iov.iov_len = part.len() as size_t;
+        ddsi_serdata_addref(serdata)
+    })
 }
 
 #[allow(dead_code)]
 unsafe extern "C" fn serdata_to_ser_unref<T>(serdata: *mut ddsi_serdata, _iov: *const iovec) {
+    ffi_guard((), || {
     //println!("serdata_to_ser_unref");
-    let serdata = SerData::<T>::mut_ref_from_serdata(serdata);
-    ddsi_serdata_removeref(&mut serdata.serdata)
+    // handgate: the pointer as given, no &mut to a serdata other threads may be reading
+    ddsi_serdata_removeref(serdata)
+    })
 }
 
 fn deserialize_type<T>(data:&[u8]) -> Result<Arc<T>,()> 
@@ -894,9 +850,14 @@ where
     //    "serdata to sample serdata:{:?} sample:{:?} bufptr:{:?} buflim:{:?}",
     //    serdata, sample, _bufptr, _buflim
     //);
-    let mut serdata = SerData::<T>::mut_ref_from_serdata(serdata_ptr);
-    let mut s = Box::<Sample<T>>::from_raw(sample as *mut Sample<T>);
-    assert!(!sample.is_null());
+    ffi_guard(false, || {
+    // handgate: the sample by reference, checked before use (0.6.5 made a Box of it first and
+    // leaked it again at the end; a panic in between would have freed the caller's sample)
+    if sample.is_null() {
+        return false;
+    }
+    let serdata = SerData::<T>::mut_ref_from_serdata(serdata_ptr);
+    let s = &mut *(sample as *mut Sample<T>);
 
     //#[cfg(shm)]
     let ret = if !serdata.serdata.iox_chunk.is_null() {
@@ -948,34 +909,36 @@ where
         Ok(())
     };
 
+    // handgate: true when the sample holds the data (the ddsi_serdata_ops contract; 0.6.5
+    // returned false for data and true for a failure; CycloneDDS 0.10.2's take/read ignore it)
     let ret = if let Ok(()) = ret {
         match &serdata.sample {
-            SampleData::Uninitialized => true,
+            SampleData::Uninitialized => false,
             SampleData::SDKKey => true,
             SampleData::SDKData(_data) => {
                 s.set_serdata(serdata_ptr as *mut ddsi_serdata);
                 //s.set(data.clone());
-                false
+                true
             }
             SampleData::SHMData(_data) => {
                 s.set_serdata(serdata_ptr as *mut ddsi_serdata);
                 //s.set_loaned(data.clone());
-                false
+                true
             }
         }
     } else {
-        true
+        false
     };
 
-    // leak the sample intentionally so it doesn't get deallocated here
-    let _intentional_leak = Box::into_raw(s);
     ret
+    })
 }
 
 #[allow(dead_code)]
 unsafe extern "C" fn serdata_to_untyped<T>(serdata: *const ddsi_serdata) -> *mut ddsi_serdata {
+    ffi_guard(std::ptr::null_mut(), || {
     //println!("serdata_to_untyped {:?}", serdata);
-    let serdata = SerData::<T>::mut_ref_from_serdata(serdata);
+    let serdata = SerData::<T>::const_ref_from_serdata(serdata); // handgate: read only
 
     //if let SampleData::<T>::SDKData(_d) = &serdata.sample {
     let mut untyped_serdata = SerData::<T>::new(serdata.serdata.type_, ddsi_serdata_kind_SDK_KEY);
@@ -994,6 +957,7 @@ unsafe extern "C" fn serdata_to_untyped<T>(serdata: *const ddsi_serdata) -> *mut
     //    println!("Error: Cannot convert from untyped to untyped");
     //    std::ptr::null_mut()
     //}
+    })
 }
 
 #[allow(dead_code)]
@@ -1007,18 +971,19 @@ unsafe extern "C" fn untyped_to_sample<T>(
 where
     T: TopicType,
 {
+    ffi_guard(false, || {
     //println!("untyped to sample!");
     if !sample.is_null() {
-        let mut sample = Box::<Sample<T>>::from_raw(sample as *mut Sample<T>);
+        // handgate: by reference, not a Box round trip
+        let sample = &mut *(sample as *mut Sample<T>);
         // hmm. We don't store serialized data in serdata. I'm not really sure how
         // to implement this. For now, invalidate the sample.
         sample.clear();
-        // leak this as we don't want to deallocate it.
-        let _leaked = Box::<Sample<T>>::into_raw(sample);
         true
     } else {
         false
     }
+    })
 }
 
 #[allow(dead_code)]
@@ -1027,7 +992,8 @@ unsafe extern "C" fn get_keyhash<T>(
     keyhash: *mut ddsi_keyhash,
     _force_md5: bool,
 ) {
-    let serdata = SerData::<T>::mut_ref_from_serdata(serdata);
+    ffi_guard((), || {
+    let serdata = SerData::<T>::const_ref_from_serdata(serdata); // handgate: read only
     let keyhash = &mut *keyhash;
 
     let src = match &serdata.key_hash {
@@ -1040,6 +1006,7 @@ unsafe extern "C" fn get_keyhash<T>(
     for (i, b) in src.iter().enumerate() {
         keyhash.value[i] = *b;
     }
+    })
 }
 
 #[allow(dead_code)]
@@ -1072,8 +1039,10 @@ where
 #[cfg(feature = "shm")]
 #[allow(dead_code)]
 unsafe extern "C" fn get_sample_size(serdata: *const ddsi_serdata) -> u32 {
+    ffi_guard(0, || {
     let serdata = *serdata;
     (*serdata.type_).iox_size
+    })
 }
 
 #[cfg(feature = "shm")]
@@ -1085,6 +1054,7 @@ unsafe extern "C" fn from_iox_buffer<T>(
     sub: *mut ::std::os::raw::c_void,
     buffer: *mut ::std::os::raw::c_void,
 ) -> *mut ddsi_serdata {
+    ffi_guard(std::ptr::null_mut(), || {
     //println!("from_iox_buffer");
 
     if sertype.is_null() {
@@ -1112,6 +1082,7 @@ unsafe extern "C" fn from_iox_buffer<T>(
     let ptr = Box::into_raw(d);
     // only we know this ddsi_serdata is really of type SerData
     ptr as *mut ddsi_serdata
+    })
 }
 
 fn create_serdata_ops<T>() -> Box<ddsi_serdata_ops>
@@ -1161,7 +1132,10 @@ where
 
 unsafe extern "C" fn hash<T: TopicType>(tp: *const ddsi_sertype) -> u32  
 {
-    if let Some(ser_type) = SerType::<T>::try_from_sertype(tp) {
+    ffi_guard(0, || {
+    // handgate: reads the sertype through a reference (0.6.5 made a Box of CycloneDDS's sertype
+    // and leaked it again; a panic in between would have freed it)
+    if let Some(ser_type) = (tp as *const SerType<T>).as_ref() {
         let type_name =  CStr::from_ptr(ser_type.sertype.type_name);
         let type_name_bytes = type_name.to_bytes();
         let type_size = core::mem::size_of::<T>().to_ne_bytes();
@@ -1170,18 +1144,20 @@ unsafe extern "C" fn hash<T: TopicType>(tp: *const ddsi_sertype) -> u32
 
         let hash = murmur3_32(&mut sg_buffer, 0);
         
-        let _intentional_leak = SerType::<T>::into_sertype(ser_type);
         hash.unwrap_or(0)
 
     } else {
         0
     }
+    })
 }
 
 unsafe extern "C" fn equal<T>(acmn: *const ddsi_sertype, bcmn: *const ddsi_sertype) -> bool {
+    ffi_guard(false, || {
     let acmn = CStr::from_ptr((*acmn).type_name as *mut std::os::raw::c_char);
     let bcmn = CStr::from_ptr((*bcmn).type_name as *mut std::os::raw::c_char);
     acmn == bcmn
+    })
 }
 
 #[derive(Clone)]
@@ -1234,15 +1210,14 @@ impl KeyHash {
 pub (crate)struct SerData<T> {
     serdata: ddsi_serdata,
     sample: SampleData<T>,
-    //data in CDR format. This is put into an option as we only create
-    //the serialized version when we need it
-    cdr: Option<Vec<u8>>,
+    // handgate: the serialized form (SerData::wire), made once, when CycloneDDS first asks for
+    // it; a OnceLock because several threads may ask for the same sample (0.6.5 filled an Option
+    // through a shared pointer, and kept the size apart)
+    cdr: std::sync::OnceLock<Option<Vec<u8>>>,
     //key_hash: ddsi_keyhash,
     // include 4 bytes of CDR encapsulation header
     //key_hash: [u8; 20],
     key_hash: KeyHash,
-    // We store the serialized size here if available
-    serialized_size: Option<u32>,
 }
 
 impl<'a, T> SerData<T> {
@@ -1256,9 +1231,8 @@ impl<'a, T> SerData<T> {
                 }
             },
             sample: SampleData::default(),
-            cdr: None,
+            cdr: std::sync::OnceLock::new(),
             key_hash: KeyHash::default(),
-            serialized_size: None,
         })
     }
 
@@ -1270,6 +1244,21 @@ impl<'a, T> SerData<T> {
     fn mut_ref_from_serdata(serdata: *const ddsi_serdata) -> &'a mut Self {
         let ptr = serdata as *mut SerData<T>;
         unsafe { &mut *ptr }
+    }
+}
+
+impl<T: Serialize> SerData<T> {
+    // handgate: what get_size, to_ser and to_ser_ref serve: the padded serialized sample, or the
+    // key hash of a key-only serdata; None when there is nothing to serialize
+    fn wire(&self) -> Option<&[u8]> {
+        self.cdr
+            .get_or_init(|| match &self.sample {
+                SampleData::Uninitialized => None,
+                SampleData::SDKKey => Some(self.key_hash.get_key_hash().to_vec()),
+                SampleData::SDKData(sample) => serialize_padded(sample.deref()),
+                SampleData::SHMData(sample) => serialize_padded(unsafe { sample.as_ref() }),
+            })
+            .as_deref()
     }
 }
 
@@ -1285,7 +1274,7 @@ impl <T>Clone for SerData<T> {
                         SampleData::SDKKey => SampleData::SDKKey,
                         SampleData::SDKData(d) => SampleData::SDKData(d.clone()),
                         SampleData::SHMData(d) => SampleData::SHMData(*d),
-                    }, cdr: self.cdr.clone(), key_hash: self.key_hash.clone(), serialized_size: self.serialized_size }
+                    }, cdr: self.cdr.clone(), key_hash: self.key_hash.clone() }
     }
 } 
 

@@ -1,0 +1,282 @@
+//! The DDS binding: cyclonedds-rs 0.6.5's serdata callbacks (patched in `vendor/cyclonedds-rs`,
+//! docs/sources.md §8 "The DDS binding") called exactly as CycloneDDS 0.10.2 calls them, with
+//! the arguments its write path passes (`nn_xmsg_serdata` asks `to_ser_ref` for
+//! `[offset, offset + align4(len))`; a retransmitted or very large sample is asked for in
+//! fragments of `FragmentSize`, 1344 B by default), into buffers with guard bytes after them.
+//! Every test here fails on the crate as published (a wrong size, wrong bytes, an overrun guard,
+//! `false`, or an abort from a panic inside an `extern "C"` callback).
+//!
+//! The expected wire bytes are what CycloneDDS's own serialiser produces for a sample: the
+//! 4-byte encapsulation header, the CDR payload (`handgate_idl::to_cdr_be`, the same encoding
+//! cyclonedds-rs writes; `golden_bytes.rs` checks handgate's encoder against unitree_sdk2py's
+//! bytes), then zero bytes up to a multiple of 4, their number in the low two bits of the
+//! header's options (CycloneDDS 0.10.2 `dds_ostream_add_to_serdata_default`).
+
+use std::ffi::c_void;
+use std::marker::PhantomData;
+use std::sync::Arc;
+
+use cyclonedds_rs::serdes::{Sample, SerType};
+use cyclonedds_sys::{ddsi_serdata, ddsi_serdata_ops, ddsi_serdata_removeref, ddsi_sertype, iovec};
+use handgate_idl::{from_cdr, inspire, to_cdr_be, unitree_hg, TopicType};
+use handgate_tests::{fixture, FromPlain};
+use serde::Serialize;
+
+const SDK_KEY: u32 = cyclonedds_sys::ddsi_serdata_kind_SDK_KEY;
+const SDK_DATA: u32 = cyclonedds_sys::ddsi_serdata_kind_SDK_DATA;
+/// CycloneDDS's default `FragmentSize`.
+const FRAGMENT: usize = 1344;
+/// A byte the callbacks must never write (guard) and a buffer filler they must overwrite.
+const GUARD: u8 = 0xA5;
+
+/// What CycloneDDS sends for `value`: header with the padding count, payload, zero padding.
+fn wire_bytes<T: Serialize>(value: &T) -> Vec<u8> {
+    let mut b = to_cdr_be(value).expect("encodes");
+    let pad = (4 - b.len() % 4) % 4;
+    b[3] = pad as u8;
+    b.resize(b.len() + pad, 0);
+    b
+}
+
+fn value_of<T: FromPlain>(module: &str, type_name: &str, case: &str) -> T {
+    let f = fixture(module, type_name, case).unwrap_or_else(|e| panic!("fixture {module}/{type_name}/{case}: {e}"));
+    f.value_as::<T>()
+        .unwrap_or_else(|e| panic!("fixture {}: {e}", f.label()))
+}
+
+/// A sertype of `T` made by cyclonedds-rs, with its serdata operations.
+struct Ops<T: TopicType> {
+    sertype: *mut ddsi_sertype,
+    _t: PhantomData<T>,
+}
+
+/// A serdata with one reference, released on drop.
+struct Serdata(*mut ddsi_serdata);
+
+impl Drop for Serdata {
+    fn drop(&mut self) {
+        // SAFETY: a serdata from the operations below holding the reference we own.
+        unsafe { ddsi_serdata_removeref(self.0) }
+    }
+}
+
+impl<T: TopicType> Ops<T> {
+    fn new() -> Self {
+        Self {
+            sertype: SerType::<T>::into_sertype(SerType::<T>::new()),
+            _t: PhantomData,
+        }
+    }
+
+    fn ops(&self) -> &ddsi_serdata_ops {
+        // SAFETY: the sertype is live until drop; cyclonedds-rs set its serdata ops table.
+        unsafe { &*(*self.sertype).serdata_ops }
+    }
+
+    /// `from_sample`, as `dds_write` calls it with a cyclonedds-rs `Sample`; None for null.
+    fn from_sample_kind(&self, kind: u32, sample: &Sample<T>) -> Option<Serdata> {
+        let f = self.ops().from_sample.expect("from_sample");
+        // SAFETY: our sertype, and a pointer to a live `Sample<T>` as cyclonedds-rs passes it.
+        let sd = unsafe { f(self.sertype, kind, (sample as *const Sample<T>).cast::<c_void>()) };
+        (!sd.is_null()).then(|| Serdata(sd))
+    }
+
+    fn from_sample(&self, value: T) -> Serdata {
+        self.from_sample_kind(SDK_DATA, &Sample::from(Arc::new(value)))
+            .expect("from_sample gives a serdata for a sample with data")
+    }
+
+    fn get_size(&self, sd: &Serdata) -> usize {
+        // SAFETY: a live serdata of this sertype.
+        unsafe { self.ops().get_size.expect("get_size")(sd.0) as usize }
+    }
+
+    /// `to_ser` into a buffer of exactly `size` bytes followed by guard bytes; returns the
+    /// buffer and whether the guard survived.
+    fn to_ser(&self, sd: &Serdata, offset: usize, size: usize) -> (Vec<u8>, bool) {
+        let mut buf = vec![GUARD; size + 64];
+        // SAFETY: `buf` has room for `size` bytes (and guard bytes after them).
+        unsafe {
+            self.ops().to_ser.expect("to_ser")(sd.0, size as _, offset as _, buf.as_mut_ptr().cast());
+        }
+        let guard_ok = buf[size..].iter().all(|&b| b == GUARD);
+        buf.truncate(size);
+        (buf, guard_ok)
+    }
+
+    /// `to_ser_ref` then `to_ser_unref`, as `nn_xmsg_serdata` / `nn_xmsg_free` do; returns
+    /// the reported length and a copy of the referenced bytes (at most `size` of them).
+    fn to_ser_ref(&self, sd: &Serdata, offset: usize, size: usize) -> Option<(usize, Vec<u8>)> {
+        let mut iov = iovec {
+            iov_base: std::ptr::null_mut(),
+            iov_len: 0,
+        };
+        // SAFETY: a live serdata; `iov` is ours.
+        let r = unsafe { self.ops().to_ser_ref.expect("to_ser_ref")(sd.0, offset as _, size as _, &mut iov) };
+        if r.is_null() {
+            return None;
+        }
+        let len = iov.iov_len as usize;
+        // SAFETY: the callback promises `iov_len` readable bytes at `iov_base` until the unref;
+        // only the first `min(len, size)` are copied (more would be the overrun under test).
+        let bytes = unsafe { std::slice::from_raw_parts(iov.iov_base.cast::<u8>(), len.min(size)) }.to_vec();
+        // SAFETY: releases the reference `to_ser_ref` returned.
+        unsafe { self.ops().to_ser_unref.expect("to_ser_unref")(r, &iov) };
+        Some((len, bytes))
+    }
+
+    /// `from_ser_iov` over `chunks` (CycloneDDS hands received bytes over in pieces).
+    fn from_iov(&self, chunks: &[&[u8]]) -> Option<Serdata> {
+        let iovs: Vec<iovec> = chunks
+            .iter()
+            .map(|c| iovec {
+                iov_base: c.as_ptr() as *mut c_void,
+                iov_len: c.len() as _,
+            })
+            .collect();
+        let size: usize = chunks.iter().map(|c| c.len()).sum();
+        // SAFETY: the iovecs describe live byte slices.
+        let sd = unsafe {
+            self.ops().from_ser_iov.expect("from_ser_iov")(
+                self.sertype,
+                SDK_DATA,
+                iovs.len() as _,
+                iovs.as_ptr(),
+                size as _,
+            )
+        };
+        (!sd.is_null()).then(|| Serdata(sd))
+    }
+
+    /// `to_sample` into a cyclonedds-rs sample, as a take does; (return value, the sample).
+    fn to_sample(&self, sd: &Serdata) -> (bool, Option<T>)
+    where
+        T: Clone,
+    {
+        let mut sample = Box::new(Sample::<T>::default());
+        let p: *mut Sample<T> = &mut *sample;
+        // SAFETY: a live serdata and a live `Sample<T>` (what cyclonedds-rs's buffers hold).
+        let ok = unsafe {
+            self.ops().to_sample.expect("to_sample")(sd.0, p.cast(), std::ptr::null_mut(), std::ptr::null_mut())
+        };
+        let value = sample.try_deref().cloned();
+        (ok, value)
+    }
+}
+
+impl<T: TopicType> Drop for Ops<T> {
+    fn drop(&mut self) {
+        // SAFETY: the sertype was never registered with a domain; its own free releases it.
+        unsafe { (*(*self.sertype).ops).free.expect("sertype free")(self.sertype) }
+    }
+}
+
+/// Every `(offset, size)` a fragmenting writer asks for: `frag`-sized pieces of `total` (the
+/// serialised size, a multiple of 4; `nn_xmsg_serdata` rounds each part up to one).
+fn fragments(total: usize, frag: usize) -> Vec<(usize, usize)> {
+    (0..total)
+        .step_by(frag)
+        .map(|off| (off, (total - off).min(frag)))
+        .collect()
+}
+
+fn check_serialisation<T: TopicType + Serialize + Clone + PartialEq + std::fmt::Debug>(value: T, what: &str) {
+    let want = wire_bytes(&value);
+    let ops = Ops::<T>::new();
+    let sd = ops.from_sample(value.clone());
+
+    assert_eq!(
+        ops.get_size(&sd),
+        want.len(),
+        "{what}: get_size must count the padding CycloneDDS sends"
+    );
+
+    // The whole sample, and fragments of every size CycloneDDS may ask for (default
+    // FragmentSize, a small one, and odd offsets inside the padding's word).
+    let mut asks = vec![(0, want.len())];
+    for frag in [FRAGMENT, 16, 4] {
+        asks.extend(fragments(want.len(), frag));
+    }
+    asks.push((want.len() - 1, 1));
+    for (off, size) in asks {
+        let (len, bytes) = ops
+            .to_ser_ref(&sd, off, size)
+            .unwrap_or_else(|| panic!("{what}: to_ser_ref({off}, {size}) failed"));
+        assert_eq!(len, size, "{what}: to_ser_ref({off}, {size}) reports {len} bytes");
+        assert_eq!(bytes, want[off..off + size], "{what}: to_ser_ref({off}, {size}) bytes");
+
+        let (bytes, guard_ok) = ops.to_ser(&sd, off, size);
+        assert!(
+            guard_ok,
+            "{what}: to_ser({off}, {size}) wrote past the {size}-byte buffer"
+        );
+        assert_eq!(bytes, want[off..off + size], "{what}: to_ser({off}, {size}) bytes");
+    }
+
+    // What a reader gets back from those bytes, received in two pieces.
+    let (a, b) = want.split_at(want.len() / 2);
+    let back = ops.from_iov(&[a, b]).expect("from_ser_iov decodes CycloneDDS's bytes");
+    let (ok, got) = ops.to_sample(&back);
+    assert!(ok, "{what}: to_sample must report success for a sample with data");
+    assert_eq!(
+        got.as_ref(),
+        Some(&value),
+        "{what}: value after from_ser_iov + to_sample"
+    );
+    assert_eq!(
+        from_cdr::<T>(&want).ok().as_ref(),
+        Some(&value),
+        "{what}: the expected bytes decode"
+    );
+}
+
+#[test]
+fn inspire_hand_ctrl_65_bytes_is_served_padded_and_in_any_part() {
+    let v: inspire::InspireHandCtrl = value_of("inspire", "inspire_hand_ctrl", "typical");
+    assert_eq!(to_cdr_be(&v).map(|b| b.len()).ok(), Some(4 + 65), "fixture size");
+    check_serialisation(v, "inspire_hand_ctrl");
+}
+
+#[test]
+fn inspire_hand_state_98_bytes_is_served_padded_and_in_any_part() {
+    let v: inspire::InspireHandState = value_of("inspire", "inspire_hand_state", "typical");
+    assert_eq!(to_cdr_be(&v).map(|b| b.len()).ok(), Some(4 + 98), "fixture size");
+    check_serialisation(v, "inspire_hand_state");
+}
+
+#[test]
+fn inspire_hand_touch_above_the_fragment_size_is_served_in_fragments() {
+    let v: inspire::InspireHandTouch = value_of("inspire", "inspire_hand_touch", "typical");
+    assert!(
+        to_cdr_be(&v).map(|b| b.len()).unwrap_or(0) > FRAGMENT,
+        "fixture above one fragment"
+    );
+    check_serialisation(v, "inspire_hand_touch");
+}
+
+#[test]
+fn dex3_hand_state_is_served_in_fragments() {
+    let v: unitree_hg::HandState_ = value_of("unitree_hg", "HandState_", "typical");
+    check_serialisation(v, "unitree_hg HandState_");
+}
+
+#[test]
+fn unsupported_requests_return_null_instead_of_panicking_across_ffi() {
+    // `dds_register_instance` / `dds_unregister_instance` / `dds_dispose` ask for a key-only
+    // serdata; cyclonedds-rs 0.6.5 panics inside the callback (an abort since Rust 1.81).
+    // CycloneDDS handles a null serdata (the call fails with an error code).
+    let ops = Ops::<inspire::InspireHandCtrl>::new();
+    let value: inspire::InspireHandCtrl = value_of("inspire", "inspire_hand_ctrl", "typical");
+    let sample = Sample::from(Arc::new(value));
+    assert!(
+        ops.from_sample_kind(SDK_KEY, &sample).is_none(),
+        "key-only serdata: null"
+    );
+    // A sample without data (what a cyclonedds-rs sample buffer holds before a take).
+    assert!(
+        ops.from_sample_kind(SDK_DATA, &Sample::default()).is_none(),
+        "sample without data: null"
+    );
+    // Bytes that do not decode (truncated): null, not a panic.
+    assert!(ops.from_iov(&[&[0, 0, 0, 0, 1]]).is_none(), "undecodable bytes: null");
+}
