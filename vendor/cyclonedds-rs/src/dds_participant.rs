@@ -85,7 +85,7 @@ impl DdsParticipant {
         unsafe {
             let p = cyclonedds_sys::dds_create_participant(
                 maybe_domain.unwrap_or(0xFFFF_FFFF),
-                maybe_qos.map_or(std::ptr::null(), |d| d.into()),
+                maybe_qos.as_ref().map_or(std::ptr::null(), |d| d.into()), // handgate: borrowed, deleted on return
                 maybe_listener.as_ref().map_or(std::ptr::null(), |l| l.into()),
             );
             if p > 0 {

@@ -59,7 +59,7 @@ impl<'a> DdsPublisher {
         unsafe {
             let p = cyclonedds_sys::dds_create_publisher(
                 participant.entity().entity(),
-                maybe_qos.map_or(std::ptr::null(), |d| d.into()),
+                maybe_qos.as_ref().map_or(std::ptr::null(), |d| d.into()), // handgate: borrowed, deleted on return
                 maybe_listener.as_ref().map_or(std::ptr::null(), |l| l.into()),
             );
             if p > 0 {

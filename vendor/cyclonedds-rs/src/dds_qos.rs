@@ -269,6 +269,14 @@ impl From<DdsQos> for *const dds_qos_t {
         q
     }
 }
+// handgate (README.handgate.md): the entity constructors lend their QoS to CycloneDDS, which
+// copies it, and delete it when they return (0.6.5 gave the pointer away through the impl above
+// and nothing deleted it: one leaked QoS object per entity created with a QoS).
+impl From<&DdsQos> for *const dds_qos_t {
+    fn from(qos: &DdsQos) -> Self {
+        qos.0
+    }
+}
 /* 
 impl From<&mut DdsQos> for *const dds_qos_t {
     fn from(qos: &mut DdsQos) -> Self {

@@ -59,7 +59,7 @@ impl<'a> DdsSubscriber {
         unsafe {
             let p = cyclonedds_sys::dds_create_subscriber(
                 participant.entity().entity(),
-                maybe_qos.map_or(std::ptr::null(), |d| d.into()),
+                maybe_qos.as_ref().map_or(std::ptr::null(), |d| d.into()), // handgate: borrowed, deleted on return
                 maybe_listener.as_ref().map_or(std::ptr::null(), |l| l.into()),
             );
             if p > 0 {

@@ -96,7 +96,7 @@ where
                 participant.entity().entity(),
                 strname.as_ptr(),
                 tt,
-                maybe_qos.map_or(std::ptr::null(), |q| q.into()),
+                maybe_qos.as_ref().map_or(std::ptr::null(), |q| q.into()), // handgate: borrowed, deleted on return
                 maybe_listener
                     .as_ref()
                     .map_or(std::ptr::null(), |l| l.into()),

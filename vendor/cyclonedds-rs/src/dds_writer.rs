@@ -125,7 +125,7 @@ where
             let w = dds_create_writer(
                 entity.entity().entity(),
                 topic.entity().entity(),
-                maybe_qos.map_or(std::ptr::null(), |q| q.into()),
+                maybe_qos.as_ref().map_or(std::ptr::null(), |q| q.into()), // handgate: borrowed, deleted on return
                 maybe_listener
                     .as_ref()
                     .map_or(std::ptr::null(), |l| l.into()),
