@@ -25,11 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import wire_schema as ws  # noqa: E402
-from unitree_sdk2py.core.channel import (  # noqa: E402
-    ChannelFactoryInitialize,
-    ChannelPublisher,
-    ChannelSubscriber,
-)
+from unitree_sdk2py.core.channel import ChannelFactoryInitialize, ChannelPublisher, ChannelSubscriber  # noqa: E402
 
 # The types handgate puts on the wire as topics (docs/wire-types.md), by wire_schema key.
 KEYS = [
