@@ -49,7 +49,10 @@ pub(crate) fn ffi_guard<R>(fallback: R, body: impl FnOnce() -> R) -> R {
 // serializer does (0.10.2 dds_ostream_add_to_serdata_default). get_size counts these bytes:
 // nn_xmsg_serdata asks to_ser_ref for align4(size) bytes and sends them.
 fn serialize_padded<T: Serialize>(sample: &T) -> Option<Vec<u8>> {
-    let mut buf = cdr::serialize::<_, _, CdrBe>(sample, Infinite).ok()?;
+    // one allocation: the padded size up front
+    let size = cdr::calc_serialized_size(sample) as usize;
+    let mut buf = Vec::with_capacity((size + 3) & !3);
+    cdr::serialize_into::<_, _, _, CdrBe>(&mut buf, sample, Infinite).ok()?;
     let pad = (4 - buf.len() % 4) % 4;
     *buf.get_mut(3)? |= pad as u8;
     buf.resize(buf.len() + pad, 0);
