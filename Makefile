@@ -11,8 +11,11 @@
 #                every state rate held to ±5 % of nominal, 10,000 malformed
 #                samples per front, every fault cycle repeated, a 10-minute soak of the sim-all
 #                fleet with a client on every front, isolation (one front flooded or driven at
-#                10 kHz for 60 s), each fuzz target 10 minutes, and mutation testing of the
-#                safety core (make mutants)
+#                10 kHz for 60 s), each fuzz target 10 minutes, mutation testing of the
+#                safety core (make mutants) and make valgrind
+#   make valgrind - the DDS paths under valgrind memcheck (scripts/valgrind.sh all, ~2 min;
+#                setup installs Debian's valgrind): the gateway on the default and sim-all
+#                profiles driven by unitree_sdk2py, every wire type through the SDK
 #   make mutants - cargo-mutants on the safety core (scripts/mutants.sh; hours for the gateway
 #                set); not part of make test
 #   make bench - release benchmarks (minutes); rewrites docs/benchmarks.md
@@ -23,7 +26,7 @@ ARGS ?=
 # of a clean debug build, no TLS or compression). The tests build the binary with it too.
 FEATURES ?= --features handgate/foxglove
 
-.PHONY: run test test-loaded ports setup build lint fmt bench reliability mutants fixtures clean-venv
+.PHONY: run test test-loaded ports setup build lint fmt bench reliability mutants valgrind fixtures clean-venv
 
 setup:
 	@scripts/setup.sh
@@ -59,6 +62,10 @@ reliability: setup ports
 	HANDGATE_RELIABILITY_FULL=1 $(CARGO) test --release -p handgate-tests --test reliability --test fronts_service --test dex1_auto -- --nocapture --test-threads=1
 	scripts/fuzz.sh full $(FUZZ_SECS)
 	scripts/mutants.sh all
+	scripts/valgrind.sh all
+
+valgrind: setup
+	scripts/valgrind.sh all
 
 # MUTANTS_SET: adapters (about 25 min), fronts (minutes), gateway (about 20 min: every mutant
 # rebuilds the binary and runs the end-to-end safety tests), kinds (the new kinds' tables) or all.

@@ -3,7 +3,8 @@
 # Idempotent: every step checks first. Usage: scripts/setup.sh [--no-python]
 #   - Debian packages: cyclonedds-dev 0.10.2 (the version on Unitree robots), its tools,
 #     libclang-dev (bindgen), libusb-1.0-0-dev (rusb), pkg-config, iproute2 (the two-hosts
-#     test's network namespaces), chromium (the dashboard's browser test); systemd (only for
+#     test's network namespaces), chromium (the dashboard's browser test), valgrind (make
+#     valgrind, the DDS paths under memcheck); systemd (only for
 #     systemd-analyze, which checks the shipped unit; nothing is started).
 #   - tests/browser/node_modules/ (git-ignored): playwright-core from tests/browser's
 #     package-lock.json (npm ci), which drives Debian's chromium in the dashboard's test.
@@ -20,7 +21,7 @@ want_python=1
 sudo_cmd=""
 [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
 
-pkgs=(cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config iproute2 chromium)
+pkgs=(cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config iproute2 chromium valgrind)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
