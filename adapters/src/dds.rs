@@ -432,13 +432,17 @@ impl Node {
     }
 
     /// A reader that calls `on_data` from CycloneDDS's listener thread whenever samples
-    /// arrive. `on_data` must be quick (forward to a channel).
+    /// arrive. `on_data` must be quick (forward to a channel). A panic in `on_data` is caught
+    /// here and logged: it never reaches CycloneDDS's C frames (the listener trampoline is
+    /// `extern "C"`, where a panic aborts the process: every device would stop where it is,
+    /// with no safe state); the next samples call `on_data` again.
     pub fn reader_with_callback<T, F>(&self, name: &str, qos: Qos, mut on_data: F) -> Result<Reader<T>, DdsError>
     where
         T: TopicType + 'static,
         F: FnMut(&DdsReaderHandle<T>) + Send + 'static,
     {
         let topic = self.topic::<T>(name)?;
+        let topic_name = name.to_string();
         let listener = cyclonedds_rs::DdsListenerBuilder::new()
             .on_data_available(move |entity| {
                 let _within = Enter::new(Within::Callback);
@@ -446,7 +450,9 @@ impl Node {
                     entity,
                     _p: PhantomData,
                 };
-                on_data(&handle);
+                if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| on_data(&handle))).is_err() {
+                    tracing::error!(topic = %topic_name, "a reader callback panicked (caught; the reader goes on)");
+                }
             })
             .build();
         let reader = DdsReader::create(&self.inner.participant, topic, Some(qos.to_dds()?), Some(listener))

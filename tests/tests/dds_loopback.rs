@@ -55,3 +55,43 @@ fn motor_states_round_trip_with_callback_reader() {
     w.write(st.clone()).unwrap();
     assert_eq!(rx.recv_timeout(T).unwrap(), st);
 }
+
+/// A panic in a reader callback is caught in handgate's DDS layer: it never reaches
+/// CycloneDDS's C frames (where it would abort the gateway, every device stopped where it is),
+/// and the reader keeps delivering: the next sample calls the callback again.
+#[test]
+fn a_panicking_reader_callback_does_not_stop_the_reader() {
+    let node = Node::new(59, None).expect("participant");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let mut calls = 0u32;
+    let r = node
+        .reader_with_callback::<unitree_go::MotorStates_, _>(
+            "rt/test/panicking",
+            Qos::Reliable { depth: 10 },
+            move |h| {
+                let mut v = Vec::new();
+                h.take_into(&mut v);
+                calls += 1;
+                if calls == 1 {
+                    panic!("the first callback panics");
+                }
+                for s in v {
+                    let _ = tx.send(s);
+                }
+            },
+        )
+        .unwrap();
+    let mut w = node
+        .writer::<unitree_go::MotorStates_>("rt/test/panicking", Qos::Reliable { depth: 10 })
+        .unwrap();
+    w.wait_matched(1, T).unwrap();
+    r.wait_matched(1, T).unwrap();
+    let mut st = unitree_go::MotorStates_::with_len(1);
+    // Written until one arrives after the panic (the first callback may cover several).
+    let got = (1..=100).find_map(|k| {
+        st.states[0].q = k as f32;
+        w.write(st.clone()).unwrap();
+        rx.recv_timeout(Duration::from_millis(100)).ok()
+    });
+    assert!(got.is_some(), "no sample delivered after the callback panicked");
+}
