@@ -461,3 +461,64 @@ fn ezgripper_ignores_the_echo_of_a_half_duplex_adapter() {
     let st = bus.stats();
     assert_eq!(st.crc_errors, 0, "{st:?}");
 }
+
+/// The in-process bus (what an emulated gripper of a profile runs on): the same driver over
+/// [`VirtualBus::in_process`]'s transport tracks targets, grasps two grippers in one round
+/// with the line's timing, takes injected missed replies and CRC errors, and reconnects after
+/// an unplug without replaying a target.
+#[test]
+fn in_process_bus_tracks_faults_and_reconnects() {
+    let (emu, connector) = VirtualBus::in_process(EmulatorConfig::with_ids(&[1, 2]));
+    let mut c = cfg(&[(1, Some(1000)), (2, Some(1000))]);
+    // On the bus thread itself nothing is late for want of a CPU: the real default grace.
+    c.response_timeout_ms = BusConfig::default().response_timeout_ms;
+    let bus = EzGripperBus::with_connector(connector, c).unwrap();
+    assert!(emu.path().as_os_str().is_empty());
+    let (g1, g2) = (bus.gripper(id(1)).unwrap(), bus.gripper(id(2)).unwrap());
+    g1.set_target(30.0, 50.0).unwrap();
+    g2.set_target(70.0, 50.0).unwrap();
+    fresh(&bus, 1, |s| (s.position_pct - 30.0).abs() < 2.0);
+    fresh(&bus, 2, |s| (s.position_pct - 70.0).abs() < 2.0);
+    wait_for("same round", || {
+        let (a, b) = (bus.latest(id(1)).unwrap(), bus.latest(id(2)).unwrap());
+        (a.round == b.round && a.measured_at == b.measured_at).then_some(())
+    });
+    // The line's time: a round (sync write of 2 goals, sync read of 2 present blocks) takes
+    // at least its wire time, so at most this many rounds a second.
+    let st = bus.stats();
+    let r0 = (st.rounds, Instant::now());
+    wait_for("rounds", || (bus.stats().rounds > r0.0 + 200).then_some(()));
+    let hz = (bus.stats().rounds - r0.0) as f64 / r0.1.elapsed().as_secs_f64();
+    // Sync write: 12 bytes + (id + goal block) per servo; sync read: 14 + an id per servo;
+    // a status: 11 + the present block.
+    let (goal, present) = (
+        super::control_table::GOAL_BLOCK.len as usize,
+        super::control_table::PRESENT_BLOCK.len as usize,
+    );
+    let wire = super::protocol::wire_time(12 + 2 * (1 + goal) + 14 + 2 + 2 * (11 + present), 1_000_000);
+    assert!(
+        hz < 1.0 / wire.as_secs_f64(),
+        "{hz:.0} rounds/s is faster than the line allows"
+    );
+    let t0 = bus.stats().per_gripper[&1].timeouts;
+    emu.inject(Fault::NoReply { id: 1, count: 3 });
+    wait_for("missed replies", || {
+        (bus.stats().per_gripper[&1].timeouts >= t0 + 3).then_some(())
+    });
+    let c0 = bus.stats().per_gripper[&2].crc_errors;
+    emu.inject(Fault::BadCrc { id: 2, count: 2 });
+    wait_for("CRC errors", || {
+        (bus.stats().per_gripper[&2].crc_errors >= c0 + 2).then_some(())
+    });
+    emu.unplug();
+    wait_for("disconnect", || (!bus.stats().connected).then_some(()));
+    wait_for("stale", || bus.latest(id(1)).unwrap().stale.then_some(()));
+    emu.replug();
+    wait_for("reconnect", || {
+        (bus.stats().reconnects >= 1 && bus.stats().connected).then_some(())
+    });
+    let r = bus.latest(id(1)).unwrap().round;
+    fresh(&bus, 1, |s| s.round > r);
+    g1.set_target(50.0, 50.0).unwrap();
+    fresh(&bus, 1, |s| (s.position_pct - 50.0).abs() < 2.0);
+}

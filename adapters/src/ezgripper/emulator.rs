@@ -32,6 +32,7 @@ use super::control_table::{
 };
 use super::protocol::{wire_time, Decoder, ErrorNumber, Request, Status, StatusError, BROADCAST_ID};
 use super::pty::{replace_symlink, Pty};
+use super::transport::{Connector, Transport, TransportError};
 
 const RAD_PER_TICK: f32 = std::f32::consts::TAU / TICKS_PER_REV;
 /// MX-64 torque constant at the output, N*m/A: 6.0 N*m stall at 4.1 A (12 V) [MX64 spec].
@@ -437,6 +438,73 @@ struct Shared {
     plugged: bool,
 }
 
+impl Shared {
+    /// Executes a request on the addressed servos; returns each reply with its servo's
+    /// return delay, in line order.
+    fn dispatch(&mut self, req: &Request) -> Vec<(Vec<u8>, Duration)> {
+        let sh = self;
+        let st = &mut sh.stats;
+        match req {
+            Request::Ping { .. } => st.pings += 1,
+            Request::Read { .. } => st.reads += 1,
+            Request::Write { .. } => st.writes += 1,
+            Request::Reboot { .. } => st.reboots += 1,
+            Request::SyncRead { ids, .. } => {
+                st.sync_reads += 1;
+                *st.sync_reads_by_ids.entry(ids.clone()).or_default() += 1;
+            }
+            Request::SyncWrite { .. } => st.sync_writes += 1,
+        }
+        let target = req.packet_id();
+        // Reply order: sync read in the listed order, broadcast ping by id, else the one id.
+        let order: Vec<u8> = match req {
+            Request::SyncRead { ids, .. } => ids.clone(),
+            _ if target == BROADCAST_ID => {
+                let mut v: Vec<u8> = sh.servos.iter().map(|s| s.spec.id).collect();
+                v.sort_unstable();
+                v
+            }
+            _ => vec![target],
+        };
+        let mut out = Vec::new();
+        for id in order {
+            let Some(s) = sh.servos.iter_mut().find(|s| s.spec.id == id) else {
+                continue;
+            };
+            let reply = s.handle(req);
+            let Some(status) = reply else { continue };
+            if s.no_reply > 0 {
+                s.no_reply -= 1;
+                continue;
+            }
+            let Ok(mut bytes) = status.encode() else { continue };
+            if s.bad_crc > 0 {
+                s.bad_crc -= 1;
+                let n = bytes.len();
+                bytes[n - 1] ^= 0x5A;
+            }
+            let delay = Duration::from_micros(
+                s.table[reg::RETURN_DELAY_TIME.addr as usize] as u64 * RETURN_DELAY_US_PER_UNIT as u64,
+            );
+            out.push((bytes, delay));
+        }
+        out
+    }
+
+    /// Advances every servo to `now` (from `last`); a step is capped at 0.2 s so a starved
+    /// caller slows the jaw down rather than teleporting it (JointModel sub-steps keep 0.2 s
+    /// stable: 100 steps of 2 ms).
+    fn step_to(&mut self, last: &mut Instant, now: Instant) {
+        let dt = (now - *last).as_secs_f32().min(0.2);
+        *last = now;
+        if dt > 0.0 {
+            for s in &mut self.servos {
+                s.step(dt);
+            }
+        }
+    }
+}
+
 /// A running virtual bus. Dropping it stops the thread and removes the link.
 #[derive(Debug)]
 pub struct VirtualBus {
@@ -482,6 +550,42 @@ impl VirtualBus {
         })
     }
 
+    /// The bus in-process: the servos answer on the driver's own thread through the
+    /// returned [`Connector`] (`EzGripperBus::with_connector`), at the wire times the line
+    /// books, as [`Self::start`]'s thread does over a pty. Nothing else has to be scheduled
+    /// for a reply to be on time: on a machine busy with other work a thread of its own is
+    /// not run for hundreds of ms now and then, and its replies missed the driver's deadline
+    /// (the device went stale, issue #26). The pty form stays for the serial path itself and
+    /// for `handgate emulate ezgripper`. [`Self::path`] is empty; faults, unplug and replug
+    /// work the same.
+    pub fn in_process(cfg: EmulatorConfig) -> (Self, Box<dyn Connector>) {
+        let shared = Arc::new(Mutex::new(Shared {
+            servos: cfg
+                .servos
+                .iter()
+                .cloned()
+                .map(|s| ServoSim::new(s, cfg.noise))
+                .collect(),
+            stats: EmulatorStats::default(),
+            plugged: true,
+        }));
+        let connector = InProcessConnector {
+            shared: shared.clone(),
+            byte_time: wire_time(1, cfg.baud),
+            usb_latency: cfg.usb_latency,
+            echo: cfg.echo,
+            last_step: Arc::new(Mutex::new(Instant::now())),
+        };
+        let bus = Self {
+            link: PathBuf::new(),
+            shared,
+            stop: Arc::new(AtomicBool::new(false)),
+            thread: None,
+        };
+        (bus, Box::new(connector))
+    }
+
+    /// The pty's link ([`Self::start`]); empty for [`Self::in_process`].
     pub fn path(&self) -> &Path {
         &self.link
     }
@@ -565,7 +669,9 @@ impl Drop for VirtualBus {
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
-        let _ = std::fs::remove_file(&self.link);
+        if !self.link.as_os_str().is_empty() {
+            let _ = std::fs::remove_file(&self.link);
+        }
     }
 }
 
@@ -663,69 +769,148 @@ impl Worker {
     }
 
     fn step_physics(&self, last: &mut Instant) {
-        let now = Instant::now();
-        // Capped so a starved emulator thread slows the jaw down rather than teleporting it;
-        // JointModel sub-steps keep 0.2 s stable (100 steps of 2 ms).
-        let dt = (now - *last).as_secs_f32().min(0.2);
-        *last = now;
-        if dt <= 0.0 {
-            return;
+        self.lock().step_to(last, Instant::now());
+    }
+
+    /// Executes a request on the addressed servos ([`Shared::dispatch`]).
+    fn dispatch(&self, req: &Request) -> Vec<(Vec<u8>, Duration)> {
+        self.lock().dispatch(req)
+    }
+}
+
+/// Opens [`InProcessLink`]s on a [`VirtualBus::in_process`] bus (a new one after an unplug
+/// and replug, as a serial adapter is opened again).
+struct InProcessConnector {
+    shared: Arc<Mutex<Shared>>,
+    byte_time: Duration,
+    usb_latency: Duration,
+    echo: bool,
+    /// When the servos were last advanced (shared by the links, one after the other).
+    last_step: Arc<Mutex<Instant>>,
+}
+
+impl Connector for InProcessConnector {
+    fn connect(&mut self) -> Result<Box<dyn Transport>, TransportError> {
+        if !self.shared.lock().unwrap_or_else(|p| p.into_inner()).plugged {
+            return Err(TransportError::NotFound {
+                path: PathBuf::from("(emulated bus, unplugged)"),
+            });
         }
-        for s in &mut self.lock().servos {
-            s.step(dt);
+        Ok(Box::new(InProcessLink {
+            shared: self.shared.clone(),
+            byte_time: self.byte_time,
+            usb_latency: self.usb_latency,
+            echo: self.echo,
+            last_step: self.last_step.clone(),
+            decoder: Decoder::new(),
+            line_free: Instant::now(),
+            pending: std::collections::VecDeque::new(),
+            unplugged: false,
+        }))
+    }
+
+    fn describe(&self) -> String {
+        "emulated bus (in-process)".into()
+    }
+}
+
+/// The virtual line as a [`Transport`] on the driver's thread: what is written is booked on
+/// the line and answered by the servos at once; each reply becomes readable when it would
+/// have fully arrived (the request's wire time, the servo's Return Delay Time, the reply's
+/// own wire time, the USB latency), the same timing as the pty form's thread.
+struct InProcessLink {
+    shared: Arc<Mutex<Shared>>,
+    byte_time: Duration,
+    usb_latency: Duration,
+    echo: bool,
+    last_step: Arc<Mutex<Instant>>,
+    decoder: Decoder,
+    /// When the line is next free (host->servo and servo->host share it).
+    line_free: Instant,
+    /// Bytes on their way to the host and when they are all in.
+    pending: std::collections::VecDeque<(Instant, Vec<u8>)>,
+    /// The adapter was pulled while this link was open: it stays dead.
+    unplugged: bool,
+}
+
+impl InProcessLink {
+    /// Advances the servos to now; `Err` once the adapter is pulled.
+    fn lock_live(&mut self) -> Result<MutexGuard<'_, Shared>, TransportError> {
+        let mut sh = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        if !sh.plugged {
+            self.unplugged = true;
+        }
+        if self.unplugged {
+            return Err(TransportError::Disconnected);
+        }
+        let mut last = self.last_step.lock().unwrap_or_else(|p| p.into_inner());
+        sh.step_to(&mut last, Instant::now());
+        Ok(sh)
+    }
+}
+
+impl Transport for InProcessLink {
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        let (byte_time, usb_latency) = (self.byte_time, self.usb_latency);
+        let now = Instant::now();
+        drop(self.lock_live()?);
+        self.line_free = self.line_free.max(now) + byte_time * bytes.len() as u32;
+        if self.echo {
+            self.pending.push_back((now, bytes.to_vec()));
+        }
+        self.decoder.push(bytes);
+        while let Some(frame) = self.decoder.next_frame() {
+            let mut sh = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+            let Ok(req) = frame
+                .map_err(|_| ())
+                .and_then(|pk| Request::from_packet(&pk).map_err(|_| ()))
+            else {
+                sh.stats.bad_frames += 1;
+                continue;
+            };
+            for (reply, delay) in sh.dispatch(&req) {
+                let done = self.line_free + delay + byte_time * reply.len() as u32;
+                self.line_free = done;
+                self.pending.push_back((done + usb_latency, reply));
+                sh.stats.statuses_sent += 1;
+            }
+        }
+        Ok(())
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, TransportError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let now = Instant::now();
+            drop(self.lock_live()?);
+            let mut n = 0;
+            while let Some((due, bytes)) = self.pending.front() {
+                if *due > now || n + bytes.len() > buf.len() {
+                    break;
+                }
+                buf[n..n + bytes.len()].copy_from_slice(bytes);
+                n += bytes.len();
+                self.pending.pop_front();
+            }
+            if n > 0 {
+                return Ok(n);
+            }
+            // Nothing in yet: sleep until the next reply is in, or the timeout.
+            let next = self.pending.front().map_or(deadline, |(due, _)| (*due).min(deadline));
+            if now >= deadline {
+                return Ok(0);
+            }
+            std::thread::sleep(next.saturating_duration_since(now));
         }
     }
 
-    /// Executes a request on the addressed servos; returns each reply with its servo's
-    /// return delay, in line order.
-    fn dispatch(&self, req: &Request) -> Vec<(Vec<u8>, Duration)> {
-        let mut sh = self.lock();
-        let st = &mut sh.stats;
-        match req {
-            Request::Ping { .. } => st.pings += 1,
-            Request::Read { .. } => st.reads += 1,
-            Request::Write { .. } => st.writes += 1,
-            Request::Reboot { .. } => st.reboots += 1,
-            Request::SyncRead { ids, .. } => {
-                st.sync_reads += 1;
-                *st.sync_reads_by_ids.entry(ids.clone()).or_default() += 1;
-            }
-            Request::SyncWrite { .. } => st.sync_writes += 1,
+    fn clear_input(&mut self) -> Result<(), TransportError> {
+        let now = Instant::now();
+        drop(self.lock_live()?);
+        while self.pending.front().is_some_and(|(due, _)| *due <= now) {
+            self.pending.pop_front();
         }
-        let target = req.packet_id();
-        // Reply order: sync read in the listed order, broadcast ping by id, else the one id.
-        let order: Vec<u8> = match req {
-            Request::SyncRead { ids, .. } => ids.clone(),
-            _ if target == BROADCAST_ID => {
-                let mut v: Vec<u8> = sh.servos.iter().map(|s| s.spec.id).collect();
-                v.sort_unstable();
-                v
-            }
-            _ => vec![target],
-        };
-        let mut out = Vec::new();
-        for id in order {
-            let Some(s) = sh.servos.iter_mut().find(|s| s.spec.id == id) else {
-                continue;
-            };
-            let reply = s.handle(req);
-            let Some(status) = reply else { continue };
-            if s.no_reply > 0 {
-                s.no_reply -= 1;
-                continue;
-            }
-            let Ok(mut bytes) = status.encode() else { continue };
-            if s.bad_crc > 0 {
-                s.bad_crc -= 1;
-                let n = bytes.len();
-                bytes[n - 1] ^= 0x5A;
-            }
-            let delay = Duration::from_micros(
-                s.table[reg::RETURN_DELAY_TIME.addr as usize] as u64 * RETURN_DELAY_US_PER_UNIT as u64,
-            );
-            out.push((bytes, delay));
-        }
-        out
+        Ok(())
     }
 }
 

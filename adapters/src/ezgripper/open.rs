@@ -104,15 +104,16 @@ pub fn prepare(devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), 
     }
     for (port, devs) in by_port {
         let cfg = bus_config(&devs)?;
-        let path = if devs.iter().any(|d| d.backend == Backend::Emulator) {
-            let link = pty_link(&port);
-            let bus = VirtualBus::start(&link, emulator_config(&devs, &cfg)?).map_err(DeviceError::link)?;
-            env.shared.insert(&port, Arc::new(bus));
-            link
+        let bus = if devs.iter().any(|d| d.backend == Backend::Emulator) {
+            // The emulated servos answer on the bus thread itself (VirtualBus::in_process):
+            // the same driver, the same wire timing, no thread of their own to be late.
+            let (emu, connector) = VirtualBus::in_process(emulator_config(&devs, &cfg)?);
+            env.shared.insert(&port, Arc::new(emu));
+            EzGripperBus::with_connector(connector, cfg)
         } else {
-            PathBuf::from(&port)
-        };
-        let bus = EzGripperBus::open(&path, cfg).map_err(DeviceError::link)?;
+            EzGripperBus::open(PathBuf::from(&port), cfg)
+        }
+        .map_err(DeviceError::link)?;
         env.shared.insert(&port, Arc::new(bus));
     }
     Ok(())
