@@ -20,7 +20,8 @@ use handgate_adapters::route as router;
 /// `crate::http`).
 #[derive(Debug, Default)]
 pub(crate) struct RateLimitedLog {
-    last: Mutex<HashMap<&'static str, (Instant, u64)>>,
+    /// Per key: when one was last logged (`None`: never), and the events since.
+    last: Mutex<HashMap<&'static str, (Option<Instant>, u64)>>,
 }
 
 impl RateLimitedLog {
@@ -35,11 +36,13 @@ impl RateLimitedLog {
     /// logged yet); `None` otherwise.
     pub(crate) fn admit(&self, key: &'static str, now: Instant) -> Option<u64> {
         let mut g = self.last.lock().unwrap_or_else(|p| p.into_inner());
-        let e = g.entry(key).or_insert((now - Duration::from_secs(2), 0));
+        // Never `now - 2 s`: an Instant is time since boot, and a gateway started in its first
+        // seconds (a systemd unit at boot) would panic on the subtraction.
+        let e = g.entry(key).or_insert((None, 0));
         e.1 += 1;
-        if now.duration_since(e.0) >= Duration::from_secs(1) {
+        if e.0.map_or(true, |t| now.duration_since(t) >= Duration::from_secs(1)) {
             let suppressed = e.1 - 1;
-            *e = (now, 0);
+            *e = (Some(now), 0);
             Some(suppressed)
         } else {
             None
@@ -247,7 +250,8 @@ pub(crate) fn run_front(
             let mut lf_tick = Ticker::hz(lf_hz);
             // Commands dropped because this front's queue was full (reported at most once a
             // second, with the running total, so a flood's losses are visible).
-            let mut dropped_reported = (0u64, Instant::now() - Duration::from_secs(2));
+            // (dropped count last reported, when; `None`: never reported)
+            let mut dropped_reported: (u64, Option<Instant>) = (0, None);
             // Prompt state: after a command is accepted, the first state that reflects it on
             // every device it went to (`cmd_seq`) is published at once instead of at the next
             // deadline; so is a state reflecting a newer command than the last published
@@ -415,10 +419,12 @@ pub(crate) fn run_front(
                         out.publish(&views(&bound), false);
                         for b in bound.iter_mut() { b.prompt.published = b.state_rx.borrow().cmd_seq; }
                         let d = dropped.load(Ordering::Relaxed);
-                        if d > dropped_reported.0 && dropped_reported.1.elapsed() >= Duration::from_secs(1) {
+                        if d > dropped_reported.0
+                            && dropped_reported.1.map_or(true, |t| t.elapsed() >= Duration::from_secs(1))
+                        {
                             warn!(front = %name, dropped = d - dropped_reported.0,
                                 queue_full_total = d, "front queue full: commands dropped unprocessed");
-                            dropped_reported = (d, Instant::now());
+                            dropped_reported = (d, Some(Instant::now()));
                         }
                     }
                     _ = lf_tick.tick(), if lf_hz > 0.0 => {
