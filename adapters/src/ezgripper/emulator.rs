@@ -439,6 +439,34 @@ struct Shared {
 }
 
 impl Shared {
+    fn new(cfg: &EmulatorConfig) -> Self {
+        Self {
+            servos: cfg
+                .servos
+                .iter()
+                .cloned()
+                .map(|s| ServoSim::new(s, cfg.noise))
+                .collect(),
+            stats: EmulatorStats::default(),
+            plugged: true,
+        }
+    }
+
+    /// Answers one frame from the host: its replies, each with its servo's return delay, in
+    /// line order; a frame that is not a request is counted and answered by nothing.
+    fn answer(
+        &mut self,
+        frame: Result<super::protocol::Packet, super::protocol::FrameError>,
+    ) -> Vec<(Vec<u8>, Duration)> {
+        match frame.ok().and_then(|pk| Request::from_packet(&pk).ok()) {
+            Some(req) => self.dispatch(&req),
+            None => {
+                self.stats.bad_frames += 1;
+                Vec::new()
+            }
+        }
+    }
+
     /// Executes a request on the addressed servos; returns each reply with its servo's
     /// return delay, in line order.
     fn dispatch(&mut self, req: &Request) -> Vec<(Vec<u8>, Duration)> {
@@ -505,6 +533,37 @@ impl Shared {
     }
 }
 
+/// The virtual line's timing: host->servo and servo->host share it, 10 bits a byte at the
+/// bus's baud, and a reply reaches the host its USB latency after it is on the wire.
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    byte_time: Duration,
+    usb_latency: Duration,
+    /// When the line is next free.
+    free: Instant,
+}
+
+impl Line {
+    fn new(cfg: &EmulatorConfig) -> Self {
+        Self {
+            byte_time: wire_time(1, cfg.baud),
+            usb_latency: cfg.usb_latency,
+            free: Instant::now(),
+        }
+    }
+
+    /// `n` bytes from the host, read at `now`: on the line from when it is free.
+    fn receive(&mut self, n: usize, now: Instant) {
+        self.free = self.free.max(now) + self.byte_time * n as u32;
+    }
+
+    /// A reply of `len` bytes after the servo's return `delay`: when it is all at the host.
+    fn reply(&mut self, delay: Duration, len: usize) -> Instant {
+        self.free += delay + self.byte_time * len as u32;
+        self.free + self.usb_latency
+    }
+}
+
 /// A running virtual bus. Dropping it stops the thread and removes the link.
 #[derive(Debug)]
 pub struct VirtualBus {
@@ -518,16 +577,7 @@ impl VirtualBus {
     /// Starts the bus; the driver opens `link` like a serial device.
     pub fn start(link: impl AsRef<Path>, cfg: EmulatorConfig) -> io::Result<Self> {
         let link = link.as_ref().to_path_buf();
-        let shared = Arc::new(Mutex::new(Shared {
-            servos: cfg
-                .servos
-                .iter()
-                .cloned()
-                .map(|s| ServoSim::new(s, cfg.noise))
-                .collect(),
-            stats: EmulatorStats::default(),
-            plugged: true,
-        }));
+        let shared = Arc::new(Mutex::new(Shared::new(&cfg)));
         let stop = Arc::new(AtomicBool::new(false));
         let pty = Pty::open()?;
         replace_symlink(pty.slave_path(), &link)?;
@@ -535,8 +585,7 @@ impl VirtualBus {
             link: link.clone(),
             shared: shared.clone(),
             stop: stop.clone(),
-            byte_time: wire_time(1, cfg.baud),
-            usb_latency: cfg.usb_latency,
+            line: Line::new(&cfg),
             echo: cfg.echo,
         };
         let thread = std::thread::Builder::new()
@@ -559,20 +608,10 @@ impl VirtualBus {
     /// for `handgate emulate ezgripper`. [`Self::path`] is empty; faults, unplug and replug
     /// work the same.
     pub fn in_process(cfg: EmulatorConfig) -> (Self, Box<dyn Connector>) {
-        let shared = Arc::new(Mutex::new(Shared {
-            servos: cfg
-                .servos
-                .iter()
-                .cloned()
-                .map(|s| ServoSim::new(s, cfg.noise))
-                .collect(),
-            stats: EmulatorStats::default(),
-            plugged: true,
-        }));
+        let shared = Arc::new(Mutex::new(Shared::new(&cfg)));
         let connector = InProcessConnector {
             shared: shared.clone(),
-            byte_time: wire_time(1, cfg.baud),
-            usb_latency: cfg.usb_latency,
+            line: Line::new(&cfg),
             echo: cfg.echo,
             last_step: Arc::new(Mutex::new(Instant::now())),
         };
@@ -679,8 +718,7 @@ struct Worker {
     link: PathBuf,
     shared: Arc<Mutex<Shared>>,
     stop: Arc<AtomicBool>,
-    byte_time: Duration,
-    usb_latency: Duration,
+    line: Line,
     echo: bool,
 }
 
@@ -702,12 +740,10 @@ impl Worker {
         self.shared.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    fn run(self, first: Pty) {
+    fn run(mut self, first: Pty) {
         let mut pty = Some(first);
         let mut decoder = Decoder::new();
         let mut last_step = Instant::now();
-        // When the virtual line is next free (host->servo and servo->host share it).
-        let mut line_free = Instant::now();
         let mut buf = [0u8; 4096];
         while !self.stop.load(Ordering::SeqCst) {
             let plugged = self.lock().plugged;
@@ -735,30 +771,15 @@ impl Worker {
             if n == 0 {
                 continue;
             }
-            let now = Instant::now();
-            line_free = line_free.max(now) + self.byte_time * n as u32;
+            self.line.receive(n, Instant::now());
             if self.echo {
                 let _ = p.write_all(&buf[..n]);
             }
             decoder.push(&buf[..n]);
             while let Some(frame) = decoder.next_frame() {
-                let pk = match frame {
-                    Ok(pk) => pk,
-                    Err(_) => {
-                        self.lock().stats.bad_frames += 1;
-                        continue;
-                    }
-                };
-                let Ok(req) = Request::from_packet(&pk) else {
-                    self.lock().stats.bad_frames += 1;
-                    continue;
-                };
-                let replies = self.dispatch(&req);
+                let replies = self.lock().answer(frame);
                 for (bytes, delay) in replies {
-                    let start = line_free + delay;
-                    let done = start + self.byte_time * bytes.len() as u32;
-                    line_free = done;
-                    sleep_until(done + self.usb_latency);
+                    sleep_until(self.line.reply(delay, bytes.len()));
                     self.step_physics(&mut last_step);
                     if p.write_all(&bytes).is_ok() {
                         self.lock().stats.statuses_sent += 1;
@@ -771,19 +792,13 @@ impl Worker {
     fn step_physics(&self, last: &mut Instant) {
         self.lock().step_to(last, Instant::now());
     }
-
-    /// Executes a request on the addressed servos ([`Shared::dispatch`]).
-    fn dispatch(&self, req: &Request) -> Vec<(Vec<u8>, Duration)> {
-        self.lock().dispatch(req)
-    }
 }
 
 /// Opens [`InProcessLink`]s on a [`VirtualBus::in_process`] bus (a new one after an unplug
 /// and replug, as a serial adapter is opened again).
 struct InProcessConnector {
     shared: Arc<Mutex<Shared>>,
-    byte_time: Duration,
-    usb_latency: Duration,
+    line: Line,
     echo: bool,
     /// When the servos were last advanced (shared by the links, one after the other).
     last_step: Arc<Mutex<Instant>>,
@@ -798,12 +813,13 @@ impl Connector for InProcessConnector {
         }
         Ok(Box::new(InProcessLink {
             shared: self.shared.clone(),
-            byte_time: self.byte_time,
-            usb_latency: self.usb_latency,
+            line: Line {
+                free: Instant::now(),
+                ..self.line
+            },
             echo: self.echo,
             last_step: self.last_step.clone(),
             decoder: Decoder::new(),
-            line_free: Instant::now(),
             pending: std::collections::VecDeque::new(),
             unplugged: false,
         }))
@@ -820,13 +836,10 @@ impl Connector for InProcessConnector {
 /// own wire time, the USB latency), the same timing as the pty form's thread.
 struct InProcessLink {
     shared: Arc<Mutex<Shared>>,
-    byte_time: Duration,
-    usb_latency: Duration,
+    line: Line,
     echo: bool,
     last_step: Arc<Mutex<Instant>>,
     decoder: Decoder,
-    /// When the line is next free (host->servo and servo->host share it).
-    line_free: Instant,
     /// Bytes on their way to the host and when they are all in.
     pending: std::collections::VecDeque<(Instant, Vec<u8>)>,
     /// The adapter was pulled while this link was open: it stays dead.
@@ -851,27 +864,17 @@ impl InProcessLink {
 
 impl Transport for InProcessLink {
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
-        let (byte_time, usb_latency) = (self.byte_time, self.usb_latency);
         let now = Instant::now();
         drop(self.lock_live()?);
-        self.line_free = self.line_free.max(now) + byte_time * bytes.len() as u32;
+        self.line.receive(bytes.len(), now);
         if self.echo {
             self.pending.push_back((now, bytes.to_vec()));
         }
         self.decoder.push(bytes);
         while let Some(frame) = self.decoder.next_frame() {
             let mut sh = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-            let Ok(req) = frame
-                .map_err(|_| ())
-                .and_then(|pk| Request::from_packet(&pk).map_err(|_| ()))
-            else {
-                sh.stats.bad_frames += 1;
-                continue;
-            };
-            for (reply, delay) in sh.dispatch(&req) {
-                let done = self.line_free + delay + byte_time * reply.len() as u32;
-                self.line_free = done;
-                self.pending.push_back((done + usb_latency, reply));
+            for (reply, delay) in sh.answer(frame) {
+                self.pending.push_back((self.line.reply(delay, reply.len()), reply));
                 sh.stats.statuses_sent += 1;
             }
         }
