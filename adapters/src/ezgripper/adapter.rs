@@ -90,7 +90,6 @@ impl EzGripperDevice {
                 rt.block_on(async move {
                     let mut link = crate::link::LinkTracker::default();
                     let mut cal_failure_logged = false;
-                    let mut was_fresh = false;
                     let mut clock = crate::control::CycleClock::default();
                     // The gripper's state and the one built from it every round, their
                     // buffers reused.
@@ -114,7 +113,7 @@ impl EzGripperDevice {
                         }
                         to_hand_state(&table, &g, &mut st);
                         let online = st.freshness == Freshness::Fresh;
-                        if was_fresh && !online {
+                        if link.is_up() && !online {
                             tracing::info!(
                                 online = g.online,
                                 measured_ms_ago = g.measured_at.elapsed().as_millis() as u64,
@@ -122,7 +121,6 @@ impl EzGripperDevice {
                                 "gripper state stale"
                             );
                         }
-                        was_fresh = online;
                         if link.observe(online, &st.joints, &b_cmd) {
                             // Back after an unplug or a silent servo: never replay.
                             tracing::info!("gripper back: holding the measured position until the next command");
