@@ -169,11 +169,7 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
     } else {
         (None, need(topics.state, "state")?)
     };
-    let devices = match (dev, f.devices.as_ref().and_then(|d| d.list())) {
-        (_, Some(list)) => list.iter().map(|n| n.to_string()).collect(),
-        (Some(d), None) => vec![d.name.to_string()],
-        (None, None) => p.devices.iter().map(|d| d.name.to_string()).collect(),
-    };
+    let devices = p.published_devices(f).iter().map(|d| d.name.to_string()).collect();
     Ok(FrontPlan {
         name: f.display_name(dev),
         kind: f.kind,

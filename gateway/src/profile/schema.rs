@@ -128,6 +128,26 @@ pub struct RawProfile {
 }
 
 impl Profile {
+    /// The devices a state-only front publishes, in its order: `devices = [..]` (each once;
+    /// a name no device has is left out, validation reports it), else `device`, else every
+    /// device.
+    pub fn published_devices(&self, f: &FrontConfig) -> Vec<&DeviceConfig> {
+        let by_name = |n: &DeviceName| self.devices.iter().find(|d| &d.name == n);
+        match (f.devices.as_ref().and_then(|d| d.list()), &f.device) {
+            (Some(list), _) => {
+                let mut out: Vec<&DeviceConfig> = Vec::new();
+                for d in list.iter().filter_map(by_name) {
+                    if !out.iter().any(|o| o.name == d.name) {
+                        out.push(d);
+                    }
+                }
+                out
+            }
+            (None, Some(n)) => by_name(n).into_iter().collect(),
+            (None, None) => self.devices.iter().collect(),
+        }
+    }
+
     /// Front `f`'s topics and rates (`device`: its bound device), with handgate's own
     /// interfaces' topics in the profile's namespace (`FrontFactory::in_namespace`).
     pub fn front_topics(&self, f: &FrontConfig, device: Option<&DeviceConfig>) -> FrontTopics {

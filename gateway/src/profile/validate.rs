@@ -484,13 +484,11 @@ impl Checker {
     /// A state-only front whose messages readers key by joint name (ROS 2 JointState): no two
     /// of its devices may publish one name, or a reader sees one of them and loses the other.
     fn joint_names(&mut self, k: &KeyPath, f: &FrontConfig, p: &Profile, topic: &Topic) {
-        let devices: Vec<&DeviceConfig> = match (&f.devices, &f.device) {
-            // A device listed twice is reported by `device_list`.
-            (Some(FrontDevices::List(l)), _) => p.devices.iter().filter(|d| l.contains(&d.name)).collect(),
-            (Some(FrontDevices::Elements(_)), _) => return,
-            (None, Some(n)) => p.devices.iter().filter(|d| &d.name == n).collect(),
-            (None, None) => p.devices.iter().collect(),
-        };
+        if matches!(f.devices, Some(FrontDevices::Elements(_))) {
+            return; // refused for a front that publishes state only
+        }
+        // A device listed twice is reported by `device_list`, once here.
+        let devices = p.published_devices(f);
         // name -> the first device publishing it; per pair of devices, the names both publish.
         let mut first: HashMap<String, usize> = HashMap::new();
         let mut clashes: BTreeMap<(usize, usize), Vec<String>> = BTreeMap::new();
