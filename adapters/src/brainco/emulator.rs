@@ -17,9 +17,10 @@
 //! Assumed (no hardware here; [`BraincoTuning`] and [`BraincoConfig`], docs/adapters.md's
 //! assumptions table): that the loop keeps its 500 Hz (`main.cpp` sleeps what is left of 2 ms
 //! after writing the targets and reading the status over Modbus RTU; whether the bus leaves
-//! room for that is not known here), the finger motion (first order toward the target, at most `full_speed` of the stroke per
-//! second times the commanded speed), the currents, the rest posture, the handling of a
-//! malformed command (ignored and counted), and the measurement noise.
+//! room for that is not known here), the finger motion (first order toward the target, at
+//! most `full_speed` of the stroke per second times the commanded speed), the currents, the
+//! rest posture, the handling of a malformed command (ignored and counted), and the
+//! measurement noise.
 //!
 //! Option (tests): a constant load per finger ([`BraincoConfig::sag`], default none): its
 //! position loop then settles that far from its target (`crate::sim`, "Sag").
