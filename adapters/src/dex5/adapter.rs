@@ -3,9 +3,10 @@
 //! `rt/dex5/{side}/state` ([`super::topics`]).
 //!
 //! Command: as xr_teleoperate's controller builds it, one entry per joint in wire order
-//! ([`CommandLayout::Joints`], 20 entries; [`CommandLayout::Motors`]: 16, one per motor, its
+//! ([`super::table::CommandLayout::Joints`], 20 entries; `Motors`: 16, one per motor, its
 //! driving joint's target), every entry's mode byte [`MODE_ENABLED`], q / dq / tau through the
-//! table (sign), kp / kd the canonical relative gains times the profile's [`Gains`]. A coupled
+//! table (sign), kp / kd the canonical relative gains times the profile's gains
+//! ([`WireConfig`]). A coupled
 //! `Pitch_x4` entry carries its own canonical target unchanged: what the service does with
 //! the two entries of one motor is not public, so handgate passes on what it was given. A
 //! "limp" safe state is zero gains and torque (the PD law then applies nothing). Nothing is
@@ -20,7 +21,7 @@
 
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorCmd_};
 
-use super::table::{CommandLayout, Gains};
+use super::table::WireConfig;
 use super::{MODE_ENABLED, WIRE_LEN};
 use crate::control::Active;
 use crate::dds_device::DdsCodec;
@@ -30,32 +31,26 @@ use crate::model::{faults, HandState, Imu, JointCommand, Pad, Power};
 /// Codec of one Dex5-1 hand.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dex5Codec {
-    /// What a canonical gain of 1.0 becomes on each entry.
-    pub gains: Gains,
-    pub layout: CommandLayout,
+    /// What a canonical gain of 1.0 becomes on each entry, and the command layout.
+    pub wire: WireConfig,
 }
 
 impl Dex5Codec {
-    pub fn new(gains: Gains, layout: CommandLayout) -> Self {
-        Self { gains, layout }
+    pub fn new(wire: WireConfig) -> Self {
+        Self { wire }
     }
 }
 
 impl Default for Dex5Codec {
     /// xr_teleoperate's gains and layout.
     fn default() -> Self {
-        Self::new(Gains::default(), CommandLayout::default())
+        Self::new(WireConfig::default())
     }
 }
 
 /// Fills `msg` (its buffer reused) with the command for canonical `targets` (canonical order).
-pub fn encode_hand_cmd(
-    table: &DeviceTable,
-    targets: &[JointCommand],
-    gains: &Gains,
-    layout: CommandLayout,
-    msg: &mut HandCmd_,
-) {
+pub fn encode_hand_cmd(table: &DeviceTable, targets: &[JointCommand], wire: &WireConfig, msg: &mut HandCmd_) {
+    let layout = wire.layout;
     let off = MotorCmd_ {
         mode: MODE_ENABLED,
         ..Default::default()
@@ -67,7 +62,7 @@ pub fn encode_hand_cmd(
         if layout.joint(e) != Some(i) {
             continue; // a coupled joint in the motor layout: its motor's entry is its driver's
         }
-        let (kp, kd) = gains.to_wire(i, w.kp, w.kd);
+        let (kp, kd) = wire.gains.to_wire(i, w.kp, w.kd);
         msg.motor_cmd[e] = MotorCmd_ {
             mode: MODE_ENABLED,
             q: w.q,
@@ -124,7 +119,7 @@ impl DdsCodec for Dex5Codec {
         let (Active::Command(t) | Active::Safe(_, t)) = active else {
             return false; // nothing commanded yet: silent
         };
-        encode_hand_cmd(table, t, &self.gains, self.layout, msg);
+        encode_hand_cmd(table, t, &self.wire, msg);
         true
     }
 
@@ -137,7 +132,7 @@ impl DdsCodec for Dex5Codec {
 mod tests {
     use super::*;
     use crate::dex5::table::tests::t;
-    use crate::dex5::table::GainSource;
+    use crate::dex5::table::{CommandLayout, Conventions, GainSource};
     use crate::model::{SafeAction, Side};
     use handgate_idl::unitree_hg::{MotorState_, PressSensorState_};
 
@@ -151,7 +146,7 @@ mod tests {
     fn joints_layout_is_twenty_entries_in_wire_order_with_the_profiles_gains() {
         let (tb, targets) = closed(Side::Left);
         let mut msg = HandCmd_::default();
-        encode_hand_cmd(&tb, &targets, &Gains::default(), CommandLayout::Joints, &mut msg);
+        encode_hand_cmd(&tb, &targets, &WireConfig::default(), &mut msg);
         assert_eq!(msg.motor_cmd.len(), 20);
         assert!(msg.motor_cmd.iter().all(|m| m.mode == 0x01));
         assert!(msg.motor_cmd[17].q < -0.5, "the left thumb roll closes negative");
@@ -161,7 +156,7 @@ mod tests {
         assert_eq!((msg.motor_cmd[18].kp, msg.motor_cmd[18].kd), (1.0, 0.02));
         assert_eq!(msg.reserve, [0; 4]);
         let limp = tb.safe_targets(SafeAction::Limp, &[]);
-        encode_hand_cmd(&tb, &limp, &Gains::default(), CommandLayout::Joints, &mut msg);
+        encode_hand_cmd(&tb, &limp, &WireConfig::default(), &mut msg);
         assert!(msg
             .motor_cmd
             .iter()
@@ -172,9 +167,13 @@ mod tests {
     fn motors_layout_is_sixteen_entries_thumb_first_from_the_driving_joints() {
         let (tb, mut targets) = closed(Side::Right);
         targets[3].q = 0.2; // a coupled Pitch_24 the motor layout cannot carry
-        let gains = Gains::of(GainSource::UnitreeDdsWrapper);
+        let wire = WireConfig::of(&Conventions {
+            gains: GainSource::UnitreeDdsWrapper,
+            command_layout: CommandLayout::Motors,
+            ..Default::default()
+        });
         let mut msg = HandCmd_::default();
-        encode_hand_cmd(&tb, &targets, &gains, CommandLayout::Motors, &mut msg);
+        encode_hand_cmd(&tb, &targets, &wire, &mut msg);
         assert_eq!(msg.motor_cmd.len(), 16);
         assert_eq!(msg.motor_cmd[0].q, 0.0, "motor 0: thumb yaw");
         assert_eq!((msg.motor_cmd[0].kp, msg.motor_cmd[0].kd), (10.0, 0.9));

@@ -12,12 +12,12 @@
 //! Assumed (no hardware here; [`Dex5Tuning`], [`Dex5EmuConfig`], docs/adapters.md's
 //! assumptions table):
 //! - per motor, a first-order position loop toward the driving entry's target, time constant
-//!   [`Dex5Tuning::time_constant_s`] at the configured nominal gains ([`Dex5EmuConfig::nominal`],
+//!   [`Dex5Tuning::time_constant_s`] at the configured nominal gains ([`Dex5EmuConfig::wire`],
 //!   xr_teleoperate's by default) and shorter in proportion to a stiffer kp (a wrapper
 //!   client's finger gain, a fifth of xr_teleoperate's, moves five times slower), at most the
 //!   URDF's joint velocity, within the URDF's range; the state's tau_est is the PD law's
 //!   torque `kp·(q* − q) + kd·(dq* − dq) + tau`, saturated at the URDF's effort;
-//! - a coupled `Pitch_x4` reads its motor's position through [`super::table::coupled`]; the
+//! - a coupled `Pitch_x4` reads its motor's position through the coupling; the
 //!   entry's own command is ignored (its driver's entry moves the motor);
 //! - mode byte 1 enables a motor, any other value turns it off; a motor off, or on with
 //!   kp 0, applies no position control and stays where it is (nothing loads the fingers);
@@ -31,7 +31,7 @@ use std::time::{Duration, Instant};
 
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, IMUState_, MotorCmd_, MotorState_};
 
-use super::table::{self, coupled, CommandLayout, Gains, MAX_TAU, SLOTS, VELOCITY};
+use super::table::{self, WireConfig, MAX_TAU, SLOTS, VELOCITY};
 use super::{MODE_DISABLED, MODE_ENABLED, MOTORS, WIRE_LEN};
 use crate::emu_common::{ensure_finite, EmulatorError};
 use crate::model::Side;
@@ -76,11 +76,10 @@ impl Default for Dex5Tuning {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dex5EmuConfig {
     pub side: Side,
-    /// The commands it takes (default one entry per joint, as xr_teleoperate sends).
-    pub layout: CommandLayout,
-    /// The gains at which a motor moves with the tuning's time constant (default
-    /// xr_teleoperate's).
-    pub nominal: Gains,
+    /// The commands it takes (default one entry per joint, as xr_teleoperate sends), the gains
+    /// at which a motor moves with the tuning's time constant (default xr_teleoperate's) and
+    /// the coupling of each `Pitch_x4` to its `Pitch_x3`.
+    pub wire: WireConfig,
     /// Wire q per entry at power-up (default the rest posture); a coupled entry's is its
     /// motor's, through the coupling (its own value here is not used).
     pub initial: [f32; WIRE_LEN],
@@ -94,11 +93,11 @@ pub struct Dex5EmuConfig {
 
 impl Dex5EmuConfig {
     pub fn new(side: Side) -> Self {
-        let rest = table::rest_posture();
+        let wire = WireConfig::default();
+        let rest = table::rest_posture(wire.coupling);
         Self {
             side,
-            layout: CommandLayout::default(),
-            nominal: Gains::default(),
+            wire,
             initial: std::array::from_fn(|i| rest[i] * table::wire_sign(side, i)),
             noise: DEX5_NOISE,
             object_at: [None; WIRE_LEN],
@@ -142,8 +141,7 @@ pub struct Dex5Snapshot {
 #[derive(Debug, Clone)]
 pub struct Dex5Core {
     side: Side,
-    layout: CommandLayout,
-    nominal: Gains,
+    wire: WireConfig,
     tuning: Dex5Tuning,
     sensor: Sensor,
     motors: [MotorView; MOTORS],
@@ -166,7 +164,11 @@ impl Dex5Core {
         if t.time_constant_s <= 0.0 {
             return Err(EmulatorError::InvalidConfig("time_constant_s must be > 0".into()));
         }
-        config.nominal.validate().map_err(EmulatorError::InvalidConfig)?;
+        config.wire.gains.validate().map_err(EmulatorError::InvalidConfig)?;
+        let k = config.wire.coupling;
+        if !(k.is_finite() && k > 0.0) {
+            return Err(EmulatorError::InvalidConfig(format!("coupling must be > 0, got {k}")));
+        }
         config.noise.validate().map_err(EmulatorError::InvalidConfig)?;
         let side = config.side;
         let motors = std::array::from_fn(|m| {
@@ -185,8 +187,7 @@ impl Dex5Core {
         });
         let mut core = Self {
             side,
-            layout: config.layout,
-            nominal: config.nominal,
+            wire: config.wire,
             tuning: t.clone(),
             sensor: Sensor::new(config.noise),
             motors,
@@ -213,7 +214,7 @@ impl Dex5Core {
         }
         let at = at.filter(|a| a.is_finite());
         let at = if table::is_coupled(i) {
-            at.map(|a| a / table::COUPLING)
+            at.map(|a| a / self.wire.coupling)
         } else {
             at
         };
@@ -224,12 +225,13 @@ impl Dex5Core {
     /// layout's entry count and only finite values.
     pub fn on_command(&mut self, cmd: &HandCmd_, now: Instant) -> bool {
         let finite = |m: &MotorCmd_| [m.q, m.dq, m.tau, m.kp, m.kd].iter().all(|v| v.is_finite());
-        if cmd.motor_cmd.len() != self.layout.entries() || !cmd.motor_cmd.iter().all(finite) {
+        let layout = self.wire.layout;
+        if cmd.motor_cmd.len() != layout.entries() || !cmd.motor_cmd.iter().all(finite) {
             self.rejected += 1;
             return false;
         }
         for m in &mut self.motors {
-            let c = cmd.motor_cmd[self.layout.entry(m.driver)];
+            let c = cmd.motor_cmd[layout.entry(m.driver)];
             m.command = c;
             m.on = c.mode == MODE_ENABLED;
         }
@@ -259,7 +261,7 @@ impl Dex5Core {
             let i = m.driver;
             let (lo, hi) = table::wire_limits(self.side, i);
             let goal = c.q.clamp(lo, hi);
-            let tc = self.tuning.time_constant_s * self.nominal.kp[i] / c.kp;
+            let tc = self.tuning.time_constant_s * self.wire.gains.kp[i] / c.kp;
             let vmax = VELOCITY[i] * dt;
             let before = m.q;
             let mut q = before + ((goal - before) * (1.0 - (-dt / tc).exp())).clamp(-vmax, vmax);
@@ -287,7 +289,7 @@ impl Dex5Core {
         out.motor_state.clear();
         for (i, s) in SLOTS.iter().enumerate() {
             let m = &self.motors[s.motor];
-            let k = if table::is_coupled(i) { table::COUPLING } else { 1.0 };
+            let k = if table::is_coupled(i) { self.wire.coupling } else { 1.0 };
             let temperature = t.temperature_c.round() as i16;
             out.motor_state.push(MotorState_ {
                 mode: if m.on { MODE_ENABLED } else { MODE_DISABLED },
@@ -321,7 +323,7 @@ impl Dex5Core {
     pub fn position(&self, i: usize) -> f32 {
         let q = self.motors[SLOTS[i].motor].q;
         if table::is_coupled(i) {
-            coupled(q)
+            self.wire.coupled(q)
         } else {
             q
         }
@@ -341,7 +343,7 @@ impl Dex5Core {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dex5::table::{closed_posture, rest_posture, wire_sign, GainSource};
+    use crate::dex5::table::{closed_posture, rest_posture, wire_sign, CommandLayout, GainSource, Gains, COUPLING};
 
     const DT: f32 = 0.002;
 
@@ -369,7 +371,7 @@ mod tests {
     }
 
     fn closed_wire(side: Side) -> [f32; WIRE_LEN] {
-        let c = closed_posture();
+        let c = closed_posture(COUPLING);
         std::array::from_fn(|i| c[i] * wire_sign(side, i))
     }
 
@@ -396,7 +398,7 @@ mod tests {
                 s.motor_state.iter().any(|m| m.q != 0.0),
                 "xr_teleoperate waits for a non-zero state"
             );
-            let rest = rest_posture();
+            let rest = rest_posture(COUPLING);
             for (i, m) in s.motor_state.iter().enumerate() {
                 assert!((m.q - rest[i] * wire_sign(side, i)).abs() < 1e-6, "{side:?} {i}");
             }
@@ -504,7 +506,7 @@ mod tests {
     fn the_motor_layout_takes_sixteen_entries_thumb_first() {
         let t0 = Instant::now();
         let mut cfg = quiet(Side::Right);
-        cfg.layout = CommandLayout::Motors;
+        cfg.wire.layout = CommandLayout::Motors;
         let mut core = Dex5Core::new(&cfg).unwrap();
         let mut c = HandCmd_::with_motors(MOTORS);
         for m in &mut c.motor_cmd {
@@ -516,7 +518,7 @@ mod tests {
         run(&mut core, t0, 1.0);
         assert!((core.position(16) - 0.4).abs() < 1e-3);
         assert!((core.position(2) - 1.0).abs() < 1e-3);
-        assert!((core.position(3) - coupled(1.0)).abs() < 1e-3);
+        assert!((core.position(3) - COUPLING * 1.0).abs() < 1e-3);
     }
 
     #[test]
@@ -529,7 +531,7 @@ mod tests {
         core.on_command(&cmd(&closed_wire(Side::Left), &Gains::default()), t0);
         run(&mut core, t0, 1.0);
         assert!((core.position(2) - 0.8).abs() < 1e-6);
-        assert!((core.position(3) - coupled(0.8)).abs() < 1e-6);
+        assert!((core.position(3) - COUPLING * 0.8).abs() < 1e-6);
         let snap = core.snapshot();
         let m = snap.motors[SLOTS[2].motor];
         assert!(m.contact && m.tau > 0.0, "{m:?}");
@@ -596,7 +598,8 @@ mod tests {
         assert!(bad(|c| c.initial[3] = f32::NAN));
         assert!(bad(|c| c.object_at[2] = Some(f32::INFINITY)));
         assert!(bad(|c| c.tuning.time_constant_s = 0.0));
-        assert!(bad(|c| c.nominal.kp[5] = 0.0));
+        assert!(bad(|c| c.wire.gains.kp[5] = 0.0));
+        assert!(bad(|c| c.wire.coupling = f32::NAN));
         assert!(bad(|c| c.noise.q = -1.0));
         assert!(Dex5Core::new(&Dex5EmuConfig::new(Side::Right)).is_ok());
     }

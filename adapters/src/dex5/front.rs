@@ -11,8 +11,8 @@
 //! an entry's five fields rejects the message; mode byte 1 (enabled) follows q / dq / tau /
 //! kp / kd, 0 (disabled) makes that joint limp (zero gains and torque), any other value
 //! rejects the message. q through the table (sign); the client's gains become the canonical
-//! relative gains by dividing by the front's [`Gains`] (xr_teleoperate's gains are 1.0). In the
-//! motor layout a coupled `Pitch_x4` follows its motor's entry through the coupling.
+//! relative gains divided by the front's ([`WireConfig`]: xr_teleoperate's gains read 1.0). In
+//! the motor layout a coupled `Pitch_x4` follows its motor's entry through the coupling.
 //! `reserve[0]` is the client's tag.
 //!
 //! State: 20 entries in wire order, mode 1, q / dq / tau_est through the table (a value never
@@ -24,19 +24,16 @@
 
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, IMUState_, MotorState_, PressSensorState_};
 
-use super::table::{coupled, is_coupled, CommandLayout, Gains};
+use super::table::{is_coupled, CommandLayout, WireConfig};
 use super::{MODE_DISABLED, MODE_ENABLED, WIRE_LEN};
 use crate::front::{checked_target, FrontCommand, Rejection};
 use crate::mapping::{DeviceTable, WireTarget};
 use crate::model::{faults, Freshness, HandState, JointCommand, JointState, Pad};
 
-/// Decodes a client's `HandCmd_` for a Dex5 front whose table is `front`, gains `gains`.
-pub fn decode_cmd(
-    msg: &HandCmd_,
-    front: &DeviceTable,
-    gains: &Gains,
-    layout: CommandLayout,
-) -> Result<FrontCommand, Rejection> {
+/// Decodes a client's `HandCmd_` for a Dex5 front whose table is `front`, its gains, layout
+/// and coupling `wire`.
+pub fn decode_cmd(msg: &HandCmd_, front: &DeviceTable, wire: &WireConfig) -> Result<FrontCommand, Rejection> {
+    let layout = wire.layout;
     let want = layout.entries();
     if msg.motor_cmd.len() != want {
         return Err(Rejection::WrongCount {
@@ -70,9 +67,9 @@ pub fn decode_cmd(
                 kd: m.kd,
             });
             if layout == CommandLayout::Motors && is_coupled(i) {
-                (c.q, c.dq) = (coupled(c.q), coupled(c.dq));
+                (c.q, c.dq) = (wire.coupled(c.q), wire.coupled(c.dq));
             }
-            (c.kp, c.kd) = gains.from_wire(i, m.kp, m.kd);
+            (c.kp, c.kd) = wire.gains.from_wire(i, m.kp, m.kd);
             Some(c)
         })
         .collect();
@@ -146,7 +143,7 @@ mod tests {
     use super::*;
     use crate::dex5::adapter::encode_hand_cmd;
     use crate::dex5::table::tests::t;
-    use crate::dex5::table::{closed_posture, GainSource, LIMITS};
+    use crate::dex5::table::{closed_posture, Conventions, GainSource, Gains, COUPLING, LIMITS};
     use crate::mapping::TableOverrides;
     use crate::model::{CommandBody, DeviceKind, Side};
     use crate::route::{Pairing, Route};
@@ -213,7 +210,7 @@ mod tests {
             "header, count, 20 MotorCmd_, reserve"
         );
         assert_eq!(handgate_idl::to_cdr_le(&msg).unwrap(), bytes, "byte for byte");
-        let d = decode_cmd(&msg, &t(Side::Left), &Gains::default(), CommandLayout::Joints).unwrap();
+        let d = decode_cmd(&msg, &t(Side::Left), &WireConfig::default()).unwrap();
         assert_eq!(d.joints.len(), 20);
         let j = |i: usize| d.joints[i].unwrap();
         assert!((j(1).q - 1.5).abs() < 1e-6 && (j(13).q - 1.5).abs() < 1e-6);
@@ -234,34 +231,38 @@ mod tests {
     fn bad_commands_are_rejected_whole() {
         let f = t(Side::Right);
         let g = Gains::default();
+        let motors = WireConfig {
+            layout: CommandLayout::Motors,
+            ..Default::default()
+        };
         let ok = cmd(&[0.3; 20], &g);
-        assert!(decode_cmd(&ok, &f, &g, CommandLayout::Joints).is_ok());
+        assert!(decode_cmd(&ok, &f, &WireConfig::default()).is_ok());
         let seven = HandCmd_::sdk_default();
         assert_eq!(
-            decode_cmd(&seven, &f, &g, CommandLayout::Joints),
+            decode_cmd(&seven, &f, &WireConfig::default()),
             Err(Rejection::WrongCount { got: 7, want: 20 }),
             "a Dex3 client's seven entries"
         );
         assert_eq!(
-            decode_cmd(&ok, &f, &g, CommandLayout::Motors),
+            decode_cmd(&ok, &f, &motors),
             Err(Rejection::WrongCount { got: 20, want: 16 })
         );
         let mut nan = ok.clone();
         nan.motor_cmd[12].kd = f32::NAN;
         assert_eq!(
-            decode_cmd(&nan, &f, &g, CommandLayout::Joints),
+            decode_cmd(&nan, &f, &WireConfig::default()),
             Err(Rejection::NonFinite(12))
         );
         let mut mode = ok.clone();
         mode.motor_cmd[4].mode = 0x11;
         assert_eq!(
-            decode_cmd(&mode, &f, &g, CommandLayout::Joints),
+            decode_cmd(&mode, &f, &WireConfig::default()),
             Err(Rejection::UnknownStatus { index: 4, status: 0x11 })
         );
         let mut off = ok;
         off.motor_cmd[5].mode = MODE_DISABLED;
         off.reserve[0] = 42;
-        let d = decode_cmd(&off, &f, &g, CommandLayout::Joints).unwrap();
+        let d = decode_cmd(&off, &f, &WireConfig::default()).unwrap();
         assert_eq!(d.joints[5], Some(JointCommand::default()), "mode 0: that joint limp");
         assert!((d.joints[6].unwrap().q - 0.3).abs() < 1e-6);
         assert_eq!(d.tag, 42);
@@ -270,13 +271,17 @@ mod tests {
     #[test]
     fn the_motor_layout_decodes_coupled_joints_through_the_coupling() {
         let f = t(Side::Left);
-        let g = Gains::of(GainSource::UnitreeDdsWrapper);
+        let w = WireConfig::of(&Conventions {
+            gains: GainSource::UnitreeDdsWrapper,
+            command_layout: CommandLayout::Motors,
+            ..Default::default()
+        });
         let tb = t(Side::Left);
-        let mut wire = HandCmd_::default();
+        let mut msg = HandCmd_::default();
         let targets = tb.closure_targets(1.0, None).unwrap();
-        encode_hand_cmd(&tb, &targets, &g, CommandLayout::Motors, &mut wire);
-        let d = decode_cmd(&wire, &f, &g, CommandLayout::Motors).unwrap();
-        for (i, (c, want)) in d.joints.iter().zip(closed_posture()).enumerate() {
+        encode_hand_cmd(&tb, &targets, &w, &mut msg);
+        let d = decode_cmd(&msg, &f, &w).unwrap();
+        for (i, (c, want)) in d.joints.iter().zip(closed_posture(COUPLING)).enumerate() {
             let c = c.unwrap();
             assert!((c.q - want).abs() < 1e-5, "{i}: {} against {want}", c.q);
             assert!((c.kp - 1.0).abs() < 1e-5 && (c.kd - 1.0).abs() < 1e-4);
@@ -343,7 +348,7 @@ mod tests {
         let q: Vec<f32> = (0..20)
             .map(|i| LIMITS[i].1 * crate::dex5::table::wire_sign(Side::Left, i))
             .collect();
-        let d = decode_cmd(&cmd(&q, &g), &front, &g, CommandLayout::Joints).unwrap();
+        let d = decode_cmd(&cmd(&q, &g), &front, &WireConfig::default()).unwrap();
         let body = route.command(&d.joints);
         assert_eq!(
             body,
@@ -359,12 +364,12 @@ mod tests {
             "the Dex3's left index_0 closed (negative)"
         );
         // The open command opens it.
-        let d = decode_cmd(&cmd(&[0.0; 20], &g), &front, &g, CommandLayout::Joints).unwrap();
+        let d = decode_cmd(&cmd(&[0.0; 20], &g), &front, &WireConfig::default()).unwrap();
         assert!(matches!(route.command(&d.joints), CommandBody::Closure { closure, .. } if closure == 0.0));
         // State back: a half-closed Dex3 reads as a half-closed Dex5.
         let back = route.state(&[JointState::default(); 7], 0.5);
         let out = encode_state(&front, &back, &HandState::default());
-        let closed = closed_posture();
+        let closed = closed_posture(COUPLING);
         assert!((out.motor_state[2].q - 0.5 * closed[2]).abs() < 1e-5);
         assert!(
             (out.motor_state[17].q + 0.5 * closed[17]).abs() < 1e-5,
@@ -392,9 +397,9 @@ mod tests {
         let body = route.command(&d.joints);
         let targets = device.resolve(&body, None, &[]).unwrap();
         let mut msg = HandCmd_::default();
-        encode_hand_cmd(&device, &targets, &Gains::default(), CommandLayout::Joints, &mut msg);
+        encode_hand_cmd(&device, &targets, &WireConfig::default(), &mut msg);
         assert_eq!(msg.motor_cmd.len(), 20);
-        for (i, (m, want)) in msg.motor_cmd.iter().zip(closed_posture()).enumerate() {
+        for (i, (m, want)) in msg.motor_cmd.iter().zip(closed_posture(COUPLING)).enumerate() {
             assert!((m.q - want).abs() < 1e-5, "{i}: {} against {want}", m.q);
         }
         assert_eq!((msg.motor_cmd[9].kp, msg.motor_cmd[19].kp), (0.10, 1.0));
@@ -409,10 +414,10 @@ mod tests {
         let mut c = cmd(&[0.3; 20], &g);
         c.motor_cmd[17].q = -0.4; // the left thumb roll, closing
         c.motor_cmd[6].kp = 0.05; // half the profile's finger kp
-        let d = decode_cmd(&c, &front, &g, CommandLayout::Joints).unwrap();
+        let d = decode_cmd(&c, &front, &WireConfig::default()).unwrap();
         let targets = route.device.resolve(&route.command(&d.joints), None, &[]).unwrap();
         let mut msg = HandCmd_::default();
-        encode_hand_cmd(&route.device, &targets, &g, CommandLayout::Joints, &mut msg);
+        encode_hand_cmd(&route.device, &targets, &WireConfig::default(), &mut msg);
         assert!((msg.motor_cmd[6].kp - 0.05).abs() < 1e-7);
         assert!((msg.motor_cmd[16].kp - 1.0).abs() < 1e-6);
         assert!(

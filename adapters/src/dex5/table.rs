@@ -11,7 +11,8 @@
 //! finger (spread, `Pitch_x2`, and one motor for `Pitch_x3` and `Pitch_x4` together). The
 //! distal `Pitch_x4` has no motor of its own: it is **coupled** to `Pitch_x3` (the URDFs
 //! declare no mimic joint). handgate models the coupling as proportional over the two URDF
-//! ranges, `q_x4 = q_x3 · 1.3963 / 1.6842` (≈ 0.829, [`coupled`]), an assumption.
+//! ranges, `q_x4 = q_x3 · 1.3963 / 1.6842` (≈ 0.829, [`COUPLING`]), an assumption and a
+//! convention ([`Conventions::coupling`]).
 //!
 //! Units and signs: the wire q is the URDF angle in rad (`UrdfFrame::Wire`). Every flex joint's
 //! URDF range starts at 0 and goes positive on both hands, so positive = closing (0 is the
@@ -150,9 +151,13 @@ pub const MAX_TAU: f32 = 0.93;
 /// between the two sources' figures (the thumb yaw's kp, 10 against 1.0).
 pub const MAX_GAIN_FACTOR: f32 = 10.0;
 
-/// `Pitch_x4` per rad of `Pitch_x3` (the coupling, an assumption: proportional over the two
-/// URDF ranges, so the open and the fully closed ends meet).
+/// `Pitch_x4` per rad of `Pitch_x3` by default (the coupling, an assumption: proportional over
+/// the two URDF ranges, so the open and the fully closed ends meet).
 pub const COUPLING: f32 = LIMITS[3].1 / LIMITS[2].1;
+
+/// The largest coupling a profile may set: a linkage turning the distal joint more than twice
+/// as far as the middle one is not a finger's.
+pub const MAX_COUPLING: f32 = 2.0;
 
 /// Share of each closing joint's range the default closed posture flexes (the Dex3-1's rule,
 /// docs/profiles.md `closure.closed`; an assumption).
@@ -160,12 +165,6 @@ pub const CLOSED_SHARE: f32 = 0.9;
 /// The thumb's `Roll_12` (across the palm) in the closed posture, canonical rad: about half
 /// its range, so a fist wraps the thumb over the fingers (an assumption).
 pub const CLOSED_THUMB_ROLL: f32 = 0.9;
-
-/// Canonical `Pitch_x4` for a `Pitch_x3` at `q` (canonical or wire rad: both are the same
-/// for the flex joints).
-pub fn coupled(q: f32) -> f32 {
-    q * COUPLING
-}
 
 /// Whether entry `i` has no motor of its own (a `Pitch_x4`).
 pub fn is_coupled(i: usize) -> bool {
@@ -340,12 +339,69 @@ impl Default for Gains {
 
 /// Where the sources disagree or are silent, which way handgate goes (docs/profiles.md
 /// "Assumptions"; each a profile key once the kind is registered).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Conventions {
     pub gains: GainSource,
     pub urdf_names: UrdfNames,
     pub command_layout: CommandLayout,
+    /// `Pitch_x4` per rad of `Pitch_x3` (default [`COUPLING`]).
+    pub coupling: f32,
+}
+
+impl Default for Conventions {
+    fn default() -> Self {
+        Self {
+            gains: GainSource::default(),
+            urdf_names: UrdfNames::default(),
+            command_layout: CommandLayout::default(),
+            coupling: COUPLING,
+        }
+    }
+}
+
+impl Conventions {
+    /// `Err` with a reason for a coupling that is not finite, not positive or above
+    /// [`MAX_COUPLING`].
+    pub fn validate(&self) -> Result<(), String> {
+        let k = self.coupling;
+        if k.is_finite() && k > 0.0 && k <= MAX_COUPLING {
+            Ok(())
+        } else {
+            Err(format!("coupling must be above 0 and at most {MAX_COUPLING}, got {k}"))
+        }
+    }
+}
+
+/// What the codecs and the emulator take from the conventions, resolved once: the gains per
+/// entry, the command layout and the coupling.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WireConfig {
+    pub gains: Gains,
+    pub layout: CommandLayout,
+    pub coupling: f32,
+}
+
+impl WireConfig {
+    pub fn of(c: &Conventions) -> Self {
+        Self {
+            gains: Gains::of(c.gains),
+            layout: c.command_layout,
+            coupling: c.coupling,
+        }
+    }
+
+    /// A coupled `Pitch_x4` for its `Pitch_x3` at `q` (position or velocity, canonical or
+    /// wire: both are the same for the flex joints).
+    pub fn coupled(&self, q: f32) -> f32 {
+        q * self.coupling
+    }
+}
+
+impl Default for WireConfig {
+    fn default() -> Self {
+        Self::of(&Conventions::default())
+    }
 }
 
 /// Canonical postures, canonical order.
@@ -353,15 +409,15 @@ pub fn open_posture() -> [f32; WIRE_LEN] {
     [0.0; WIRE_LEN]
 }
 
-/// [`CLOSED_SHARE`] of every flex joint's range (each coupled joint by [`coupled`]), the
-/// thumb's roll at [`CLOSED_THUMB_ROLL`], spreads and yaw at 0.
-pub fn closed_posture() -> [f32; WIRE_LEN] {
+/// [`CLOSED_SHARE`] of every flex joint's range (each coupled joint by `coupling`, within its
+/// limits), the thumb's roll at [`CLOSED_THUMB_ROLL`], spreads and yaw at 0.
+pub fn closed_posture(coupling: f32) -> [f32; WIRE_LEN] {
     let mut p = [0.0; WIRE_LEN];
     for i in 0..WIRE_LEN {
         p[i] = match SLOTS[i].role {
             Role::Spread | Role::Yaw => 0.0,
             Role::Opposition => CLOSED_THUMB_ROLL,
-            Role::Flex if is_coupled(i) => coupled(p[i - 1]),
+            Role::Flex if is_coupled(i) => (p[i - 1] * coupling).min(LIMITS[i].1),
             Role::Flex => CLOSED_SHARE * LIMITS[i].1,
         };
     }
@@ -369,27 +425,29 @@ pub fn closed_posture() -> [f32; WIRE_LEN] {
 }
 
 /// Where a relaxed hand rests, canonical rad: flex joints slightly bent, spreads and yaw
-/// centred (an assumption; never all zero, since xr_teleoperate waits for a non-zero state).
-pub fn rest_posture() -> [f32; WIRE_LEN] {
+/// centred, coupled joints by `coupling` (an assumption; never all zero, since
+/// xr_teleoperate waits for a non-zero state).
+pub fn rest_posture(coupling: f32) -> [f32; WIRE_LEN] {
     let mut p = [0.0; WIRE_LEN];
     for i in 0..WIRE_LEN {
         p[i] = match SLOTS[i].role {
             Role::Spread | Role::Yaw => 0.0,
-            Role::Flex if is_coupled(i) => coupled(p[i - 1]),
+            Role::Flex if is_coupled(i) => (p[i - 1] * coupling).min(LIMITS[i].1),
             Role::Opposition | Role::Flex => 0.1,
         };
     }
     p
 }
 
-/// The Dex5-1 table for `side`, its URDF names from `names`. `kind` is the registered Dex5
-/// kind's handle (the table records it for messages).
-pub fn table(kind: DeviceKind, side: Side, names: UrdfNames) -> DeviceTable {
+/// The Dex5-1 table for `side` under `conventions` (its URDF names, the coupling of its
+/// postures). `kind` is the registered Dex5 kind's handle (the table records it for
+/// messages).
+pub fn table(kind: DeviceKind, side: Side, conventions: &Conventions) -> DeviceTable {
     let joints = (0..WIRE_LEN)
         .map(|i| JointMap {
             name: JOINTS[i],
             wire_index: i,
-            urdf: urdf_name(side, i, names),
+            urdf: urdf_name(side, i, conventions.urdf_names),
             sign: wire_sign(side, i),
             scale: 1.0,
             offset: 0.0,
@@ -402,7 +460,7 @@ pub fn table(kind: DeviceKind, side: Side, names: UrdfNames) -> DeviceTable {
         joints,
         closure: ClosureMap::Postures {
             open: open_posture().to_vec(),
-            closed: closed_posture().to_vec(),
+            closed: closed_posture(conventions.coupling).to_vec(),
             kp: 1.0,
             kd: 1.0,
         },
@@ -423,17 +481,17 @@ pub(crate) mod tests {
     /// The Dex5 kind is registered later; until then the tests give the table another kind's
     /// handle, which only error messages read.
     pub(crate) fn t(side: Side) -> DeviceTable {
-        table(DeviceKind::all()[0], side, UrdfNames::default())
+        table(DeviceKind::all()[0], side, &Conventions::default())
     }
 
-    /// unitree_dds_wrapper 2.0.9's joint → motor map, in its joint order (thumb first: its
-    /// joint j is wire entry (j + 16) % 20, its state index), as test data.
-    const WRAPPER_MOTOR_OF_JOINT: [usize; 20] = [0, 1, 2, 3, 4, 5, 6, 6, 7, 8, 9, 9, 10, 11, 12, 12, 13, 14, 15, 15];
+    /// unitree_dds_wrapper 2.0.9's joint → motor map (`JOINT2URDF_INDEX`), listed as it lists
+    /// it: in wire entry order, index finger first, thumb last (test data).
+    const WRAPPER_MOTOR_OF_ENTRY: [usize; 20] = [4, 5, 6, 6, 7, 8, 9, 9, 10, 11, 12, 12, 13, 14, 15, 15, 0, 1, 2, 3];
 
     #[test]
     fn the_motor_map_is_the_wrappers_and_every_motor_has_one_driver() {
-        for (j, m) in WRAPPER_MOTOR_OF_JOINT.iter().enumerate() {
-            assert_eq!(SLOTS[(j + THUMB_FIRST) % WIRE_LEN].motor, *m, "joint {j}");
+        for (e, m) in WRAPPER_MOTOR_OF_ENTRY.iter().enumerate() {
+            assert_eq!(SLOTS[e].motor, *m, "entry {e}");
         }
         for m in 0..MOTORS {
             let d = motor_driver(m).unwrap();
@@ -529,15 +587,20 @@ pub(crate) mod tests {
     #[test]
     fn postures_respect_the_coupling_and_the_closure_estimate() {
         let tb = t(Side::Right);
-        let closed = closed_posture();
-        let rest = rest_posture();
+        let closed = closed_posture(COUPLING);
+        let rest = rest_posture(COUPLING);
         for i in [3, 7, 11, 15] {
-            assert!((closed[i] - coupled(closed[i - 1])).abs() < 1e-6);
+            assert_eq!(
+                closed_posture(MAX_COUPLING)[i],
+                LIMITS[i].1,
+                "a stiffer coupling stops at the limit"
+            );
+            assert!((closed[i] - COUPLING * closed[i - 1]).abs() < 1e-6);
             assert!(
                 (closed[i] - CLOSED_SHARE * LIMITS[i].1).abs() < 1e-4,
                 "both ends of the coupling meet"
             );
-            assert!((rest[i] - coupled(rest[i - 1])).abs() < 1e-6);
+            assert!((rest[i] - COUPLING * rest[i - 1]).abs() < 1e-6);
         }
         assert!(rest.iter().any(|q| *q != 0.0));
         for (i, (c, r)) in closed.iter().zip(rest).enumerate() {
@@ -590,12 +653,33 @@ pub(crate) mod tests {
                 gains: GainSource::UnitreeDdsWrapper,
                 urdf_names: UrdfNames::XrTeleoperate,
                 command_layout: CommandLayout::Motors,
+                coupling: COUPLING,
             }
         );
-        assert_eq!(
-            serde_json::from_str::<Conventions>("{}").unwrap(),
-            Conventions::default()
-        );
+        let d: Conventions = serde_json::from_str("{}").unwrap();
+        assert_eq!(d, Conventions::default());
+        assert!(d.validate().is_ok());
         assert!(serde_json::from_str::<Conventions>(r#"{"gain": "x"}"#).is_err());
+        let k: Conventions = serde_json::from_str(r#"{"coupling": 1.0}"#).unwrap();
+        assert_eq!(WireConfig::of(&k).coupled(0.5), 0.5);
+        assert_eq!(WireConfig::of(&k).layout, CommandLayout::Joints);
+        for bad in [0.0, -0.5, 2.5, f32::NAN] {
+            assert!(Conventions { coupling: bad, ..d }.validate().is_err(), "{bad}");
+        }
+        let c = Conventions {
+            urdf_names: UrdfNames::XrTeleoperate,
+            coupling: 1.0,
+            ..d
+        };
+        let t = table(DeviceKind::all()[0], Side::Left, &c);
+        assert_eq!(t.joints[8].urdf, "Roll_41L");
+        let ClosureMap::Postures { closed, .. } = &t.closure else {
+            panic!("{:?}", t.closure)
+        };
+        assert_eq!(
+            closed[3],
+            closed[2].min(LIMITS[3].1),
+            "the coupling reaches the postures"
+        );
     }
 }
