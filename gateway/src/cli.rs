@@ -265,32 +265,16 @@ pub struct ExportCmd {
 
 /// `handgate emulate <kind>`.
 #[derive(Debug, Clone, Args)]
+#[command(after_help = emulate_help())]
 pub struct EmulateCmd {
     /// A registered device kind (an unknown one lists them).
     pub kind: String,
     /// left or right (the emulated device's side).
     #[arg(long)]
     pub side: Option<handgate_adapters::model::Side>,
-    /// For kinds whose emulator stands at the transport seam: the emulated hardware behind
-    /// this Unix socket, speaking the kind's own frame protocol (the kind's profile section
-    /// points a device at it, docs/adapters.md; kill and restart it to emulate an unplug).
+    /// DDS domain of a service emulator [default: 1].
     #[arg(long)]
-    pub socket: Option<PathBuf>,
-    /// The robot's resident hand service on DDS instead of the hardware.
-    #[arg(long)]
-    pub service: bool,
-    /// The service's wire variant, for kinds with several.
-    #[arg(long)]
-    pub variant: Option<String>,
-    /// Device ids on an emulated shared bus (default: the side's).
-    #[arg(long, value_delimiter = ',')]
-    pub ids: Vec<u8>,
-    /// Where to link an emulated bus's pseudo-terminal (default: a temporary path).
-    #[arg(long)]
-    pub pty: Option<PathBuf>,
-    /// DDS domain of a service emulator.
-    #[arg(long, default_value_t = 1)]
-    pub domain: u32,
+    pub domain: Option<u32>,
     /// Network interface for DDS, e.g. eth0.
     #[arg(long)]
     pub interface: Option<String>,
@@ -301,22 +285,64 @@ pub struct EmulateCmd {
     /// Seed of the measurement noise (default fixed, so runs repeat exactly).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// The kind's own options (`--name value`; listed below, per kind; another is refused
+    /// with the kind's list).
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true, value_name = "KIND OPTIONS")]
+    pub options: Vec<String>,
 }
 
-impl From<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
-    fn from(c: EmulateCmd) -> Self {
-        handgate_adapters::kind::EmulateArgs {
+/// Every kind's own `handgate emulate` options, for the help text.
+fn emulate_help() -> String {
+    let mut s = String::from("Options of each kind (besides those above it takes):\n");
+    for kind in handgate_adapters::kind::DeviceKind::all() {
+        let opts = kind.factory().emulate_options();
+        if opts.is_empty() {
+            s.push_str(&format!("  {kind}: none\n"));
+        }
+        for o in opts {
+            let v = o.value.map(|v| format!(" {v}")).unwrap_or_default();
+            s.push_str(&format!("  {kind} --{}{v}: {}\n", o.name, o.help));
+        }
+    }
+    s
+}
+
+impl TryFrom<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
+    type Error = String;
+
+    fn try_from(mut c: EmulateCmd) -> Result<Self, String> {
+        // Common options written after the kind's own land among them: take them back.
+        let mut options = Vec::new();
+        for (name, value) in handgate_adapters::kind::EmulateArgs::split_options(&c.options)? {
+            let bad = |e: String| format!("--{name}: {e}");
+            match (name.as_str(), value.as_deref()) {
+                ("side", Some(v)) => c.side = Some(v.parse().map_err(|e: String| bad(e))?),
+                ("domain", Some(v)) => c.domain = Some(v.parse().map_err(|e| bad(format!("{e}")))?),
+                ("interface", Some(v)) => c.interface = Some(v.to_string()),
+                ("seed", Some(v)) => c.seed = Some(v.parse().map_err(|e| bad(format!("{e}")))?),
+                ("no-noise", None) => c.no_noise = true,
+                _ => options.push((name, value)),
+            }
+        }
+        let common_given = [
+            ("side", c.side.is_some()),
+            ("domain", c.domain.is_some()),
+            ("interface", c.interface.is_some()),
+            ("no-noise", c.no_noise),
+            ("seed", c.seed.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(n, given)| given.then_some(n))
+        .collect();
+        Ok(handgate_adapters::kind::EmulateArgs {
             side: c.side,
-            socket: c.socket,
-            service: c.service,
-            variant: c.variant,
-            ids: c.ids,
-            pty: c.pty,
-            domain: c.domain,
+            domain: c.domain.unwrap_or(1),
             interface: c.interface,
             no_noise: c.no_noise,
             seed: c.seed,
-        }
+            common_given,
+            options,
+        })
     }
 }
 

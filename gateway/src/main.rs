@@ -311,7 +311,8 @@ fn main() -> anyhow::Result<ExitCode> {
                     DeviceKind::names().join(", ")
                 );
             };
-            let (what, emulation) = kind.factory().emulate(&cmd.into())?;
+            let args = handgate_adapters::kind::EmulateArgs::try_from(cmd).map_err(|e| anyhow::anyhow!(e))?;
+            let (what, emulation) = kind.factory().emulate(&args)?;
             println!("{what}");
             match emulation {
                 Emulation::Blocking(run) => run()?,

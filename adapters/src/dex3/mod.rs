@@ -3,6 +3,7 @@
 //! own sign convention and SI units, IDL joint order, docs/sources.md §2); the mapping table; the USB
 //! adapter ([`usb`]); the DDS client of a G1's resident service and that service's emulator.
 
+pub mod config;
 pub mod dds_client;
 pub mod dds_service_emulator;
 pub mod front;
@@ -361,3 +362,7 @@ impl Dex3Measurement {
         self.motors.map(|m| m.q)
     }
 }
+
+/// The G1's resident Dex3 hand service's loop and state rate, Hz (docs/sources.md §2; an
+/// assumption, docs/profiles.md "Assumptions").
+pub const SERVICE_RATE_HZ: f64 = 500.0;

@@ -1,9 +1,9 @@
 //! G1 rt/hand_sdk: mapping table, adapter (ramped weight), ai_sport blend emulator.
 
 pub mod adapter;
+pub mod config;
 pub mod emulator;
 pub mod kind;
-pub mod open;
 pub mod table;
 
 /// `rt/hand_sdk` motors. Which finger or hand each drives is unpublished (docs/sources.md §6),

@@ -10,10 +10,10 @@
 //! - `serve`: that front's registry entry (`FrontKind::InspireDfx`) and endpoints.
 
 pub mod adapter;
+pub mod config;
 pub mod emulator;
 pub mod front;
 pub mod kind;
-pub mod open;
 pub mod serve;
 pub mod table;
 
