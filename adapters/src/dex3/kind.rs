@@ -6,13 +6,13 @@ use std::collections::HashMap;
 
 use super::config::Dex3Profile;
 use super::dds_client::Dex3DdsCodec;
-use super::open::Dex3Open;
+use super::open::{Dex3Emulate, Dex3Open};
 use super::JOINTS;
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::front::kind::FrontKind;
 use crate::kind::{
-    DeviceKind, EmulateArgs, EmulateOption, EmulateOptions, Emulation, FleetMember, FleetProblem, Kind, KindFacts,
-    PadLayout, PadPlace, PadScale, Problem, Rates, SectionSpec, Sides,
+    DeviceKind, EmulateArgs, Emulation, FleetMember, FleetProblem, Kind, KindFacts, PadLayout, PadPlace, PadScale,
+    Problem, Rates, SectionSpec, Sides,
 };
 use crate::mapping::DeviceTable;
 use crate::model::Side;
@@ -107,38 +107,6 @@ const PADS: PadLayout = PadLayout {
 /// The Dex3-1.
 #[derive(Debug, Clone, Copy)]
 pub struct Dex3Kind;
-
-/// `handgate emulate dex3`'s own options: what stands in for the hand.
-#[derive(Debug, Default)]
-pub struct Dex3Emulate {
-    /// The hand's MCU behind this Unix socket (the USB frame protocol).
-    pub socket: Option<std::path::PathBuf>,
-    /// The G1's resident hand service on DDS instead of the MCU.
-    pub service: bool,
-}
-
-impl EmulateOptions for Dex3Emulate {
-    const OPTIONS: &'static [EmulateOption] = &[
-        EmulateOption {
-            name: "socket",
-            value: Some("PATH"),
-            help: "the hand's MCU behind this Unix socket, speaking the USB frame protocol (point a device at it with usb.socket)",
-        },
-        EmulateOption {
-            name: "service",
-            value: None,
-            help: "the G1's resident Dex3 hand service on DDS instead of the MCU",
-        },
-    ];
-
-    fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
-        match name {
-            "socket" => self.socket = value.map(Into::into),
-            _ => self.service = true,
-        }
-        Ok(())
-    }
-}
 
 impl Kind for Dex3Kind {
     const FACTS: KindFacts = KindFacts {

@@ -7,12 +7,11 @@ use std::time::Duration;
 use super::config::{BusSlot, Dex3Profile, WiringConfig};
 use super::dds_client::Dex3DdsCodec;
 use super::dds_service_emulator::{Dex3ServiceConfig, Dex3ServiceEmulator};
-use super::kind::Dex3Emulate;
 use super::usb::adapter::{Dex3UsbDevice, UsbSource};
 use super::usb::{run_emulator_server, BusAddr, BusId, DeviceId, EmulatorClock, EmulatorConfig, LoopConfig, WiringMap};
 use crate::dds_device::{DdsDevice, DdsDeviceConfig};
 use crate::device::{Backend, DeviceError, HandDevice};
-use crate::kind::{EmulateArgs, Emulation};
+use crate::kind::{EmulateArgs, EmulateOption, EmulateOptions, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// The profile's (partial) wiring over the USB adapter's default map.
@@ -144,6 +143,38 @@ pub fn open(
             Box::new(Dex3UsbDevice::start(spec.info(), source, config).map_err(DeviceError::link)?)
         }
     })
+}
+
+/// `handgate emulate dex3`'s own options: what stands in for the hand.
+#[derive(Debug, Default)]
+pub struct Dex3Emulate {
+    /// The hand's MCU behind this Unix socket (the USB frame protocol).
+    pub socket: Option<std::path::PathBuf>,
+    /// The G1's resident hand service on DDS instead of the MCU.
+    pub service: bool,
+}
+
+impl EmulateOptions for Dex3Emulate {
+    const OPTIONS: &'static [EmulateOption] = &[
+        EmulateOption {
+            name: "socket",
+            value: Some("PATH"),
+            help: "the hand's MCU behind this Unix socket, speaking the USB frame protocol (point a device at it with usb.socket)",
+        },
+        EmulateOption {
+            name: "service",
+            value: None,
+            help: "the G1's resident Dex3 hand service on DDS instead of the MCU",
+        },
+    ];
+
+    fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
+        match name {
+            "socket" => self.socket = value.map(Into::into),
+            _ => self.service = true,
+        }
+        Ok(())
+    }
 }
 
 /// `handgate emulate dex3`: the hand's MCU on a Unix socket (`--socket`), or the G1's resident

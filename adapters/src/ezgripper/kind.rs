@@ -4,11 +4,10 @@
 use std::collections::HashMap;
 
 use super::config::EzProfile;
-use super::open::EzOpen;
+use super::open::{EzEmulate, EzOpen};
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{
-    DeviceKind, EmulateArgs, EmulateOption, EmulateOptions, Emulation, FleetMember, FleetProblem, Kind, KindFacts,
-    Problem, Rates, SectionSpec,
+    DeviceKind, EmulateArgs, Emulation, FleetMember, FleetProblem, Kind, KindFacts, Problem, Rates, SectionSpec,
 };
 use crate::mapping::DeviceTable;
 use crate::model::{Side, GRIPPER_JOINTS};
@@ -23,49 +22,6 @@ impl DeviceKind {
 /// The SAKE EZGripper.
 #[derive(Debug, Clone, Copy)]
 pub struct EzGripperKind;
-
-/// `handgate emulate ezgripper`'s own options: the servos on the emulated bus and where its
-/// pseudo-terminal is linked. No DDS: no domain or interface.
-#[derive(Debug, Default)]
-pub struct EzEmulate {
-    /// Servo ids on the bus (default: the side's).
-    pub ids: Vec<u8>,
-    /// Where to link the pseudo-terminal (default: a temporary path).
-    pub pty: Option<std::path::PathBuf>,
-}
-
-impl EmulateOptions for EzEmulate {
-    const COMMON: &'static [&'static str] = &["side", "no-noise", "seed"];
-    const OPTIONS: &'static [EmulateOption] = &[
-        EmulateOption {
-            name: "ids",
-            value: Some("ID,ID,.."),
-            help: "servo ids on the emulated bus (default: the side's)",
-        },
-        EmulateOption {
-            name: "pty",
-            value: Some("PATH"),
-            help: "where to link the bus's pseudo-terminal (default: a temporary path); give it as ezgripper.port",
-        },
-    ];
-
-    fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
-        let v = value.unwrap_or_default();
-        match name {
-            "ids" => {
-                for id in v.split(',') {
-                    self.ids.push(
-                        id.trim()
-                            .parse()
-                            .map_err(|_| format!("`{id}` is not a servo id (0-252)"))?,
-                    );
-                }
-            }
-            _ => self.pty = Some(v.into()),
-        }
-        Ok(())
-    }
-}
 
 impl Kind for EzGripperKind {
     const FACTS: KindFacts = KindFacts {

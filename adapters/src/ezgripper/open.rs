@@ -12,10 +12,9 @@ use super::adapter::EzGripperDevice;
 use super::config::{EzGripperConfig, EzProfile};
 use super::driver::{BusConfig, EzGripperBus, GripperConfig};
 use super::emulator::{EmulatorConfig, ServoSpec, VirtualBus, MX64_NOISE};
-use super::kind::EzEmulate;
 use super::protocol::ServoId;
 use crate::device::{Backend, DeviceError, HandDevice};
-use crate::kind::{EmulateArgs, Emulation};
+use crate::kind::{EmulateArgs, EmulateOption, EmulateOptions, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// The pseudo-terminal an emulated bus keyed `key` is linked at.
@@ -182,6 +181,49 @@ pub fn open(
         .cloned()
         .ok_or_else(|| DeviceError::Config(format!("no bus open on {}", c.port)))?;
     Ok(Box::new(EzGripperDevice::start(spec.info(), bus, c.id, c.force_pct)?))
+}
+
+/// `handgate emulate ezgripper`'s own options: the servos on the emulated bus and where its
+/// pseudo-terminal is linked. No DDS: no domain or interface.
+#[derive(Debug, Default)]
+pub struct EzEmulate {
+    /// Servo ids on the bus (default: the side's).
+    pub ids: Vec<u8>,
+    /// Where to link the pseudo-terminal (default: a temporary path).
+    pub pty: Option<std::path::PathBuf>,
+}
+
+impl EmulateOptions for EzEmulate {
+    const COMMON: &'static [&'static str] = &["side", "no-noise", "seed"];
+    const OPTIONS: &'static [EmulateOption] = &[
+        EmulateOption {
+            name: "ids",
+            value: Some("ID,ID,.."),
+            help: "servo ids on the emulated bus (default: the side's)",
+        },
+        EmulateOption {
+            name: "pty",
+            value: Some("PATH"),
+            help: "where to link the bus's pseudo-terminal (default: a temporary path); give it as ezgripper.port",
+        },
+    ];
+
+    fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
+        let v = value.unwrap_or_default();
+        match name {
+            "ids" => {
+                for id in v.split(',') {
+                    self.ids.push(
+                        id.trim()
+                            .parse()
+                            .map_err(|_| format!("`{id}` is not a servo id (0-252)"))?,
+                    );
+                }
+            }
+            _ => self.pty = Some(v.into()),
+        }
+        Ok(())
+    }
 }
 
 /// `handgate emulate ezgripper`: EZGrippers on a virtual MX-64 bus behind a pseudo-terminal
