@@ -281,7 +281,13 @@ impl Task {
                 }
             }
             Log::Rejected { why, suppressed } => {
-                warn!(front = %name, reason = why.reason(), suppressed, "rejected command: {why}");
+                // `front` as a string field, as this line always had it.
+                warn!(
+                    front = name.as_str(),
+                    reason = why.reason(),
+                    suppressed,
+                    "rejected command: {why}"
+                );
             }
             Log::Silence {
                 device,
