@@ -78,9 +78,9 @@ impl KindFactory for Dex1Factory {
         &[Backend::Dds, Backend::Emulator]
     }
 
-    /// 500 Hz: dex1_1_service's loop.
+    /// dex1_1_service's loop ([`super::SERVICE_HZ`]).
     fn default_rate_hz(&self, _backend: Backend) -> Option<f64> {
-        Some(500.0)
+        Some(super::SERVICE_HZ)
     }
 
     fn sections(&self) -> &'static [SectionSpec] {

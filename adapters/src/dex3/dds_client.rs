@@ -31,14 +31,13 @@ impl std::fmt::Display for StateSource {
     }
 }
 
-/// Default topics for a side.
+/// Default (command, state) topics for a side, the state read from `source`.
 pub fn topics(side: Side, source: StateSource) -> (String, String) {
-    let s = side.as_str();
     let state = match source {
-        StateSource::State => format!("rt/dex3/{s}/state"),
-        StateSource::Lf => format!("rt/lf/dex3/{s}/state"),
+        StateSource::State => super::state_topic(side),
+        StateSource::Lf => super::lf_state_topic(side),
     };
-    (format!("rt/dex3/{s}/cmd"), state)
+    (super::cmd_topic(side), state)
 }
 
 /// Encoder/decoder for the resident service's messages.

@@ -280,9 +280,14 @@ impl KindFactory for Dex3Factory {
         }
     }
 
-    /// 1000 Hz over USB and its emulator (the frame loop); 500 Hz over DDS (assumption).
+    /// 1000 Hz over USB and its emulator (the frame loop); over DDS the service's
+    /// ([`super::SERVICE_HZ`], an assumption).
     fn default_rate_hz(&self, backend: Backend) -> Option<f64> {
-        Some(if backend == Backend::Dds { 500.0 } else { 1000.0 })
+        Some(if backend == Backend::Dds {
+            super::SERVICE_HZ
+        } else {
+            1000.0
+        })
     }
 
     fn sections(&self) -> &'static [SectionSpec] {
