@@ -13,10 +13,7 @@ use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
 use crate::model::{Freshness, HandState, JointCommand, JointState};
 
-/// Default topic.
-pub const TOPIC: &str = "rt/hand_sdk";
-/// Number of entries ai_sport expects.
-pub const MOTORS: usize = 4;
+use super::MOTORS;
 
 /// Weight ramp parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]

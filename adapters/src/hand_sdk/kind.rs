@@ -3,7 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::adapter::{WeightRamp, TOPIC};
+use super::adapter::WeightRamp;
+use super::TOPIC;
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{
     check_rate, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, Problem,
