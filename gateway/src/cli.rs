@@ -76,7 +76,7 @@ pub enum Command {
         #[command(flatten)]
         dds: DdsArgs,
         /// Status topic (`status.topic`), in `--namespace`.
-        #[arg(long, default_value = "rt/handgate/status")]
+        #[arg(long, default_value = crate::profile::DEFAULT_STATUS_TOPIC)]
         topic: String,
         /// Print one sample and exit.
         #[arg(long)]

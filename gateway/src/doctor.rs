@@ -23,6 +23,7 @@ use handgate_idl::layout::{self, Verdict};
 
 use crate::diagnostics::{served, Owner};
 use crate::plan::Plan;
+use crate::profile::MAX_DOMAIN_ID;
 
 /// Failures that stop the doctor before it has anything to say.
 #[derive(Debug, thiserror::Error)]
@@ -55,10 +56,6 @@ pub struct Sweep {
     /// The `--profile` argument the doctor was given.
     pub profile: Option<String>,
 }
-
-/// Highest DDS domain id CycloneDDS's default port mapping allows (7400 + 250 × id must fit
-/// in a port).
-pub const MAX_DOMAIN: u32 = 232;
 
 /// What the doctor found: the text to print and the problems (each also in the text).
 #[derive(Debug, Clone, Default)]
@@ -840,7 +837,7 @@ fn is_emulated(plan: &Plan, owner: &Owner) -> bool {
     }
 }
 
-/// `A-B` or `N` (domains), each at most [`MAX_DOMAIN`].
+/// `A-B` or `N` (domains), each at most [`MAX_DOMAIN_ID`].
 pub fn parse_scan(s: &str) -> Result<Vec<u32>, String> {
     let (a, b) = match s.split_once('-') {
         Some((a, b)) => (a.trim(), b.trim()),
@@ -851,9 +848,9 @@ pub fn parse_scan(s: &str) -> Result<Vec<u32>, String> {
     if a > b {
         return Err(format!("{a}-{b}: the range is empty"));
     }
-    if b > MAX_DOMAIN {
+    if b > MAX_DOMAIN_ID {
         return Err(format!(
-            "domain {b} is above {MAX_DOMAIN}, the highest CycloneDDS's port mapping allows"
+            "domain {b} is above {MAX_DOMAIN_ID}, the highest CycloneDDS's port mapping allows"
         ));
     }
     if b - a > 31 {
