@@ -9,7 +9,7 @@ use super::RisMode;
 use crate::control::Active;
 use crate::dds_device::DdsCodec;
 use crate::mapping::{DeviceTable, WireTarget};
-use crate::model::{faults, HandState, Imu, Pad, Power, SafeAction, Side};
+use crate::model::{faults, HandState, Imu, Pad, Power, Side};
 
 /// Which state topic to read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, serde::Serialize, serde::Deserialize)]
@@ -127,11 +127,6 @@ impl DdsCodec for Dex3DdsCodec {
     fn decode_into(&mut self, sample: &HandState_, table: &DeviceTable, st: &mut HandState) -> bool {
         decode_hand_state(sample, table, st)
     }
-}
-
-/// For docs/tests: what a limp safe state sends (zero gains, FOC).
-pub fn limp_targets(table: &DeviceTable) -> Vec<crate::model::JointCommand> {
-    table.safe_targets(SafeAction::Limp, &[])
 }
 
 #[cfg(test)]
