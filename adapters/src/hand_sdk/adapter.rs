@@ -55,7 +55,7 @@ impl HandSdkCodec {
         self.weight
     }
 
-    /// The integer ai_sport receives in cmds[0].mode.
+    /// The integer ai_sport receives in `cmds[0].mode`.
     pub fn weight_byte(w: f32) -> u8 {
         (w.clamp(0.0, 1.0) * 100.0).round() as u8
     }

@@ -5,7 +5,7 @@
 //! weight is `cmds[0].mode / 100` (the other entries' mode is unused). Every control tick it
 //! sends each motor, for all five fields (q, dq, tau, kp, kd),
 //! `weight * user + (1 - weight) * default`, where default is ai_sport's own command
-//! (g1-hand-sdk-interface.txt; docs/sources.md §6). It publishes nothing: no state topic is
+//! (docs/sources.md §6). It publishes nothing: no state topic is
 //! documented. Tests inspect what it would send to the motors.
 //!
 //! Documented behaviour reproduced: all five fields blended; auto-fallback to ai_sport's own
@@ -285,7 +285,7 @@ impl HandSdkCore {
     }
 
     /// Enters or leaves the damping state. Leaving it forgets the weight: it is 0 until a new
-    /// message sets it (g1-hand-sdk-interface.txt).
+    /// message sets it (docs/sources.md §6).
     pub fn set_damping(&mut self, on: bool) {
         if self.damping && !on {
             self.weight_set = false;
