@@ -47,36 +47,13 @@ pub enum Command {
     /// whether multicast works on them, and which other domains have the profile's clients
     /// (docs/troubleshooting.md). Exit 0 when nothing is wrong, 1 otherwise, 2 for an invalid
     /// profile.
-    Doctor {
-        /// Profile (as for `run --profile`); without it: the embedded default.
-        #[arg(long)]
-        profile: Option<String>,
-        /// How long to listen, seconds.
-        #[arg(long, default_value_t = 3.0)]
-        seconds: f64,
-        /// Other DDS domains to look on at the same time, `A-B` or `N` (default 0-5).
-        #[arg(long, conflicts_with = "no_scan")]
-        scan: Option<String>,
-        /// Look on the profile's domain only.
-        #[arg(long)]
-        no_scan: bool,
-        /// When nothing for the profile is found, do not look through this host's other
-        /// interfaces (by default it does, one child process per interface).
-        #[arg(long)]
-        no_sweep: bool,
-        /// Print only `relevant N` (the participants found for the profile); used by the
-        /// interface sweep.
-        #[arg(long, hide = true)]
-        count_only: bool,
-        #[command(flatten)]
-        overrides: OverrideArgs,
-    },
+    Doctor(DoctorCmd),
     /// Show a live table of the running gateway's devices (from its status topic).
     Status {
         #[command(flatten)]
         dds: DdsArgs,
         /// Status topic (`status.topic`), in `--namespace`.
-        #[arg(long, default_value = "rt/handgate/status")]
+        #[arg(long, default_value = crate::profile::DEFAULT_STATUS_TOPIC)]
         topic: String,
         /// Print one sample and exit.
         #[arg(long)]
@@ -119,39 +96,7 @@ pub enum Command {
     Emulate(EmulateCmd),
     /// Send one command in the canonical model to a named device (bring-up), on handgate's
     /// own interface `rt/handgate/{device}/cmd`.
-    Send {
-        /// Device name from the profile (e.g. left_hand).
-        device: String,
-        #[command(flatten)]
-        dds: DdsArgs,
-        /// Hand closure in [0, 1] (0 open, 1 closed).
-        #[arg(long, conflicts_with = "joint")]
-        closure: Option<f32>,
-        /// A joint target NAME=RAD (canonical frame, positive = closing); repeatable.
-        #[arg(long, value_parser = parse_joint)]
-        joint: Vec<(String, f32)>,
-        /// Stiffness for joint targets, N*m/rad.
-        #[arg(long, default_value_t = 1.5)]
-        kp: f32,
-        /// Damping for joint targets, N*m*s/rad.
-        #[arg(long, default_value_t = 0.1)]
-        kd: f32,
-        /// Move the device to its safe state instead.
-        #[arg(long, conflicts_with_all = ["closure", "joint"])]
-        safe: bool,
-        /// How long to wait for the gateway to match, seconds.
-        #[arg(long, default_value_t = 5.0)]
-        timeout: f64,
-        /// Keep repeating the command at 50 Hz for this many seconds, so the front's command
-        /// watchdog does not stop the motion early (0: send once).
-        #[arg(long, default_value_t = 1.0)]
-        hold: f64,
-        /// Take the device's front over from the client commanding it (a front with
-        /// `control = "exclusive"` refuses other clients while its owner streams); the
-        /// gateway logs who took over from whom.
-        #[arg(long)]
-        force: bool,
-    },
+    Send(SendCmd),
     /// Record the fleet's DDS traffic (every front's command and state topics, the canonical
     /// states, `rt/joint_states`, status) into a rosbag2-shaped MCAP directory NAME
     /// (NAME/NAME_0.mcap + metadata.yaml) until Ctrl-C or --duration (docs/recording.md).
@@ -160,6 +105,69 @@ pub enum Command {
     Replay(ReplayCmd),
     /// Export a recording's hand streams.
     Export(ExportCmd),
+}
+
+/// `handgate doctor`.
+#[derive(Debug, Clone, Args)]
+pub struct DoctorCmd {
+    /// Profile (as for `run --profile`); without it: the embedded default.
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// How long to listen, seconds.
+    #[arg(long, default_value_t = 3.0)]
+    pub seconds: f64,
+    /// Other DDS domains to look on at the same time, `A-B` or `N` (default 0-5).
+    #[arg(long, conflicts_with = "no_scan")]
+    pub scan: Option<String>,
+    /// Look on the profile's domain only.
+    #[arg(long)]
+    pub no_scan: bool,
+    /// When nothing for the profile is found, do not look through this host's other
+    /// interfaces (by default it does, one child process per interface).
+    #[arg(long)]
+    pub no_sweep: bool,
+    /// Print only `relevant N` (the participants found for the profile); used by the
+    /// interface sweep.
+    #[arg(long, hide = true)]
+    pub count_only: bool,
+    #[command(flatten)]
+    pub overrides: OverrideArgs,
+}
+
+/// `handgate send`.
+#[derive(Debug, Clone, Args)]
+pub struct SendCmd {
+    /// Device name from the profile (e.g. left_hand).
+    pub device: String,
+    #[command(flatten)]
+    pub dds: DdsArgs,
+    /// Hand closure in [0, 1] (0 open, 1 closed).
+    #[arg(long, conflicts_with = "joint")]
+    pub closure: Option<f32>,
+    /// A joint target NAME=RAD (canonical frame, positive = closing); repeatable.
+    #[arg(long, value_parser = parse_joint)]
+    pub joint: Vec<(String, f32)>,
+    /// Stiffness for joint targets, N*m/rad.
+    #[arg(long, default_value_t = 1.5)]
+    pub kp: f32,
+    /// Damping for joint targets, N*m*s/rad.
+    #[arg(long, default_value_t = 0.1)]
+    pub kd: f32,
+    /// Move the device to its safe state instead.
+    #[arg(long, conflicts_with_all = ["closure", "joint"])]
+    pub safe: bool,
+    /// How long to wait for the gateway to match, seconds.
+    #[arg(long, default_value_t = 5.0)]
+    pub timeout: f64,
+    /// Keep repeating the command at 50 Hz for this many seconds, so the front's command
+    /// watchdog does not stop the motion early (0: send once).
+    #[arg(long, default_value_t = 1.0)]
+    pub hold: f64,
+    /// Take the device's front over from the client commanding it (a front with
+    /// `control = "exclusive"` refuses other clients while its owner streams); the
+    /// gateway logs who took over from whom.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Recording options shared by `handgate record` and the profile's `[record]` section.

@@ -66,15 +66,6 @@ impl Variant {
             Variant::Actuator => vec![Side::Right, Side::Left],
         }
     }
-
-    /// The position range this variant's clients use: 0..5.4 rad (docs/sources.md §4), or 0..2pi for
-    /// the seed spec's hg variant.
-    pub fn default_range(self) -> (f32, f32) {
-        match self {
-            Variant::Hg => (0.0, crate::dex1::table::SEED_SPEC_RANGE_RAD),
-            _ => (0.0, crate::dex1::table::DEFAULT_RANGE_RAD),
-        }
-    }
 }
 
 /// Element index of `side` in the 2-element `rt/unitree_actuator` messages.

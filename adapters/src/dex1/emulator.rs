@@ -93,7 +93,7 @@ pub struct Dex1Config {
     pub variant: Dex1Variant,
     /// The gripper served (ignored by [`Dex1Variant::Actuator`], which serves both).
     pub side: Side,
-    /// Loop and state rate (docs/sources.md §4: 500 Hz).
+    /// Loop and state rate (default [`super::SERVICE_HZ`]).
     pub rate: Hz,
     /// Position range (closed, open), rad: the jaw's hard stops (default [`hard_stops`]).
     pub range: (f32, f32),
@@ -118,7 +118,7 @@ impl Dex1Config {
         Self {
             variant,
             side,
-            rate: Hz(500.0),
+            rate: Hz(super::SERVICE_HZ),
             range: hard_stops(variant),
             initial_q: DEX1_REST_Q,
             noise: crate::dex3::physical::HG_MOTOR_NOISE,

@@ -82,7 +82,7 @@ impl Kind for Dex1Kind {
             "dex1",
             &GRIPPER_JOINTS,
             &[Backend::Dds, Backend::Emulator],
-            Rates::fixed(super::SERVICE_RATE_HZ),
+            Rates::fixed(super::SERVICE_HZ),
         )
     };
     type Config = Dex1Profile;

@@ -13,5 +13,6 @@ pub mod table;
 /// (docs/sources.md §4: "brakes after 1000 ms without a command").
 pub const SERVICE_BRAKE_AFTER: std::time::Duration = std::time::Duration::from_millis(1000);
 
-/// dex1_1_service's loop and state rate, Hz (docs/sources.md §4).
-pub const SERVICE_RATE_HZ: f64 = 500.0;
+/// dex1_1_service's loop and state rate, Hz (docs/sources.md §4: "a 500 Hz loop"): the kind's
+/// default device rate, the Dex1 front's state rate and the emulated service's loop.
+pub const SERVICE_HZ: f64 = 500.0;

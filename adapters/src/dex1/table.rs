@@ -16,9 +16,6 @@ pub const SEED_SPEC_RANGE_RAD: f32 = std::f32::consts::TAU;
 /// xr_teleoperate's Dex1 gains (docs/sources.md §4).
 pub const KP: f32 = 5.0;
 pub const KD: f32 = 0.05;
-/// xr_teleoperate clips each step to ±0.18 rad of the measured position; handgate offers it
-/// as the profile's `max_step` (off by default).
-pub const XR_TELEOPERATE_MAX_STEP: f32 = 0.18;
 
 /// The Dex1-1 table for one side and open position `range` (rad).
 pub fn table(side: Side, range: f32) -> DeviceTable {

@@ -37,6 +37,8 @@ use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
 use crate::model::Side;
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Reading, Sensor};
 
+use super::{cmd_topic, lf_state_topic, state_topic};
+
 /// Motors per hand (docs/sources.md §2).
 pub const MOTORS: usize = DEX3_MOTORS;
 /// Pressure pads per hand (docs/sources.md §2, SDK C++ example; manual: 9 sensors, 33 points).
@@ -44,19 +46,6 @@ pub const PADS: usize = DEX3_PRESS_SENSORS;
 /// Values in one `PressSensorState_::pressure` array.
 pub const PAD_POINTS: usize = 12;
 pub use super::{MotorStatus, RisMode, PRESS_NO_READING, PRESS_VALID_MIN, RIS_TIMEOUT_BIT};
-
-/// `rt/dex3/{side}/cmd`.
-pub fn cmd_topic(side: Side) -> String {
-    format!("rt/dex3/{side}/cmd")
-}
-/// `rt/dex3/{side}/state`.
-pub fn state_topic(side: Side) -> String {
-    format!("rt/dex3/{side}/state")
-}
-/// `rt/lf/dex3/{side}/state` (the low-frequency copy the SDK examples subscribe).
-pub fn lf_state_topic(side: Side) -> String {
-    format!("rt/lf/dex3/{side}/state")
-}
 
 /// A Dex3-1 joint, in message order (the shared [`super::Joint`]).
 pub use super::Joint as Dex3Joint;
@@ -154,9 +143,10 @@ impl Default for Dex3Tuning {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dex3ServiceConfig {
     pub side: Side,
-    /// Rate of `rt/dex3/{side}/state` and of the emulated control loop (default 500 Hz).
+    /// Rate of `rt/dex3/{side}/state` and of the emulated control loop (default
+    /// [`super::SERVICE_HZ`]).
     pub state_rate: Hz,
-    /// Rate of `rt/lf/dex3/{side}/state` (default 50 Hz; assumption, docs/sources.md names no rate).
+    /// Rate of `rt/lf/dex3/{side}/state` (default [`super::SERVICE_LF_HZ`]).
     pub lf_rate: Hz,
     pub publish_lf: bool,
     /// Joint positions at start, rad, message order (clamped to the hard stops). Default:
@@ -182,8 +172,8 @@ impl Dex3ServiceConfig {
     pub fn new(side: Side) -> Self {
         Self {
             side,
-            state_rate: Hz(500.0),
-            lf_rate: Hz(50.0),
+            state_rate: Hz(super::SERVICE_HZ),
+            lf_rate: Hz(super::SERVICE_LF_HZ),
             publish_lf: true,
             initial_q: std::array::from_fn(|i| crate::dex3::physical::rest_wire(side, i)),
             noise: crate::dex3::physical::HG_MOTOR_NOISE,

@@ -115,7 +115,7 @@ impl Kind for Dex3Kind {
         // 1000 Hz over USB and its emulator (the frame loop); 500 Hz over DDS (assumption).
         rates: Rates {
             default: Some(1000.0),
-            by_backend: &[(Backend::Dds, Some(super::SERVICE_RATE_HZ))],
+            by_backend: &[(Backend::Dds, Some(super::SERVICE_HZ))],
         },
         sections: &[
             SectionSpec {

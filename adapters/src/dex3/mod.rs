@@ -14,6 +14,32 @@ pub mod serve;
 pub mod table;
 pub mod usb;
 
+/// The G1 service's loop and state rate, Hz: not published (docs/sources.md §2 names none);
+/// 500 Hz is an assumption, what xr_teleoperate reads (docs/adapters.md, "Dex3-1 service").
+/// The default rate of a Dex3 on backend dds, the cap of the Dex3 front's state rate and the
+/// emulated service's loop.
+pub const SERVICE_HZ: f64 = 500.0;
+/// The G1 service's rate of the low-frequency state copy ([`lf_state_topic`]), Hz: an
+/// assumption, docs/sources.md §2 names no rate. The Dex3 front's and the emulated service's.
+pub const SERVICE_LF_HZ: f64 = 50.0;
+
+/// The G1 service's command topic for `side`: `rt/dex3/{side}/cmd` (docs/sources.md §2).
+pub fn cmd_topic(side: Side) -> String {
+    format!("rt/dex3/{side}/cmd")
+}
+
+/// The G1 service's state topic for `side`: `rt/dex3/{side}/state` (docs/sources.md §2;
+/// xr_teleoperate reads it).
+pub fn state_topic(side: Side) -> String {
+    format!("rt/dex3/{side}/state")
+}
+
+/// The G1 service's low-frequency copy of the state for `side`: `rt/lf/dex3/{side}/state`
+/// (docs/sources.md §2; the SDK's C++ and ROS 2 examples read it).
+pub fn lf_state_topic(side: Side) -> String {
+    format!("rt/lf/dex3/{side}/state")
+}
+
 /// Dex3-1 joint names, canonical order (= the IDL order of `HandCmd_.motor_cmd`).
 pub const JOINTS: [&str; 7] = [
     "thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1",
@@ -362,7 +388,3 @@ impl Dex3Measurement {
         self.motors.map(|m| m.q)
     }
 }
-
-/// The G1's resident Dex3 hand service's loop and state rate, Hz (docs/sources.md §2; an
-/// assumption, docs/profiles.md "Assumptions").
-pub const SERVICE_RATE_HZ: f64 = 500.0;

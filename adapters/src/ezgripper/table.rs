@@ -9,8 +9,6 @@ use crate::model::{DeviceKind, Side, GRIPPER_JOINTS};
 /// Dex1-equivalent range of the jaw (rad) the SAKE driver assumes: the Dex1's open position,
 /// since its driver maps Dex1 radians onto the EZGripper (docs/sources.md §5).
 pub const DEFAULT_RANGE_RAD: f32 = crate::dex1::table::DEFAULT_RANGE_RAD;
-/// SAKE driver default.
-pub const DEFAULT_MAX_OPEN_PERCENT: f32 = 100.0;
 
 /// The EZGripper table. `range` is the canonical jaw range (rad, Dex1-equivalent),
 /// `max_open_percent` the wire value at fully open.

@@ -3,7 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::adapter::{WeightRamp, TOPIC};
+use super::adapter::WeightRamp;
+use super::TOPIC;
 use crate::kind::{check_rate, check_topic, DeviceCtx, Problem, Settings, MAX_RATE_HZ};
 
 /// `[devices.hand_sdk]`: the G1 `rt/hand_sdk` blend interface.

@@ -5,7 +5,7 @@
 //! weight is `cmds[0].mode / 100` (the other entries' mode is unused). Every control tick it
 //! sends each motor, for all five fields (q, dq, tau, kp, kd),
 //! `weight * user + (1 - weight) * default`, where default is ai_sport's own command
-//! (g1-hand-sdk-interface.txt; docs/sources.md §6). It publishes nothing: no state topic is
+//! (docs/sources.md §6). It publishes nothing: no state topic is
 //! documented. Tests inspect what it would send to the motors.
 //!
 //! Documented behaviour reproduced: all five fields blended; auto-fallback to ai_sport's own
@@ -27,10 +27,8 @@ use crate::dds::{Node, Qos};
 use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
 use crate::sim::{JointModel, JointParams, MotorTarget};
 
-/// The topic (g1-hand-sdk-interface.txt).
-pub const HAND_SDK_TOPIC: &str = "rt/hand_sdk";
-/// Entries in a Hand SDK message (g1-hand-sdk-interface.txt).
-pub const HAND_SDK_MOTORS: usize = 4;
+use super::{MOTORS, TOPIC};
+
 /// `cmds[0].mode` value meaning weight 1.
 pub const WEIGHT_MODE_FULL: u8 = 100;
 
@@ -79,8 +77,8 @@ pub const HAND_SDK_REST_Q: f32 = 0.15;
 /// Joint models run under the blended command (positive tau closes: q grows towards closed).
 #[derive(Debug, Clone, PartialEq)]
 pub struct HandSdkModels {
-    pub params: [JointParams; HAND_SDK_MOTORS],
-    pub initial_q: [f32; HAND_SDK_MOTORS],
+    pub params: [JointParams; MOTORS],
+    pub initial_q: [f32; MOTORS],
 }
 
 impl Default for HandSdkModels {
@@ -94,8 +92,8 @@ impl Default for HandSdkModels {
             q_max: 1.7,
         };
         Self {
-            params: [p; HAND_SDK_MOTORS],
-            initial_q: [HAND_SDK_REST_Q; HAND_SDK_MOTORS],
+            params: [p; MOTORS],
+            initial_q: [HAND_SDK_REST_Q; MOTORS],
         }
     }
 }
@@ -110,9 +108,9 @@ pub struct HandSdkConfig {
     pub user_timeout: Duration,
     /// ai_sport's own command per motor (default: a relaxed hold at [`HAND_SDK_REST_Q`] with
     /// kp 0.5, kd 0.05).
-    pub defaults: [MotorTarget; HAND_SDK_MOTORS],
+    pub defaults: [MotorTarget; MOTORS],
     /// What the motors get in the damping state (default: kp 0, kd 0.1).
-    pub damping_command: [MotorTarget; HAND_SDK_MOTORS],
+    pub damping_command: [MotorTarget; MOTORS],
     /// Joint models under the blended command; `None`: no motion emulated.
     pub models: Option<HandSdkModels>,
     /// Distinct effective weights kept in the history (oldest dropped first).
@@ -133,14 +131,14 @@ impl Default for HandSdkConfig {
                 tau: 0.0,
                 kp: 0.5,
                 kd: 0.05,
-            }; HAND_SDK_MOTORS],
+            }; MOTORS],
             damping_command: [MotorTarget {
                 kd: 0.1,
                 ..MotorTarget::LIMP
-            }; HAND_SDK_MOTORS],
+            }; MOTORS],
             models: Some(HandSdkModels::default()),
             history_capacity: 4096,
-            topic: HAND_SDK_TOPIC.to_string(),
+            topic: TOPIC.to_string(),
         }
     }
 }
@@ -196,32 +194,32 @@ pub struct HandSdkSnapshot {
     pub fallback: bool,
     pub damping: bool,
     /// The last user command accepted (as targets, in message order).
-    pub last_user: Option<[MotorTarget; HAND_SDK_MOTORS]>,
+    pub last_user: Option<[MotorTarget; MOTORS]>,
     /// What each motor was sent in the last tick.
-    pub blended: [MotorTarget; HAND_SDK_MOTORS],
+    pub blended: [MotorTarget; MOTORS],
     pub counts: HandSdkCounts,
     /// Control ticks run.
     pub ticks: u64,
     /// Joint positions, if models run.
-    pub joint_q: Option<[f32; HAND_SDK_MOTORS]>,
+    pub joint_q: Option<[f32; MOTORS]>,
 }
 
 /// The blend logic without DDS.
 #[derive(Debug, Clone)]
 pub struct HandSdkCore {
     config: HandSdkConfig,
-    user: Option<[MotorTarget; HAND_SDK_MOTORS]>,
+    user: Option<[MotorTarget; MOTORS]>,
     weight: Weight,
     weight_set: bool,
     last_user_at: Option<Instant>,
     damping: bool,
     effective: Weight,
     fallback: bool,
-    blended: [MotorTarget; HAND_SDK_MOTORS],
+    blended: [MotorTarget; MOTORS],
     history: VecDeque<f32>,
     counts: HandSdkCounts,
     ticks: u64,
-    joints: Option<[JointModel; HAND_SDK_MOTORS]>,
+    joints: Option<[JointModel; MOTORS]>,
 }
 
 impl HandSdkCore {
@@ -255,7 +253,7 @@ impl HandSdkCore {
             self.counts.ignored_damping += 1;
             return false;
         }
-        if msg.cmds.len() != HAND_SDK_MOTORS {
+        if msg.cmds.len() != MOTORS {
             self.counts.rejected_size += 1;
             return false;
         }
@@ -287,7 +285,7 @@ impl HandSdkCore {
     }
 
     /// Enters or leaves the damping state. Leaving it forgets the weight: it is 0 until a new
-    /// message sets it (g1-hand-sdk-interface.txt).
+    /// message sets it (docs/sources.md §6).
     pub fn set_damping(&mut self, on: bool) {
         if self.damping && !on {
             self.weight_set = false;
@@ -404,7 +402,7 @@ impl HandSdkEmulator {
     }
 
     /// What each motor was sent in the last tick.
-    pub fn last_blended(&self) -> [MotorTarget; HAND_SDK_MOTORS] {
+    pub fn last_blended(&self) -> [MotorTarget; MOTORS] {
         lock(&self.shared).blended
     }
 
@@ -448,7 +446,7 @@ mod tests {
         MotorTarget { q, dq, tau, kp, kd }
     }
 
-    fn msg(mode: u8, targets: [MotorTarget; HAND_SDK_MOTORS]) -> MotorCmds_ {
+    fn msg(mode: u8, targets: [MotorTarget; MOTORS]) -> MotorCmds_ {
         MotorCmds_ {
             cmds: targets
                 .iter()
@@ -588,9 +586,7 @@ mod tests {
         let emu_node = Node::new(domain, None).unwrap();
         let emu = HandSdkEmulator::start(&emu_node, config).unwrap();
         let node = Node::new(domain, None).unwrap();
-        let w = node
-            .writer::<MotorCmds_>(HAND_SDK_TOPIC, Qos::Reliable { depth: 4 })
-            .unwrap();
+        let w = node.writer::<MotorCmds_>(TOPIC, Qos::Reliable { depth: 4 }).unwrap();
         w.wait_matched(1, WAIT).unwrap();
         (emu, node, w)
     }

@@ -42,12 +42,3 @@ pub fn element(side: Side) -> Option<usize> {
         Side::Center => None,
     }
 }
-
-/// The side of element `e` (0 right, 1 left).
-pub fn element_side(e: usize) -> Option<Side> {
-    match e {
-        0 => Some(Side::Right),
-        1 => Some(Side::Left),
-        _ => None,
-    }
-}

@@ -31,7 +31,7 @@ pub const URDF_RANGE: [(f32, f32); 6] = {
     r
 };
 
-/// Angle register at the open end (finger straight) and the closed end.
+/// Angle register at the open end (finger straight) and the closed end (docs/sources.md §7).
 pub const ANGLE_OPEN: f32 = 1000.0;
 pub const ANGLE_CLOSED: f32 = 0.0;
 
