@@ -32,6 +32,10 @@ use crate::model::{faults, Freshness, HandCommand, HandState, SafeAction};
 pub trait DdsCodec: Send + 'static {
     type Cmd: TopicType + Clone + Default + Send + 'static;
     type State: TopicType + Clone + Send + 'static;
+    /// The entries (motors) of the messages' sequence, where another count means another
+    /// hand on the topics ([`crate::discovery::diagnose::Served::entries`]); `None`: not
+    /// fixed by the codec's type.
+    const ENTRIES: Option<usize> = None;
 
     /// Fills `msg` with the message to publish this cycle for the targets in force; `false`
     /// to stay silent. `msg` is the device's message buffer, holding the last message
@@ -178,6 +182,9 @@ impl DdsDeviceConfig {
                 Role::Reader,
                 STATE_QOS.served(),
             ));
+        }
+        if let Some(n) = C::ENTRIES {
+            out = out.into_iter().map(|s| s.with_entries(n)).collect();
         }
         out
     }

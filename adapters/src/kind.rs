@@ -609,6 +609,34 @@ impl<K: Kind> KindFactory for K {
         let open = self.configure(&spec)?;
         Kind::open(self, open, &spec, env)
     }
+
+    fn served_by_default(&self, side: Side) -> Vec<crate::discovery::diagnose::Served> {
+        let backend = Backend::Dds;
+        if self.check_side(side).is_err() || !K::FACTS.backends.contains(&backend) {
+            return Vec::new();
+        }
+        let config = K::Config::default();
+        let table = std::sync::Arc::new(Kind::table(self, side, &config));
+        let emulator = crate::open::EmulatorSection::default();
+        let rate_hz = K::FACTS.rates.on(backend).unwrap_or(100.0);
+        let spec = DeviceSpec {
+            name: K::FACTS.name,
+            kind: DeviceKind::by_name(K::FACTS.name).unwrap_or_default(),
+            side,
+            backend,
+            rate_hz,
+            stale_after: std::time::Duration::from_millis(200),
+            forward_on_arrival: true,
+            max_send_hz: None,
+            table: &table,
+            emulator: &emulator,
+            config: &config,
+        };
+        match self.configure(&spec) {
+            Ok(open) => Kind::served(self, &open),
+            Err(_) => Vec::new(),
+        }
+    }
 }
 
 /// A registered kind, erased: what the profile, the resolver and the runtime ask of a kind
@@ -663,6 +691,10 @@ pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
     fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served>;
     /// Opens one device on its backend (the emulator backend included).
     fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError>;
+    /// What a device of this kind on `side` with no profile keys of its own serves on
+    /// backend dds ([`KindFactory::served`]): what another kind's hand answering on its
+    /// topics looks like to the doctor.
+    fn served_by_default(&self, side: Side) -> Vec<crate::discovery::diagnose::Served>;
 }
 
 impl dyn KindFactory {

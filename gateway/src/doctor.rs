@@ -19,6 +19,7 @@ use handgate_adapters::dds::{layout_reader, DdsError, InterfaceTrace, Node, RawT
 use handgate_adapters::device::Backend;
 use handgate_adapters::discovery::diagnose::{diagnose, FindingKind, RemoteRef, Report, Served};
 use handgate_adapters::discovery::{Discovery, DiscoveryConfig, Guid, Origin, Participant, Role, Snapshot};
+use handgate_adapters::model::Side;
 use handgate_adapters::netif::{self, NetIf};
 use handgate_idl::layout::{self, Verdict};
 
@@ -94,6 +95,10 @@ struct Probe {
     older: BTreeSet<&'static str>,
     unknown: usize,
     total: usize,
+    /// The entries the owner expects in each sample ([`Served::entries`]), and the counts
+    /// seen: entries -> samples.
+    expected: Option<usize>,
+    entries: BTreeMap<usize, usize>,
 }
 
 impl Probe {
@@ -103,6 +108,9 @@ impl Probe {
                 continue;
             };
             self.total += 1;
+            if let Some(n) = c.entries {
+                *self.entries.entry(n).or_default() += 1;
+            }
             let key = match c.verdict {
                 Verdict::Current => "current".to_string(),
                 Verdict::Older(w) => {
@@ -296,6 +304,8 @@ impl Look {
                     older: BTreeSet::new(),
                     unknown: 0,
                     total: 0,
+                    expected: s.served.entries,
+                    entries: BTreeMap::new(),
                 });
             }
         }
@@ -633,6 +643,7 @@ fn layout_section(out: &mut Outcome, seen: &Seen<'_>, probes: &[Probe], listen: 
             }
             continue;
         }
+        entries_problem(out, p);
         let older: Vec<&str> = p.older.iter().copied().collect();
         if !older.is_empty() || p.unknown > 0 {
             let sizes: Vec<String> = p
@@ -682,6 +693,58 @@ fn layout_section(out: &mut Outcome, seen: &Seen<'_>, probes: &[Probe], listen: 
         out.line(
             "layout: the HandState_ layout of client readers cannot be checked (a reader sends no samples); a client on an older SDK shows through the HandCmd_ it writes",
         );
+    }
+}
+
+/// Samples of a probe carrying another number of entries than its owner expects: another
+/// hand answers (or commands) on these topics. Names the registered kinds whose hands carry
+/// that many entries of this type ([`KindFactory::served_by_default`]), so a Dex5-1 answering
+/// on a Dex3-1's topics is told from a Dex3-1, and the reverse.
+///
+/// [`KindFactory::served_by_default`]: handgate_adapters::kind::KindFactory::served_by_default
+fn entries_problem(out: &mut Outcome, p: &Probe) {
+    let Some(want) = p.expected else { return };
+    let other: Vec<(usize, usize)> = p
+        .entries
+        .iter()
+        .filter(|(n, _)| **n != want)
+        .map(|(n, c)| (*n, *c))
+        .collect();
+    if other.is_empty() {
+        return;
+    }
+    for (n, samples) in other {
+        let kinds: Vec<String> = handgate_adapters::kind::DeviceKind::all()
+            .iter()
+            .filter(|k| {
+                [Side::Left, Side::Right].into_iter().any(|side| {
+                    k.factory()
+                        .served_by_default(side)
+                        .iter()
+                        .any(|s| s.serves_type(&p.type_name) && s.entries == Some(n))
+                })
+            })
+            .map(|k| k.to_string())
+            .collect();
+        let what = format!(
+            "{samples} sample(s) on {} ({}) carry {n} entries of {} where {want} are expected: another hand answers here",
+            p.topic,
+            p.owner,
+            short_type(&p.type_name)
+        );
+        let fix = match kinds.as_slice() {
+            [] => "no registered kind uses that many entries: check which hand or service writes this topic".to_string(),
+            ks => format!(
+                "a hand of kind {} carries {n}: set that kind for {} (its own topics are the kind's default; `handgate check` shows them), or point this {} at its own hand's topics",
+                ks.join(" or "),
+                p.owner,
+                match p.owner {
+                    Owner::Front(_) => "client",
+                    Owner::Device(_) => "device",
+                }
+            ),
+        };
+        out.problem("", what, fix);
     }
 }
 
@@ -1054,6 +1117,65 @@ pub fn listen_time(seconds: f64) -> Result<Duration, String> {
 
 #[cfg(test)]
 mod tests {
+
+    /// A probe of `topic` owned by `owner`, expecting `expected` entries, that saw `seen`
+    /// (entries, samples).
+    fn entries_probe(owner: Owner, topic: &str, expected: usize, seen: &[(usize, usize)]) -> Probe {
+        struct NoSamples;
+        impl RawTake for NoSamples {
+            fn take_bytes(&self) -> Vec<Vec<u8>> {
+                Vec::new()
+            }
+        }
+        Probe {
+            owner,
+            topic: topic.into(),
+            type_name: handgate_adapters::dds::type_name::<handgate_idl::unitree_hg::HandState_>(),
+            reader: Box::new(NoSamples),
+            seen: BTreeMap::new(),
+            older: BTreeSet::new(),
+            unknown: 0,
+            total: seen.iter().map(|(_, n)| n).sum(),
+            expected: Some(expected),
+            entries: seen.iter().copied().collect(),
+        }
+    }
+
+    /// A hand of another kind on a device's topics is named by the kind whose hands carry
+    /// its entry count; the owner's own count is no problem.
+    #[test]
+    fn samples_of_another_entry_count_name_the_kind_that_carries_it() {
+        let mut out = Outcome::default();
+        entries_problem(
+            &mut out,
+            &entries_probe(Owner::Device("left".into()), "rt/x/left/state", 7, &[(7, 40)]),
+        );
+        assert!(out.problems.is_empty(), "{}", out.text);
+        let mut out = Outcome::default();
+        entries_problem(
+            &mut out,
+            &entries_probe(Owner::Device("left".into()), "rt/x/left/state", 20, &[(7, 12), (20, 3)]),
+        );
+        assert_eq!(out.problems.len(), 1, "{}", out.text);
+        assert!(
+            out.text.contains(
+                "12 sample(s) on rt/x/left/state (device left) carry 7 entries of HandState_ where 20 are expected"
+            ),
+            "{}",
+            out.text
+        );
+        assert!(out.text.contains("a hand of kind dex3 carries 7"), "{}", out.text);
+        let mut out = Outcome::default();
+        entries_problem(
+            &mut out,
+            &entries_probe(Owner::Device("left".into()), "rt/x/left/state", 7, &[(3, 1)]),
+        );
+        assert!(
+            out.text.contains("no registered kind uses that many entries"),
+            "{}",
+            out.text
+        );
+    }
     use super::*;
     use crate::diagnostics::tests::snapshots::snap;
     use crate::profile::{load, EnvLayer, LoadOptions};

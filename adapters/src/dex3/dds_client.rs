@@ -113,6 +113,7 @@ pub fn decode_hand_state(s: &HandState_, table: &DeviceTable, st: &mut HandState
 impl DdsCodec for Dex3DdsCodec {
     type Cmd = HandCmd_;
     type State = HandState_;
+    const ENTRIES: Option<usize> = Some(super::MOTOR_COUNT);
 
     fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut HandCmd_) -> bool {
         match active {
