@@ -18,13 +18,12 @@
 //! joint models' parameters.
 
 use std::collections::VecDeque;
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use handgate_idl::unitree_go::MotorCmds_;
 
-use crate::dds::{Node, Qos};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
+use crate::emu_common::{ensure_finite, EmulatorError, Hz};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, Silent, Tick};
 use crate::sim::{JointModel, JointParams, MotorTarget};
 
 /// The topic (g1-hand-sdk-interface.txt).
@@ -358,89 +357,81 @@ pub fn largest_weight_step_up(history: &[f32]) -> f32 {
     history.windows(2).map(|w| w[1] - w[0]).fold(0.0, f32::max)
 }
 
-/// A running emulated ai_sport blend. Dropping it stops its thread.
-pub struct HandSdkEmulator {
-    shared: Arc<Mutex<HandSdkCore>>,
-    worker: Worker,
-}
+impl ServiceCore for HandSdkCore {
+    type Config = HandSdkConfig;
+    type Cmd = MotorCmds_;
+    type State = Silent;
+    type Extra = Silent;
+    type Snapshot = HandSdkSnapshot;
 
-impl std::fmt::Debug for HandSdkEmulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("HandSdkEmulator").finish()
+    fn from_config(config: &HandSdkConfig) -> Result<Self, EmulatorError> {
+        config.validate()?;
+        Ok(Self::new(config.clone()))
+    }
+
+    fn plan(config: &HandSdkConfig) -> Result<ServicePlan, EmulatorError> {
+        Ok(ServicePlan {
+            name: "hand-sdk-emu".into(),
+            rate: config.control_rate,
+            cmd_topic: config.topic.clone(),
+            state_topic: None,
+            extra: None,
+        })
+    }
+
+    fn receive(&mut self, msg: &MotorCmds_, now: Instant) {
+        self.on_command(msg, now);
+    }
+
+    /// One control tick; nothing published (no state topic is documented).
+    fn cycle(&mut self, tick: Tick) -> Option<Silent> {
+        self.tick(tick.now, tick.dt);
+        None
+    }
+
+    fn report(&self, _published: Published) -> HandSdkSnapshot {
+        self.snapshot()
     }
 }
+
+/// A running emulated ai_sport blend. Dropping it stops its loop.
+pub type HandSdkEmulator = ServiceEmulator<HandSdkCore>;
 
 impl HandSdkEmulator {
-    /// Starts the blend on `node`.
-    pub fn start(node: &Node, config: HandSdkConfig) -> Result<Self, EmulatorError> {
-        config.validate()?;
-        let period = config.control_rate.period()?;
-        // Best-effort reader: matches reliable and best-effort writers alike.
-        let reader = node.reader::<MotorCmds_>(&config.topic, Qos::BestEffort)?;
-        let shared = Arc::new(Mutex::new(HandSdkCore::new(config)));
-        let sh = shared.clone();
-        let mut prev = None;
-        let worker = Worker::spawn("hand-sdk-emu", period, move |now| {
-            let msgs = reader.take();
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            let mut g = lock(&sh);
-            let received = Instant::now();
-            for m in &msgs {
-                g.on_command(m, received);
-            }
-            g.tick(Instant::now(), dt);
-        })?;
-        Ok(Self { shared, worker })
-    }
-
-    pub fn snapshot(&self) -> HandSdkSnapshot {
-        lock(&self.shared).snapshot()
-    }
-
     /// The weight applied in the last tick.
     pub fn effective_weight(&self) -> f32 {
-        lock(&self.shared).effective.0
+        self.with_core(|c| c.effective.0)
     }
 
     /// What each motor was sent in the last tick.
     pub fn last_blended(&self) -> [MotorTarget; HAND_SDK_MOTORS] {
-        lock(&self.shared).blended
+        self.with_core(|c| c.blended)
     }
 
     /// Distinct effective weights in the order applied (see [`largest_weight_step_up`]).
     pub fn weight_history(&self) -> Vec<f32> {
-        lock(&self.shared).weight_history()
+        self.with_core(|c| c.weight_history())
     }
 
     /// The user went silent: ai_sport's own command applies.
     pub fn fallback(&self) -> bool {
-        lock(&self.shared).fallback
+        self.with_core(|c| c.fallback)
     }
 
     pub fn counts(&self) -> HandSdkCounts {
-        lock(&self.shared).counts
+        self.with_core(|c| c.counts)
     }
 
     /// Enters or leaves the robot's damping state.
     pub fn set_damping(&self, on: bool) {
-        lock(&self.shared).set_damping(on);
+        self.with_core(|c| c.set_damping(on));
     }
-
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
-    }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dds::Writer;
+    use crate::dds::{Node, Qos, Writer};
     use handgate_idl::unitree_go::MotorCmd_;
     use proptest::prelude::*;
 
