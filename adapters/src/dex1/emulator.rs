@@ -22,14 +22,14 @@
 //! calibrated 322°, wider than the 5.4 rad clients command), it starts at [`DEX1_REST_Q`]
 //! and its state reports q, dq and tau_est with measurement noise ([`Dex1Config::noise`]).
 
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use handgate_idl::unitree_go::{MotorCmds_, MotorState_ as GoMotorState, MotorStates_};
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorState_ as HgMotorState};
 
-use crate::dds::{Node, Qos, Reader, Writer};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
+use crate::dds::Node;
+use crate::emu_common::{ensure_finite, EmulatorError, Hz, Side};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, Silent, Tick};
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
 
 /// Nominal open position clients command (xr_teleoperate, EZGripper driver; docs/sources.md §4), rad.
@@ -388,167 +388,182 @@ impl Dex1Core {
     }
 }
 
-enum Io {
-    Go {
-        reader: Reader<MotorCmds_>,
-        writer: Writer<MotorStates_>,
-    },
-    Hg {
-        reader: Reader<HandCmd_>,
-        writer: Writer<HandState_>,
-    },
-}
-
-struct Shared {
-    core: Dex1Core,
-    states_published: u64,
-}
-
-/// A running emulated dex1_1_service. Dropping it stops its thread.
-pub struct Dex1Emulator {
-    shared: Arc<Mutex<Shared>>,
-    worker: Worker,
-    config: Dex1Config,
-}
-
-impl std::fmt::Debug for Dex1Emulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Dex1Emulator")
-            .field("variant", &self.config.variant)
-            .field("side", &self.config.side)
-            .finish()
+impl Dex1Core {
+    fn report(&self, published: Published) -> Dex1Snapshot {
+        Dex1Snapshot {
+            states_published: published.state,
+            ..self.snapshot()
+        }
     }
+}
+
+/// The service on the `unitree_go` wire (variants Go and Actuator).
+struct GoWire(Dex1Core);
+/// The service on the seed spec's `unitree_hg` wire.
+struct HgWire(Dex1Core);
+
+/// Both wires: the variant's topics, the configured rate.
+fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
+    let (cmd_topic, state_topic) = config
+        .topics
+        .clone()
+        .unwrap_or_else(|| config.variant.topics(config.side));
+    Ok(ServicePlan {
+        name: format!("dex1-emu-{}", config.side),
+        rate: config.rate,
+        cmd_topic,
+        state_topic: Some(state_topic),
+        extra: None,
+    })
+}
+
+impl ServiceCore for GoWire {
+    type Config = Dex1Config;
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
+    type Extra = Silent;
+    type Snapshot = Dex1Snapshot;
+
+    fn from_config(config: &Dex1Config) -> Result<Self, EmulatorError> {
+        Dex1Core::new(config).map(Self)
+    }
+
+    fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
+        plan(config)
+    }
+
+    fn receive(&mut self, cmd: &MotorCmds_, now: Instant) {
+        self.0.on_go(cmd, now);
+    }
+
+    fn cycle(&mut self, tick: Tick) -> Option<MotorStates_> {
+        self.0.step(tick.now, tick.dt);
+        Some(self.0.go_state())
+    }
+
+    fn report(&self, published: Published) -> Dex1Snapshot {
+        self.0.report(published)
+    }
+}
+
+impl ServiceCore for HgWire {
+    type Config = Dex1Config;
+    type Cmd = HandCmd_;
+    type State = HandState_;
+    type Extra = Silent;
+    type Snapshot = Dex1Snapshot;
+
+    fn from_config(config: &Dex1Config) -> Result<Self, EmulatorError> {
+        Dex1Core::new(config).map(Self)
+    }
+
+    fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
+        plan(config)
+    }
+
+    fn receive(&mut self, cmd: &HandCmd_, now: Instant) {
+        self.0.on_hg(cmd, now);
+    }
+
+    fn cycle(&mut self, tick: Tick) -> Option<HandState_> {
+        self.0.step(tick.now, tick.dt);
+        Some(self.0.hg_state())
+    }
+
+    fn report(&self, published: Published) -> Dex1Snapshot {
+        self.0.report(published)
+    }
+}
+
+/// A running emulated dex1_1_service, on its variant's wire. Dropping it stops its loop.
+#[derive(Debug)]
+pub struct Dex1Emulator(Wire);
+
+#[derive(Debug)]
+enum Wire {
+    Go(ServiceEmulator<GoWire>),
+    Hg(ServiceEmulator<HgWire>),
 }
 
 impl Dex1Emulator {
     /// Starts the service on `node`.
     pub fn start(node: &Node, config: Dex1Config) -> Result<Self, EmulatorError> {
-        let period = config.rate.period()?;
-        let core = Dex1Core::new(&config)?;
-        let (cmd_topic, state_topic) = config
-            .topics
-            .clone()
-            .unwrap_or_else(|| config.variant.topics(config.side));
-        // Best-effort reader matches any writer; reliable keep-last-1 writer matches any reader.
-        let mut io = match config.variant {
-            Dex1Variant::Hg => Io::Hg {
-                reader: node.reader(&cmd_topic, Qos::BestEffort)?,
-                writer: node.writer(&state_topic, Qos::Reliable { depth: 1 })?,
-            },
-            _ => Io::Go {
-                reader: node.reader(&cmd_topic, Qos::BestEffort)?,
-                writer: node.writer(&state_topic, Qos::Reliable { depth: 1 })?,
-            },
-        };
-        let shared = Arc::new(Mutex::new(Shared {
-            core,
-            states_published: 0,
-        }));
-        let sh = shared.clone();
-        let mut prev = None;
-        let name = format!("dex1-emu-{}", config.side);
-        let worker = Worker::spawn(&name, period, move |now| {
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            let ok = match &mut io {
-                Io::Go { reader, writer } => {
-                    let cmds = reader.take();
-                    let state = {
-                        let mut g = lock(&sh);
-                        let received = Instant::now();
-                        for c in &cmds {
-                            g.core.on_go(c, received);
-                        }
-                        g.core.step(Instant::now(), dt);
-                        g.core.go_state()
-                    };
-                    writer.write(state).is_ok()
-                }
-                Io::Hg { reader, writer } => {
-                    let cmds = reader.take();
-                    let state = {
-                        let mut g = lock(&sh);
-                        let received = Instant::now();
-                        for c in &cmds {
-                            g.core.on_hg(c, received);
-                        }
-                        g.core.step(Instant::now(), dt);
-                        g.core.hg_state()
-                    };
-                    writer.write(state).is_ok()
-                }
-            };
-            lock(&sh).states_published += u64::from(ok);
-        })?;
-        Ok(Self { shared, worker, config })
+        Ok(Self(match config.variant {
+            Dex1Variant::Hg => Wire::Hg(ServiceEmulator::start(node, config)?),
+            _ => Wire::Go(ServiceEmulator::start(node, config)?),
+        }))
     }
 
     pub fn config(&self) -> &Dex1Config {
-        &self.config
+        match &self.0 {
+            Wire::Go(e) => e.config(),
+            Wire::Hg(e) => e.config(),
+        }
     }
 
     pub fn snapshot(&self) -> Dex1Snapshot {
-        let g = lock(&self.shared);
-        Dex1Snapshot {
-            states_published: g.states_published,
-            ..g.core.snapshot()
+        match &self.0 {
+            Wire::Go(e) => e.snapshot(),
+            Wire::Hg(e) => e.snapshot(),
+        }
+    }
+
+    fn with_core<R>(&self, f: impl FnOnce(&mut Dex1Core) -> R) -> R {
+        match &self.0 {
+            Wire::Go(e) => e.with_core(|w| f(&mut w.0)),
+            Wire::Hg(e) => e.with_core(|w| f(&mut w.0)),
         }
     }
 
     /// The last command received (accepted or not).
     pub fn last_command(&self) -> Option<Dex1Command> {
-        lock(&self.shared).core.last_command.clone()
+        self.with_core(|c| c.last_command.clone())
     }
 
     /// Accepted commands.
     pub fn commands_received(&self) -> u64 {
-        lock(&self.shared).core.commands
+        self.with_core(|c| c.commands)
     }
 
     /// Ignored commands.
     pub fn commands_rejected(&self) -> u64 {
-        lock(&self.shared).core.rejected
+        self.with_core(|c| c.rejected)
     }
 
     /// `side`'s gripper, if this emulator serves it.
     pub fn gripper(&self, side: Side) -> Option<GripperView> {
-        lock(&self.shared)
-            .core
-            .grippers
-            .iter()
-            .find(|g| g.side == side)
-            .map(Dex1Core::view)
+        self.with_core(|c| c.grippers.iter().find(|g| g.side == side).map(Dex1Core::view))
     }
 
     /// Whether the configured side's gripper is braked (for the 2-element variant: the
     /// configured side too; use [`Dex1Emulator::gripper`] for the other).
     pub fn braked(&self) -> bool {
-        self.gripper(self.config.side).is_some_and(|g| g.braked)
+        self.gripper(self.config().side).is_some_and(|g| g.braked)
     }
 
     /// The configured side's jaw position, rad.
     pub fn jaw_position(&self) -> f32 {
-        self.gripper(self.config.side).map_or(f32::NAN, |g| g.q)
+        self.gripper(self.config().side).map_or(f32::NAN, |g| g.q)
     }
 
     /// Places (or removes) the object `side`'s jaws close on.
     pub fn set_object(&self, side: Side, at: Option<f32>) {
-        lock(&self.shared).core.set_object(side, at);
+        self.with_core(|c| c.set_object(side, at));
     }
 
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
+    /// Stops the loop (also done on drop).
+    pub fn stop(self) {
+        match self.0 {
+            Wire::Go(e) => e.stop(),
+            Wire::Hg(e) => e.stop(),
+        }
     }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dds::{Qos, Reader, Writer};
     use handgate_idl::unitree_go::MotorCmd_ as GoMotorCmd;
     use handgate_idl::unitree_hg::MotorCmd_ as HgMotorCmd;
 
