@@ -1,6 +1,6 @@
-//! Pieces shared by the DDS peer emulators (`dex3::dds_service_emulator`, `dex1::emulator`,
-//! `hand_sdk::emulator`): the hand side, a rate newtype, the emulator error type and a
-//! stoppable background loop paced at a fixed rate.
+//! Pieces shared by the emulated peers: the hand side, a rate newtype, the emulator error
+//! type, a configuration check, and the stoppable loop paced at a fixed rate that
+//! [`crate::service_emulator`] runs every emulated DDS service on.
 
 use std::time::{Duration, Instant};
 
@@ -37,9 +37,10 @@ pub enum EmulatorError {
     Spawn(#[from] std::io::Error),
 }
 
-/// `Err(InvalidConfig)` unless every value is finite.
-pub(crate) fn ensure_finite(what: &str, values: &[f32]) -> Result<(), EmulatorError> {
-    match values.iter().find(|v| !v.is_finite()) {
+/// `Err(InvalidConfig)` unless every value is finite (an array, or the values set of an
+/// array of options: `objects.into_iter().flatten()`).
+pub(crate) fn ensure_finite(what: &str, values: impl IntoIterator<Item = f32>) -> Result<(), EmulatorError> {
+    match values.into_iter().find(|v| !v.is_finite()) {
         Some(v) => Err(EmulatorError::InvalidConfig(format!("{what} must be finite, got {v}"))),
         None => Ok(()),
     }

@@ -169,12 +169,12 @@ pub const HARD_STOPS: (f32, f32) = (0.0, 1.0);
 impl BraincoCore {
     pub fn new(config: &BraincoConfig) -> Result<Self, EmulatorError> {
         let t = &config.tuning;
-        ensure_finite("initial", &config.initial)?;
-        ensure_finite("object", &config.object.iter().flatten().copied().collect::<Vec<_>>())?;
-        ensure_finite("sag", &config.sag.map(|s| s.0))?;
+        ensure_finite("initial", config.initial)?;
+        ensure_finite("object", config.object.into_iter().flatten())?;
+        ensure_finite("sag", config.sag.map(|s| s.0))?;
         ensure_finite(
             "tuning",
-            &[
+            [
                 t.full_speed,
                 t.time_constant_s,
                 t.idle_current_a,

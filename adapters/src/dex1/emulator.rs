@@ -195,12 +195,12 @@ impl Dex1Core {
             return Err(EmulatorError::InvalidConfig(format!("bad range {:?}", config.range)));
         }
         let t = &config.tuning;
-        ensure_finite("initial_q", &[config.initial_q, config.load])?;
+        ensure_finite("initial_q", [config.initial_q, config.load])?;
         config.noise.validate().map_err(EmulatorError::InvalidConfig)?;
-        ensure_finite("object", &config.object.into_iter().collect::<Vec<_>>())?;
+        ensure_finite("object", config.object)?;
         ensure_finite(
             "tuning",
-            &[
+            [
                 t.default_kp,
                 t.default_kd,
                 t.inertia,

@@ -197,17 +197,14 @@ impl Dex3ServiceConfig {
     pub fn validate(&self) -> Result<(), EmulatorError> {
         self.state_rate.period()?;
         self.lf_rate.period()?;
-        ensure_finite("initial_q", &self.initial_q)?;
+        ensure_finite("initial_q", self.initial_q)?;
         self.noise.validate().map_err(EmulatorError::InvalidConfig)?;
-        ensure_finite("objects", &self.objects.iter().flatten().copied().collect::<Vec<_>>())?;
-        ensure_finite(
-            "object_at",
-            &self.object_at.iter().flatten().copied().collect::<Vec<_>>(),
-        )?;
+        ensure_finite("objects", self.objects.into_iter().flatten())?;
+        ensure_finite("object_at", self.object_at.into_iter().flatten())?;
         let t = &self.tuning;
         ensure_finite(
             "tuning",
-            &[
+            [
                 t.hold_kp,
                 t.hold_kd,
                 t.contact_stiffness,

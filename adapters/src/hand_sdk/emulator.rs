@@ -150,12 +150,12 @@ impl HandSdkConfig {
         self.control_rate.period()?;
         let fields = |t: &MotorTarget| [t.q, t.dq, t.tau, t.kp, t.kd];
         for t in self.defaults.iter().chain(&self.damping_command) {
-            ensure_finite("default / damping command", &fields(t))?;
+            ensure_finite("default / damping command", fields(t))?;
         }
         if let Some(m) = &self.models {
-            ensure_finite("model initial_q", &m.initial_q)?;
+            ensure_finite("model initial_q", m.initial_q)?;
             for p in &m.params {
-                ensure_finite("model params", &[p.inertia, p.friction, p.tau_max, p.q_min, p.q_max])?;
+                ensure_finite("model params", [p.inertia, p.friction, p.tau_max, p.q_min, p.q_max])?;
                 if !(p.inertia > 0.0 && p.q_min < p.q_max) {
                     return Err(EmulatorError::InvalidConfig(format!("bad joint params {p:?}")));
                 }

@@ -188,13 +188,10 @@ pub fn angle_act(q: f32) -> f32 {
 impl DfxCore {
     pub fn new(config: &DfxConfig) -> Result<Self, EmulatorError> {
         let t = &config.tuning;
-        ensure_finite("initial", &config.initial)?;
-        ensure_finite(
-            "object_at",
-            &config.object_at.iter().flatten().copied().collect::<Vec<_>>(),
-        )?;
-        ensure_finite("tuning", &[t.time_constant_s, t.max_speed])?;
-        ensure_finite("sag", &config.sag.map(|s| s.0))?;
+        ensure_finite("initial", config.initial)?;
+        ensure_finite("object_at", config.object_at.into_iter().flatten())?;
+        ensure_finite("tuning", [t.time_constant_s, t.max_speed])?;
+        ensure_finite("sag", config.sag.map(|s| s.0))?;
         if t.time_constant_s <= 0.0 || t.max_speed <= 0.0 {
             return Err(EmulatorError::InvalidConfig(
                 "time_constant_s and max_speed must be > 0".into(),

@@ -272,14 +272,14 @@ fn register(v: i16) -> Option<i16> {
 
 impl FtpCore {
     pub fn new(config: &FtpConfig) -> Result<Self, EmulatorError> {
-        ensure_finite("initial", &config.initial)?;
-        ensure_finite("object", &config.object.iter().flatten().copied().collect::<Vec<_>>())?;
-        ensure_finite("sag", &config.sag.map(|s| s.0))?;
+        ensure_finite("initial", config.initial)?;
+        ensure_finite("object", config.object.into_iter().flatten())?;
+        ensure_finite("sag", config.sag.map(|s| s.0))?;
         config.noise.validate().map_err(EmulatorError::InvalidConfig)?;
         let t = &config.tuning;
         ensure_finite(
             "tuning",
-            &[
+            [
                 t.max_speed,
                 t.time_constant_s,
                 t.contact_units_per_angle,
