@@ -82,6 +82,21 @@ pub(crate) fn tick_dt(prev: Option<Instant>, now: Instant, nominal: Duration) ->
     dt.as_secs_f32().clamp(0.0, 0.01)
 }
 
+/// Test support: how long a DDS test waits for a condition before it fails (generous: a
+/// loaded machine starves the emulator threads).
+#[cfg(test)]
+pub(crate) const TEST_WAIT: Duration = Duration::from_secs(20);
+
+/// Test support: polls `cond` until it holds; panics after [`TEST_WAIT`].
+#[cfg(test)]
+pub(crate) fn wait_for(mut cond: impl FnMut() -> bool) {
+    let deadline = Instant::now() + TEST_WAIT;
+    while !cond() {
+        assert!(Instant::now() < deadline, "condition not reached");
+        std::thread::yield_now();
+    }
+}
+
 /// Test support: makes DDS domain `id` private to this process.
 ///
 /// The emulator tests own fixed domain ids; two runs of the same tests at once (two

@@ -78,6 +78,25 @@ pub struct ServicePlan {
     pub extra: Option<(String, Option<Hz>)>,
 }
 
+impl ServicePlan {
+    /// The loop `name` at `rate`, reading `cmd_topic` and publishing on `state_topic`
+    /// (`None`: no state), with no extra message.
+    pub fn new(name: impl Into<String>, rate: Hz, cmd_topic: String, state_topic: Option<String>) -> Self {
+        Self {
+            name: name.into(),
+            rate,
+            cmd_topic,
+            state_topic,
+            extra: None,
+        }
+    }
+
+    /// The same with an extra message on `topic` at `rate` (`None`: every cycle), if any.
+    pub fn with_extra(self, extra: Option<(String, Option<Hz>)>) -> Self {
+        Self { extra, ..self }
+    }
+}
+
 /// The time of one cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tick {
@@ -257,6 +276,7 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::emu_common::{wait_for, TEST_WAIT as WAIT};
     use handgate_idl::unitree_go::{MotorCmd_, MotorCmds_, MotorStates_};
 
     /// Keeps the q of every command in arrival order; its state carries how many it kept.
@@ -281,13 +301,9 @@ mod tests {
         }
 
         fn plan(&(state, extra): &EchoConfig) -> Result<ServicePlan, EmulatorError> {
-            Ok(ServicePlan {
-                name: "echo-emu".into(),
-                rate: Hz(500.0),
-                cmd_topic: "test/echo/cmd".into(),
-                state_topic: state.then(|| "test/echo/state".into()),
-                extra: extra.map(|r| ("test/echo/extra".to_string(), Some(r))),
-            })
+            let state_topic = state.then(|| "test/echo/state".into());
+            let extra = extra.map(|r| ("test/echo/extra".to_string(), Some(r)));
+            Ok(ServicePlan::new("echo-emu", Hz(500.0), "test/echo/cmd".into(), state_topic).with_extra(extra))
         }
 
         fn receive(&mut self, cmd: &MotorCmds_, now: Instant) {
@@ -306,16 +322,6 @@ mod tests {
 
         fn report(&self, published: Published) -> Self::Snapshot {
             (self.received.clone(), self.cycles, published)
-        }
-    }
-
-    const WAIT: Duration = Duration::from_secs(20);
-
-    fn wait_for(mut cond: impl FnMut() -> bool) {
-        let deadline = Instant::now() + WAIT;
-        while !cond() {
-            assert!(Instant::now() < deadline, "condition not reached");
-            std::thread::yield_now();
         }
     }
 
@@ -387,13 +393,7 @@ mod tests {
                 panic!("built before the rate was checked")
             }
             fn plan(rate: &Hz) -> Result<ServicePlan, EmulatorError> {
-                Ok(ServicePlan {
-                    name: "slow-emu".into(),
-                    rate: *rate,
-                    cmd_topic: "test/slow/cmd".into(),
-                    state_topic: None,
-                    extra: None,
-                })
+                Ok(ServicePlan::new("slow-emu", *rate, "test/slow/cmd".into(), None))
             }
             fn receive(&mut self, _: &MotorCmds_, _: Instant) {}
             fn cycle(&mut self, _: Tick) -> Option<Silent> {

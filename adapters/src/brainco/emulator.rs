@@ -323,13 +323,8 @@ impl ServiceCore for BraincoCore {
             None => super::topics(config.side)
                 .ok_or_else(|| EmulatorError::InvalidConfig("a BrainCo hand is left or right".into()))?,
         };
-        Ok(ServicePlan {
-            name: format!("brainco-emu-{}", config.side),
-            rate: config.rate,
-            cmd_topic,
-            state_topic: Some(state_topic),
-            extra: None,
-        })
+        let name = format!("brainco-emu-{}", config.side);
+        Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
     }
 
     /// Latest wins: applied in arrival order, a malformed one leaves the previous.

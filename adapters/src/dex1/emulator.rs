@@ -22,8 +22,10 @@
 //! calibrated 322°, wider than the 5.4 rad clients command), it starts at [`DEX1_REST_Q`]
 //! and its state reports q, dq and tau_est with measurement noise ([`Dex1Config::noise`]).
 
+use std::marker::PhantomData;
 use std::time::{Duration, Instant};
 
+use cyclonedds_rs::TopicType;
 use handgate_idl::unitree_go::{MotorCmds_, MotorState_ as GoMotorState, MotorStates_};
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorState_ as HgMotorState};
 
@@ -388,90 +390,79 @@ impl Dex1Core {
     }
 }
 
-impl Dex1Core {
+/// A wire of dex1_1_service: its command and state messages.
+trait Dex1Wire: Send + 'static {
+    type Cmd: TopicType + Clone + Send + 'static;
+    type State: TopicType + Send + 'static;
+    fn receive(core: &mut Dex1Core, cmd: &Self::Cmd, now: Instant);
+    fn state(core: &mut Dex1Core) -> Self::State;
+}
+
+/// The `unitree_go` wire (variants Go and Actuator).
+enum GoWire {}
+/// The seed spec's `unitree_hg` wire.
+enum HgWire {}
+
+impl Dex1Wire for GoWire {
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
+    fn receive(core: &mut Dex1Core, cmd: &MotorCmds_, now: Instant) {
+        core.on_go(cmd, now);
+    }
+    fn state(core: &mut Dex1Core) -> MotorStates_ {
+        core.go_state()
+    }
+}
+
+impl Dex1Wire for HgWire {
+    type Cmd = HandCmd_;
+    type State = HandState_;
+    fn receive(core: &mut Dex1Core, cmd: &HandCmd_, now: Instant) {
+        core.on_hg(cmd, now);
+    }
+    fn state(core: &mut Dex1Core) -> HandState_ {
+        core.hg_state()
+    }
+}
+
+/// The service on wire `W`.
+struct OnWire<W>(Dex1Core, PhantomData<W>);
+
+impl<W: Dex1Wire> ServiceCore for OnWire<W> {
+    type Config = Dex1Config;
+    type Cmd = W::Cmd;
+    type State = W::State;
+    type Extra = Silent;
+    type Snapshot = Dex1Snapshot;
+
+    fn from_config(config: &Dex1Config) -> Result<Self, EmulatorError> {
+        Ok(Self(Dex1Core::new(config)?, PhantomData))
+    }
+
+    /// The variant's topics, the configured rate.
+    fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
+        let (cmd_topic, state_topic) = config
+            .topics
+            .clone()
+            .unwrap_or_else(|| config.variant.topics(config.side));
+        let name = format!("dex1-emu-{}", config.side);
+        Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
+    }
+
+    fn receive(&mut self, cmd: &W::Cmd, now: Instant) {
+        W::receive(&mut self.0, cmd, now);
+    }
+
+    fn cycle(&mut self, tick: Tick) -> Option<W::State> {
+        self.0.step(tick.now, tick.dt);
+        Some(W::state(&mut self.0))
+    }
+
     fn report(&self, published: Published) -> Dex1Snapshot {
         Dex1Snapshot {
             states_published: published.state,
-            ..self.snapshot()
+            ..self.0.snapshot()
         }
-    }
-}
-
-/// The service on the `unitree_go` wire (variants Go and Actuator).
-struct GoWire(Dex1Core);
-/// The service on the seed spec's `unitree_hg` wire.
-struct HgWire(Dex1Core);
-
-/// Both wires: the variant's topics, the configured rate.
-fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
-    let (cmd_topic, state_topic) = config
-        .topics
-        .clone()
-        .unwrap_or_else(|| config.variant.topics(config.side));
-    Ok(ServicePlan {
-        name: format!("dex1-emu-{}", config.side),
-        rate: config.rate,
-        cmd_topic,
-        state_topic: Some(state_topic),
-        extra: None,
-    })
-}
-
-impl ServiceCore for GoWire {
-    type Config = Dex1Config;
-    type Cmd = MotorCmds_;
-    type State = MotorStates_;
-    type Extra = Silent;
-    type Snapshot = Dex1Snapshot;
-
-    fn from_config(config: &Dex1Config) -> Result<Self, EmulatorError> {
-        Dex1Core::new(config).map(Self)
-    }
-
-    fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
-        plan(config)
-    }
-
-    fn receive(&mut self, cmd: &MotorCmds_, now: Instant) {
-        self.0.on_go(cmd, now);
-    }
-
-    fn cycle(&mut self, tick: Tick) -> Option<MotorStates_> {
-        self.0.step(tick.now, tick.dt);
-        Some(self.0.go_state())
-    }
-
-    fn report(&self, published: Published) -> Dex1Snapshot {
-        self.0.report(published)
-    }
-}
-
-impl ServiceCore for HgWire {
-    type Config = Dex1Config;
-    type Cmd = HandCmd_;
-    type State = HandState_;
-    type Extra = Silent;
-    type Snapshot = Dex1Snapshot;
-
-    fn from_config(config: &Dex1Config) -> Result<Self, EmulatorError> {
-        Dex1Core::new(config).map(Self)
-    }
-
-    fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
-        plan(config)
-    }
-
-    fn receive(&mut self, cmd: &HandCmd_, now: Instant) {
-        self.0.on_hg(cmd, now);
-    }
-
-    fn cycle(&mut self, tick: Tick) -> Option<HandState_> {
-        self.0.step(tick.now, tick.dt);
-        Some(self.0.hg_state())
-    }
-
-    fn report(&self, published: Published) -> Dex1Snapshot {
-        self.0.report(published)
     }
 }
 
@@ -481,8 +472,8 @@ pub struct Dex1Emulator(Wire);
 
 #[derive(Debug)]
 enum Wire {
-    Go(ServiceEmulator<GoWire>),
-    Hg(ServiceEmulator<HgWire>),
+    Go(ServiceEmulator<OnWire<GoWire>>),
+    Hg(ServiceEmulator<OnWire<HgWire>>),
 }
 
 impl Dex1Emulator {
@@ -564,6 +555,7 @@ impl Dex1Emulator {
 mod tests {
     use super::*;
     use crate::dds::{Qos, Reader, Writer};
+    use crate::emu_common::{wait_for, TEST_WAIT as WAIT};
     use handgate_idl::unitree_go::MotorCmd_ as GoMotorCmd;
     use handgate_idl::unitree_hg::MotorCmd_ as HgMotorCmd;
 
@@ -682,16 +674,6 @@ mod tests {
     }
 
     // ---- over real DDS (domains 36..=41) ----
-
-    const WAIT: Duration = Duration::from_secs(20);
-
-    fn wait_for(mut cond: impl FnMut() -> bool) {
-        let deadline = Instant::now() + WAIT;
-        while !cond() {
-            assert!(Instant::now() < deadline, "condition not reached");
-            std::thread::yield_now();
-        }
-    }
 
     /// Publishes `cmd` once per received state sample until `done` holds. Returns the state
     /// and the instant just before the last write.

@@ -543,13 +543,8 @@ impl ServiceCore for Dex3Core {
             .topics
             .clone()
             .unwrap_or_else(|| (cmd_topic(side), state_topic(side), lf_state_topic(side)));
-        Ok(ServicePlan {
-            name: format!("dex3-emu-{side}"),
-            rate: config.state_rate,
-            cmd_topic: cmd_t,
-            state_topic: Some(state_t),
-            extra: config.publish_lf.then_some((lf_t, Some(config.lf_rate))),
-        })
+        let lf = config.publish_lf.then_some((lf_t, Some(config.lf_rate)));
+        Ok(ServicePlan::new(format!("dex3-emu-{side}"), config.state_rate, cmd_t, Some(state_t)).with_extra(lf))
     }
 
     fn receive(&mut self, cmd: &HandCmd_, now: Instant) {
@@ -613,6 +608,7 @@ impl Dex3ServiceEmulator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::emu_common::{wait_for, TEST_WAIT as WAIT};
     use handgate_idl::unitree_hg::MotorCmd_;
     use proptest::prelude::*;
 
@@ -886,8 +882,6 @@ mod tests {
 
     use crate::dds::{Node, Qos, Reader, Writer};
 
-    const WAIT: Duration = Duration::from_secs(20);
-
     struct Client {
         _node: Node,
         cmd: Writer<HandCmd_>,
@@ -940,14 +934,6 @@ mod tests {
                 }
                 assert!(Instant::now() < deadline, "condition not reached; last state {s:?}");
             }
-        }
-    }
-
-    fn wait_for(mut cond: impl FnMut() -> bool) {
-        let deadline = Instant::now() + WAIT;
-        while !cond() {
-            assert!(Instant::now() < deadline, "condition not reached");
-            std::thread::yield_now();
         }
     }
 

@@ -370,13 +370,12 @@ impl ServiceCore for HandSdkCore {
     }
 
     fn plan(config: &HandSdkConfig) -> Result<ServicePlan, EmulatorError> {
-        Ok(ServicePlan {
-            name: "hand-sdk-emu".into(),
-            rate: config.control_rate,
-            cmd_topic: config.topic.clone(),
-            state_topic: None,
-            extra: None,
-        })
+        Ok(ServicePlan::new(
+            "hand-sdk-emu",
+            config.control_rate,
+            config.topic.clone(),
+            None,
+        ))
     }
 
     fn receive(&mut self, msg: &MotorCmds_, now: Instant) {
@@ -432,6 +431,7 @@ impl HandSdkEmulator {
 mod tests {
     use super::*;
     use crate::dds::{Node, Qos, Writer};
+    use crate::emu_common::{wait_for, TEST_WAIT as WAIT};
     use handgate_idl::unitree_go::MotorCmd_;
     use proptest::prelude::*;
 
@@ -555,16 +555,6 @@ mod tests {
     }
 
     // ---- over real DDS (domains 42..=47) ----
-
-    const WAIT: Duration = Duration::from_secs(20);
-
-    fn wait_for(mut cond: impl FnMut() -> bool) {
-        let deadline = Instant::now() + WAIT;
-        while !cond() {
-            assert!(Instant::now() < deadline, "condition not reached");
-            std::thread::yield_now();
-        }
-    }
 
     /// A fallback timeout no test thread stall can reach (for tests not about fallback).
     fn patient() -> HandSdkConfig {

@@ -339,13 +339,12 @@ impl ServiceCore for DfxCore {
 
     fn plan(config: &DfxConfig) -> Result<ServicePlan, EmulatorError> {
         let (cmd_topic, state_topic) = topics(config);
-        Ok(ServicePlan {
-            name: "inspire-dfx-emu".into(),
-            rate: config.rate,
+        Ok(ServicePlan::new(
+            "inspire-dfx-emu",
+            config.rate,
             cmd_topic,
-            state_topic: Some(state_topic),
-            extra: None,
-        })
+            Some(state_topic),
+        ))
     }
 
     fn receive(&mut self, cmd: &MotorCmds_, now: Instant) {

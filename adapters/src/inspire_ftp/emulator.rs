@@ -521,13 +521,9 @@ impl ServiceCore for FtpCore {
     /// The touch topic only over Modbus TCP, at the loop's rate.
     fn plan(config: &FtpConfig) -> Result<ServicePlan, EmulatorError> {
         let (ctrl, state, touch) = config.topics.clone().unwrap_or_else(|| standard_topics(config.side));
-        Ok(ServicePlan {
-            name: format!("ftp-emu-{}", config.side),
-            rate: config.rate,
-            cmd_topic: ctrl,
-            state_topic: Some(state),
-            extra: config.transport.publishes_touch().then_some((touch, None)),
-        })
+        let name = format!("ftp-emu-{}", config.side);
+        let touch = config.transport.publishes_touch().then_some((touch, None));
+        Ok(ServicePlan::new(name, config.rate, ctrl, Some(state)).with_extra(touch))
     }
 
     /// Commands are applied as they arrived, each writing its registers.
