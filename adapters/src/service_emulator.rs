@@ -10,11 +10,10 @@
 //! One cycle, in this order: take the commands the reader holds (it keeps the newest: a
 //! command written over before a cycle takes it is not seen); apply them in arrival order
 //! ([`ServiceCore::receive`], all stamped with one instant taken after the take, so never
-//! earlier than the sender's write); run the core's cycle
-//! ([`ServiceCore::cycle`]), which returns the state message; publish it, then the extra
-//! message when one is due. The loop is paced on an absolute schedule (a late cycle is
-//! skipped, not replayed) and the step it hands the core is bounded
-//! ([`crate::emu_common::tick_dt`]).
+//! earlier than the sender's write); run the core's cycle ([`ServiceCore::cycle`]), which
+//! returns the state message; publish it, then the extra message when one is due. The loop
+//! is paced on an absolute schedule (a late cycle is skipped, not replayed) and the step it
+//! hands the core is bounded ([`crate::emu_common::tick_dt`]).
 //!
 //! QoS: the command reader is best-effort (it matches reliable and best-effort writers
 //! alike), the writers reliable keep-last-1 (they match reliable and best-effort readers
@@ -91,7 +90,8 @@ impl ServicePlan {
         }
     }
 
-    /// The same with an extra message on `topic` at `rate` (`None`: every cycle), if any.
+    /// The same with `extra`: a second message's topic and rate (`None`: every cycle), or
+    /// `None` for none.
     pub fn with_extra(self, extra: Option<(String, Option<Hz>)>) -> Self {
         Self { extra, ..self }
     }
