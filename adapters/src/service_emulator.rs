@@ -1,8 +1,9 @@
 //! The shell of every emulated DDS service (the peers of the DDS-client kinds:
 //! dex1_1_service, the G1's Dex3 service, ai_sport's `rt/hand_sdk` blend,
 //! DFX_inspire_service, Inspire's FTP driver, brainco_hand_service). A kind supplies the
-//! service's logic without DDS, its [`ServiceCore`]: commands in, time passes, messages out,
-//! which its unit tests drive with synthetic time. [`ServiceEmulator`] runs that core on DDS:
+//! service's logic without DDS, its [`ServiceCore`] (configuration, topics and rate,
+//! snapshot) and [`ServiceWire`] (commands in, time passes, messages out), which its unit
+//! tests drive with synthetic time. [`ServiceEmulator`] runs that core on DDS:
 //! one command reader, the writers of what it publishes, the core behind a lock, and its loop
 //! on the emulators' shared thread ([`crate::emu_common::Worker`]), stopped by
 //! [`ServiceEmulator::stop`] or on drop.
@@ -27,17 +28,13 @@ use cyclonedds_rs::TopicType;
 use crate::dds::{DdsError, Node, Qos, Writer};
 use crate::emu_common::{tick_dt, EmulatorError, Hz, Worker};
 
-/// A service's logic without DDS: what differs between the emulated services.
+/// A service's logic without DDS (what differs between the emulated services): what it is
+/// started with, where it runs, and what it reports. The messages it exchanges are its
+/// [`ServiceWire`]: usually the core itself, several for a service with several wire
+/// variants (dex1_1_service's `unitree_go` and `unitree_hg`).
 pub trait ServiceCore: Sized + Send + 'static {
     /// What the service is started with (kept: [`ServiceEmulator::config`]).
     type Config: Send + Sync + 'static;
-    /// The command message it subscribes.
-    type Cmd: TopicType + Clone + Send + 'static;
-    /// The state message it publishes each cycle ([`Silent`]: it publishes none).
-    type State: Outlet;
-    /// A second message on a topic of its own, each cycle or at a rate of its own ([`Silent`]:
-    /// none).
-    type Extra: Outlet;
     /// What [`ServiceEmulator::snapshot`] returns.
     type Snapshot;
 
@@ -47,20 +44,31 @@ pub trait ServiceCore: Sized + Send + 'static {
     /// Where and how fast the service runs for `config`.
     fn plan(config: &Self::Config) -> Result<ServicePlan, EmulatorError>;
 
+    /// A consistent copy of the core's state, with what the emulator published.
+    fn report(&self, published: Published) -> Self::Snapshot;
+}
+
+/// The messages core `C` exchanges on DDS, and what it does with them.
+pub trait ServiceWire<C>: 'static {
+    /// The command message the service subscribes.
+    type Cmd: TopicType + Clone + Send + 'static;
+    /// The state message it publishes each cycle ([`Silent`]: it publishes none).
+    type State: Outlet;
+    /// A second message on a topic of its own, each cycle or at a rate of its own ([`Silent`]:
+    /// none).
+    type Extra: Outlet;
+
     /// One command, received at `now`. A malformed one is the core's to ignore (and count).
-    fn receive(&mut self, cmd: &Self::Cmd, now: Instant);
+    fn receive(core: &mut C, cmd: &Self::Cmd, now: Instant);
 
     /// One loop cycle after the commands were applied: time passes, and the state message to
     /// publish (`None`: nothing this cycle).
-    fn cycle(&mut self, tick: Tick) -> Option<Self::State>;
+    fn cycle(core: &mut C, tick: Tick) -> Option<Self::State>;
 
     /// The extra message, when it is due, after [`Self::cycle`] returned `state`.
-    fn extra(&mut self, _state: &Self::State) -> Option<Self::Extra> {
+    fn extra(_core: &mut C, _state: &Self::State) -> Option<Self::Extra> {
         None
     }
-
-    /// A consistent copy of the core's state, with what the emulator published.
-    fn report(&self, published: Published) -> Self::Snapshot;
 }
 
 /// A service's loop name, rate and topics, decided from its configuration at start.
@@ -172,9 +180,16 @@ impl<C: ServiceCore> std::fmt::Debug for ServiceEmulator<C> {
     }
 }
 
-impl<C: ServiceCore> ServiceEmulator<C> {
-    /// Starts the service on `node`: its reader and writers, then its loop.
+impl<C: ServiceCore + ServiceWire<C>> ServiceEmulator<C> {
+    /// Starts the service on `node`, on the core's own wire.
     pub fn start(node: &Node, config: C::Config) -> Result<Self, EmulatorError> {
+        Self::start_on::<C>(node, config)
+    }
+}
+
+impl<C: ServiceCore> ServiceEmulator<C> {
+    /// Starts the service on `node` on wire `W`: its reader and writers, then its loop.
+    pub fn start_on<W: ServiceWire<C>>(node: &Node, config: C::Config) -> Result<Self, EmulatorError> {
         let plan = C::plan(&config)?;
         let period = plan.rate.period()?;
         let extra_period = match &plan.extra {
@@ -182,13 +197,13 @@ impl<C: ServiceCore> ServiceEmulator<C> {
             _ => None,
         };
         let core = C::from_config(&config)?;
-        let reader = node.reader::<C::Cmd>(&plan.cmd_topic, Qos::BestEffort)?;
+        let reader = node.reader::<W::Cmd>(&plan.cmd_topic, Qos::BestEffort)?;
         let mut state_w = plan
             .state_topic
             .as_deref()
-            .map(|t| C::State::open(node, t))
+            .map(|t| W::State::open(node, t))
             .transpose()?;
-        let mut extra_w = plan.extra.as_ref().map(|(t, _)| C::Extra::open(node, t)).transpose()?;
+        let mut extra_w = plan.extra.as_ref().map(|(t, _)| W::Extra::open(node, t)).transpose()?;
         let shared = Arc::new(Mutex::new(Shared {
             core,
             published: Published::default(),
@@ -209,15 +224,16 @@ impl<C: ServiceCore> ServiceEmulator<C> {
                 let mut g = lock(&sh);
                 let received = Instant::now();
                 for c in &cmds {
-                    g.core.receive(c, received);
+                    W::receive(&mut g.core, c, received);
                 }
-                let state = g.core.cycle(Tick {
+                let tick = Tick {
                     now: Instant::now(),
                     dt,
                     period,
-                });
+                };
+                let state = W::cycle(&mut g.core, tick);
                 let extra = match &state {
-                    Some(s) if extra_due => g.core.extra(s),
+                    Some(s) if extra_due => W::extra(&mut g.core, s),
                     _ => None,
                 };
                 (state, extra)
@@ -291,9 +307,6 @@ mod tests {
 
     impl ServiceCore for Echo {
         type Config = EchoConfig;
-        type Cmd = MotorCmds_;
-        type State = MotorStates_;
-        type Extra = MotorStates_;
         type Snapshot = (Vec<(f32, Instant)>, u64, Published);
 
         fn from_config(_: &EchoConfig) -> Result<Self, EmulatorError> {
@@ -306,22 +319,28 @@ mod tests {
             Ok(ServicePlan::new("echo-emu", Hz(500.0), "test/echo/cmd".into(), state_topic).with_extra(extra))
         }
 
-        fn receive(&mut self, cmd: &MotorCmds_, now: Instant) {
-            self.received.extend(cmd.cmds.iter().map(|c| (c.q, now)));
-        }
-
-        fn cycle(&mut self, tick: Tick) -> Option<MotorStates_> {
-            assert!(tick.dt <= 0.01 && tick.period == Duration::from_millis(2));
-            self.cycles += 1;
-            Some(MotorStates_::with_len(self.received.len()))
-        }
-
-        fn extra(&mut self, state: &MotorStates_) -> Option<MotorStates_> {
-            Some(state.clone())
-        }
-
         fn report(&self, published: Published) -> Self::Snapshot {
             (self.received.clone(), self.cycles, published)
+        }
+    }
+
+    impl ServiceWire<Echo> for Echo {
+        type Cmd = MotorCmds_;
+        type State = MotorStates_;
+        type Extra = MotorStates_;
+
+        fn receive(core: &mut Echo, cmd: &MotorCmds_, now: Instant) {
+            core.received.extend(cmd.cmds.iter().map(|c| (c.q, now)));
+        }
+
+        fn cycle(core: &mut Echo, tick: Tick) -> Option<MotorStates_> {
+            assert!(tick.dt <= 0.01 && tick.period == Duration::from_millis(2));
+            core.cycles += 1;
+            Some(MotorStates_::with_len(core.received.len()))
+        }
+
+        fn extra(_core: &mut Echo, state: &MotorStates_) -> Option<MotorStates_> {
+            Some(state.clone())
         }
     }
 
@@ -385,9 +404,6 @@ mod tests {
         struct Slow;
         impl ServiceCore for Slow {
             type Config = Hz;
-            type Cmd = MotorCmds_;
-            type State = Silent;
-            type Extra = Silent;
             type Snapshot = ();
             fn from_config(_: &Hz) -> Result<Self, EmulatorError> {
                 panic!("built before the rate was checked")
@@ -395,11 +411,16 @@ mod tests {
             fn plan(rate: &Hz) -> Result<ServicePlan, EmulatorError> {
                 Ok(ServicePlan::new("slow-emu", *rate, "test/slow/cmd".into(), None))
             }
-            fn receive(&mut self, _: &MotorCmds_, _: Instant) {}
-            fn cycle(&mut self, _: Tick) -> Option<Silent> {
+            fn report(&self, _: Published) {}
+        }
+        impl ServiceWire<Slow> for Slow {
+            type Cmd = MotorCmds_;
+            type State = Silent;
+            type Extra = Silent;
+            fn receive(_: &mut Slow, _: &MotorCmds_, _: Instant) {}
+            fn cycle(_: &mut Slow, _: Tick) -> Option<Silent> {
                 None
             }
-            fn report(&self, _: Published) {}
         }
         crate::emu_common::isolated_test_domain(65);
         let node = Node::new(65, None).unwrap();

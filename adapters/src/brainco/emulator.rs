@@ -31,7 +31,7 @@ use handgate_idl::unitree_go::{MotorCmds_, MotorState_, MotorStates_};
 
 use super::WIRE_LEN;
 use crate::emu_common::{ensure_finite, EmulatorError, Hz, Side};
-use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, Silent, Tick};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{Noise, Sag, Sensor};
 
 /// The service's loop and state rate, Hz: `main.cpp` targets a 2 ms period (docs/sources.md
@@ -308,9 +308,6 @@ impl BraincoCore {
 
 impl ServiceCore for BraincoCore {
     type Config = BraincoConfig;
-    type Cmd = MotorCmds_;
-    type State = MotorStates_;
-    type Extra = Silent;
     type Snapshot = BraincoSnapshot;
 
     fn from_config(config: &BraincoConfig) -> Result<Self, EmulatorError> {
@@ -327,21 +324,27 @@ impl ServiceCore for BraincoCore {
         Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
     }
 
-    /// Latest wins: applied in arrival order, a malformed one leaves the previous.
-    fn receive(&mut self, cmd: &MotorCmds_, _now: Instant) {
-        self.on_command(cmd);
-    }
-
-    fn cycle(&mut self, tick: Tick) -> Option<MotorStates_> {
-        self.step(tick.dt);
-        Some(self.state())
-    }
-
     fn report(&self, published: Published) -> BraincoSnapshot {
         BraincoSnapshot {
             states_published: published.state,
             ..self.snapshot()
         }
+    }
+}
+
+impl ServiceWire<Self> for BraincoCore {
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
+    type Extra = Silent;
+
+    /// Latest wins: applied in arrival order, a malformed one leaves the previous.
+    fn receive(core: &mut Self, cmd: &MotorCmds_, _now: Instant) {
+        core.on_command(cmd);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<MotorStates_> {
+        core.step(tick.dt);
+        Some(core.state())
     }
 }
 

@@ -22,16 +22,14 @@
 //! calibrated 322°, wider than the 5.4 rad clients command), it starts at [`DEX1_REST_Q`]
 //! and its state reports q, dq and tau_est with measurement noise ([`Dex1Config::noise`]).
 
-use std::marker::PhantomData;
 use std::time::{Duration, Instant};
 
-use cyclonedds_rs::TopicType;
 use handgate_idl::unitree_go::{MotorCmds_, MotorState_ as GoMotorState, MotorStates_};
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorState_ as HgMotorState};
 
 use crate::dds::Node;
 use crate::emu_common::{ensure_finite, EmulatorError, Hz, Side};
-use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, Silent, Tick};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
 
 /// Nominal open position clients command (xr_teleoperate, EZGripper driver; docs/sources.md §4), rad.
@@ -390,53 +388,12 @@ impl Dex1Core {
     }
 }
 
-/// A wire of dex1_1_service: its command and state messages.
-trait Dex1Wire: Send + 'static {
-    type Cmd: TopicType + Clone + Send + 'static;
-    type State: TopicType + Send + 'static;
-    fn receive(core: &mut Dex1Core, cmd: &Self::Cmd, now: Instant);
-    fn state(core: &mut Dex1Core) -> Self::State;
-}
-
-/// The `unitree_go` wire (variants Go and Actuator).
-enum GoWire {}
-/// The seed spec's `unitree_hg` wire.
-enum HgWire {}
-
-impl Dex1Wire for GoWire {
-    type Cmd = MotorCmds_;
-    type State = MotorStates_;
-    fn receive(core: &mut Dex1Core, cmd: &MotorCmds_, now: Instant) {
-        core.on_go(cmd, now);
-    }
-    fn state(core: &mut Dex1Core) -> MotorStates_ {
-        core.go_state()
-    }
-}
-
-impl Dex1Wire for HgWire {
-    type Cmd = HandCmd_;
-    type State = HandState_;
-    fn receive(core: &mut Dex1Core, cmd: &HandCmd_, now: Instant) {
-        core.on_hg(cmd, now);
-    }
-    fn state(core: &mut Dex1Core) -> HandState_ {
-        core.hg_state()
-    }
-}
-
-/// The service on wire `W`.
-struct OnWire<W>(Dex1Core, PhantomData<W>);
-
-impl<W: Dex1Wire> ServiceCore for OnWire<W> {
+impl ServiceCore for Dex1Core {
     type Config = Dex1Config;
-    type Cmd = W::Cmd;
-    type State = W::State;
-    type Extra = Silent;
     type Snapshot = Dex1Snapshot;
 
     fn from_config(config: &Dex1Config) -> Result<Self, EmulatorError> {
-        Ok(Self(Dex1Core::new(config)?, PhantomData))
+        Self::new(config)
     }
 
     /// The variant's topics, the configured rate.
@@ -449,60 +406,58 @@ impl<W: Dex1Wire> ServiceCore for OnWire<W> {
         Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
     }
 
-    fn receive(&mut self, cmd: &W::Cmd, now: Instant) {
-        W::receive(&mut self.0, cmd, now);
-    }
-
-    fn cycle(&mut self, tick: Tick) -> Option<W::State> {
-        self.0.step(tick.now, tick.dt);
-        Some(W::state(&mut self.0))
-    }
-
     fn report(&self, published: Published) -> Dex1Snapshot {
         Dex1Snapshot {
             states_published: published.state,
-            ..self.0.snapshot()
+            ..self.snapshot()
         }
     }
 }
 
-/// A running emulated dex1_1_service, on its variant's wire. Dropping it stops its loop.
-#[derive(Debug)]
-pub struct Dex1Emulator(Wire);
+/// The `unitree_go` wire (variants Go and Actuator).
+enum GoWire {}
+/// The seed spec's `unitree_hg` wire.
+enum HgWire {}
 
-#[derive(Debug)]
-enum Wire {
-    Go(ServiceEmulator<OnWire<GoWire>>),
-    Hg(ServiceEmulator<OnWire<HgWire>>),
+impl ServiceWire<Dex1Core> for GoWire {
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
+    type Extra = Silent;
+
+    fn receive(core: &mut Dex1Core, cmd: &MotorCmds_, now: Instant) {
+        core.on_go(cmd, now);
+    }
+
+    fn cycle(core: &mut Dex1Core, tick: Tick) -> Option<MotorStates_> {
+        core.step(tick.now, tick.dt);
+        Some(core.go_state())
+    }
 }
+
+impl ServiceWire<Dex1Core> for HgWire {
+    type Cmd = HandCmd_;
+    type State = HandState_;
+    type Extra = Silent;
+
+    fn receive(core: &mut Dex1Core, cmd: &HandCmd_, now: Instant) {
+        core.on_hg(cmd, now);
+    }
+
+    fn cycle(core: &mut Dex1Core, tick: Tick) -> Option<HandState_> {
+        core.step(tick.now, tick.dt);
+        Some(core.hg_state())
+    }
+}
+
+/// A running emulated dex1_1_service. Dropping it stops its loop.
+pub type Dex1Emulator = ServiceEmulator<Dex1Core>;
 
 impl Dex1Emulator {
-    /// Starts the service on `node`.
+    /// Starts the service on `node`, on its variant's wire.
     pub fn start(node: &Node, config: Dex1Config) -> Result<Self, EmulatorError> {
-        Ok(Self(match config.variant {
-            Dex1Variant::Hg => Wire::Hg(ServiceEmulator::start(node, config)?),
-            _ => Wire::Go(ServiceEmulator::start(node, config)?),
-        }))
-    }
-
-    pub fn config(&self) -> &Dex1Config {
-        match &self.0 {
-            Wire::Go(e) => e.config(),
-            Wire::Hg(e) => e.config(),
-        }
-    }
-
-    pub fn snapshot(&self) -> Dex1Snapshot {
-        match &self.0 {
-            Wire::Go(e) => e.snapshot(),
-            Wire::Hg(e) => e.snapshot(),
-        }
-    }
-
-    fn with_core<R>(&self, f: impl FnOnce(&mut Dex1Core) -> R) -> R {
-        match &self.0 {
-            Wire::Go(e) => e.with_core(|w| f(&mut w.0)),
-            Wire::Hg(e) => e.with_core(|w| f(&mut w.0)),
+        match config.variant {
+            Dex1Variant::Hg => Self::start_on::<HgWire>(node, config),
+            _ => Self::start_on::<GoWire>(node, config),
         }
     }
 
@@ -540,14 +495,6 @@ impl Dex1Emulator {
     /// Places (or removes) the object `side`'s jaws close on.
     pub fn set_object(&self, side: Side, at: Option<f32>) {
         self.with_core(|c| c.set_object(side, at));
-    }
-
-    /// Stops the loop (also done on drop).
-    pub fn stop(self) {
-        match self.0 {
-            Wire::Go(e) => e.stop(),
-            Wire::Hg(e) => e.stop(),
-        }
     }
 }
 

@@ -33,7 +33,7 @@ use handgate_idl::unitree_hg::{
 
 use crate::emu_common::{ensure_finite, EmulatorError, Hz};
 use crate::model::Side;
-use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, Tick};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Tick};
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Reading, Sensor};
 
 /// Motors per hand (docs/sources.md §2).
@@ -526,10 +526,6 @@ impl Dex3Core {
 
 impl ServiceCore for Dex3Core {
     type Config = Dex3ServiceConfig;
-    type Cmd = HandCmd_;
-    type State = HandState_;
-    /// The low-frequency copy of the state.
-    type Extra = HandState_;
     type Snapshot = Dex3Snapshot;
 
     fn from_config(config: &Dex3ServiceConfig) -> Result<Self, EmulatorError> {
@@ -547,26 +543,33 @@ impl ServiceCore for Dex3Core {
         Ok(ServicePlan::new(format!("dex3-emu-{side}"), config.state_rate, cmd_t, Some(state_t)).with_extra(lf))
     }
 
-    fn receive(&mut self, cmd: &HandCmd_, now: Instant) {
-        self.on_command(cmd, now);
-    }
-
-    fn cycle(&mut self, tick: Tick) -> Option<HandState_> {
-        self.step(tick.now, tick.dt);
-        Some(self.state())
-    }
-
-    /// The same state, on the low-frequency topic.
-    fn extra(&mut self, state: &HandState_) -> Option<HandState_> {
-        Some(state.clone())
-    }
-
     fn report(&self, published: Published) -> Dex3Snapshot {
         Dex3Snapshot {
             states_published: published.state,
             lf_published: published.extra,
             ..self.snapshot()
         }
+    }
+}
+
+impl ServiceWire<Self> for Dex3Core {
+    type Cmd = HandCmd_;
+    type State = HandState_;
+    /// The low-frequency copy of the state.
+    type Extra = HandState_;
+
+    fn receive(core: &mut Self, cmd: &HandCmd_, now: Instant) {
+        core.on_command(cmd, now);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<HandState_> {
+        core.step(tick.now, tick.dt);
+        Some(core.state())
+    }
+
+    /// The same state, on the low-frequency topic.
+    fn extra(_core: &mut Self, state: &HandState_) -> Option<HandState_> {
+        Some(state.clone())
     }
 }
 

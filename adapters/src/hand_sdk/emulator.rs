@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 use handgate_idl::unitree_go::MotorCmds_;
 
 use crate::emu_common::{ensure_finite, EmulatorError, Hz};
-use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, Silent, Tick};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{JointModel, JointParams, MotorTarget};
 
 /// The topic (g1-hand-sdk-interface.txt).
@@ -359,9 +359,6 @@ pub fn largest_weight_step_up(history: &[f32]) -> f32 {
 
 impl ServiceCore for HandSdkCore {
     type Config = HandSdkConfig;
-    type Cmd = MotorCmds_;
-    type State = Silent;
-    type Extra = Silent;
     type Snapshot = HandSdkSnapshot;
 
     fn from_config(config: &HandSdkConfig) -> Result<Self, EmulatorError> {
@@ -378,18 +375,24 @@ impl ServiceCore for HandSdkCore {
         ))
     }
 
-    fn receive(&mut self, msg: &MotorCmds_, now: Instant) {
-        self.on_command(msg, now);
+    fn report(&self, _published: Published) -> HandSdkSnapshot {
+        self.snapshot()
+    }
+}
+
+impl ServiceWire<Self> for HandSdkCore {
+    type Cmd = MotorCmds_;
+    type State = Silent;
+    type Extra = Silent;
+
+    fn receive(core: &mut Self, msg: &MotorCmds_, now: Instant) {
+        core.on_command(msg, now);
     }
 
     /// One control tick; nothing published (no state topic is documented).
-    fn cycle(&mut self, tick: Tick) -> Option<Silent> {
-        self.tick(tick.now, tick.dt);
+    fn cycle(core: &mut Self, tick: Tick) -> Option<Silent> {
+        core.tick(tick.now, tick.dt);
         None
-    }
-
-    fn report(&self, _published: Published) -> HandSdkSnapshot {
-        self.snapshot()
     }
 }
 

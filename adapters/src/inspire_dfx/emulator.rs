@@ -34,7 +34,7 @@ use handgate_idl::unitree_go::{MotorCmds_, MotorState_, MotorStates_};
 
 use super::{CMD_TOPIC, ENTRIES, SERVICE_RATE_HZ, SERVICE_TIMEOUT, STATE_TOPIC};
 use crate::emu_common::{ensure_finite, EmulatorError, Hz};
-use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, Silent, Tick};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{Noise, Sag, Sensor};
 
 /// Where an emulated finger rests before the first command (wire q): nearly open. A hand
@@ -328,9 +328,6 @@ impl DfxCore {
 
 impl ServiceCore for DfxCore {
     type Config = DfxConfig;
-    type Cmd = MotorCmds_;
-    type State = MotorStates_;
-    type Extra = Silent;
     type Snapshot = DfxSnapshot;
 
     fn from_config(config: &DfxConfig) -> Result<Self, EmulatorError> {
@@ -347,20 +344,26 @@ impl ServiceCore for DfxCore {
         ))
     }
 
-    fn receive(&mut self, cmd: &MotorCmds_, now: Instant) {
-        self.on_cmd(cmd, now);
-    }
-
-    fn cycle(&mut self, tick: Tick) -> Option<MotorStates_> {
-        self.step(tick.now, tick.dt);
-        Some(self.state())
-    }
-
     fn report(&self, published: Published) -> DfxSnapshot {
         DfxSnapshot {
             states_published: published.state,
             ..self.snapshot()
         }
+    }
+}
+
+impl ServiceWire<Self> for DfxCore {
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
+    type Extra = Silent;
+
+    fn receive(core: &mut Self, cmd: &MotorCmds_, now: Instant) {
+        core.on_cmd(cmd, now);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<MotorStates_> {
+        core.step(tick.now, tick.dt);
+        Some(core.state())
     }
 }
 

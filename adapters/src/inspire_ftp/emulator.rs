@@ -38,7 +38,7 @@ use handgate_idl::inspire::{
 };
 
 use crate::emu_common::{ensure_finite, EmulatorError, Hz, Side};
-use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, Tick};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Tick};
 use crate::sim::{Noise, Sag, Sensor};
 
 use super::front::{touch_fields_mut, SEGMENTS};
@@ -509,9 +509,6 @@ fn to_reg(v: f32, lo: f32, hi: f32) -> i16 {
 
 impl ServiceCore for FtpCore {
     type Config = FtpConfig;
-    type Cmd = InspireHandCtrl;
-    type State = InspireHandState;
-    type Extra = InspireHandTouch;
     type Snapshot = FtpSnapshot;
 
     fn from_config(config: &FtpConfig) -> Result<Self, EmulatorError> {
@@ -526,26 +523,32 @@ impl ServiceCore for FtpCore {
         Ok(ServicePlan::new(name, config.rate, ctrl, Some(state)).with_extra(touch))
     }
 
-    /// Commands are applied as they arrived, each writing its registers.
-    fn receive(&mut self, cmd: &InspireHandCtrl, _now: Instant) {
-        self.on_command(cmd);
-    }
-
-    fn cycle(&mut self, tick: Tick) -> Option<InspireHandState> {
-        self.step(dt_for(tick.dt, tick.period));
-        Some(self.state())
-    }
-
-    fn extra(&mut self, _state: &InspireHandState) -> Option<InspireHandTouch> {
-        Some(self.touch())
-    }
-
     fn report(&self, published: Published) -> FtpSnapshot {
         FtpSnapshot {
             states_published: published.state,
             touches_published: published.extra,
             ..self.snapshot()
         }
+    }
+}
+
+impl ServiceWire<Self> for FtpCore {
+    type Cmd = InspireHandCtrl;
+    type State = InspireHandState;
+    type Extra = InspireHandTouch;
+
+    /// Commands are applied as they arrived, each writing its registers.
+    fn receive(core: &mut Self, cmd: &InspireHandCtrl, _now: Instant) {
+        core.on_command(cmd);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<InspireHandState> {
+        core.step(dt_for(tick.dt, tick.period));
+        Some(core.state())
+    }
+
+    fn extra(core: &mut Self, _state: &InspireHandState) -> Option<InspireHandTouch> {
+        Some(core.touch())
     }
 }
 
