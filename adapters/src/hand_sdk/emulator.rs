@@ -18,13 +18,12 @@
 //! joint models' parameters.
 
 use std::collections::VecDeque;
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use handgate_idl::unitree_go::MotorCmds_;
 
-use crate::dds::{Node, Qos};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
+use crate::emu_common::{ensure_finite, EmulatorError, Hz};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{JointModel, JointParams, MotorTarget};
 
 use super::{MOTORS, TOPIC};
@@ -149,12 +148,12 @@ impl HandSdkConfig {
         self.control_rate.period()?;
         let fields = |t: &MotorTarget| [t.q, t.dq, t.tau, t.kp, t.kd];
         for t in self.defaults.iter().chain(&self.damping_command) {
-            ensure_finite("default / damping command", &fields(t))?;
+            ensure_finite("default / damping command", fields(t))?;
         }
         if let Some(m) = &self.models {
-            ensure_finite("model initial_q", &m.initial_q)?;
+            ensure_finite("model initial_q", m.initial_q)?;
             for p in &m.params {
-                ensure_finite("model params", &[p.inertia, p.friction, p.tau_max, p.q_min, p.q_max])?;
+                ensure_finite("model params", [p.inertia, p.friction, p.tau_max, p.q_min, p.q_max])?;
                 if !(p.inertia > 0.0 && p.q_min < p.q_max) {
                     return Err(EmulatorError::InvalidConfig(format!("bad joint params {p:?}")));
                 }
@@ -356,89 +355,84 @@ pub fn largest_weight_step_up(history: &[f32]) -> f32 {
     history.windows(2).map(|w| w[1] - w[0]).fold(0.0, f32::max)
 }
 
-/// A running emulated ai_sport blend. Dropping it stops its thread.
-pub struct HandSdkEmulator {
-    shared: Arc<Mutex<HandSdkCore>>,
-    worker: Worker,
-}
+impl ServiceCore for HandSdkCore {
+    type Config = HandSdkConfig;
+    type Snapshot = HandSdkSnapshot;
 
-impl std::fmt::Debug for HandSdkEmulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("HandSdkEmulator").finish()
+    fn from_config(config: &HandSdkConfig) -> Result<Self, EmulatorError> {
+        config.validate()?;
+        Ok(Self::new(config.clone()))
+    }
+
+    fn plan(config: &HandSdkConfig) -> Result<ServicePlan, EmulatorError> {
+        Ok(ServicePlan::new(
+            "hand-sdk-emu",
+            config.control_rate,
+            config.topic.clone(),
+            None,
+        ))
+    }
+
+    fn report(&self, _published: Published) -> HandSdkSnapshot {
+        self.snapshot()
     }
 }
+
+impl ServiceWire<Self> for HandSdkCore {
+    type Cmd = MotorCmds_;
+    type State = Silent;
+    type Extra = Silent;
+
+    fn receive(core: &mut Self, msg: &MotorCmds_, now: Instant) {
+        core.on_command(msg, now);
+    }
+
+    /// One control tick; nothing published (no state topic is documented).
+    fn cycle(core: &mut Self, tick: Tick) -> Option<Silent> {
+        core.tick(tick.now, tick.dt);
+        None
+    }
+}
+
+/// A running emulated ai_sport blend. Dropping it stops its loop.
+pub type HandSdkEmulator = ServiceEmulator<HandSdkCore>;
 
 impl HandSdkEmulator {
-    /// Starts the blend on `node`.
-    pub fn start(node: &Node, config: HandSdkConfig) -> Result<Self, EmulatorError> {
-        config.validate()?;
-        let period = config.control_rate.period()?;
-        // Best-effort reader: matches reliable and best-effort writers alike.
-        let reader = node.reader::<MotorCmds_>(&config.topic, Qos::BestEffort)?;
-        let shared = Arc::new(Mutex::new(HandSdkCore::new(config)));
-        let sh = shared.clone();
-        let mut prev = None;
-        let worker = Worker::spawn("hand-sdk-emu", period, move |now| {
-            let msgs = reader.take();
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            let mut g = lock(&sh);
-            let received = Instant::now();
-            for m in &msgs {
-                g.on_command(m, received);
-            }
-            g.tick(Instant::now(), dt);
-        })?;
-        Ok(Self { shared, worker })
-    }
-
-    pub fn snapshot(&self) -> HandSdkSnapshot {
-        lock(&self.shared).snapshot()
-    }
-
     /// The weight applied in the last tick.
     pub fn effective_weight(&self) -> f32 {
-        lock(&self.shared).effective.0
+        self.with_core(|c| c.effective.0)
     }
 
     /// What each motor was sent in the last tick.
     pub fn last_blended(&self) -> [MotorTarget; MOTORS] {
-        lock(&self.shared).blended
+        self.with_core(|c| c.blended)
     }
 
     /// Distinct effective weights in the order applied (see [`largest_weight_step_up`]).
     pub fn weight_history(&self) -> Vec<f32> {
-        lock(&self.shared).weight_history()
+        self.with_core(|c| c.weight_history())
     }
 
     /// The user went silent: ai_sport's own command applies.
     pub fn fallback(&self) -> bool {
-        lock(&self.shared).fallback
+        self.with_core(|c| c.fallback)
     }
 
     pub fn counts(&self) -> HandSdkCounts {
-        lock(&self.shared).counts
+        self.with_core(|c| c.counts)
     }
 
     /// Enters or leaves the robot's damping state.
     pub fn set_damping(&self, on: bool) {
-        lock(&self.shared).set_damping(on);
+        self.with_core(|c| c.set_damping(on));
     }
-
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
-    }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dds::Writer;
+    use crate::dds::{Node, Qos, Writer};
+    use crate::emu_common::{wait_for, TEST_WAIT as WAIT};
     use handgate_idl::unitree_go::MotorCmd_;
     use proptest::prelude::*;
 
@@ -562,16 +556,6 @@ mod tests {
     }
 
     // ---- over real DDS (domains 42..=47) ----
-
-    const WAIT: Duration = Duration::from_secs(20);
-
-    fn wait_for(mut cond: impl FnMut() -> bool) {
-        let deadline = Instant::now() + WAIT;
-        while !cond() {
-            assert!(Instant::now() < deadline, "condition not reached");
-            std::thread::yield_now();
-        }
-    }
 
     /// A fallback timeout no test thread stall can reach (for tests not about fallback).
     fn patient() -> HandSdkConfig {
