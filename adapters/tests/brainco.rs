@@ -406,7 +406,11 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
         config: &*config,
     };
     match BraincoKind.configure(&spec.typed(&BraincoProfile::default())).unwrap() {
-        BraincoOpen::Emulated { peer, config, speed } => {
+        BraincoOpen {
+            peer: Some(peer),
+            config,
+            codec: speed,
+        } => {
             assert!((peer.initial[0] - 0.5).abs() < 1e-4, "thumb 0.7592 rad = wire 0.5");
             assert!(
                 (peer.object[2].unwrap() - 0.5).abs() < 1e-4,
