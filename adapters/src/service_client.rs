@@ -3,14 +3,15 @@
 //! device is a [`DdsDevice`] with the kind's codec on the service's topics; on the emulator
 //! backend the same device drives the service's emulator ([`ServiceEmulator`] around the
 //! kind's core) on the device's private topics ([`emulator_topics`]), started first and kept
-//! with it ([`WithPeer`]). A kind supplies its topics, its codec and its emulated service's
+//! with it ([`WithPeer`]); `crate::service_emulator::ServiceEmulator` hosts the kind's core. A kind supplies its topics, its codec and its emulated service's
 //! configuration; docs/adapters.md, "Adding a device kind".
 
+use crate::dds::Node;
 use crate::dds_device::{emulator_topics, DdsCodec, DdsDevice, DdsDeviceConfig, WithPeer};
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::emu_common::EmulatorError;
 use crate::kind::{EmulateArgs, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
-use crate::service_emulator::{ServiceCore, ServiceEmulator, ServiceWire};
 
 /// What a client of a DDS service hand opens with, decided from the profile before anything
 /// starts.
@@ -53,23 +54,21 @@ impl<S, P> ClientOpen<S, P> {
         })
     }
 
-    /// Starts the device with `codec` (the emulated service `K` first, when there is one).
-    pub fn start<K, D, C>(
+    /// Starts the device with `codec`, and first its emulated service with `start_peer`
+    /// (e.g. `ServiceEmulator::<Core>::start`) when there is one.
+    pub fn start<D, C, E>(
         self,
         codec: D,
         spec: &DeviceSpec<'_, C>,
         env: &mut OpenEnv<'_>,
+        start_peer: impl FnOnce(&Node, P) -> Result<E, EmulatorError>,
     ) -> Result<Box<dyn HandDevice>, DeviceError>
     where
-        K: ServiceCore<Config = P> + ServiceWire<K>,
-        P: Send + Sync + 'static,
         D: DdsCodec,
         C: ?Sized,
+        E: Send + Sync + 'static,
     {
-        let peer = self
-            .peer
-            .map(|p| ServiceEmulator::<K>::start(env.node, p))
-            .transpose()?;
+        let peer = self.peer.map(|p| start_peer(env.node, p)).transpose()?;
         let device = DdsDevice::start(env.node, spec.info(), self.config, codec)?;
         Ok(match peer {
             Some(peer) => Box::new(WithPeer::new(device, peer)),
@@ -78,13 +77,13 @@ impl<S, P> ClientOpen<S, P> {
     }
 }
 
-/// `handgate emulate <kind>` for a service hand: the service `K` on the command line's
-/// domain with `config`, running until the process stops.
-pub fn emulate_service<K>(args: &EmulateArgs, config: K::Config) -> Result<Emulation, DeviceError>
-where
-    K: ServiceCore + ServiceWire<K>,
-{
+/// `handgate emulate <kind>` for a service hand: the service `start` starts on the command
+/// line's domain, running until the process stops.
+pub fn emulate_service<E: Send + 'static>(
+    args: &EmulateArgs,
+    start: impl FnOnce(&Node) -> Result<E, EmulatorError>,
+) -> Result<Emulation, DeviceError> {
     let node = args.node()?;
-    let emu = ServiceEmulator::<K>::start(&node, config)?;
+    let emu = start(&node)?;
     Ok(Emulation::Running(Box::new((emu, node))))
 }

@@ -4,7 +4,7 @@
 
 use super::adapter::BraincoCodec;
 use super::config::BraincoProfile;
-use super::emulator::{BraincoConfig, BraincoCore, BRAINCO_DEFAULT_HZ, BRAINCO_NOISE, BRAINCO_REST_Q};
+use super::emulator::{BraincoConfig, BraincoEmulator, BRAINCO_DEFAULT_HZ, BRAINCO_NOISE, BRAINCO_REST_Q};
 use super::table::JOINTS;
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::emu_common::Hz;
@@ -86,7 +86,7 @@ impl Kind for BraincoKind {
         env: &mut OpenEnv<'_>,
     ) -> Result<Box<dyn HandDevice>, DeviceError> {
         let codec = BraincoCodec::new(open.codec);
-        open.start::<BraincoCore, _, _>(codec, spec, env)
+        open.start(codec, spec, env, BraincoEmulator::start)
     }
 
     /// `handgate emulate brainco --side left|right`: one hand's `brainco_hand_service` on DDS.
@@ -101,6 +101,6 @@ impl Kind for BraincoKind {
             "emulating brainco_hand_service ({side} hand): {cmd}, {state} on DDS domain {}",
             args.domain
         );
-        Ok((what, emulate_service::<BraincoCore>(args, cfg)?))
+        Ok((what, emulate_service(args, |node| BraincoEmulator::start(node, cfg))?))
     }
 }

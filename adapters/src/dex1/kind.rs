@@ -7,7 +7,6 @@ use super::adapter::{Dex1GoCodec, Dex1HgCodec, SharedElements, Variant};
 use super::config::Dex1Profile;
 use super::emulator::{Dex1Config, Dex1Emulator, DEX1_REST_Q};
 use super::table::SEED_SPEC_RANGE_RAD;
-use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer};
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::emu_common::Hz;
 use crate::front::kind::FrontKind;
@@ -17,6 +16,7 @@ use crate::kind::{
 use crate::mapping::DeviceTable;
 use crate::model::{Side, GRIPPER_JOINTS};
 use crate::open::{DeviceSpec, OpenEnv};
+use crate::service_client::{emulate_service, ClientOpen};
 
 impl DeviceKind {
     /// Unitree Dex1-1 parallel gripper (through dex1_1_service over DDS).
@@ -28,14 +28,9 @@ impl DeviceKind {
 #[derive(Debug, Clone, Copy)]
 pub struct Dex1Kind;
 
-/// What a Dex1 opens with: decided from the profile, before anything starts.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Dex1Open {
-    /// A client of dex1_1_service in `variant`.
-    Dds { config: DdsDeviceConfig, variant: Variant },
-    /// The service's emulator (`peer`, on private topics) and the `go` client of it.
-    Emulated { peer: Dex1Config, config: DdsDeviceConfig },
-}
+/// What a Dex1 opens with: a client of dex1_1_service in its wire variant (`go` with the
+/// emulated service).
+pub type Dex1Open = ClientOpen<Variant, Dex1Config>;
 
 /// `handgate emulate dex1`'s own options.
 #[derive(Debug, Default)]
@@ -101,41 +96,29 @@ impl Kind for Dex1Kind {
     }
 
     fn configure(&self, spec: &DeviceSpec<'_, Dex1Profile>) -> Result<Dex1Open, DeviceError> {
-        if spec.backend == Backend::Dds {
-            let (Some(cmd), Some(state)) = spec.config.topics(spec.side) else {
-                return Err(DeviceError::Config(
-                    "no dds topics (side center without dds.cmd_topic / state_topic)".into(),
-                ));
-            };
-            let config = spec.dds_client(cmd, state);
-            return Ok(Dex1Open::Dds {
-                config,
-                variant: spec.config.variant(),
-            });
-        }
-        // Emulator backend: dex1_1_service's emulator (variant go) on private topics.
-        let (cmd_t, state_t) = emulator_topics(spec.name);
-        let mut peer = Dex1Config::new(Variant::Go, spec.side);
-        peer.initial_q = spec.initial_wire("jaw", DEX1_REST_Q);
-        peer.noise = spec
-            .emulator
-            .noise_for(spec.name, crate::dex3::physical::HG_MOTOR_NOISE);
-        peer.object = spec.object_wire("jaw");
-        peer.rate = Hz(spec.rate_hz);
-        peer.topics = Some((cmd_t.clone(), state_t.clone()));
-        Ok(Dex1Open::Emulated {
-            peer,
-            config: spec.dds_client(cmd_t, state_t),
+        let missing = "no dds topics (side center without dds.cmd_topic / state_topic)";
+        let variant = match spec.backend {
+            Backend::Dds => spec.config.variant(),
+            // The emulated dex1_1_service speaks `go`, on private topics.
+            _ => Variant::Go,
+        };
+        ClientOpen::of(spec, spec.config.topics(spec.side), missing, variant, |cmd, state| {
+            let mut peer = Dex1Config::new(Variant::Go, spec.side);
+            peer.initial_q = spec.initial_wire("jaw", DEX1_REST_Q);
+            peer.noise = spec
+                .emulator
+                .noise_for(spec.name, crate::dex3::physical::HG_MOTOR_NOISE);
+            peer.object = spec.object_wire("jaw");
+            peer.rate = Hz(spec.rate_hz);
+            peer.topics = Some((cmd, state));
+            peer
         })
     }
 
     fn served(&self, open: &Dex1Open) -> Vec<crate::discovery::diagnose::Served> {
-        match open {
-            Dex1Open::Dds {
-                config,
-                variant: Variant::Hg,
-            } => config.served::<Dex1HgCodec>(),
-            Dex1Open::Dds { config, .. } | Dex1Open::Emulated { config, .. } => config.served::<Dex1GoCodec>(),
+        match open.codec {
+            Variant::Hg => open.config.served::<Dex1HgCodec>(),
+            _ => open.config.served::<Dex1GoCodec>(),
         }
     }
 
@@ -145,35 +128,21 @@ impl Kind for Dex1Kind {
         spec: &DeviceSpec<'_, Dex1Profile>,
         env: &mut OpenEnv<'_>,
     ) -> Result<Box<dyn HandDevice>, DeviceError> {
-        Ok(match open {
-            Dex1Open::Dds {
-                config,
-                variant: Variant::Hg,
-            } => Box::new(DdsDevice::start(env.node, spec.info(), config, Dex1HgCodec)?),
-            Dex1Open::Dds { config, variant } => {
-                // The actuator variant's grippers on one command topic share their commands.
-                let key = format!("dex1 elements {}", config.cmd_topic);
-                let shared = match env.shared.get::<SharedElements>(&key) {
-                    Some(s) => s.clone(),
-                    None => {
-                        let s = SharedElements::default();
-                        env.shared.insert(&key, s.clone());
-                        s
-                    }
-                };
-                Box::new(DdsDevice::start(
-                    env.node,
-                    spec.info(),
-                    config,
-                    Dex1GoCodec::with_shared(variant, spec.side, shared),
-                )?)
+        if open.codec == Variant::Hg {
+            return open.start(Dex1HgCodec, spec, env, Dex1Emulator::start);
+        }
+        // The actuator variant's grippers on one command topic share their commands.
+        let key = format!("dex1 elements {}", open.config.cmd_topic);
+        let shared = match env.shared.get::<SharedElements>(&key) {
+            Some(s) => s.clone(),
+            None => {
+                let s = SharedElements::default();
+                env.shared.insert(&key, s.clone());
+                s
             }
-            Dex1Open::Emulated { peer, config } => {
-                let peer = Dex1Emulator::start(env.node, peer)?;
-                let device = DdsDevice::start(env.node, spec.info(), config, Dex1GoCodec::new(Variant::Go, spec.side))?;
-                Box::new(WithPeer::new(device, peer))
-            }
-        })
+        };
+        let codec = Dex1GoCodec::with_shared(open.codec, spec.side, shared);
+        open.start(codec, spec, env, Dex1Emulator::start)
     }
 
     /// `handgate emulate dex1`: dex1_1_service (or SAKE's driver) in the `--variant` wire
@@ -185,15 +154,13 @@ impl Kind for Dex1Kind {
             Variant::Actuator => args.side.unwrap_or(Side::Left),
             _ => args.side("dex1")?,
         };
-        let node = args.node()?;
         let mut cfg = Dex1Config::new(variant, side);
         cfg.noise = args.noise(crate::dex3::physical::HG_MOTOR_NOISE);
-        let emu = Dex1Emulator::start(&node, cfg)?;
         let (cmd, state) = variant.topics(side);
         let what = format!(
             "emulating dex1_1_service ({variant}): {cmd}, {state} on DDS domain {}",
             args.domain
         );
-        Ok((what, Emulation::Running(Box::new((emu, node)))))
+        Ok((what, emulate_service(args, |node| Dex1Emulator::start(node, cfg))?))
     }
 }

@@ -4,11 +4,10 @@
 //! private topics driven by the very same codec.
 
 use super::adapter::{FtpClient, FtpCodec};
-use super::config::{FtpTopics, InspireFtpProfile};
+use super::config::InspireFtpProfile;
 use super::emulator::{FtpConfig, FtpEmulator, FtpTransport, ANGLE_NOISE, REST_ANGLE};
 use super::table::JOINTS;
-use crate::dds::Node;
-use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer, STATE_QOS};
+use crate::dds_device::STATE_QOS;
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::front::kind::FrontKind;
 use crate::kind::{
@@ -18,6 +17,7 @@ use crate::kind::{
 use crate::mapping::DeviceTable;
 use crate::model::Side;
 use crate::open::{DeviceSpec, EmulatorSection, OpenEnv};
+use crate::service_client::{emulate_service, ClientOpen};
 
 impl DeviceKind {
     /// Inspire RH56DFTP (tactile) hand, through Inspire's DDS driver.
@@ -170,32 +170,13 @@ const PADS: PadLayout = PadLayout {
 #[derive(Debug, Clone, Copy)]
 pub struct InspireFtpKind;
 
-/// What an Inspire FTP hand opens with: decided from the profile, before anything starts.
-#[derive(Debug, Clone, PartialEq)]
-pub enum FtpOpen {
-    /// A client of the driver on `topics`.
-    Dds {
-        config: DdsDeviceConfig,
-        codec: FtpCodec,
-        topics: FtpTopics,
-    },
-    /// The driver's emulator (`peer`, on private topics) and the client of it.
-    Emulated {
-        peer: Box<FtpConfig>,
-        config: DdsDeviceConfig,
-        codec: FtpCodec,
-        topics: FtpTopics,
-    },
-}
+/// What an Inspire FTP hand opens with: a client of the driver with its codec and its touch
+/// topic where the hand has one (and on the emulator backend, the emulated driver).
+pub type FtpOpen = ClientOpen<(FtpCodec, Option<String>), FtpConfig>;
 
 /// Private tactile topic of an in-process emulated driver for `device`.
 pub fn emulator_touch_topic(device: &str) -> String {
     format!("rt/handgate/emu/{device}/touch")
-}
-
-/// The client of the driver (and its touch reader when the topics have one).
-fn client(node: &Node, codec: FtpCodec, topics: &FtpTopics) -> Result<FtpClient, DeviceError> {
-    Ok(FtpClient::new(node, codec, topics.touch.as_deref())?)
 }
 
 /// `handgate emulate inspire_ftp`'s own options.
@@ -287,45 +268,31 @@ impl Kind for InspireFtpKind {
     }
 
     fn configure(&self, spec: &DeviceSpec<'_, InspireFtpProfile>) -> Result<FtpOpen, DeviceError> {
-        let codec = spec.config.codec();
-        if spec.backend == Backend::Dds {
-            let topics = spec.config.topics(spec.side);
-            let config = spec.dds_client(topics.cmd.clone(), topics.state.clone());
-            return Ok(FtpOpen::Dds { config, codec, topics });
-        }
-        // Emulator backend: the driver over Modbus TCP (state and touch) on private topics.
-        let (cmd, state) = emulator_topics(spec.name);
-        let topics = FtpTopics {
-            cmd,
-            state,
-            touch: Some(emulator_touch_topic(spec.name)),
+        let t = spec.config.topics(spec.side);
+        let touch = match spec.backend {
+            Backend::Dds => t.touch.clone(),
+            // The emulated driver over Modbus TCP: state and touch, on private topics.
+            _ => Some(emulator_touch_topic(spec.name)),
         };
-        let mut peer = FtpConfig::new(spec.side);
-        for (i, joint) in JOINTS.iter().enumerate() {
-            peer.initial[i] = spec.initial_wire(joint, REST_ANGLE[i]);
-            peer.object[i] = spec.object_wire(joint);
-        }
-        peer.noise = spec.emulator.noise_for(spec.name, ANGLE_NOISE);
-        peer.noisy = spec.emulator.noise != Some(false);
-        peer.rate = crate::emu_common::Hz(spec.config.driver_hz());
-        peer.topics = Some((
-            topics.cmd.clone(),
-            topics.state.clone(),
-            topics.touch.clone().unwrap_or_default(),
-        ));
-        Ok(FtpOpen::Emulated {
-            peer: Box::new(peer),
-            config: spec.dds_client(topics.cmd.clone(), topics.state.clone()),
-            codec,
-            topics,
+        let codec = (spec.config.codec(), touch.clone());
+        ClientOpen::of(spec, (Some(t.cmd), Some(t.state)), "", codec, |cmd, state| {
+            let mut peer = FtpConfig::new(spec.side);
+            for (i, joint) in JOINTS.iter().enumerate() {
+                peer.initial[i] = spec.initial_wire(joint, REST_ANGLE[i]);
+                peer.object[i] = spec.object_wire(joint);
+            }
+            peer.noise = spec.emulator.noise_for(spec.name, ANGLE_NOISE);
+            peer.noisy = spec.emulator.noise != Some(false);
+            peer.rate = crate::emu_common::Hz(spec.config.driver_hz());
+            peer.topics = Some((cmd, state, touch.unwrap_or_default()));
+            peer
         })
     }
 
-    /// The client's topics, and its touch reader where the topics have one.
+    /// The client's topics, and its touch reader where the hand has one.
     fn served(&self, open: &FtpOpen) -> Vec<crate::discovery::diagnose::Served> {
-        let (FtpOpen::Dds { config, topics, .. } | FtpOpen::Emulated { config, topics, .. }) = open;
-        let mut out = config.served::<FtpCodec>();
-        if let Some(t) = &topics.touch {
+        let mut out = open.config.served::<FtpCodec>();
+        if let Some(t) = &open.codec.1 {
             out.push(crate::discovery::diagnose::Served::new(
                 t,
                 crate::dds::type_name::<handgate_idl::inspire::InspireHandTouch>(),
@@ -342,23 +309,9 @@ impl Kind for InspireFtpKind {
         spec: &DeviceSpec<'_, InspireFtpProfile>,
         env: &mut OpenEnv<'_>,
     ) -> Result<Box<dyn HandDevice>, DeviceError> {
-        Ok(match open {
-            FtpOpen::Dds { config, codec, topics } => {
-                let c = client(env.node, codec, &topics)?;
-                Box::new(DdsDevice::start(env.node, spec.info(), config, c)?)
-            }
-            FtpOpen::Emulated {
-                peer,
-                config,
-                codec,
-                topics,
-            } => {
-                let peer = FtpEmulator::start(env.node, *peer)?;
-                let c = client(env.node, codec, &topics)?;
-                let device = DdsDevice::start(env.node, spec.info(), config, c)?;
-                Box::new(WithPeer::new(device, peer))
-            }
-        })
+        let (codec, touch) = open.codec.clone();
+        let client = FtpClient::new(env.node, codec, touch.as_deref())?;
+        open.start(client, spec, env, FtpEmulator::start)
     }
 
     /// `handgate emulate inspire_ftp --side left|right [--variant tcp|rs485]`: Inspire's DDS
@@ -372,7 +325,6 @@ impl Kind for InspireFtpKind {
         }
         cfg.noise = args.noise(ANGLE_NOISE);
         cfg.noisy = !args.no_noise;
-        let node = args.node()?;
         let (ctrl, state, touch) = super::front::topics(side);
         let what = match cfg.transport {
             FtpTransport::Tcp => format!(
@@ -384,7 +336,6 @@ impl Kind for InspireFtpKind {
                 args.domain
             ),
         };
-        let emu = FtpEmulator::start(&node, cfg)?;
-        Ok((what, Emulation::Running(Box::new((emu, node)))))
+        Ok((what, emulate_service(args, |node| FtpEmulator::start(node, cfg))?))
     }
 }
