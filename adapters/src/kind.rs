@@ -919,6 +919,44 @@ impl PartialEq for KindConfigBox {
     }
 }
 
+/// Declares the `[devices.dds]` section of a client of a DDS service: `cmd_topic` and
+/// `state_topic` (overrides of the service's topics, checked by `topic_problems`, defaulted
+/// by `topics_or`), then the kind's own optional keys as written. Every field is optional and
+/// unknown keys are refused (the profile's errors name file and key, and list the keys in this
+/// order).
+#[macro_export]
+macro_rules! dds_client_keys {
+    ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $f:ident : $t:ty,)* }) => {
+        $(#[$m])*
+        #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+        #[serde(deny_unknown_fields, default)]
+        pub struct $name {
+            /// Overrides the service's command topic.
+            #[serde(skip_serializing_if = "Option::is_none")]
+            pub cmd_topic: Option<String>,
+            /// Overrides the service's state topic.
+            #[serde(skip_serializing_if = "Option::is_none")]
+            pub state_topic: Option<String>,
+            $($(#[$fm])* #[serde(skip_serializing_if = "Option::is_none")] pub $f: Option<$t>,)*
+        }
+
+        impl $name {
+            /// Problems with the topic overrides (keys `dds.cmd_topic`, `dds.state_topic`).
+            pub fn topic_problems(&self) -> Vec<$crate::kind::Problem> {
+                $crate::kind::check_topics(
+                    "dds",
+                    &[("cmd_topic", self.cmd_topic.as_deref()), ("state_topic", self.state_topic.as_deref())],
+                )
+            }
+
+            /// (command, state) topics: each override, else the standard pair's.
+            pub fn topics_or(&self, standard: Option<(String, String)>) -> (Option<String>, Option<String>) {
+                $crate::kind::override_topics(self.cmd_topic.as_ref(), self.state_topic.as_ref(), standard)
+            }
+        }
+    };
+}
+
 /// `cmd_topic` / `state_topic` of a DDS-client device's section: problems with either
 /// (keys `[section, "cmd_topic"]` ...), the one rule every kind with these overrides has.
 pub fn check_topics(section: &str, topics: &[(&str, Option<&str>)]) -> Vec<Problem> {

@@ -4,20 +4,15 @@
 use serde::{Deserialize, Serialize};
 
 use crate::device::Backend;
-use crate::kind::{check_topics, override_topics, DeviceCtx, Problem, Settings};
+use crate::kind::{DeviceCtx, Problem, Settings};
 use crate::model::Side;
 
-/// `[devices.dds]` of a BrainCo hand: topic overrides and the speed sent in every entry.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
-    /// Finger speed, `dq` of every entry, in (0, 1] (default 1.0, as xr_teleoperate sends).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub speed: Option<f64>,
+crate::dds_client_keys! {
+    /// `[devices.dds]` of a BrainCo hand: topic overrides and the speed sent in every entry.
+    pub struct DdsConfig {
+        /// Finger speed, `dq` of every entry, in (0, 1] (default 1.0, as xr_teleoperate sends).
+        pub speed: f64,
+    }
 }
 
 /// A BrainCo hand's own profile keys.
@@ -39,25 +34,14 @@ impl BraincoProfile {
 
     /// (command, state) topics on backend dds: the overrides, else the side's.
     pub fn topics(&self, side: Side) -> (Option<String>, Option<String>) {
-        let d = self.dds.as_ref();
-        override_topics(
-            d.and_then(|d| d.cmd_topic.as_ref()),
-            d.and_then(|d| d.state_topic.as_ref()),
-            super::topics(side),
-        )
+        self.dds.clone().unwrap_or_default().topics_or(super::topics(side))
     }
 }
 
 impl Settings for BraincoProfile {
     fn check(&self, _ctx: &DeviceCtx<'_>) -> Vec<Problem> {
         let Some(x) = &self.dds else { return Vec::new() };
-        let mut out = check_topics(
-            "dds",
-            &[
-                ("cmd_topic", x.cmd_topic.as_deref()),
-                ("state_topic", x.state_topic.as_deref()),
-            ],
-        );
+        let mut out = x.topic_problems();
         if let Some(s) = x.speed.filter(|s| !(s.is_finite() && *s > 0.0 && *s <= 1.0)) {
             out.push(Problem::new(
                 &["dds", "speed"],

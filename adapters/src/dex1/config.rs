@@ -6,23 +6,17 @@ use serde::{Deserialize, Serialize};
 use super::adapter::Variant;
 use super::table::{DEFAULT_RANGE, SEED_SPEC_RANGE_RAD};
 use crate::device::Backend;
-use crate::kind::{a, check_topics, override_topics, DeviceCtx, Problem, Settings};
+use crate::kind::{a, DeviceCtx, Problem, Settings};
 use crate::model::Side;
 
-/// `[devices.dds]` of a Dex1: topic overrides, wire variant, open position.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
-    /// Wire variant (default `go`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub variant: Option<Variant>,
-    /// Open position, rad (default 5.4).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub range_rad: Option<f64>,
+crate::dds_client_keys! {
+    /// `[devices.dds]` of a Dex1: topic overrides, wire variant, open position.
+    pub struct DdsConfig {
+        /// Wire variant (default `go`).
+        pub variant: Variant,
+        /// Open position, rad (default 5.4).
+        pub range_rad: f64,
+    }
 }
 
 /// A Dex1's own profile keys.
@@ -47,13 +41,11 @@ impl Dex1Profile {
     /// (command, state) topics on backend dds: `dds.cmd_topic` / `dds.state_topic`, else the
     /// variant's for the side; `None` where the side (center) gives no default.
     pub fn topics(&self, side: Side) -> (Option<String>, Option<String>) {
-        let d = self.dds.as_ref();
         let variant = self.variant();
-        override_topics(
-            d.and_then(|d| d.cmd_topic.as_ref()),
-            d.and_then(|d| d.state_topic.as_ref()),
-            (variant == Variant::Actuator || side != Side::Center).then(|| variant.topics(side)),
-        )
+        self.dds
+            .clone()
+            .unwrap_or_default()
+            .topics_or((variant == Variant::Actuator || side != Side::Center).then(|| variant.topics(side)))
     }
 }
 
@@ -61,13 +53,7 @@ impl Settings for Dex1Profile {
     fn check(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem> {
         let mut out = Vec::new();
         if let Some(x) = &self.dds {
-            out = check_topics(
-                "dds",
-                &[
-                    ("cmd_topic", x.cmd_topic.as_deref()),
-                    ("state_topic", x.state_topic.as_deref()),
-                ],
-            );
+            out = x.topic_problems();
             if x.variant == Some(Variant::Auto) {
                 out.push(Problem::new(
                     &["dds", "variant"],

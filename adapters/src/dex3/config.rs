@@ -11,7 +11,7 @@ use super::usb::codec::BUS_COUNT;
 use super::usb::Scalings;
 use super::{JOINTS, PAD_COUNT};
 use crate::device::Backend;
-use crate::kind::{a, check_topics, override_topics, DeviceCtx, Problem, Settings};
+use crate::kind::{a, DeviceCtx, Problem, Settings};
 use crate::model::Side;
 
 /// Where a motor or a pressure pad sits.
@@ -124,17 +124,12 @@ impl Default for UsbConfig {
     }
 }
 
-/// `[devices.dds]` of a Dex3: topic overrides and which state topic to read.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
-    /// Read `rt/dex3/{side}/state` (`state`) or `rt/lf/dex3/{side}/state` (`lf`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_source: Option<StateSource>,
+crate::dds_client_keys! {
+    /// `[devices.dds]` of a Dex3: topic overrides and which state topic to read.
+    pub struct DdsConfig {
+        /// Read `rt/dex3/{side}/state` (`state`) or `rt/lf/dex3/{side}/state` (`lf`).
+        pub state_source: StateSource,
+    }
 }
 
 /// A Dex3's own profile keys.
@@ -157,13 +152,11 @@ impl Dex3Profile {
     /// resident service's for the side and `dds.state_source`; `None` where the side
     /// (center) gives no default.
     pub fn topics(&self, side: Side) -> (Option<String>, Option<String>) {
-        let d = self.dds.as_ref();
-        let source = d.and_then(|d| d.state_source).unwrap_or_default();
-        override_topics(
-            d.and_then(|d| d.cmd_topic.as_ref()),
-            d.and_then(|d| d.state_topic.as_ref()),
-            (side != Side::Center).then(|| dds_client::topics(side, source)),
-        )
+        let source = self.dds.as_ref().and_then(|d| d.state_source).unwrap_or_default();
+        self.dds
+            .clone()
+            .unwrap_or_default()
+            .topics_or((side != Side::Center).then(|| dds_client::topics(side, source)))
     }
 }
 
@@ -174,13 +167,7 @@ impl Settings for Dex3Profile {
             validate_usb(u, &mut out);
         }
         if let Some(x) = &self.dds {
-            out.extend(check_topics(
-                "dds",
-                &[
-                    ("cmd_topic", x.cmd_topic.as_deref()),
-                    ("state_topic", x.state_topic.as_deref()),
-                ],
-            ));
+            out.extend(x.topic_problems());
         }
         if ctx.backend == Backend::Dds && ctx.side == Side::Center {
             let (cmd, state) = self.topics(ctx.side);

@@ -6,18 +6,11 @@ use serde::{Deserialize, Serialize};
 
 use super::{CMD_TOPIC, STATE_TOPIC};
 use crate::device::Backend;
-use crate::kind::{check_topics, override_topics, DeviceCtx, Problem, Settings};
+use crate::kind::{DeviceCtx, Problem, Settings};
 
-/// `[devices.dds]` of an Inspire DFX: topic overrides (the service's `--namespace`).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    /// Default `rt/inspire/cmd`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    /// Default `rt/inspire/state`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
+crate::dds_client_keys! {
+    /// `[devices.dds]` of an Inspire DFX: topic overrides (the service's `--namespace`).
+    pub struct DdsConfig {}
 }
 
 /// An Inspire DFX's own profile keys.
@@ -31,12 +24,11 @@ pub struct DfxProfile {
 impl DfxProfile {
     /// (command, state) topics: the overrides, else the service's defaults.
     pub fn topics(&self) -> (String, String) {
-        let d = self.dds.as_ref();
-        let (c, s) = override_topics(
-            d.and_then(|d| d.cmd_topic.as_ref()),
-            d.and_then(|d| d.state_topic.as_ref()),
-            Some((CMD_TOPIC.into(), STATE_TOPIC.into())),
-        );
+        let (c, s) = self
+            .dds
+            .clone()
+            .unwrap_or_default()
+            .topics_or(Some((CMD_TOPIC.into(), STATE_TOPIC.into())));
         (c.unwrap_or_default(), s.unwrap_or_default())
     }
 }
@@ -44,13 +36,7 @@ impl DfxProfile {
 impl Settings for DfxProfile {
     fn check(&self, _ctx: &DeviceCtx<'_>) -> Vec<Problem> {
         let Some(x) = &self.dds else { return Vec::new() };
-        check_topics(
-            "dds",
-            &[
-                ("cmd_topic", x.cmd_topic.as_deref()),
-                ("state_topic", x.state_topic.as_deref()),
-            ],
-        )
+        x.topic_problems()
     }
 
     fn peer_topics(&self, _ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {

@@ -7,31 +7,21 @@ use crate::device::Backend;
 use crate::kind::{check_rate, check_topics, DeviceCtx, Problem, Settings};
 use crate::model::Side;
 
-/// `[devices.dds]` of an Inspire FTP hand.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    /// Default `rt/inspire_hand/ctrl/{l,r}`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    /// Default `rt/inspire_hand/state/{l,r}`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
-    /// Whether the hand is wired over Modbus TCP, so its driver publishes the tactile arrays
-    /// (default true: the G1's FTP hands are on Ethernet, 192.168.123.210/.211,
-    /// docs/sources.md §7). `false`: RS-485, no touch topic.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub touch: Option<bool>,
-    /// Default `rt/inspire_hand/touch/{l,r}`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub touch_topic: Option<String>,
-    /// `force_set` (0–1000) sent with every command (mode bit 2); unset: not sent, the hand
-    /// keeps its own.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub force_limit: Option<i16>,
-    /// `speed_set` (0–1000) sent with every command (mode bit 3); unset: not sent.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub speed: Option<i16>,
+crate::dds_client_keys! {
+    /// `[devices.dds]` of an Inspire FTP hand.
+    pub struct DdsConfig {
+        /// Whether the hand is wired over Modbus TCP, so its driver publishes the tactile arrays
+        /// (default true: the G1's FTP hands are on Ethernet, 192.168.123.210/.211,
+        /// docs/sources.md §7). `false`: RS-485, no touch topic.
+        pub touch: bool,
+        /// Default `rt/inspire_hand/touch/{l,r}`.
+        pub touch_topic: String,
+        /// `force_set` (0–1000) sent with every command (mode bit 2); unset: not sent, the hand
+        /// keeps its own.
+        pub force_limit: i16,
+        /// `speed_set` (0–1000) sent with every command (mode bit 3); unset: not sent.
+        pub speed: i16,
+    }
 }
 
 /// `[devices.driver]` of an emulated Inspire FTP hand: the emulated driver.
