@@ -237,6 +237,17 @@ impl Shared {
         self.items.insert((TypeId::of::<R>(), key.to_string()), Box::new(item));
     }
 
+    /// The item of type `R` under `key`, a default one stored there first if there is none
+    /// (what several devices share, e.g. one command message: `dds_device::SharedMessage`).
+    pub fn get_or_default<R: Any + Send + Sync + Default + Clone>(&mut self, key: &str) -> R {
+        if let Some(r) = self.get::<R>(key) {
+            return r.clone();
+        }
+        let r = R::default();
+        self.insert(key, r.clone());
+        r
+    }
+
     /// The item of type `R` under `key`.
     pub fn get<R: Any + Send + Sync>(&self, key: &str) -> Option<&R> {
         self.items

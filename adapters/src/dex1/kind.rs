@@ -133,14 +133,7 @@ impl Kind for Dex1Kind {
         }
         // The actuator variant's grippers on one command topic share their commands.
         let key = format!("dex1 elements {}", open.config.cmd_topic);
-        let shared = match env.shared.get::<SharedElements>(&key) {
-            Some(s) => s.clone(),
-            None => {
-                let s = SharedElements::default();
-                env.shared.insert(&key, s.clone());
-                s
-            }
-        };
+        let shared = env.shared.get_or_default::<SharedElements>(&key);
         let codec = Dex1GoCodec::with_shared(open.codec, spec.side, shared);
         open.start(codec, spec, env, Dex1Emulator::start)
     }

@@ -205,14 +205,7 @@ impl Kind for InspireDfxKind {
                 format!("inspire_dfx targets {}", config.cmd_topic)
             }
         };
-        let shared = match env.shared.get::<SharedTargets>(&topic) {
-            Some(s) => s.clone(),
-            None => {
-                let s = SharedTargets::default();
-                env.shared.insert(&topic, s.clone());
-                s
-            }
-        };
+        let shared = env.shared.get_or_default::<SharedTargets>(&topic);
         let codec = DfxCodec::with_shared(spec.side, shared)
             .ok_or_else(|| DeviceError::Config("an inspire_dfx hand is left or right, not center".into()))?;
         Ok(match open {
