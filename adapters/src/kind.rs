@@ -957,6 +957,25 @@ macro_rules! dds_client_keys {
     };
 }
 
+/// A client of a DDS service on backend dds with side center has no standard topics: the
+/// problem (key `side`) when `topics` (overrides, else the standard pair) lack either.
+pub fn center_needs_topics(
+    kind: &str,
+    ctx: &DeviceCtx<'_>,
+    topics: (Option<String>, Option<String>),
+) -> Option<Problem> {
+    let missing = topics.0.is_none() || topics.1.is_none();
+    (ctx.backend == Backend::Dds && ctx.side == Side::Center && missing).then(|| {
+        Problem::new(
+            &["side"],
+            format!(
+                "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
+                a(kind)
+            ),
+        )
+    })
+}
+
 /// `cmd_topic` / `state_topic` of a DDS-client device's section: problems with either
 /// (keys `[section, "cmd_topic"]` ...), the one rule every kind with these overrides has.
 pub fn check_topics(section: &str, topics: &[(&str, Option<&str>)]) -> Vec<Problem> {

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use super::adapter::Variant;
 use super::table::{DEFAULT_RANGE, SEED_SPEC_RANGE_RAD};
 use crate::device::Backend;
-use crate::kind::{a, DeviceCtx, Problem, Settings};
+use crate::kind::{center_needs_topics, DeviceCtx, Problem, Settings};
 use crate::model::Side;
 
 crate::dds_client_keys! {
@@ -69,23 +69,12 @@ impl Settings for Dex1Profile {
                 }
             }
         }
-        if ctx.backend == Backend::Dds && ctx.side == Side::Center {
-            let (cmd, state) = self.topics(ctx.side);
-            if cmd.is_none() || state.is_none() {
-                out.push(Problem::new(
-                    &["side"],
-                    format!(
-                        "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
-                        a("dex1")
-                    ),
-                ));
-            }
-            if self.variant() == Variant::Actuator {
-                out.push(Problem::new(
-                    &["side"],
-                    "the actuator variant addresses element 0 = right, 1 = left: side must be left or right",
-                ));
-            }
+        out.extend(center_needs_topics("dex1", ctx, self.topics(ctx.side)));
+        if ctx.backend == Backend::Dds && ctx.side == Side::Center && self.variant() == Variant::Actuator {
+            out.push(Problem::new(
+                &["side"],
+                "the actuator variant addresses element 0 = right, 1 = left: side must be left or right",
+            ));
         }
         out
     }

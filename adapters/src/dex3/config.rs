@@ -10,8 +10,7 @@ use super::dds_client::{self, StateSource};
 use super::usb::codec::BUS_COUNT;
 use super::usb::Scalings;
 use super::{JOINTS, PAD_COUNT};
-use crate::device::Backend;
-use crate::kind::{a, DeviceCtx, Problem, Settings};
+use crate::kind::{a, center_needs_topics, DeviceCtx, Problem, Settings};
 use crate::model::Side;
 
 /// Where a motor or a pressure pad sits.
@@ -169,18 +168,7 @@ impl Settings for Dex3Profile {
         if let Some(x) = &self.dds {
             out.extend(x.topic_problems());
         }
-        if ctx.backend == Backend::Dds && ctx.side == Side::Center {
-            let (cmd, state) = self.topics(ctx.side);
-            if cmd.is_none() || state.is_none() {
-                out.push(Problem::new(
-                    &["side"],
-                    format!(
-                        "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
-                        a("dex3")
-                    ),
-                ));
-            }
-        }
+        out.extend(center_needs_topics("dex3", ctx, self.topics(ctx.side)));
         out
     }
 
