@@ -5,11 +5,11 @@
 #   scripts/mutants.sh adapters     the mapping, command slot and tables: adapters/src/mapping.rs,
 #                                   control.rs, tables.rs, */table.rs; each mutant runs only the
 #                                   fast table tests (adapters/tests/mapping.rs, safety.rs)
-#   scripts/mutants.sh fronts       the front wire codecs (adapters/src/dex3/front.rs,
-#                                   dex1/front.rs, front/*.rs); each mutant runs the adapters'
-#                                   unit tests and the front codec tests
-#                                   (adapters/tests/front_codecs.rs): seconds per mutant
-#   scripts/mutants.sh gateway      the runtime's front tasks (watchdog and silence:
+#   scripts/mutants.sh fronts       the front wire codecs and the front core (its decisions:
+#                                   adapters/src/dex3/front.rs, dex1/front.rs, front/*.rs);
+#                                   each mutant runs the adapters' unit tests and the front
+#                                   codec tests (adapters/tests/front_codecs.rs): seconds per mutant
+#   scripts/mutants.sh gateway      the runtime's front tasks (the loop around the front core:
 #                                   gateway/src/runtime/fronts.rs); each mutant runs the gateway's
 #                                   unit tests and the end-to-end safety tests against the mutated
 #                                   binary (slow: about a minute per mutant)
@@ -68,7 +68,7 @@ adapters() {
   set +e
   cargo mutants -j 1 --copy-target=true --no-shuffle -o "$dir" --timeout 120 --build-timeout 600 \
     -p handgate-adapters \
-    -f adapters/src/mapping.rs -f adapters/src/control.rs -f adapters/src/tables.rs \
+    -f adapters/src/mapping.rs -f adapters/src/control.rs \
     -f 'adapters/src/*/table.rs' \
     --test-package handgate-adapters \
     "${extra[@]}" -- --test mapping --test safety

@@ -20,7 +20,7 @@ use async_trait::async_trait;
 use cyclonedds_rs::TopicType;
 use tokio::sync::watch;
 
-use crate::control::{Active, CommandState, Counters};
+use crate::control::{Active, CommandState, Counters, MeasuredHold};
 use crate::dds::{DdsError, Node, Qos};
 use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice};
 use crate::mapping::DeviceTable;
@@ -32,6 +32,10 @@ use crate::model::{faults, Freshness, HandCommand, HandState, SafeAction};
 pub trait DdsCodec: Send + 'static {
     type Cmd: TopicType + Clone + Default + Send + 'static;
     type State: TopicType + Clone + Send + 'static;
+    /// The entries (motors) of the messages' sequence, where another count means another
+    /// hand on the topics ([`crate::discovery::diagnose::Served::entries`]); `None`: not
+    /// fixed by the codec's type.
+    const ENTRIES: Option<usize> = None;
 
     /// Fills `msg` with the message to publish this cycle for the targets in force; `false`
     /// to stay silent. `msg` is the device's message buffer, holding the last message
@@ -179,7 +183,130 @@ impl DdsDeviceConfig {
                 STATE_QOS.served(),
             ));
         }
+        if let Some(n) = C::ENTRIES {
+            out = out.into_iter().map(|s| s.with_entries(n)).collect();
+        }
         out
+    }
+}
+
+/// Devices that share one command message, each writing its own element of it (the Dex1
+/// `actuator` variant's two grippers, Inspire DFX's two hands: `KindConfig::dds_command_element`):
+/// the latest target each device set for its element, `None` while that element's device has
+/// sent none (or there is none). The service applies the latest message whoever wrote it, so
+/// every message must carry every element's own target: a device that put its measurement of
+/// the other element in its messages would hold that element there and starve its own
+/// device's targets. The devices of one command topic share one (in `OpenEnv::shared`).
+pub struct SharedMessage<T, const N: usize>(Arc<Mutex<[Option<T>; N]>>);
+
+impl<T, const N: usize> Default for SharedMessage<T, N> {
+    fn default() -> Self {
+        Self(Arc::new(Mutex::new(std::array::from_fn(|_| None))))
+    }
+}
+
+impl<T, const N: usize> Clone for SharedMessage<T, N> {
+    fn clone(&self) -> Self {
+        Self(self.0.clone())
+    }
+}
+
+impl<T: std::fmt::Debug, const N: usize> std::fmt::Debug for SharedMessage<T, N> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_tuple("SharedMessage").field(&*self.lock()).finish()
+    }
+}
+
+impl<T, const N: usize> SharedMessage<T, N> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, [Option<T>; N]> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// One device's element of a [`SharedMessage`] of `N` elements of type `T`, and its holds of
+/// the others (measured as `M`). Each message it composes carries its own target, and for
+/// every other element that element's own device's latest target, else a hold of it where it
+/// was measured when the hold began (the first message that carries it), kept until that
+/// element's device sends targets, our messages stop or the link comes back: never re-taken
+/// from each new measurement, which would integrate the element's sag under a load
+/// (docs/adapters.md, "Holds"). Nothing is sent while an element has neither.
+#[derive(Debug, Clone)]
+pub struct MessageElement<T, M: Copy, const N: usize> {
+    shared: SharedMessage<T, N>,
+    element: usize,
+    holds: [MeasuredHold<M>; N],
+}
+
+impl<T: Copy, M: Copy + Default, const N: usize> MessageElement<T, M, N> {
+    /// Element `element` (< `N`) of the message shared as `shared`.
+    pub fn new(shared: SharedMessage<T, N>, element: usize) -> Self {
+        Self {
+            shared,
+            element,
+            holds: [MeasuredHold::default(); N],
+        }
+    }
+
+    /// This device's element.
+    pub fn element(&self) -> usize {
+        self.element
+    }
+
+    /// The other elements.
+    pub fn others(&self) -> impl Iterator<Item = usize> {
+        let own = self.element;
+        (0..N).filter(move |e| *e != own)
+    }
+
+    /// A new measurement of element `e` (a hold in force keeps its position).
+    pub fn measure(&mut self, e: usize, m: M) {
+        if let Some(h) = self.holds.get_mut(e) {
+            h.measure(m);
+        }
+    }
+
+    /// Element `e`'s newest measurement, if any.
+    pub fn measured(&self, e: usize) -> Option<M> {
+        self.holds.get(e).and_then(|h| h.measured())
+    }
+
+    /// Our messages stop (a silence, a reconnect): the next one begins new holds.
+    pub fn release(&mut self) {
+        for h in &mut self.holds {
+            h.release();
+        }
+    }
+
+    /// Records `own` as this element's latest target (`None`: no valid target) and returns
+    /// every element of the next message, or `None` to send nothing: no valid target of
+    /// ours, or another element with neither a target of its own device nor a measurement
+    /// to hold (`hold` turns a measurement into that element's target).
+    pub fn compose(&mut self, own: Option<T>, hold: impl Fn(M) -> T) -> Option<[T; N]> {
+        let latest = {
+            let mut shared = self.shared.lock();
+            if let Some(slot) = shared.get_mut(self.element) {
+                *slot = own;
+            }
+            *shared
+        };
+        let own = own?;
+        if self
+            .others()
+            .any(|e| latest[e].is_none() && self.holds[e].measured().is_none())
+        {
+            return None;
+        }
+        let mut out = [own; N];
+        for e in (0..N).filter(|e| *e != self.element) {
+            out[e] = match latest[e] {
+                Some(t) => {
+                    self.holds[e].release();
+                    t
+                }
+                None => hold(self.holds[e].hold()?),
+            };
+        }
+        Some(out)
     }
 }
 
@@ -637,6 +764,54 @@ impl HandDevice for WithPeer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two devices on one message: silent until the other element has a target or a
+    /// measurement; its own device's target beats a hold and ends it; a hold is taken when it
+    /// begins and kept; a release begins a new one.
+    #[test]
+    fn a_shared_message_carries_every_elements_own_target_else_a_kept_hold() {
+        let shared = SharedMessage::<f32, 2>::default();
+        let mut a = MessageElement::<f32, f32, 2>::new(shared.clone(), 0);
+        let mut b = MessageElement::<f32, f32, 2>::new(shared, 1);
+        let held = |m: f32| m + 100.0;
+        assert_eq!(
+            a.compose(Some(1.0), held),
+            None,
+            "the other neither driven nor measured"
+        );
+        a.measure(1, 5.0);
+        assert_eq!(a.compose(Some(1.0), held), Some([1.0, 105.0]));
+        a.measure(1, 4.0);
+        assert_eq!(a.compose(Some(1.5), held), Some([1.5, 105.0]), "the hold is kept");
+        assert_eq!(
+            b.compose(Some(2.0), held),
+            Some([1.5, 2.0]),
+            "a's own target, not a hold"
+        );
+        assert_eq!(a.compose(Some(1.0), held), Some([1.0, 2.0]));
+        assert_eq!(b.compose(None, held), None, "no valid target of its own: nothing sent");
+        assert_eq!(
+            a.compose(Some(1.0), held),
+            Some([1.0, 104.0]),
+            "b's hold ended: a new one"
+        );
+        a.measure(1, 3.0);
+        a.release();
+        assert_eq!(a.compose(Some(1.0), held), Some([1.0, 103.0]), "after a release");
+        assert_eq!((a.measured(1), a.measured(0)), (Some(3.0), None));
+        assert_eq!(b.others().collect::<Vec<_>>(), [0]);
+    }
+
+    /// No hold begins with a message that is not sent.
+    #[test]
+    fn a_message_that_cannot_be_sent_begins_no_hold() {
+        let mut a = MessageElement::<f32, f32, 3>::new(SharedMessage::default(), 0);
+        a.measure(1, 5.0);
+        assert_eq!(a.compose(Some(1.0), |m| m), None, "element 2 has nothing");
+        a.measure(1, 4.0);
+        a.measure(2, 7.0);
+        assert_eq!(a.compose(Some(1.0), |m| m), Some([1.0, 4.0, 7.0]));
+    }
 
     /// A client at 10 kHz against a budget of 1 kHz: the service receives at most
     /// `BURST + rate·T` samples over any window, and a token is there again when `ready_at` says.

@@ -82,8 +82,8 @@ pub struct DeviceStats {
     pub stale_events: u64,
 }
 
-/// Device errors. [`DeviceError::is_transient`] tells a failure the link may recover from
-/// (an unplug, a missed reply) from one that needs the profile or the setup changed.
+/// Device errors. A link failure says whether the link may recover by itself (an unplug, a
+/// missed reply: [`DeviceError::transient`]) or needs the setup changed ([`DeviceError::link`]).
 #[derive(Debug, thiserror::Error)]
 pub enum DeviceError {
     #[error(transparent)]
@@ -137,15 +137,6 @@ impl DeviceError {
     /// A configuration value the device cannot take, with the value's own error.
     pub fn config(e: impl std::error::Error + Send + Sync + 'static) -> Self {
         DeviceError::Invalid { source: Box::new(e) }
-    }
-
-    /// Whether retrying (or waiting for the link) may succeed.
-    pub fn is_transient(&self) -> bool {
-        match self {
-            DeviceError::Link { transient, .. } => *transient,
-            DeviceError::Dds(_) | DeviceError::NotConfirmed(_) => true,
-            _ => false,
-        }
     }
 }
 

@@ -996,7 +996,7 @@ impl BusyEndpoints {
 
 /// Creates `k` endpoints on `node` (every other one a writer, the rest readers; unitree_go
 /// `MotorCmds_`, best effort), each on its own topic `{prefix}{i}`. Nothing is written.
-/// Run it in another participant (ideally another process, `examples/busy_domain.rs`) than
+/// Run it in another participant (ideally another process, `adapters/examples/busy_domain.rs`) than
 /// the one measured.
 pub fn busy_endpoints(node: &Node, k: usize, prefix: &str) -> Result<BusyEndpoints, DdsError> {
     let mut w = Vec::with_capacity(k.div_ceil(2));

@@ -1,6 +1,6 @@
-//! Pieces shared by the DDS peer emulators (`dex3::dds_service_emulator`, `dex1::emulator`,
-//! `hand_sdk::emulator`): the hand side, a rate newtype, the emulator error type and a
-//! stoppable background loop paced at a fixed rate.
+//! Pieces shared by the emulated peers: the hand side, a rate newtype, the emulator error
+//! type, a configuration check, and the stoppable loop paced at a fixed rate that
+//! [`crate::service_emulator`] runs every emulated DDS service on.
 
 use std::time::{Duration, Instant};
 
@@ -37,9 +37,10 @@ pub enum EmulatorError {
     Spawn(#[from] std::io::Error),
 }
 
-/// `Err(InvalidConfig)` unless every value is finite.
-pub(crate) fn ensure_finite(what: &str, values: &[f32]) -> Result<(), EmulatorError> {
-    match values.iter().find(|v| !v.is_finite()) {
+/// `Err(InvalidConfig)` unless every value is finite (an array, or the values set of an
+/// array of options: `objects.into_iter().flatten()`).
+pub(crate) fn ensure_finite(what: &str, values: impl IntoIterator<Item = f32>) -> Result<(), EmulatorError> {
+    match values.into_iter().find(|v| !v.is_finite()) {
         Some(v) => Err(EmulatorError::InvalidConfig(format!("{what} must be finite, got {v}"))),
         None => Ok(()),
     }
@@ -79,6 +80,21 @@ pub(crate) fn tick_dt(prev: Option<Instant>, now: Instant, nominal: Duration) ->
         None => nominal,
     };
     dt.as_secs_f32().clamp(0.0, 0.01)
+}
+
+/// Test support: how long a DDS test waits for a condition before it fails (generous: a
+/// loaded machine starves the emulator threads).
+#[cfg(test)]
+pub(crate) const TEST_WAIT: Duration = Duration::from_secs(20);
+
+/// Test support: polls `cond` until it holds; panics after [`TEST_WAIT`].
+#[cfg(test)]
+pub(crate) fn wait_for(mut cond: impl FnMut() -> bool) {
+    let deadline = Instant::now() + TEST_WAIT;
+    while !cond() {
+        assert!(Instant::now() < deadline, "condition not reached");
+        std::thread::yield_now();
+    }
 }
 
 /// Test support: makes DDS domain `id` private to this process.

@@ -180,13 +180,20 @@ pub struct DeviceCtx<'a> {
 }
 
 /// A device of some kind in the fleet, for the rules across devices (`validate_fleet`).
-#[derive(Debug, Clone, Copy)]
-pub struct FleetMember<'a> {
+#[derive(Debug)]
+pub struct FleetMember<'a, C: ?Sized = dyn KindConfig> {
     /// Index in the profile's `devices`.
     pub index: usize,
     pub ctx: DeviceCtx<'a>,
-    pub config: &'a dyn KindConfig,
+    pub config: &'a C,
 }
+
+impl<C: ?Sized> Clone for FleetMember<'_, C> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<C: ?Sized> Copy for FleetMember<'_, C> {}
 
 /// A problem found across devices: the device index, then as [`Problem`].
 pub type FleetProblem = (usize, Problem);
@@ -249,63 +256,142 @@ impl PadLayout {
     }
 }
 
-/// What a kind tells handgate about itself. Each kind folder exports one unit struct
-/// implementing it; [`crate::kinds::KINDS`] lists them.
-pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
-    /// The kind's name in profiles (`kind = "..."`), logs and status.
-    fn name(&self) -> &'static str;
+/// The sides a device of a kind may have.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sides {
+    /// Left, right or center.
+    Any,
+    /// Left or right only; `note` ends the refusal of center (`", not center"`, or why).
+    LeftOrRight { note: &'static str },
+}
 
-    /// Where its tactile pads sit and how their values read (the dashboard); `None`: no
-    /// tactile pads.
-    fn pads(&self) -> Option<&'static PadLayout> {
-        None
+/// A kind's device loop rates when the profile sets none: `Some(Hz)`, or `None` for "as
+/// fast as the bus answers"; `by_backend` overrides `default` on the backends it names.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rates {
+    pub default: Option<f64>,
+    pub by_backend: &'static [(Backend, Option<f64>)],
+}
+
+impl Rates {
+    /// `hz` on every backend.
+    pub const fn fixed(hz: f64) -> Self {
+        Rates {
+            default: Some(hz),
+            by_backend: &[],
+        }
     }
 
+    /// As fast as the bus answers, on every backend.
+    pub const AS_FAST_AS_THE_BUS: Rates = Rates {
+        default: None,
+        by_backend: &[],
+    };
+
+    /// The rate on `backend`.
+    pub fn on(&self, backend: Backend) -> Option<f64> {
+        self.by_backend
+            .iter()
+            .find(|(b, _)| *b == backend)
+            .map_or(self.default, |(_, hz)| *hz)
+    }
+}
+
+/// What a kind is, in one constant: everything about it that no profile changes.
+#[derive(Debug, Clone, Copy)]
+pub struct KindFacts {
+    /// The kind's name in profiles (`kind = "..."`), logs and status.
+    pub name: &'static str,
     /// Canonical joint names, canonical order.
-    fn joints(&self) -> &'static [&'static str];
-
+    pub joints: &'static [&'static str],
     /// The backends a device of this kind can use.
-    fn backends(&self) -> &'static [Backend];
-
+    pub backends: &'static [Backend],
     /// The fronts serving this kind's own interface (its service's topics, so an unmodified
     /// client of this hand can drive any device): registered with the kind
     /// ([`crate::fronts::all`]).
-    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
-        &[]
-    }
-
-    /// `Err(message)` when a device of this kind cannot have `side`.
-    fn check_side(&self, _side: Side) -> Result<(), String> {
-        Ok(())
-    }
-
-    /// The device loop rate when the profile sets none: `Some(Hz)`, or `None` for "as fast
-    /// as the bus answers".
-    fn default_rate_hz(&self, backend: Backend) -> Option<f64>;
-
+    pub fronts: &'static [crate::front::kind::FrontKind],
+    pub sides: Sides,
+    /// The device loop rate when the profile sets none.
+    pub rates: Rates,
     /// The profile keys this kind reads in a `[[devices]]` table besides the common ones.
-    fn sections(&self) -> &'static [SectionSpec];
+    pub sections: &'static [SectionSpec],
+    /// Where its tactile pads sit and how their values read (the dashboard); `None`: no
+    /// tactile pads.
+    pub pads: Option<&'static PadLayout>,
+    /// Whether `closure.open` / `closure.closed` postures may be set in a profile.
+    pub closure_postures_configurable: bool,
+}
 
-    /// Parses those keys (`value` is a table holding only them; absent keys take defaults).
-    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError>;
+impl KindFacts {
+    /// Facts with no fronts, any side, no sections, no pads, fixed postures.
+    pub const fn new(
+        name: &'static str,
+        joints: &'static [&'static str],
+        backends: &'static [Backend],
+        rates: Rates,
+    ) -> Self {
+        KindFacts {
+            name,
+            joints,
+            backends,
+            fronts: &[],
+            sides: Sides::Any,
+            rates,
+            sections: &[],
+            pads: None,
+            closure_postures_configurable: false,
+        }
+    }
+}
 
-    /// The configuration of a device that sets none of the kind's keys.
-    fn default_config(&self) -> Box<dyn KindConfig>;
+/// A device kind, typed: its facts, its own profile keys ([`Kind::Config`]), what it builds
+/// for a device before starting anything ([`Kind::Open`]) and the options of its standalone
+/// emulator ([`Kind::Emulate`]). Each kind folder implements it once on a unit struct; one
+/// blanket implementation ([`KindFactory`] for every `Kind`) parses, erases, validates and
+/// hands each method back its typed configuration, so no kind folder downcasts anything.
+pub trait Kind: Sync + Send + fmt::Debug + 'static {
+    const FACTS: KindFacts;
+    /// The kind's own profile keys (absent keys take their defaults).
+    type Config: Settings;
+    /// What a device opens with, decided from the profile before anything starts (transport,
+    /// loop, peer settings): `handgate check` and the tests look at it.
+    type Open: fmt::Debug + 'static;
+    /// The options `handgate emulate <kind>` takes besides the common ones.
+    type Emulate: EmulateOptions;
 
     /// The kind's mapping table for `side` with its own configuration applied (the profile's
     /// common overrides come on top: [`crate::mapping::TableOverrides`]).
-    fn table(&self, side: Side, config: &dyn KindConfig) -> DeviceTable;
+    fn table(&self, side: Side, config: &Self::Config) -> DeviceTable;
 
-    /// Whether `closure.open` / `closure.closed` postures may be set in a profile.
-    fn closure_postures_configurable(&self) -> bool {
-        false
+    /// What `spec` opens with.
+    fn configure(&self, spec: &DeviceSpec<'_, Self::Config>) -> Result<Self::Open, DeviceError>;
+
+    /// Opens the device `configure` decided.
+    fn open(
+        &self,
+        open: Self::Open,
+        spec: &DeviceSpec<'_, Self::Config>,
+        env: &mut OpenEnv<'_>,
+    ) -> Result<Box<dyn HandDevice>, DeviceError>;
+
+    /// `handgate emulate <kind>`: what this kind's emulator stands in for (the hardware at
+    /// its transport seam, or the robot's service) as a standalone process. Returns the line
+    /// to print (socket, pty or topics) and the running emulation.
+    fn emulate(&self, args: &EmulateArgs, options: Self::Emulate) -> Result<(String, Emulation), DeviceError>;
+
+    /// What a device opened as `open` serves on DDS as a client of a robot service, for
+    /// discovery's diagnostics: its command topic (role writer) and state topics (role
+    /// reader), on the emulator backend its in-process peer's private topics. Empty for
+    /// devices that reach their hardware without DDS (USB, serial).
+    fn served(&self, _open: &Self::Open) -> Vec<crate::discovery::diagnose::Served> {
+        Vec::new()
     }
 
     /// The widest canonical range (rad) a profile may give `joint` (limits, closure
-    /// postures, emulator positions); `None` for an unknown joint or an impossible side.
+    /// postures, emulator positions); `None` for an unknown joint. Default: the limits of
+    /// the kind's default table.
     fn hardware_range(&self, side: Side, joint: &str) -> Option<(f64, f64)> {
-        self.check_side(side).ok()?;
-        let t = self.table(side, &*self.default_config());
+        let t = self.table(side, &Self::Config::default());
         let id = t.joint_by_name(joint).ok()?;
         let l = t.joints[id.index()].limits;
         Some((l.min as f64, l.max as f64))
@@ -319,42 +405,296 @@ pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
     }
 
     /// Rules across the fleet's devices of this kind (`members`: those devices).
-    fn validate_fleet(&self, _members: &[FleetMember<'_>]) -> Vec<FleetProblem> {
+    fn validate_fleet(&self, _members: &[FleetMember<'_, Self::Config>]) -> Vec<FleetProblem> {
         Vec::new()
     }
 
     /// Called once with every device of this kind before any of them is opened: opens what
     /// several devices share (one bus per port) into `env.shared`.
-    fn prepare(&self, _devices: &[DeviceSpec<'_>], _env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
+    fn prepare(&self, _devices: &[DeviceSpec<'_, Self::Config>], _env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
         Ok(())
     }
-
-    /// What `open` would build for `spec` (transport, loop, peer settings), without starting
-    /// anything: the place to see that every profile key reaches the device.
-    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn fmt::Debug>, DeviceError>;
 
     /// `handgate list`: the devices of this kind attached to this machine (one line each,
     /// with what stops handgate from opening one), for kinds that can enumerate them.
     fn list_attached(&self) -> Option<Result<Vec<String>, DeviceError>> {
         None
     }
+}
 
-    /// `handgate emulate <kind>`: what this kind's emulator stands in for (the hardware at
-    /// its transport seam, or the robot's service) as a standalone process. Returns the line
-    /// to print (socket, pty or topics) and the running emulation.
-    fn emulate(&self, args: &EmulateArgs) -> Result<(String, Emulation), DeviceError>;
-
-    /// What a device opened from `spec` serves on DDS as a client of a robot service, for
-    /// discovery's diagnostics: its command topic (role writer) and state topics (role
-    /// reader), on the emulator backend its in-process peer's private topics. Empty for
-    /// devices that reach their hardware without DDS (USB, serial) or a `spec` that cannot
-    /// open (reported when opening).
-    fn served(&self, _spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+/// A kind's parsed profile keys, typed (the kind's [`Kind::Config`]). Erased once, by the
+/// blanket [`KindConfig`] implementation.
+pub trait Settings:
+    serde::de::DeserializeOwned + Default + Clone + PartialEq + fmt::Debug + Send + Sync + 'static
+{
+    /// Semantic checks of the kind's keys (keys relative to the device's table).
+    fn check(&self, _ctx: &DeviceCtx<'_>) -> Vec<Problem> {
         Vec::new()
     }
 
+    /// Topics a device on backend dds uses to reach its peer: (command topic it publishes,
+    /// state topic it reads). `None` where the kind has no such peer; an inner `None` where
+    /// the default cannot be derived (side center without overrides).
+    fn peer_topics(&self, _ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
+        None
+    }
+
+    /// For a command topic that carries several devices in one message (the Dex1 `actuator`
+    /// variant, Inspire DFX's 12 entries for both hands): the element this device writes.
+    /// Two devices on one command topic are refused unless both name an element and the
+    /// elements differ. `None`: the device owns the whole message.
+    fn command_element(&self, _ctx: &DeviceCtx<'_>) -> Option<usize> {
+        None
+    }
+
+    /// What `handgate check` adds after the device's rate and watchdog (starting with `, `
+    /// or ` `), empty when nothing.
+    fn summary(&self, _ctx: &DeviceCtx<'_>) -> String {
+        String::new()
+    }
+}
+
+/// Options of `handgate emulate <kind>` that only that kind takes, parsed from
+/// `--name [value]` pairs (the common ones are in [`EmulateArgs`]).
+pub trait EmulateOptions: Default + Sized {
+    /// Which of the options every emulator may take ([`COMMON_EMULATE_OPTIONS`]) this one
+    /// takes (the others are refused, never ignored).
+    const COMMON: &'static [&'static str] = COMMON_EMULATE_OPTIONS;
+    /// The kind's own options, in the order help and errors list them.
+    const OPTIONS: &'static [EmulateOption];
+
+    /// Sets option `name` (one of [`EmulateOptions::OPTIONS`]) to `value` (`None` for a
+    /// switch); `Err(why)` for a value it cannot take.
+    fn set(&mut self, name: &str, _value: Option<&str>) -> Result<(), String> {
+        Err(format!("--{name} is not an option"))
+    }
+}
+
+/// No options of its own; every common one.
+impl EmulateOptions for () {
+    const OPTIONS: &'static [EmulateOption] = &[];
+}
+
+/// One option of a kind's emulator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EmulateOption {
+    /// Its name without the leading `--`.
+    pub name: &'static str,
+    /// The value's placeholder (`PATH`), or `None` for a switch.
+    pub value: Option<&'static str>,
+    pub help: &'static str,
+}
+
+/// The typed view of an erased configuration. Configurations are made only by their kind's
+/// [`KindFactory::parse`] / [`KindFactory::default_config`] and the profile keeps each with
+/// its kind, so another type here is a bug in handgate, not in a profile: it panics, naming
+/// both, here and nowhere else.
+fn typed<K: Kind>(config: &dyn KindConfig) -> &K::Config {
+    config.as_any().downcast_ref::<K::Config>().unwrap_or_else(|| {
+        panic!(
+            "internal error: a {} device was given another kind's configuration ({config:?})",
+            K::FACTS.name
+        )
+    })
+}
+
+/// Every typed kind is a factory: the one place where configurations are parsed, erased and
+/// given back typed.
+impl<K: Kind> KindFactory for K {
+    fn name(&self) -> &'static str {
+        K::FACTS.name
+    }
+
+    fn pads(&self) -> Option<&'static PadLayout> {
+        K::FACTS.pads
+    }
+
+    fn joints(&self) -> &'static [&'static str] {
+        K::FACTS.joints
+    }
+
+    fn backends(&self) -> &'static [Backend] {
+        K::FACTS.backends
+    }
+
+    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
+        K::FACTS.fronts
+    }
+
+    fn check_side(&self, side: Side) -> Result<(), String> {
+        match (K::FACTS.sides, side) {
+            (Sides::LeftOrRight { note }, Side::Center) => {
+                Err(format!("{} is a left or a right hand{note}", a(K::FACTS.name)))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn default_rate_hz(&self, backend: Backend) -> Option<f64> {
+        K::FACTS.rates.on(backend)
+    }
+
+    fn sections(&self) -> &'static [SectionSpec] {
+        K::FACTS.sections
+    }
+
+    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError> {
+        Ok(Box::new(value.deserialize::<K::Config>().map_err(Box::new)?))
+    }
+
+    fn default_config(&self) -> Box<dyn KindConfig> {
+        Box::new(K::Config::default())
+    }
+
+    fn table(&self, side: Side, config: &dyn KindConfig) -> DeviceTable {
+        Kind::table(self, side, typed::<K>(config))
+    }
+
+    fn closure_postures_configurable(&self) -> bool {
+        K::FACTS.closure_postures_configurable
+    }
+
+    fn hardware_range(&self, side: Side, joint: &str) -> Option<(f64, f64)> {
+        self.check_side(side).ok()?;
+        Kind::hardware_range(self, side, joint)
+    }
+
+    fn validate_emulator(&self, ctx: &DeviceCtx<'_>, section: &crate::open::EmulatorSection) -> Vec<Problem> {
+        Kind::validate_emulator(self, ctx, section)
+    }
+
+    fn validate_fleet(&self, members: &[FleetMember<'_>]) -> Vec<FleetProblem> {
+        let typed: Vec<FleetMember<'_, K::Config>> = members
+            .iter()
+            .map(|m| FleetMember {
+                index: m.index,
+                ctx: m.ctx,
+                config: typed::<K>(m.config),
+            })
+            .collect();
+        Kind::validate_fleet(self, &typed)
+    }
+
+    fn prepare(&self, devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
+        let typed: Vec<DeviceSpec<'_, K::Config>> = devices.iter().map(|d| d.typed(typed::<K>(d.config))).collect();
+        Kind::prepare(self, &typed, env)
+    }
+
+    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn fmt::Debug>, DeviceError> {
+        Ok(Box::new(self.configure(&spec.typed(typed::<K>(spec.config)))?))
+    }
+
+    fn list_attached(&self) -> Option<Result<Vec<String>, DeviceError>> {
+        Kind::list_attached(self)
+    }
+
+    fn emulate(&self, args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
+        let options = args.options_for::<K::Emulate>(K::FACTS.name)?;
+        Kind::emulate(self, args, options)
+    }
+
+    fn emulate_options(&self) -> &'static [EmulateOption] {
+        <K::Emulate as EmulateOptions>::OPTIONS
+    }
+
+    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
+        match self.configure(&spec.typed(typed::<K>(spec.config))) {
+            Ok(open) => Kind::served(self, &open),
+            Err(_) => Vec::new(),
+        }
+    }
+
+    fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
+        let spec = spec.typed(typed::<K>(spec.config));
+        let open = self.configure(&spec)?;
+        Kind::open(self, open, &spec, env)
+    }
+
+    fn served_by_default(&self, side: Side) -> Vec<crate::discovery::diagnose::Served> {
+        let backend = Backend::Dds;
+        if self.check_side(side).is_err() || !K::FACTS.backends.contains(&backend) {
+            return Vec::new();
+        }
+        let config = K::Config::default();
+        let table = std::sync::Arc::new(Kind::table(self, side, &config));
+        let emulator = crate::open::EmulatorSection::default();
+        let rate_hz = K::FACTS.rates.on(backend).unwrap_or(100.0);
+        let spec = DeviceSpec {
+            name: K::FACTS.name,
+            kind: DeviceKind::by_name(K::FACTS.name).unwrap_or_default(),
+            side,
+            backend,
+            rate_hz,
+            stale_after: std::time::Duration::from_millis(200),
+            forward_on_arrival: true,
+            max_send_hz: None,
+            table: &table,
+            emulator: &emulator,
+            config: &config,
+        };
+        match self.configure(&spec) {
+            Ok(open) => Kind::served(self, &open),
+            Err(_) => Vec::new(),
+        }
+    }
+}
+
+/// A registered kind, erased: what the profile, the resolver and the runtime ask of a kind
+/// without knowing which it is. Implemented once, for every [`Kind`]; a kind folder
+/// implements [`Kind`], never this.
+pub trait KindFactory: Sync + Send + fmt::Debug + 'static {
+    /// The kind's name in profiles (`kind = "..."`), logs and status.
+    fn name(&self) -> &'static str;
+    /// [`KindFacts::pads`].
+    fn pads(&self) -> Option<&'static PadLayout>;
+    /// Canonical joint names, canonical order.
+    fn joints(&self) -> &'static [&'static str];
+    /// The backends a device of this kind can use.
+    fn backends(&self) -> &'static [Backend];
+    /// [`KindFacts::fronts`].
+    fn fronts(&self) -> &'static [crate::front::kind::FrontKind];
+    /// `Err(message)` when a device of this kind cannot have `side`.
+    fn check_side(&self, side: Side) -> Result<(), String>;
+    /// The device loop rate when the profile sets none: `Some(Hz)`, or `None` for "as fast
+    /// as the bus answers".
+    fn default_rate_hz(&self, backend: Backend) -> Option<f64>;
+    /// The profile keys this kind reads in a `[[devices]]` table besides the common ones.
+    fn sections(&self) -> &'static [SectionSpec];
+    /// Parses those keys (`value` is a table holding only them; absent keys take defaults).
+    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError>;
+    /// The configuration of a device that sets none of the kind's keys.
+    fn default_config(&self) -> Box<dyn KindConfig>;
+    /// [`Kind::table`].
+    fn table(&self, side: Side, config: &dyn KindConfig) -> DeviceTable;
+    /// Whether `closure.open` / `closure.closed` postures may be set in a profile.
+    fn closure_postures_configurable(&self) -> bool;
+    /// [`Kind::hardware_range`]; `None` for an impossible side too.
+    fn hardware_range(&self, side: Side, joint: &str) -> Option<(f64, f64)>;
+    /// [`Kind::validate_emulator`].
+    fn validate_emulator(&self, ctx: &DeviceCtx<'_>, section: &crate::open::EmulatorSection) -> Vec<Problem>;
+    /// [`Kind::validate_fleet`].
+    fn validate_fleet(&self, members: &[FleetMember<'_>]) -> Vec<FleetProblem>;
+    /// [`Kind::prepare`].
+    fn prepare(&self, devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError>;
+    /// What `open` would build for `spec` ([`Kind::configure`]), without starting anything:
+    /// the place to see that every profile key reaches the device.
+    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn fmt::Debug>, DeviceError>;
+    /// [`Kind::list_attached`].
+    fn list_attached(&self) -> Option<Result<Vec<String>, DeviceError>>;
+    /// [`Kind::emulate`], its own options parsed from `args.options` (an unknown one is
+    /// refused with the kind's list).
+    fn emulate(&self, args: &EmulateArgs) -> Result<(String, Emulation), DeviceError>;
+    /// The options `handgate emulate <kind>` takes besides the common ones.
+    fn emulate_options(&self) -> &'static [EmulateOption];
+    /// [`Kind::served`] for the device `spec` opens (empty when it cannot open: reported
+    /// when opening).
+    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served>;
     /// Opens one device on its backend (the emulator backend included).
     fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError>;
+    /// What a device of this kind on `side` with no profile keys of its own serves on
+    /// backend dds ([`KindFactory::served`]): what another kind's hand answering on its
+    /// topics looks like to the doctor.
+    fn served_by_default(&self, side: Side) -> Vec<crate::discovery::diagnose::Served>;
 }
 
 impl dyn KindFactory {
@@ -381,21 +721,11 @@ impl dyn KindFactory {
     }
 }
 
-/// Options of `handgate emulate <kind>`; each kind takes the ones it needs and refuses the
-/// others it cannot honour.
+/// Options of `handgate emulate <kind>`: the ones every kind takes, and the kind's own as
+/// given (`--name [value]`, parsed by the kind: [`EmulateOptions`]).
 #[derive(Debug, Clone, Default)]
 pub struct EmulateArgs {
     pub side: Option<Side>,
-    /// Dex3: the hand's MCU behind this Unix socket (the USB frame protocol).
-    pub socket: Option<std::path::PathBuf>,
-    /// Dex3: the G1's resident hand service on DDS instead of the MCU.
-    pub service: bool,
-    /// Dex1: the wire variant (`go`, `hg`, `actuator`).
-    pub variant: Option<String>,
-    /// EZGripper: the servo ids on the emulated bus (default: the side's).
-    pub ids: Vec<u8>,
-    /// EZGripper: where to link the pseudo-terminal (default: a temporary path).
-    pub pty: Option<std::path::PathBuf>,
     /// DDS domain and interface of a service emulator.
     pub domain: u32,
     pub interface: Option<String>,
@@ -403,7 +733,15 @@ pub struct EmulateArgs {
     pub no_noise: bool,
     /// Seed of the measurement noise.
     pub seed: Option<u64>,
+    /// The common options given on the command line (names without `--`), so a kind's
+    /// emulator refuses those it has no use for.
+    pub common_given: Vec<&'static str>,
+    /// The kind's own options, in order: (name without `--`, value).
+    pub options: Vec<(String, Option<String>)>,
 }
+
+/// The options every kind's emulator takes, as errors list them.
+pub const COMMON_EMULATE_OPTIONS: &[&str] = &["side", "domain", "interface", "no-noise", "seed"];
 
 impl EmulateArgs {
     /// The measurement noise to emulate, given the kind's figures.
@@ -425,6 +763,74 @@ impl EmulateArgs {
     pub fn node(&self) -> Result<crate::dds::Node, DeviceError> {
         Ok(crate::dds::Node::new(self.domain, self.interface.as_deref())?)
     }
+
+    /// Splits `--name [value]` words (what follows the common options on the command line)
+    /// into options, a word not starting with `--` being the value of the option before it.
+    pub fn split_options(words: &[String]) -> Result<Vec<(String, Option<String>)>, String> {
+        let mut out: Vec<(String, Option<String>)> = Vec::new();
+        for w in words {
+            match w.strip_prefix("--") {
+                Some(name) => match name.split_once('=') {
+                    Some((n, v)) => out.push((n.to_string(), Some(v.to_string()))),
+                    None => out.push((name.to_string(), None)),
+                },
+                None => match out.last_mut() {
+                    Some((_, v @ None)) => *v = Some(w.clone()),
+                    _ => return Err(format!("unexpected `{w}` (options are `--name value`)")),
+                },
+            }
+        }
+        Ok(out)
+    }
+
+    /// The kind's own options, parsed: an option it does not take is refused with the list
+    /// of those it does; a switch given a value, or an option missing one, likewise.
+    pub fn options_for<O: EmulateOptions>(&self, kind: &str) -> Result<O, DeviceError> {
+        let refuse = |name: &str| {
+            let all: Vec<String> = O::COMMON
+                .iter()
+                .copied()
+                .chain(O::OPTIONS.iter().map(|s| s.name))
+                .map(|n| format!("--{n}"))
+                .collect();
+            let takes = if all.is_empty() {
+                "no options".into()
+            } else {
+                format!("{} only", join_and(&all))
+            };
+            DeviceError::Config(format!("emulating {} takes {takes}, not --{name}", a(kind)))
+        };
+        if let Some(c) = self.common_given.iter().find(|c| !O::COMMON.contains(c)) {
+            return Err(refuse(c));
+        }
+        let mut o = O::default();
+        for (name, value) in &self.options {
+            let Some(spec) = O::OPTIONS.iter().find(|s| s.name == name) else {
+                return Err(refuse(name));
+            };
+            match (spec.value, value) {
+                (Some(v), None) => {
+                    return Err(DeviceError::Config(format!("--{name} needs a value ({v})")));
+                }
+                (None, Some(v)) => {
+                    return Err(DeviceError::Config(format!("--{name} takes no value, got `{v}`")));
+                }
+                _ => {}
+            }
+            o.set(name, value.as_deref())
+                .map_err(|e| DeviceError::Config(format!("--{name}: {e}")))?;
+        }
+        Ok(o)
+    }
+}
+
+/// `a, b and c`.
+fn join_and(items: &[String]) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.clone(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+    }
 }
 
 /// A running `handgate emulate`.
@@ -444,52 +850,43 @@ impl fmt::Debug for Emulation {
     }
 }
 
-/// A kind's parsed profile keys.
+/// A kind's parsed profile keys, erased (implemented once, for every [`Settings`]).
 pub trait KindConfig: Any + fmt::Debug + Send + Sync {
-    /// Semantic checks of the kind's keys (keys relative to the device's table).
+    /// [`Settings::check`].
     fn validate(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem>;
-
-    /// Topics a device on backend dds uses to reach its peer: (command topic it publishes,
-    /// state topic it reads). `None` where the kind has no such peer; an inner `None` where
-    /// the default cannot be derived (side center without overrides).
-    fn dds_topics(&self, _ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
-        None
-    }
-
-    /// For a command topic that carries several devices in one message (the Dex1 `actuator`
-    /// variant, Inspire DFX's 12 entries for both hands): the element this device writes.
-    /// Two devices on one command topic are refused unless both name an element and the
-    /// elements differ. `None`: the device owns the whole message.
-    fn dds_command_element(&self, _ctx: &DeviceCtx<'_>) -> Option<usize> {
-        None
-    }
-
-    /// What `handgate check` adds after the device's rate and watchdog (starting with `, `
-    /// or ` `), empty when nothing.
-    fn describe(&self, _ctx: &DeviceCtx<'_>) -> String {
-        String::new()
-    }
-
+    /// [`Settings::peer_topics`].
+    fn dds_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)>;
+    /// [`Settings::command_element`].
+    fn dds_command_element(&self, ctx: &DeviceCtx<'_>) -> Option<usize>;
+    /// [`Settings::summary`].
+    fn describe(&self, ctx: &DeviceCtx<'_>) -> String;
     fn as_any(&self) -> &dyn Any;
     fn clone_box(&self) -> Box<dyn KindConfig>;
     fn eq_dyn(&self, other: &dyn KindConfig) -> bool;
 }
 
-/// Implements the object plumbing of [`KindConfig`] (`as_any`, `clone_box`, `eq_dyn`) for a
-/// `Clone + PartialEq` type.
-#[macro_export]
-macro_rules! kind_config_plumbing {
-    () => {
-        fn as_any(&self) -> &dyn ::std::any::Any {
-            self
-        }
-        fn clone_box(&self) -> ::std::boxed::Box<dyn $crate::kind::KindConfig> {
-            ::std::boxed::Box::new(self.clone())
-        }
-        fn eq_dyn(&self, other: &dyn $crate::kind::KindConfig) -> bool {
-            other.as_any().downcast_ref::<Self>().is_some_and(|o| o == self)
-        }
-    };
+impl<T: Settings> KindConfig for T {
+    fn validate(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem> {
+        self.check(ctx)
+    }
+    fn dds_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
+        self.peer_topics(ctx)
+    }
+    fn dds_command_element(&self, ctx: &DeviceCtx<'_>) -> Option<usize> {
+        self.command_element(ctx)
+    }
+    fn describe(&self, ctx: &DeviceCtx<'_>) -> String {
+        self.summary(ctx)
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn clone_box(&self) -> Box<dyn KindConfig> {
+        Box::new(self.clone())
+    }
+    fn eq_dyn(&self, other: &dyn KindConfig) -> bool {
+        other.as_any().downcast_ref::<T>().is_some_and(|o| o == self)
+    }
 }
 
 /// A boxed [`KindConfig`] that is `Clone`, `PartialEq` and `Debug`.
@@ -497,7 +894,7 @@ macro_rules! kind_config_plumbing {
 pub struct KindConfigBox(pub Box<dyn KindConfig>);
 
 impl KindConfigBox {
-    /// The config as its concrete type (for the kind's own code).
+    /// The config as its concrete type (for tests that look at what a profile parsed to).
     pub fn get<T: KindConfig>(&self) -> Option<&T> {
         self.0.as_any().downcast_ref::<T>()
     }
@@ -520,6 +917,86 @@ impl PartialEq for KindConfigBox {
     fn eq(&self, other: &Self) -> bool {
         self.0.eq_dyn(&*other.0)
     }
+}
+
+/// Declares the `[devices.dds]` section of a client of a DDS service: `cmd_topic` and
+/// `state_topic` (overrides of the service's topics, checked by `topic_problems`, defaulted
+/// by `topics_or`), then the kind's own optional keys as written. Every field is optional and
+/// unknown keys are refused (the profile's errors name file and key, and list the keys in this
+/// order).
+#[macro_export]
+macro_rules! dds_client_keys {
+    ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $f:ident : $t:ty,)* }) => {
+        $(#[$m])*
+        #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+        #[serde(deny_unknown_fields, default)]
+        pub struct $name {
+            /// Overrides the service's command topic.
+            #[serde(skip_serializing_if = "Option::is_none")]
+            pub cmd_topic: Option<String>,
+            /// Overrides the service's state topic.
+            #[serde(skip_serializing_if = "Option::is_none")]
+            pub state_topic: Option<String>,
+            $($(#[$fm])* #[serde(skip_serializing_if = "Option::is_none")] pub $f: Option<$t>,)*
+        }
+
+        impl $name {
+            /// Problems with the topic overrides (keys `dds.cmd_topic`, `dds.state_topic`).
+            pub fn topic_problems(&self) -> Vec<$crate::kind::Problem> {
+                $crate::kind::check_topics(
+                    "dds",
+                    &[("cmd_topic", self.cmd_topic.as_deref()), ("state_topic", self.state_topic.as_deref())],
+                )
+            }
+
+            /// (command, state) topics: each override, else the standard pair's.
+            pub fn topics_or(&self, standard: Option<(String, String)>) -> (Option<String>, Option<String>) {
+                $crate::kind::override_topics(self.cmd_topic.as_ref(), self.state_topic.as_ref(), standard)
+            }
+        }
+    };
+}
+
+/// A client of a DDS service on backend dds with side center has no standard topics: the
+/// problem (key `side`) when `topics` (overrides, else the standard pair) lack either.
+pub fn center_needs_topics(
+    kind: &str,
+    ctx: &DeviceCtx<'_>,
+    topics: (Option<String>, Option<String>),
+) -> Option<Problem> {
+    let missing = topics.0.is_none() || topics.1.is_none();
+    (ctx.backend == Backend::Dds && ctx.side == Side::Center && missing).then(|| {
+        Problem::new(
+            &["side"],
+            format!(
+                "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
+                a(kind)
+            ),
+        )
+    })
+}
+
+/// `cmd_topic` / `state_topic` of a DDS-client device's section: problems with either
+/// (keys `[section, "cmd_topic"]` ...), the one rule every kind with these overrides has.
+pub fn check_topics(section: &str, topics: &[(&str, Option<&str>)]) -> Vec<Problem> {
+    topics
+        .iter()
+        .filter_map(|(key, t)| match t.map(check_topic) {
+            Some(Err(e)) => Some(Problem::new(&[section, key], e)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// (command, state) topics of a DDS-client device: each override, else the standard pair's
+/// (`None` where there is no standard pair, e.g. side center).
+pub fn override_topics(
+    cmd: Option<&String>,
+    state: Option<&String>,
+    standard: Option<(String, String)>,
+) -> (Option<String>, Option<String>) {
+    let (c, s) = standard.map_or((None, None), |(c, s)| (Some(c), Some(s)));
+    (cmd.cloned().or(c), state.cloned().or(s))
 }
 
 /// `"a dex3"`, `"an ezgripper"`.

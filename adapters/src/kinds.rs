@@ -1,5 +1,5 @@
 //! The one list of device kinds (the shape of probe-rs's `DRIVERS`). Adding a kind: its
-//! folder (with its `KindFactory`), `pub mod` in `lib.rs`, and one line here
+//! folder (with its `Kind`), `pub mod` in `lib.rs`, and one line here
 //! (docs/adapters.md, "Adding a device kind").
 
 use crate::kind::DeviceKind;

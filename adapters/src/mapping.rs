@@ -236,6 +236,46 @@ pub enum UrdfFrame {
 }
 
 impl DeviceTable {
+    /// A position-controlled hand's table: commands hold with the closure postures' gains,
+    /// no per-step limit, the common bounds on a command (stiffness 50, damping 5, torque
+    /// 5 N·m).
+    pub fn with_postures(
+        kind: DeviceKind,
+        side: Side,
+        joints: Vec<JointMap>,
+        (open, closed): (Vec<f32>, Vec<f32>),
+        (kp, kd): (f32, f32),
+        urdf_frame: UrdfFrame,
+    ) -> Self {
+        DeviceTable {
+            kind,
+            side,
+            joints,
+            closure: ClosureMap::Postures { open, closed, kp, kd },
+            hold_kp: kp,
+            hold_kd: kd,
+            max_step: None,
+            max_kp: 50.0,
+            max_kd: 5.0,
+            max_tau: 5.0,
+            urdf_frame,
+        }
+    }
+
+    /// A parallel gripper's table: one jaw joint (`{side}_gripper_joint`), 0 open ..= `range`
+    /// rad closed, the wire reading `offset - scale × q` (open at `offset`).
+    pub fn gripper(kind: DeviceKind, side: Side, range: f32, (scale, offset): (f32, f32), gains: (f32, f32)) -> Self {
+        let jaw = JointMap {
+            name: crate::model::GRIPPER_JOINTS[0],
+            wire_index: 0,
+            urdf: format!("{}_gripper_joint", side.as_str()),
+            sign: -1.0,
+            scale,
+            offset,
+            limits: Limits::new(0.0, range),
+        };
+        Self::with_postures(kind, side, vec![jaw], (vec![0.0], vec![range]), gains, UrdfFrame::Wire)
+    }
     pub fn joint_count(&self) -> usize {
         self.joints.len()
     }

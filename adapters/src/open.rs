@@ -110,9 +110,11 @@ impl EmulatorSection {
     }
 }
 
-/// One device as its kind opens it.
-#[derive(Debug, Clone, Copy)]
-pub struct DeviceSpec<'a> {
+/// One device as its kind opens it; `C` its kind's configuration, erased (`dyn
+/// KindConfig`: the profile and the runtime) or typed (the kind's own code,
+/// [`crate::kind::Kind`]).
+#[derive(Debug)]
+pub struct DeviceSpec<'a, C: ?Sized = dyn KindConfig> {
     pub name: &'a str,
     pub kind: DeviceKind,
     pub side: Side,
@@ -130,10 +132,34 @@ pub struct DeviceSpec<'a> {
     pub table: &'a Arc<DeviceTable>,
     pub emulator: &'a EmulatorSection,
     /// The kind's own profile keys.
-    pub config: &'a dyn KindConfig,
+    pub config: &'a C,
 }
 
-impl DeviceSpec<'_> {
+impl<C: ?Sized> Clone for DeviceSpec<'_, C> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<C: ?Sized> Copy for DeviceSpec<'_, C> {}
+
+impl<'a, C: ?Sized> DeviceSpec<'a, C> {
+    /// The same device with its configuration as `config` (the kind's typed view).
+    pub fn typed<T>(&self, config: &'a T) -> DeviceSpec<'a, T> {
+        DeviceSpec {
+            name: self.name,
+            kind: self.kind,
+            side: self.side,
+            backend: self.backend,
+            rate_hz: self.rate_hz,
+            stale_after: self.stale_after,
+            forward_on_arrival: self.forward_on_arrival,
+            max_send_hz: self.max_send_hz,
+            table: self.table,
+            emulator: self.emulator,
+            config,
+        }
+    }
+
     /// How a DDS-client device whose loop runs at `rate_hz` forwards commands.
     pub fn forwarding(&self, rate_hz: f64) -> crate::dds_device::Forwarding {
         let default = crate::dds_device::Forwarding::default_for(rate_hz);
@@ -141,6 +167,28 @@ impl DeviceSpec<'_> {
             on_arrival: self.forward_on_arrival,
             max_send_hz: self.max_send_hz.unwrap_or(default.max_send_hz).max(rate_hz),
         }
+    }
+
+    /// A client of a DDS service publishing on `cmd_topic` and reading `state_topic`, at
+    /// `rate_hz`, with this device's staleness and forwarding.
+    pub fn dds_client_at(
+        &self,
+        rate_hz: f64,
+        cmd_topic: String,
+        state_topic: Option<String>,
+    ) -> crate::dds_device::DdsDeviceConfig {
+        crate::dds_device::DdsDeviceConfig {
+            cmd_topic,
+            state_topic,
+            rate_hz,
+            stale_after: self.stale_after,
+            forward: self.forwarding(rate_hz),
+        }
+    }
+
+    /// [`DeviceSpec::dds_client_at`] the device's own rate.
+    pub fn dds_client(&self, cmd_topic: String, state_topic: String) -> crate::dds_device::DdsDeviceConfig {
+        self.dds_client_at(self.rate_hz, cmd_topic, Some(state_topic))
     }
 
     /// The identity every adapter reports.
@@ -152,11 +200,6 @@ impl DeviceSpec<'_> {
             backend: self.backend,
             table: self.table.clone(),
         }
-    }
-
-    /// The kind's config as its concrete type.
-    pub fn config<T: KindConfig>(&self) -> Option<&T> {
-        self.config.as_any().downcast_ref::<T>()
     }
 
     /// Wire position of `joint` at start on the emulator backend: `emulator.initial` through
@@ -192,6 +235,17 @@ impl Shared {
     /// Stores `item` under `key` (replacing one of the same type and key).
     pub fn insert<R: Any + Send + Sync>(&mut self, key: &str, item: R) {
         self.items.insert((TypeId::of::<R>(), key.to_string()), Box::new(item));
+    }
+
+    /// The item of type `R` under `key`, a default one stored there first if there is none
+    /// (what several devices share, e.g. one command message: `dds_device::SharedMessage`).
+    pub fn get_or_default<R: Any + Send + Sync + Default + Clone>(&mut self, key: &str) -> R {
+        if let Some(r) = self.get::<R>(key) {
+            return r.clone();
+        }
+        let r = R::default();
+        self.insert(key, r.clone());
+        r
     }
 
     /// The item of type `R` under `key`.

@@ -376,7 +376,9 @@ fn the_service_opens_the_hand_from_its_rest_posture_at_start_up() {
 
 #[test]
 fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
-    use handgate_adapters::brainco::open::BraincoOpen;
+    use handgate_adapters::brainco::config::BraincoProfile;
+    use handgate_adapters::brainco::kind::{BraincoKind, BraincoOpen};
+    use handgate_adapters::kind::Kind;
     use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
 
     let node = Node::new(49, None).unwrap();
@@ -403,8 +405,12 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
         emulator: &emulator,
         config: &*config,
     };
-    match handgate_adapters::brainco::open::configure(&spec).unwrap() {
-        BraincoOpen::Emulated { peer, config, speed } => {
+    match BraincoKind.configure(&spec.typed(&BraincoProfile::default())).unwrap() {
+        BraincoOpen {
+            peer: Some(peer),
+            config,
+            codec: speed,
+        } => {
             assert!((peer.initial[0] - 0.5).abs() < 1e-4, "thumb 0.7592 rad = wire 0.5");
             assert!(
                 (peer.object[2].unwrap() - 0.5).abs() < 1e-4,

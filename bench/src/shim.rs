@@ -44,7 +44,7 @@ pub fn dex1_topics(side: Side) -> (String, String) {
 
 /// The Dex3 service's topics (the emulator's, the shim's device side).
 pub fn dex3_topics(side: Side) -> (String, String) {
-    use handgate_adapters::dex3::dds_service_emulator::{cmd_topic, state_topic};
+    use handgate_adapters::dex3::{cmd_topic, state_topic};
     (cmd_topic(side), state_topic(side))
 }
 

@@ -47,36 +47,13 @@ pub enum Command {
     /// whether multicast works on them, and which other domains have the profile's clients
     /// (docs/troubleshooting.md). Exit 0 when nothing is wrong, 1 otherwise, 2 for an invalid
     /// profile.
-    Doctor {
-        /// Profile (as for `run --profile`); without it: the embedded default.
-        #[arg(long)]
-        profile: Option<String>,
-        /// How long to listen, seconds.
-        #[arg(long, default_value_t = 3.0)]
-        seconds: f64,
-        /// Other DDS domains to look on at the same time, `A-B` or `N` (default 0-5).
-        #[arg(long, conflicts_with = "no_scan")]
-        scan: Option<String>,
-        /// Look on the profile's domain only.
-        #[arg(long)]
-        no_scan: bool,
-        /// When nothing for the profile is found, do not look through this host's other
-        /// interfaces (by default it does, one child process per interface).
-        #[arg(long)]
-        no_sweep: bool,
-        /// Print only `relevant N` (the participants found for the profile); used by the
-        /// interface sweep.
-        #[arg(long, hide = true)]
-        count_only: bool,
-        #[command(flatten)]
-        overrides: OverrideArgs,
-    },
+    Doctor(DoctorCmd),
     /// Show a live table of the running gateway's devices (from its status topic).
     Status {
         #[command(flatten)]
         dds: DdsArgs,
         /// Status topic (`status.topic`), in `--namespace`.
-        #[arg(long, default_value = "rt/handgate/status")]
+        #[arg(long, default_value = crate::profile::DEFAULT_STATUS_TOPIC)]
         topic: String,
         /// Print one sample and exit.
         #[arg(long)]
@@ -119,39 +96,7 @@ pub enum Command {
     Emulate(EmulateCmd),
     /// Send one command in the canonical model to a named device (bring-up), on handgate's
     /// own interface `rt/handgate/{device}/cmd`.
-    Send {
-        /// Device name from the profile (e.g. left_hand).
-        device: String,
-        #[command(flatten)]
-        dds: DdsArgs,
-        /// Hand closure in [0, 1] (0 open, 1 closed).
-        #[arg(long, conflicts_with = "joint")]
-        closure: Option<f32>,
-        /// A joint target NAME=RAD (canonical frame, positive = closing); repeatable.
-        #[arg(long, value_parser = parse_joint)]
-        joint: Vec<(String, f32)>,
-        /// Stiffness for joint targets, N*m/rad.
-        #[arg(long, default_value_t = 1.5)]
-        kp: f32,
-        /// Damping for joint targets, N*m*s/rad.
-        #[arg(long, default_value_t = 0.1)]
-        kd: f32,
-        /// Move the device to its safe state instead.
-        #[arg(long, conflicts_with_all = ["closure", "joint"])]
-        safe: bool,
-        /// How long to wait for the gateway to match, seconds.
-        #[arg(long, default_value_t = 5.0)]
-        timeout: f64,
-        /// Keep repeating the command at 50 Hz for this many seconds, so the front's command
-        /// watchdog does not stop the motion early (0: send once).
-        #[arg(long, default_value_t = 1.0)]
-        hold: f64,
-        /// Take the device's front over from the client commanding it (a front with
-        /// `control = "exclusive"` refuses other clients while its owner streams); the
-        /// gateway logs who took over from whom.
-        #[arg(long)]
-        force: bool,
-    },
+    Send(SendCmd),
     /// Record the fleet's DDS traffic (every front's command and state topics, the canonical
     /// states, `rt/joint_states`, status) into a rosbag2-shaped MCAP directory NAME
     /// (NAME/NAME_0.mcap + metadata.yaml) until Ctrl-C or --duration (docs/recording.md).
@@ -160,6 +105,69 @@ pub enum Command {
     Replay(ReplayCmd),
     /// Export a recording's hand streams.
     Export(ExportCmd),
+}
+
+/// `handgate doctor`.
+#[derive(Debug, Clone, Args)]
+pub struct DoctorCmd {
+    /// Profile (as for `run --profile`); without it: the embedded default.
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// How long to listen, seconds.
+    #[arg(long, default_value_t = 3.0)]
+    pub seconds: f64,
+    /// Other DDS domains to look on at the same time, `A-B` or `N` (default 0-5).
+    #[arg(long, conflicts_with = "no_scan")]
+    pub scan: Option<String>,
+    /// Look on the profile's domain only.
+    #[arg(long)]
+    pub no_scan: bool,
+    /// When nothing for the profile is found, do not look through this host's other
+    /// interfaces (by default it does, one child process per interface).
+    #[arg(long)]
+    pub no_sweep: bool,
+    /// Print only `relevant N` (the participants found for the profile); used by the
+    /// interface sweep.
+    #[arg(long, hide = true)]
+    pub count_only: bool,
+    #[command(flatten)]
+    pub overrides: OverrideArgs,
+}
+
+/// `handgate send`.
+#[derive(Debug, Clone, Args)]
+pub struct SendCmd {
+    /// Device name from the profile (e.g. left_hand).
+    pub device: String,
+    #[command(flatten)]
+    pub dds: DdsArgs,
+    /// Hand closure in [0, 1] (0 open, 1 closed).
+    #[arg(long, conflicts_with = "joint")]
+    pub closure: Option<f32>,
+    /// A joint target NAME=RAD (canonical frame, positive = closing); repeatable.
+    #[arg(long, value_parser = parse_joint)]
+    pub joint: Vec<(String, f32)>,
+    /// Stiffness for joint targets, N*m/rad.
+    #[arg(long, default_value_t = 1.5)]
+    pub kp: f32,
+    /// Damping for joint targets, N*m*s/rad.
+    #[arg(long, default_value_t = 0.1)]
+    pub kd: f32,
+    /// Move the device to its safe state instead.
+    #[arg(long, conflicts_with_all = ["closure", "joint"])]
+    pub safe: bool,
+    /// How long to wait for the gateway to match, seconds.
+    #[arg(long, default_value_t = 5.0)]
+    pub timeout: f64,
+    /// Keep repeating the command at 50 Hz for this many seconds, so the front's command
+    /// watchdog does not stop the motion early (0: send once).
+    #[arg(long, default_value_t = 1.0)]
+    pub hold: f64,
+    /// Take the device's front over from the client commanding it (a front with
+    /// `control = "exclusive"` refuses other clients while its owner streams); the
+    /// gateway logs who took over from whom.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Recording options shared by `handgate record` and the profile's `[record]` section.
@@ -265,32 +273,16 @@ pub struct ExportCmd {
 
 /// `handgate emulate <kind>`.
 #[derive(Debug, Clone, Args)]
+#[command(after_help = emulate_help())]
 pub struct EmulateCmd {
     /// A registered device kind (an unknown one lists them).
     pub kind: String,
     /// left or right (the emulated device's side).
     #[arg(long)]
     pub side: Option<handgate_adapters::model::Side>,
-    /// For kinds whose emulator stands at the transport seam: the emulated hardware behind
-    /// this Unix socket, speaking the kind's own frame protocol (the kind's profile section
-    /// points a device at it, docs/adapters.md; kill and restart it to emulate an unplug).
+    /// DDS domain of a service emulator [default: 1].
     #[arg(long)]
-    pub socket: Option<PathBuf>,
-    /// The robot's resident hand service on DDS instead of the hardware.
-    #[arg(long)]
-    pub service: bool,
-    /// The service's wire variant, for kinds with several.
-    #[arg(long)]
-    pub variant: Option<String>,
-    /// Device ids on an emulated shared bus (default: the side's).
-    #[arg(long, value_delimiter = ',')]
-    pub ids: Vec<u8>,
-    /// Where to link an emulated bus's pseudo-terminal (default: a temporary path).
-    #[arg(long)]
-    pub pty: Option<PathBuf>,
-    /// DDS domain of a service emulator.
-    #[arg(long, default_value_t = 1)]
-    pub domain: u32,
+    pub domain: Option<u32>,
     /// Network interface for DDS, e.g. eth0.
     #[arg(long)]
     pub interface: Option<String>,
@@ -301,22 +293,64 @@ pub struct EmulateCmd {
     /// Seed of the measurement noise (default fixed, so runs repeat exactly).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// The kind's own options (`--name value`; listed below, per kind; another is refused
+    /// with the kind's list).
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true, value_name = "KIND OPTIONS")]
+    pub options: Vec<String>,
 }
 
-impl From<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
-    fn from(c: EmulateCmd) -> Self {
-        handgate_adapters::kind::EmulateArgs {
+/// Every kind's own `handgate emulate` options, for the help text.
+fn emulate_help() -> String {
+    let mut s = String::from("Options of each kind (besides those above it takes):\n");
+    for kind in handgate_adapters::kind::DeviceKind::all() {
+        let opts = kind.factory().emulate_options();
+        if opts.is_empty() {
+            s.push_str(&format!("  {kind}: none\n"));
+        }
+        for o in opts {
+            let v = o.value.map(|v| format!(" {v}")).unwrap_or_default();
+            s.push_str(&format!("  {kind} --{}{v}: {}\n", o.name, o.help));
+        }
+    }
+    s
+}
+
+impl TryFrom<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
+    type Error = String;
+
+    fn try_from(mut c: EmulateCmd) -> Result<Self, String> {
+        // Common options written after the kind's own land among them: take them back.
+        let mut options = Vec::new();
+        for (name, value) in handgate_adapters::kind::EmulateArgs::split_options(&c.options)? {
+            let bad = |e: String| format!("--{name}: {e}");
+            match (name.as_str(), value.as_deref()) {
+                ("side", Some(v)) => c.side = Some(v.parse().map_err(|e: String| bad(e))?),
+                ("domain", Some(v)) => c.domain = Some(v.parse().map_err(|e| bad(format!("{e}")))?),
+                ("interface", Some(v)) => c.interface = Some(v.to_string()),
+                ("seed", Some(v)) => c.seed = Some(v.parse().map_err(|e| bad(format!("{e}")))?),
+                ("no-noise", None) => c.no_noise = true,
+                _ => options.push((name, value)),
+            }
+        }
+        let common_given = [
+            ("side", c.side.is_some()),
+            ("domain", c.domain.is_some()),
+            ("interface", c.interface.is_some()),
+            ("no-noise", c.no_noise),
+            ("seed", c.seed.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(n, given)| given.then_some(n))
+        .collect();
+        Ok(handgate_adapters::kind::EmulateArgs {
             side: c.side,
-            socket: c.socket,
-            service: c.service,
-            variant: c.variant,
-            ids: c.ids,
-            pty: c.pty,
-            domain: c.domain,
+            domain: c.domain.unwrap_or(1),
             interface: c.interface,
             no_noise: c.no_noise,
             seed: c.seed,
-        }
+            common_given,
+            options,
+        })
     }
 }
 

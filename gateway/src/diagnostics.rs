@@ -376,7 +376,7 @@ pub fn foreign_state_writers(snapshot: &Snapshot, served: &[ServedBy]) -> Vec<Ow
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use handgate_adapters::discovery::Role;
     use handgate_idl::{handgate, inspire, ros2, unitree_go, unitree_hg, DdsTypeName};
@@ -409,7 +409,8 @@ mod tests {
         T::DDS_TYPE_NAME.to_string()
     }
 
-    mod snapshots {
+    /// Hand-built discovery snapshots (also for the doctor's tests).
+    pub(crate) mod snapshots {
         use std::sync::Arc;
 
         use handgate_adapters::discovery::{

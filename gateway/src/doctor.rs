@@ -12,17 +12,20 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::net::IpAddr;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::{layout_reader, DdsError, InterfaceTrace, Node, RawTake};
 use handgate_adapters::device::Backend;
-use handgate_adapters::discovery::diagnose::{diagnose, FindingKind, RemoteRef, Served};
+use handgate_adapters::discovery::diagnose::{diagnose, FindingKind, RemoteRef, Report, Served};
 use handgate_adapters::discovery::{Discovery, DiscoveryConfig, Guid, Origin, Participant, Role, Snapshot};
+use handgate_adapters::model::Side;
 use handgate_adapters::netif::{self, NetIf};
 use handgate_idl::layout::{self, Verdict};
 
-use crate::diagnostics::{served, Owner};
+use crate::diagnostics::{served, Owner, ServedBy};
 use crate::plan::Plan;
+use crate::profile::MAX_DOMAIN_ID;
 
 /// Failures that stop the doctor before it has anything to say.
 #[derive(Debug, thiserror::Error)]
@@ -55,10 +58,6 @@ pub struct Sweep {
     /// The `--profile` argument the doctor was given.
     pub profile: Option<String>,
 }
-
-/// Highest DDS domain id CycloneDDS's default port mapping allows (7400 + 250 × id must fit
-/// in a port).
-pub const MAX_DOMAIN: u32 = 232;
 
 /// What the doctor found: the text to print and the problems (each also in the text).
 #[derive(Debug, Clone, Default)]
@@ -96,6 +95,10 @@ struct Probe {
     older: BTreeSet<&'static str>,
     unknown: usize,
     total: usize,
+    /// The entries the owner expects in each sample ([`Served::entries`]), and the counts
+    /// seen: entries -> samples.
+    expected: Option<usize>,
+    entries: BTreeMap<usize, usize>,
 }
 
 impl Probe {
@@ -105,6 +108,9 @@ impl Probe {
                 continue;
             };
             self.total += 1;
+            if let Some(n) = c.entries {
+                *self.entries.entry(n).or_default() += 1;
+            }
             let key = match c.verdict {
                 Verdict::Current => "current".to_string(),
                 Verdict::Older(w) => {
@@ -197,106 +203,220 @@ fn describe_if(i: &NetIf) -> String {
 }
 
 /// Runs the doctor for `plan` (its domain and interface already include the command line's
-/// overrides).
+/// overrides): joins the domains, listens, then writes its report one section after the
+/// other (each a function of what was seen).
 pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     let mut out = Outcome::default();
     let all = served(plan);
     let ifs = netif::list().map_err(DoctorError::Interfaces)?;
-
     out.line(format!(
         "handgate doctor: profile {}, DDS domain {}, listening {:.1} s",
         plan.profile,
         plan.domain,
         opts.listen.as_secs_f64()
     ));
+    let interface = interface_section(&mut out, plan, &ifs);
 
-    // --- The interface the profile asks for.
-    let mut interface = plan.interface.clone();
-    if let Some(name) = &plan.interface {
-        let others: Vec<String> = ifs
-            .iter()
-            .filter(|i| i.up && !i.addrs.is_empty())
-            .map(describe_if)
-            .collect();
-        let bad = match ifs.iter().find(|i| &i.name == name) {
-            None => Some(format!("interface {name} does not exist on this host")),
-            Some(i) if !i.up => Some(format!("interface {name} is down")),
-            Some(i) if i.addrs.is_empty() => Some(format!("interface {name} has no IP address")),
-            Some(_) => None,
-        };
-        if let Some(what) = bad {
-            out.problem(
-                "",
-                what,
-                format!(
-                    "set dds.interface in the profile (or --interface) to one of: {}; the doctor looks with CycloneDDS's own choice instead",
-                    others.join(", ")
-                ),
-            );
-            interface = None;
-        }
-    }
+    let mut look = Look::join(plan, interface.as_deref(), &all, &opts.scan)?;
+    look.listen(opts.listen);
+    let snap = look.discovery.snapshot();
+    let trace = look.trace();
 
-    // --- Join the domain (with CycloneDDS's trace of its interface choice) and the scan.
-    let trace_file = std::env::temp_dir().join(format!("handgate-doctor-{}-{}.log", std::process::id(), plan.domain));
-    let node = match Node::with_trace(plan.domain, interface.as_deref(), &trace_file) {
-        // A temporary directory CycloneDDS's XML cannot name: look without the trace (the
-        // network section then says it could not read CycloneDDS's choice).
-        Err(DdsError::BadTracePath(_)) => Node::new(plan.domain, interface.as_deref())?,
-        r => r?,
+    let gateways = gateways_section(&mut out, plan, &all, &snap);
+    let served_list: Vec<Served> = all.iter().map(|s| s.served.clone()).collect();
+    let report = diagnose(&snap, &served_list);
+    let seen = Seen {
+        plan,
+        all: &all,
+        report: &report,
+        gateways: &gateways,
     };
-    let discovery = Discovery::start(&node, DiscoveryConfig::default())?;
-    let mut probes = Vec::new();
-    for s in &all {
-        // Samples come from the counterpart: layouts of what clients write to a front and of
-        // what a service writes to a device. Readers send none (see docs/troubleshooting.md).
-        if s.served.role != Role::Reader || is_emulated(plan, &s.owner) {
-            continue;
-        }
-        if let Some(reader) = layout_reader(&node, &s.served.topic, &s.served.type_name)? {
-            probes.push(Probe {
-                owner: s.owner.clone(),
-                topic: s.served.topic.clone(),
-                type_name: s.served.type_name.clone(),
-                reader,
-                seen: BTreeMap::new(),
-                older: BTreeSet::new(),
-                unknown: 0,
-                total: 0,
-            });
-        }
-    }
-    let mut scans = Vec::new();
-    let mut scan_errors = Vec::new();
-    for &d in opts.scan.iter().filter(|&&d| d != plan.domain) {
-        match Node::new(d, interface.as_deref())
-            .and_then(|n| Ok((Discovery::start(&n, DiscoveryConfig::default())?, n)))
-        {
-            Ok((discovery, n)) => scans.push(Scan {
-                domain: d,
-                discovery,
-                _node: n,
-            }),
-            Err(e) => scan_errors.push(format!("domain {d}: {e}")),
-        }
+    let clients = owners_section(&mut out, &seen);
+    layout_section(&mut out, &seen, &look.probes, opts.listen);
+    let selected = selected_names(&trace, &ifs);
+    network_section(&mut out, plan, &trace, &selected, &snap);
+    let relevant = relevant_participants(&report, &gateways);
+    subnet_section(&mut out, &snap, &relevant, &selected, &ifs);
+    let scanned: Vec<(u32, Arc<Snapshot>)> = look.scans.iter().map(|s| (s.domain, s.discovery.snapshot())).collect();
+    let elsewhere = scan_section(&mut out, &scanned, &look.scan_errors, &served_list);
+    if clients.missing_any() {
+        elsewhere_section(
+            &mut out,
+            plan,
+            &elsewhere,
+            relevant.is_empty(),
+            &selected,
+            &ifs,
+            |sel: &[&str]| match &opts.sweep {
+                Some(sw) => sweep(sw, plan, opts.listen, &ifs, sel),
+                None => Vec::new(),
+            },
+        );
     }
 
-    let start = Instant::now();
-    while start.elapsed() < opts.listen {
-        for p in &mut probes {
+    out.relevant = relevant.len();
+    summary_section(&mut out);
+    drop(look);
+    Ok(out)
+}
+
+/// What the doctor keeps joined while it listens: the profile's domain (discovery and the
+/// layout probes) and the scanned domains. Fields drop in order: the readers first, the
+/// participant last.
+struct Look {
+    probes: Vec<Probe>,
+    scans: Vec<Scan>,
+    scan_errors: Vec<String>,
+    discovery: Discovery,
+    _node: Node,
+    /// CycloneDDS's trace of its interface choice (read, then removed, by [`Look::trace`]).
+    trace_file: std::path::PathBuf,
+}
+
+impl Look {
+    /// Joins `plan`'s domain through `interface` (with CycloneDDS's trace of its interface
+    /// choice), a layout probe on each topic where the profile reads a type with a layout
+    /// history, and the `scan` domains other than the profile's.
+    fn join(plan: &Plan, interface: Option<&str>, all: &[ServedBy], scan: &[u32]) -> Result<Look, DoctorError> {
+        let trace_file =
+            std::env::temp_dir().join(format!("handgate-doctor-{}-{}.log", std::process::id(), plan.domain));
+        let node = match Node::with_trace(plan.domain, interface, &trace_file) {
+            // A temporary directory CycloneDDS's XML cannot name: look without the trace (the
+            // network section then says it could not read CycloneDDS's choice).
+            Err(DdsError::BadTracePath(_)) => Node::new(plan.domain, interface)?,
+            r => r?,
+        };
+        let discovery = Discovery::start(&node, DiscoveryConfig::default())?;
+        let mut probes = Vec::new();
+        for s in all {
+            // Samples come from the counterpart: layouts of what clients write to a front and of
+            // what a service writes to a device. Readers send none (see docs/troubleshooting.md).
+            if s.served.role != Role::Reader || is_emulated(plan, &s.owner) {
+                continue;
+            }
+            if let Some(reader) = layout_reader(&node, &s.served.topic, &s.served.type_name)? {
+                probes.push(Probe {
+                    owner: s.owner.clone(),
+                    topic: s.served.topic.clone(),
+                    type_name: s.served.type_name.clone(),
+                    reader,
+                    seen: BTreeMap::new(),
+                    older: BTreeSet::new(),
+                    unknown: 0,
+                    total: 0,
+                    expected: s.served.entries,
+                    entries: BTreeMap::new(),
+                });
+            }
+        }
+        let mut scans = Vec::new();
+        let mut scan_errors = Vec::new();
+        for &d in scan.iter().filter(|&&d| d != plan.domain) {
+            match Node::new(d, interface).and_then(|n| Ok((Discovery::start(&n, DiscoveryConfig::default())?, n))) {
+                Ok((discovery, n)) => scans.push(Scan {
+                    domain: d,
+                    discovery,
+                    _node: n,
+                }),
+                Err(e) => scan_errors.push(format!("domain {d}: {e}")),
+            }
+        }
+        Ok(Look {
+            probes,
+            scans,
+            scan_errors,
+            discovery,
+            _node: node,
+            trace_file,
+        })
+    }
+
+    /// Listens for `listen`, the probes reading the samples as they come.
+    fn listen(&mut self, listen: Duration) {
+        let start = Instant::now();
+        while start.elapsed() < listen {
+            for p in &mut self.probes {
+                p.poll();
+            }
+            std::thread::sleep(Duration::from_millis(50).min(listen.saturating_sub(start.elapsed())));
+        }
+        for p in &mut self.probes {
             p.poll();
         }
-        std::thread::sleep(Duration::from_millis(50).min(opts.listen.saturating_sub(start.elapsed())));
     }
-    for p in &mut probes {
-        p.poll();
-    }
-    let snap = discovery.snapshot();
-    let trace = InterfaceTrace::parse(&std::fs::read_to_string(&trace_file).unwrap_or_default());
-    let _ = std::fs::remove_file(&trace_file);
 
-    // --- A gateway already running.
-    let gateways = running_gateways(&snap, &plan.status_topic);
+    /// CycloneDDS's interface choice, from its trace (empty when it could not be read); the
+    /// trace file is removed.
+    fn trace(&self) -> InterfaceTrace {
+        let trace = InterfaceTrace::parse(&std::fs::read_to_string(&self.trace_file).unwrap_or_default());
+        let _ = std::fs::remove_file(&self.trace_file);
+        trace
+    }
+}
+
+/// What the doctor saw on the profile's domain, as the sections of its report read it.
+struct Seen<'a> {
+    plan: &'a Plan,
+    /// What the profile's gateway would serve ([`served`]).
+    all: &'a [ServedBy],
+    /// [`diagnose`] of `all` (its topics in the order of `all`).
+    report: &'a Report,
+    /// Gateways already running ([`running_gateways`]): their endpoints are not the profile's
+    /// clients.
+    gateways: &'a BTreeSet<Guid>,
+}
+
+/// How the fronts and devices fared ([`owners_section`]).
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+struct Clients {
+    fronts: usize,
+    fronts_with_client: usize,
+    /// Fronts without a client and devices without their service.
+    missing: usize,
+}
+
+impl Clients {
+    /// Something the profile needs was found nowhere on its domain: worth looking on the
+    /// other domains and interfaces.
+    fn missing_any(&self) -> bool {
+        self.missing > 0 || (self.fronts > 0 && self.fronts_with_client == 0)
+    }
+}
+
+/// The interface the profile asks for: a problem when it does not exist here, is down or has
+/// no address (the doctor then looks through CycloneDDS's own choice). Returns the interface
+/// to look through.
+fn interface_section(out: &mut Outcome, plan: &Plan, ifs: &[NetIf]) -> Option<String> {
+    let name = plan.interface.as_ref()?;
+    let others: Vec<String> = ifs
+        .iter()
+        .filter(|i| i.up && !i.addrs.is_empty())
+        .map(describe_if)
+        .collect();
+    let bad = match ifs.iter().find(|i| &i.name == name) {
+        None => Some(format!("interface {name} does not exist on this host")),
+        Some(i) if !i.up => Some(format!("interface {name} is down")),
+        Some(i) if i.addrs.is_empty() => Some(format!("interface {name} has no IP address")),
+        Some(_) => None,
+    };
+    let Some(what) = bad else {
+        return Some(name.clone());
+    };
+    out.problem(
+        "",
+        what,
+        format!(
+            "set dds.interface in the profile (or --interface) to one of: {}; the doctor looks with CycloneDDS's own choice instead",
+            others.join(", ")
+        ),
+    );
+    None
+}
+
+/// A gateway already running on the domain (a remote writer of the status topic): one line
+/// each. Returns them.
+fn gateways_section(out: &mut Outcome, plan: &Plan, all: &[ServedBy], snap: &Snapshot) -> BTreeSet<Guid> {
+    let gateways = running_gateways(snap, &plan.status_topic);
     for g in &gateways {
         let who = snap
             .participant(g)
@@ -321,21 +441,22 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
             plan.domain, plan.status_topic
         ));
     }
+    gateways
+}
 
-    // --- Fronts and devices.
-    let served_list: Vec<Served> = all.iter().map(|s| s.served.clone()).collect();
-    let report = diagnose(&snap, &served_list);
-    let mut owners: Vec<Owner> = Vec::new();
-    for s in &all {
-        if !owners.contains(&s.owner) {
-            owners.push(s.owner.clone());
+/// Each front and device of the profile ([`owner_section`]); a device without its service is
+/// a problem, and so is no client on any front.
+fn owners_section(out: &mut Outcome, seen: &Seen<'_>) -> Clients {
+    let plan = seen.plan;
+    let mut owners: Vec<&Owner> = Vec::new();
+    for s in seen.all {
+        if !owners.contains(&&s.owner) {
+            owners.push(&s.owner);
         }
     }
-    let mut fronts_with_client = 0;
+    let mut clients = Clients::default();
     let mut front_findings = 0usize;
-    let mut fronts = 0;
-    let mut missing_anywhere: Vec<&str> = Vec::new();
-    for owner in &owners {
+    for owner in owners {
         if is_emulated(plan, owner) {
             out.line(format!(
                 "{owner}: emulated inside `handgate run` (its service is the gateway's own, nothing to find on DDS)"
@@ -343,126 +464,162 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
             continue;
         }
         out.line(owner.describe());
-        let mut any_matched = false;
-        // A client on a topic the front serves once it is discovered (an `auto` front's
-        // actuator pair): a client, on topics not served yet.
-        let mut on_demand = false;
-        let mut unmatched: Vec<String> = Vec::new();
-        for (s, t) in all.iter().zip(&report.topics).filter(|(s, _)| &s.owner == owner) {
-            let want = role_word(s.served.role.counterpart());
-            // A front that follows its clients' types (a variant `auto`) serves several.
-            let types = std::iter::once(&s.served.type_name)
-                .chain(&s.served.also)
-                .map(String::as_str)
-                .collect::<Vec<_>>()
-                .join(" or ");
-            let matched: Vec<&RemoteRef> = t
-                .matched
-                .iter()
-                .filter(|r| !gateways.contains(&r.participant))
-                .collect();
-            if matched.is_empty() {
-                out.line(format!(
-                    "  {} ({} of {types}): no {want}",
-                    s.served.topic,
-                    role_word(s.served.role),
-                ));
-                unmatched.push(s.served.topic.clone());
-            } else {
-                any_matched = true;
-                let who: Vec<String> = matched.iter().map(|r| r.who()).collect();
-                out.line(format!(
-                    "  {} ({} of {types}): {} matched {want}(s): {}",
-                    s.served.topic,
-                    role_word(s.served.role),
-                    matched.len(),
-                    who.join("; ")
-                ));
-            }
-            for f in &t.findings {
-                let label = match &f.kind {
-                    FindingKind::NoCounterpart => continue,
-                    FindingKind::TypeMismatch { .. } => "wrong type",
-                    FindingKind::QosMismatch { .. } => "QoS mismatch",
-                    FindingKind::NearMissTopic { .. } => "near-miss topic",
-                    FindingKind::ServedOnDemand { .. } => {
-                        on_demand = true;
-                        let detail = f.detail.replace("this process serves", "the profile's gateway serves");
-                        out.line(format!(
-                            "  note: {detail} ({}): {}",
-                            list_refs(&f.remotes, f.remote_count),
-                            f.fix
-                        ));
-                        continue;
-                    }
-                    FindingKind::ForeignWriter => {
-                        if f.remotes.iter().all(|r| gateways.contains(&r.participant))
-                            && f.remote_count == f.remotes.len()
-                        {
-                            continue;
-                        }
-                        "foreign writer"
-                    }
-                };
-                // `diagnose` words its details for the process that serves; the doctor
-                // speaks for the profile's gateway, which is not running here.
-                let detail = f
-                    .detail
-                    .replace("this process does not serve", "the profile does not serve")
-                    .replace("this process serves", "the profile serves")
-                    .replace(
-                        "which this process writes too",
-                        "which the profile's gateway would write too",
-                    );
-                let named = f.remotes.first().is_some_and(|r| detail.contains(&r.who()));
-                let who = if named {
-                    String::new()
-                } else {
-                    format!(" ({})", list_refs(&f.remotes, f.remote_count))
-                };
-                out.problem("  ", format!("{label}: {detail}{who}"), &f.fix);
-                front_findings += usize::from(matches!(owner, Owner::Front(_)));
-            }
-        }
+        let o = owner_section(out, seen, owner);
         match owner {
             Owner::Front(_) => {
-                fronts += 1;
-                if any_matched {
-                    fronts_with_client += 1;
-                } else if on_demand {
-                    fronts_with_client += 1;
+                clients.fronts += 1;
+                front_findings += o.findings;
+                if o.any_matched {
+                    clients.fronts_with_client += 1;
+                } else if o.on_demand {
+                    clients.fronts_with_client += 1;
                     out.line("  a client, on topics served once it is discovered (notes above)");
                 } else {
                     out.line("  no client");
-                    missing_anywhere.extend(unmatched.iter().map(|_| owner.name()));
+                    clients.missing += o.unmatched.len();
                 }
             }
             Owner::Device(name) => {
-                if !any_matched {
+                if !o.any_matched {
                     out.problem(
                         "  ",
-                        format!("service not found for device {name} (nothing answers on {})", unmatched.join(", ")),
+                        format!(
+                            "service not found for device {name} (nothing answers on {})",
+                            o.unmatched.join(", ")
+                        ),
                         format!(
                             "start the robot's service on domain {} (or point the device at the domain and topics it uses); check the interface below",
                             plan.domain
                         ),
                     );
-                    missing_anywhere.push(name);
+                    clients.missing += 1;
                 }
             }
         }
     }
     // Clients that are there but do not match were each reported above.
-    if fronts > 0 && fronts_with_client == 0 && front_findings == 0 {
+    if clients.fronts > 0 && clients.fronts_with_client == 0 && front_findings == 0 {
         out.problem(
             "",
-            format!("no client on any of the {fronts} front(s) on domain {}", plan.domain),
+            format!(
+                "no client on any of the {} front(s) on domain {}",
+                clients.fronts, plan.domain
+            ),
             "start the client on this domain with the front's topics (`handgate check` lists them); see the domain scan and interfaces below",
         );
     }
+    clients
+}
 
-    // --- Layout of the samples read.
-    for p in &probes {
+/// What one front's or device's endpoints showed ([`owner_section`]).
+#[derive(Debug, Default)]
+struct OwnerSeen {
+    /// A counterpart matched one of its endpoints.
+    any_matched: bool,
+    /// A client on a topic the front serves once it is discovered (an `auto` front's
+    /// actuator pair): a client, on topics not served yet.
+    on_demand: bool,
+    /// Its topics nothing matched.
+    unmatched: Vec<String>,
+    /// Problems reported for near misses (wrong type, QoS, topic; a foreign writer).
+    findings: usize,
+}
+
+/// One front's or device's endpoints: per endpoint, who matches it, and what keeps each near
+/// miss from matching (a problem with its fix).
+fn owner_section(out: &mut Outcome, seen: &Seen<'_>, owner: &Owner) -> OwnerSeen {
+    let mut o = OwnerSeen::default();
+    for (s, t) in seen
+        .all
+        .iter()
+        .zip(&seen.report.topics)
+        .filter(|(s, _)| &s.owner == owner)
+    {
+        let want = role_word(s.served.role.counterpart());
+        // A front that follows its clients' types (a variant `auto`) serves several.
+        let types = std::iter::once(&s.served.type_name)
+            .chain(&s.served.also)
+            .map(String::as_str)
+            .collect::<Vec<_>>()
+            .join(" or ");
+        let matched: Vec<&RemoteRef> = t
+            .matched
+            .iter()
+            .filter(|r| !seen.gateways.contains(&r.participant))
+            .collect();
+        if matched.is_empty() {
+            out.line(format!(
+                "  {} ({} of {types}): no {want}",
+                s.served.topic,
+                role_word(s.served.role),
+            ));
+            o.unmatched.push(s.served.topic.clone());
+        } else {
+            o.any_matched = true;
+            let who: Vec<String> = matched.iter().map(|r| r.who()).collect();
+            out.line(format!(
+                "  {} ({} of {types}): {} matched {want}(s): {}",
+                s.served.topic,
+                role_word(s.served.role),
+                matched.len(),
+                who.join("; ")
+            ));
+        }
+        for f in &t.findings {
+            let label = match &f.kind {
+                FindingKind::NoCounterpart => continue,
+                FindingKind::TypeMismatch { .. } => "wrong type",
+                FindingKind::QosMismatch { .. } => "QoS mismatch",
+                FindingKind::NearMissTopic { .. } => "near-miss topic",
+                FindingKind::ServedOnDemand { .. } => {
+                    o.on_demand = true;
+                    let detail = f.detail.replace("this process serves", "the profile's gateway serves");
+                    out.line(format!(
+                        "  note: {detail} ({}): {}",
+                        list_refs(&f.remotes, f.remote_count),
+                        f.fix
+                    ));
+                    continue;
+                }
+                FindingKind::ForeignWriter => {
+                    if f.remotes.iter().all(|r| seen.gateways.contains(&r.participant))
+                        && f.remote_count == f.remotes.len()
+                    {
+                        continue;
+                    }
+                    "foreign writer"
+                }
+            };
+            // `diagnose` words its details for the process that serves; the doctor
+            // speaks for the profile's gateway, which is not running here.
+            let detail = f
+                .detail
+                .replace("this process does not serve", "the profile does not serve")
+                .replace("this process serves", "the profile serves")
+                .replace(
+                    "which this process writes too",
+                    "which the profile's gateway would write too",
+                );
+            let named = f.remotes.first().is_some_and(|r| detail.contains(&r.who()));
+            let who = if named {
+                String::new()
+            } else {
+                format!(" ({})", list_refs(&f.remotes, f.remote_count))
+            };
+            out.problem("  ", format!("{label}: {detail}{who}"), &f.fix);
+            o.findings += 1;
+        }
+    }
+    o
+}
+
+/// The layout of the samples each probe read: a problem for samples in an older (or an
+/// unknown) layout, a note for matched writers that sent nothing.
+fn layout_section(out: &mut Outcome, seen: &Seen<'_>, probes: &[Probe], listen: Duration) {
+    let Seen {
+        all, report, gateways, ..
+    } = *seen;
+    for p in probes {
         if p.total == 0 {
             let writers: Vec<String> = all
                 .iter()
@@ -480,12 +637,13 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                     "note: {} matched writer(s) on {} sent no sample in {:.1} s ({}): the client exists but does not write (idle, or its send loop failed)",
                     writers.len(),
                     p.topic,
-                    opts.listen.as_secs_f64(),
+                    listen.as_secs_f64(),
                     writers.join("; ")
                 ));
             }
             continue;
         }
+        entries_problem(out, p);
         let older: Vec<&str> = p.older.iter().copied().collect();
         if !older.is_empty() || p.unknown > 0 {
             let sizes: Vec<String> = p
@@ -536,8 +694,64 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
             "layout: the HandState_ layout of client readers cannot be checked (a reader sends no samples); a client on an older SDK shows through the HandCmd_ it writes",
         );
     }
+}
 
-    // --- Interfaces and multicast.
+/// Samples of a probe carrying another number of entries than its owner expects: another
+/// hand answers (or commands) on these topics. Names the registered kinds whose hands carry
+/// that many entries of this type ([`KindFactory::served_by_default`]), so a Dex5-1 answering
+/// on a Dex3-1's topics is told from a Dex3-1, and the reverse.
+///
+/// [`KindFactory::served_by_default`]: handgate_adapters::kind::KindFactory::served_by_default
+fn entries_problem(out: &mut Outcome, p: &Probe) {
+    let Some(want) = p.expected else { return };
+    let other: Vec<(usize, usize)> = p
+        .entries
+        .iter()
+        .filter(|(n, _)| **n != want)
+        .map(|(n, c)| (*n, *c))
+        .collect();
+    if other.is_empty() {
+        return;
+    }
+    for (n, samples) in other {
+        let kinds: Vec<String> = handgate_adapters::kind::DeviceKind::all()
+            .iter()
+            .filter(|k| {
+                [Side::Left, Side::Right].into_iter().any(|side| {
+                    k.factory()
+                        .served_by_default(side)
+                        .iter()
+                        .any(|s| s.serves_type(&p.type_name) && s.entries == Some(n))
+                })
+            })
+            .map(|k| k.to_string())
+            .collect();
+        let what = format!(
+            "{samples} sample(s) on {} ({}) carry {n} entries of {} where {want} are expected: another hand answers here",
+            p.topic,
+            p.owner,
+            short_type(&p.type_name)
+        );
+        let fix = match kinds.as_slice() {
+            [] => "no registered kind uses that many entries: check which hand or service writes this topic".to_string(),
+            ks => format!(
+                "a hand of kind {} carries {n}: set that kind for {} (its own topics are the kind's default; `handgate check` shows them), or point this {} at its own hand's topics",
+                ks.join(" or "),
+                p.owner,
+                match p.owner {
+                    Owner::Front(_) => "client",
+                    Owner::Device(_) => "device",
+                }
+            ),
+        };
+        out.problem("", what, fix);
+    }
+}
+
+/// `network:`: the interfaces CycloneDDS found and selected (its trace), whether multicast
+/// works on the selected ones (a loopback probe), and the remote participants and hosts
+/// discovery reached.
+fn network_section(out: &mut Outcome, plan: &Plan, trace: &InterfaceTrace, selected: &[&NetIf], snap: &Snapshot) {
     out.line("network:");
     match &trace.found {
         Some(f) => out.line(format!("  CycloneDDS found: {f}")),
@@ -549,8 +763,7 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     for n in &trace.notes {
         out.line(format!("  CycloneDDS: {n}"));
     }
-    let selected = selected_names(&trace, &ifs);
-    for i in &selected {
+    for i in selected {
         match (i.ipv4(), i.multicast) {
             (_, false) => out.line(format!(
                 "  multicast on {}: the interface has no MULTICAST flag; CycloneDDS then discovers by unicast only (configured peers, or this host)",
@@ -599,8 +812,12 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
             )
         }
     ));
-    // Clients whose address is on none of the selected interfaces' subnets.
-    let relevant: BTreeSet<Guid> = report
+}
+
+/// The remote participants with endpoints for the profile (matched or near misses), running
+/// gateways left out.
+fn relevant_participants(report: &Report, gateways: &BTreeSet<Guid>) -> BTreeSet<Guid> {
+    report
         .topics
         .iter()
         .flat_map(|t| {
@@ -610,28 +827,42 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
                 .chain(t.findings.iter().flat_map(|f| f.remotes.iter().map(|r| r.participant)))
         })
         .filter(|g| !gateways.contains(g))
-        .collect();
-    if !selected.is_empty() {
-        for g in &relevant {
-            let Some(p) = snap.participant(g) else { continue };
-            let Some(ip) = p.unicast_address().and_then(|a| a.parse::<IpAddr>().ok()) else {
-                continue;
-            };
-            if let Some((what, fix)) = subnet_problem(&who_participant(p), ip, &selected, &ifs) {
-                out.problem("  ", what, fix);
-            }
+        .collect()
+}
+
+/// A problem for each `relevant` participant whose address is on none of the `selected`
+/// interfaces' subnets ([`subnet_problem`]).
+fn subnet_section(out: &mut Outcome, snap: &Snapshot, relevant: &BTreeSet<Guid>, selected: &[&NetIf], ifs: &[NetIf]) {
+    if selected.is_empty() {
+        return;
+    }
+    for g in relevant {
+        let Some(p) = snap.participant(g) else { continue };
+        let Some(ip) = p.unicast_address().and_then(|a| a.parse::<IpAddr>().ok()) else {
+            continue;
+        };
+        if let Some((what, fix)) = subnet_problem(&who_participant(p), ip, selected, ifs) {
+            out.problem("  ", what, fix);
         }
     }
+}
 
-    // --- Other domains.
-    if !scans.is_empty() || !scan_errors.is_empty() {
-        let doms: Vec<String> = scans.iter().map(|s| s.domain.to_string()).collect();
+/// `domain scan (...)`: per scanned domain (its snapshot), the endpoints it has for the
+/// profile, or how many other participants; the domains that could not be joined. Returns
+/// the domains with endpoints for the profile.
+fn scan_section(
+    out: &mut Outcome,
+    scanned: &[(u32, Arc<Snapshot>)],
+    scan_errors: &[String],
+    served_list: &[Served],
+) -> Vec<u32> {
+    if !scanned.is_empty() || !scan_errors.is_empty() {
+        let doms: Vec<String> = scanned.iter().map(|(d, _)| d.to_string()).collect();
         out.line(format!("domain scan ({}):", doms.join(", ")));
     }
     let mut elsewhere = Vec::new();
-    for s in &scans {
-        let snap = s.discovery.snapshot();
-        let r = diagnose(&snap, &served_list);
+    for (domain, snap) in scanned {
+        let r = diagnose(snap, served_list);
         let mut clients: Vec<String> = Vec::new();
         let mut n = 0usize;
         for t in &r.topics {
@@ -651,97 +882,106 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
         }
         if n > 0 {
             out.line(format!(
-                "  domain {}: {n} endpoint(s) for this profile: {}",
-                s.domain,
+                "  domain {domain}: {n} endpoint(s) for this profile: {}",
                 clients.join("; ")
             ));
-            elsewhere.push(s.domain);
+            elsewhere.push(*domain);
         } else {
             let others = snap.participants.iter().filter(|p| p.origin == Origin::Remote).count();
             out.line(format!(
-                "  domain {}: nothing for this profile ({others} other participant(s))",
-                s.domain
+                "  domain {domain}: nothing for this profile ({others} other participant(s))"
             ));
         }
     }
-    for e in &scan_errors {
+    for e in scan_errors {
         out.line(format!("  could not join {e}"));
     }
-    if !missing_anywhere.is_empty() || (fronts > 0 && fronts_with_client == 0) {
-        for d in &elsewhere {
-            out.problem(
-                "",
-                format!("your clients are on domain {d}, the profile uses domain {}", plan.domain),
-                format!(
-                    "run handgate on domain {d} (dds.domain = {d} in the profile, or --domain {d}; a robot's own services use 0), or start the clients on domain {} (ChannelFactoryInitialize({}, ...))",
-                    plan.domain, plan.domain
-                ),
-            );
-        }
-        if elsewhere.is_empty() && relevant.is_empty() {
-            let sel: Vec<&str> = selected.iter().map(|i| i.name.as_str()).collect();
-            let alternatives: Vec<String> = ifs
-                .iter()
-                .filter(|i| i.up && !i.addrs.is_empty() && !sel.contains(&i.name.as_str()))
-                .map(describe_if)
-                .collect();
-            let through = if sel.is_empty() {
-                "CycloneDDS's interface".to_string()
-            } else {
-                sel.join(", ")
-            };
-            let swept = match &opts.sweep {
-                Some(sw) => sweep(sw, plan, opts.listen, &ifs, &sel),
-                None => Vec::new(),
-            };
-            let found: Vec<&(String, Result<usize, String>)> =
-                swept.iter().filter(|(_, r)| matches!(r, Ok(n) if *n > 0)).collect();
-            if !swept.is_empty() {
-                let each: Vec<String> = swept
-                    .iter()
-                    .map(|(name, r)| match r {
-                        Ok(n) => format!("{name}: {n} participant(s) for this profile"),
-                        Err(e) => format!("{name}: {e}"),
-                    })
-                    .collect();
-                out.line(format!("interface sweep (domain {}): {}", plan.domain, each.join("; ")));
-            }
-            if let Some((name, _)) = found.first() {
-                out.problem(
-                    "",
-                    format!("nothing for this profile reached this host through {through}, but through {name} it does"),
-                    format!("select {name}: --interface {name} (dds.interface = \"{name}\" in the profile)"),
-                );
-            } else if !selected.is_empty() && selected.iter().all(|i| i.loopback) && !alternatives.is_empty() {
-                out.problem(
-                    "",
-                    format!(
-                        "DDS here uses only the loopback interface {}: nothing on another host can be seen, and nothing for this profile was seen on this one",
-                        sel.join(", ")
-                    ),
-                    format!(
-                        "select the interface of the clients' network: --interface NAME (dds.interface) with one of: {}",
-                        alternatives.join(", ")
-                    ),
-                );
-            } else if !alternatives.is_empty() {
-                out.line(format!(
-                    "hint: nothing for this profile reached this host through {through}; if the clients run elsewhere, their network may be on another interface here: {} (--interface NAME)",
-                    alternatives.join(", ")
-                ));
-            }
-        }
-    }
+    elsewhere
+}
 
-    out.relevant = relevant.len();
+/// Where the missing clients and services may be: a problem per domain where the scan found
+/// them (`elsewhere`); when none was found anywhere (`nothing_here`), the look through this
+/// host's other interfaces (`sweep`, given the selected interfaces' names: each interface's
+/// count of participants for the profile) and what it says, or a hint.
+fn elsewhere_section(
+    out: &mut Outcome,
+    plan: &Plan,
+    elsewhere: &[u32],
+    nothing_here: bool,
+    selected: &[&NetIf],
+    ifs: &[NetIf],
+    sweep: impl FnOnce(&[&str]) -> Vec<(String, Result<usize, String>)>,
+) {
+    for d in elsewhere {
+        out.problem(
+            "",
+            format!("your clients are on domain {d}, the profile uses domain {}", plan.domain),
+            format!(
+                "run handgate on domain {d} (dds.domain = {d} in the profile, or --domain {d}; a robot's own services use 0), or start the clients on domain {} (ChannelFactoryInitialize({}, ...))",
+                plan.domain, plan.domain
+            ),
+        );
+    }
+    if !(elsewhere.is_empty() && nothing_here) {
+        return;
+    }
+    let sel: Vec<&str> = selected.iter().map(|i| i.name.as_str()).collect();
+    let alternatives: Vec<String> = ifs
+        .iter()
+        .filter(|i| i.up && !i.addrs.is_empty() && !sel.contains(&i.name.as_str()))
+        .map(describe_if)
+        .collect();
+    let through = if sel.is_empty() {
+        "CycloneDDS's interface".to_string()
+    } else {
+        sel.join(", ")
+    };
+    let swept = sweep(&sel);
+    let found: Vec<&(String, Result<usize, String>)> =
+        swept.iter().filter(|(_, r)| matches!(r, Ok(n) if *n > 0)).collect();
+    if !swept.is_empty() {
+        let each: Vec<String> = swept
+            .iter()
+            .map(|(name, r)| match r {
+                Ok(n) => format!("{name}: {n} participant(s) for this profile"),
+                Err(e) => format!("{name}: {e}"),
+            })
+            .collect();
+        out.line(format!("interface sweep (domain {}): {}", plan.domain, each.join("; ")));
+    }
+    if let Some((name, _)) = found.first() {
+        out.problem(
+            "",
+            format!("nothing for this profile reached this host through {through}, but through {name} it does"),
+            format!("select {name}: --interface {name} (dds.interface = \"{name}\" in the profile)"),
+        );
+    } else if !selected.is_empty() && selected.iter().all(|i| i.loopback) && !alternatives.is_empty() {
+        out.problem(
+            "",
+            format!(
+                "DDS here uses only the loopback interface {}: nothing on another host can be seen, and nothing for this profile was seen on this one",
+                sel.join(", ")
+            ),
+            format!(
+                "select the interface of the clients' network: --interface NAME (dds.interface) with one of: {}",
+                alternatives.join(", ")
+            ),
+        );
+    } else if !alternatives.is_empty() {
+        out.line(format!(
+            "hint: nothing for this profile reached this host through {through}; if the clients run elsewhere, their network may be on another interface here: {} (--interface NAME)",
+            alternatives.join(", ")
+        ));
+    }
+}
+
+/// The last line: nothing wrong, or how many problems.
+fn summary_section(out: &mut Outcome) {
     if out.problems.is_empty() {
         out.line("doctor: nothing wrong found");
     } else {
         out.line(format!("doctor: {} problem(s)", out.problems.len()));
     }
-    drop(probes);
-    drop(scans);
-    Ok(out)
 }
 
 /// Runs `handgate doctor --count-only` on the profile's domain through each up interface with
@@ -840,7 +1080,7 @@ fn is_emulated(plan: &Plan, owner: &Owner) -> bool {
     }
 }
 
-/// `A-B` or `N` (domains), each at most [`MAX_DOMAIN`].
+/// `A-B` or `N` (domains), each at most [`MAX_DOMAIN_ID`].
 pub fn parse_scan(s: &str) -> Result<Vec<u32>, String> {
     let (a, b) = match s.split_once('-') {
         Some((a, b)) => (a.trim(), b.trim()),
@@ -851,9 +1091,9 @@ pub fn parse_scan(s: &str) -> Result<Vec<u32>, String> {
     if a > b {
         return Err(format!("{a}-{b}: the range is empty"));
     }
-    if b > MAX_DOMAIN {
+    if b > MAX_DOMAIN_ID {
         return Err(format!(
-            "domain {b} is above {MAX_DOMAIN}, the highest CycloneDDS's port mapping allows"
+            "domain {b} is above {MAX_DOMAIN_ID}, the highest CycloneDDS's port mapping allows"
         ));
     }
     if b - a > 31 {
@@ -877,7 +1117,259 @@ pub fn listen_time(seconds: f64) -> Result<Duration, String> {
 
 #[cfg(test)]
 mod tests {
+
+    /// A probe of `topic` owned by `owner`, expecting `expected` entries, that saw `seen`
+    /// (entries, samples).
+    fn entries_probe(owner: Owner, topic: &str, expected: usize, seen: &[(usize, usize)]) -> Probe {
+        struct NoSamples;
+        impl RawTake for NoSamples {
+            fn take_bytes(&self) -> Vec<Vec<u8>> {
+                Vec::new()
+            }
+        }
+        Probe {
+            owner,
+            topic: topic.into(),
+            type_name: handgate_adapters::dds::type_name::<handgate_idl::unitree_hg::HandState_>(),
+            reader: Box::new(NoSamples),
+            seen: BTreeMap::new(),
+            older: BTreeSet::new(),
+            unknown: 0,
+            total: seen.iter().map(|(_, n)| n).sum(),
+            expected: Some(expected),
+            entries: seen.iter().copied().collect(),
+        }
+    }
+
+    /// A hand of another kind on a device's topics is named by the kind whose hands carry
+    /// its entry count; the owner's own count is no problem.
+    #[test]
+    fn samples_of_another_entry_count_name_the_kind_that_carries_it() {
+        let mut out = Outcome::default();
+        entries_problem(
+            &mut out,
+            &entries_probe(Owner::Device("left".into()), "rt/x/left/state", 7, &[(7, 40)]),
+        );
+        assert!(out.problems.is_empty(), "{}", out.text);
+        let mut out = Outcome::default();
+        entries_problem(
+            &mut out,
+            &entries_probe(Owner::Device("left".into()), "rt/x/left/state", 20, &[(7, 12), (20, 3)]),
+        );
+        assert_eq!(out.problems.len(), 1, "{}", out.text);
+        assert!(
+            out.text.contains(
+                "12 sample(s) on rt/x/left/state (device left) carry 7 entries of HandState_ where 20 are expected"
+            ),
+            "{}",
+            out.text
+        );
+        assert!(out.text.contains("a hand of kind dex3 carries 7"), "{}", out.text);
+        let mut out = Outcome::default();
+        entries_problem(
+            &mut out,
+            &entries_probe(Owner::Device("left".into()), "rt/x/left/state", 7, &[(3, 1)]),
+        );
+        assert!(
+            out.text.contains("no registered kind uses that many entries"),
+            "{}",
+            out.text
+        );
+    }
     use super::*;
+    use crate::diagnostics::tests::snapshots::snap;
+    use crate::profile::{load, EnvLayer, LoadOptions};
+
+    const HG_CMD: &str = "unitree_hg::msg::dds_::HandCmd_";
+    const HG_STATE: &str = "unitree_hg::msg::dds_::HandState_";
+    const CANONICAL_CMD: &str = "handgate::msg::dds_::HandCmd_";
+
+    /// The shipped profile `name`'s plan.
+    fn shipped_plan(name: &str) -> Plan {
+        let l = load(&LoadOptions {
+            profile: Some(name.into()),
+            env: EnvLayer::Ignore,
+            search_dirs: Some(vec![]),
+            ..LoadOptions::default()
+        })
+        .unwrap();
+        crate::resolve::plan(&l.profile).unwrap()
+    }
+
+    /// `owners_section` of `plan` on `snap` (participants in `gateways` a running gateway).
+    fn owners(plan: &Plan, snap: &Snapshot, gateways: &[u8]) -> (Outcome, Clients) {
+        let all = served(plan);
+        let served_list: Vec<Served> = all.iter().map(|s| s.served.clone()).collect();
+        let report = diagnose(snap, &served_list);
+        let gateways: BTreeSet<Guid> = gateways.iter().map(|p| Guid([*p; 16]).participant()).collect();
+        let seen = Seen {
+            plan,
+            all: &all,
+            report: &report,
+            gateways: &gateways,
+        };
+        let mut out = Outcome::default();
+        let clients = owners_section(&mut out, &seen);
+        (out, clients)
+    }
+
+    fn netif(name: &str, ip: &str, loopback: bool) -> NetIf {
+        NetIf {
+            name: name.into(),
+            up: true,
+            loopback,
+            multicast: !loopback,
+            addrs: vec![netif::IfAddr {
+                ip: ip.parse().unwrap(),
+                prefix: 24,
+            }],
+        }
+    }
+
+    #[test]
+    fn nothing_on_the_domain_is_a_problem_per_device_and_one_for_the_fronts() {
+        let plan = shipped_plan("g1-dex3");
+        let (out, clients) = owners(&plan, &snap(&[]), &[]);
+        assert_eq!(
+            out.problems,
+            vec![
+                "service not found for device left_hand (nothing answers on rt/dex3/left/cmd, rt/dex3/left/state)",
+                "service not found for device right_hand (nothing answers on rt/dex3/right/cmd, rt/dex3/right/state)",
+                "no client on any of the 3 front(s) on domain 0",
+            ]
+        );
+        assert_eq!((clients.fronts, clients.fronts_with_client), (3, 0));
+        assert!(clients.missing_any());
+        assert!(out.text.contains("front joint_state\n  rt/joint_states (writer of sensor_msgs::msg::dds_::JointState_): no reader\n  no client\n"), "{}", out.text);
+    }
+
+    #[test]
+    fn a_service_and_a_client_match_but_a_running_gateway_is_no_client() {
+        use handgate_adapters::discovery::Origin::Remote;
+        let plan = shipped_plan("g1-dex3");
+        let snap = snap(&[
+            // The left hand's service.
+            (2, Remote, Role::Reader, "rt/dex3/left/cmd", HG_CMD),
+            (2, Remote, Role::Writer, "rt/dex3/left/state", HG_STATE),
+            // A client of the left hand's canonical front.
+            (3, Remote, Role::Writer, "rt/handgate/left_hand/cmd", CANONICAL_CMD),
+        ]);
+        let (out, clients) = owners(&plan, &snap, &[]);
+        assert_eq!(
+            out.problems,
+            vec!["service not found for device right_hand (nothing answers on rt/dex3/right/cmd, rt/dex3/right/state)"]
+        );
+        assert_eq!((clients.fronts, clients.fronts_with_client), (3, 1));
+        assert!(
+            clients.missing_any(),
+            "the right hand's service and two fronts' clients are missing"
+        );
+        assert!(
+            out.text.contains("  rt/handgate/left_hand/cmd (reader of handgate::msg::dds_::HandCmd_): 1 matched writer(s): process python (pid 103)"),
+            "{}",
+            out.text
+        );
+        // The same writer from a gateway already running is not a client of this profile.
+        let (out, clients) = owners(&plan, &snap, &[3]);
+        assert_eq!(clients.fronts_with_client, 0);
+        assert_eq!(
+            out.problems.last().unwrap(),
+            "no client on any of the 3 front(s) on domain 0"
+        );
+    }
+
+    #[test]
+    fn a_bad_interface_is_a_problem_and_the_doctor_looks_without_it() {
+        let mut plan = shipped_plan("g1-dex3");
+        let ifs = vec![netif("lo", "127.0.0.1", true), netif("eth1", "192.168.123.5", false)];
+        let mut out = Outcome::default();
+        assert_eq!(interface_section(&mut out, &plan, &ifs), None);
+        assert_eq!(out.problems, vec!["interface eth0 does not exist on this host"]);
+        assert!(
+            out.text.contains("one of: lo (127.0.0.1/24), eth1 (192.168.123.5/24);"),
+            "{}",
+            out.text
+        );
+        plan.interface = Some("eth1".into());
+        let mut out = Outcome::default();
+        assert_eq!(interface_section(&mut out, &plan, &ifs).as_deref(), Some("eth1"));
+        assert_eq!(out.text, "");
+    }
+
+    #[test]
+    fn the_scan_names_the_domains_with_the_profiles_endpoints() {
+        use handgate_adapters::discovery::Origin::Remote;
+        let plan = shipped_plan("g1-dex3");
+        let served_list: Vec<Served> = served(&plan).into_iter().map(|s| s.served).collect();
+        let scanned = vec![
+            (
+                3,
+                Arc::new(snap(&[(
+                    2,
+                    Remote,
+                    Role::Writer,
+                    "rt/handgate/left_hand/cmd",
+                    CANONICAL_CMD,
+                )])),
+            ),
+            (
+                4,
+                Arc::new(snap(&[(2, Remote, Role::Writer, "rt/other", CANONICAL_CMD)])),
+            ),
+        ];
+        let mut out = Outcome::default();
+        let elsewhere = scan_section(&mut out, &scanned, &["domain 5: refused".into()], &served_list);
+        assert_eq!(elsewhere, vec![3]);
+        assert_eq!(
+            out.text,
+            "domain scan (3, 4):\n  domain 3: 1 endpoint(s) for this profile: rt/handgate/left_hand/cmd writer (process python (pid 102) on vm)\n  domain 4: nothing for this profile (1 other participant(s))\n  could not join domain 5: refused\n"
+        );
+        assert!(out.problems.is_empty());
+    }
+
+    #[test]
+    fn clients_elsewhere_name_their_domain_or_the_interface_that_reaches_them() {
+        let plan = shipped_plan("g1-dex3");
+        let ifs = vec![netif("lo", "127.0.0.1", true), netif("eth1", "192.168.123.5", false)];
+        let lo = [&ifs[0]];
+        let no_sweep =
+            |_: &[&str]| -> Vec<(String, Result<usize, String>)> { panic!("no sweep when a domain has them") };
+        let mut out = Outcome::default();
+        elsewhere_section(&mut out, &plan, &[3], true, &lo, &ifs, no_sweep);
+        assert_eq!(
+            out.problems,
+            vec!["your clients are on domain 3, the profile uses domain 0"]
+        );
+
+        let mut out = Outcome::default();
+        elsewhere_section(&mut out, &plan, &[], true, &lo, &ifs, |sel| {
+            assert_eq!(sel, ["lo"]);
+            vec![("eth1".into(), Ok(2))]
+        });
+        assert!(
+            out.text
+                .starts_with("interface sweep (domain 0): eth1: 2 participant(s) for this profile\n"),
+            "{}",
+            out.text
+        );
+        assert_eq!(
+            out.problems,
+            vec!["nothing for this profile reached this host through lo, but through eth1 it does"]
+        );
+
+        // Nothing through the other interfaces either: DDS on loopback only is the problem.
+        let mut out = Outcome::default();
+        elsewhere_section(&mut out, &plan, &[], true, &lo, &ifs, |_| vec![("eth1".into(), Ok(0))]);
+        assert_eq!(
+            out.problems,
+            vec!["DDS here uses only the loopback interface lo: nothing on another host can be seen, and nothing for this profile was seen on this one"]
+        );
+
+        // Participants for the profile on this domain (near misses): no interface advice.
+        let mut out = Outcome::default();
+        elsewhere_section(&mut out, &plan, &[], false, &lo, &ifs, no_sweep);
+        assert_eq!((out.text.as_str(), out.problems.len()), ("", 0));
+    }
 
     #[test]
     fn scan_ranges() {

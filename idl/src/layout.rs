@@ -213,6 +213,22 @@ pub struct LayoutCheck {
     /// What the current layout would take for the same sequence lengths, when the sample
     /// decodes as the current layout at all.
     pub current_size: Option<usize>,
+    /// Entries (motors) the sample carries: the length of its first sequence (`motor_cmd`,
+    /// `motor_state`: the first field of every layout), read in whichever byte order gives a
+    /// length the sample can hold. `None`: too short to say.
+    pub entries: Option<usize>,
+}
+
+/// The length of the sequence `body` starts with, in the byte order that gives a length the
+/// body can hold (a motor entry takes more than one byte, so a real length is below
+/// `body.len()`; the other order reads a huge number).
+fn first_sequence_len(body: &[u8]) -> Option<usize> {
+    let b: [u8; 4] = body.get(..4)?.try_into().ok()?;
+    [u32::from_le_bytes(b), u32::from_be_bytes(b)]
+        .into_iter()
+        .map(|n| n as usize)
+        .filter(|n| *n < body.len())
+        .min()
 }
 
 /// Whether `body` (a sample without its header) decodes as `V` in either byte order and
@@ -298,6 +314,7 @@ pub fn check(type_name: &str, body: &[u8]) -> Option<LayoutCheck> {
         verdict,
         size: body.len(),
         current_size,
+        entries: first_sequence_len(body),
     })
 }
 
@@ -315,6 +332,29 @@ mod tests {
             motor_cmd: vec![hg::MotorCmd_::default(); n],
             ..Default::default()
         }
+    }
+
+    #[test]
+    fn entries_are_the_first_sequence_in_either_byte_order() {
+        for n in [1, 2, 7, 16, 20] {
+            let le = check(hg::HandCmd_::DDS_TYPE_NAME, &body(&cmd(n))).unwrap();
+            assert_eq!(le.entries, Some(n), "{n} motors, little endian");
+            let be = to_cdr_be(&cmd(n)).unwrap()[4..].to_vec();
+            assert_eq!(
+                check(hg::HandCmd_::DDS_TYPE_NAME, &be).unwrap().entries,
+                Some(n),
+                "{n} motors, big endian"
+            );
+            let st = hg::HandState_ {
+                motor_state: vec![hg::MotorState_::default(); n],
+                ..Default::default()
+            };
+            assert_eq!(
+                check(hg::HandState_::DDS_TYPE_NAME, &body(&st)).unwrap().entries,
+                Some(n)
+            );
+        }
+        assert_eq!(check(hg::HandCmd_::DDS_TYPE_NAME, &[1, 0]).unwrap().entries, None);
     }
 
     #[test]

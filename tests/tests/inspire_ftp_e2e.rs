@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use handgate_adapters::dds::Node;
 use handgate_adapters::dds::Qos;
 use handgate_adapters::device::{Backend, HandDevice};
-use handgate_adapters::inspire_ftp::kind::{DdsConfig, InspireFtpProfile};
+use handgate_adapters::inspire_ftp::config::{DdsConfig, InspireFtpProfile};
 use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, Side};
 use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
@@ -56,7 +56,7 @@ fn open(node: &Node, name: &str, side: Side, dds: DdsConfig) -> Box<dyn HandDevi
         dds: Some(dds),
         ..Default::default()
     };
-    let spec = DeviceSpec {
+    let spec: DeviceSpec<'_> = DeviceSpec {
         name,
         kind,
         side,

@@ -25,13 +25,13 @@
 //! Option (tests): a constant load per finger ([`BraincoConfig::sag`], default none): its
 //! position loop then settles that far from its target (`crate::sim`, "Sag").
 
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Instant;
 
 use handgate_idl::unitree_go::{MotorCmds_, MotorState_, MotorStates_};
 
 use super::WIRE_LEN;
-use crate::dds::{Node, Qos};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
+use crate::emu_common::{ensure_finite, EmulatorError, Hz, Side};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{Noise, Sag, Sensor};
 
 /// The service's loop and state rate, Hz: `main.cpp` targets a 2 ms period (docs/sources.md
@@ -169,12 +169,12 @@ pub const HARD_STOPS: (f32, f32) = (0.0, 1.0);
 impl BraincoCore {
     pub fn new(config: &BraincoConfig) -> Result<Self, EmulatorError> {
         let t = &config.tuning;
-        ensure_finite("initial", &config.initial)?;
-        ensure_finite("object", &config.object.iter().flatten().copied().collect::<Vec<_>>())?;
-        ensure_finite("sag", &config.sag.map(|s| s.0))?;
+        ensure_finite("initial", config.initial)?;
+        ensure_finite("object", config.object.into_iter().flatten())?;
+        ensure_finite("sag", config.sag.map(|s| s.0))?;
         ensure_finite(
             "tuning",
-            &[
+            [
                 t.full_speed,
                 t.time_constant_s,
                 t.idle_current_a,
@@ -306,94 +306,61 @@ impl BraincoCore {
     }
 }
 
-struct Shared {
-    core: BraincoCore,
-    states_published: u64,
-}
+impl ServiceCore for BraincoCore {
+    type Config = BraincoConfig;
+    type Snapshot = BraincoSnapshot;
 
-/// A running emulated `brainco_hand_service` (one hand). Dropping it stops its thread.
-pub struct BraincoEmulator {
-    shared: Arc<Mutex<Shared>>,
-    worker: Worker,
-    config: BraincoConfig,
-}
-
-impl std::fmt::Debug for BraincoEmulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("BraincoEmulator")
-            .field("side", &self.config.side)
-            .finish()
+    fn from_config(config: &BraincoConfig) -> Result<Self, EmulatorError> {
+        Self::new(config)
     }
-}
 
-impl BraincoEmulator {
-    /// Starts the service on `node`.
-    pub fn start(node: &Node, config: BraincoConfig) -> Result<Self, EmulatorError> {
-        let period = config.rate.period()?;
-        let core = BraincoCore::new(&config)?;
+    fn plan(config: &BraincoConfig) -> Result<ServicePlan, EmulatorError> {
         let (cmd_topic, state_topic) = match config.topics.clone() {
             Some(t) => t,
             None => super::topics(config.side)
                 .ok_or_else(|| EmulatorError::InvalidConfig("a BrainCo hand is left or right".into()))?,
         };
-        // Best-effort reader matches any writer; reliable keep-last-1 writer matches any reader.
-        let reader = node.reader::<MotorCmds_>(&cmd_topic, Qos::BestEffort)?;
-        let mut writer = node.writer::<MotorStates_>(&state_topic, Qos::Reliable { depth: 1 })?;
-        let shared = Arc::new(Mutex::new(Shared {
-            core,
-            states_published: 0,
-        }));
-        let sh = shared.clone();
-        let mut prev = None;
-        let worker = Worker::spawn(&format!("brainco-emu-{}", config.side), period, move |now| {
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            let cmds = reader.take();
-            let state = {
-                let mut g = lock(&sh);
-                // Latest wins: applied in arrival order, a malformed one leaves the previous.
-                for c in &cmds {
-                    g.core.on_command(c);
-                }
-                g.core.step(dt);
-                g.core.state()
-            };
-            let ok = writer.write(state).is_ok();
-            lock(&sh).states_published += u64::from(ok);
-        })?;
-        Ok(Self { shared, worker, config })
+        let name = format!("brainco-emu-{}", config.side);
+        Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
     }
 
-    pub fn config(&self) -> &BraincoConfig {
-        &self.config
-    }
-
-    pub fn snapshot(&self) -> BraincoSnapshot {
-        let g = lock(&self.shared);
+    fn report(&self, published: Published) -> BraincoSnapshot {
         BraincoSnapshot {
-            states_published: g.states_published,
-            ..g.core.snapshot()
+            states_published: published.state,
+            ..self.snapshot()
         }
     }
+}
 
+impl ServiceWire<Self> for BraincoCore {
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
+    type Extra = Silent;
+
+    /// Latest wins: applied in arrival order, a malformed one leaves the previous.
+    fn receive(core: &mut Self, cmd: &MotorCmds_, _now: Instant) {
+        core.on_command(cmd);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<MotorStates_> {
+        core.step(tick.dt);
+        Some(core.state())
+    }
+}
+
+/// A running emulated `brainco_hand_service` (one hand). Dropping it stops its loop.
+pub type BraincoEmulator = ServiceEmulator<BraincoCore>;
+
+impl BraincoEmulator {
     /// Finger `i` (wire order).
     pub fn finger(&self, i: usize) -> FingerView {
-        lock(&self.shared).core.fingers[i]
+        self.with_core(|c| c.fingers[i])
     }
 
     /// Places (or removes) the object finger `i` (wire order) closes on.
     pub fn set_object(&self, i: usize, at: Option<f32>) {
-        lock(&self.shared).core.set_object(i, at);
+        self.with_core(|c| c.set_object(i, at));
     }
-
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
-    }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]

@@ -1,173 +1,106 @@
-//! The BrainCo Revo2 as a registered device kind: its profile keys (`[devices.dds]`: topic
-//! overrides and the finger speed), their rules, its default rate and table.
+//! The BrainCo Revo2 as a registered device kind: its facts, and how a hand opens: a client
+//! of `brainco_hand_service` over DDS, or on the emulator backend of the service's emulator
+//! on private topics, through the very same codec (`crate::service_client`).
 
-use serde::{Deserialize, Serialize};
-
+use super::adapter::BraincoCodec;
+use super::config::BraincoProfile;
+use super::emulator::{BraincoConfig, BraincoEmulator, BRAINCO_DEFAULT_HZ, BRAINCO_NOISE, BRAINCO_REST_Q};
 use super::table::JOINTS;
 use crate::device::{Backend, DeviceError, HandDevice};
-use crate::kind::{
-    check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, Problem, SectionSpec,
-};
+use crate::emu_common::Hz;
+use crate::front::kind::FrontKind;
+use crate::kind::{DeviceKind, EmulateArgs, Emulation, Kind, KindFacts, Rates, SectionSpec, Sides};
 use crate::mapping::DeviceTable;
 use crate::model::Side;
 use crate::open::{DeviceSpec, OpenEnv};
+use crate::service_client::{emulate_service, ClientOpen};
 
 impl DeviceKind {
     /// BrainCo Revo2 hand (through `brainco_hand_service` over DDS).
     #[allow(non_upper_case_globals)]
-    pub const Brainco: DeviceKind = DeviceKind::of(&BraincoFactory);
+    pub const Brainco: DeviceKind = DeviceKind::of(&BraincoKind);
 }
 
-/// The BrainCo Revo2's factory.
+/// The BrainCo Revo2.
 #[derive(Debug, Clone, Copy)]
-pub struct BraincoFactory;
+pub struct BraincoKind;
 
-const NAME: &str = "brainco";
+/// What a BrainCo hand opens with: a client sending this finger speed in every entry's `dq`
+/// (and on the emulator backend, the emulated service).
+pub type BraincoOpen = ClientOpen<f32, BraincoConfig>;
 
-/// `[devices.dds]` of a BrainCo hand: topic overrides and the speed sent in every entry.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
-    /// Finger speed, `dq` of every entry, in (0, 1] (default 1.0, as xr_teleoperate sends).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub speed: Option<f64>,
-}
-
-/// A BrainCo hand's own profile keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BraincoProfile {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dds: Option<DdsConfig>,
-}
-
-impl BraincoProfile {
-    /// `dds.speed`, default 1.0.
-    pub fn speed(&self) -> f32 {
-        self.dds
-            .as_ref()
-            .and_then(|d| d.speed)
-            .map_or(super::DEFAULT_SPEED, |s| s as f32)
-    }
-}
-
-/// (command, state) topics of a BrainCo hand on backend dds: the overrides, else the side's.
-pub fn dds_topics(p: &BraincoProfile, side: Side) -> (Option<String>, Option<String>) {
-    let dds = p.dds.clone().unwrap_or_default();
-    let std = super::topics(side);
-    (
-        dds.cmd_topic.or_else(|| std.as_ref().map(|t| t.0.clone())),
-        dds.state_topic.or_else(|| std.map(|t| t.1)),
-    )
-}
-
-impl KindFactory for BraincoFactory {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn joints(&self) -> &'static [&'static str] {
-        &JOINTS
-    }
-
-    /// `brainco_hand_service`'s own interface (`rt/brainco/{side}/*`): `super::serve`.
-    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
-        &[crate::front::kind::FrontKind::Brainco]
-    }
-
-    fn backends(&self) -> &'static [Backend] {
-        &[Backend::Dds, Backend::Emulator]
-    }
-
-    fn check_side(&self, side: Side) -> Result<(), String> {
-        match side {
-            Side::Left | Side::Right => Ok(()),
-            Side::Center => Err(format!("{} is a left or a right hand", a_brainco())),
-        }
-    }
-
-    /// 500 Hz: the service's loop (docs/sources.md §7); the emulated service runs at the
-    /// device's rate.
-    fn default_rate_hz(&self, _backend: Backend) -> Option<f64> {
-        Some(super::emulator::BRAINCO_DEFAULT_HZ)
-    }
-
-    fn sections(&self) -> &'static [SectionSpec] {
-        &[SectionSpec {
+impl Kind for BraincoKind {
+    const FACTS: KindFacts = KindFacts {
+        // `brainco_hand_service`'s own interface (`rt/brainco/{side}/*`): `super::serve`.
+        fronts: &[FrontKind::Brainco],
+        sides: Sides::LeftOrRight { note: "" },
+        sections: &[SectionSpec {
             key: "dds",
             backends: &[Backend::Dds],
-        }]
-    }
+        }],
+        // The service's loop (docs/sources.md §7); the emulated service runs at the device's.
+        ..KindFacts::new(
+            "brainco",
+            &JOINTS,
+            &[Backend::Dds, Backend::Emulator],
+            Rates::fixed(BRAINCO_DEFAULT_HZ),
+        )
+    };
+    type Config = BraincoProfile;
+    type Open = BraincoOpen;
+    type Emulate = ();
 
-    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError> {
-        Ok(Box::new(value.deserialize::<BraincoProfile>().map_err(Box::new)?))
-    }
-
-    fn default_config(&self) -> Box<dyn KindConfig> {
-        Box::new(BraincoProfile::default())
-    }
-
-    fn table(&self, side: Side, _c: &dyn KindConfig) -> DeviceTable {
+    fn table(&self, side: Side, _config: &BraincoProfile) -> DeviceTable {
         super::table::table(side)
     }
 
-    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn std::fmt::Debug>, DeviceError> {
-        Ok(Box::new(super::open::configure(spec)?))
-    }
-
-    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
-        super::open::served(spec)
-    }
-
-    fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
-        super::open::emulate(args)
-    }
-
-    fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
-        super::open::open(spec, env)
-    }
-}
-
-fn a_brainco() -> String {
-    crate::kind::a(NAME)
-}
-
-impl KindConfig for BraincoProfile {
-    fn validate(&self, _ctx: &DeviceCtx<'_>) -> Vec<Problem> {
-        let mut out = Vec::new();
-        if let Some(x) = &self.dds {
-            for (key, t) in [("cmd_topic", &x.cmd_topic), ("state_topic", &x.state_topic)] {
-                if let Some(Err(e)) = t.as_deref().map(check_topic) {
-                    out.push(Problem::new(&["dds", key], e));
+    fn configure(&self, spec: &DeviceSpec<'_, BraincoProfile>) -> Result<BraincoOpen, DeviceError> {
+        let missing = "a brainco hand is left or right (or names dds.cmd_topic and dds.state_topic)";
+        ClientOpen::of(
+            spec,
+            spec.config.topics(spec.side),
+            missing,
+            spec.config.speed(),
+            |cmd, state| {
+                let mut peer = BraincoConfig::new(spec.side);
+                for (i, joint) in JOINTS.iter().enumerate() {
+                    peer.initial[i] = spec.initial_wire(joint, BRAINCO_REST_Q[i]);
+                    peer.object[i] = spec.object_wire(joint);
                 }
-            }
-            if let Some(s) = x.speed {
-                if !(s.is_finite() && s > 0.0 && s <= 1.0) {
-                    out.push(Problem::new(
-                        &["dds", "speed"],
-                        format!("must be above 0 and at most 1 (1 = the hand's fastest), got {s}"),
-                    ));
-                }
-            }
-        }
-        out
+                peer.noise = spec.emulator.noise_for(spec.name, BRAINCO_NOISE);
+                peer.rate = Hz(spec.rate_hz);
+                peer.topics = Some((cmd, state));
+                peer
+            },
+        )
     }
 
-    fn dds_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
-        Some(dds_topics(self, ctx.side))
+    fn served(&self, open: &BraincoOpen) -> Vec<crate::discovery::diagnose::Served> {
+        open.config.served::<BraincoCodec>()
     }
 
-    fn describe(&self, ctx: &DeviceCtx<'_>) -> String {
-        if ctx.backend == Backend::Dds {
-            format!(" (speed {})", self.speed())
-        } else {
-            String::new()
-        }
+    fn open(
+        &self,
+        open: BraincoOpen,
+        spec: &DeviceSpec<'_, BraincoProfile>,
+        env: &mut OpenEnv<'_>,
+    ) -> Result<Box<dyn HandDevice>, DeviceError> {
+        let codec = BraincoCodec::new(open.codec);
+        open.start(codec, spec, env, BraincoEmulator::start)
     }
 
-    crate::kind_config_plumbing!();
+    /// `handgate emulate brainco --side left|right`: one hand's `brainco_hand_service` on DDS.
+    fn emulate(&self, args: &EmulateArgs, _options: ()) -> Result<(String, Emulation), DeviceError> {
+        let side = args.side("brainco")?;
+        let Some((cmd, state)) = super::topics(side) else {
+            return Err(DeviceError::Config("a brainco hand is left or right".into()));
+        };
+        let mut cfg = BraincoConfig::new(side);
+        cfg.noise = args.noise(BRAINCO_NOISE);
+        let what = format!(
+            "emulating brainco_hand_service ({side} hand): {cmd}, {state} on DDS domain {}",
+            args.domain
+        );
+        Ok((what, emulate_service(args, |node| BraincoEmulator::start(node, cfg))?))
+    }
 }

@@ -8,10 +8,10 @@
 //! (`front`) use them.
 
 pub mod adapter;
+pub mod config;
 pub mod emulator;
 pub mod front;
 pub mod kind;
-pub mod open;
 pub mod serve;
 pub mod table;
 

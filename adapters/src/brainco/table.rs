@@ -12,7 +12,7 @@
 //! asserted here: §7 only pins each entry to its URDF joint (`thumb_metacarpal_joint`,
 //! `thumb_proximal_joint`).
 
-use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
+use crate::mapping::{DeviceTable, JointMap, Limits};
 use crate::model::{DeviceKind, Side};
 
 /// Canonical joint names, canonical order (= wire order).
@@ -58,24 +58,14 @@ pub fn table(side: Side) -> DeviceTable {
             limits: Limits::new(0.0, max),
         })
         .collect();
-    DeviceTable {
-        kind: DeviceKind::Brainco,
+    DeviceTable::with_postures(
+        DeviceKind::Brainco,
         side,
         joints,
-        closure: ClosureMap::Postures {
-            open: vec![0.0; JOINTS.len()],
-            closed: URDF_MAX_RAD.to_vec(),
-            kp: KP,
-            kd: KD,
-        },
-        hold_kp: KP,
-        hold_kd: KD,
-        max_step: None,
-        max_kp: 50.0,
-        max_kd: 5.0,
-        max_tau: 5.0,
-        urdf_frame: crate::mapping::UrdfFrame::Canonical,
-    }
+        (vec![0.0; JOINTS.len()], URDF_MAX_RAD.to_vec()),
+        (KP, KD),
+        crate::mapping::UrdfFrame::Canonical,
+    )
 }
 
 #[cfg(test)]

@@ -10,8 +10,8 @@
 
 use handgate_idl::{unitree_go, unitree_hg};
 
-use crate::control::{Active, MeasuredHold};
-use crate::dds_device::DdsCodec;
+use crate::control::Active;
+use crate::dds_device::{DdsCodec, MessageElement, SharedMessage};
 use crate::mapping::{DeviceTable, WireTarget};
 use crate::model::{faults, HandState, Side};
 
@@ -66,15 +66,6 @@ impl Variant {
             Variant::Actuator => vec![Side::Right, Side::Left],
         }
     }
-
-    /// The position range this variant's clients use: 0..5.4 rad (docs/sources.md §4), or 0..2pi for
-    /// the seed spec's hg variant.
-    pub fn default_range(self) -> (f32, f32) {
-        match self {
-            Variant::Hg => (0.0, crate::dex1::table::SEED_SPEC_RANGE_RAD),
-            _ => (0.0, crate::dex1::table::DEFAULT_RANGE_RAD),
-        }
-    }
 }
 
 /// Element index of `side` in the 2-element `rt/unitree_actuator` messages.
@@ -96,23 +87,19 @@ fn go_cmd(w: &WireTarget) -> unitree_go::MotorCmd_ {
 }
 
 /// Actuator variant: the latest wire command each handgate device on one command topic sent
-/// for its own element (`None`: none yet, or no such device). A left and a right device share
-/// it, so every message carries both grippers' own targets: the service applies the latest
-/// message, and a gripper held at its last measurement by the other device's messages would
-/// otherwise be starved of its own targets.
-pub type SharedElements = std::sync::Arc<std::sync::Mutex<[Option<unitree_go::MotorCmd_>; 2]>>;
+/// for its own gripper (element [`actuator_index`]). A left and a right device share it, so
+/// every message carries both grippers' own targets.
+pub type SharedElements = SharedMessage<unitree_go::MotorCmd_, 2>;
 
 /// Codec for the `unitree_go` variants (Go and Actuator).
 #[derive(Debug, Clone)]
 pub struct Dex1GoCodec {
     pub variant: Variant,
     pub side: Side,
-    /// Actuator variant: the other gripper's measured wire q, and the hold of it our messages
-    /// carry while no handgate device drives it: where it was when the hold began, kept (never
-    /// re-taken from each new measurement: docs/adapters.md, "Holds").
-    other: MeasuredHold<f32>,
-    /// Actuator variant: the targets of the devices sharing the command topic.
-    shared: SharedElements,
+    /// Actuator variant: this gripper's element of the message shared with the other
+    /// gripper's device, and the hold of the other gripper (its measured wire q) our messages
+    /// carry while no handgate device drives it.
+    share: MessageElement<unitree_go::MotorCmd_, f32, 2>,
 }
 
 impl Dex1GoCodec {
@@ -126,13 +113,13 @@ impl Dex1GoCodec {
         Self {
             variant,
             side,
-            other: MeasuredHold::default(),
-            shared,
+            share: MessageElement::new(shared, actuator_index(side)),
         }
     }
+
     fn index(&self) -> usize {
         match self.variant {
-            Variant::Actuator => actuator_index(self.side),
+            Variant::Actuator => self.share.element(),
             _ => 0,
         }
     }
@@ -175,34 +162,25 @@ impl DdsCodec for Dex1GoCodec {
     fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut Self::Cmd) -> bool {
         let Some(w) = wire_target(active, table) else {
             // Our messages stop holding the other gripper: the next one begins a new hold.
-            self.other.release();
+            self.share.release();
             return false;
         };
         let own = go_cmd(&w);
         msg.cmds.clear();
         match self.variant {
             Variant::Actuator => {
-                let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-                shared[self.index()] = Some(own);
                 // The other gripper: its own device's latest command, else held where it was
                 // measured when this hold began; without either we cannot hold it: stay silent.
-                let other = match &shared[1 - self.index()] {
-                    Some(c) => {
-                        self.other.release();
-                        *c
-                    }
-                    None => match self.other.hold() {
-                        Some(q) => unitree_go::MotorCmd_ {
-                            q,
-                            kp: table.hold_kp,
-                            kd: table.hold_kd,
-                            ..Default::default()
-                        },
-                        None => return false,
-                    },
+                let hold = |q| unitree_go::MotorCmd_ {
+                    q,
+                    kp: table.hold_kp,
+                    kd: table.hold_kd,
+                    ..Default::default()
                 };
-                msg.cmds.resize(2, own);
-                msg.cmds[1 - self.index()] = other;
+                let Some(both) = self.share.compose(Some(own), hold) else {
+                    return false;
+                };
+                msg.cmds.extend(both);
             }
             _ => msg.cmds.push(own),
         }
@@ -210,7 +188,7 @@ impl DdsCodec for Dex1GoCodec {
     }
 
     fn reconnected(&mut self) {
-        self.other.release();
+        self.share.release();
     }
 
     fn decode_into(&mut self, s: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
@@ -219,7 +197,8 @@ impl DdsCodec for Dex1GoCodec {
             return false;
         }
         if self.variant == Variant::Actuator {
-            self.other.measure(s.states[1 - self.index()].q);
+            let other = 1 - self.index();
+            self.share.measure(other, s.states[other].q);
         }
         decode_go_state(&s.states[self.index()], table, st);
         true

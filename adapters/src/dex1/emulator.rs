@@ -22,14 +22,14 @@
 //! calibrated 322°, wider than the 5.4 rad clients command), it starts at [`DEX1_REST_Q`]
 //! and its state reports q, dq and tau_est with measurement noise ([`Dex1Config::noise`]).
 
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use handgate_idl::unitree_go::{MotorCmds_, MotorState_ as GoMotorState, MotorStates_};
 use handgate_idl::unitree_hg::{HandCmd_, HandState_, MotorState_ as HgMotorState};
 
-use crate::dds::{Node, Qos, Reader, Writer};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
+use crate::dds::Node;
+use crate::emu_common::{ensure_finite, EmulatorError, Hz, Side};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
 
 /// Nominal open position clients command (xr_teleoperate, EZGripper driver; docs/sources.md §4), rad.
@@ -93,7 +93,7 @@ pub struct Dex1Config {
     pub variant: Dex1Variant,
     /// The gripper served (ignored by [`Dex1Variant::Actuator`], which serves both).
     pub side: Side,
-    /// Loop and state rate (docs/sources.md §4: 500 Hz).
+    /// Loop and state rate (default [`super::SERVICE_HZ`]).
     pub rate: Hz,
     /// Position range (closed, open), rad: the jaw's hard stops (default [`hard_stops`]).
     pub range: (f32, f32),
@@ -118,7 +118,7 @@ impl Dex1Config {
         Self {
             variant,
             side,
-            rate: Hz(500.0),
+            rate: Hz(super::SERVICE_HZ),
             range: hard_stops(variant),
             initial_q: DEX1_REST_Q,
             noise: crate::dex3::physical::HG_MOTOR_NOISE,
@@ -195,12 +195,12 @@ impl Dex1Core {
             return Err(EmulatorError::InvalidConfig(format!("bad range {:?}", config.range)));
         }
         let t = &config.tuning;
-        ensure_finite("initial_q", &[config.initial_q, config.load])?;
+        ensure_finite("initial_q", [config.initial_q, config.load])?;
         config.noise.validate().map_err(EmulatorError::InvalidConfig)?;
-        ensure_finite("object", &config.object.into_iter().collect::<Vec<_>>())?;
+        ensure_finite("object", config.object)?;
         ensure_finite(
             "tuning",
-            &[
+            [
                 t.default_kp,
                 t.default_kd,
                 t.inertia,
@@ -388,167 +388,121 @@ impl Dex1Core {
     }
 }
 
-enum Io {
-    Go {
-        reader: Reader<MotorCmds_>,
-        writer: Writer<MotorStates_>,
-    },
-    Hg {
-        reader: Reader<HandCmd_>,
-        writer: Writer<HandState_>,
-    },
-}
+impl ServiceCore for Dex1Core {
+    type Config = Dex1Config;
+    type Snapshot = Dex1Snapshot;
 
-struct Shared {
-    core: Dex1Core,
-    states_published: u64,
-}
-
-/// A running emulated dex1_1_service. Dropping it stops its thread.
-pub struct Dex1Emulator {
-    shared: Arc<Mutex<Shared>>,
-    worker: Worker,
-    config: Dex1Config,
-}
-
-impl std::fmt::Debug for Dex1Emulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Dex1Emulator")
-            .field("variant", &self.config.variant)
-            .field("side", &self.config.side)
-            .finish()
+    fn from_config(config: &Dex1Config) -> Result<Self, EmulatorError> {
+        Self::new(config)
     }
-}
 
-impl Dex1Emulator {
-    /// Starts the service on `node`.
-    pub fn start(node: &Node, config: Dex1Config) -> Result<Self, EmulatorError> {
-        let period = config.rate.period()?;
-        let core = Dex1Core::new(&config)?;
+    /// The variant's topics, the configured rate.
+    fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
         let (cmd_topic, state_topic) = config
             .topics
             .clone()
             .unwrap_or_else(|| config.variant.topics(config.side));
-        // Best-effort reader matches any writer; reliable keep-last-1 writer matches any reader.
-        let mut io = match config.variant {
-            Dex1Variant::Hg => Io::Hg {
-                reader: node.reader(&cmd_topic, Qos::BestEffort)?,
-                writer: node.writer(&state_topic, Qos::Reliable { depth: 1 })?,
-            },
-            _ => Io::Go {
-                reader: node.reader(&cmd_topic, Qos::BestEffort)?,
-                writer: node.writer(&state_topic, Qos::Reliable { depth: 1 })?,
-            },
-        };
-        let shared = Arc::new(Mutex::new(Shared {
-            core,
-            states_published: 0,
-        }));
-        let sh = shared.clone();
-        let mut prev = None;
         let name = format!("dex1-emu-{}", config.side);
-        let worker = Worker::spawn(&name, period, move |now| {
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            let ok = match &mut io {
-                Io::Go { reader, writer } => {
-                    let cmds = reader.take();
-                    let state = {
-                        let mut g = lock(&sh);
-                        let received = Instant::now();
-                        for c in &cmds {
-                            g.core.on_go(c, received);
-                        }
-                        g.core.step(Instant::now(), dt);
-                        g.core.go_state()
-                    };
-                    writer.write(state).is_ok()
-                }
-                Io::Hg { reader, writer } => {
-                    let cmds = reader.take();
-                    let state = {
-                        let mut g = lock(&sh);
-                        let received = Instant::now();
-                        for c in &cmds {
-                            g.core.on_hg(c, received);
-                        }
-                        g.core.step(Instant::now(), dt);
-                        g.core.hg_state()
-                    };
-                    writer.write(state).is_ok()
-                }
-            };
-            lock(&sh).states_published += u64::from(ok);
-        })?;
-        Ok(Self { shared, worker, config })
+        Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
     }
 
-    pub fn config(&self) -> &Dex1Config {
-        &self.config
-    }
-
-    pub fn snapshot(&self) -> Dex1Snapshot {
-        let g = lock(&self.shared);
+    fn report(&self, published: Published) -> Dex1Snapshot {
         Dex1Snapshot {
-            states_published: g.states_published,
-            ..g.core.snapshot()
+            states_published: published.state,
+            ..self.snapshot()
+        }
+    }
+}
+
+/// The `unitree_go` wire (variants Go and Actuator).
+enum GoWire {}
+/// The seed spec's `unitree_hg` wire.
+enum HgWire {}
+
+impl ServiceWire<Dex1Core> for GoWire {
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
+    type Extra = Silent;
+
+    fn receive(core: &mut Dex1Core, cmd: &MotorCmds_, now: Instant) {
+        core.on_go(cmd, now);
+    }
+
+    fn cycle(core: &mut Dex1Core, tick: Tick) -> Option<MotorStates_> {
+        core.step(tick.now, tick.dt);
+        Some(core.go_state())
+    }
+}
+
+impl ServiceWire<Dex1Core> for HgWire {
+    type Cmd = HandCmd_;
+    type State = HandState_;
+    type Extra = Silent;
+
+    fn receive(core: &mut Dex1Core, cmd: &HandCmd_, now: Instant) {
+        core.on_hg(cmd, now);
+    }
+
+    fn cycle(core: &mut Dex1Core, tick: Tick) -> Option<HandState_> {
+        core.step(tick.now, tick.dt);
+        Some(core.hg_state())
+    }
+}
+
+/// A running emulated dex1_1_service. Dropping it stops its loop.
+pub type Dex1Emulator = ServiceEmulator<Dex1Core>;
+
+impl Dex1Emulator {
+    /// Starts the service on `node`, on its variant's wire.
+    pub fn start(node: &Node, config: Dex1Config) -> Result<Self, EmulatorError> {
+        match config.variant {
+            Dex1Variant::Hg => Self::start_on::<HgWire>(node, config),
+            _ => Self::start_on::<GoWire>(node, config),
         }
     }
 
     /// The last command received (accepted or not).
     pub fn last_command(&self) -> Option<Dex1Command> {
-        lock(&self.shared).core.last_command.clone()
+        self.with_core(|c| c.last_command.clone())
     }
 
     /// Accepted commands.
     pub fn commands_received(&self) -> u64 {
-        lock(&self.shared).core.commands
+        self.with_core(|c| c.commands)
     }
 
     /// Ignored commands.
     pub fn commands_rejected(&self) -> u64 {
-        lock(&self.shared).core.rejected
+        self.with_core(|c| c.rejected)
     }
 
     /// `side`'s gripper, if this emulator serves it.
     pub fn gripper(&self, side: Side) -> Option<GripperView> {
-        lock(&self.shared)
-            .core
-            .grippers
-            .iter()
-            .find(|g| g.side == side)
-            .map(Dex1Core::view)
+        self.with_core(|c| c.grippers.iter().find(|g| g.side == side).map(Dex1Core::view))
     }
 
     /// Whether the configured side's gripper is braked (for the 2-element variant: the
     /// configured side too; use [`Dex1Emulator::gripper`] for the other).
     pub fn braked(&self) -> bool {
-        self.gripper(self.config.side).is_some_and(|g| g.braked)
+        self.gripper(self.config().side).is_some_and(|g| g.braked)
     }
 
     /// The configured side's jaw position, rad.
     pub fn jaw_position(&self) -> f32 {
-        self.gripper(self.config.side).map_or(f32::NAN, |g| g.q)
+        self.gripper(self.config().side).map_or(f32::NAN, |g| g.q)
     }
 
     /// Places (or removes) the object `side`'s jaws close on.
     pub fn set_object(&self, side: Side, at: Option<f32>) {
-        lock(&self.shared).core.set_object(side, at);
+        self.with_core(|c| c.set_object(side, at));
     }
-
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
-    }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dds::{Qos, Reader, Writer};
+    use crate::emu_common::{wait_for, TEST_WAIT as WAIT};
     use handgate_idl::unitree_go::MotorCmd_ as GoMotorCmd;
     use handgate_idl::unitree_hg::MotorCmd_ as HgMotorCmd;
 
@@ -667,16 +621,6 @@ mod tests {
     }
 
     // ---- over real DDS (domains 36..=41) ----
-
-    const WAIT: Duration = Duration::from_secs(20);
-
-    fn wait_for(mut cond: impl FnMut() -> bool) {
-        let deadline = Instant::now() + WAIT;
-        while !cond() {
-            assert!(Instant::now() < deadline, "condition not reached");
-            std::thread::yield_now();
-        }
-    }
 
     /// Publishes `cmd` once per received state sample until `done` holds. Returns the state
     /// and the instant just before the last write.

@@ -1,109 +1,91 @@
-//! The Dex1-1 as a registered device kind: its profile keys (`[devices.dds]`: topics, wire
-//! variant, open range), their rules, its default rate and table.
+//! The Dex1-1 as a registered device kind: its facts, and how a gripper opens: over DDS as a
+//! client of dex1_1_service (or SAKE's EZGripper driver), in the profile's wire variant, or
+//! on the emulator backend: the service's emulator on private topics driven by the very
+//! same DDS adapter.
 
-use serde::{Deserialize, Serialize};
-
-use super::adapter::Variant;
-use super::table::{DEFAULT_RANGE, DEFAULT_RANGE_RAD, SEED_SPEC_RANGE_RAD};
+use super::adapter::{Dex1GoCodec, Dex1HgCodec, SharedElements, Variant};
+use super::config::Dex1Profile;
+use super::emulator::{Dex1Config, Dex1Emulator, DEX1_REST_Q};
+use super::table::SEED_SPEC_RANGE_RAD;
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::emu_common::Hz;
+use crate::front::kind::FrontKind;
 use crate::kind::{
-    a, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, Problem, SectionSpec,
+    DeviceKind, EmulateArgs, EmulateOption, EmulateOptions, Emulation, Kind, KindFacts, Rates, SectionSpec,
 };
 use crate::mapping::DeviceTable;
 use crate::model::{Side, GRIPPER_JOINTS};
 use crate::open::{DeviceSpec, OpenEnv};
+use crate::service_client::{emulate_service, ClientOpen};
 
 impl DeviceKind {
     /// Unitree Dex1-1 parallel gripper (through dex1_1_service over DDS).
     #[allow(non_upper_case_globals)]
-    pub const Dex1: DeviceKind = DeviceKind::of(&Dex1Factory);
+    pub const Dex1: DeviceKind = DeviceKind::of(&Dex1Kind);
 }
 
-/// The Dex1-1's factory.
+/// The Dex1-1.
 #[derive(Debug, Clone, Copy)]
-pub struct Dex1Factory;
+pub struct Dex1Kind;
 
-const NAME: &str = "dex1";
+/// What a Dex1 opens with: a client of dex1_1_service in its wire variant (`go` with the
+/// emulated service).
+pub type Dex1Open = ClientOpen<Variant, Dex1Config>;
 
-/// `[devices.dds]` of a Dex1: topic overrides, wire variant, open position.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
+/// `handgate emulate dex1`'s own options.
+#[derive(Debug, Default)]
+pub struct Dex1Emulate {
     /// Wire variant (default `go`).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub variant: Option<Variant>,
-    /// Open position, rad (default 5.4).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub range_rad: Option<f64>,
 }
 
-/// A Dex1's own profile keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Dex1Profile {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dds: Option<DdsConfig>,
+impl EmulateOptions for Dex1Emulate {
+    const OPTIONS: &'static [EmulateOption] = &[
+        EmulateOption {
+            name: "variant",
+            value: Some("go|hg|actuator"),
+            help: "the service's wire variant (default go)",
+        },
+        EmulateOption {
+            name: "service",
+            value: None,
+            help: "dex1_1_service on DDS (the only thing emulated for a Dex1: accepted for symmetry with dex3)",
+        },
+    ];
+
+    fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
+        match (name, value) {
+            ("variant", Some("go")) => self.variant = Some(Variant::Go),
+            ("variant", Some("hg")) => self.variant = Some(Variant::Hg),
+            ("variant", Some("actuator")) => self.variant = Some(Variant::Actuator),
+            ("variant", Some(other)) => return Err(format!("unknown dex1 variant {other:?} (go, hg, actuator)")),
+            _ => {}
+        }
+        Ok(())
+    }
 }
 
-impl Dex1Profile {
-    /// The wire variant (`dds.variant`, default `go`).
-    pub fn variant(&self) -> Variant {
-        self.dds.as_ref().and_then(|d| d.variant).unwrap_or_default()
-    }
-
-    /// The open position (`dds.range_rad`, default 5.4 rad).
-    pub fn range_rad(&self) -> f64 {
-        self.dds.as_ref().and_then(|d| d.range_rad).unwrap_or(DEFAULT_RANGE)
-    }
-}
-
-impl KindFactory for Dex1Factory {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn joints(&self) -> &'static [&'static str] {
-        &GRIPPER_JOINTS
-    }
-
-    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
-        &[crate::front::kind::FrontKind::Dex1]
-    }
-
-    fn backends(&self) -> &'static [Backend] {
-        &[Backend::Dds, Backend::Emulator]
-    }
-
-    /// 500 Hz: dex1_1_service's loop.
-    fn default_rate_hz(&self, _backend: Backend) -> Option<f64> {
-        Some(500.0)
-    }
-
-    fn sections(&self) -> &'static [SectionSpec] {
-        &[SectionSpec {
+impl Kind for Dex1Kind {
+    const FACTS: KindFacts = KindFacts {
+        fronts: &[FrontKind::Dex1],
+        sections: &[SectionSpec {
             key: "dds",
             backends: &[Backend::Dds],
-        }]
-    }
+        }],
+        // dex1_1_service's loop.
+        ..KindFacts::new(
+            "dex1",
+            &GRIPPER_JOINTS,
+            &[Backend::Dds, Backend::Emulator],
+            Rates::fixed(super::SERVICE_HZ),
+        )
+    };
+    type Config = Dex1Profile;
+    type Open = Dex1Open;
+    type Emulate = Dex1Emulate;
 
-    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError> {
-        Ok(Box::new(value.deserialize::<Dex1Profile>().map_err(Box::new)?))
-    }
-
-    fn default_config(&self) -> Box<dyn KindConfig> {
-        Box::new(Dex1Profile::default())
-    }
-
-    fn table(&self, side: Side, c: &dyn KindConfig) -> DeviceTable {
-        let range = c
-            .as_any()
-            .downcast_ref::<Dex1Profile>()
-            .map_or(DEFAULT_RANGE_RAD, |c| c.range_rad() as f32);
-        super::table::table(side, range)
+    fn table(&self, side: Side, config: &Dex1Profile) -> DeviceTable {
+        super::table::table(side, config.range_rad() as f32)
     }
 
     /// 0 (open) ..= 2π, the widest range in the field (the seed spec's).
@@ -113,98 +95,65 @@ impl KindFactory for Dex1Factory {
             .then_some((0.0, f64::from(SEED_SPEC_RANGE_RAD)))
     }
 
-    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn std::fmt::Debug>, DeviceError> {
-        Ok(Box::new(super::open::configure(spec)?))
+    fn configure(&self, spec: &DeviceSpec<'_, Dex1Profile>) -> Result<Dex1Open, DeviceError> {
+        let missing = "no dds topics (side center without dds.cmd_topic / state_topic)";
+        let variant = match spec.backend {
+            Backend::Dds => spec.config.variant(),
+            // The emulated dex1_1_service speaks `go`, on private topics.
+            _ => Variant::Go,
+        };
+        ClientOpen::of(spec, spec.config.topics(spec.side), missing, variant, |cmd, state| {
+            let mut peer = Dex1Config::new(Variant::Go, spec.side);
+            peer.initial_q = spec.initial_wire("jaw", DEX1_REST_Q);
+            peer.noise = spec
+                .emulator
+                .noise_for(spec.name, crate::dex3::physical::HG_MOTOR_NOISE);
+            peer.object = spec.object_wire("jaw");
+            peer.rate = Hz(spec.rate_hz);
+            peer.topics = Some((cmd, state));
+            peer
+        })
     }
 
-    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
-        super::open::served(spec)
-    }
-
-    fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
-        super::open::emulate(args)
-    }
-
-    fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
-        super::open::open(spec, env)
-    }
-}
-
-/// (command, state) topics of a Dex1 on backend dds: `dds.cmd_topic` / `dds.state_topic`,
-/// else the variant's for the side; `None` where the side (center) gives no default.
-pub fn dds_topics(p: &Dex1Profile, side: Side) -> (Option<String>, Option<String>) {
-    let dds = p.dds.clone().unwrap_or_default();
-    let variant = p.variant();
-    let std = (variant == Variant::Actuator || side != Side::Center).then(|| variant.topics(side));
-    (
-        dds.cmd_topic.or_else(|| std.as_ref().map(|t| t.0.clone())),
-        dds.state_topic.or_else(|| std.map(|t| t.1)),
-    )
-}
-
-impl KindConfig for Dex1Profile {
-    fn validate(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem> {
-        let mut out = Vec::new();
-        if let Some(x) = &self.dds {
-            for (key, t) in [("cmd_topic", &x.cmd_topic), ("state_topic", &x.state_topic)] {
-                if let Some(Err(e)) = t.as_deref().map(check_topic) {
-                    out.push(Problem::new(&["dds", key], e));
-                }
-            }
-            if x.variant == Some(Variant::Auto) {
-                out.push(Problem::new(
-                    &["dds", "variant"],
-                    "`auto` is a front's variant (it follows its clients); a device speaks one: go, hg or actuator",
-                ));
-            }
-            if let Some(r) = x.range_rad {
-                if !(r.is_finite() && r > 0.0 && r <= f64::from(SEED_SPEC_RANGE_RAD)) {
-                    out.push(Problem::new(
-                        &["dds", "range_rad"],
-                        format!("must be above 0 and at most 2pi rad, got {r}"),
-                    ));
-                }
-            }
-        }
-        if ctx.backend == Backend::Dds && ctx.side == Side::Center {
-            if let Some((cmd, state)) = self.dds_topics(ctx) {
-                if cmd.is_none() || state.is_none() {
-                    out.push(Problem::new(
-                        &["side"],
-                        format!(
-                            "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
-                            a(NAME)
-                        ),
-                    ));
-                }
-            }
-            if self.variant() == Variant::Actuator {
-                out.push(Problem::new(
-                    &["side"],
-                    "the actuator variant addresses element 0 = right, 1 = left: side must be left or right",
-                ));
-            }
-        }
-        out
-    }
-
-    fn dds_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
-        Some(dds_topics(self, ctx.side))
-    }
-
-    /// The actuator variant's message carries both grippers: element 0 right, 1 left.
-    fn dds_command_element(&self, ctx: &DeviceCtx<'_>) -> Option<usize> {
-        (self.variant() == Variant::Actuator && ctx.side != Side::Center)
-            .then(|| super::adapter::actuator_index(ctx.side))
-    }
-
-    fn describe(&self, ctx: &DeviceCtx<'_>) -> String {
-        if ctx.backend == Backend::Dds {
-            format!(" ({})", self.variant())
-        } else {
-            String::new()
+    fn served(&self, open: &Dex1Open) -> Vec<crate::discovery::diagnose::Served> {
+        match open.codec {
+            Variant::Hg => open.config.served::<Dex1HgCodec>(),
+            _ => open.config.served::<Dex1GoCodec>(),
         }
     }
 
-    crate::kind_config_plumbing!();
+    fn open(
+        &self,
+        open: Dex1Open,
+        spec: &DeviceSpec<'_, Dex1Profile>,
+        env: &mut OpenEnv<'_>,
+    ) -> Result<Box<dyn HandDevice>, DeviceError> {
+        if open.codec == Variant::Hg {
+            return open.start(Dex1HgCodec, spec, env, Dex1Emulator::start);
+        }
+        // The actuator variant's grippers on one command topic share their commands.
+        let key = format!("dex1 elements {}", open.config.cmd_topic);
+        let shared = env.shared.get_or_default::<SharedElements>(&key);
+        let codec = Dex1GoCodec::with_shared(open.codec, spec.side, shared);
+        open.start(codec, spec, env, Dex1Emulator::start)
+    }
+
+    /// `handgate emulate dex1`: dex1_1_service (or SAKE's driver) in the `--variant` wire
+    /// variant on DDS.
+    fn emulate(&self, args: &EmulateArgs, options: Dex1Emulate) -> Result<(String, Emulation), DeviceError> {
+        let variant = options.variant.unwrap_or(Variant::Go);
+        let side = match variant {
+            // One actuator service serves both grippers.
+            Variant::Actuator => args.side.unwrap_or(Side::Left),
+            _ => args.side("dex1")?,
+        };
+        let mut cfg = Dex1Config::new(variant, side);
+        cfg.noise = args.noise(crate::dex3::physical::HG_MOTOR_NOISE);
+        let (cmd, state) = variant.topics(side);
+        let what = format!(
+            "emulating dex1_1_service ({variant}): {cmd}, {state} on DDS domain {}",
+            args.domain
+        );
+        Ok((what, emulate_service(args, |node| Dex1Emulator::start(node, cfg))?))
+    }
 }

@@ -477,7 +477,7 @@ impl crate::front::kind::FrontFactory for Dex1Front {
         (std.as_ref().map(|t| Topic(t.0.clone())), std.map(|t| Topic(t.1)), None)
     }
     fn default_state_hz(&self, _device_hz: Option<f64>) -> f64 {
-        500.0
+        super::SERVICE_HZ
     }
     fn default_name(&self, f: &crate::front::config::FrontConfig, side: &str) -> String {
         if variant(f) == Variant::Actuator {

@@ -4,8 +4,8 @@
 //! EZGripper driver and dex1_1_service's internal branch; dex1_1_service calibrates 5.62 rad;
 //! the seed spec says 2π). So `wire_q = range - jaw`, and a closure c maps to `jaw = c * range`.
 
-use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
-use crate::model::{DeviceKind, Side, GRIPPER_JOINTS};
+use crate::mapping::DeviceTable;
+use crate::model::{DeviceKind, Side};
 
 /// Open position used by real systems (rad), as a profile states it.
 pub const DEFAULT_RANGE: f64 = 5.4;
@@ -16,36 +16,8 @@ pub const SEED_SPEC_RANGE_RAD: f32 = std::f32::consts::TAU;
 /// xr_teleoperate's Dex1 gains (docs/sources.md §4).
 pub const KP: f32 = 5.0;
 pub const KD: f32 = 0.05;
-/// xr_teleoperate clips each step to ±0.18 rad of the measured position; handgate offers it
-/// as the profile's `max_step` (off by default).
-pub const XR_TELEOPERATE_MAX_STEP: f32 = 0.18;
 
 /// The Dex1-1 table for one side and open position `range` (rad).
 pub fn table(side: Side, range: f32) -> DeviceTable {
-    DeviceTable {
-        kind: DeviceKind::Dex1,
-        side,
-        joints: vec![JointMap {
-            name: GRIPPER_JOINTS[0],
-            wire_index: 0,
-            urdf: format!("{}_gripper_joint", side.as_str()),
-            sign: -1.0,
-            scale: 1.0,
-            offset: range,
-            limits: Limits::new(0.0, range),
-        }],
-        closure: ClosureMap::Postures {
-            open: vec![0.0],
-            closed: vec![range],
-            kp: KP,
-            kd: KD,
-        },
-        hold_kp: KP,
-        hold_kd: KD,
-        max_step: None,
-        max_kp: 50.0,
-        max_kd: 5.0,
-        max_tau: 5.0,
-        urdf_frame: crate::mapping::UrdfFrame::Wire,
-    }
+    DeviceTable::gripper(DeviceKind::Dex1, side, range, (1.0, range), (KP, KD))
 }

@@ -9,7 +9,7 @@ use super::RisMode;
 use crate::control::Active;
 use crate::dds_device::DdsCodec;
 use crate::mapping::{DeviceTable, WireTarget};
-use crate::model::{faults, HandState, Imu, Pad, Power, SafeAction, Side};
+use crate::model::{faults, HandState, Imu, Pad, Power, Side};
 
 /// Which state topic to read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, serde::Serialize, serde::Deserialize)]
@@ -31,14 +31,13 @@ impl std::fmt::Display for StateSource {
     }
 }
 
-/// Default topics for a side.
+/// Default (command, state) topics for a side, the state read from `source`.
 pub fn topics(side: Side, source: StateSource) -> (String, String) {
-    let s = side.as_str();
     let state = match source {
-        StateSource::State => format!("rt/dex3/{s}/state"),
-        StateSource::Lf => format!("rt/lf/dex3/{s}/state"),
+        StateSource::State => super::state_topic(side),
+        StateSource::Lf => super::lf_state_topic(side),
     };
-    (format!("rt/dex3/{s}/cmd"), state)
+    (super::cmd_topic(side), state)
 }
 
 /// Encoder/decoder for the resident service's messages.
@@ -114,6 +113,7 @@ pub fn decode_hand_state(s: &HandState_, table: &DeviceTable, st: &mut HandState
 impl DdsCodec for Dex3DdsCodec {
     type Cmd = HandCmd_;
     type State = HandState_;
+    const ENTRIES: Option<usize> = Some(super::MOTOR_COUNT);
 
     fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut HandCmd_) -> bool {
         match active {
@@ -128,11 +128,6 @@ impl DdsCodec for Dex3DdsCodec {
     fn decode_into(&mut self, sample: &HandState_, table: &DeviceTable, st: &mut HandState) -> bool {
         decode_hand_state(sample, table, st)
     }
-}
-
-/// For docs/tests: what a limp safe state sends (zero gains, FOC).
-pub fn limp_targets(table: &DeviceTable) -> Vec<crate::model::JointCommand> {
-    table.safe_targets(SafeAction::Limp, &[])
 }
 
 #[cfg(test)]

@@ -25,17 +25,18 @@
 //! and tau_est with measurement noise ([`Dex3ServiceConfig::noise`], default
 //! [`crate::dex3::physical::HG_MOTOR_NOISE`]).
 
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use handgate_idl::unitree_hg::{
     HandCmd_, HandState_, IMUState_, MotorState_, PressSensorState_, DEX3_MOTORS, DEX3_PRESS_SENSORS,
 };
 
-use crate::dds::{Node, Qos};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
+use crate::emu_common::{ensure_finite, EmulatorError, Hz};
 use crate::model::Side;
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Tick};
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Reading, Sensor};
+
+use super::{cmd_topic, lf_state_topic, state_topic};
 
 /// Motors per hand (docs/sources.md §2).
 pub const MOTORS: usize = DEX3_MOTORS;
@@ -44,19 +45,6 @@ pub const PADS: usize = DEX3_PRESS_SENSORS;
 /// Values in one `PressSensorState_::pressure` array.
 pub const PAD_POINTS: usize = 12;
 pub use super::{MotorStatus, RisMode, PRESS_NO_READING, PRESS_VALID_MIN, RIS_TIMEOUT_BIT};
-
-/// `rt/dex3/{side}/cmd`.
-pub fn cmd_topic(side: Side) -> String {
-    format!("rt/dex3/{side}/cmd")
-}
-/// `rt/dex3/{side}/state`.
-pub fn state_topic(side: Side) -> String {
-    format!("rt/dex3/{side}/state")
-}
-/// `rt/lf/dex3/{side}/state` (the low-frequency copy the SDK examples subscribe).
-pub fn lf_state_topic(side: Side) -> String {
-    format!("rt/lf/dex3/{side}/state")
-}
 
 /// A Dex3-1 joint, in message order (the shared [`super::Joint`]).
 pub use super::Joint as Dex3Joint;
@@ -154,9 +142,10 @@ impl Default for Dex3Tuning {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dex3ServiceConfig {
     pub side: Side,
-    /// Rate of `rt/dex3/{side}/state` and of the emulated control loop (default 500 Hz).
+    /// Rate of `rt/dex3/{side}/state` and of the emulated control loop (default
+    /// [`super::SERVICE_HZ`]).
     pub state_rate: Hz,
-    /// Rate of `rt/lf/dex3/{side}/state` (default 50 Hz; assumption, docs/sources.md names no rate).
+    /// Rate of `rt/lf/dex3/{side}/state` (default [`super::SERVICE_LF_HZ`]).
     pub lf_rate: Hz,
     pub publish_lf: bool,
     /// Joint positions at start, rad, message order (clamped to the hard stops). Default:
@@ -182,8 +171,8 @@ impl Dex3ServiceConfig {
     pub fn new(side: Side) -> Self {
         Self {
             side,
-            state_rate: Hz(500.0),
-            lf_rate: Hz(50.0),
+            state_rate: Hz(super::SERVICE_HZ),
+            lf_rate: Hz(super::SERVICE_LF_HZ),
             publish_lf: true,
             initial_q: std::array::from_fn(|i| crate::dex3::physical::rest_wire(side, i)),
             noise: crate::dex3::physical::HG_MOTOR_NOISE,
@@ -198,17 +187,14 @@ impl Dex3ServiceConfig {
     pub fn validate(&self) -> Result<(), EmulatorError> {
         self.state_rate.period()?;
         self.lf_rate.period()?;
-        ensure_finite("initial_q", &self.initial_q)?;
+        ensure_finite("initial_q", self.initial_q)?;
         self.noise.validate().map_err(EmulatorError::InvalidConfig)?;
-        ensure_finite("objects", &self.objects.iter().flatten().copied().collect::<Vec<_>>())?;
-        ensure_finite(
-            "object_at",
-            &self.object_at.iter().flatten().copied().collect::<Vec<_>>(),
-        )?;
+        ensure_finite("objects", self.objects.into_iter().flatten())?;
+        ensure_finite("object_at", self.object_at.into_iter().flatten())?;
         let t = &self.tuning;
         ensure_finite(
             "tuning",
-            &[
+            [
                 t.hold_kp,
                 t.hold_kd,
                 t.contact_stiffness,
@@ -528,142 +514,94 @@ impl Dex3Core {
     }
 }
 
-struct Shared {
-    core: Dex3Core,
-    states_published: u64,
-    lf_published: u64,
-}
+impl ServiceCore for Dex3Core {
+    type Config = Dex3ServiceConfig;
+    type Snapshot = Dex3Snapshot;
 
-/// A running emulated Dex3 service. Dropping it stops its thread.
-pub struct Dex3ServiceEmulator {
-    shared: Arc<Mutex<Shared>>,
-    worker: Worker,
-    config: Dex3ServiceConfig,
-}
-
-impl std::fmt::Debug for Dex3ServiceEmulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Dex3ServiceEmulator")
-            .field("side", &self.config.side)
-            .finish()
-    }
-}
-
-impl Dex3ServiceEmulator {
-    /// Starts the service on `node`: creates its reader and writers, then its loop thread.
-    pub fn start(node: &Node, config: Dex3ServiceConfig) -> Result<Self, EmulatorError> {
+    fn from_config(config: &Dex3ServiceConfig) -> Result<Self, EmulatorError> {
         config.validate()?;
-        let period = config.state_rate.period()?;
-        let lf_period = config.lf_rate.period()?;
+        Ok(Self::new(config))
+    }
+
+    fn plan(config: &Dex3ServiceConfig) -> Result<ServicePlan, EmulatorError> {
         let side = config.side;
-        // Best-effort reader: matches reliable and best-effort writers alike.
         let (cmd_t, state_t, lf_t) = config
             .topics
             .clone()
             .unwrap_or_else(|| (cmd_topic(side), state_topic(side), lf_state_topic(side)));
-        let reader = node.reader::<HandCmd_>(&cmd_t, Qos::BestEffort)?;
-        // Reliable writers (keep last 1): match reliable and best-effort readers alike.
-        let mut writer = node.writer::<HandState_>(&state_t, Qos::Reliable { depth: 1 })?;
-        let mut lf_writer = if config.publish_lf {
-            Some(node.writer::<HandState_>(&lf_t, Qos::Reliable { depth: 1 })?)
-        } else {
-            None
-        };
-        let shared = Arc::new(Mutex::new(Shared {
-            core: Dex3Core::new(&config),
-            states_published: 0,
-            lf_published: 0,
-        }));
-        let sh = shared.clone();
-        let mut prev: Option<Instant> = None;
-        let mut next_lf = Instant::now();
-        let worker = Worker::spawn(&format!("dex3-emu-{side}"), period, move |now| {
-            let cmds = reader.take();
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            let (state, lf_due) = {
-                let mut g = lock(&sh);
-                // Receive time taken after the take: never earlier than the sender's write.
-                let received = Instant::now();
-                for c in &cmds {
-                    g.core.on_command(c, received);
-                }
-                g.core.step(Instant::now(), dt);
-                let lf_due = lf_writer.is_some() && now >= next_lf;
-                (g.core.state(), lf_due)
-            };
-            let mut lf_ok = false;
-            if lf_due {
-                next_lf = (next_lf + lf_period).max(now);
-                if let Some(w) = lf_writer.as_mut() {
-                    lf_ok = w.write(state.clone()).is_ok();
-                }
-            }
-            let ok = writer.write(state).is_ok();
-            let mut g = lock(&sh);
-            g.states_published += u64::from(ok);
-            g.lf_published += u64::from(lf_ok);
-        })?;
-        Ok(Self { shared, worker, config })
+        let lf = config.publish_lf.then_some((lf_t, Some(config.lf_rate)));
+        Ok(ServicePlan::new(format!("dex3-emu-{side}"), config.state_rate, cmd_t, Some(state_t)).with_extra(lf))
     }
 
-    pub fn config(&self) -> &Dex3ServiceConfig {
-        &self.config
-    }
-
-    pub fn snapshot(&self) -> Dex3Snapshot {
-        let g = lock(&self.shared);
+    fn report(&self, published: Published) -> Dex3Snapshot {
         Dex3Snapshot {
-            states_published: g.states_published,
-            lf_published: g.lf_published,
-            ..g.core.snapshot()
+            states_published: published.state,
+            lf_published: published.extra,
+            ..self.snapshot()
         }
     }
+}
 
+impl ServiceWire<Self> for Dex3Core {
+    type Cmd = HandCmd_;
+    type State = HandState_;
+    /// The low-frequency copy of the state.
+    type Extra = HandState_;
+
+    fn receive(core: &mut Self, cmd: &HandCmd_, now: Instant) {
+        core.on_command(cmd, now);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<HandState_> {
+        core.step(tick.now, tick.dt);
+        Some(core.state())
+    }
+
+    /// The same state, on the low-frequency topic.
+    fn extra(_core: &mut Self, state: &HandState_) -> Option<HandState_> {
+        Some(state.clone())
+    }
+}
+
+/// A running emulated Dex3 service. Dropping it stops its loop.
+pub type Dex3ServiceEmulator = ServiceEmulator<Dex3Core>;
+
+impl Dex3ServiceEmulator {
     /// The last command received (accepted or not).
     pub fn last_command(&self) -> Option<HandCmd_> {
-        lock(&self.shared).core.last_command.clone()
+        self.with_core(|c| c.last_command.clone())
     }
 
     /// Accepted commands.
     pub fn commands_received(&self) -> u64 {
-        lock(&self.shared).core.commands
+        self.with_core(|c| c.commands)
     }
 
     /// Commands ignored for a wrong motor count.
     pub fn commands_rejected(&self) -> u64 {
-        lock(&self.shared).core.rejected
+        self.with_core(|c| c.rejected)
     }
 
     /// What `joint`'s motor applies now.
     pub fn applied_target(&self, joint: Dex3Joint) -> MotorTarget {
-        lock(&self.shared).core.applied(joint.index())
+        self.with_core(|c| c.applied(joint.index()))
     }
 
     /// Whether `joint`'s timeout protection has tripped.
     pub fn timeout_tripped(&self, joint: Dex3Joint) -> bool {
-        lock(&self.shared).core.slots[joint.index()].tripped
+        self.with_core(|c| c.slots[joint.index()].tripped)
     }
 
     /// Places (or removes) the object `finger` closes on.
     pub fn set_object(&self, finger: Finger, closure: Option<f32>) {
-        lock(&self.shared).core.set_object(finger, closure);
+        self.with_core(|c| c.set_object(finger, closure));
     }
-
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
-    }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    // A panic inside the loop thread leaves plain data behind: keep serving it.
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::emu_common::{wait_for, TEST_WAIT as WAIT};
     use handgate_idl::unitree_hg::MotorCmd_;
     use proptest::prelude::*;
 
@@ -935,9 +873,7 @@ mod tests {
 
     // ---- over real DDS (domains 30..=35) ----
 
-    use crate::dds::{Reader, Writer};
-
-    const WAIT: Duration = Duration::from_secs(20);
+    use crate::dds::{Node, Qos, Reader, Writer};
 
     struct Client {
         _node: Node,
@@ -991,14 +927,6 @@ mod tests {
                 }
                 assert!(Instant::now() < deadline, "condition not reached; last state {s:?}");
             }
-        }
-    }
-
-    fn wait_for(mut cond: impl FnMut() -> bool) {
-        let deadline = Instant::now() + WAIT;
-        while !cond() {
-            assert!(Instant::now() < deadline, "condition not reached");
-            std::thread::yield_now();
         }
     }
 

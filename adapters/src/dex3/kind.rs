@@ -1,20 +1,18 @@
-//! The Dex3-1 as a registered device kind: its profile keys (`[devices.usb]` for the USB
-//! backend and its emulator, `[devices.dds]` for a G1's resident service), their rules, its
-//! default rates and table.
+//! The Dex3-1 as a registered device kind: its facts (default rates, table, pads), and how a
+//! hand opens (`super::open`): over DDS as a client of a G1's resident service, over USB, or
+//! on the emulator backend.
 
-use std::collections::{BTreeMap, HashMap};
-use std::path::PathBuf;
+use std::collections::HashMap;
 
-use serde::{Deserialize, Serialize};
-
-use super::dds_client::{self, StateSource};
-use super::usb::codec::BUS_COUNT;
-use super::usb::Scalings;
-use super::{JOINTS, PAD_COUNT};
+use super::config::Dex3Profile;
+use super::dds_client::Dex3DdsCodec;
+use super::open::{Dex3Emulate, Dex3Open};
+use super::JOINTS;
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::front::kind::FrontKind;
 use crate::kind::{
-    a, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, FleetMember, FleetProblem, KindConfig,
-    KindFactory, PadLayout, PadPlace, PadScale, Problem, SectionSpec,
+    DeviceKind, EmulateArgs, Emulation, FleetMember, FleetProblem, Kind, KindFacts, PadLayout, PadPlace, PadScale,
+    Problem, Rates, SectionSpec, Sides,
 };
 use crate::mapping::DeviceTable;
 use crate::model::Side;
@@ -23,14 +21,14 @@ use crate::open::{DeviceSpec, OpenEnv};
 impl DeviceKind {
     /// Unitree Dex3-1, 7 joints (USB, or through a G1's resident service over DDS).
     #[allow(non_upper_case_globals)]
-    pub const Dex3: DeviceKind = DeviceKind::of(&Dex3Factory);
+    pub const Dex3: DeviceKind = DeviceKind::of(&Dex3Kind);
 }
 
 /// Where the dashboard draws the Dex3-1's nine pads (right hand, palm towards the viewer).
 /// Which pad id sits where is not public (docs/sources.md §2): the places follow the
 /// emulator's assumed layout (`Dex3Tuning::pads`: 0–1 thumb tip and finger pad, 2–3 middle,
 /// 4–5 index, 6–8 palm). Each pad's 12 slots are drawn as a 1 × 12 strip.
-static PADS: PadLayout = PadLayout {
+const PADS: PadLayout = PadLayout {
     right: &[
         PadPlace {
             name: "pad_0",
@@ -106,187 +104,20 @@ static PADS: PadLayout = PadLayout {
     shape: |_| (1, super::dds_service_emulator::PAD_POINTS as u16),
 };
 
-/// The Dex3-1's factory.
+/// The Dex3-1.
 #[derive(Debug, Clone, Copy)]
-pub struct Dex3Factory;
+pub struct Dex3Kind;
 
-const NAME: &str = "dex3";
-
-/// Where a motor or a pressure pad sits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BusSlot {
-    /// Bus index, 0..=4.
-    pub bus: u8,
-    /// Id on that bus: motors 0..=15, sensors 0..=14 (15 is broadcast).
-    pub id: u8,
-}
-
-/// Dex3 USB wiring: joint -> slot and pad (`pad_0`..`pad_8`) -> slot.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct WiringConfig {
-    pub joints: BTreeMap<String, BusSlot>,
-    pub pads: BTreeMap<String, BusSlot>,
-}
-
-/// `[devices.usb]`: Dex3 over USB (also read by the emulator backend, which speaks the same
-/// protocol).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct UsbConfig {
-    /// USB serial number, to tell two hands of the same side apart.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub serial: Option<String>,
-    /// Talk to a Dex3-1 MCU emulator process (`handgate emulate dex3 --socket PATH`) over this
-    /// Unix socket instead of USB (backend `usb` only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub socket: Option<PathBuf>,
-    /// Set the motors' timeout-protection bit (motor stops after 1 s without commands).
-    pub timeout_bit: bool,
-    /// Which bus and id each joint and pressure pad sits on; not public (docs/sources.md §3).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub wiring: Option<WiringConfig>,
-    /// Overrides of the motor-frame scalings (docs/sources.md §3, "scaling conflict").
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub scalings: Option<Scalings>,
-    /// How the device loop's exchanges follow the commands (docs/dex3-usb.md, "Aligning the
-    /// exchange to commands").
-    pub align: AlignMode,
-    /// `early`: never two exchanges closer than this, µs (assumption: what the MCU tolerates).
-    pub align_min_gap_us: u64,
-    /// `phase`: the most the grid moves in one cycle, µs.
-    pub align_max_shift_us: u64,
-    /// `phase`: how long before a deadline the commands should arrive, µs.
-    pub align_lead_us: u64,
-}
-
-/// `usb.align`: the device loop's [`crate::dex3::usb::Align`] without its numbers.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum AlignMode {
-    /// Fixed 1 kHz grid (the loop before alignment existed).
-    Off,
-    /// Exchange when a new command arrives, `align_min_gap_us` after the previous at the soonest.
-    Early,
-    /// Fixed period, its phase moved by at most `align_max_shift_us` per cycle.
-    Phase,
-}
-
-/// The defaults of the `usb.align*` keys (docs/dex3-usb.md has the measurements behind them).
-pub mod align_defaults {
-    use super::AlignMode;
-    pub const MODE: AlignMode = AlignMode::Early;
-    /// Assumption: the MCU takes exchanges half a period apart (docs/dex3-usb.md).
-    pub const MIN_GAP_US: u64 = 500;
-    /// Under the 50 µs jitter target (docs/benchmarks.md §2).
-    pub const MAX_SHIFT_US: u64 = 20;
-    pub const LEAD_US: u64 = 50;
-    /// The smallest `align_min_gap_us` accepted: no exchange storms.
-    pub const MIN_GAP_FLOOR_US: u64 = 100;
-    /// The largest `align_max_shift_us` and `align_lead_us` accepted.
-    pub const SHIFT_CEIL_US: u64 = 500;
-}
-
-impl UsbConfig {
-    /// The loop's alignment from `align` and its numbers.
-    pub fn align(&self) -> crate::dex3::usb::Align {
-        use crate::dex3::usb::Align;
-        use std::time::Duration;
-        match self.align {
-            AlignMode::Off => Align::Off,
-            AlignMode::Early => Align::Early {
-                min_gap: Duration::from_micros(self.align_min_gap_us),
-            },
-            AlignMode::Phase => Align::Phase {
-                max_shift: Duration::from_micros(self.align_max_shift_us),
-                lead: Duration::from_micros(self.align_lead_us),
-            },
-        }
-    }
-}
-
-impl Default for UsbConfig {
-    fn default() -> Self {
-        UsbConfig {
-            serial: None,
-            socket: None,
-            timeout_bit: true,
-            wiring: None,
-            scalings: None,
-            align: align_defaults::MODE,
-            align_min_gap_us: align_defaults::MIN_GAP_US,
-            align_max_shift_us: align_defaults::MAX_SHIFT_US,
-            align_lead_us: align_defaults::LEAD_US,
-        }
-    }
-}
-
-/// `[devices.dds]` of a Dex3: topic overrides and which state topic to read.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
-    /// Read `rt/dex3/{side}/state` (`state`) or `rt/lf/dex3/{side}/state` (`lf`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_source: Option<StateSource>,
-}
-
-/// A Dex3's own profile keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Dex3Profile {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub usb: Option<UsbConfig>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dds: Option<DdsConfig>,
-}
-
-impl Dex3Profile {
-    /// The timeout bit: `usb.timeout_bit` (default on).
-    pub fn timeout_bit(&self) -> bool {
-        self.usb.as_ref().map(|u| u.timeout_bit).unwrap_or(true)
-    }
-}
-
-impl KindFactory for Dex3Factory {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn pads(&self) -> Option<&'static PadLayout> {
-        Some(&PADS)
-    }
-
-    fn joints(&self) -> &'static [&'static str] {
-        &JOINTS
-    }
-
-    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
-        &[crate::front::kind::FrontKind::Dex3]
-    }
-
-    fn backends(&self) -> &'static [Backend] {
-        &[Backend::Usb, Backend::Dds, Backend::Emulator]
-    }
-
-    fn check_side(&self, side: Side) -> Result<(), String> {
-        match side {
-            Side::Center => Err("a dex3 is a left or a right hand, not center".into()),
-            _ => Ok(()),
-        }
-    }
-
-    /// 1000 Hz over USB and its emulator (the frame loop); 500 Hz over DDS (assumption).
-    fn default_rate_hz(&self, backend: Backend) -> Option<f64> {
-        Some(if backend == Backend::Dds { 500.0 } else { 1000.0 })
-    }
-
-    fn sections(&self) -> &'static [SectionSpec] {
-        &[
+impl Kind for Dex3Kind {
+    const FACTS: KindFacts = KindFacts {
+        fronts: &[FrontKind::Dex3],
+        sides: Sides::LeftOrRight { note: ", not center" },
+        // 1000 Hz over USB and its emulator (the frame loop); 500 Hz over DDS (assumption).
+        rates: Rates {
+            default: Some(1000.0),
+            by_backend: &[(Backend::Dds, Some(super::SERVICE_HZ))],
+        },
+        sections: &[
             SectionSpec {
                 key: "usb",
                 backends: &[Backend::Usb, Backend::Emulator],
@@ -295,31 +126,30 @@ impl KindFactory for Dex3Factory {
                 key: "dds",
                 backends: &[Backend::Dds],
             },
-        ]
-    }
+        ],
+        pads: Some(&PADS),
+        closure_postures_configurable: true,
+        ..KindFacts::new(
+            "dex3",
+            &JOINTS,
+            &[Backend::Usb, Backend::Dds, Backend::Emulator],
+            Rates::AS_FAST_AS_THE_BUS,
+        )
+    };
+    type Config = Dex3Profile;
+    type Open = Dex3Open;
+    type Emulate = Dex3Emulate;
 
-    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError> {
-        Ok(Box::new(value.deserialize::<Dex3Profile>().map_err(Box::new)?))
-    }
-
-    fn default_config(&self) -> Box<dyn KindConfig> {
-        Box::new(Dex3Profile::default())
-    }
-
-    fn table(&self, side: Side, _config: &dyn KindConfig) -> DeviceTable {
+    fn table(&self, side: Side, _config: &Dex3Profile) -> DeviceTable {
         super::table::table(side)
     }
 
-    fn closure_postures_configurable(&self) -> bool {
-        true
-    }
-
     /// Two hands of one side on USB need their serials.
-    fn validate_fleet(&self, members: &[FleetMember<'_>]) -> Vec<FleetProblem> {
+    fn validate_fleet(&self, members: &[FleetMember<'_, Dex3Profile>]) -> Vec<FleetProblem> {
         let mut out = Vec::new();
         let mut seen: HashMap<(Side, Option<String>), usize> = HashMap::new();
         for m in members.iter().filter(|m| m.ctx.backend == Backend::Usb) {
-            let serial = config(m.config).usb.as_ref().and_then(|u| u.serial.clone());
+            let serial = m.config.usb.as_ref().and_then(|u| u.serial.clone());
             if let Some(j) = seen.insert((m.ctx.side, serial.clone()), m.index) {
                 out.push((
                     m.index,
@@ -337,12 +167,16 @@ impl KindFactory for Dex3Factory {
         out
     }
 
-    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn std::fmt::Debug>, DeviceError> {
-        Ok(Box::new(super::open::configure(spec)?))
+    fn configure(&self, spec: &DeviceSpec<'_, Dex3Profile>) -> Result<Dex3Open, DeviceError> {
+        super::open::configure(spec)
     }
 
-    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
-        super::open::served(spec)
+    /// Nothing over USB.
+    fn served(&self, open: &Dex3Open) -> Vec<crate::discovery::diagnose::Served> {
+        match open {
+            Dex3Open::Dds { config, .. } => config.served::<Dex3DdsCodec>(),
+            Dex3Open::Usb { .. } => Vec::new(),
+        }
     }
 
     /// Dex3-1 hands on USB (VID 0x34B7, PID by side), with permission problems explained.
@@ -371,228 +205,16 @@ impl KindFactory for Dex3Factory {
             .collect()))
     }
 
-    fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
-        super::open::emulate(args)
+    fn emulate(&self, args: &EmulateArgs, options: Dex3Emulate) -> Result<(String, Emulation), DeviceError> {
+        super::open::emulate(args, options)
     }
 
-    fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
-        super::open::open(spec, env)
-    }
-}
-
-fn config(c: &dyn KindConfig) -> &Dex3Profile {
-    c.as_any()
-        .downcast_ref::<Dex3Profile>()
-        .expect("a dex3 device has a Dex3Profile")
-}
-
-/// (command, state) topics of a Dex3 on backend dds: `dds.cmd_topic` / `dds.state_topic`,
-/// else the resident service's for the side and `dds.state_source`; `None` where the side
-/// (center) gives no default.
-pub fn dds_topics(p: &Dex3Profile, side: Side) -> (Option<String>, Option<String>) {
-    let dds = p.dds.clone().unwrap_or_default();
-    let std = (side != Side::Center).then(|| dds_client::topics(side, dds.state_source.unwrap_or_default()));
-    (
-        dds.cmd_topic.or_else(|| std.as_ref().map(|t| t.0.clone())),
-        dds.state_topic.or_else(|| std.map(|t| t.1)),
-    )
-}
-
-impl KindConfig for Dex3Profile {
-    fn validate(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem> {
-        let mut out = Vec::new();
-        if let Some(u) = &self.usb {
-            validate_usb(u, &mut out);
-        }
-        if let Some(x) = &self.dds {
-            for (key, t) in [("cmd_topic", &x.cmd_topic), ("state_topic", &x.state_topic)] {
-                if let Some(Err(e)) = t.as_deref().map(check_topic) {
-                    out.push(Problem::new(&["dds", key], e));
-                }
-            }
-        }
-        if ctx.backend == Backend::Dds && ctx.side == Side::Center {
-            if let Some((cmd, state)) = self.dds_topics(ctx) {
-                if cmd.is_none() || state.is_none() {
-                    out.push(Problem::new(
-                        &["side"],
-                        format!(
-                            "{} on backend dds with side center needs dds.cmd_topic and dds.state_topic",
-                            a(NAME)
-                        ),
-                    ));
-                }
-            }
-        }
-        out
-    }
-
-    fn dds_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
-        Some(dds_topics(self, ctx.side))
-    }
-
-    fn describe(&self, _ctx: &DeviceCtx<'_>) -> String {
-        match self.usb.as_ref().and_then(|u| u.serial.as_ref()) {
-            Some(s) => format!(", usb serial {s}"),
-            None => String::new(),
-        }
-    }
-
-    crate::kind_config_plumbing!();
-}
-
-fn validate_usb(u: &UsbConfig, out: &mut Vec<Problem>) {
-    if let Some(s) = &u.serial {
-        if s.trim().is_empty() {
-            out.push(Problem::new(
-                &["usb", "serial"],
-                "must not be empty (omit it to take any hand of this side)",
-            ));
-        }
-    }
-    if let Some(w) = &u.wiring {
-        let mut used: HashMap<(u8, u8, bool), String> = HashMap::new();
-        for (j, slot) in &w.joints {
-            let key = ["usb", "wiring", "joints", j.as_str()];
-            if !JOINTS.contains(&j.as_str()) {
-                out.push(Problem::new(
-                    &key,
-                    format!("unknown joint `{j}` for {} (joints: {})", a(NAME), JOINTS.join(", ")),
-                ));
-            }
-            slot_rules(&key, *slot, 15, out);
-            if let Some(o) = used.insert((slot.bus, slot.id, true), j.clone()) {
-                out.push(Problem::new(
-                    &key,
-                    format!("bus {} id {} is also wired to {o}", slot.bus, slot.id),
-                ));
-            }
-        }
-        for (pad, slot) in &w.pads {
-            let key = ["usb", "wiring", "pads", pad.as_str()];
-            let valid = pad
-                .strip_prefix("pad_")
-                .and_then(|n| n.parse::<usize>().ok())
-                .is_some_and(|n| n < PAD_COUNT && pad == &format!("pad_{n}"));
-            if !valid {
-                out.push(Problem::new(
-                    &key,
-                    format!("unknown pad `{pad}` (pads: pad_0 .. pad_{})", PAD_COUNT - 1),
-                ));
-            }
-            slot_rules(&key, *slot, 14, out);
-            if let Some(o) = used.insert((slot.bus, slot.id, false), pad.clone()) {
-                out.push(Problem::new(
-                    &key,
-                    format!("bus {} id {} is also wired to {o}", slot.bus, slot.id),
-                ));
-            }
-        }
-    }
-    if u.align_min_gap_us < align_defaults::MIN_GAP_FLOOR_US {
-        out.push(Problem::new(
-            &["usb", "align_min_gap_us"],
-            format!(
-                "must be at least {} µs (exchanges closer than that are a storm, not a schedule), got {}",
-                align_defaults::MIN_GAP_FLOOR_US,
-                u.align_min_gap_us
-            ),
-        ));
-    }
-    for (key, v) in [
-        ("align_max_shift_us", u.align_max_shift_us),
-        ("align_lead_us", u.align_lead_us),
-    ] {
-        if v > align_defaults::SHIFT_CEIL_US || (key == "align_max_shift_us" && v == 0) {
-            out.push(Problem::new(
-                &["usb", key],
-                format!(
-                    "must be between {} and {} µs, got {v}",
-                    (key == "align_max_shift_us") as u8,
-                    align_defaults::SHIFT_CEIL_US
-                ),
-            ));
-        }
-    }
-    if let Some(s) = &u.scalings {
-        if let Err(e) = s.validate() {
-            out.push(Problem::new(
-                &["usb", "scalings", e.field],
-                format!("must be a finite number above 0, got {}", e.value),
-            ));
-        }
-    }
-}
-
-fn slot_rules(key: &[&str], s: BusSlot, max_id: u8, out: &mut Vec<Problem>) {
-    let sub = |k: &str| {
-        let mut v: Vec<&str> = key.to_vec();
-        v.push(k);
-        v.iter().map(|s| s.to_string()).collect::<Vec<_>>()
-    };
-    if usize::from(s.bus) >= BUS_COUNT {
-        out.push(Problem {
-            key: sub("bus"),
-            message: format!("must be between 0 and {}, got {}", BUS_COUNT - 1, s.bus),
-        });
-    }
-    if s.id > max_id {
-        out.push(Problem {
-            key: sub("id"),
-            message: format!("must be between 0 and {max_id}, got {}", s.id),
-        });
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::dex3::usb::Align;
-    use std::time::Duration;
-
-    fn problems(u: UsbConfig) -> Vec<(String, String)> {
-        let mut out = Vec::new();
-        validate_usb(&u, &mut out);
-        out.into_iter().map(|p| (p.key.join("."), p.message)).collect()
-    }
-
-    #[test]
-    fn align_keys_are_validated_and_mapped() {
-        assert!(problems(UsbConfig::default()).is_empty());
-        let bad = UsbConfig {
-            align_min_gap_us: 10,
-            align_max_shift_us: 0,
-            align_lead_us: 900,
-            ..Default::default()
-        };
-        let keys: Vec<String> = problems(bad).into_iter().map(|(k, _)| k).collect();
-        assert_eq!(
-            keys,
-            ["usb.align_min_gap_us", "usb.align_max_shift_us", "usb.align_lead_us"]
-        );
-        let u = UsbConfig {
-            align: AlignMode::Phase,
-            align_max_shift_us: 30,
-            align_lead_us: 40,
-            ..Default::default()
-        };
-        assert_eq!(
-            u.align(),
-            Align::Phase {
-                max_shift: Duration::from_micros(30),
-                lead: Duration::from_micros(40)
-            }
-        );
-        let u = UsbConfig {
-            align: AlignMode::Off,
-            ..Default::default()
-        };
-        assert_eq!(u.align(), Align::Off);
-        assert_eq!(
-            UsbConfig::default().align(),
-            Align::Early {
-                min_gap: Duration::from_micros(align_defaults::MIN_GAP_US)
-            }
-        );
+    fn open(
+        &self,
+        open: Dex3Open,
+        spec: &DeviceSpec<'_, Dex3Profile>,
+        _env: &mut OpenEnv<'_>,
+    ) -> Result<Box<dyn HandDevice>, DeviceError> {
+        super::open::open(open, spec, _env)
     }
 }

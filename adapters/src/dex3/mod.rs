@@ -3,6 +3,7 @@
 //! own sign convention and SI units, IDL joint order, docs/sources.md §2); the mapping table; the USB
 //! adapter ([`usb`]); the DDS client of a G1's resident service and that service's emulator.
 
+pub mod config;
 pub mod dds_client;
 pub mod dds_service_emulator;
 pub mod front;
@@ -12,6 +13,32 @@ pub mod physical;
 pub mod serve;
 pub mod table;
 pub mod usb;
+
+/// The G1 service's loop and state rate, Hz: not published (docs/sources.md §2 names none);
+/// 500 Hz is an assumption, what xr_teleoperate reads (docs/adapters.md, "Dex3-1 service").
+/// The default rate of a Dex3 on backend dds, the cap of the Dex3 front's state rate and the
+/// emulated service's loop.
+pub const SERVICE_HZ: f64 = 500.0;
+/// The G1 service's rate of the low-frequency state copy ([`lf_state_topic`]), Hz: an
+/// assumption, docs/sources.md §2 names no rate. The Dex3 front's and the emulated service's.
+pub const SERVICE_LF_HZ: f64 = 50.0;
+
+/// The G1 service's command topic for `side`: `rt/dex3/{side}/cmd` (docs/sources.md §2).
+pub fn cmd_topic(side: Side) -> String {
+    format!("rt/dex3/{side}/cmd")
+}
+
+/// The G1 service's state topic for `side`: `rt/dex3/{side}/state` (docs/sources.md §2;
+/// xr_teleoperate reads it).
+pub fn state_topic(side: Side) -> String {
+    format!("rt/dex3/{side}/state")
+}
+
+/// The G1 service's low-frequency copy of the state for `side`: `rt/lf/dex3/{side}/state`
+/// (docs/sources.md §2; the SDK's C++ and ROS 2 examples read it).
+pub fn lf_state_topic(side: Side) -> String {
+    format!("rt/lf/dex3/{side}/state")
+}
 
 /// Dex3-1 joint names, canonical order (= the IDL order of `HandCmd_.motor_cmd`).
 pub const JOINTS: [&str; 7] = [

@@ -4,14 +4,14 @@
 
 use std::time::Duration;
 
+use super::config::{BusSlot, Dex3Profile, WiringConfig};
 use super::dds_client::Dex3DdsCodec;
 use super::dds_service_emulator::{Dex3ServiceConfig, Dex3ServiceEmulator};
-use super::kind::{Dex3Profile, WiringConfig};
 use super::usb::adapter::{Dex3UsbDevice, UsbSource};
 use super::usb::{run_emulator_server, BusAddr, BusId, DeviceId, EmulatorClock, EmulatorConfig, LoopConfig, WiringMap};
 use crate::dds_device::{DdsDevice, DdsDeviceConfig};
 use crate::device::{Backend, DeviceError, HandDevice};
-use crate::kind::{EmulateArgs, Emulation};
+use crate::kind::{EmulateArgs, EmulateOption, EmulateOptions, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// The profile's (partial) wiring over the USB adapter's default map.
@@ -19,7 +19,7 @@ pub fn wiring(w: Option<&WiringConfig>) -> Result<WiringMap, DeviceError> {
     let mut m = WiringMap::default();
     let Some(w) = w else { return Ok(m) };
     let bad = |what: String| DeviceError::Config(what);
-    let addr = |s: &super::kind::BusSlot| -> Result<BusAddr, DeviceError> {
+    let addr = |s: &BusSlot| -> Result<BusAddr, DeviceError> {
         Ok(BusAddr {
             bus: BusId::new(s.bus).map_err(DeviceError::config)?,
             id: DeviceId::new(s.id).map_err(DeviceError::config)?,
@@ -45,7 +45,7 @@ pub fn wiring(w: Option<&WiringConfig>) -> Result<WiringMap, DeviceError> {
 
 /// Where a Dex3 on backend usb or emulator sends its frames: `usb.socket` (the MCU emulator
 /// in another process), the hand on USB (by `usb.serial`), or the emulator in-process.
-pub fn usb_source(spec: &DeviceSpec<'_>, profile: &Dex3Profile) -> UsbSource {
+pub fn usb_source<C: ?Sized>(spec: &DeviceSpec<'_, C>, profile: &Dex3Profile) -> UsbSource {
     let usb = profile.usb.clone().unwrap_or_default();
     if spec.backend == Backend::Usb {
         return match usb.socket {
@@ -92,26 +92,20 @@ pub enum Dex3Open {
 }
 
 /// What `spec` opens with.
-pub fn configure(spec: &DeviceSpec<'_>) -> Result<Dex3Open, DeviceError> {
-    let profile = spec.config::<Dex3Profile>().cloned().unwrap_or_default();
+pub fn configure(spec: &DeviceSpec<'_, Dex3Profile>) -> Result<Dex3Open, DeviceError> {
+    let profile = spec.config;
     let timeout_bit = profile.timeout_bit();
     if spec.backend == Backend::Dds {
-        let (Some(cmd_topic), Some(state_topic)) = super::kind::dds_topics(&profile, spec.side) else {
+        let (Some(cmd_topic), Some(state_topic)) = profile.topics(spec.side) else {
             return Err(DeviceError::Config(
                 "no dds topics (side center without dds.cmd_topic / state_topic)".into(),
             ));
         };
-        let config = DdsDeviceConfig {
-            cmd_topic,
-            state_topic: Some(state_topic),
-            rate_hz: spec.rate_hz,
-            stale_after: spec.stale_after,
-            forward: spec.forwarding(spec.rate_hz),
-        };
+        let config = spec.dds_client(cmd_topic, state_topic);
         return Ok(Dex3Open::Dds { config, timeout_bit });
     }
     let usb = profile.usb.clone().unwrap_or_default();
-    let source = usb_source(spec, &profile);
+    let source = usb_source(spec, profile);
     let config = LoopConfig {
         period: Duration::from_secs_f64(1.0 / spec.rate_hz.max(1.0)),
         timeout_bit,
@@ -132,17 +126,13 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<Dex3Open, DeviceError> {
     Ok(Dex3Open::Usb { source, config })
 }
 
-/// What a Dex3 opened from `spec` serves on DDS (nothing over USB).
-pub fn served(spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
-    match configure(spec) {
-        Ok(Dex3Open::Dds { config, .. }) => config.served::<Dex3DdsCodec>(),
-        _ => Vec::new(),
-    }
-}
-
 /// Opens a Dex3 on its backend.
-pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
-    Ok(match configure(spec)? {
+pub fn open(
+    open: Dex3Open,
+    spec: &DeviceSpec<'_, Dex3Profile>,
+    env: &mut OpenEnv<'_>,
+) -> Result<Box<dyn HandDevice>, DeviceError> {
+    Ok(match open {
         Dex3Open::Dds { config, timeout_bit } => Box::new(DdsDevice::start(
             env.node,
             spec.info(),
@@ -155,12 +145,44 @@ pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn Hand
     })
 }
 
+/// `handgate emulate dex3`'s own options: what stands in for the hand.
+#[derive(Debug, Default)]
+pub struct Dex3Emulate {
+    /// The hand's MCU behind this Unix socket (the USB frame protocol).
+    pub socket: Option<std::path::PathBuf>,
+    /// The G1's resident hand service on DDS instead of the MCU.
+    pub service: bool,
+}
+
+impl EmulateOptions for Dex3Emulate {
+    const OPTIONS: &'static [EmulateOption] = &[
+        EmulateOption {
+            name: "socket",
+            value: Some("PATH"),
+            help: "the hand's MCU behind this Unix socket, speaking the USB frame protocol (point a device at it with usb.socket)",
+        },
+        EmulateOption {
+            name: "service",
+            value: None,
+            help: "the G1's resident Dex3 hand service on DDS instead of the MCU",
+        },
+    ];
+
+    fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
+        match name {
+            "socket" => self.socket = value.map(Into::into),
+            _ => self.service = true,
+        }
+        Ok(())
+    }
+}
+
 /// `handgate emulate dex3`: the hand's MCU on a Unix socket (`--socket`), or the G1's resident
 /// hand service on DDS (`--service`).
-pub fn emulate(args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
+pub fn emulate(args: &EmulateArgs, options: Dex3Emulate) -> Result<(String, Emulation), DeviceError> {
     let side = args.side("dex3")?;
     let noise = args.noise(super::physical::HG_MOTOR_NOISE);
-    match (&args.socket, args.service) {
+    match (&options.socket, options.service) {
         (Some(socket), false) => {
             let socket = socket.clone();
             let what = format!("emulating a Dex3-1 {side} hand on {}", socket.display());

@@ -114,10 +114,10 @@ impl crate::front::kind::FrontFactory for Dex3Front {
         )
     }
     fn default_state_hz(&self, device_hz: Option<f64>) -> f64 {
-        device_hz.map_or(500.0, |d| d.min(500.0))
+        device_hz.map_or(super::SERVICE_HZ, |d| d.min(super::SERVICE_HZ))
     }
     fn default_lf_state_hz(&self) -> Option<f64> {
-        Some(50.0)
+        Some(super::SERVICE_LF_HZ)
     }
     fn default_name(&self, _f: &crate::front::config::FrontConfig, side: &str) -> String {
         format!("dex3_{side}")

@@ -50,6 +50,11 @@ pub struct Served {
     /// front that follows its clients' types, like an `auto` Dex1 front): their
     /// counterparts match as the main type's do.
     pub also: Vec<String>,
+    /// The entries (motors) the owner expects in each sample's sequence, where a sample of
+    /// another count is another hand on this topic (a Dex5-1's 20 on a Dex3-1's 7): the
+    /// doctor reads the counterpart's samples and says which kind answers. `None`: not
+    /// checked.
+    pub entries: Option<usize>,
 }
 
 impl Served {
@@ -63,7 +68,14 @@ impl Served {
             alternatives: Vec::new(),
             related_topics: Vec::new(),
             also: Vec::new(),
+            entries: None,
         }
+    }
+
+    /// Expecting `n` entries in each sample (see [`Served::entries`]).
+    pub fn with_entries(mut self, n: usize) -> Self {
+        self.entries = Some(n);
+        self
     }
 
     /// Also serving `type_name` here (see [`Served::also`]).
@@ -657,6 +669,7 @@ mod tests {
             alternatives: Vec::new(),
             related_topics: Vec::new(),
             also: Vec::new(),
+            entries: None,
         }
     }
 

@@ -209,7 +209,7 @@ fn profile_object_at_stops_the_jaw_and_grasps() {
     use crate::model::Side;
     use crate::open::{DeviceSpec, EmulatorSection};
     let run = |name: &str, object: Option<f64>| {
-        let profile = super::kind::EzProfile::default();
+        let profile = super::config::EzProfile::default();
         let table = std::sync::Arc::new(DeviceKind::Ezgripper.table(Side::Left, &Default::default()).unwrap());
         let mut section = EmulatorSection::default();
         if let Some(o) = object {

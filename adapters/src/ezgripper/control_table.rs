@@ -1,10 +1,10 @@
 //! Every number the EZGripper adapter relies on, in one place, with its source.
 //!
 //! Sources:
-//! * **[MX64]** ROBOTIS e-Manual, "MX-64(2.0)" control table (Protocol 2.0 firmware,
+//! * **\[MX64\]** ROBOTIS e-Manual, "MX-64(2.0)" control table (Protocol 2.0 firmware,
 //!   model number 311): addresses, sizes, access, initial values and units.
-//! * **[P2]** ROBOTIS e-Manual, "Protocol 2.0" (packet layout, status error field).
-//! * **[SAKE]** SAKErobotics/unitree-dex1-ezgripper-driver: `config_default.json`
+//! * **\[P2\]** ROBOTIS e-Manual, "Protocol 2.0" (packet layout, status error field).
+//! * **\[SAKE\]** SAKErobotics/unitree-dex1-ezgripper-driver: `config_default.json`
 //!   (`gripper.grip_max`, `servo.dynamixel_settings.*`, `servo.force_management.*`,
 //!   `servo.collision_detection.*`) and `libezgripper/ezgripper_base_clean.py` (position and
 //!   current scaling, calibration procedure).
@@ -45,7 +45,7 @@ const fn ro(addr: u16, len: u16) -> Reg {
     }
 }
 
-/// MX-64(2.0) control table [MX64]. EEPROM items (address < 64) can only be written with
+/// MX-64(2.0) control table \[MX64\]. EEPROM items (address < 64) can only be written with
 /// torque off.
 pub mod reg {
     use super::{ro, rw, Reg};
@@ -159,24 +159,24 @@ pub mod reg {
     ];
 }
 
-/// Model number of the MX-64(2.0) [MX64].
+/// Model number of the MX-64(2.0) \[MX64\].
 pub const MX64_2_MODEL_NUMBER: u16 = 311;
-/// Initial Current Limit (38) of the MX-64(2.0) [MX64]; also its maximum.
+/// Initial Current Limit (38) of the MX-64(2.0) \[MX64\]; also its maximum.
 pub const MX64_CURRENT_LIMIT_MAX: u16 = 1941;
-/// Current unit of Goal/Present Current and Current Limit, mA [MX64] ("about 3.36 mA").
+/// Current unit of Goal/Present Current and Current Limit, mA \[MX64\] ("about 3.36 mA").
 pub const CURRENT_MA_PER_UNIT: f32 = 3.36;
-/// Velocity unit of Present Velocity, rev/min [MX64] (0.229 rpm).
+/// Velocity unit of Present Velocity, rev/min \[MX64\] (0.229 rpm).
 pub const VELOCITY_RPM_PER_UNIT: f32 = 0.229;
-/// Encoder ticks per output revolution [MX64] (12-bit absolute encoder, 0.088 deg).
+/// Encoder ticks per output revolution \[MX64\] (12-bit absolute encoder, 0.088 deg).
 pub const TICKS_PER_REV: f32 = 4096.0;
-/// Return Delay Time unit, microseconds [MX64] (initial value 250 = 500 us).
+/// Return Delay Time unit, microseconds \[MX64\] (initial value 250 = 500 us).
 pub const RETURN_DELAY_US_PER_UNIT: u32 = 2;
-/// Present Input Voltage unit, volts [MX64] (0.1 V).
+/// Present Input Voltage unit, volts \[MX64\] (0.1 V).
 pub const VOLTAGE_V_PER_UNIT: f32 = 0.1;
-/// Baud Rate (8) register value for 1 Mbps [MX64].
+/// Baud Rate (8) register value for 1 Mbps \[MX64\].
 pub const BAUD_RATE_1M: u8 = 3;
 
-/// Operating Mode (11) values [MX64].
+/// Operating Mode (11) values \[MX64\].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
 pub enum OperatingMode {
@@ -190,7 +190,7 @@ pub enum OperatingMode {
     Pwm = 16,
 }
 
-/// Hardware Error Status (70) bits [MX64], same layout as Shutdown (63).
+/// Hardware Error Status (70) bits \[MX64\], same layout as Shutdown (63).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Serialize, Deserialize)]
 pub struct HardwareError(pub u8);
 

@@ -9,6 +9,7 @@
 //! See docs/ezgripper.md.
 
 pub mod adapter;
+pub mod config;
 pub mod control_table;
 pub mod driver;
 pub mod emulator;

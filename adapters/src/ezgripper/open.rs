@@ -9,12 +9,12 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use super::adapter::EzGripperDevice;
+use super::config::{EzGripperConfig, EzProfile};
 use super::driver::{BusConfig, EzGripperBus, GripperConfig};
 use super::emulator::{EmulatorConfig, ServoSpec, VirtualBus, MX64_NOISE};
-use super::kind::{EzGripperConfig, EzProfile};
 use super::protocol::ServoId;
 use crate::device::{Backend, DeviceError, HandDevice};
-use crate::kind::{EmulateArgs, Emulation};
+use crate::kind::{EmulateArgs, EmulateOption, EmulateOptions, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// The pseudo-terminal an emulated bus keyed `key` is linked at.
@@ -26,14 +26,14 @@ fn pty_link(key: &str) -> PathBuf {
     std::env::temp_dir().join(format!("handgate-{}-ezgripper{safe}", std::process::id()))
 }
 
-fn section(spec: &DeviceSpec<'_>) -> EzGripperConfig {
-    spec.config::<EzProfile>().map(EzProfile::section).unwrap_or_default()
+fn section(spec: &DeviceSpec<'_, EzProfile>) -> EzGripperConfig {
+    spec.config.section()
 }
 
 /// The bus configuration for the grippers on one port (`devices`, all on that port). Bus-wide
 /// keys (baud, response timeout, the driver's constants) come from the first gripper; the
 /// validator makes every gripper on a serial port agree on the baud.
-pub fn bus_config(devices: &[DeviceSpec<'_>]) -> Result<BusConfig, DeviceError> {
+pub fn bus_config(devices: &[DeviceSpec<'_, EzProfile>]) -> Result<BusConfig, DeviceError> {
     let first = section(&devices[0]);
     let mut grippers = Vec::new();
     for d in devices {
@@ -77,7 +77,7 @@ pub fn bus_config(devices: &[DeviceSpec<'_>]) -> Result<BusConfig, DeviceError> 
 
 /// The virtual bus emulating the grippers `devs` on one port (`cfg`: their bus): one servo
 /// per gripper, each with its `[devices.emulator]` object; the first gripper's noise.
-pub fn emulator_config(devs: &[DeviceSpec<'_>], cfg: &BusConfig) -> Result<EmulatorConfig, DeviceError> {
+pub fn emulator_config(devs: &[DeviceSpec<'_, EzProfile>], cfg: &BusConfig) -> Result<EmulatorConfig, DeviceError> {
     let ids: Vec<u8> = cfg.grippers.iter().map(|g| g.id.get()).collect();
     let mut emu = EmulatorConfig::with_ids(&ids);
     emu.baud = cfg.baud;
@@ -97,8 +97,8 @@ pub fn emulator_config(devs: &[DeviceSpec<'_>], cfg: &BusConfig) -> Result<Emula
 }
 
 /// Opens one bus per port for `devices` (every EZGripper of the fleet).
-pub fn prepare(devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
-    let mut by_port: BTreeMap<String, Vec<DeviceSpec<'_>>> = BTreeMap::new();
+pub fn prepare(devices: &[DeviceSpec<'_, EzProfile>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
+    let mut by_port: BTreeMap<String, Vec<DeviceSpec<'_, EzProfile>>> = BTreeMap::new();
     for d in devices {
         by_port.entry(section(d).port).or_default().push(*d);
     }
@@ -147,7 +147,7 @@ pub struct EmulatedServo {
 }
 
 /// What `spec` opens with.
-pub fn configure(spec: &DeviceSpec<'_>) -> Result<EzOpen, DeviceError> {
+pub fn configure(spec: &DeviceSpec<'_, EzProfile>) -> Result<EzOpen, DeviceError> {
     let s = section(spec);
     let bus = bus_config(std::slice::from_ref(spec))?;
     let ticks = |pct: f32| (pct.clamp(0.0, 100.0) / 100.0 * bus.ezgripper.grip_max_ticks as f32).round() as i32;
@@ -170,8 +170,11 @@ pub fn configure(spec: &DeviceSpec<'_>) -> Result<EzOpen, DeviceError> {
 }
 
 /// Opens one EZGripper on the bus `prepare` opened for its port.
-pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
-    let c = configure(spec)?;
+pub fn open(
+    c: EzOpen,
+    spec: &DeviceSpec<'_, EzProfile>,
+    env: &mut OpenEnv<'_>,
+) -> Result<Box<dyn HandDevice>, DeviceError> {
     let bus = env
         .shared
         .get::<Arc<EzGripperBus>>(&c.port)
@@ -180,18 +183,61 @@ pub fn open(spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn Hand
     Ok(Box::new(EzGripperDevice::start(spec.info(), bus, c.id, c.force_pct)?))
 }
 
+/// `handgate emulate ezgripper`'s own options: the servos on the emulated bus and where its
+/// pseudo-terminal is linked. No DDS: no domain or interface.
+#[derive(Debug, Default)]
+pub struct EzEmulate {
+    /// Servo ids on the bus (default: the side's).
+    pub ids: Vec<u8>,
+    /// Where to link the pseudo-terminal (default: a temporary path).
+    pub pty: Option<std::path::PathBuf>,
+}
+
+impl EmulateOptions for EzEmulate {
+    const COMMON: &'static [&'static str] = &["side", "no-noise", "seed"];
+    const OPTIONS: &'static [EmulateOption] = &[
+        EmulateOption {
+            name: "ids",
+            value: Some("ID,ID,.."),
+            help: "servo ids on the emulated bus (default: the side's)",
+        },
+        EmulateOption {
+            name: "pty",
+            value: Some("PATH"),
+            help: "where to link the bus's pseudo-terminal (default: a temporary path); give it as ezgripper.port",
+        },
+    ];
+
+    fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
+        let v = value.unwrap_or_default();
+        match name {
+            "ids" => {
+                for id in v.split(',') {
+                    self.ids.push(
+                        id.trim()
+                            .parse()
+                            .map_err(|_| format!("`{id}` is not a servo id (0-252)"))?,
+                    );
+                }
+            }
+            _ => self.pty = Some(v.into()),
+        }
+        Ok(())
+    }
+}
+
 /// `handgate emulate ezgripper`: EZGrippers on a virtual MX-64 bus behind a pseudo-terminal
 /// (`--ids`, default the side's servo id); prints the path to give as `ezgripper.port`.
-pub fn emulate(args: &EmulateArgs) -> Result<(String, Emulation), DeviceError> {
-    let ids = if args.ids.is_empty() {
+pub fn emulate(args: &EmulateArgs, options: EzEmulate) -> Result<(String, Emulation), DeviceError> {
+    let ids = if options.ids.is_empty() {
         vec![super::driver::default_id(args.side.unwrap_or_default()).get()]
     } else {
-        args.ids.clone()
+        options.ids
     };
     for id in &ids {
         ServoId::new(*id).map_err(DeviceError::config)?;
     }
-    let link = args.pty.clone().unwrap_or_else(|| {
+    let link = options.pty.unwrap_or_else(|| {
         pty_link(&format!(
             "-emulate-{}",
             ids.iter().map(u8::to_string).collect::<Vec<_>>().join("-")

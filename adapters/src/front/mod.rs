@@ -13,6 +13,7 @@
 pub mod canonical;
 pub mod canonical_serve;
 pub mod config;
+pub mod core;
 pub mod joint_state;
 pub mod joint_state_serve;
 pub mod kind;

@@ -13,10 +13,7 @@ use crate::dds_device::DdsCodec;
 use crate::mapping::DeviceTable;
 use crate::model::{Freshness, HandState, JointCommand, JointState};
 
-/// Default topic.
-pub const TOPIC: &str = "rt/hand_sdk";
-/// Number of entries ai_sport expects.
-pub const MOTORS: usize = 4;
+use super::MOTORS;
 
 /// Weight ramp parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,7 +55,7 @@ impl HandSdkCodec {
         self.weight
     }
 
-    /// The integer ai_sport receives in cmds[0].mode.
+    /// The integer ai_sport receives in `cmds[0].mode`.
     pub fn weight_byte(w: f32) -> u8 {
         (w.clamp(0.0, 1.0) * 100.0).round() as u8
     }

@@ -5,7 +5,7 @@
 //! weight is `cmds[0].mode / 100` (the other entries' mode is unused). Every control tick it
 //! sends each motor, for all five fields (q, dq, tau, kp, kd),
 //! `weight * user + (1 - weight) * default`, where default is ai_sport's own command
-//! (g1-hand-sdk-interface.txt; docs/sources.md §6). It publishes nothing: no state topic is
+//! (docs/sources.md §6). It publishes nothing: no state topic is
 //! documented. Tests inspect what it would send to the motors.
 //!
 //! Documented behaviour reproduced: all five fields blended; auto-fallback to ai_sport's own
@@ -18,19 +18,16 @@
 //! joint models' parameters.
 
 use std::collections::VecDeque;
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use handgate_idl::unitree_go::MotorCmds_;
 
-use crate::dds::{Node, Qos};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
+use crate::emu_common::{ensure_finite, EmulatorError, Hz};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{JointModel, JointParams, MotorTarget};
 
-/// The topic (g1-hand-sdk-interface.txt).
-pub const HAND_SDK_TOPIC: &str = "rt/hand_sdk";
-/// Entries in a Hand SDK message (g1-hand-sdk-interface.txt).
-pub const HAND_SDK_MOTORS: usize = 4;
+use super::{MOTORS, TOPIC};
+
 /// `cmds[0].mode` value meaning weight 1.
 pub const WEIGHT_MODE_FULL: u8 = 100;
 
@@ -79,8 +76,8 @@ pub const HAND_SDK_REST_Q: f32 = 0.15;
 /// Joint models run under the blended command (positive tau closes: q grows towards closed).
 #[derive(Debug, Clone, PartialEq)]
 pub struct HandSdkModels {
-    pub params: [JointParams; HAND_SDK_MOTORS],
-    pub initial_q: [f32; HAND_SDK_MOTORS],
+    pub params: [JointParams; MOTORS],
+    pub initial_q: [f32; MOTORS],
 }
 
 impl Default for HandSdkModels {
@@ -94,8 +91,8 @@ impl Default for HandSdkModels {
             q_max: 1.7,
         };
         Self {
-            params: [p; HAND_SDK_MOTORS],
-            initial_q: [HAND_SDK_REST_Q; HAND_SDK_MOTORS],
+            params: [p; MOTORS],
+            initial_q: [HAND_SDK_REST_Q; MOTORS],
         }
     }
 }
@@ -110,9 +107,9 @@ pub struct HandSdkConfig {
     pub user_timeout: Duration,
     /// ai_sport's own command per motor (default: a relaxed hold at [`HAND_SDK_REST_Q`] with
     /// kp 0.5, kd 0.05).
-    pub defaults: [MotorTarget; HAND_SDK_MOTORS],
+    pub defaults: [MotorTarget; MOTORS],
     /// What the motors get in the damping state (default: kp 0, kd 0.1).
-    pub damping_command: [MotorTarget; HAND_SDK_MOTORS],
+    pub damping_command: [MotorTarget; MOTORS],
     /// Joint models under the blended command; `None`: no motion emulated.
     pub models: Option<HandSdkModels>,
     /// Distinct effective weights kept in the history (oldest dropped first).
@@ -133,14 +130,14 @@ impl Default for HandSdkConfig {
                 tau: 0.0,
                 kp: 0.5,
                 kd: 0.05,
-            }; HAND_SDK_MOTORS],
+            }; MOTORS],
             damping_command: [MotorTarget {
                 kd: 0.1,
                 ..MotorTarget::LIMP
-            }; HAND_SDK_MOTORS],
+            }; MOTORS],
             models: Some(HandSdkModels::default()),
             history_capacity: 4096,
-            topic: HAND_SDK_TOPIC.to_string(),
+            topic: TOPIC.to_string(),
         }
     }
 }
@@ -151,12 +148,12 @@ impl HandSdkConfig {
         self.control_rate.period()?;
         let fields = |t: &MotorTarget| [t.q, t.dq, t.tau, t.kp, t.kd];
         for t in self.defaults.iter().chain(&self.damping_command) {
-            ensure_finite("default / damping command", &fields(t))?;
+            ensure_finite("default / damping command", fields(t))?;
         }
         if let Some(m) = &self.models {
-            ensure_finite("model initial_q", &m.initial_q)?;
+            ensure_finite("model initial_q", m.initial_q)?;
             for p in &m.params {
-                ensure_finite("model params", &[p.inertia, p.friction, p.tau_max, p.q_min, p.q_max])?;
+                ensure_finite("model params", [p.inertia, p.friction, p.tau_max, p.q_min, p.q_max])?;
                 if !(p.inertia > 0.0 && p.q_min < p.q_max) {
                     return Err(EmulatorError::InvalidConfig(format!("bad joint params {p:?}")));
                 }
@@ -196,32 +193,32 @@ pub struct HandSdkSnapshot {
     pub fallback: bool,
     pub damping: bool,
     /// The last user command accepted (as targets, in message order).
-    pub last_user: Option<[MotorTarget; HAND_SDK_MOTORS]>,
+    pub last_user: Option<[MotorTarget; MOTORS]>,
     /// What each motor was sent in the last tick.
-    pub blended: [MotorTarget; HAND_SDK_MOTORS],
+    pub blended: [MotorTarget; MOTORS],
     pub counts: HandSdkCounts,
     /// Control ticks run.
     pub ticks: u64,
     /// Joint positions, if models run.
-    pub joint_q: Option<[f32; HAND_SDK_MOTORS]>,
+    pub joint_q: Option<[f32; MOTORS]>,
 }
 
 /// The blend logic without DDS.
 #[derive(Debug, Clone)]
 pub struct HandSdkCore {
     config: HandSdkConfig,
-    user: Option<[MotorTarget; HAND_SDK_MOTORS]>,
+    user: Option<[MotorTarget; MOTORS]>,
     weight: Weight,
     weight_set: bool,
     last_user_at: Option<Instant>,
     damping: bool,
     effective: Weight,
     fallback: bool,
-    blended: [MotorTarget; HAND_SDK_MOTORS],
+    blended: [MotorTarget; MOTORS],
     history: VecDeque<f32>,
     counts: HandSdkCounts,
     ticks: u64,
-    joints: Option<[JointModel; HAND_SDK_MOTORS]>,
+    joints: Option<[JointModel; MOTORS]>,
 }
 
 impl HandSdkCore {
@@ -255,7 +252,7 @@ impl HandSdkCore {
             self.counts.ignored_damping += 1;
             return false;
         }
-        if msg.cmds.len() != HAND_SDK_MOTORS {
+        if msg.cmds.len() != MOTORS {
             self.counts.rejected_size += 1;
             return false;
         }
@@ -287,7 +284,7 @@ impl HandSdkCore {
     }
 
     /// Enters or leaves the damping state. Leaving it forgets the weight: it is 0 until a new
-    /// message sets it (g1-hand-sdk-interface.txt).
+    /// message sets it (docs/sources.md §6).
     pub fn set_damping(&mut self, on: bool) {
         if self.damping && !on {
             self.weight_set = false;
@@ -358,89 +355,84 @@ pub fn largest_weight_step_up(history: &[f32]) -> f32 {
     history.windows(2).map(|w| w[1] - w[0]).fold(0.0, f32::max)
 }
 
-/// A running emulated ai_sport blend. Dropping it stops its thread.
-pub struct HandSdkEmulator {
-    shared: Arc<Mutex<HandSdkCore>>,
-    worker: Worker,
-}
+impl ServiceCore for HandSdkCore {
+    type Config = HandSdkConfig;
+    type Snapshot = HandSdkSnapshot;
 
-impl std::fmt::Debug for HandSdkEmulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("HandSdkEmulator").finish()
+    fn from_config(config: &HandSdkConfig) -> Result<Self, EmulatorError> {
+        config.validate()?;
+        Ok(Self::new(config.clone()))
+    }
+
+    fn plan(config: &HandSdkConfig) -> Result<ServicePlan, EmulatorError> {
+        Ok(ServicePlan::new(
+            "hand-sdk-emu",
+            config.control_rate,
+            config.topic.clone(),
+            None,
+        ))
+    }
+
+    fn report(&self, _published: Published) -> HandSdkSnapshot {
+        self.snapshot()
     }
 }
+
+impl ServiceWire<Self> for HandSdkCore {
+    type Cmd = MotorCmds_;
+    type State = Silent;
+    type Extra = Silent;
+
+    fn receive(core: &mut Self, msg: &MotorCmds_, now: Instant) {
+        core.on_command(msg, now);
+    }
+
+    /// One control tick; nothing published (no state topic is documented).
+    fn cycle(core: &mut Self, tick: Tick) -> Option<Silent> {
+        core.tick(tick.now, tick.dt);
+        None
+    }
+}
+
+/// A running emulated ai_sport blend. Dropping it stops its loop.
+pub type HandSdkEmulator = ServiceEmulator<HandSdkCore>;
 
 impl HandSdkEmulator {
-    /// Starts the blend on `node`.
-    pub fn start(node: &Node, config: HandSdkConfig) -> Result<Self, EmulatorError> {
-        config.validate()?;
-        let period = config.control_rate.period()?;
-        // Best-effort reader: matches reliable and best-effort writers alike.
-        let reader = node.reader::<MotorCmds_>(&config.topic, Qos::BestEffort)?;
-        let shared = Arc::new(Mutex::new(HandSdkCore::new(config)));
-        let sh = shared.clone();
-        let mut prev = None;
-        let worker = Worker::spawn("hand-sdk-emu", period, move |now| {
-            let msgs = reader.take();
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            let mut g = lock(&sh);
-            let received = Instant::now();
-            for m in &msgs {
-                g.on_command(m, received);
-            }
-            g.tick(Instant::now(), dt);
-        })?;
-        Ok(Self { shared, worker })
-    }
-
-    pub fn snapshot(&self) -> HandSdkSnapshot {
-        lock(&self.shared).snapshot()
-    }
-
     /// The weight applied in the last tick.
     pub fn effective_weight(&self) -> f32 {
-        lock(&self.shared).effective.0
+        self.with_core(|c| c.effective.0)
     }
 
     /// What each motor was sent in the last tick.
-    pub fn last_blended(&self) -> [MotorTarget; HAND_SDK_MOTORS] {
-        lock(&self.shared).blended
+    pub fn last_blended(&self) -> [MotorTarget; MOTORS] {
+        self.with_core(|c| c.blended)
     }
 
     /// Distinct effective weights in the order applied (see [`largest_weight_step_up`]).
     pub fn weight_history(&self) -> Vec<f32> {
-        lock(&self.shared).weight_history()
+        self.with_core(|c| c.weight_history())
     }
 
     /// The user went silent: ai_sport's own command applies.
     pub fn fallback(&self) -> bool {
-        lock(&self.shared).fallback
+        self.with_core(|c| c.fallback)
     }
 
     pub fn counts(&self) -> HandSdkCounts {
-        lock(&self.shared).counts
+        self.with_core(|c| c.counts)
     }
 
     /// Enters or leaves the robot's damping state.
     pub fn set_damping(&self, on: bool) {
-        lock(&self.shared).set_damping(on);
+        self.with_core(|c| c.set_damping(on));
     }
-
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
-    }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dds::Writer;
+    use crate::dds::{Node, Qos, Writer};
+    use crate::emu_common::{wait_for, TEST_WAIT as WAIT};
     use handgate_idl::unitree_go::MotorCmd_;
     use proptest::prelude::*;
 
@@ -448,7 +440,7 @@ mod tests {
         MotorTarget { q, dq, tau, kp, kd }
     }
 
-    fn msg(mode: u8, targets: [MotorTarget; HAND_SDK_MOTORS]) -> MotorCmds_ {
+    fn msg(mode: u8, targets: [MotorTarget; MOTORS]) -> MotorCmds_ {
         MotorCmds_ {
             cmds: targets
                 .iter()
@@ -565,16 +557,6 @@ mod tests {
 
     // ---- over real DDS (domains 42..=47) ----
 
-    const WAIT: Duration = Duration::from_secs(20);
-
-    fn wait_for(mut cond: impl FnMut() -> bool) {
-        let deadline = Instant::now() + WAIT;
-        while !cond() {
-            assert!(Instant::now() < deadline, "condition not reached");
-            std::thread::yield_now();
-        }
-    }
-
     /// A fallback timeout no test thread stall can reach (for tests not about fallback).
     fn patient() -> HandSdkConfig {
         HandSdkConfig {
@@ -588,9 +570,7 @@ mod tests {
         let emu_node = Node::new(domain, None).unwrap();
         let emu = HandSdkEmulator::start(&emu_node, config).unwrap();
         let node = Node::new(domain, None).unwrap();
-        let w = node
-            .writer::<MotorCmds_>(HAND_SDK_TOPIC, Qos::Reliable { depth: 4 })
-            .unwrap();
+        let w = node.writer::<MotorCmds_>(TOPIC, Qos::Reliable { depth: 4 }).unwrap();
         w.wait_matched(1, WAIT).unwrap();
         (emu, node, w)
     }

@@ -20,27 +20,24 @@
 use handgate_idl::unitree_go;
 
 use super::{ENTRIES, HAND_ENTRIES};
-use crate::control::{Active, MeasuredHold};
-use crate::dds_device::DdsCodec;
+use crate::control::Active;
+use crate::dds_device::{DdsCodec, MessageElement, SharedMessage};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, SafeAction, Side};
 
 /// The latest wire q each handgate device on one command topic sent for its own six entries
-/// (`None`: that hand's device has sent nothing yet, or there is none).
-pub type SharedTargets = std::sync::Arc<std::sync::Mutex<[Option<f32>; ENTRIES]>>;
+/// (element 0 the right hand, 1 the left).
+pub type SharedTargets = SharedMessage<[f32; HAND_ENTRIES], 2>;
 
 /// The DDS-client codec of one hand.
 #[derive(Debug, Clone)]
 pub struct DfxCodec {
-    /// This hand's element: 0 right, 1 left.
-    element: usize,
-    /// The other hand's measured wire q (entries in its order), and the hold of it our
-    /// messages carry while no device of ours drives it: where it was when the hold began.
-    other: MeasuredHold<[f32; HAND_ENTRIES]>,
+    /// This hand's element of the message shared with the other hand's device (0 right, 1
+    /// left), and the hold of the other hand (its measured wire q, entries in its order) our
+    /// messages carry while no device of ours drives it.
+    share: MessageElement<[f32; HAND_ENTRIES], [f32; HAND_ENTRIES], 2>,
     /// This hand's `lost` counters in the previous sample.
     last_lost: Option<[u32; HAND_ENTRIES]>,
-    /// Targets of the devices sharing this command topic.
-    shared: SharedTargets,
 }
 
 impl DfxCodec {
@@ -53,26 +50,29 @@ impl DfxCodec {
     /// command topic.
     pub fn with_shared(side: Side, shared: SharedTargets) -> Option<Self> {
         Some(Self {
-            element: super::element(side)?,
-            other: MeasuredHold::default(),
+            share: MessageElement::new(shared, super::element(side)?),
             last_lost: None,
-            shared,
         })
     }
 
     /// Entries of this hand in the 12-entry message.
     pub fn own_range(&self) -> std::ops::Range<usize> {
-        self.element * HAND_ENTRIES..(self.element + 1) * HAND_ENTRIES
+        hand_range(self.share.element())
     }
 
-    fn other_range(&self) -> std::ops::Range<usize> {
-        (1 - self.element) * HAND_ENTRIES..(2 - self.element) * HAND_ENTRIES
+    fn other(&self) -> usize {
+        1 - self.share.element()
     }
 
     /// The other hand's last measured wire q, if it was measured.
     pub fn other_q(&self) -> Option<[f32; HAND_ENTRIES]> {
-        self.other.measured()
+        self.share.measured(self.other())
     }
+}
+
+/// Entries of element (hand) `e` in the 12-entry message.
+fn hand_range(e: usize) -> std::ops::Range<usize> {
+    e * HAND_ENTRIES..(e + 1) * HAND_ENTRIES
 }
 
 /// A command entry as the service reads it: `q` only, every other field zero (as
@@ -94,69 +94,46 @@ impl DdsCodec for DfxCodec {
             // timeout it stops writing and the hand holds its last target (docs/sources.md §7).
             // Our messages stop holding the other hand: the next one begins a new hold.
             Active::Idle | Active::Safe(SafeAction::Limp, _) => {
-                self.other.release();
+                self.share.release();
                 return false;
             }
             Active::Command(t) | Active::Safe(_, t) => t,
         };
-        // This hand's wire q by entry (NaN: no joint there, a table bug).
+        // This hand's wire q by entry (NaN: no joint there, a table bug: say nothing).
         let mut own = [f32::NAN; HAND_ENTRIES];
         for (i, w) in table.wire_targets(targets) {
             if let Some(q) = own.get_mut(i) {
                 *q = w.q;
             }
         }
-        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-        for (e, q) in self.own_range().zip(own) {
-            shared[e] = Some(q).filter(|q| q.is_finite());
-        }
+        let own = own.iter().all(|q| q.is_finite()).then_some(own);
         // The other hand: its own device's latest targets, else held where it was measured
         // when this hold began; without either we cannot hold it: stay silent.
-        let mut sent = [0.0; HAND_ENTRIES];
-        let mut all_sent = true;
-        for (q, e) in sent.iter_mut().zip(self.other_range()) {
-            match shared[e] {
-                Some(v) => *q = v,
-                None => all_sent = false,
-            }
-        }
-        drop(shared);
-        let other = if all_sent {
-            self.other.release();
-            sent
-        } else {
-            match self.other.hold() {
-                Some(q) => q,
-                None => return false,
-            }
+        let Some(hands) = self.share.compose(own, |q| q) else {
+            return false;
         };
         msg.cmds.clear();
-        msg.cmds.resize(ENTRIES, entry(0.0));
-        for (e, q) in self.own_range().zip(own) {
-            msg.cmds[e] = entry(q);
+        for hand in hands {
+            msg.cmds.extend(hand.map(entry));
         }
-        for (e, q) in self.other_range().zip(other) {
-            msg.cmds[e] = entry(q);
-        }
-        // A table always covers its six entries; a NaN here would be a table bug: say nothing.
-        msg.cmds.iter().all(|c| c.q.is_finite())
+        true
     }
 
     fn reconnected(&mut self) {
-        self.other.release();
+        self.share.release();
     }
 
     fn decode_into(&mut self, s: &Self::State, table: &DeviceTable, st: &mut HandState) -> bool {
         if s.states.len() != ENTRIES {
             return false;
         }
-        let other = &s.states[self.other_range()];
+        let other = &s.states[hand_range(self.other())];
         if other.iter().all(|m| m.q.is_finite()) {
             let mut o = [0.0; HAND_ENTRIES];
             for (o, m) in o.iter_mut().zip(other) {
                 *o = m.q;
             }
-            self.other.measure(o);
+            self.share.measure(self.other(), o);
         }
         let own = &s.states[self.own_range()];
         let mut lost = [0u32; HAND_ENTRIES];

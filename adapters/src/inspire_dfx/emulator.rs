@@ -28,14 +28,13 @@
 //! stiffness under a load, `crate::sim` "Sag"), so a client that re-takes its target from the
 //! reported angle every loop makes the finger creep (docs/adapters.md, "Holds").
 
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use handgate_idl::unitree_go::{MotorCmds_, MotorState_, MotorStates_};
 
 use super::{CMD_TOPIC, ENTRIES, SERVICE_RATE_HZ, SERVICE_TIMEOUT, STATE_TOPIC};
-use crate::dds::{Node, Qos, Reader, Writer};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Worker};
+use crate::emu_common::{ensure_finite, EmulatorError, Hz};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{Noise, Sag, Sensor};
 
 /// Where an emulated finger rests before the first command (wire q): nearly open. A hand
@@ -189,13 +188,10 @@ pub fn angle_act(q: f32) -> f32 {
 impl DfxCore {
     pub fn new(config: &DfxConfig) -> Result<Self, EmulatorError> {
         let t = &config.tuning;
-        ensure_finite("initial", &config.initial)?;
-        ensure_finite(
-            "object_at",
-            &config.object_at.iter().flatten().copied().collect::<Vec<_>>(),
-        )?;
-        ensure_finite("tuning", &[t.time_constant_s, t.max_speed])?;
-        ensure_finite("sag", &config.sag.map(|s| s.0))?;
+        ensure_finite("initial", config.initial)?;
+        ensure_finite("object_at", config.object_at.into_iter().flatten())?;
+        ensure_finite("tuning", [t.time_constant_s, t.max_speed])?;
+        ensure_finite("sag", config.sag.map(|s| s.0))?;
         if t.time_constant_s <= 0.0 || t.max_speed <= 0.0 {
             return Err(EmulatorError::InvalidConfig(
                 "time_constant_s and max_speed must be > 0".into(),
@@ -330,79 +326,62 @@ impl DfxCore {
     }
 }
 
-struct Shared {
-    core: DfxCore,
-    states_published: u64,
-}
+impl ServiceCore for DfxCore {
+    type Config = DfxConfig;
+    type Snapshot = DfxSnapshot;
 
-/// A running emulated DFX_inspire_service (both hands). Dropping it stops its thread.
-pub struct DfxEmulator {
-    shared: Arc<Mutex<Shared>>,
-    worker: Worker,
-    config: DfxConfig,
-}
+    fn from_config(config: &DfxConfig) -> Result<Self, EmulatorError> {
+        Self::new(config)
+    }
 
-impl std::fmt::Debug for DfxEmulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("DfxEmulator").field("topics", &self.topics()).finish()
+    fn plan(config: &DfxConfig) -> Result<ServicePlan, EmulatorError> {
+        let (cmd_topic, state_topic) = topics(config);
+        Ok(ServicePlan::new(
+            "inspire-dfx-emu",
+            config.rate,
+            cmd_topic,
+            Some(state_topic),
+        ))
+    }
+
+    fn report(&self, published: Published) -> DfxSnapshot {
+        DfxSnapshot {
+            states_published: published.state,
+            ..self.snapshot()
+        }
     }
 }
+
+impl ServiceWire<Self> for DfxCore {
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
+    type Extra = Silent;
+
+    fn receive(core: &mut Self, cmd: &MotorCmds_, now: Instant) {
+        core.on_cmd(cmd, now);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<MotorStates_> {
+        core.step(tick.now, tick.dt);
+        Some(core.state())
+    }
+}
+
+/// (command, state) topics of a service started with `config`.
+fn topics(config: &DfxConfig) -> (String, String) {
+    config
+        .topics
+        .clone()
+        .unwrap_or_else(|| (CMD_TOPIC.to_string(), STATE_TOPIC.to_string()))
+}
+
+/// A running emulated DFX_inspire_service (both hands). Dropping it stops its loop.
+pub type DfxEmulator = ServiceEmulator<DfxCore>;
 
 impl DfxEmulator {
-    /// Starts the service on `node`.
-    pub fn start(node: &Node, config: DfxConfig) -> Result<Self, EmulatorError> {
-        let period = config.rate.period()?;
-        let core = DfxCore::new(&config)?;
-        let (cmd_topic, state_topic) = config
-            .topics
-            .clone()
-            .unwrap_or_else(|| (CMD_TOPIC.to_string(), STATE_TOPIC.to_string()));
-        // Best-effort reader matches any writer; reliable keep-last-1 writer matches any reader.
-        let reader: Reader<MotorCmds_> = node.reader(&cmd_topic, Qos::BestEffort)?;
-        let mut writer: Writer<MotorStates_> = node.writer(&state_topic, Qos::Reliable { depth: 1 })?;
-        let shared = Arc::new(Mutex::new(Shared {
-            core,
-            states_published: 0,
-        }));
-        let sh = shared.clone();
-        let mut prev = None;
-        let worker = Worker::spawn("inspire-dfx-emu", period, move |now| {
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            let cmds = reader.take();
-            let state = {
-                let mut g = lock(&sh);
-                let received = Instant::now();
-                for c in &cmds {
-                    g.core.on_cmd(c, received);
-                }
-                g.core.step(Instant::now(), dt);
-                g.core.state()
-            };
-            let ok = writer.write(state).is_ok();
-            lock(&sh).states_published += u64::from(ok);
-        })?;
-        Ok(Self { shared, worker, config })
-    }
-
-    pub fn config(&self) -> &DfxConfig {
-        &self.config
-    }
-
     /// (command, state) topics it serves.
     pub fn topics(&self) -> (String, String) {
-        self.config
-            .topics
-            .clone()
-            .unwrap_or_else(|| (CMD_TOPIC.to_string(), STATE_TOPIC.to_string()))
-    }
-
-    pub fn snapshot(&self) -> DfxSnapshot {
-        let g = lock(&self.shared);
-        DfxSnapshot {
-            states_published: g.states_published,
-            ..g.core.snapshot()
-        }
+        topics(self.config())
     }
 
     /// Entry `i`'s finger (0–5 right, 6–11 left).
@@ -412,17 +391,8 @@ impl DfxEmulator {
 
     /// Places (or removes) an object in entry `i`'s closing path.
     pub fn set_object(&self, i: usize, at: Option<f32>) {
-        lock(&self.shared).core.set_object(i, at);
+        self.with_core(|c| c.set_object(i, at));
     }
-
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
-    }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]

@@ -1,15 +1,23 @@
-//! The Inspire DFX as a registered device kind (`inspire_dfx`): its profile keys
-//! (`[devices.dds]`: topic overrides), their rules, its default rate and table. One device per
-//! hand; a left and a right device share the service's one 12-entry message (element 0 =
-//! right, 1 = left: `dds_command_element`).
+//! The Inspire DFX (`inspire_dfx`) as a registered device kind: its facts, and how a hand
+//! opens: over DDS as a client of DFX_inspire_service, or on the emulator backend: ONE
+//! emulated service for every emulated DFX hand of the profile (on private topics, opened
+//! once in `prepare` and kept in the open environment), each hand driven by the very same
+//! DDS codec.
 
-use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
-use super::{CMD_TOPIC, STATE_TOPIC};
+use super::adapter::{DfxCodec, SharedTargets};
+use super::config::DfxProfile;
+use super::emulator::{DfxConfig, DfxEmulator, DFX_NOISE};
+use super::table::JOINTS;
+use super::{HAND_ENTRIES, SERVICE_RATE_HZ};
+use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer};
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::emu_common::Hz;
+use crate::front::kind::FrontKind;
 use crate::kind::{
-    a, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, FleetMember, FleetProblem, KindConfig,
-    KindFactory, Problem, SectionSpec,
+    DeviceCtx, DeviceKind, EmulateArgs, EmulateOption, EmulateOptions, Emulation, FleetMember, FleetProblem, Kind,
+    KindFacts, Problem, Rates, SectionSpec, Sides,
 };
 use crate::mapping::DeviceTable;
 use crate::model::Side;
@@ -18,97 +26,117 @@ use crate::open::{DeviceSpec, OpenEnv};
 impl DeviceKind {
     /// Inspire DFX (RH56DFX) hand, through DFX_inspire_service over DDS.
     #[allow(non_upper_case_globals)]
-    pub const InspireDfx: DeviceKind = DeviceKind::of(&InspireDfxFactory);
+    pub const InspireDfx: DeviceKind = DeviceKind::of(&InspireDfxKind);
 }
 
-/// The Inspire DFX's factory.
+/// The Inspire DFX.
 #[derive(Debug, Clone, Copy)]
-pub struct InspireDfxFactory;
+pub struct InspireDfxKind;
 
 const NAME: &str = "inspire_dfx";
 
-/// `[devices.dds]` of an Inspire DFX: topic overrides (the service's `--namespace`).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    /// Default `rt/inspire/cmd`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    /// Default `rt/inspire/state`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
+/// The key (in `env.shared`) and the private-topic name of the emulated service every
+/// emulated DFX hand of a profile shares.
+pub const EMULATED_SERVICE: &str = "inspire_dfx";
+
+/// What an Inspire DFX hand opens with: decided from the profile, before anything starts.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DfxOpen {
+    /// A client of DFX_inspire_service, writing `element`'s entries.
+    Dds { config: DdsDeviceConfig, element: usize },
+    /// A client of the shared emulated service (`service`: its settings as this hand's
+    /// `[devices.emulator]` makes them; with two hands `prepare` merges both).
+    Emulated {
+        config: DdsDeviceConfig,
+        element: usize,
+        service: Box<DfxConfig>,
+    },
 }
 
-/// An Inspire DFX's own profile keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DfxProfile {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dds: Option<DdsConfig>,
+/// `handgate emulate inspire_dfx`: one service for both hands (no side).
+#[derive(Debug, Default)]
+pub struct DfxEmulate;
+
+impl EmulateOptions for DfxEmulate {
+    const COMMON: &'static [&'static str] = &["domain", "interface", "no-noise", "seed"];
+    const OPTIONS: &'static [EmulateOption] = &[];
 }
 
-impl DfxProfile {
-    /// (command, state) topics: the overrides, else the service's defaults.
-    pub fn topics(&self) -> (String, String) {
-        let d = self.dds.clone().unwrap_or_default();
-        (
-            d.cmd_topic.unwrap_or_else(|| CMD_TOPIC.into()),
-            d.state_topic.unwrap_or_else(|| STATE_TOPIC.into()),
-        )
-    }
+fn element<C>(spec: &DeviceSpec<'_, C>) -> Result<usize, DeviceError> {
+    super::element(spec.side)
+        .ok_or_else(|| DeviceError::Config("an inspire_dfx hand is left or right, not center".into()))
 }
 
-impl KindFactory for InspireDfxFactory {
-    fn name(&self) -> &'static str {
-        NAME
+/// The emulated service for the emulated hands `devs` (at most one per side): each hand's
+/// `emulator.initial` and `object_at` on its own six entries, the first hand's noise.
+pub fn service_config<C>(devs: &[DeviceSpec<'_, C>]) -> Result<DfxConfig, DeviceError> {
+    let mut cfg = DfxConfig {
+        rate: Hz(SERVICE_RATE_HZ),
+        topics: Some(emulator_topics(EMULATED_SERVICE)),
+        ..DfxConfig::default()
+    };
+    if let Some(first) = devs.first() {
+        cfg.noise = first.emulator.noise_for(first.name, DFX_NOISE);
     }
-
-    fn joints(&self) -> &'static [&'static str] {
-        &super::table::JOINTS
-    }
-
-    /// DFX_inspire_service's own interface (`rt/inspire/*`, both hands): `super::serve`.
-    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
-        &[crate::front::kind::FrontKind::InspireDfx]
-    }
-
-    fn backends(&self) -> &'static [Backend] {
-        &[Backend::Dds, Backend::Emulator]
-    }
-
-    /// The message holds a right (0–5) and a left (6–11) hand: no center.
-    fn check_side(&self, side: Side) -> Result<(), String> {
-        match super::element(side) {
-            Some(_) => Ok(()),
-            None => Err(format!(
-                "{} is a left or a right hand (its service's message has entries 0-5 right, 6-11 left)",
-                a(NAME)
-            )),
+    for d in devs {
+        let e = element(d)?;
+        for (i, joint) in JOINTS.iter().enumerate() {
+            let entry = e * HAND_ENTRIES + i;
+            cfg.initial[entry] = d.initial_wire(joint, cfg.initial[entry]);
+            cfg.object_at[entry] = d.object_wire(joint);
         }
     }
+    Ok(cfg)
+}
 
-    /// 100 Hz: xr_teleoperate's publish rate and the service's nominal loop (docs/sources.md §7).
-    fn default_rate_hz(&self, _backend: Backend) -> Option<f64> {
-        Some(super::SERVICE_RATE_HZ)
-    }
-
-    fn sections(&self) -> &'static [SectionSpec] {
-        &[SectionSpec {
+impl Kind for InspireDfxKind {
+    const FACTS: KindFacts = KindFacts {
+        // DFX_inspire_service's own interface (`rt/inspire/*`, both hands): `super::serve`.
+        fronts: &[FrontKind::InspireDfx],
+        // The message holds a right (0–5) and a left (6–11) hand: no center.
+        sides: Sides::LeftOrRight {
+            note: " (its service's message has entries 0-5 right, 6-11 left)",
+        },
+        sections: &[SectionSpec {
             key: "dds",
             backends: &[Backend::Dds],
-        }]
-    }
+        }],
+        // 100 Hz: xr_teleoperate's publish rate and the service's nominal loop
+        // (docs/sources.md §7).
+        ..KindFacts::new(
+            NAME,
+            &JOINTS,
+            &[Backend::Dds, Backend::Emulator],
+            Rates::fixed(SERVICE_RATE_HZ),
+        )
+    };
+    type Config = DfxProfile;
+    type Open = DfxOpen;
+    type Emulate = DfxEmulate;
 
-    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError> {
-        Ok(Box::new(value.deserialize::<DfxProfile>().map_err(Box::new)?))
-    }
-
-    fn default_config(&self) -> Box<dyn KindConfig> {
-        Box::new(DfxProfile::default())
-    }
-
-    fn table(&self, side: Side, _c: &dyn KindConfig) -> DeviceTable {
+    fn table(&self, side: Side, _config: &DfxProfile) -> DeviceTable {
         super::table::table(side)
+    }
+
+    fn configure(&self, spec: &DeviceSpec<'_, DfxProfile>) -> Result<DfxOpen, DeviceError> {
+        let element = element(spec)?;
+        if spec.backend == Backend::Dds {
+            let (cmd, state) = spec.config.topics();
+            let config = spec.dds_client(cmd, state);
+            return Ok(DfxOpen::Dds { config, element });
+        }
+        let (cmd, state) = emulator_topics(EMULATED_SERVICE);
+        Ok(DfxOpen::Emulated {
+            config: spec.dds_client(cmd, state),
+            element,
+            service: Box::new(service_config(std::slice::from_ref(spec))?),
+        })
+    }
+
+    fn served(&self, open: &DfxOpen) -> Vec<crate::discovery::diagnose::Served> {
+        match open {
+            DfxOpen::Dds { config, .. } | DfxOpen::Emulated { config, .. } => config.served::<DfxCodec>(),
+        }
     }
 
     /// The service reports only `q`: velocity and torque noise have nothing to act on.
@@ -128,7 +156,7 @@ impl KindFactory for InspireDfxFactory {
 
     /// Emulated hands share one emulated service (one per profile): two on one side would
     /// write the same six entries.
-    fn validate_fleet(&self, members: &[FleetMember<'_>]) -> Vec<FleetProblem> {
+    fn validate_fleet(&self, members: &[FleetMember<'_, DfxProfile>]) -> Vec<FleetProblem> {
         let mut out = Vec::new();
         let mut seen: Vec<(Side, usize)> = Vec::new();
         for m in members.iter().filter(|m| m.ctx.backend == Backend::Emulator) {
@@ -149,58 +177,64 @@ impl KindFactory for InspireDfxFactory {
         out
     }
 
-    fn prepare(&self, devices: &[DeviceSpec<'_>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
-        super::open::prepare(devices, env)
-    }
-
-    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn std::fmt::Debug>, DeviceError> {
-        Ok(Box::new(super::open::configure(spec)?))
-    }
-
-    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
-        super::open::served(spec)
-    }
-
-    fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
-        super::open::emulate(args)
-    }
-
-    fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
-        super::open::open(spec, env)
-    }
-}
-
-impl KindConfig for DfxProfile {
-    fn validate(&self, _ctx: &DeviceCtx<'_>) -> Vec<Problem> {
-        let mut out = Vec::new();
-        if let Some(x) = &self.dds {
-            for (key, t) in [("cmd_topic", &x.cmd_topic), ("state_topic", &x.state_topic)] {
-                if let Some(Err(e)) = t.as_deref().map(check_topic) {
-                    out.push(Problem::new(&["dds", key], e));
-                }
-            }
+    /// Starts the one emulated service the profile's emulated DFX hands share.
+    fn prepare(&self, devices: &[DeviceSpec<'_, DfxProfile>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
+        let emulated: Vec<DeviceSpec<'_, DfxProfile>> = devices
+            .iter()
+            .filter(|d| d.backend == Backend::Emulator)
+            .copied()
+            .collect();
+        if emulated.is_empty() {
+            return Ok(());
         }
-        out
+        let service = DfxEmulator::start(env.node, service_config(&emulated)?)?;
+        env.shared.insert(EMULATED_SERVICE, Arc::new(service));
+        Ok(())
     }
 
-    fn dds_topics(&self, _ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
-        let (c, s) = self.topics();
-        Some((Some(c), Some(s)))
-    }
-
-    /// The service's message carries both hands: element 0 right (entries 0–5), 1 left (6–11).
-    fn dds_command_element(&self, ctx: &DeviceCtx<'_>) -> Option<usize> {
-        super::element(ctx.side)
-    }
-
-    fn describe(&self, ctx: &DeviceCtx<'_>) -> String {
-        match super::element(ctx.side) {
-            Some(e) if ctx.backend == Backend::Dds => {
-                format!(" (entries {}-{})", e * super::HAND_ENTRIES, e * super::HAND_ENTRIES + 5)
+    /// The hands on one command topic share their targets (`SharedTargets`, in `env.shared`
+    /// under the topic): every message carries both.
+    fn open(
+        &self,
+        open: DfxOpen,
+        spec: &DeviceSpec<'_, DfxProfile>,
+        env: &mut OpenEnv<'_>,
+    ) -> Result<Box<dyn HandDevice>, DeviceError> {
+        let topic = match &open {
+            DfxOpen::Dds { config, .. } | DfxOpen::Emulated { config, .. } => {
+                format!("inspire_dfx targets {}", config.cmd_topic)
             }
-            _ => String::new(),
-        }
+        };
+        let shared = env.shared.get_or_default::<SharedTargets>(&topic);
+        let codec = DfxCodec::with_shared(spec.side, shared)
+            .ok_or_else(|| DeviceError::Config("an inspire_dfx hand is left or right, not center".into()))?;
+        Ok(match open {
+            DfxOpen::Dds { config, .. } => Box::new(DdsDevice::start(env.node, spec.info(), config, codec)?),
+            DfxOpen::Emulated { config, .. } => {
+                let service = env
+                    .shared
+                    .get::<Arc<DfxEmulator>>(EMULATED_SERVICE)
+                    .cloned()
+                    .ok_or_else(|| DeviceError::Config("the emulated inspire_dfx service was not started".into()))?;
+                let device = DdsDevice::start(env.node, spec.info(), config, codec)?;
+                Box::new(WithPeer::new(device, service))
+            }
+        })
     }
 
-    crate::kind_config_plumbing!();
+    /// `handgate emulate inspire_dfx`: one DFX_inspire_service for both hands on DDS.
+    fn emulate(&self, args: &EmulateArgs, _options: DfxEmulate) -> Result<(String, Emulation), DeviceError> {
+        let node = args.node()?;
+        let cfg = DfxConfig {
+            noise: args.noise(DFX_NOISE),
+            ..DfxConfig::default()
+        };
+        let emu = DfxEmulator::start(&node, cfg)?;
+        let (cmd, state) = emu.topics();
+        let what = format!(
+            "emulating DFX_inspire_service (both hands, entries 0-5 right, 6-11 left): {cmd}, {state} on DDS domain {}",
+            args.domain
+        );
+        Ok((what, Emulation::Running(Box::new((emu, node)))))
+    }
 }

@@ -10,10 +10,10 @@
 //! - `serve`: that front's registry entry (`FrontKind::InspireDfx`) and endpoints.
 
 pub mod adapter;
+pub mod config;
 pub mod emulator;
 pub mod front;
 pub mod kind;
-pub mod open;
 pub mod serve;
 pub mod table;
 
@@ -40,14 +40,5 @@ pub fn element(side: Side) -> Option<usize> {
         Side::Right => Some(0),
         Side::Left => Some(1),
         Side::Center => None,
-    }
-}
-
-/// The side of element `e` (0 right, 1 left).
-pub fn element_side(e: usize) -> Option<Side> {
-    match e {
-        0 => Some(Side::Right),
-        1 => Some(Side::Left),
-        _ => None,
     }
 }

@@ -42,9 +42,11 @@ pub fn urdf_prefix(side: Side) -> &'static str {
     }
 }
 
-/// The Inspire DFX table for one hand.
-pub fn table(side: Side) -> DeviceTable {
-    let joints = JOINTS
+/// The six joints of an Inspire hand on `side` (its URDF names and ranges), the wire reading
+/// `full` at the open end of each range and 0 at the closed end (the DFX service's 0..1, the FTP
+/// driver's 0..1000 register): one home for both Inspire kinds' joint maps.
+pub fn joints(side: Side, full: f32) -> Vec<JointMap> {
+    JOINTS
         .iter()
         .zip(URDF)
         .enumerate()
@@ -55,12 +57,17 @@ pub fn table(side: Side) -> DeviceTable {
                 wire_index: i,
                 urdf: format!("{}{urdf}", urdf_prefix(side)),
                 sign: -1.0,
-                scale: 1.0 / span,
-                offset: max / span,
+                scale: full / span,
+                offset: full * max / span,
                 limits: Limits::new(min, max),
             }
         })
-        .collect();
+        .collect()
+}
+
+/// The Inspire DFX table for one hand.
+pub fn table(side: Side) -> DeviceTable {
+    let joints = joints(side, 1.0);
     DeviceTable {
         kind: DeviceKind::InspireDfx,
         side,

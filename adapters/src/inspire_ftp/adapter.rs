@@ -30,6 +30,7 @@ use crate::mapping::DeviceTable;
 use crate::model::{faults, HandState, Pad, SafeAction};
 
 use super::front::{ERR_MOTOR_FAULT, STATUS_ACTUATOR_FAULT};
+use super::table::{ANGLE_CLOSED, ANGLE_OPEN};
 
 /// `status` 255: error (docs/wire-types.md).
 pub const STATUS_ERROR: u8 = 255;
@@ -70,13 +71,13 @@ impl FtpCodec {
 }
 
 /// A wire angle as an int16 register value, truncated as xr_teleoperate does after
-/// clipping to [0, 1000].
+/// clipping to [0, 1000] ([`ANGLE_CLOSED`], [`ANGLE_OPEN`]).
 pub fn angle_register(a: f32) -> i16 {
     if a.is_finite() {
-        a.clamp(0.0, 1000.0) as i16
+        a.clamp(ANGLE_CLOSED, ANGLE_OPEN) as i16
     } else {
         // Unreachable through the table (targets are finite); open is the safe value.
-        1000
+        ANGLE_OPEN as i16
     }
 }
 

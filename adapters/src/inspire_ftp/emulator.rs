@@ -30,16 +30,15 @@
 //! Option (tests): a constant load per actuator ([`FtpConfig::sag`], default none): its
 //! position loop then settles that far from its ANGLE_SET (`crate::sim`, "Sag").
 
-use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use handgate_idl::inspire::{
     InspireHandCtrl, InspireHandState, InspireHandTouch, ACTUATORS, MODE_ANGLE, MODE_FORCE, MODE_POS, MODE_SPEED,
     UNITS_MAX,
 };
 
-use crate::dds::{Node, Qos, Reader, Writer};
-use crate::emu_common::{ensure_finite, tick_dt, EmulatorError, Hz, Side, Worker};
+use crate::emu_common::{ensure_finite, EmulatorError, Hz, Side};
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Tick};
 use crate::sim::{Noise, Sag, Sensor};
 
 use super::front::{touch_fields_mut, SEGMENTS};
@@ -273,14 +272,14 @@ fn register(v: i16) -> Option<i16> {
 
 impl FtpCore {
     pub fn new(config: &FtpConfig) -> Result<Self, EmulatorError> {
-        ensure_finite("initial", &config.initial)?;
-        ensure_finite("object", &config.object.iter().flatten().copied().collect::<Vec<_>>())?;
-        ensure_finite("sag", &config.sag.map(|s| s.0))?;
+        ensure_finite("initial", config.initial)?;
+        ensure_finite("object", config.object.into_iter().flatten())?;
+        ensure_finite("sag", config.sag.map(|s| s.0))?;
         config.noise.validate().map_err(EmulatorError::InvalidConfig)?;
         let t = &config.tuning;
         ensure_finite(
             "tuning",
-            &[
+            [
                 t.max_speed,
                 t.time_constant_s,
                 t.contact_units_per_angle,
@@ -508,101 +507,63 @@ fn to_reg(v: f32, lo: f32, hi: f32) -> i16 {
     v.round().clamp(lo, hi) as i16
 }
 
-struct Shared {
-    core: FtpCore,
-    states_published: u64,
-    touches_published: u64,
-}
+impl ServiceCore for FtpCore {
+    type Config = FtpConfig;
+    type Snapshot = FtpSnapshot;
 
-/// A running emulated Inspire DDS driver for one hand. Dropping it stops its thread.
-pub struct FtpEmulator {
-    shared: Arc<Mutex<Shared>>,
-    worker: Worker,
-    config: FtpConfig,
-}
-
-impl std::fmt::Debug for FtpEmulator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("FtpEmulator")
-            .field("side", &self.config.side)
-            .field("transport", &self.config.transport)
-            .finish()
-    }
-}
-
-impl FtpEmulator {
-    /// Starts the driver on `node`.
-    pub fn start(node: &Node, config: FtpConfig) -> Result<Self, EmulatorError> {
-        let period = config.rate.period()?;
-        let core = FtpCore::new(&config)?;
-        let (ctrl_t, state_t, touch_t) = config.topics.clone().unwrap_or_else(|| standard_topics(config.side));
-        let reader: Reader<InspireHandCtrl> = node.reader(&ctrl_t, Qos::BestEffort)?;
-        let mut state_w: Writer<InspireHandState> = node.writer(&state_t, Qos::Reliable { depth: 1 })?;
-        let mut touch_w: Option<Writer<InspireHandTouch>> = if config.transport.publishes_touch() {
-            Some(node.writer(&touch_t, Qos::Reliable { depth: 1 })?)
-        } else {
-            None
-        };
-        let shared = Arc::new(Mutex::new(Shared {
-            core,
-            states_published: 0,
-            touches_published: 0,
-        }));
-        let sh = shared.clone();
-        let mut prev = None;
-        let worker = Worker::spawn(&format!("ftp-emu-{}", config.side), period, move |now| {
-            let dt = tick_dt(prev, now, period);
-            prev = Some(now);
-            // Commands are applied as they arrived, each writing its registers.
-            let cmds = reader.take();
-            let (state, touch) = {
-                let mut g = lock(&sh);
-                for c in &cmds {
-                    g.core.on_command(c);
-                }
-                g.core.step(dt_for(dt, period));
-                let s = g.core.state();
-                let t = touch_w.as_ref().map(|_| g.core.touch());
-                (s, t)
-            };
-            let ok = state_w.write(state).is_ok();
-            let tok = match (&mut touch_w, touch) {
-                (Some(w), Some(t)) => w.write(t).is_ok(),
-                _ => false,
-            };
-            let mut g = lock(&sh);
-            g.states_published += u64::from(ok);
-            g.touches_published += u64::from(tok);
-        })?;
-        Ok(Self { shared, worker, config })
+    fn from_config(config: &FtpConfig) -> Result<Self, EmulatorError> {
+        Self::new(config)
     }
 
-    pub fn config(&self) -> &FtpConfig {
-        &self.config
+    /// The touch topic only over Modbus TCP, at the loop's rate.
+    fn plan(config: &FtpConfig) -> Result<ServicePlan, EmulatorError> {
+        let (ctrl, state, touch) = config.topics.clone().unwrap_or_else(|| standard_topics(config.side));
+        let name = format!("ftp-emu-{}", config.side);
+        let touch = config.transport.publishes_touch().then_some((touch, None));
+        Ok(ServicePlan::new(name, config.rate, ctrl, Some(state)).with_extra(touch))
     }
 
-    pub fn snapshot(&self) -> FtpSnapshot {
-        let g = lock(&self.shared);
+    fn report(&self, published: Published) -> FtpSnapshot {
         FtpSnapshot {
-            states_published: g.states_published,
-            touches_published: g.touches_published,
-            ..g.core.snapshot()
+            states_published: published.state,
+            touches_published: published.extra,
+            ..self.snapshot()
         }
     }
+}
 
+impl ServiceWire<Self> for FtpCore {
+    type Cmd = InspireHandCtrl;
+    type State = InspireHandState;
+    type Extra = InspireHandTouch;
+
+    /// Commands are applied as they arrived, each writing its registers.
+    fn receive(core: &mut Self, cmd: &InspireHandCtrl, _now: Instant) {
+        core.on_command(cmd);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<InspireHandState> {
+        core.step(dt_for(tick.dt, tick.period));
+        Some(core.state())
+    }
+
+    fn extra(core: &mut Self, _state: &InspireHandState) -> Option<InspireHandTouch> {
+        Some(core.touch())
+    }
+}
+
+/// A running emulated Inspire DDS driver for one hand. Dropping it stops its loop.
+pub type FtpEmulator = ServiceEmulator<FtpCore>;
+
+impl FtpEmulator {
     /// Actuator `i`'s angle, register units.
     pub fn angle(&self, i: usize) -> f32 {
-        lock(&self.shared).core.act[i].angle
+        self.with_core(|c| c.act[i].angle)
     }
 
     /// Places (or removes) the object actuator `i` closes on (register units).
     pub fn set_object(&self, i: usize, angle: Option<f32>) {
-        lock(&self.shared).core.set_object(i, angle);
-    }
-
-    /// Stops the loop thread (also done on drop).
-    pub fn stop(mut self) {
-        self.worker.stop();
+        self.with_core(|c| c.set_object(i, angle));
     }
 }
 
@@ -614,10 +575,6 @@ fn dt_for(dt: f32, period: Duration) -> f32 {
     } else {
         dt
     }
-}
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]

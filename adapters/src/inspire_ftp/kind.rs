@@ -1,30 +1,34 @@
 //! The Inspire FTP (RH56DFTP, tactile) hand as a registered device kind: one device per hand,
-//! a client of Inspire's DDS driver (docs/sources.md §7). Its profile keys (`[devices.dds]`:
-//! topic overrides, the tactile topic, force limit and speed), their rules, its default rate
-//! and table.
+//! a client of Inspire's DDS driver (docs/sources.md §7). Its facts, and how a hand opens:
+//! over DDS as a client of the driver, or on the emulator backend: the driver's emulator on
+//! private topics driven by the very same codec.
 
-use serde::{Deserialize, Serialize};
-
+use super::adapter::{FtpClient, FtpCodec};
+use super::config::InspireFtpProfile;
+use super::emulator::{FtpConfig, FtpEmulator, FtpTransport, ANGLE_NOISE, REST_ANGLE};
 use super::table::JOINTS;
+use crate::dds_device::STATE_QOS;
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::front::kind::FrontKind;
 use crate::kind::{
-    a, check_rate, check_topic, ConfigError, ConfigValue, DeviceCtx, DeviceKind, KindConfig, KindFactory, PadLayout,
-    PadPlace, PadScale, Problem, SectionSpec,
+    DeviceCtx, DeviceKind, EmulateArgs, EmulateOption, EmulateOptions, Emulation, Kind, KindFacts, PadLayout, PadPlace,
+    PadScale, Problem, Rates, SectionSpec, Sides,
 };
 use crate::mapping::DeviceTable;
 use crate::model::Side;
 use crate::open::{DeviceSpec, EmulatorSection, OpenEnv};
+use crate::service_client::{emulate_service, ClientOpen};
 
 impl DeviceKind {
     /// Inspire RH56DFTP (tactile) hand, through Inspire's DDS driver.
     #[allow(non_upper_case_globals)]
-    pub const InspireFtp: DeviceKind = DeviceKind::of(&InspireFtpFactory);
+    pub const InspireFtp: DeviceKind = DeviceKind::of(&InspireFtpKind);
 }
 
 /// Where the dashboard draws the FTP's 17 touch segments (right hand, palm towards the
 /// viewer, fingers up; a schematic after the segment names of docs/sources.md §7, not a
 /// measured drawing).
-static PADS: PadLayout = PadLayout {
+const PADS: PadLayout = PadLayout {
     right: &[
         PadPlace {
             name: "pinky_tip",
@@ -162,140 +166,55 @@ static PADS: PadLayout = PadLayout {
     },
 };
 
-/// The Inspire FTP's factory.
+/// The Inspire FTP.
 #[derive(Debug, Clone, Copy)]
-pub struct InspireFtpFactory;
+pub struct InspireFtpKind;
 
-const NAME: &str = "inspire_ftp";
+/// What an Inspire FTP hand opens with: a client of the driver with its codec and its touch
+/// topic where the hand has one (and on the emulator backend, the emulated driver).
+pub type FtpOpen = ClientOpen<(FtpCodec, Option<String>), FtpConfig>;
 
-/// `[devices.dds]` of an Inspire FTP hand.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DdsConfig {
-    /// Default `rt/inspire_hand/ctrl/{l,r}`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<String>,
-    /// Default `rt/inspire_hand/state/{l,r}`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<String>,
-    /// Whether the hand is wired over Modbus TCP, so its driver publishes the tactile arrays
-    /// (default true: the G1's FTP hands are on Ethernet, 192.168.123.210/.211,
-    /// docs/sources.md §7). `false`: RS-485, no touch topic.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub touch: Option<bool>,
-    /// Default `rt/inspire_hand/touch/{l,r}`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub touch_topic: Option<String>,
-    /// `force_set` (0–1000) sent with every command (mode bit 2); unset: not sent, the hand
-    /// keeps its own.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub force_limit: Option<i16>,
-    /// `speed_set` (0–1000) sent with every command (mode bit 3); unset: not sent.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub speed: Option<i16>,
+/// Private tactile topic of an in-process emulated driver for `device`.
+pub fn emulator_touch_topic(device: &str) -> String {
+    format!("rt/handgate/emu/{device}/touch")
 }
 
-/// `[devices.driver]` of an emulated Inspire FTP hand: the emulated driver.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DriverConfig {
-    /// The driver's loop and state rate, Hz (default
-    /// [`super::emulator::FtpTransport::rate`] over Modbus TCP: an assumption, docs/profiles.md
-    /// "Assumptions").
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub rate_hz: Option<f64>,
+/// `handgate emulate inspire_ftp`'s own options.
+#[derive(Debug, Default)]
+pub struct FtpEmulate {
+    /// Over RS-485 (state only) instead of Modbus TCP.
+    pub rs485: bool,
 }
 
-/// An Inspire FTP hand's own profile keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct InspireFtpProfile {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dds: Option<DdsConfig>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub driver: Option<DriverConfig>,
-}
+impl EmulateOptions for FtpEmulate {
+    const OPTIONS: &'static [EmulateOption] = &[EmulateOption {
+        name: "variant",
+        value: Some("tcp|rs485"),
+        help:
+            "the hand's wiring: Modbus TCP (state and touch, about 50 Hz; default) or RS-485 (state only, about 20 Hz)",
+    }];
 
-/// The resolved `[devices.dds]` of a hand on `side`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FtpTopics {
-    pub cmd: String,
-    pub state: String,
-    /// `None` over RS-485 (`dds.touch = false`).
-    pub touch: Option<String>,
-}
-
-impl InspireFtpProfile {
-    fn dds(&self) -> DdsConfig {
-        self.dds.clone().unwrap_or_default()
-    }
-
-    /// The topics a device on `side` uses (overrides, else the driver's for the side).
-    pub fn topics(&self, side: Side) -> FtpTopics {
-        let d = self.dds();
-        let (cmd, state, touch) = super::front::topics(side);
-        FtpTopics {
-            cmd: d.cmd_topic.unwrap_or(cmd),
-            state: d.state_topic.unwrap_or(state),
-            touch: d.touch.unwrap_or(true).then(|| d.touch_topic.unwrap_or(touch)),
+    fn set(&mut self, _name: &str, value: Option<&str>) -> Result<(), String> {
+        match value {
+            Some("tcp") => self.rs485 = false,
+            Some("rs485") => self.rs485 = true,
+            other => {
+                return Err(format!(
+                    "unknown inspire_ftp transport {:?} (tcp or rs485)",
+                    other.unwrap_or("")
+                ))
+            }
         }
-    }
-
-    /// The emulated driver's loop rate, Hz (`driver.rate_hz`, else the Modbus TCP driver's).
-    pub fn driver_hz(&self) -> f64 {
-        self.driver
-            .as_ref()
-            .and_then(|d| d.rate_hz)
-            .unwrap_or(super::emulator::FtpTransport::Tcp.rate().0)
-    }
-
-    /// The codec for these keys.
-    pub fn codec(&self) -> super::adapter::FtpCodec {
-        let d = self.dds();
-        super::adapter::FtpCodec {
-            force_limit: d.force_limit,
-            speed: d.speed,
-            ..Default::default()
-        }
+        Ok(())
     }
 }
 
-impl KindFactory for InspireFtpFactory {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn pads(&self) -> Option<&'static PadLayout> {
-        Some(&PADS)
-    }
-
-    fn joints(&self) -> &'static [&'static str] {
-        &JOINTS
-    }
-
-    /// Inspire's DDS driver's own interface (`rt/inspire_hand/*/{l,r}`, one hand): `super::serve`.
-    fn fronts(&self) -> &'static [crate::front::kind::FrontKind] {
-        &[crate::front::kind::FrontKind::InspireFtp]
-    }
-
-    fn backends(&self) -> &'static [Backend] {
-        &[Backend::Dds, Backend::Emulator]
-    }
-
-    fn check_side(&self, side: Side) -> Result<(), String> {
-        match side {
-            Side::Center => Err(format!("{} is a left or a right hand", a(NAME))),
-            _ => Ok(()),
-        }
-    }
-
-    /// 100 Hz: xr_teleoperate's command rate for this hand (docs/sources.md §7).
-    fn default_rate_hz(&self, _backend: Backend) -> Option<f64> {
-        Some(100.0)
-    }
-
-    fn sections(&self) -> &'static [SectionSpec] {
-        &[
+impl Kind for InspireFtpKind {
+    const FACTS: KindFacts = KindFacts {
+        // Inspire's DDS driver's own interface (`rt/inspire_hand/*/{l,r}`, one hand): `super::serve`.
+        fronts: &[FrontKind::InspireFtp],
+        sides: Sides::LeftOrRight { note: "" },
+        sections: &[
             SectionSpec {
                 key: "dds",
                 backends: &[Backend::Dds],
@@ -304,18 +223,21 @@ impl KindFactory for InspireFtpFactory {
                 key: "driver",
                 backends: &[Backend::Emulator],
             },
-        ]
-    }
+        ],
+        pads: Some(&PADS),
+        // 100 Hz: xr_teleoperate's command rate for this hand (docs/sources.md §7).
+        ..KindFacts::new(
+            "inspire_ftp",
+            &JOINTS,
+            &[Backend::Dds, Backend::Emulator],
+            Rates::fixed(100.0),
+        )
+    };
+    type Config = InspireFtpProfile;
+    type Open = FtpOpen;
+    type Emulate = FtpEmulate;
 
-    fn parse(&self, value: &ConfigValue) -> Result<Box<dyn KindConfig>, ConfigError> {
-        Ok(Box::new(value.deserialize::<InspireFtpProfile>().map_err(Box::new)?))
-    }
-
-    fn default_config(&self) -> Box<dyn KindConfig> {
-        Box::new(InspireFtpProfile::default())
-    }
-
-    fn table(&self, side: Side, _c: &dyn KindConfig) -> DeviceTable {
+    fn table(&self, side: Side, _config: &InspireFtpProfile) -> DeviceTable {
         super::table::table(side)
     }
 
@@ -345,85 +267,75 @@ impl KindFactory for InspireFtpFactory {
         out
     }
 
-    fn configured(&self, spec: &DeviceSpec<'_>) -> Result<Box<dyn std::fmt::Debug>, DeviceError> {
-        Ok(Box::new(super::open::configure(spec)?))
+    fn configure(&self, spec: &DeviceSpec<'_, InspireFtpProfile>) -> Result<FtpOpen, DeviceError> {
+        let t = spec.config.topics(spec.side);
+        let touch = match spec.backend {
+            Backend::Dds => t.touch.clone(),
+            // The emulated driver over Modbus TCP: state and touch, on private topics.
+            _ => Some(emulator_touch_topic(spec.name)),
+        };
+        let codec = (spec.config.codec(), touch.clone());
+        ClientOpen::of(spec, (Some(t.cmd), Some(t.state)), "", codec, |cmd, state| {
+            let mut peer = FtpConfig::new(spec.side);
+            for (i, joint) in JOINTS.iter().enumerate() {
+                peer.initial[i] = spec.initial_wire(joint, REST_ANGLE[i]);
+                peer.object[i] = spec.object_wire(joint);
+            }
+            peer.noise = spec.emulator.noise_for(spec.name, ANGLE_NOISE);
+            peer.noisy = spec.emulator.noise != Some(false);
+            peer.rate = crate::emu_common::Hz(spec.config.driver_hz());
+            peer.topics = Some((cmd, state, touch.unwrap_or_default()));
+            peer
+        })
     }
 
-    fn served(&self, spec: &DeviceSpec<'_>) -> Vec<crate::discovery::diagnose::Served> {
-        super::open::served(spec)
-    }
-
-    fn emulate(&self, args: &crate::kind::EmulateArgs) -> Result<(String, crate::kind::Emulation), DeviceError> {
-        super::open::emulate(args)
-    }
-
-    fn open(&self, spec: &DeviceSpec<'_>, env: &mut OpenEnv<'_>) -> Result<Box<dyn HandDevice>, DeviceError> {
-        super::open::open(spec, env)
-    }
-}
-
-impl KindConfig for InspireFtpProfile {
-    fn validate(&self, _ctx: &DeviceCtx<'_>) -> Vec<Problem> {
-        let mut out = Vec::new();
-        if let Some(x) = &self.dds {
-            for (key, t) in [
-                ("cmd_topic", &x.cmd_topic),
-                ("state_topic", &x.state_topic),
-                ("touch_topic", &x.touch_topic),
-            ] {
-                if let Some(Err(e)) = t.as_deref().map(check_topic) {
-                    out.push(Problem::new(&["dds", key], e));
-                }
-            }
-            if x.touch == Some(false) && x.touch_topic.is_some() {
-                out.push(Problem::new(
-                    &["dds", "touch_topic"],
-                    "dds.touch is false (RS-485: no tactile topic): touch_topic would have no effect, remove it",
-                ));
-            }
-            for (key, v) in [("force_limit", x.force_limit), ("speed", x.speed)] {
-                if let Some(v) = v {
-                    if !(0..=1000).contains(&v) {
-                        out.push(Problem::new(
-                            &["dds", key],
-                            format!("must be 0..=1000 (the hand's register range), got {v}"),
-                        ));
-                    }
-                }
-            }
-        }
-        if let Some(hz) = self.driver.as_ref().and_then(|d| d.rate_hz) {
-            if let Err(e) = check_rate(hz, 1000.0) {
-                out.push(Problem::new(&["driver", "rate_hz"], e));
-            }
+    /// The client's topics, and its touch reader where the hand has one.
+    fn served(&self, open: &FtpOpen) -> Vec<crate::discovery::diagnose::Served> {
+        let mut out = open.config.served::<FtpCodec>();
+        if let Some(t) = &open.codec.1 {
+            out.push(crate::discovery::diagnose::Served::new(
+                t,
+                crate::dds::type_name::<handgate_idl::inspire::InspireHandTouch>(),
+                crate::discovery::Role::Reader,
+                STATE_QOS.served(),
+            ));
         }
         out
     }
 
-    fn dds_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
-        let t = self.topics(ctx.side);
-        Some((Some(t.cmd), Some(t.state)))
+    fn open(
+        &self,
+        open: FtpOpen,
+        spec: &DeviceSpec<'_, InspireFtpProfile>,
+        env: &mut OpenEnv<'_>,
+    ) -> Result<Box<dyn HandDevice>, DeviceError> {
+        let (codec, touch) = open.codec.clone();
+        let client = FtpClient::new(env.node, codec, touch.as_deref())?;
+        open.start(client, spec, env, FtpEmulator::start)
     }
 
-    fn describe(&self, ctx: &DeviceCtx<'_>) -> String {
-        if ctx.backend != Backend::Dds {
-            return String::new();
+    /// `handgate emulate inspire_ftp --side left|right [--variant tcp|rs485]`: Inspire's DDS
+    /// driver for one hand, over Modbus TCP (state and touch, about 50 Hz; the default) or
+    /// RS-485 (state only, about 20 Hz).
+    fn emulate(&self, args: &EmulateArgs, options: FtpEmulate) -> Result<(String, Emulation), DeviceError> {
+        let side = args.side("inspire_ftp")?;
+        let mut cfg = FtpConfig::new(side);
+        if options.rs485 {
+            cfg = cfg.rs485();
         }
-        let t = self.topics(ctx.side);
-        let d = self.dds();
-        let mut s = match &t.touch {
-            Some(touch) => format!(" (Modbus TCP: touch on {touch}"),
-            None => " (RS-485: no touch".to_string(),
+        cfg.noise = args.noise(ANGLE_NOISE);
+        cfg.noisy = !args.no_noise;
+        let (ctrl, state, touch) = super::front::topics(side);
+        let what = match cfg.transport {
+            FtpTransport::Tcp => format!(
+                "emulating Inspire's DDS driver (Modbus TCP): {ctrl}, {state}, {touch} on DDS domain {}",
+                args.domain
+            ),
+            FtpTransport::Rs485 => format!(
+                "emulating Inspire's DDS driver (RS-485, no touch): {ctrl}, {state} on DDS domain {}",
+                args.domain
+            ),
         };
-        if let Some(f) = d.force_limit {
-            s.push_str(&format!(", force_set {f}"));
-        }
-        if let Some(v) = d.speed {
-            s.push_str(&format!(", speed_set {v}"));
-        }
-        s.push(')');
-        s
+        Ok((what, emulate_service(args, |node| FtpEmulator::start(node, cfg))?))
     }
-
-    crate::kind_config_plumbing!();
 }

@@ -3,9 +3,9 @@
 //! driver's own interface (codec `front`, registry entry and endpoints `serve`). Facts: docs/sources.md §7 ("Inspire FTP").
 
 pub mod adapter;
+pub mod config;
 pub mod emulator;
 pub mod front;
 pub mod kind;
-pub mod open;
 pub mod serve;
 pub mod table;

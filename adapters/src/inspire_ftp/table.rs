@@ -12,7 +12,7 @@
 //! Wire order = canonical order = the driver's array order: 0 pinky, 1 ring, 2 middle,
 //! 3 index, 4 thumb bend, 5 thumb rotation.
 
-use crate::mapping::{ClosureMap, DeviceTable, JointMap, Limits};
+use crate::mapping::{ClosureMap, DeviceTable};
 use crate::model::{DeviceKind, Side};
 
 /// The Inspire hand's joints and its URDF (names, ranges): the FTP is the DFX's hand with
@@ -31,7 +31,7 @@ pub const URDF_RANGE: [(f32, f32); 6] = {
     r
 };
 
-/// Angle register at the open end (finger straight) and the closed end.
+/// Angle register at the open end (finger straight) and the closed end (docs/sources.md §7).
 pub const ANGLE_OPEN: f32 = 1000.0;
 pub const ANGLE_CLOSED: f32 = 0.0;
 
@@ -50,23 +50,7 @@ pub const NOMINAL_KD: f32 = 0.1;
 
 /// The Inspire FTP table for `side` (both hands map the same way: no mirror image).
 pub fn table(side: Side) -> DeviceTable {
-    let joints = JOINTS
-        .iter()
-        .zip(URDF)
-        .enumerate()
-        .map(|(i, (name, (urdf, min, max)))| {
-            let span = max - min;
-            JointMap {
-                name,
-                wire_index: i,
-                urdf: format!("{}{urdf}", urdf_prefix(side)),
-                sign: -1.0,
-                scale: ANGLE_OPEN / span,
-                offset: ANGLE_OPEN * max / span,
-                limits: Limits::new(min, max),
-            }
-        })
-        .collect();
+    let joints = crate::inspire_dfx::table::joints(side, ANGLE_OPEN);
     DeviceTable {
         kind: DeviceKind::InspireFtp,
         side,

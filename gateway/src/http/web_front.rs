@@ -12,6 +12,7 @@ use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::WriterInfo;
 use handgate_adapters::front::config::{Control, Silence};
+use handgate_adapters::front::core::FrontId;
 use handgate_adapters::front::serve::{Bound, FrontIo, Incoming, Message, Routed};
 use handgate_adapters::front::Rejection;
 use handgate_adapters::model::CommandBody;
@@ -20,7 +21,7 @@ use tokio::sync::{mpsc, watch};
 
 use super::Fleet;
 use crate::plan::SilencePlan;
-use crate::runtime::fronts::{next_front_id, run_front, FrontTask};
+use crate::runtime::fronts::{run_front, FrontTask};
 use crate::runtime::{DeviceSlot, RuntimeError};
 
 /// The front's name in logs and in `owner`.
@@ -91,7 +92,7 @@ impl FrontIo for PageIo {
 
 /// The page front's queue and what the edge checks against.
 pub struct PageFront {
-    id: u64,
+    id: FrontId,
     queue: mpsc::Sender<Incoming>,
     devices: HashMap<String, (usize, Arc<DeviceSlot>)>,
     hold: Duration,
@@ -113,7 +114,7 @@ impl PageFront {
             .get(cmd.device())
             .ok_or_else(|| format!("no device {:?}", cmd.device()))?;
         let c = &slot.counters;
-        if c.last_front.load(Ordering::Relaxed) != self.id {
+        if c.last_front.load(Ordering::Relaxed) != self.id.get() {
             if let Some(since) = c.since_accepted().filter(|s| *s < self.hold) {
                 c.foreign_cmd.fetch_add(1, Ordering::Relaxed);
                 return Err(format!(
@@ -155,7 +156,7 @@ pub fn spawn(
     shutdown: watch::Receiver<bool>,
 ) -> Result<(PageFront, tokio::task::JoinHandle<()>), RuntimeError> {
     let (tx, rx) = mpsc::channel(64);
-    let id = next_front_id();
+    let id = FrontId::next();
     let bindings = fleet
         .devices
         .iter()

@@ -11,7 +11,7 @@
 //!    (`HANDGATE_DDS__DOMAIN=3`, `HANDGATE_LOG__FORMAT=json`); scalar keys only;
 //! 3. command-line flags (`--domain`, `--interface`, `--log-format`).
 //!
-//! Then [`validate`] checks everything serde cannot. Every error names its origin (file,
+//! Then [`validate()`] checks everything serde cannot. Every error names its origin (file,
 //! "embedded default", "environment (VAR)", "command line (--flag)") and key path.
 //! See `docs/profiles.md` for the reference.
 

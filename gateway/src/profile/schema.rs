@@ -274,6 +274,9 @@ impl Default for LogConfig {
     }
 }
 
+/// Default `status.topic`, and the topic `handgate status` reads by default.
+pub const DEFAULT_STATUS_TOPIC: &str = "rt/handgate/status";
+
 /// The gateway's own status heartbeat.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -285,7 +288,7 @@ pub struct StatusConfig {
 impl Default for StatusConfig {
     fn default() -> Self {
         StatusConfig {
-            topic: Topic::new("rt/handgate/status"),
+            topic: Topic::new(DEFAULT_STATUS_TOPIC),
             rate_hz: RateHz(1.0),
         }
     }

@@ -889,7 +889,7 @@ fn usb_socket_points_the_device_at_the_emulator_process() {
     let (_, r) = load_text(text);
     let plan = crate::resolve::plan(&r.unwrap().profile).unwrap();
     let d = &plan.devices[0];
-    let profile = d.config.get::<handgate_adapters::dex3::kind::Dex3Profile>().unwrap();
+    let profile = d.config.get::<handgate_adapters::dex3::config::Dex3Profile>().unwrap();
     match handgate_adapters::dex3::open::usb_source(&d.spec(), profile) {
         handgate_adapters::dex3::usb::adapter::UsbSource::Socket(p) => assert_eq!(p, Path::new("/tmp/h.sock")),
         _ => panic!("usb.socket must select the socket transport"),
@@ -971,7 +971,7 @@ fn dds_device_topics_follow_variant_and_state_source() {
     );
     let mut d = device("[[devices]]\nname = \"d\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"dds\"\n[devices.dds]\nvariant = \"actuator\"\n");
     assert_eq!(d.dds_topics().unwrap().0, Some(Topic::new("rt/unitree_actuator/cmd")));
-    let dex1 = d.config.get::<handgate_adapters::dex1::kind::Dex1Profile>().unwrap();
+    let dex1 = d.config.get::<handgate_adapters::dex1::config::Dex1Profile>().unwrap();
     assert_eq!(Radians(dex1.range_rad()), Radians(5.4));
     d.backend = Backend::Emulator;
     assert_eq!(d.dds_topics(), None);

@@ -1,61 +1,37 @@
-//! Front tasks: each front's endpoints, decoding, silence handling and state publishing.
+//! Front tasks: each front's endpoints, and the loop that moves its messages between them,
+//! its devices and its core (`handgate_adapters::front::core`, where every decision is:
+//! ownership, checks, silence, prompt state); state-only fronts' publishing.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use handgate_adapters::model::{HandState, SafeAction};
+use handgate_adapters::front::core::{
+    self as front_core, Action, Change, Counter, Driven, FrontCore, FrontId, Log, Sample,
+};
+use handgate_adapters::model::HandState;
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
-use super::control::{Admit, Change, Ownership};
 use super::{DeviceSlot, RuntimeError};
 use crate::plan::{FrontPlan, SilencePlan};
 use crate::ticker::Ticker;
 use handgate_adapters::front::serve as fronts;
 use handgate_adapters::route as router;
 
-/// Logs at most once per second per key (rejected commands here, refused requests in
-/// `crate::http`).
+/// Logs at most once per second per key (refused requests in `crate::http`; a front's
+/// rejected commands are its core's): the rule of [`front_core::RateLimit`], shared between tasks.
 #[derive(Debug, Default)]
 pub(crate) struct RateLimitedLog {
-    /// Per key: when one was last logged (`None`: never), and the events since.
-    last: Mutex<HashMap<&'static str, (Option<Instant>, u64)>>,
+    limit: Mutex<front_core::RateLimit>,
 }
 
 impl RateLimitedLog {
-    fn warn(&self, front: &str, key: &'static str, msg: &dyn std::fmt::Display) {
-        if let Some(suppressed) = self.admit(key, Instant::now()) {
-            warn!(front, reason = key, suppressed, "rejected command: {msg}");
-        }
-    }
-
-    /// Whether an event of `key` at `now` is logged: `Some(n)`, the number of events of `key`
-    /// suppressed since the last one logged, when a second has passed since then (or none was
-    /// logged yet); `None` otherwise.
+    /// Whether an event of `key` at `now` is logged ([`front_core::RateLimit::admit`]).
     pub(crate) fn admit(&self, key: &'static str, now: Instant) -> Option<u64> {
-        let mut g = self.last.lock().unwrap_or_else(|p| p.into_inner());
-        // Never `now - 2 s`: an Instant is time since boot, and a gateway started in its first
-        // seconds (a systemd unit at boot) would panic on the subtraction.
-        let e = g.entry(key).or_insert((None, 0));
-        e.1 += 1;
-        if e.0.map_or(true, |t| now.duration_since(t) >= Duration::from_secs(1)) {
-            let suppressed = e.1 - 1;
-            *e = (Some(now), 0);
-            Some(suppressed)
-        } else {
-            None
-        }
+        self.limit.lock().unwrap_or_else(|p| p.into_inner()).admit(key, now)
     }
-}
-
-/// Identifies the front that sent a device its last command (see [`super::FrontCounters::last_front`]).
-static NEXT_FRONT_ID: AtomicU64 = AtomicU64::new(1);
-
-/// A new front id (see [`super::FrontCounters::last_front`]).
-pub(crate) fn next_front_id() -> u64 {
-    NEXT_FRONT_ID.fetch_add(1, Ordering::Relaxed)
 }
 
 /// A front that publishes state only: its writer over its devices, at its rate.
@@ -94,72 +70,6 @@ fn spawn_state_only(
     }))
 }
 
-/// One device a front drives, with the front's view of its silence.
-struct Bound {
-    slot: Arc<DeviceSlot>,
-    /// The front's table for this device (its wire convention and side).
-    /// The front's table and the device's, paired once at bind time.
-    route: router::Route,
-    element: usize,
-    silence: SilencePlan,
-    seq: u64,
-    /// When this front last had a command for the device accepted.
-    last_valid: Option<Instant>,
-    /// The silence action the last accepted command armed (timeout, action).
-    armed: Option<(Duration, SafeAction)>,
-    /// The silence action has run since the last accepted command.
-    acted: bool,
-    /// Which state this front publishes at once (the prompt publish).
-    prompt: Prompt,
-    state_rx: watch::Receiver<HandState>,
-    /// The silence action, running in its own task.
-    pending_safe: Option<tokio::task::JoinHandle<()>>,
-}
-
-/// The prompt publish of one bound device: the state reflecting an accepted command goes out
-/// at once, not at the next state deadline.
-#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
-struct Prompt {
-    /// The state reflecting this accepted command (`cmd_seq`) is awaited.
-    awaiting: Option<u64>,
-    /// `cmd_seq` of the newest state seen while awaiting, and of the newest one published.
-    /// A client streaming faster than the device applies never sees a state of its newest
-    /// command; a state reflecting a newer command than the last published goes out at once.
-    reflected: u64,
-    published: u64,
-}
-
-impl Prompt {
-    /// A state of the device reflecting command `cmd_seq` came: what was awaited has arrived
-    /// once a state reflects it or a newer command.
-    fn reflect(&mut self, cmd_seq: u64) {
-        if self.awaiting.is_some_and(|a| cmd_seq >= a) {
-            self.awaiting = None;
-        }
-        self.reflected = cmd_seq;
-    }
-
-    /// This device lets the front publish at once: nothing awaited, or its newest state
-    /// reflects a newer command than the last one published.
-    fn ready(&self) -> bool {
-        self.awaiting.is_none() || self.reflected > self.published
-    }
-
-    /// The front published the newest state seen.
-    fn mark_published(&mut self) {
-        self.published = self.published.max(self.reflected);
-    }
-}
-
-impl Bound {
-    fn silence_due(&self) -> Option<Instant> {
-        match (self.last_valid, self.armed, self.acted) {
-            (Some(t), Some((after, _)), false) => Some(t + after),
-            _ => None,
-        }
-    }
-}
-
 pub(super) fn spawn_front(
     env: &fronts::FrontEnv,
     f: &FrontPlan,
@@ -174,7 +84,7 @@ pub(super) fn spawn_front(
         fronts::Endpoints::StateOnly(out) => return spawn_state_only(out, f, devices, shutdown),
     };
     let task = FrontTask {
-        id: next_front_id(),
+        id: FrontId::next(),
         name: f.name.clone(),
         control: f.config.control,
         hold: f.hold(),
@@ -191,8 +101,8 @@ pub(super) fn spawn_front(
 /// What the front task needs of a front: its name, who may command it, its state rate and
 /// its devices (name, element, silence, the front's table for it).
 pub(crate) struct FrontTask {
-    /// Its id ([`next_front_id`]).
-    pub id: u64,
+    /// Its id ([`FrontId::next`]).
+    pub id: FrontId,
     pub name: String,
     pub control: handgate_adapters::front::config::Control,
     pub hold: Duration,
@@ -205,230 +115,281 @@ pub(crate) struct FrontTask {
     )>,
 }
 
+/// One device a front task drives: what the core does not decide with (its slot, its
+/// element in the front's messages, its state channel) and its silence action in progress.
+struct Device {
+    slot: Arc<DeviceSlot>,
+    element: usize,
+    state_rx: watch::Receiver<HandState>,
+    /// The silence action, running in its own task.
+    pending_safe: Option<tokio::task::JoinHandle<()>>,
+}
+
+/// The devices as the front's core sees them: the device itself, and the marks every front
+/// on it shares through its counters (which front commanded it last, whether a silence
+/// action holds it).
+struct Shared<'a>(&'a [Device]);
+
+impl front_core::Devices for Shared<'_> {
+    fn command(
+        &mut self,
+        device: usize,
+        seq: u64,
+        body: handgate_adapters::mapping::CheckedBody,
+        tag: u32,
+    ) -> Result<(), handgate_adapters::device::DeviceError> {
+        self.0[device].slot.device.command_checked(seq, body, tag)
+    }
+
+    fn is_last_front(&self, device: usize, front: FrontId) -> bool {
+        self.0[device].slot.counters.last_front.load(Ordering::Relaxed) == front.get()
+    }
+
+    fn mark_last_front(&mut self, device: usize, front: FrontId) -> bool {
+        self.0[device]
+            .slot
+            .counters
+            .last_front
+            .swap(front.get(), Ordering::Relaxed)
+            != front.get()
+    }
+
+    fn set_tripped(&mut self, device: usize, tripped: bool) -> bool {
+        self.0[device]
+            .slot
+            .counters
+            .tripped
+            .swap(u64::from(tripped), Ordering::Relaxed)
+            != 0
+    }
+}
+
+/// A running front's task: its core (every decision), its devices, its wire side and its
+/// publishing grid.
+struct Task {
+    name: String,
+    core: FrontCore,
+    devices: Vec<Device>,
+    out: Box<dyn fronts::FrontIo>,
+    discovery: watch::Receiver<Arc<handgate_adapters::discovery::Snapshot>>,
+    state_tick: Ticker,
+    /// The core's actions, carried out as they come (kept to reuse its allocation).
+    acts: Vec<Action>,
+}
+
+impl Task {
+    /// A command sample: the core admits it, the front kind's codec decodes it, and the core
+    /// checks and routes its commands. A command for a device waits for the silence action
+    /// running on it (`pending_safe`), so the safe state never lands after a newer command.
+    async fn sample(&mut self, msg: fronts::Incoming) {
+        let sample = Sample::of(&msg);
+        let Some(admitted) = self.core.admit(&sample, &mut self.acts) else {
+            self.carry_out();
+            return;
+        };
+        let decoded = self.out.decode(&views(&self.core, &self.devices), &msg.msg);
+        if let Ok(cmds) = &decoded {
+            for (i, _) in cmds {
+                if let Some(h) = self.devices[*i].pending_safe.take() {
+                    let _ = h.await;
+                }
+            }
+        }
+        let devices = &mut Shared(&self.devices);
+        self.core
+            .decoded(admitted, Instant::now(), &sample, decoded, devices, &mut self.acts);
+        self.carry_out();
+    }
+
+    /// Carries out the core's actions, in order.
+    fn carry_out(&mut self) {
+        let mut acts = std::mem::take(&mut self.acts);
+        for a in acts.drain(..) {
+            match a {
+                Action::Count { device, counter } => {
+                    let c = &self.devices[device].slot.counters;
+                    match counter {
+                        Counter::Accepted => {
+                            c.accepted.fetch_add(1, Ordering::Relaxed);
+                            c.mark_accepted();
+                        }
+                        Counter::Rejected => {
+                            c.rejected.fetch_add(1, Ordering::Relaxed);
+                        }
+                        Counter::ForeignCmd => {
+                            c.foreign_cmd.fetch_add(1, Ordering::Relaxed);
+                        }
+                        Counter::WatchdogTrip => {
+                            c.watchdog_trips.fetch_add(1, Ordering::Relaxed);
+                        }
+                    }
+                }
+                Action::Publish => {
+                    self.out.publish(&views(&self.core, &self.devices), false);
+                    self.state_tick.restart();
+                }
+                Action::Safe { device, action } => {
+                    // In a task of its own: the front keeps publishing on its deadlines while
+                    // the device confirms its safe state.
+                    let dev = self.devices[device].slot.device.clone();
+                    self.devices[device].pending_safe = Some(tokio::spawn(async move {
+                        let _ = dev.safe_state(action).await;
+                    }));
+                }
+                Action::Owner { devices, writer } => {
+                    // Who commands the device (status, dashboard): named on change only.
+                    let who = format!(
+                        "{}: {}",
+                        self.name,
+                        fronts::describe_writer(&writer, &self.discovery.borrow())
+                    );
+                    for i in devices {
+                        self.devices[i].slot.counters.set_owner(who.clone());
+                    }
+                }
+                Action::Log(l) => self.log(l),
+            }
+        }
+        self.acts = acts;
+    }
+
+    /// Writes a log line of the core.
+    fn log(&self, l: Log) {
+        let name = &self.name;
+        let describe = |w: &handgate_adapters::dds::WriterInfo| fronts::describe_writer(w, &self.discovery.borrow());
+        match l {
+            Log::Refused { writer, owner, hold } => {
+                let hold_ms = hold.as_millis() as u64;
+                let owner = owner.as_deref().map_or("?".into(), describe);
+                warn!(front = %name, hold_ms, "refused the commands of {}: {owner} commands this front \
+                    (control = \"exclusive\"; refused until it is silent for {hold_ms} ms; counted in foreign_cmd)",
+                    describe(&writer));
+            }
+            Log::Commands {
+                writer,
+                previous,
+                change,
+            } => {
+                let new = describe(&writer);
+                let old = previous.as_deref().map_or("?".into(), describe);
+                match change {
+                    Change::First => info!(front = %name, "{new} commands this front"),
+                    Change::AfterSilence { silent } => info!(front = %name,
+                        silent_ms = silent.as_millis() as u64,
+                        "{new} commands this front: {old} was silent for {} ms", silent.as_millis()),
+                    Change::Forced => warn!(front = %name, "{new} took this front over from {old} (forced)"),
+                }
+            }
+            Log::Rejected { why, suppressed } => {
+                // `front` as a string field, as this line always had it.
+                warn!(
+                    front = name.as_str(),
+                    reason = why.reason(),
+                    suppressed,
+                    "rejected command: {why}"
+                );
+            }
+            Log::Silence {
+                device,
+                mode,
+                after,
+                action,
+            } => {
+                warn!(front = %name, device = %self.devices[device].slot.plan.name, silence = %mode,
+                    timeout_ms = after.as_millis() as u64, action = ?action,
+                    "no command: moving the device to its silence action");
+            }
+            Log::Resumed { device } => {
+                info!(front = %name, device = %self.devices[device].slot.plan.name,
+                    "commands resumed after the silence action");
+            }
+            Log::QueueFull { dropped, total } => {
+                warn!(front = %name, dropped, queue_full_total = total,
+                    "front queue full: commands dropped unprocessed");
+            }
+        }
+    }
+}
+
 /// Runs a front taking commands: samples from `rx` (a DDS front's readers, or the
-/// dashboard's page), decoded by `out` and checked against each device's table, under the
-/// front's ownership and silence rules; state published through `out`.
+/// dashboard's page), decoded by `out`; every decision (ownership, the check against each
+/// device's table, silence, prompt state) is the front's core's
+/// ([`handgate_adapters::front::core`]); this task moves messages: samples, deadlines and
+/// device states to the core, its actions to the devices, the log and `out`.
 pub(crate) fn run_front(
     f: FrontTask,
-    mut out: Box<dyn fronts::FrontIo>,
+    out: Box<dyn fronts::FrontIo>,
     mut rx: mpsc::Receiver<fronts::Incoming>,
     dropped: Arc<AtomicU64>,
     devices: &HashMap<String, Arc<DeviceSlot>>,
     discovery: watch::Receiver<Arc<handgate_adapters::discovery::Snapshot>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
+    let mut driven = Vec::new();
     let mut bound = Vec::new();
     for (device, element, silence, table) in &f.bindings {
         let slot = devices
             .get(device)
             .cloned()
             .ok_or_else(|| RuntimeError::UnknownDevice(device.clone()))?;
-        bound.push(Bound {
+        driven.push(Driven {
             route: router::Route::bind(table.clone().unwrap_or_else(|| slot.table.clone()), slot.table.clone()),
-            element: *element,
             silence: *silence,
-            seq: 0,
-            last_valid: None,
-            armed: None,
-            acted: false,
-            prompt: Prompt::default(),
+        });
+        bound.push(Device {
+            element: *element,
             state_rx: slot.device.state(),
             pending_safe: None,
             slot,
         });
     }
-    let log = RateLimitedLog::default();
-    let mut ownership = Ownership::new(f.control, f.hold);
-    let front_id = f.id;
     let devices_list = f.bindings.iter().map(|b| b.0.as_str()).collect::<Vec<_>>().join(",");
     let span = tracing::info_span!("front", name = %f.name, devices = %devices_list);
+    let lf_hz = out.lf_hz();
+    let mut task = Task {
+        core: FrontCore::new(f.id, f.control, f.hold, driven),
+        name: f.name,
+        devices: bound,
+        out,
+        discovery,
+        state_tick: Ticker::hz(f.state_hz),
+        acts: Vec::new(),
+    };
     Ok(tokio::spawn(tracing::Instrument::instrument(
         async move {
-            let name = f.name.clone();
-            let mut state_tick = Ticker::hz(f.state_hz);
-            let lf_hz = out.lf_hz();
             let mut lf_tick = Ticker::hz(lf_hz);
-            // Commands dropped because this front's queue was full (reported at most once a
-            // second, with the running total, so a flood's losses are visible).
-            // (dropped count last reported, when; `None`: never reported)
-            let mut dropped_reported: (u64, Option<Instant>) = (0, None);
-            // Prompt state: after a command is accepted, the first state that reflects it on
-            // every device it went to (`cmd_seq`) is published at once instead of at the next
-            // deadline; so is a state reflecting a newer command than the last published
-            // (a client streaming faster than the device applies never sees its newest
-            // command reflected, and would otherwise wait for every tick). A prompt publish
-            // stands in for the periodic one: the next tick comes a full period after it.
-            // Each prompt publish needs a state of a command not yet published, so they are
-            // never more frequent than the device's measured states; an idle front publishes
-            // at `state_hz`.
-            let mut prompt_since: Option<Instant> = None;
-            // The writer owning the front (`control = "exclusive"`), to name it in the log.
-            let mut owner: Option<Arc<handgate_adapters::dds::WriterInfo>> = None;
-            let hold_ms = f.hold.as_millis() as u64;
             loop {
-                let silence_due = bound.iter().filter_map(Bound::silence_due).min();
-                let awaiting = bound.iter().any(|b| b.prompt.awaiting.is_some());
+                let deadline = task.core.next_deadline();
+                let awaiting = task.core.awaits_state();
                 tokio::select! {
                     msg = rx.recv() => {
                         let Some(msg) = msg else { break };
-                        // When the reader took it, not now: a front task that fell behind
-                        // must not see its owner as silent because of its own backlog.
-                        let received = msg.taken;
-                        let writer = msg.writer.handle;
-                        if let Admit::Foreign { first, .. } = ownership.admit(writer, msg.force(), received) {
-                            for b in &bound {
-                                b.slot.counters.foreign_cmd.fetch_add(1, Ordering::Relaxed);
+                        task.sample(msg).await;
+                    }
+                    _ = sleep_until_opt(deadline), if deadline.is_some() => {
+                        task.core.deadline(Instant::now(), &mut Shared(&task.devices), &mut task.acts);
+                        task.carry_out();
+                    }
+                    changed = first_change(&mut task.devices, &task.core), if awaiting => {
+                        match changed {
+                            Some(i) => {
+                                let cmd_seq = task.devices[i].state_rx.borrow_and_update().cmd_seq;
+                                task.core.state(Instant::now(), i, cmd_seq, &mut task.acts);
+                                task.carry_out();
                             }
-                            if first {
-                                let snap = discovery.borrow().clone();
-                                let owner = owner.as_ref().map_or("?".into(), |o| fronts::describe_writer(o, &snap));
-                                warn!(front = %name, hold_ms, "refused the commands of {}: {owner} commands this front \
-                                    (control = \"exclusive\"; refused until it is silent for {hold_ms} ms; counted in foreign_cmd)",
-                                    fronts::describe_writer(&msg.writer, &snap));
-                            }
-                            continue;
-                        }
-                        let decoded = out.decode(&views(&bound), &msg.msg);
-                        match decoded {
-                            Ok(cmds) => {
-                                let mut any = false;
-                                // Devices this front now commands (another front did before).
-                                let mut new_commander: Vec<usize> = Vec::new();
-                                for (i, (body, tag, timeout_bit)) in cmds {
-                                    let b = &mut bound[i];
-                                    if let Some(h) = b.pending_safe.take() {
-                                        let _ = h.await;
-                                    }
-                                    b.seq += 1;
-                                    // Checked once, here, against the device's table; the
-                                    // device takes the checked body as it is.
-                                    let sent = b
-                                        .route
-                                        .device
-                                        .checked(body)
-                                        .map_err(handgate_adapters::device::DeviceError::from)
-                                        .and_then(|body| b.slot.device.command_checked(b.seq, body, tag));
-                                    match sent {
-                                        Ok(()) => {
-                                            any = true;
-                                            let counters = &b.slot.counters;
-                                            counters.accepted.fetch_add(1, Ordering::Relaxed);
-                                            counters.mark_accepted();
-                                            if counters.last_front.swap(front_id, Ordering::Relaxed) != front_id {
-                                                new_commander.push(i);
-                                            }
-                                            b.last_valid = Some(Instant::now());
-                                            b.armed = b.silence.armed(timeout_bit);
-                                            // No `mark_unchanged` here: a state that came just before
-                                            // this command still reflects a newer command than the
-                                            // last published (`Prompt::ready`), and dropping it would
-                                            // hold it until the tick (a 1 kHz client lost one in two).
-                                            b.prompt.awaiting = Some(b.seq);
-                                            if counters.tripped.swap(0, Ordering::Relaxed) != 0 {
-                                                info!(front = %name, device = %b.slot.plan.name, "commands resumed after the silence action");
-                                            }
-                                            b.acted = false;
-                                        }
-                                        Err(e) => {
-                                            b.slot.counters.rejected.fetch_add(1, Ordering::Relaxed);
-                                            log.warn(&name, "device_rejected", &e);
-                                        }
-                                    }
-                                }
-                                if any {
-                                    prompt_since = Some(Instant::now());
-                                    if let Some(change) = ownership.accepted(writer, received) {
-                                        let snap = discovery.borrow().clone();
-                                        let new = fronts::describe_writer(&msg.writer, &snap);
-                                        let old = owner.as_ref().map_or("?".into(), |o| fronts::describe_writer(o, &snap));
-                                        match change {
-                                            Change::First => info!(front = %name, "{new} commands this front"),
-                                            Change::AfterSilence { silent, .. } => info!(front = %name,
-                                                silent_ms = silent.as_millis() as u64,
-                                                "{new} commands this front: {old} was silent for {} ms", silent.as_millis()),
-                                            Change::Forced => warn!(front = %name,
-                                                "{new} took this front over from {old} (forced)"),
-                                        }
-                                        owner = Some(msg.writer.clone());
-                                        new_commander = (0..bound.len()).collect();
-                                    }
-                                    if !new_commander.is_empty() {
-                                        // Who commands the device (status, dashboard): named on change only.
-                                        let who = format!("{name}: {}", fronts::describe_writer(&msg.writer, &discovery.borrow()));
-                                        for i in new_commander {
-                                            bound[i].slot.counters.set_owner(who.clone());
-                                        }
-                                    }
-                                }
-                            }
-                            Err(r) => {
-                                for b in &bound {
-                                    b.slot.counters.rejected.fetch_add(1, Ordering::Relaxed);
-                                }
-                                log.warn(&name, r.reason(), &r);
-                            }
+                            None => task.core.state_closed(),
                         }
                     }
-                    _ = sleep_until_opt(silence_due), if silence_due.is_some() => {
-                        let now = Instant::now();
-                        for b in bound.iter_mut() {
-                            if !b.silence_due().is_some_and(|t| t <= now) {
-                                continue;
-                            }
-                            b.acted = true;
-                            let (after, action) = b.armed.expect("armed when due");
-                            let counters = &b.slot.counters;
-                            // Another front commanded the device since: its silence, not ours.
-                            if counters.last_front.load(Ordering::Relaxed) != front_id {
-                                continue;
-                            }
-                            counters.watchdog_trips.fetch_add(1, Ordering::Relaxed);
-                            counters.tripped.store(1, Ordering::Relaxed);
-                            warn!(front = %name, device = %b.slot.plan.name, silence = %b.silence.mode,
-                                timeout_ms = after.as_millis() as u64, action = ?action,
-                                "no command: moving the device to its silence action");
-                            // In a task of its own: the front keeps publishing on its
-                            // deadlines while the device confirms its safe state.
-                            // A command for the device waits for it (`pending_safe`), so the
-                            // safe state never lands after a newer command.
-                            let dev = b.slot.device.clone();
-                            b.pending_safe = Some(tokio::spawn(async move {
-                                let _ = dev.safe_state(action).await;
-                            }));
+                    _ = task.state_tick.tick() => {
+                        task.out.publish(&views(&task.core, &task.devices), false);
+                        for (i, d) in task.devices.iter().enumerate() {
+                            task.core.published(i, d.state_rx.borrow().cmd_seq);
                         }
-                    }
-                    changed = first_change(&mut bound), if awaiting => {
-                        let Some(i) = changed else {
-                            for b in bound.iter_mut() { b.prompt.awaiting = None; }
-                            continue;
-                        };
-                        let b = &mut bound[i];
-                        let st = b.state_rx.borrow_and_update().clone();
-                        b.prompt.reflect(st.cmd_seq);
-                        let expired = prompt_since.is_some_and(|t| t.elapsed() > PROMPT_STATE_WAIT);
-                        if expired {
-                            // Superseded by another front's command, or never applied.
-                            for b in bound.iter_mut() { b.prompt.awaiting = None; }
-                        } else if bound.iter().all(|b| b.prompt.ready()) {
-                            out.publish(&views(&bound), false);
-                            for b in bound.iter_mut() { b.prompt.mark_published(); }
-                            state_tick.restart();
-                        }
-                    }
-                    _ = state_tick.tick() => {
-                        out.publish(&views(&bound), false);
-                        for b in bound.iter_mut() { b.prompt.published = b.state_rx.borrow().cmd_seq; }
-                        let d = dropped.load(Ordering::Relaxed);
-                        if d > dropped_reported.0
-                            && dropped_reported.1.map_or(true, |t| t.elapsed() >= Duration::from_secs(1))
-                        {
-                            warn!(front = %name, dropped = d - dropped_reported.0,
-                                queue_full_total = d, "front queue full: commands dropped unprocessed");
-                            dropped_reported = (d, Some(Instant::now()));
-                        }
+                        task.core.queue(Instant::now(), dropped.load(Ordering::Relaxed), &mut task.acts);
+                        task.carry_out();
                     }
                     _ = lf_tick.tick(), if lf_hz > 0.0 => {
-                        out.publish(&views(&bound), true);
+                        task.out.publish(&views(&task.core, &task.devices), true);
                     }
                     _ = shutdown.changed() => break,
                 }
@@ -444,14 +405,14 @@ async fn sleep_until_opt(t: Option<Instant>) {
     }
 }
 
-/// Waits until one of the bound devices awaiting a prompt publish reports a new state;
+/// Waits until one of the bound devices whose state the core awaits reports a new state;
 /// `None` when a device's state channel closed.
-async fn first_change(bound: &mut [Bound]) -> Option<usize> {
-    let futs = bound
+async fn first_change(devices: &mut [Device], core: &FrontCore) -> Option<usize> {
+    let futs = devices
         .iter_mut()
         .enumerate()
-        .filter(|(_, b)| b.prompt.awaiting.is_some())
-        .map(|(i, b)| Box::pin(async move { b.state_rx.changed().await.ok().map(|_| i) }));
+        .filter(|(i, _)| core.awaiting(*i))
+        .map(|(i, d)| Box::pin(async move { d.state_rx.changed().await.ok().map(|_| i) }));
     futures_select_first(futs.collect()).await
 }
 
@@ -470,20 +431,17 @@ async fn futures_select_first<F: std::future::Future<Output = Option<usize>> + U
     .await
 }
 
-/// How long a front waits for the state reflecting an accepted command before it stops
-/// listening for it (the periodic state carries on regardless).
-const PROMPT_STATE_WAIT: Duration = Duration::from_millis(100);
-
 /// What the front kind's codec sees of the bound devices: each route and latest state.
-fn views(bound: &[Bound]) -> Vec<fronts::Bound<'_>> {
-    bound
+fn views<'a>(core: &'a FrontCore, devices: &'a [Device]) -> Vec<fronts::Bound<'a>> {
+    devices
         .iter()
-        .map(|b| fronts::Bound {
-            route: &b.route,
-            element: b.element,
-            device: &b.slot.plan.name,
-            safe_action: b.slot.plan.safe_action,
-            state: b.slot.device.state().borrow().clone(),
+        .enumerate()
+        .map(|(i, d)| fronts::Bound {
+            route: core.route(i),
+            element: d.element,
+            device: &d.slot.plan.name,
+            safe_action: d.slot.plan.safe_action,
+            state: d.slot.device.state().borrow().clone(),
         })
         .collect()
 }
@@ -492,62 +450,7 @@ fn views(bound: &[Bound]) -> Vec<fronts::Bound<'_>> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn rejections_are_logged_once_per_second_per_reason_with_the_suppressed_count() {
-        let log = RateLimitedLog::default();
-        let t0 = Instant::now();
-        let ms = |n: u64| t0 + Duration::from_millis(n);
-        assert_eq!(log.admit("non_finite", t0), Some(0), "the first one is logged");
-        assert_eq!(log.admit("non_finite", ms(10)), None);
-        assert_eq!(log.admit("non_finite", ms(999)), None);
-        assert_eq!(
-            log.admit("wrong_count", ms(500)),
-            Some(0),
-            "each reason has its own second"
-        );
-        assert_eq!(
-            log.admit("non_finite", ms(1000)),
-            Some(2),
-            "a second later, with the two suppressed"
-        );
-        assert_eq!(log.admit("non_finite", ms(1500)), None);
-        assert_eq!(log.admit("non_finite", ms(2100)), Some(1));
-    }
-
-    /// The prompt-publish rule on its own: a client streaming faster than the device applies
-    /// (each state reflects an older command than the newest accepted) still gets each newer
-    /// reflected command published at once, never the same one twice.
-    #[test]
-    fn a_state_of_a_newer_command_than_published_is_prompt_even_while_a_newer_one_is_awaited() {
-        let mut p = Prompt::default();
-        assert!(p.ready(), "nothing awaited");
-        // A 1 kHz client: command 7 accepted while the device's states reflect older ones.
-        p.awaiting = Some(7);
-        p.reflect(5);
-        assert!(p.ready(), "reflects 5, newer than the last published (0): at once");
-        p.mark_published();
-        assert!(!p.ready(), "5 is out: the same state again waits");
-        p.reflect(5);
-        assert!(!p.ready(), "still 5: waits for the tick");
-        p.reflect(6);
-        assert!(p.ready(), "6 is newer than 5");
-        assert_eq!(p.awaiting, Some(7), "6 does not answer 7");
-        p.mark_published();
-        p.reflect(8);
-        assert_eq!(
-            p.awaiting, None,
-            "a state of a newer command answers the awaited one too"
-        );
-        assert!(p.ready());
-        // Awaiting 9 with nothing newer than published: not ready.
-        p.mark_published();
-        p.awaiting = Some(9);
-        assert!(!p.ready());
-        p.reflect(9);
-        assert!(p.ready() && p.awaiting.is_none(), "the awaited command's own state");
-    }
-
-    /// The silence branch of the front task sleeps until the earliest device's deadline (it
+    /// The deadline branch of the front task sleeps until the core's next deadline (it
     /// would spin the task otherwise: the action itself is guarded per device).
     #[test]
     fn the_silence_wait_sleeps_until_the_deadline() {

@@ -3,7 +3,6 @@
 //! along its reasons to change: device start-up ([`devices`]), front tasks ([`fronts`]),
 //! status publishing ([`status`]).
 
-mod control;
 mod devices;
 pub(crate) mod fronts;
 mod ros;
@@ -58,8 +57,8 @@ pub enum RuntimeError {
 #[derive(Debug, Default)]
 pub struct FrontCounters {
     pub accepted: AtomicU64,
-    /// Which front sent the last accepted command (a front's silence action only runs
-    /// when the device's last command was its own).
+    /// Which front sent the last accepted command (its `FrontId`; a front's silence action
+    /// only runs when the device's last command was its own).
     pub last_front: AtomicU64,
     pub rejected: AtomicU64,
     /// Commands refused whole because another writer owns the front (`foreign_cmd` in

@@ -297,8 +297,8 @@ impl MotorFeedbackFrame {
     }
 }
 
-/// `SensorState_t`, 44 bytes: head 7E E7, id:4 | status:4, reserved, pressure u16[12],
-/// temperature i8[12], CRC32 over bytes 0..40 (head included: inference).
+/// `SensorState_t`, 44 bytes: head 7E E7, id:4 | status:4, reserved, pressure `u16[12]`,
+/// temperature `i8[12]`, CRC32 over bytes 0..40 (head included: inference).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct SensorFrame {
     id: u8,
@@ -477,11 +477,6 @@ impl LinuxToMcuCmd {
             buses,
             reserve: rd_u32(b, CMD_RESERVE_OFF),
         })
-    }
-
-    /// The `cmd_size` words as they are in the bytes (before clamping), for diagnostics.
-    pub fn raw_sizes(b: &[u8; CMD_FRAME_LEN]) -> [u32; BUS_COUNT] {
-        std::array::from_fn(|i| rd_u32(b, CMD_CMD_SIZE_OFF + 4 * i))
     }
 }
 

@@ -722,7 +722,7 @@ mod tests {
     #[test]
     fn profile_object_at_stops_the_closing_joint_with_pressure() {
         use crate::device::Backend;
-        use crate::dex3::kind::Dex3Profile;
+        use crate::dex3::config::Dex3Profile;
         use crate::kind::DeviceKind;
         use crate::open::{DeviceSpec, EmulatorSection};
         for side in [Side::Left, Side::Right] {
