@@ -155,12 +155,9 @@ pub struct Dex5Core {
 impl Dex5Core {
     pub fn new(config: &Dex5EmuConfig) -> Result<Self, EmulatorError> {
         let t = &config.tuning;
-        ensure_finite("initial", &config.initial)?;
-        ensure_finite(
-            "object_at",
-            &config.object_at.iter().flatten().copied().collect::<Vec<_>>(),
-        )?;
-        ensure_finite("tuning", &[t.time_constant_s, t.temperature_c, t.power_v, t.power_a])?;
+        ensure_finite("initial", config.initial)?;
+        ensure_finite("object_at", config.object_at.into_iter().flatten())?;
+        ensure_finite("tuning", [t.time_constant_s, t.temperature_c, t.power_v, t.power_a])?;
         if t.time_constant_s <= 0.0 {
             return Err(EmulatorError::InvalidConfig("time_constant_s must be > 0".into()));
         }
