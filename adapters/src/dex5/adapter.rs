@@ -114,6 +114,8 @@ pub fn decode_hand_state(s: &HandState_, table: &DeviceTable, st: &mut HandState
 impl DdsCodec for Dex5Codec {
     type Cmd = HandCmd_;
     type State = HandState_;
+    /// 20 entries per message (a Dex3-1's are 7).
+    const ENTRIES: Option<usize> = Some(WIRE_LEN);
 
     fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut HandCmd_) -> bool {
         let (Active::Command(t) | Active::Safe(_, t)) = active else {

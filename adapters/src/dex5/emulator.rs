@@ -1,8 +1,9 @@
 //! The emulated Dex5-1 behind the robot's hand service: the physics of one hand without DDS
-//! (commands in, time passes, state out), for a service shell to host on
-//! `rt/dex5/{side}/{cmd,state}` ([`super::topics`]) at [`super::DEFAULT_HZ`]:
-//! `Dex5Core::new(&config)`, then per cycle [`Dex5Core::on_command`] for each command taken,
-//! [`Dex5Core::step`] and [`Dex5Core::state_into`] the message to publish.
+//! (commands in, time passes, state out), [`Dex5Core`], and the service it runs in,
+//! [`Dex5Emulator`] (the generic service shell, `crate::service_emulator`) on
+//! `rt/dex5/{side}/{cmd,state}` ([`super::topics`]) at [`super::SERVICE_HZ`]. Each cycle:
+//! [`Dex5Core::on_command`] for each command taken, [`Dex5Core::step`], then the state
+//! ([`Dex5Core::state_into`]) published.
 //!
 //! From the sources (docs/sources.md §7 "Dex5-1"): unitree_hg `HandCmd_` in, `HandState_` out,
 //! 20 entries in the wire order of [`super::table::SLOTS`], 16 motors (each `Pitch_x4` rides
@@ -24,6 +25,8 @@
 //! - every motor is off until the first command; afterwards the hand holds the last command
 //!   indefinitely ([`Dex5Tuning::silence_timeout`] `None`), as no source describes a timeout;
 //! - a command with the wrong entry count or a non-finite field is ignored and counted;
+//! - an object met by a `Pitch_x3` and one met by its `Pitch_x4` stop their one motor at
+//!   whichever the closing finger meets first;
 //! - the rest posture ([`super::table::rest_posture`]), the noise ([`DEX5_NOISE`]), no pressure
 //!   pads (no source says how many a Dex5 reports), an upright IMU, constant supply figures.
 
@@ -33,8 +36,9 @@ use handgate_idl::unitree_hg::{HandCmd_, HandState_, IMUState_, MotorCmd_, Motor
 
 use super::table::{self, WireConfig, MAX_TAU, SLOTS, VELOCITY};
 use super::{MODE_DISABLED, MODE_ENABLED, MOTORS, WIRE_LEN};
-use crate::emu_common::{ensure_finite, EmulatorError};
+use crate::emu_common::{ensure_finite, EmulatorError, Hz};
 use crate::model::Side;
+use crate::service_emulator::{Published, ServiceCore, ServiceEmulator, ServicePlan, ServiceWire, Silent, Tick};
 use crate::sim::{Noise, Sensor};
 
 /// Measurement noise: the Dex3-1's figures for the same unitree_hg motor feedback (one least
@@ -76,6 +80,10 @@ impl Default for Dex5Tuning {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dex5EmuConfig {
     pub side: Side,
+    /// Loop and state rate (default [`super::SERVICE_HZ`]).
+    pub rate: Hz,
+    /// (command, state) topics; `None` = the side's standard ones ([`super::topics`]).
+    pub topics: Option<(String, String)>,
     /// The commands it takes (default one entry per joint, as xr_teleoperate sends), the gains
     /// at which a motor moves with the tuning's time constant (default xr_teleoperate's) and
     /// the coupling of each `Pitch_x4` to its `Pitch_x3`.
@@ -86,7 +94,8 @@ pub struct Dex5EmuConfig {
     /// Measurement noise on q, dq, tau_est (default [`DEX5_NOISE`]).
     pub noise: Noise,
     /// Per entry, the wire position at which that joint meets an object while closing (its
-    /// motor stops there). Only joints that close (not the spreads or the thumb's yaw).
+    /// motor stops there). Only joints that close (not the spreads or the thumb's yaw: ignored
+    /// there); a `Pitch_x3` and its `Pitch_x4` both given: the one met first.
     pub object_at: [Option<f32>; WIRE_LEN],
     pub tuning: Dex5Tuning,
 }
@@ -97,6 +106,8 @@ impl Dex5EmuConfig {
         let rest = table::rest_posture(wire.coupling);
         Self {
             side,
+            rate: Hz(super::SERVICE_HZ),
+            topics: None,
             wire,
             initial: std::array::from_fn(|i| rest[i] * table::wire_sign(side, i)),
             noise: DEX5_NOISE,
@@ -135,6 +146,8 @@ pub struct Dex5Snapshot {
     /// The silence timeout turned the motors off (cleared by the next command).
     pub timed_out: bool,
     pub motors: [MotorView; MOTORS],
+    /// State messages the service published.
+    pub states_published: u64,
 }
 
 /// The hand's physics and the service's command handling, without DDS.
@@ -195,8 +208,17 @@ impl Dex5Core {
             timed_out: false,
         };
         for (i, at) in config.object_at.iter().enumerate() {
-            if at.is_some() {
-                core.set_object(i, *at);
+            let (Some(at), Some(dir)) = (at, table::closing_dir(side, i)) else {
+                continue;
+            };
+            let m = SLOTS[i].motor;
+            let other = core.motors[m].object;
+            core.set_object(i, Some(*at));
+            // Two objects on one motor (a Pitch_x3's and its Pitch_x4's): the first one met.
+            if let (Some(o), Some(new)) = (other, core.motors[m].object) {
+                if (o - new) * dir < 0.0 {
+                    core.motors[m].object = Some(o);
+                }
             }
         }
         Ok(core)
@@ -333,7 +355,65 @@ impl Dex5Core {
             rejected: self.rejected,
             timed_out: self.timed_out,
             motors: self.motors,
+            states_published: 0,
         }
+    }
+}
+
+impl ServiceCore for Dex5Core {
+    type Config = Dex5EmuConfig;
+    type Snapshot = Dex5Snapshot;
+
+    fn from_config(config: &Dex5EmuConfig) -> Result<Self, EmulatorError> {
+        Self::new(config)
+    }
+
+    fn plan(config: &Dex5EmuConfig) -> Result<ServicePlan, EmulatorError> {
+        let (cmd_topic, state_topic) = match config.topics.clone() {
+            Some(t) => t,
+            None => super::topics(config.side)
+                .ok_or_else(|| EmulatorError::InvalidConfig("a Dex5-1 hand is left or right".into()))?,
+        };
+        let name = format!("dex5-emu-{}", config.side);
+        Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
+    }
+
+    fn report(&self, published: Published) -> Dex5Snapshot {
+        Dex5Snapshot {
+            states_published: published.state,
+            ..self.snapshot()
+        }
+    }
+}
+
+impl ServiceWire<Self> for Dex5Core {
+    type Cmd = HandCmd_;
+    type State = HandState_;
+    type Extra = Silent;
+
+    /// Applied in arrival order; a malformed one is ignored and counted.
+    fn receive(core: &mut Self, cmd: &HandCmd_, now: Instant) {
+        core.on_command(cmd, now);
+    }
+
+    fn cycle(core: &mut Self, tick: Tick) -> Option<HandState_> {
+        core.step(tick.now, tick.dt);
+        Some(core.state())
+    }
+}
+
+/// A running emulated Dex5-1 hand service (one hand). Dropping it stops its loop.
+pub type Dex5Emulator = ServiceEmulator<Dex5Core>;
+
+impl Dex5Emulator {
+    /// Wire q of entry `i` (no noise).
+    pub fn position(&self, i: usize) -> f32 {
+        self.with_core(|c| c.position(i))
+    }
+
+    /// Places (or removes) the object entry `i` meets while closing.
+    pub fn set_object(&self, i: usize, at: Option<f32>) {
+        self.with_core(|c| c.set_object(i, at));
     }
 }
 
@@ -537,6 +617,67 @@ mod tests {
         core.on_command(&cmd(&[0.0; WIRE_LEN], &Gains::default()), t0);
         run(&mut core, t0, 1.0);
         assert!(core.position(2).abs() < 1e-3 && !core.snapshot().motors[SLOTS[2].motor].contact);
+    }
+
+    #[test]
+    fn two_objects_on_one_motor_stop_it_at_the_first_met() {
+        let t0 = Instant::now();
+        for (x3, x4, stop) in [(0.8, 0.9, 0.8), (1.2, 0.5, 0.5 / COUPLING)] {
+            let mut cfg = quiet(Side::Right);
+            (cfg.object_at[6], cfg.object_at[7]) = (Some(x3), Some(x4)); // middle Pitch_33, Pitch_34
+            let mut core = Dex5Core::new(&cfg).unwrap();
+            core.on_command(&cmd(&closed_wire(Side::Right), &Gains::default()), t0);
+            run(&mut core, t0, 1.0);
+            assert!(
+                (core.position(6) - stop).abs() < 1e-5,
+                "{x3} {x4}: {}",
+                core.position(6)
+            );
+        }
+    }
+
+    #[test]
+    fn the_service_plan_is_the_sides_topics_at_the_configured_rate() {
+        let plan = Dex5Core::plan(&Dex5EmuConfig::new(Side::Left)).unwrap();
+        assert_eq!(
+            (plan.cmd_topic.as_str(), plan.state_topic.as_deref()),
+            ("rt/dex5/left/cmd", Some("rt/dex5/left/state"))
+        );
+        assert_eq!((plan.rate, plan.extra), (Hz(crate::dex5::SERVICE_HZ), None));
+        let private = Dex5EmuConfig {
+            rate: Hz(250.0),
+            topics: Some(("a/cmd".into(), "a/state".into())),
+            ..Dex5EmuConfig::new(Side::Right)
+        };
+        let plan = Dex5Core::plan(&private).unwrap();
+        assert_eq!(
+            (plan.cmd_topic.as_str(), plan.state_topic.as_deref(), plan.rate),
+            ("a/cmd", Some("a/state"), Hz(250.0))
+        );
+        assert!(Dex5Core::plan(&Dex5EmuConfig::new(Side::Center)).is_err());
+    }
+
+    #[test]
+    fn a_service_cycle_applies_the_commands_then_publishes_the_state() {
+        let t0 = Instant::now();
+        let mut core = Dex5Core::from_config(&quiet(Side::Left)).unwrap();
+        let good = cmd(&closed_wire(Side::Left), &Gains::default());
+        <Dex5Core as ServiceWire<Dex5Core>>::receive(&mut core, &HandCmd_::sdk_default(), t0);
+        <Dex5Core as ServiceWire<Dex5Core>>::receive(&mut core, &good, t0);
+        let tick = Tick {
+            now: t0 + Duration::from_millis(2),
+            dt: 0.002,
+            period: Duration::from_millis(2),
+        };
+        let s = <Dex5Core as ServiceWire<Dex5Core>>::cycle(&mut core, tick).unwrap();
+        assert_eq!(s.motor_state.len(), WIRE_LEN);
+        assert!(
+            s.motor_state.iter().all(|m| m.mode == MODE_ENABLED),
+            "the good command in force"
+        );
+        let published = Published { state: 7, extra: 0 };
+        let snap = core.report(published);
+        assert_eq!((snap.commands, snap.rejected, snap.states_published), (1, 1, 7));
     }
 
     #[test]

@@ -1,8 +1,8 @@
 //! Unitree Dex5-1 five-finger hand, reached over DDS as a client of the robot's hand service
-//! (docs/sources.md §7 "Dex5-1"): the protocol only, not yet a registered kind. The mapping
-//! table and the choices where the sources disagree ([`table`]), the DDS-client codec
-//! ([`adapter`]), the front codec a Dex5 client drives any device through ([`front`]) and the
-//! emulated hand's physics ([`emulator`]).
+//! (docs/sources.md §7 "Dex5-1"). The protocol: the mapping table and the choices where the
+//! sources disagree ([`table`]), the DDS-client codec ([`adapter`]), the front codec a Dex5
+//! client drives any device through ([`front`]) and the emulated hand service ([`emulator`]).
+//! The glue: its profile keys ([`config`]) and its registry entry ([`kind`]).
 //!
 //! The wire, as both public clients use it: unitree_hg `HandCmd_` on `rt/dex5/{side}/cmd`,
 //! `HandState_` on `rt/dex5/{side}/state`, one entry per URDF joint: **20 entries** for
@@ -12,8 +12,10 @@
 //! mode byte is `0x01` in xr_teleoperate's commands; q in the URDF's radians.
 
 pub mod adapter;
+pub mod config;
 pub mod emulator;
 pub mod front;
+pub mod kind;
 pub mod table;
 
 use crate::model::Side;
@@ -46,7 +48,7 @@ pub const MODE_DISABLED: u8 = 0x00;
 
 /// The service's loop and state rate handgate assumes, Hz: no source gives one; the G1's
 /// Dex3-1 service is assumed to run at this rate too (docs/profiles.md "Assumptions").
-pub const DEFAULT_HZ: f64 = 500.0;
+pub const SERVICE_HZ: f64 = 500.0;
 
 /// The service's (command, state) topics for `side`: `rt/dex5/{left,right}/{cmd,state}`
 /// (docs/sources.md §7). `None` for a side the hand does not have (center).

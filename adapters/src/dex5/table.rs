@@ -1,6 +1,6 @@
 //! Dex5-1 mapping (docs/sources.md §7 "Dex5-1"): wire entry ↔ canonical joint ↔ URDF joint ↔
 //! motor, signs, limits, the coupled joints, gains, and the choices handgate makes where the
-//! sources disagree or say nothing ([`Conventions`], each a profile key to come).
+//! sources disagree or say nothing ([`Conventions`]: the profile's `[devices.dex5]` keys).
 //!
 //! Entries (= canonical order, [`super::JOINTS`]): four per long finger, index, middle, ring,
 //! pinky (URDF `Roll_x1` spread, `Pitch_x2`, `Pitch_x3`, `Pitch_x4` flex, x = 2..5), then the
@@ -202,13 +202,15 @@ pub fn wire_limits(side: Side, i: usize) -> (f32, f32) {
     ((lo * s).min(hi * s), (lo * s).max(hi * s))
 }
 
+/// Whether entry `i` closes the hand (not a spread, not the thumb's yaw).
+pub fn closes(i: usize) -> bool {
+    matches!(SLOTS[i].role, Role::Opposition | Role::Flex)
+}
+
 /// The wire direction of entry `i` closing on an object on `side`; `None` for the spreads and
 /// the thumb's yaw, which close nothing.
 pub fn closing_dir(side: Side, i: usize) -> Option<f32> {
-    match SLOTS[i].role {
-        Role::Spread | Role::Yaw => None,
-        Role::Opposition | Role::Flex => Some(wire_sign(side, i)),
-    }
+    closes(i).then(|| wire_sign(side, i))
 }
 
 /// Which URDF's joint names `rt/joint_states` uses. The two files differ in one name: the
@@ -222,6 +224,16 @@ pub enum UrdfNames {
     UnitreeRos,
     /// unitreerobotics/xr_teleoperate `assets/unitree_hand_Dex5`.
     XrTeleoperate,
+}
+
+impl UrdfNames {
+    /// The profile value.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            UrdfNames::UnitreeRos => "unitree_ros",
+            UrdfNames::XrTeleoperate => "xr_teleoperate",
+        }
+    }
 }
 
 /// The URDF joint name of entry `i` on `side`.
@@ -287,6 +299,16 @@ pub enum GainSource {
     UnitreeDdsWrapper,
 }
 
+impl GainSource {
+    /// The profile value.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            GainSource::XrTeleoperate => "xr_teleoperate",
+            GainSource::UnitreeDdsWrapper => "unitree_dds_wrapper",
+        }
+    }
+}
+
 /// Wire gains per entry: what a canonical (relative) gain of 1.0 becomes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gains {
@@ -338,7 +360,7 @@ impl Default for Gains {
 }
 
 /// Where the sources disagree or are silent, which way handgate goes (docs/profiles.md
-/// "Assumptions"; each a profile key once the kind is registered).
+/// "Assumptions"): a device's `[devices.dex5]` section, one key per field.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Conventions {
@@ -361,14 +383,16 @@ impl Default for Conventions {
 }
 
 impl Conventions {
-    /// `Err` with a reason for a coupling that is not finite, not positive or above
-    /// [`MAX_COUPLING`].
+    /// `Err` with a reason (for the key `coupling`) for a coupling that is not finite, not
+    /// positive or above [`MAX_COUPLING`].
     pub fn validate(&self) -> Result<(), String> {
         let k = self.coupling;
         if k.is_finite() && k > 0.0 && k <= MAX_COUPLING {
             Ok(())
         } else {
-            Err(format!("coupling must be above 0 and at most {MAX_COUPLING}, got {k}"))
+            Err(format!(
+                "must be above 0 and at most {MAX_COUPLING} (rad of each Pitch_x4 per rad of its Pitch_x3), got {k}"
+            ))
         }
     }
 }
@@ -440,9 +464,8 @@ pub fn rest_posture(coupling: f32) -> [f32; WIRE_LEN] {
 }
 
 /// The Dex5-1 table for `side` under `conventions` (its URDF names, the coupling of its
-/// postures). `kind` is the registered Dex5 kind's handle (the table records it for
-/// messages).
-pub fn table(kind: DeviceKind, side: Side, conventions: &Conventions) -> DeviceTable {
+/// postures).
+pub fn table(side: Side, conventions: &Conventions) -> DeviceTable {
     let joints = (0..WIRE_LEN)
         .map(|i| JointMap {
             name: JOINTS[i],
@@ -455,7 +478,7 @@ pub fn table(kind: DeviceKind, side: Side, conventions: &Conventions) -> DeviceT
         })
         .collect();
     DeviceTable {
-        kind,
+        kind: DeviceKind::Dex5,
         side,
         joints,
         closure: ClosureMap::Postures {
@@ -478,10 +501,9 @@ pub fn table(kind: DeviceKind, side: Side, conventions: &Conventions) -> DeviceT
 pub(crate) mod tests {
     use super::*;
 
-    /// The Dex5 kind is registered later; until then the tests give the table another kind's
-    /// handle, which only error messages read.
+    /// The default Dex5 table for `side`.
     pub(crate) fn t(side: Side) -> DeviceTable {
-        table(DeviceKind::all()[0], side, &Conventions::default())
+        table(side, &Conventions::default())
     }
 
     /// unitree_dds_wrapper 2.0.9's joint → motor map (`JOINT2URDF_INDEX`), listed as it lists
@@ -656,6 +678,12 @@ pub(crate) mod tests {
                 coupling: COUPLING,
             }
         );
+        for g in [GainSource::XrTeleoperate, GainSource::UnitreeDdsWrapper] {
+            assert_eq!(serde_json::to_string(&g).unwrap(), format!("\"{}\"", g.as_str()));
+        }
+        for u in [UrdfNames::UnitreeRos, UrdfNames::XrTeleoperate] {
+            assert_eq!(serde_json::to_string(&u).unwrap(), format!("\"{}\"", u.as_str()));
+        }
         let d: Conventions = serde_json::from_str("{}").unwrap();
         assert_eq!(d, Conventions::default());
         assert!(d.validate().is_ok());
@@ -671,7 +699,7 @@ pub(crate) mod tests {
             coupling: 1.0,
             ..d
         };
-        let t = table(DeviceKind::all()[0], Side::Left, &c);
+        let t = table(Side::Left, &c);
         assert_eq!(t.joints[8].urdf, "Roll_41L");
         let ClosureMap::Postures { closed, .. } = &t.closure else {
             panic!("{:?}", t.closure)
