@@ -720,6 +720,7 @@ pub(crate) mod tests {
                     let cmd = got.iter().find(|g| g.2 == Role::Writer).unwrap();
                     let want = match kind {
                         "inspire_ftp" => t::<inspire::InspireHandCtrl>(),
+                        "dex5" => t::<unitree_hg::HandCmd_>(),
                         _ => t::<unitree_go::MotorCmds_>(),
                     };
                     assert_eq!(cmd.1, want, "{}", d.name);
