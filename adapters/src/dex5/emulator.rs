@@ -16,7 +16,8 @@
 //!   [`Dex5Tuning::time_constant_s`] at the configured nominal gains ([`Dex5EmuConfig::wire`],
 //!   xr_teleoperate's by default) and shorter in proportion to a stiffer kp (a wrapper
 //!   client's finger gain, a fifth of xr_teleoperate's, moves five times slower), at most the
-//!   URDF's joint velocity, within the URDF's range; the state's tau_est is the PD law's
+//!   URDF's joint velocity, within the URDF's ranges (a `Pitch_x3`'s motor also within what
+//!   its coupled `Pitch_x4` can follow); the state's tau_est is the PD law's
 //!   torque `kp·(q* − q) + kd·(dq* − dq) + tau`, saturated at the URDF's effort;
 //! - a coupled `Pitch_x4` reads its motor's position through the coupling; the
 //!   entry's own command is ignored (its driver's entry moves the motor);
@@ -183,7 +184,7 @@ impl Dex5Core {
         let side = config.side;
         let motors = std::array::from_fn(|m| {
             let driver = table::motor_driver(m).unwrap_or(0);
-            let (lo, hi) = table::wire_limits(side, driver);
+            let (lo, hi) = table::motor_limits(side, driver, config.wire.coupling);
             MotorView {
                 driver,
                 q: config.initial[driver].clamp(lo, hi),
@@ -278,7 +279,7 @@ impl Dex5Core {
                 continue;
             }
             let i = m.driver;
-            let (lo, hi) = table::wire_limits(self.side, i);
+            let (lo, hi) = table::motor_limits(self.side, i, self.wire.coupling);
             let goal = c.q.clamp(lo, hi);
             let tc = self.tuning.time_constant_s * self.wire.gains.kp[i] / c.kp;
             let vmax = VELOCITY[i] * dt;

@@ -202,6 +202,20 @@ pub fn wire_limits(side: Side, i: usize) -> (f32, f32) {
     ((lo * s).min(hi * s), (lo * s).max(hi * s))
 }
 
+/// Wire limits (rad) of the motor entry `i` drives on `side`: its own, narrowed for a
+/// `Pitch_x3` to where its coupled `Pitch_x4` (at `coupling` times its angle) stays in its
+/// range; one motor moves both, so it stops when either joint does.
+pub fn motor_limits(side: Side, i: usize, coupling: f32) -> (f32, f32) {
+    let (lo, hi) = wire_limits(side, i);
+    match (i + 1 < WIRE_LEN && is_coupled(i + 1), coupling > 0.0) {
+        (true, true) => {
+            let (clo, chi) = wire_limits(side, i + 1);
+            (lo.max(clo / coupling), hi.min(chi / coupling))
+        }
+        _ => (lo, hi),
+    }
+}
+
 /// Whether entry `i` closes the hand (not a spread, not the thumb's yaw).
 pub fn closes(i: usize) -> bool {
     matches!(SLOTS[i].role, Role::Opposition | Role::Flex)
@@ -433,16 +447,18 @@ pub fn open_posture() -> [f32; WIRE_LEN] {
     [0.0; WIRE_LEN]
 }
 
-/// [`CLOSED_SHARE`] of every flex joint's range (each coupled joint by `coupling`, within its
-/// limits), the thumb's roll at [`CLOSED_THUMB_ROLL`], spreads and yaw at 0.
+/// [`CLOSED_SHARE`] of every flex joint's motor range ([`motor_limits`]: a `Pitch_x3` no
+/// further than its coupled `Pitch_x4` can follow), each coupled joint by `coupling`, the
+/// thumb's roll at [`CLOSED_THUMB_ROLL`], spreads and yaw at 0.
 pub fn closed_posture(coupling: f32) -> [f32; WIRE_LEN] {
     let mut p = [0.0; WIRE_LEN];
     for i in 0..WIRE_LEN {
         p[i] = match SLOTS[i].role {
             Role::Spread | Role::Yaw => 0.0,
             Role::Opposition => CLOSED_THUMB_ROLL,
-            Role::Flex if is_coupled(i) => (p[i - 1] * coupling).min(LIMITS[i].1),
-            Role::Flex => CLOSED_SHARE * LIMITS[i].1,
+            Role::Flex if is_coupled(i) => p[i - 1] * coupling,
+            // The flex joints' canonical and wire ranges are the same on both hands.
+            Role::Flex => CLOSED_SHARE * motor_limits(Side::Right, i, coupling).1,
         };
     }
     p
@@ -612,11 +628,17 @@ pub(crate) mod tests {
         let closed = closed_posture(COUPLING);
         let rest = rest_posture(COUPLING);
         for i in [3, 7, 11, 15] {
-            assert_eq!(
-                closed_posture(MAX_COUPLING)[i],
-                LIMITS[i].1,
-                "a stiffer coupling stops at the limit"
+            let stiff = closed_posture(MAX_COUPLING);
+            assert!(
+                (stiff[i] - CLOSED_SHARE * LIMITS[i].1).abs() < 1e-6 && stiff[i - 1] < closed[i - 1],
+                "a stiffer coupling closes the distal joint as far, the middle one less"
             );
+            assert_eq!(
+                motor_limits(Side::Left, i - 1, MAX_COUPLING).1,
+                LIMITS[i].1 / MAX_COUPLING
+            );
+            assert!((motor_limits(Side::Left, i - 1, COUPLING).1 - LIMITS[i - 1].1).abs() < 1e-6);
+            assert_eq!(motor_limits(Side::Left, i, COUPLING), wire_limits(Side::Left, i));
             assert!((closed[i] - COUPLING * closed[i - 1]).abs() < 1e-6);
             assert!(
                 (closed[i] - CLOSED_SHARE * LIMITS[i].1).abs() < 1e-4,
