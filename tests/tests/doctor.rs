@@ -1,6 +1,6 @@
 //! `handgate doctor` through the real binary, against clients made with the official
-//! unitree_sdk2py (`tests/python/doctor_client.py`). DDS domains 140–149
-//! (docs/development.md); every domain scan stays inside them.
+//! unitree_sdk2py (`tests/python/doctor_client.py`). DDS domains 140–149 and 83
+//! (docs/development.md); every domain scan stays inside 144–145.
 
 use std::time::Duration;
 
@@ -338,4 +338,100 @@ fn a_running_gateway_is_named_and_its_writers_are_not_foreign() {
     assert!(!out.contains("foreign writer"), "{out}");
     assert!(out.contains(&format!("(pid {})", c.id())), "{out}");
     assert_eq!(code, 0, "{out}");
+}
+
+/// A hand answering on `topic` with `entries`-entry `HandState_` samples every 10 ms (on lo,
+/// domain `domain`) until dropped: a test-side stand-in for another kind's service.
+struct HandStateWriter {
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl HandStateWriter {
+    fn start(domain: u32, topic: &str, entries: usize) -> Self {
+        use std::sync::atomic::{AtomicBool, Ordering};
+        let node = handgate_adapters::dds::Node::new(domain, Some("lo")).expect("DDS participant");
+        let mut w = node
+            .writer::<handgate_idl::unitree_hg::HandState_>(topic, handgate_adapters::dds::Qos::Reliable { depth: 1 })
+            .expect("writer");
+        let mut msg = handgate_idl::unitree_hg::HandState_::with_sizes(entries, 0);
+        msg.motor_state.iter_mut().for_each(|m| m.q = 0.1);
+        let stop = std::sync::Arc::new(AtomicBool::new(false));
+        let s = stop.clone();
+        let thread = std::thread::spawn(move || {
+            let _node = node;
+            while !s.load(Ordering::Relaxed) {
+                let _ = w.write(msg.clone());
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        });
+        Self {
+            stop,
+            thread: Some(thread),
+        }
+    }
+}
+
+impl Drop for HandStateWriter {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The doctor's lines about samples of another entry count on `topic`: the problem and its fix.
+fn entries_problem(out: &str, topic: &str) -> (String, String) {
+    let lines: Vec<&str> = out.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| l.contains("PROBLEM") && l.contains(&format!("sample(s) on {topic}")) && l.contains("entries"))
+        .unwrap_or_else(|| panic!("no entry-count problem on {topic}:\n{out}"));
+    (lines[at].to_string(), lines[at + 1].to_string())
+}
+
+/// A Dex5-1 answering on a Dex3-1's topics (20 entries where 7 are expected) is named as a
+/// hand of kind dex5 for a g1-dex3 profile; a Dex3-1 answering on the Dex5's topics (7
+/// where 20 are expected) as a hand of kind dex3 for a g1-dex5 profile. Domain 83.
+#[test]
+fn another_hand_on_a_hands_topics_is_named_by_its_entry_count() {
+    let args = |profile: &'static str| {
+        [
+            "--profile",
+            profile,
+            "--domain",
+            "83",
+            "--interface",
+            "lo",
+            "--no-scan",
+            "--no-sweep",
+        ]
+    };
+    let dex5 = HandStateWriter::start(83, "rt/dex3/left/state", 20);
+    let (code, out) = doctor(&args("g1-dex3"));
+    assert_eq!(code, 1, "{out}");
+    let (what, fix) = entries_problem(&out, "rt/dex3/left/state");
+    assert!(
+        what.contains("(device left_hand) carry 20 entries of HandState_ where 7 are expected"),
+        "{out}"
+    );
+    assert!(
+        fix.contains("fix: a hand of kind dex5 carries 20: set that kind for device left_hand"),
+        "{out}"
+    );
+    drop(dex5);
+
+    let _dex3 = HandStateWriter::start(83, "rt/dex5/left/state", 7);
+    let (code, out) = doctor(&args("g1-dex5"));
+    assert_eq!(code, 1, "{out}");
+    let (what, fix) = entries_problem(&out, "rt/dex5/left/state");
+    assert!(
+        what.contains("(device left_hand) carry 7 entries of HandState_ where 20 are expected"),
+        "{out}"
+    );
+    assert!(
+        fix.contains("fix: a hand of kind dex3 carries 7: set that kind for device left_hand"),
+        "{out}"
+    );
 }

@@ -1,6 +1,6 @@
 //! `handgate emulate <kind>` for every kind (docs/adapters.md, "Emulators"): each emulator runs
 //! as a process of its own where the hardware or the robot's service would be, so a profile
-//! written for a robot runs off-robot against it, on any domain. Domains 190-196.
+//! written for a robot runs off-robot against it, on any domain. Domains 190-197.
 
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
@@ -56,6 +56,20 @@ fn g1_dex3_profile_runs_against_two_emulated_hand_services() {
     assert!(left.line.contains("rt/dex3/left/cmd"), "{}", left.line);
     let _gw = Gateway::start(190, &["--profile", "g1-dex3"]);
     wait_status(190, &["left_hand", "right_hand"], hg::FRESH);
+}
+
+#[test]
+fn g1_dex5_profile_runs_against_two_emulated_hand_services() {
+    let _g = serial();
+    let left = Emulator::start(&["dex5", "--side", "left", "--domain", "197"]);
+    let _right = Emulator::start(&["dex5", "--side", "right", "--domain", "197"]);
+    assert!(
+        left.line.contains("rt/dex5/left/cmd") && left.line.contains("rt/dex5/left/state"),
+        "{}",
+        left.line
+    );
+    let _gw = Gateway::start(197, &["--profile", "g1-dex5"]);
+    wait_status(197, &["left_hand", "right_hand"], hg::FRESH);
 }
 
 #[test]
