@@ -92,16 +92,14 @@ fn every_kind_of_sim_all_is_fresh_and_every_front_publishes() {
     let b = bc.next(DEADLINE).expect("rt/brainco/left/state");
     assert_eq!(b.states.len(), 6);
 
-    // The JointState topics together carry every joint of every device, each name once per
-    // topic (the Inspire FTP and EZGripper pairs share URDF names with the Inspire DFX and
-    // Dex1 pairs: they publish on their own topics; the Dex5-1 pair, a second robot's hands,
-    // on its own too).
+    // The three JointState topics together carry every joint of every device, each name
+    // once per topic (the Inspire FTP and EZGripper pairs share URDF names with the Inspire
+    // DFX and Dex1 pairs: they publish on their own topics).
     let mut joints = 0;
     for topic in [
         "rt/joint_states",
         "rt/inspire_ftp/joint_states",
         "rt/ezgripper/joint_states",
-        "rt/dex5/joint_states",
     ] {
         let mut js = Latest::<ros2::JointState_>::new(&n, topic, Qos::BestEffort);
         let j = js.next(DEADLINE).unwrap_or_else(|| panic!("{topic}"));
