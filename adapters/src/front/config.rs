@@ -493,3 +493,73 @@ impl FrontTopics {
         self.first(TopicRole::LowFrequencyState)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(toml: &str) -> ConfigValue {
+        use figment::providers::{Format, Toml};
+        figment::Figment::from(Toml::string(toml)).extract().unwrap()
+    }
+
+    #[test]
+    fn the_keys_are_the_structs_fields() {
+        assert_eq!(
+            common_keys(),
+            [
+                "kind",
+                "name",
+                "device",
+                "devices",
+                "state_hz",
+                "silence",
+                "control",
+                "watchdog_ms"
+            ]
+        );
+        assert_eq!(fields_of::<SideTopics>(), ["side", "cmd_topic", "state_topic"]);
+        assert_eq!(fields_of::<Side>(), [] as [&str; 0], "not a struct");
+    }
+
+    #[test]
+    fn a_key_of_another_kind_is_kept_as_misplaced_and_an_unknown_one_refused() {
+        let f = FrontConfig::from_value(&table("kind = \"canonical\"\nside = \"left\"\nvariant = \"hg\"")).unwrap();
+        assert_eq!(f.kind(), FrontKind::Canonical);
+        let got: Vec<(Vec<String>, &str)> = f
+            .misplaced
+            .iter()
+            .map(|p| (p.key.clone(), p.message.as_str()))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                (
+                    vec!["side".to_string()],
+                    "only dex3, dex1, inspire_dfx, brainco and inspire_ftp fronts take `side`, this is a canonical front"
+                ),
+                (vec!["variant".to_string()], "only dex1 fronts take `variant`, this is a canonical front")
+            ]
+        );
+        // Without the misplaced keys, what the canonical kind makes of the rest.
+        assert_eq!(f.own, FrontOwn::of(FrontKind::Canonical));
+
+        let e = FrontConfig::from_value(&table("kind = \"dex3\"\nlf_topic = \"x\"")).unwrap_err();
+        assert_eq!(e.path, ["lf_topic"]);
+        assert!(
+            e.to_string()
+                .contains("cmd_topic, state_topic, lf_state_topic, lf_state_hz"),
+            "{e}"
+        );
+        // A bad value of the kind's own key keeps its path.
+        let e = FrontConfig::from_value(&table("kind = \"dex3\"\nlf_state_hz = \"fast\"")).unwrap_err();
+        assert_eq!(e.path, ["lf_state_hz"]);
+    }
+
+    #[test]
+    fn and_lists_read_as_prose() {
+        assert_eq!(and_list(&["a"]), "a");
+        assert_eq!(and_list(&["a", "b"]), "a and b");
+        assert_eq!(and_list(&["a", "b", "c"]), "a, b and c");
+    }
+}

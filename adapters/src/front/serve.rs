@@ -296,3 +296,36 @@ pub fn open(env: &FrontEnv, f: &FrontPlan, tx: Queue, dropped: Arc<AtomicU64>) -
 pub fn routed(route: &Route, c: FrontCommand) -> Routed {
     (route.command(&c.joints), c.tag, c.timeout_bit)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A wire side reading `u32`s: each decodes to nothing but counts as read.
+    struct Counting(std::sync::atomic::AtomicUsize);
+
+    impl TypedIo for Counting {
+        type Msg = u32;
+        fn decode(&self, _bound: &[Bound<'_>], _msg: &u32) -> Result<Vec<(usize, Routed)>, Rejection> {
+            self.0.fetch_add(1, Ordering::Relaxed);
+            Ok(Vec::new())
+        }
+        fn publish(&mut self, _bound: &[Bound<'_>], _lf: bool) {}
+    }
+
+    #[test]
+    fn the_erased_front_decodes_its_own_type_and_counts_another_as_a_rejection() {
+        let (tx, _rx) = mpsc::channel(1);
+        let Endpoints::Commands(io) = commands(tx, Arc::default(), |_inbox: Inbox<u32>| {
+            Ok(Counting(Default::default()))
+        })
+        .unwrap() else {
+            panic!("a front taking commands");
+        };
+        assert_eq!(io.decode(&[], &(Box::new(7u32) as Message)), Ok(Vec::new()));
+        let other = io.decode(&[], &(Box::new("seven") as Message)).unwrap_err();
+        assert_eq!(other, Rejection::WrongType("u32"));
+        assert_eq!(other.reason(), "wrong_type");
+        assert_eq!(io.lf_hz(), 0.0);
+    }
+}

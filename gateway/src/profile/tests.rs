@@ -365,6 +365,24 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "fronts[0].devices",
         "list at least one device",
     ),
+    (
+        "unknown front key",
+        "[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\ncmd_topc = \"rt/x\"\n",
+        "fronts[0].cmd_topc",
+        "unknown key (expected one of: kind, name, device, devices, state_hz, silence, control, watchdog_ms, cmd_topic, state_topic)",
+    ),
+    (
+        "topic key of another front kind",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\ncmd_topic = \"rt/x/cmd\"\n",
+        "fronts[0].cmd_topic",
+        "only dex3, dex1, inspire_dfx, brainco, inspire_ftp and canonical fronts take `cmd_topic`, this is a joint_state front",
+    ),
+    (
+        "front topic not a topic name",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"inspire_ftp\"\ndevice = \"g\"\ntouch_topic = \"rt/a b\"\n",
+        "fronts[0].touch_topic",
+        "not a topic name",
+    ),
     ("status rate", "[status]\nrate_hz = 50\n", "status.rate_hz", "at most 10 Hz"),
     ("bad topic", "[status]\ntopic = \"rt/a b\"\n", "status.topic", "not a topic name"),
 ];
@@ -942,6 +960,38 @@ fn front_defaults_follow_kind_side_and_device_rate() {
     assert_eq!((t.cmd(), t.state()), (None, Some(&Topic::new("rt/joint_states"))));
 }
 
+/// A front's table as it serializes reads back as the same front: its common keys and its
+/// kind's own, in one flat table.
+#[test]
+fn a_front_table_round_trips_through_its_kinds_keys() {
+    let (_, r) = load_text(&format!(
+        "{DEX3}[[fronts]]\nkind = \"dex3\"\ndevice = \"l\"\nname = \"x\"\nside = \"right\"\nlf_state_hz = 20\nsilence = \"watchdog\"\nstate_hz = 100\n"
+    ));
+    let f = r.unwrap().profile.fronts[0].clone();
+    let v = f.to_value().unwrap();
+    let keys: Vec<String> = v
+        .deserialize::<std::collections::BTreeMap<String, figment::value::Value>>()
+        .unwrap()
+        .into_keys()
+        .collect();
+    assert_eq!(
+        keys,
+        [
+            "control",
+            "device",
+            "kind",
+            "lf_state_hz",
+            "name",
+            "side",
+            "silence",
+            "state_hz"
+        ]
+    );
+    assert_eq!(FrontConfig::from_value(&v).unwrap(), f);
+    assert_eq!(f.side(), Some(Side::Right));
+    assert_eq!(f.lf_state_hz(), Some(20.0));
+}
+
 #[test]
 fn device_rate_defaults_per_kind() {
     let rate = |kind, backend| {
@@ -1286,6 +1336,12 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
     };
     let pair = "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"h\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\nvariant = \"actuator\"\n";
     let js = |extra: &str| format!("{}[[fronts]]\nkind = \"joint_state\"\n{extra}\n", dex3("emulator", ""));
+    let ftp_front = |extra: &str| {
+        format!(
+            "{}[[fronts]]\nkind = \"inspire_ftp\"\ndevice = \"d\"\n{extra}\n",
+            dex3("emulator", "")
+        )
+    };
     let canonical = |extra: &str| {
         format!(
             "{}[[fronts]]\nkind = \"canonical\"\ndevice = \"d\"\n",
@@ -1621,6 +1677,11 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
         ),
         ("fronts.topic", js(""), js("topic = \"rt/x/joints\"")),
         ("fronts.urdf_names", js(""), js("urdf_names = false")),
+        (
+            "fronts.touch_topic",
+            ftp_front(""),
+            ftp_front("touch_topic = \"rt/x/touch\""),
+        ),
     ];
     let documented = documented_device_and_front_keys();
     assert!(
