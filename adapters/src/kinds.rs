@@ -13,6 +13,7 @@ pub const KINDS: &[DeviceKind] = &[
     DeviceKind::InspireDfx,
     DeviceKind::Brainco,
     DeviceKind::InspireFtp,
+    DeviceKind::Dex5,
 ];
 
 #[cfg(test)]

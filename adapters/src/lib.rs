@@ -10,6 +10,7 @@ pub mod dds_device;
 pub mod device;
 pub mod dex1;
 pub mod dex3;
+pub mod dex5;
 pub mod discovery;
 pub mod emu_common;
 pub mod ezgripper;

@@ -562,7 +562,7 @@ pub(crate) mod tests {
         for f in &plan.fronts {
             let got = of(&all, &Owner::Front(f.name.clone()));
             let (cmd, state): (Option<String>, String) = match f.kind().as_str() {
-                "dex3" => (Some(t::<unitree_hg::HandCmd_>()), t::<unitree_hg::HandState_>()),
+                "dex3" | "dex5" => (Some(t::<unitree_hg::HandCmd_>()), t::<unitree_hg::HandState_>()),
                 "dex1" | "inspire_dfx" | "brainco" => {
                     (Some(t::<unitree_go::MotorCmds_>()), t::<unitree_go::MotorStates_>())
                 }
@@ -732,6 +732,7 @@ pub(crate) mod tests {
                     let cmd = got.iter().find(|g| g.2 == Role::Writer).unwrap();
                     let want = match kind {
                         "inspire_ftp" => t::<inspire::InspireHandCtrl>(),
+                        "dex5" => t::<unitree_hg::HandCmd_>(),
                         _ => t::<unitree_go::MotorCmds_>(),
                     };
                     assert_eq!(cmd.1, want, "{}", d.name);

@@ -78,9 +78,9 @@ const BAD: &[(&str, &str, &str, &str)] = &[
     ),
     (
         "unknown enum value",
-        "[[devices]]\nname = \"l\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"emulator\"\n",
+        "[[devices]]\nname = \"l\"\nkind = \"dex9\"\nside = \"left\"\nbackend = \"emulator\"\n",
         "devices[0].kind",
-        "dex5",
+        "dex9",
     ),
     (
         "missing required key",
@@ -375,13 +375,37 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "topic key of another front kind",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\ncmd_topic = \"rt/x/cmd\"\n",
         "fronts[0].cmd_topic",
-        "only dex3, dex1, inspire_dfx, brainco, inspire_ftp and canonical fronts take `cmd_topic`, this is a joint_state front",
+        "only dex3, dex1, inspire_dfx, brainco, inspire_ftp, dex5 and canonical fronts take `cmd_topic`, this is a joint_state front",
     ),
     (
         "front topic not a topic name",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"inspire_ftp\"\ndevice = \"g\"\ntouch_topic = \"rt/a b\"\n",
         "fronts[0].touch_topic",
         "not a topic name",
+    ),
+    (
+        "an object on a joint that closes nothing",
+        "[[devices]]\nname = \"h\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nobject_at = { index_0 = 0.1 }\n",
+        "devices[0].emulator.object_at.index_0",
+        "closes nothing",
+    ),
+    (
+        "a start position for a joint without a motor",
+        "[[devices]]\nname = \"h\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\ninitial = { ring_3 = 0.1 }\n",
+        "devices[0].emulator.initial.ring_3",
+        "set ring_2",
+    ),
+    (
+        "a coupling out of range",
+        "[[devices]]\nname = \"h\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"dds\"\n[devices.dex5]\ncoupling = 3.0\n",
+        "devices[0].dex5.coupling",
+        "at most 2",
+    ),
+    (
+        "a dex5 convention with no such value",
+        "[[devices]]\nname = \"h\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"dds\"\n[devices.dex5]\ngains = \"mine\"\n",
+        "devices[0].dex5.gains",
+        "xr_teleoperate",
     ),
     ("status rate", "[status]\nrate_hz = 50\n", "status.rate_hz", "at most 10 Hz"),
     ("bad topic", "[status]\ntopic = \"rt/a b\"\n", "status.topic", "not a topic name"),
@@ -1267,7 +1291,12 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
             .into_iter()
             .find(|s| f.check_side(*s).is_ok())
             .unwrap();
-        let joint = kind.joint_names()[0];
+        // A Dex5's first joint is a spread, which closes nothing: no object can stop it (its
+        // emulator refuses one there), so its keys go on a flex joint.
+        let joint = match kind.as_str() {
+            "dex5" => "index_1",
+            _ => kind.joint_names()[0],
+        };
         let (lo, hi) = f.hardware_range(side, joint).unwrap();
         let at = |frac: f64| lo + frac * (hi - lo);
         let device = |extra: &str| one_device(kind.as_str(), side.as_str(), "emulator", extra);
@@ -1322,6 +1351,7 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
     let sdk = |extra: &str| one_device("hand_sdk", "center", "dds", extra);
     let dfx = |extra: &str| one_device("inspire_dfx", "left", "dds", extra);
     let ftp = |extra: &str| one_device("inspire_ftp", "left", "dds", extra);
+    let dex5 = |backend: &str, extra: &str| one_device("dex5", "left", backend, extra);
     let front = |extra: &str| {
         format!(
             "{}[[fronts]]\nkind = \"dex3\"\ndevice = \"d\"\n{extra}\n",
@@ -1523,6 +1553,36 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "devices.dds.speed",
             one_device("brainco", "left", "dds", ""),
             one_device("brainco", "left", "dds", "[devices.dds]\nspeed = 0.5"),
+        ),
+        (
+            "devices.dex5.gains",
+            dex5("dds", ""),
+            dex5("dds", "[devices.dex5]\ngains = \"unitree_dds_wrapper\""),
+        ),
+        (
+            "devices.dex5.command_layout",
+            dex5("emulator", ""),
+            dex5("emulator", "[devices.dex5]\ncommand_layout = \"motors\""),
+        ),
+        (
+            "devices.dex5.urdf_names",
+            dex5("dds", ""),
+            dex5("dds", "[devices.dex5]\nurdf_names = \"xr_teleoperate\""),
+        ),
+        (
+            "devices.dex5.coupling",
+            dex5("emulator", ""),
+            dex5("emulator", "[devices.dex5]\ncoupling = 1.0"),
+        ),
+        (
+            "devices.dds.cmd_topic",
+            dex5("dds", ""),
+            dex5("dds", "[devices.dds]\ncmd_topic = \"rt/x/cmd\""),
+        ),
+        (
+            "devices.closure.closed",
+            dex5("emulator", ""),
+            dex5("emulator", "closure = { closed = { index_1 = 1.0 } }"),
         ),
         (
             "devices.hand_sdk.topic",

@@ -1,0 +1,263 @@
+//! The Dex5-1 as a registered device kind: its facts, and how a hand opens: a client of the
+//! robot's Dex5 hand service over DDS, or on the emulator backend of the emulated service on
+//! private topics, through the very same codec (`crate::service_client`).
+
+use super::adapter::Dex5Codec;
+use super::config::Dex5Profile;
+use super::emulator::{Dex5EmuConfig, Dex5Emulator, DEX5_NOISE};
+use super::table::{self, WireConfig};
+use super::{JOINTS, SERVICE_HZ};
+use crate::device::{Backend, DeviceError, HandDevice};
+use crate::emu_common::Hz;
+use crate::kind::{DeviceCtx, DeviceKind, EmulateArgs, Emulation, Kind, KindFacts, Problem, Rates, SectionSpec, Sides};
+use crate::mapping::DeviceTable;
+use crate::model::Side;
+use crate::open::{DeviceSpec, EmulatorSection, OpenEnv};
+use crate::service_client::{emulate_service, ClientOpen};
+
+impl DeviceKind {
+    /// Unitree Dex5-1 hand, 20 joints (through the robot's hand service over DDS).
+    #[allow(non_upper_case_globals)]
+    pub const Dex5: DeviceKind = DeviceKind::of(&Dex5Kind);
+}
+
+/// The Dex5-1.
+#[derive(Debug, Clone, Copy)]
+pub struct Dex5Kind;
+
+/// What a Dex5 hand opens with: a client with the profile's gains, command layout and
+/// coupling (and on the emulator backend, the emulated service).
+pub type Dex5Open = ClientOpen<WireConfig, Dex5EmuConfig>;
+
+impl Kind for Dex5Kind {
+    const FACTS: KindFacts = KindFacts {
+        // The hand service's own interface (`rt/dex5/{side}/*`): `super::serve`.
+        fronts: &[crate::front::kind::FrontKind::Dex5],
+        sides: Sides::LeftOrRight { note: "" },
+        sections: &[
+            SectionSpec {
+                key: "dds",
+                backends: &[Backend::Dds],
+            },
+            SectionSpec {
+                key: "dex5",
+                backends: &[Backend::Dds, Backend::Emulator],
+            },
+        ],
+        closure_postures_configurable: true,
+        // The service's loop (an assumption, docs/profiles.md); the emulated service runs at
+        // the device's.
+        ..KindFacts::new(
+            "dex5",
+            &JOINTS,
+            &[Backend::Dds, Backend::Emulator],
+            Rates::fixed(SERVICE_HZ),
+        )
+    };
+    type Config = Dex5Profile;
+    type Open = Dex5Open;
+    type Emulate = ();
+
+    fn table(&self, side: Side, config: &Dex5Profile) -> DeviceTable {
+        table::table(side, &config.conventions())
+    }
+
+    fn configure(&self, spec: &DeviceSpec<'_, Dex5Profile>) -> Result<Dex5Open, DeviceError> {
+        let missing = "a dex5 hand is left or right (or names dds.cmd_topic and dds.state_topic)";
+        let wire = spec.config.wire();
+        ClientOpen::of(spec, spec.config.topics(spec.side), missing, wire, |cmd, state| {
+            let mut peer = Dex5EmuConfig {
+                wire,
+                rate: Hz(spec.rate_hz),
+                topics: Some((cmd, state)),
+                noise: spec.emulator.noise_for(spec.name, DEX5_NOISE),
+                ..Dex5EmuConfig::new(spec.side)
+            };
+            for (i, joint) in JOINTS.iter().enumerate() {
+                peer.initial[i] = spec.initial_wire(joint, peer.initial[i]);
+                peer.object_at[i] = spec.object_wire(joint);
+            }
+            peer
+        })
+    }
+
+    fn served(&self, open: &Dex5Open) -> Vec<crate::discovery::diagnose::Served> {
+        open.config.served::<Dex5Codec>()
+    }
+
+    fn open(
+        &self,
+        open: Dex5Open,
+        spec: &DeviceSpec<'_, Dex5Profile>,
+        env: &mut OpenEnv<'_>,
+    ) -> Result<Box<dyn HandDevice>, DeviceError> {
+        let codec = Dex5Codec::new(open.codec);
+        open.start(codec, spec, env, Dex5Emulator::start)
+    }
+
+    /// `handgate emulate dex5 --side left|right`: one hand's service on DDS, with the default
+    /// conventions (xr_teleoperate's commands).
+    fn emulate(&self, args: &EmulateArgs, _options: ()) -> Result<(String, Emulation), DeviceError> {
+        let side = args.side("dex5")?;
+        let Some((cmd, state)) = super::topics(side) else {
+            return Err(DeviceError::Config("a dex5 hand is left or right".into()));
+        };
+        let cfg = Dex5EmuConfig {
+            noise: args.noise(DEX5_NOISE),
+            ..Dex5EmuConfig::new(side)
+        };
+        let what = format!(
+            "emulating the Dex5-1 hand service ({side} hand): {cmd}, {state} on DDS domain {}",
+            args.domain
+        );
+        Ok((what, emulate_service(args, |node| Dex5Emulator::start(node, cfg))?))
+    }
+
+    /// Positions the emulated hand cannot take: a coupled `Pitch_x4` has no motor of its own
+    /// (its position is its `Pitch_x3`'s through the coupling), and no object stops a joint
+    /// that closes nothing (the spreads, the thumb's yaw).
+    fn validate_emulator(&self, _ctx: &DeviceCtx<'_>, section: &EmulatorSection) -> Vec<Problem> {
+        let index = |joint: &String| JOINTS.iter().position(|j| j == joint);
+        let mut out = Vec::new();
+        for (joint, i) in section.initial.keys().filter_map(|j| Some((j, index(j)?))) {
+            if table::is_coupled(i) {
+                let driver = JOINTS[table::driver(i)];
+                out.push(Problem::new(
+                    &["emulator", "initial", joint],
+                    format!("has no effect on a dex5: {joint} has no motor of its own, it follows {driver} through the coupling (set {driver})"),
+                ));
+            }
+        }
+        for (joint, i) in section.object_at.keys().filter_map(|j| Some((j, index(j)?))) {
+            if !table::closes(i) {
+                out.push(Problem::new(
+                    &["emulator", "object_at", joint],
+                    format!("has no effect on a dex5: {joint} closes nothing (a spread or the thumb's yaw), so no object stops it"),
+                ));
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dex5::table::CommandLayout;
+    use crate::mapping::ClosureMap;
+    use std::sync::Arc;
+
+    fn spec_with<'a>(
+        backend: Backend,
+        table: &'a Arc<DeviceTable>,
+        emulator: &'a EmulatorSection,
+        config: &'a Dex5Profile,
+    ) -> DeviceSpec<'a, Dex5Profile> {
+        DeviceSpec {
+            name: "hand",
+            kind: DeviceKind::Dex5,
+            side: Side::Left,
+            backend,
+            rate_hz: 250.0,
+            stale_after: std::time::Duration::from_millis(200),
+            forward_on_arrival: true,
+            max_send_hz: None,
+            table,
+            emulator,
+            config,
+        }
+    }
+
+    #[test]
+    fn registered_with_its_facts() {
+        let k = DeviceKind::by_name("dex5").unwrap();
+        assert_eq!(k, DeviceKind::Dex5);
+        let f = k.factory();
+        assert_eq!(f.joints(), &JOINTS);
+        assert_eq!(f.backends(), &[Backend::Dds, Backend::Emulator]);
+        assert_eq!(f.default_rate_hz(Backend::Dds), Some(500.0));
+        assert_eq!(f.default_rate_hz(Backend::Emulator), Some(500.0));
+        assert!(f.check_side(Side::Center).is_err() && f.check_side(Side::Left).is_ok());
+        assert!(f.closure_postures_configurable() && !f.closure_is_torque());
+        assert!(f.fronts().is_empty() && f.pads().is_none());
+        assert_eq!(f.hardware_range(Side::Left, "thumb_1"), Some((0.0, 1.8151_f32 as f64)));
+        assert_eq!(f.hardware_range(Side::Center, "thumb_1"), None);
+    }
+
+    #[test]
+    fn the_conventions_reach_the_table_the_codec_and_the_emulated_service() {
+        let config = Dex5Profile {
+            dex5: Some(table::Conventions {
+                urdf_names: table::UrdfNames::XrTeleoperate,
+                command_layout: CommandLayout::Motors,
+                coupling: 1.0,
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        let t = Kind::table(&Dex5Kind, Side::Left, &config);
+        assert_eq!(t.joints[8].urdf, "Roll_41L");
+        let ClosureMap::Postures { closed, .. } = &t.closure else {
+            panic!("{:?}", t.closure)
+        };
+        assert_eq!(closed[3], closed[2].min(t.joints[3].limits.max));
+        let t = Arc::new(t);
+        let mut emulator = EmulatorSection::default();
+        emulator.initial.insert("index_2".into(), 0.4);
+        emulator.object_at.insert("thumb_1".into(), 0.7);
+        emulator.noise = Some(false);
+        let open = Dex5Kind
+            .configure(&spec_with(Backend::Emulator, &t, &emulator, &config))
+            .unwrap();
+        assert_eq!(open.codec.layout, CommandLayout::Motors);
+        let peer = open.peer.unwrap();
+        assert_eq!((peer.wire, peer.rate), (open.codec, Hz(250.0)));
+        assert_eq!(
+            peer.topics.as_ref().map(|t| t.0.as_str()),
+            Some(open.config.cmd_topic.as_str())
+        );
+        assert_eq!(peer.initial[2], 0.4);
+        assert_eq!(
+            peer.object_at[17],
+            Some(-0.7),
+            "the left thumb roll closes negative on the wire"
+        );
+        assert_eq!(peer.noise, crate::sim::Noise::OFF);
+        let open = Dex5Kind
+            .configure(&spec_with(Backend::Dds, &t, &emulator, &config))
+            .unwrap();
+        assert_eq!(open.config.cmd_topic, "rt/dex5/left/cmd");
+        assert!(open.peer.is_none());
+        let served = Kind::served(&Dex5Kind, &open);
+        assert_eq!(served.len(), 2);
+        assert!(served.iter().all(|s| s.entries == Some(20)), "{served:?}");
+    }
+
+    #[test]
+    fn the_emulator_refuses_positions_it_cannot_take() {
+        let ctx = DeviceCtx {
+            name: "hand",
+            side: Side::Right,
+            backend: Backend::Emulator,
+        };
+        let mut s = EmulatorSection::default();
+        for j in ["index_0", "index_2", "thumb_0"] {
+            s.initial.insert(j.into(), 0.1);
+        }
+        for j in ["index_3", "thumb_1", "thumb_2"] {
+            s.object_at.insert(j.into(), 0.5);
+        }
+        assert!(Kind::validate_emulator(&Dex5Kind, &ctx, &s).is_empty());
+        s.initial.insert("ring_3".into(), 0.1);
+        s.object_at.insert("pinky_0".into(), 0.1);
+        s.object_at.insert("thumb_0".into(), 0.1);
+        let p: Vec<String> = Kind::validate_emulator(&Dex5Kind, &ctx, &s)
+            .into_iter()
+            .map(|p| format!("{}: {}", p.key.join("."), p.message))
+            .collect();
+        assert_eq!(p.len(), 3, "{p:?}");
+        assert!(p[0].starts_with("emulator.initial.ring_3: has no effect") && p[0].contains("set ring_2"));
+        assert!(p[1].starts_with("emulator.object_at.pinky_0: has no effect"));
+        assert!(p[2].starts_with("emulator.object_at.thumb_0: has no effect"));
+    }
+}
