@@ -52,12 +52,12 @@ pub struct ServedBy {
 }
 
 /// Everything `plan` serves on DDS: each front's endpoints (its kind's
-/// [`handgate_adapters::front::kind::FrontFactory::served`]), then each device's as a client
+/// [`handgate_adapters::front::kind::Front::served`]), then each device's as a client
 /// of a robot service ([`handgate_adapters::kind::KindFactory::served`]; none for devices that
 /// reach their hardware without DDS). Plan order.
 pub fn served(plan: &Plan) -> Vec<ServedBy> {
     let fronts = plan.fronts.iter().flat_map(|f| {
-        f.kind.factory().served(f).into_iter().map(|served| ServedBy {
+        f.served().into_iter().map(|served| ServedBy {
             owner: Owner::Front(f.name.clone()),
             served,
         })
@@ -378,7 +378,9 @@ pub fn foreign_state_writers(snapshot: &Snapshot, served: &[ServedBy]) -> Vec<Ow
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use handgate_adapters::dex1::serve::Dex1Front;
     use handgate_adapters::discovery::Role;
+    use handgate_adapters::front::kind::FrontOwn;
     use handgate_idl::{handgate, inspire, ros2, unitree_go, unitree_hg, DdsTypeName};
 
     fn sim_all() -> Plan {
@@ -559,8 +561,8 @@ pub(crate) mod tests {
         let all = served(&plan);
         for f in &plan.fronts {
             let got = of(&all, &Owner::Front(f.name.clone()));
-            let (cmd, state): (Option<String>, String) = match f.kind.as_str() {
-                "dex3" => (Some(t::<unitree_hg::HandCmd_>()), t::<unitree_hg::HandState_>()),
+            let (cmd, state): (Option<String>, String) = match f.kind().as_str() {
+                "dex3" | "dex5" => (Some(t::<unitree_hg::HandCmd_>()), t::<unitree_hg::HandState_>()),
                 "dex1" | "inspire_dfx" | "brainco" => {
                     (Some(t::<unitree_go::MotorCmds_>()), t::<unitree_go::MotorStates_>())
                 }
@@ -571,20 +573,27 @@ pub(crate) mod tests {
             };
             match cmd {
                 Some(ty) => {
-                    let topic = f.cmd_topic.clone().expect("a commanded front has a command topic");
+                    let topic = f
+                        .cmd_topic()
+                        .expect("a commanded front has a command topic")
+                        .to_string();
                     assert!(got.contains(&(topic, ty, Role::Reader)), "{}: {got:?}", f.name);
                 }
                 None => assert!(got.iter().all(|g| g.2 == Role::Writer), "{}: {got:?}", f.name),
             }
             assert!(
-                got.contains(&(f.state_topic.clone(), state.clone(), Role::Writer)),
+                got.contains(&(f.state_topic().to_string(), state.clone(), Role::Writer)),
                 "{}: {got:?}",
                 f.name
             );
-            if let Some((lf, _)) = &f.lf_state {
-                assert!(got.contains(&(lf.clone(), state, Role::Writer)), "{}: {got:?}", f.name);
+            if let Some((lf, _)) = f.lf_state() {
+                assert!(
+                    got.contains(&(lf.to_string(), state, Role::Writer)),
+                    "{}: {got:?}",
+                    f.name
+                );
             }
-            if f.kind.as_str() == "inspire_ftp" {
+            if f.kind().as_str() == "inspire_ftp" {
                 assert!(
                     got.iter()
                         .any(|g| g.1 == t::<inspire::InspireHandTouch>() && g.2 == Role::Writer),
@@ -600,15 +609,17 @@ pub(crate) mod tests {
         let mut plan = sim_all();
         // sim-all's per-side Dex1 fronts are auto (the default): this one set to go.
         for f in plan.fronts.iter_mut() {
-            if f.cmd_topic.as_deref() == Some("rt/dex1/left/cmd") {
-                f.config.variant = Some(handgate_adapters::dex1::adapter::Variant::Go);
+            if f.cmd_topic() == Some("rt/dex1/left/cmd") {
+                let mut c = f.config.own.get::<Dex1Front>().cloned().expect("a dex1 front");
+                c.variant = Some(handgate_adapters::dex1::adapter::Variant::Go);
+                f.config.own = FrontOwn::new::<Dex1Front>(c);
             }
         }
         let all = served(&plan);
         let f = plan
             .fronts
             .iter()
-            .find(|f| f.kind.as_str() == "dex1" && f.cmd_topic.as_deref() == Some("rt/dex1/left/cmd"))
+            .find(|f| f.kind().as_str() == "dex1" && f.cmd_topic() == Some("rt/dex1/left/cmd"))
             .expect("sim-all serves rt/dex1/left/cmd");
         let cmd = all
             .iter()
@@ -659,10 +670,11 @@ pub(crate) mod tests {
         let f = plan
             .fronts
             .iter()
-            .find(|f| f.cmd_topic.as_deref() == Some("rt/dex1/left/cmd"))
+            .find(|f| f.cmd_topic() == Some("rt/dex1/left/cmd"))
             .expect("sim-all serves rt/dex1/left/cmd");
         assert_eq!(
-            f.config.variant, None,
+            f.config.own.get::<Dex1Front>().map(|c| c.variant),
+            Some(None),
             "sim-all's per-side dex1 fronts are auto (the default)"
         );
         let mine: Vec<_> = served(&plan)

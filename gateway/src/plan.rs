@@ -55,7 +55,7 @@ impl DevicePlan {
     }
 }
 
-pub use handgate_adapters::front::plan::{Binding, FrontPlan, SilencePlan};
+pub use handgate_adapters::front::plan::{Binding, FrontPlan, PlanTopic, SilencePlan};
 
 /// The gateway's own recording (`[record]`).
 #[derive(Debug, Clone, PartialEq)]

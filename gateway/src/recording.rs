@@ -106,8 +106,8 @@ mod tests {
         let all = topics(&plan, &[]);
         let names: Vec<&str> = all.iter().map(|t| t.dds_topic.as_str()).collect();
         for f in &plan.fronts {
-            if let Some(c) = &f.cmd_topic {
-                assert!(names.contains(&c.as_str()), "{c}: {names:?}");
+            if let Some(c) = f.cmd_topic() {
+                assert!(names.contains(&c), "{c}: {names:?}");
             }
         }
         assert!(
@@ -137,10 +137,10 @@ mod tests {
         let live = live_topics(&plan, &[]);
         let names: Vec<&str> = live.iter().map(|t| t.dds_topic.as_str()).collect();
         for f in &plan.fronts {
-            if let Some(c) = &f.cmd_topic {
-                assert!(!names.contains(&c.as_str()), "{c} is a command topic: {names:?}");
+            if let Some(c) = f.cmd_topic() {
+                assert!(!names.contains(&c), "{c} is a command topic: {names:?}");
             }
-            assert!(names.contains(&f.state_topic.as_str()), "{}: {names:?}", f.state_topic);
+            assert!(names.contains(&f.state_topic()), "{}: {names:?}", f.state_topic());
         }
         assert!(!names.contains(&"rt/unitree_actuator/cmd"), "{names:?}");
         for want in [

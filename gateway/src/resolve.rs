@@ -6,8 +6,8 @@ use std::time::Duration;
 
 use handgate_adapters::mapping::{ClosureMap, Limits, MappingError, TableOverrides};
 
-use crate::plan::{Binding, DevicePlan, FrontPlan, Plan, SilencePlan};
-use crate::profile::{DeviceConfig, DeviceRate, FrontConfig, FrontConfigExt, Profile, Radians, Topic};
+use crate::plan::{Binding, DevicePlan, FrontPlan, Plan, PlanTopic, SilencePlan};
+use crate::profile::{DeviceConfig, DeviceRate, FrontConfig, FrontConfigExt, Profile, Radians, TopicRole};
 
 /// Why a profile could not become a plan (after validation these indicate a gap between the
 /// validator and the runtime; they are reported like validation errors).
@@ -110,7 +110,7 @@ fn watchdog(f: &FrontConfig, d: &DeviceConfig) -> (std::time::Duration, handgate
 
 /// What silence means for front `f` driving device `d` (docs/fronts.md, "Silence").
 pub fn silence_plan(f: &FrontConfig, d: &DeviceConfig) -> SilencePlan {
-    f.kind.factory().silence(f.silence, watchdog(f, d))
+    f.kind().factory().silence(f.silence, watchdog(f, d))
 }
 
 /// How long a silent owner keeps front `f` as far as device `d` goes (docs/fronts.md, "One
@@ -123,13 +123,13 @@ pub fn hold(f: &FrontConfig, d: &DeviceConfig) -> std::time::Duration {
 /// The table of the wire convention front `f` speaks to device `d` on `side`: the served
 /// kind's table (with the device's own configuration when the device is of that kind, so a
 /// front on a device of its own kind pairs joint for joint whatever the device's profile
-/// keys); `None` for fronts that speak the device's own table (`FrontFactory::speaks`).
+/// keys); `None` for fronts that speak the device's own table (`FrontFacts::speaks`).
 fn front_table(
     f: &FrontConfig,
     side: handgate_adapters::model::Side,
     d: &DeviceConfig,
 ) -> Option<Arc<handgate_adapters::mapping::DeviceTable>> {
-    let served = f.kind.factory().speaks()?;
+    let served = f.kind().factory().facts().speaks?;
     let k = served.factory();
     let table = if d.kind == served {
         k.table(side, &*d.config)
@@ -143,18 +143,15 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
     let lookup = |n: &crate::profile::DeviceName| p.devices.iter().find(|d| &d.name == n);
     let dev = f.device.as_ref().and_then(lookup);
     let topics = p.front_topics(f, dev);
-    let need = |t: Option<Topic>, what: &str| {
-        t.map(|t| t.0)
-            .ok_or_else(|| ResolveError::Front(i, format!("no {what} topic (side center?)")))
-    };
     let mut bindings = Vec::new();
-    if f.kind.takes_commands() {
+    let takes_commands = f.kind().takes_commands();
+    if takes_commands {
         for (side, n) in f.bindings(lookup) {
             let d = lookup(n).ok_or_else(|| ResolveError::Front(i, format!("no device named {n}")))?;
             bindings.push(Binding {
                 device: n.to_string(),
                 side,
-                element: f.kind.factory().element(f, side),
+                element: f.element(side),
                 silence: silence_plan(f, d),
                 hold: hold(f, d),
                 table: front_table(f, side, d),
@@ -164,22 +161,33 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
             return Err(ResolveError::Front(i, "a device is required".into()));
         }
     }
-    let (cmd_topic, state_topic) = if f.kind.takes_commands() {
-        (Some(need(topics.cmd, "command")?), need(topics.state, "state")?)
-    } else {
-        (None, need(topics.state, "state")?)
-    };
+    // Every topic the kind serves; its command and state topics are required.
+    let mut planned = Vec::new();
+    for t in topics.topics {
+        let what = match (t.topic, t.role) {
+            (Some(topic), role) => {
+                planned.push(PlanTopic {
+                    key: t.key,
+                    role,
+                    topic: topic.0,
+                });
+                continue;
+            }
+            (None, TopicRole::Command) => "command",
+            (None, TopicRole::State) => "state",
+            (None, TopicRole::LowFrequencyState | TopicRole::Beside) => continue,
+        };
+        return Err(ResolveError::Front(i, format!("no {what} topic (side center?)")));
+    }
     let devices = p.published_devices(f).iter().map(|d| d.name.to_string()).collect();
     Ok(FrontPlan {
         name: f.display_name(dev),
-        kind: f.kind,
         config: f.clone(),
         bindings,
-        lf_state: topics.lf_state.map(|t| t.0).zip(topics.lf_state_hz.map(|r| r.0)),
         devices,
-        cmd_topic,
-        state_topic,
+        topics: planned,
         state_hz: topics.state_hz.0,
+        lf_state_hz: topics.lf_state_hz.map(|r| r.0),
     })
 }
 

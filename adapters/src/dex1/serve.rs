@@ -1,34 +1,131 @@
 //! The Dex1 service front's registry entry and endpoints; its codec is
-//! `crate::dex1::front`.
+//! `crate::dex1::front`. One variant (`go`, `hg`, `actuator`) is a codec on the generic
+//! endpoint ([`DdsFront`]); `auto` follows its clients across the three wire types
+//! (`crate::dex1::follow`), opening readers and writers as they appear, so it keeps an
+//! endpoint of its own ([`AutoIo`]) on the same typed queue ([`Inbox`]).
+
+use std::sync::atomic::AtomicU64;
+use std::sync::Arc;
+
+use handgate_idl::{unitree_go, unitree_hg};
+use serde::{Deserialize, Serialize};
 
 use crate::dex1::adapter::{actuator_index, Variant};
 pub use crate::dex1::front::MIN_STATE_HZ;
 use crate::dex1::front::{decode_actuator, decode_go, decode_hg, encode_go, encode_hg, go_state, unbound_state};
-use crate::mapping::DeviceTable;
-use crate::model::Side;
-use handgate_idl::{unitree_go, unitree_hg};
-
+use crate::front::config::{side_rule, FrontConfig, Silence, TopicKey};
+use crate::front::endpoint::{DdsFront, FrontCodec};
+use crate::front::kind::{Front, FrontFacts, FrontKind};
+use crate::front::plan::{FrontPlan, SilencePlan};
+use crate::front::serve::{commands, routed, Bound, Endpoints, FrontEnv, Inbox, Queue, Routed, TypedIo, STATE_QOS};
 use crate::front::Rejection;
+use crate::mapping::DeviceTable;
+use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::Topic;
 
-/// A 2-element message of the actuator pair (`rt/unitree_actuator/cmd`) taken by an `auto`
-/// front, told apart from the go commands of its own topic.
-struct PairCmd(unitree_go::MotorCmds_);
-
-/// The Dex1 front's state writer, of one variant's type.
-enum Dex1Writer {
-    Go(crate::dds::Writer<unitree_go::MotorStates_>),
-    Hg(crate::dds::Writer<unitree_hg::HandState_>),
-    /// An `auto` front's element of the actuator pair: the pair writes both elements.
-    Pair,
+/// The Dex1 front's own keys.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Dex1FrontConfig {
+    /// Which topic side to serve (default: the device's side).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub side: Option<Side>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cmd_topic: Option<Topic>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub state_topic: Option<Topic>,
+    /// The wire variant (default `auto`: follows its clients, `crate::dex1::follow`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub variant: Option<Variant>,
 }
 
-/// The endpoints of one variant a Dex1 front serves.
-struct VariantIo {
-    variant: Variant,
-    /// The command reader (kept alive).
-    _reader: Box<dyn Send>,
-    writer: Dex1Writer,
+impl Dex1FrontConfig {
+    /// The wire variant (default `auto`).
+    pub fn variant(&self) -> Variant {
+        self.variant.unwrap_or(Variant::Auto)
+    }
+}
+
+/// The `go` variant: unitree_go `MotorCmds_` / `MotorStates_` of one gripper.
+pub struct GoCodec;
+
+impl FrontCodec for GoCodec {
+    type Cmd = unitree_go::MotorCmds_;
+    type State = unitree_go::MotorStates_;
+
+    fn decode(&self, bound: &[Bound<'_>], m: &unitree_go::MotorCmds_) -> Result<Vec<(usize, Routed)>, Rejection> {
+        let b0 = &bound[0];
+        let c = decode_go(m, Variant::Go, Side::Left, &b0.route.front)?;
+        Ok(vec![(0, routed(b0.route, c))])
+    }
+
+    fn encode(&self, bound: &[Bound<'_>]) -> Option<unitree_go::MotorStates_> {
+        let b0 = bound.first()?;
+        let now = std::time::Instant::now();
+        Some(encode_go(&b0.route.front, &b0.routed_state()[0], &b0.state, now))
+    }
+}
+
+/// The `hg` (seed-spec) variant: unitree_hg `HandCmd_` / `HandState_` of one gripper.
+pub struct HgCodec;
+
+impl FrontCodec for HgCodec {
+    type Cmd = unitree_hg::HandCmd_;
+    type State = unitree_hg::HandState_;
+
+    fn decode(&self, bound: &[Bound<'_>], m: &unitree_hg::HandCmd_) -> Result<Vec<(usize, Routed)>, Rejection> {
+        let b0 = &bound[0];
+        Ok(vec![(0, routed(b0.route, decode_hg(m, &b0.route.front)?))])
+    }
+
+    fn encode(&self, bound: &[Bound<'_>]) -> Option<unitree_hg::HandState_> {
+        let b0 = bound.first()?;
+        let now = std::time::Instant::now();
+        Some(encode_hg(&b0.route.front, &b0.routed_state()[0], &b0.state, now))
+    }
+}
+
+/// The `actuator` variant: both grippers in one 2-element `MotorCmds_` / `MotorStates_`,
+/// each bound device on its element.
+pub struct ActuatorCodec {
+    /// Elements of its messages.
+    elements: usize,
+}
+
+impl FrontCodec for ActuatorCodec {
+    type Cmd = unitree_go::MotorCmds_;
+    type State = unitree_go::MotorStates_;
+
+    fn decode(&self, bound: &[Bound<'_>], m: &unitree_go::MotorCmds_) -> Result<Vec<(usize, Routed)>, Rejection> {
+        let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.route.front)).collect();
+        Ok(decode_actuator(m, &elems)?
+            .into_iter()
+            .zip(bound)
+            .enumerate()
+            .map(|(i, (c, b))| (i, routed(b.route, c)))
+            .collect())
+    }
+
+    /// Every element measured: each from its own gripper; an unbound one as never measured.
+    fn encode(&self, bound: &[Bound<'_>]) -> Option<unitree_go::MotorStates_> {
+        let b0 = bound.first()?;
+        let now = std::time::Instant::now();
+        let mut m = unitree_go::MotorStates_ {
+            states: vec![unbound_state(&b0.route.front); self.elements],
+        };
+        for b in bound {
+            m.states[b.element] = go_state(&b.route.front, &b.routed_state()[0], &b.state, now);
+        }
+        Some(m)
+    }
+}
+
+/// What an `auto` front's readers take: its own topic's go commands, the hg commands of a
+/// client that appeared with them, and the actuator pair's 2-element commands.
+pub enum AutoCmd {
+    Go(unitree_go::MotorCmds_),
+    Hg(unitree_hg::HandCmd_),
+    Pair(unitree_go::MotorCmds_),
 }
 
 /// Where the `auto` fronts of one runtime serve the actuator pair (`rt/unitree_actuator/*`)
@@ -89,7 +186,7 @@ impl ActuatorPair {
         }
         if g.writer.is_none() {
             let state = Variant::Actuator.topics(Side::Left).1;
-            g.writer = Some(node.writer(&state, crate::front::serve::STATE_QOS)?);
+            g.writer = Some(node.writer(&state, STATE_QOS)?);
             g.leader = Some(element);
         }
         Ok(true)
@@ -120,94 +217,114 @@ impl ActuatorPair {
     }
 }
 
-/// What opening one variant's endpoints needs.
+/// What an `auto` front's follower opened for a variant a client appeared with.
+enum Followed {
+    /// hg on the front's own topics: its reader (kept alive) and state writer.
+    Hg(
+        crate::dds::Reader<unitree_hg::HandCmd_>,
+        crate::dds::Writer<unitree_hg::HandState_>,
+    ),
+    /// Its element of the actuator pair: the pair's reader (kept alive; the pair writes).
+    Pair(crate::dds::Reader<unitree_go::MotorCmds_>),
+}
+
+/// What opening a followed variant's endpoints needs.
 #[derive(Clone)]
 struct OpenCtx {
     node: crate::dds::Node,
     cmd_topic: String,
     state_topic: String,
-    tx: crate::front::serve::Queue,
-    dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    inbox: Inbox<AutoCmd>,
     /// `auto` fronts of a left or right gripper: the pair and its element.
-    pair: Option<(std::sync::Arc<ActuatorPair>, usize)>,
+    pair: Option<(Arc<ActuatorPair>, usize)>,
 }
 
 impl OpenCtx {
-    /// The endpoints of `variant` on the front's own topics (`Auto`: its go ones; `Actuator`:
-    /// the explicit actuator front's).
-    fn open_own(&self, variant: Variant) -> Result<VariantIo, crate::dds::DdsError> {
-        use crate::front::serve::{reader, STATE_QOS};
-        let (node, tx, dropped) = (&self.node, self.tx.clone(), self.dropped.clone());
-        let (reader, writer): (Box<dyn Send>, _) = match variant {
-            Variant::Hg => (
-                Box::new(reader::<unitree_hg::HandCmd_>(node, &self.cmd_topic, tx, dropped)?),
-                Dex1Writer::Hg(node.writer(&self.state_topic, STATE_QOS)?),
-            ),
-            Variant::Go | Variant::Actuator | Variant::Auto => (
-                Box::new(reader::<unitree_go::MotorCmds_>(node, &self.cmd_topic, tx, dropped)?),
-                Dex1Writer::Go(node.writer(&self.state_topic, STATE_QOS)?),
-            ),
-        };
-        Ok(VariantIo {
-            variant,
-            _reader: reader,
-            writer,
-        })
-    }
-
-    /// An `auto` front's endpoints for the actuator pair: its reader of the pair (the pair's
-    /// state writer opened by the first front to join). `None`: the front serves no element
-    /// of the pair, or an explicit actuator front serves it.
-    fn open_pair(&self) -> Result<Option<VariantIo>, crate::dds::DdsError> {
-        let Some((pair, element)) = &self.pair else {
-            return Ok(None);
-        };
-        if !pair.join(&self.node, *element)? {
-            return Ok(None);
-        }
-        let (tx, dropped) = (self.tx.clone(), self.dropped.clone());
-        let cmd = Variant::Actuator.topics(Side::Left).0;
-        let r = crate::front::serve::reader_wrapping(&self.node, &cmd, tx, dropped, |s: unitree_go::MotorCmds_| {
-            Box::new(PairCmd(s)) as crate::front::serve::Message
-        })?;
-        Ok(Some(VariantIo {
-            variant: Variant::Actuator,
-            _reader: Box::new(r),
-            writer: Dex1Writer::Pair,
-        }))
-    }
-
-    /// What an `auto` front opens for a client of `variant`.
-    fn open_followed(&self, variant: Variant) -> Result<Option<VariantIo>, crate::dds::DdsError> {
+    /// What an `auto` front opens for a client of `variant`; `None`: nothing (go is open
+    /// from the start; the front serves no element of the pair, or an explicit actuator
+    /// front serves it).
+    fn open_followed(&self, variant: Variant) -> Result<Option<Followed>, crate::dds::DdsError> {
         match variant {
-            Variant::Actuator => self.open_pair(),
-            v => self.open_own(v).map(Some),
+            Variant::Hg => Ok(Some(Followed::Hg(
+                self.inbox.reader(&self.node, &self.cmd_topic, AutoCmd::Hg)?,
+                self.node.writer(&self.state_topic, STATE_QOS)?,
+            ))),
+            Variant::Actuator => {
+                let Some((pair, element)) = &self.pair else {
+                    return Ok(None);
+                };
+                if !pair.join(&self.node, *element)? {
+                    return Ok(None);
+                }
+                let cmd = Variant::Actuator.topics(Side::Left).0;
+                Ok(Some(Followed::Pair(self.inbox.reader(
+                    &self.node,
+                    &cmd,
+                    AutoCmd::Pair,
+                )?)))
+            }
+            Variant::Go | Variant::Auto => Ok(None),
         }
     }
 }
 
-/// The Dex1 front's endpoints: its variant's, or for an `auto` front those of every
-/// variant its clients speak (opened by its follower task as they appear).
-pub struct Dex1Io {
-    /// The profile's variant.
-    variant: Variant,
-    /// Elements of its messages (the actuator variant: 2).
-    elements: usize,
-    served: Vec<VariantIo>,
-    /// `auto`: the endpoints its follower task opened, taken at the next publish.
-    added: Option<tokio::sync::mpsc::UnboundedReceiver<VariantIo>>,
-    /// `auto` fronts of a left or right gripper: the actuator pair and its element.
-    pair: Option<(std::sync::Arc<ActuatorPair>, usize)>,
+/// An `auto` Dex1 front's endpoints: go on its own topics from the start, then those of
+/// every variant its clients speak (opened by its follower task as they appear).
+pub struct AutoIo {
+    _go_reader: crate::dds::Reader<unitree_go::MotorCmds_>,
+    go: crate::dds::Writer<unitree_go::MotorStates_>,
+    /// hg's state writer, once an hg client appeared.
+    hg: Option<crate::dds::Writer<unitree_hg::HandState_>>,
+    /// The followed variants' readers (kept alive).
+    readers: Vec<Box<dyn Send>>,
+    /// The endpoints its follower task opened, taken at the next publish.
+    added: tokio::sync::mpsc::UnboundedReceiver<Followed>,
+    /// A left or right gripper's front: the actuator pair and its element.
+    pair: Option<(Arc<ActuatorPair>, usize)>,
 }
 
-impl Dex1Io {
-    fn new(variant: Variant, elements: usize, first: VariantIo) -> Self {
-        Self {
-            variant,
-            elements,
-            served: vec![first],
-            added: None,
-            pair: None,
+impl TypedIo for AutoIo {
+    type Msg = AutoCmd;
+
+    fn decode(&self, bound: &[Bound<'_>], msg: &AutoCmd) -> Result<Vec<(usize, Routed)>, Rejection> {
+        match msg {
+            AutoCmd::Go(m) => GoCodec.decode(bound, m),
+            AutoCmd::Hg(m) => HgCodec.decode(bound, m),
+            AutoCmd::Pair(m) => {
+                let Some((_, element)) = self.pair.as_ref().filter(|(p, _)| !p.explicit()) else {
+                    return Ok(Vec::new());
+                };
+                let b0 = &bound[0];
+                let c = decode_actuator(m, &[(*element, &*b0.route.front)])?;
+                Ok(c.into_iter().map(|c| (0, routed(b0.route, c))).collect())
+            }
+        }
+    }
+
+    fn publish(&mut self, bound: &[Bound<'_>], _lf: bool) {
+        while let Ok(f) = self.added.try_recv() {
+            match f {
+                Followed::Hg(r, w) => {
+                    self.readers.push(Box::new(r));
+                    self.hg = Some(w);
+                }
+                Followed::Pair(r) => self.readers.push(Box::new(r)),
+            }
+        }
+        let Some(b0) = bound.first() else {
+            return;
+        };
+        if let Some((pair, element)) = &self.pair {
+            let now = std::time::Instant::now();
+            pair.publish(*element, &b0.route.front, || {
+                go_state(&b0.route.front, &b0.routed_state()[0], &b0.state, now)
+            });
+        }
+        if let Some(m) = GoCodec.encode(bound) {
+            let _ = self.go.write(m);
+        }
+        if let (Some(w), Some(m)) = (self.hg.as_mut(), HgCodec.encode(bound)) {
+            let _ = w.write(m);
         }
     }
 }
@@ -217,11 +334,11 @@ impl Dex1Io {
 /// on a device path), logs it once and hands them to the front through `added`. Ends when the
 /// front is dropped.
 fn spawn_follower(
-    env: &crate::front::serve::FrontEnv,
+    env: &FrontEnv,
     name: String,
     watched: crate::dex1::follow::Watched,
     ctx: OpenCtx,
-    added: tokio::sync::mpsc::UnboundedSender<VariantIo>,
+    added: tokio::sync::mpsc::UnboundedSender<Followed>,
 ) -> Result<(), crate::dds::DdsError> {
     let handle = tokio::runtime::Handle::try_current().map_err(|e| {
         crate::dds::DdsError::Thread(format!("an auto dex1 front follows its clients from a tokio task: {e}"))
@@ -266,94 +383,60 @@ fn spawn_follower(
     Ok(())
 }
 
-impl crate::front::serve::FrontIo for Dex1Io {
-    fn decode(
-        &self,
-        bound: &[crate::front::serve::Bound<'_>],
-        msg: &crate::front::serve::Message,
-    ) -> Result<Vec<(usize, crate::front::serve::Routed)>, Rejection> {
-        let b0 = &bound[0];
-        if let Some(m) = msg.downcast_ref::<unitree_hg::HandCmd_>() {
-            return Ok(vec![(
-                0,
-                crate::front::serve::routed(b0.route, decode_hg(m, &b0.route.front)?),
-            )]);
-        }
-        if let Some(PairCmd(m)) = msg.downcast_ref::<PairCmd>() {
-            let Some((_, element)) = self.pair.as_ref().filter(|(p, _)| !p.explicit()) else {
-                return Ok(Vec::new());
-            };
-            let c = decode_actuator(m, &[(*element, &*b0.route.front)])?;
-            return Ok(c
-                .into_iter()
-                .map(|c| (0, crate::front::serve::routed(b0.route, c)))
-                .collect());
-        }
-        let Some(m) = msg.downcast_ref::<unitree_go::MotorCmds_>() else {
-            return Ok(Vec::new());
+/// Opens an `auto` front: go on its own topics, its element of the actuator pair registered
+/// (a left or right gripper's), and its follower.
+fn open_auto(
+    env: &FrontEnv,
+    f: &FrontPlan,
+    tx: Queue,
+    dropped: Arc<AtomicU64>,
+) -> Result<Endpoints, crate::dds::DdsError> {
+    let pair = env.shared.get::<ActuatorPair>(PAIR_KEY);
+    // An auto front of a left or right gripper serves that element of the actuator pair.
+    let element = f
+        .bindings
+        .first()
+        .filter(|b| b.side != Side::Center)
+        .map(|b| actuator_index(b.side));
+    commands(tx, dropped, |inbox| {
+        let ctx = OpenCtx {
+            node: env.node.clone(),
+            cmd_topic: f.cmd_topic().unwrap_or_default().to_string(),
+            state_topic: f.state_topic().to_string(),
+            inbox,
+            pair: element.map(|e| (pair.clone(), e)),
         };
-        if self.variant == Variant::Actuator {
-            let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.route.front)).collect();
-            return Ok(decode_actuator(m, &elems)?
-                .into_iter()
-                .zip(bound)
-                .enumerate()
-                .map(|(i, (c, b))| (i, crate::front::serve::routed(b.route, c)))
-                .collect());
+        let (added_tx, added) = tokio::sync::mpsc::unbounded_channel();
+        let io = AutoIo {
+            _go_reader: ctx.inbox.reader(&env.node, &ctx.cmd_topic, AutoCmd::Go)?,
+            go: env.node.writer(&ctx.state_topic, STATE_QOS)?,
+            hg: None,
+            readers: Vec::new(),
+            added,
+            pair: ctx.pair.clone(),
+        };
+        if let Some(e) = element {
+            pair.register(e);
         }
-        let c = decode_go(m, Variant::Go, Side::Left, &b0.route.front)?;
-        Ok(vec![(0, crate::front::serve::routed(b0.route, c))])
-    }
-
-    fn publish(&mut self, bound: &[crate::front::serve::Bound<'_>], _lf: bool) {
-        if let Some(added) = self.added.as_mut() {
-            while let Ok(s) = added.try_recv() {
-                self.served.push(s);
-            }
-        }
-        let now = std::time::Instant::now();
-        let b0 = &bound[0];
-        let joint = b0.routed_state()[0];
-        if let Some((pair, element)) = &self.pair {
-            pair.publish(*element, &b0.route.front, || {
-                go_state(&b0.route.front, &joint, &b0.state, now)
-            });
-        }
-        for s in &mut self.served {
-            let _ = match &mut s.writer {
-                Dex1Writer::Go(w) if s.variant == Variant::Actuator => {
-                    // Every element measured: each from its own gripper; an unbound one as
-                    // never measured.
-                    let mut m = unitree_go::MotorStates_ {
-                        states: vec![unbound_state(&b0.route.front); self.elements],
-                    };
-                    for b in bound {
-                        m.states[b.element] = go_state(&b.route.front, &b.routed_state()[0], &b.state, now);
-                    }
-                    w.write(m)
-                }
-                Dex1Writer::Go(w) => w.write(encode_go(&b0.route.front, &joint, &b0.state, now)),
-                Dex1Writer::Hg(w) => w.write(encode_hg(&b0.route.front, &joint, &b0.state, now)),
-                Dex1Writer::Pair => Ok(()),
-            };
-        }
-    }
-}
-
-/// The wire variant of Dex1 front `f` (default `auto`).
-fn variant(f: &crate::front::config::FrontConfig) -> Variant {
-    f.variant.unwrap_or(Variant::Auto)
+        let watched = crate::dex1::follow::Watched {
+            cmd: ctx.cmd_topic.clone(),
+            state: ctx.state_topic.clone(),
+            actuator: element.map(|_| Variant::Actuator.topics(Side::Left)),
+        };
+        spawn_follower(env, f.name.clone(), watched, ctx, added_tx)?;
+        Ok(io)
+    })
 }
 
 /// What Dex1 front `f` serves: its variant's types on its topics (`auto`: go and hg both); the
 /// other variant's types and the other interface's topics (per side vs actuator) named with
 /// the profile change that serves them (`auto` of a left or right gripper: the actuator pair,
 /// which it serves once a client appears).
-fn served(f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+fn served(c: &Dex1FrontConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
     use crate::dds::type_name;
     use crate::discovery::diagnose::Served;
     use crate::front::serve::{served_command, served_state};
-    let v = variant(&f.config);
+    let v = c.variant();
     let name = &f.name;
     let (go_cmd, hg_cmd) = (
         type_name::<unitree_go::MotorCmds_>(),
@@ -366,18 +449,17 @@ fn served(f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::
     // Another type on this topic: the variant that speaks it.
     let (cmd, state) = match v {
         Variant::Hg => (
-            served_command::<unitree_hg::HandCmd_>(f.cmd_topic.as_deref().unwrap_or_default()),
-            served_state::<unitree_hg::HandState_>(&f.state_topic),
+            served_command::<unitree_hg::HandCmd_>(f.cmd_topic().unwrap_or_default()),
+            served_state::<unitree_hg::HandState_>(f.state_topic()),
         ),
         Variant::Go | Variant::Actuator => (
-            served_command::<unitree_go::MotorCmds_>(f.cmd_topic.as_deref().unwrap_or_default()),
-            served_state::<unitree_go::MotorStates_>(&f.state_topic),
+            served_command::<unitree_go::MotorCmds_>(f.cmd_topic().unwrap_or_default()),
+            served_state::<unitree_go::MotorStates_>(f.state_topic()),
         ),
         // Go from the start, hg once a client speaks it: a client of either matches.
         Variant::Auto => (
-            served_command::<unitree_go::MotorCmds_>(f.cmd_topic.as_deref().unwrap_or_default())
-                .also_serving(hg_cmd.clone()),
-            served_state::<unitree_go::MotorStates_>(&f.state_topic).also_serving(hg_state.clone()),
+            served_command::<unitree_go::MotorCmds_>(f.cmd_topic().unwrap_or_default()).also_serving(hg_cmd.clone()),
+            served_state::<unitree_go::MotorStates_>(f.state_topic()).also_serving(hg_state.clone()),
         ),
     };
     let other_type = |s: Served, go: &str, hg: &str| {
@@ -441,7 +523,7 @@ fn served(f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::
         }
     }
     let mut out = Vec::new();
-    if f.cmd_topic.is_some() {
+    if f.cmd_topic().is_some() {
         out.push(cmd);
     }
     out.push(state);
@@ -452,78 +534,67 @@ fn served(f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::
 #[derive(Debug)]
 pub struct Dex1Front;
 
-impl crate::front::kind::FrontFactory for Dex1Front {
-    fn name(&self) -> &'static str {
-        "dex1"
-    }
-    fn speaks(&self) -> Option<crate::model::DeviceKind> {
-        Some(crate::model::DeviceKind::Dex1)
-    }
-    fn keys(&self) -> &'static [&'static str] {
-        &["side", "variant"]
-    }
-    fn default_topics(
-        &self,
-        f: &crate::front::config::FrontConfig,
-        lr: Option<Side>,
-        _device: &str,
-    ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
-        let variant = variant(f);
-        // The actuator variant's topics carry both sides.
-        let std = (variant == Variant::Actuator)
-            .then_some(Side::Left)
-            .or(lr)
-            .map(|s| variant.topics(s));
-        (std.as_ref().map(|t| Topic(t.0.clone())), std.map(|t| Topic(t.1)), None)
-    }
-    fn default_state_hz(&self, _device_hz: Option<f64>) -> f64 {
+impl Front for Dex1Front {
+    type Config = Dex1FrontConfig;
+    const KIND: FrontKind = FrontKind::of(&Dex1Front);
+    const FACTS: FrontFacts = FrontFacts {
+        binds_elements: Some("an actuator dex1 front"),
+        ..FrontFacts::serving("dex1", Some(DeviceKind::Dex1))
+    };
+    /// The variant's topics of the served side; the actuator variant's carry both sides.
+    const TOPICS: &'static [TopicKey<Dex1FrontConfig>] = &[
+        TopicKey::cmd_topic(
+            |c| c.cmd_topic.as_ref(),
+            |c, at| variant_topics(c, at).map(|t| Topic(t.0)),
+        ),
+        TopicKey::state_topic(
+            |c| c.state_topic.as_ref(),
+            |c, at| variant_topics(c, at).map(|t| Topic(t.1)),
+        ),
+    ];
+
+    fn default_state_hz(_device_hz: Option<f64>) -> f64 {
         super::SERVICE_HZ
     }
-    fn default_name(&self, f: &crate::front::config::FrontConfig, side: &str) -> String {
-        if variant(f) == Variant::Actuator {
+    fn default_name(c: &Dex1FrontConfig, _f: &FrontConfig, side: &str) -> String {
+        if c.variant() == Variant::Actuator {
             "dex1_actuator".into()
         } else {
             format!("dex1_{side}")
         }
     }
-    fn silence(
-        &self,
-        mode: crate::front::config::Silence,
-        dog: (std::time::Duration, crate::model::SafeAction),
-    ) -> crate::front::plan::SilencePlan {
+    fn side(c: &Dex1FrontConfig) -> Option<Side> {
+        c.side
+    }
+    fn silence(mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
         let after = match mode {
-            crate::front::config::Silence::Watchdog => dog,
+            Silence::Watchdog => dog,
             // dex1_1_service brakes: holds the measured position 1 s after the last command.
-            crate::front::config::Silence::Service => {
-                (crate::dex1::SERVICE_BRAKE_AFTER, crate::model::SafeAction::Hold)
-            }
+            Silence::Service => (crate::dex1::SERVICE_BRAKE_AFTER, SafeAction::Hold),
         };
-        crate::front::plan::SilencePlan {
+        SilencePlan {
             mode,
             after: Some(after),
             timeout_bit: None,
         }
     }
-    fn elements(&self, f: &crate::front::config::FrontConfig) -> usize {
-        if variant(f) == Variant::Actuator {
+    fn elements(c: &Dex1FrontConfig) -> usize {
+        if c.variant() == Variant::Actuator {
             2
         } else {
             1
         }
     }
-    fn binds_elements(&self) -> Option<&'static str> {
-        Some("an actuator dex1 front")
-    }
-    fn element(&self, f: &crate::front::config::FrontConfig, side: Side) -> usize {
-        if variant(f) == Variant::Actuator {
+    fn element(c: &Dex1FrontConfig, side: Side) -> usize {
+        if c.variant() == Variant::Actuator {
             actuator_index(side)
         } else {
             0
         }
     }
     fn validate(
-        &self,
-        f: &crate::front::config::FrontConfig,
+        c: &Dex1FrontConfig,
+        f: &FrontConfig,
         served: Option<Side>,
         dangling: bool,
     ) -> Vec<(&'static str, String)> {
@@ -537,18 +608,13 @@ impl crate::front::kind::FrontFactory for Dex1Front {
             }
         }
         if !dangling {
-            let given = f.cmd_topic.is_some() && f.state_topic.is_some();
-            out.extend(crate::dex3::serve::side_rule(
-                "dex1",
-                served,
-                given,
-                variant(f) == Variant::Actuator,
-            ));
+            let given = c.cmd_topic.is_some() && c.state_topic.is_some();
+            out.extend(side_rule("dex1", served, given, c.variant() == Variant::Actuator));
         }
         out
     }
-    fn describe_unbound(&self, f: &crate::front::config::FrontConfig, bound: &[Side]) -> Vec<String> {
-        if variant(f) != Variant::Actuator {
+    fn describe_unbound(c: &Dex1FrontConfig, bound: &[Side]) -> Vec<String> {
+        if c.variant() != Variant::Actuator {
             return vec![];
         }
         [(0, Side::Right), (1, Side::Left)]
@@ -559,76 +625,54 @@ impl crate::front::kind::FrontFactory for Dex1Front {
             })
             .collect()
     }
-    fn clash_hint(
-        &self,
-        f: &crate::front::config::FrontConfig,
-        other: &crate::front::config::FrontConfig,
-    ) -> &'static str {
-        if variant(f) == Variant::Actuator && other.kind == f.kind && variant(other) == Variant::Actuator {
+    fn clash_hint(c: &Dex1FrontConfig, other: Option<&Dex1FrontConfig>) -> &'static str {
+        if c.variant() == Variant::Actuator && other.is_some_and(|o| o.variant() == Variant::Actuator) {
             ": one actuator front serves both grippers, `devices = { right = \"..\", left = \"..\" }`"
         } else {
             ""
         }
     }
-    fn describe(&self, f: &crate::front::config::FrontConfig) -> Option<String> {
-        Some(match variant(f) {
+    fn describe(c: &Dex1FrontConfig) -> Option<String> {
+        Some(match c.variant() {
             Variant::Auto => " (auto: go until a client appears, then each client's variant: go, hg, and its side's element of rt/unitree_actuator unless an actuator front serves it)".into(),
             v => format!(" ({v})"),
         })
     }
-    fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        served(f)
+    fn served(c: &Dex1FrontConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        served(c, f)
     }
     fn open(
-        &self,
-        env: &crate::front::serve::FrontEnv,
-        f: &crate::front::plan::FrontPlan,
-        tx: crate::front::serve::Queue,
-        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
-        let variant = variant(&f.config);
-        let pair = env.shared.get::<ActuatorPair>(PAIR_KEY);
-        if variant == Variant::Actuator {
-            pair.claim_explicit();
-        }
-        // An auto front of a left or right gripper serves that element of the actuator pair.
-        let element = f
-            .bindings
-            .first()
-            .filter(|b| variant == Variant::Auto && b.side != Side::Center)
-            .map(|b| actuator_index(b.side));
-        let ctx = OpenCtx {
-            node: env.node.clone(),
-            cmd_topic: f.cmd_topic.clone().unwrap_or_default(),
-            state_topic: f.state_topic.clone(),
-            tx,
-            dropped,
-            pair: element.map(|e| (pair.clone(), e)),
-        };
-        // Auto serves go until a client of another variant appears.
-        let first = if variant == Variant::Auto { Variant::Go } else { variant };
-        let mut io = Dex1Io::new(variant, f.elements(), ctx.open_own(first)?);
-        if variant == Variant::Auto {
-            if let Some(e) = element {
-                pair.register(e);
+        c: &Dex1FrontConfig,
+        env: &FrontEnv,
+        f: &FrontPlan,
+        tx: Queue,
+        dropped: Arc<AtomicU64>,
+    ) -> Result<Endpoints, crate::dds::DdsError> {
+        match c.variant() {
+            Variant::Auto => open_auto(env, f, tx, dropped),
+            Variant::Go => DdsFront::open(env, f, tx, dropped, GoCodec),
+            Variant::Hg => DdsFront::open(env, f, tx, dropped, HgCodec),
+            Variant::Actuator => {
+                env.shared.get::<ActuatorPair>(PAIR_KEY).claim_explicit();
+                let elements = f.elements();
+                DdsFront::open(env, f, tx, dropped, ActuatorCodec { elements })
             }
-            let (added_tx, added_rx) = tokio::sync::mpsc::unbounded_channel();
-            let actuator = Variant::Actuator.topics(Side::Left);
-            let watched = crate::dex1::follow::Watched {
-                cmd: ctx.cmd_topic.clone(),
-                state: ctx.state_topic.clone(),
-                actuator: element.map(|_| actuator),
-            };
-            io.pair = ctx.pair.clone();
-            io.added = Some(added_rx);
-            spawn_follower(env, f.name.clone(), watched, ctx, added_tx)?;
         }
-        Ok(crate::front::serve::Endpoints::Commands(Box::new(io)))
     }
 }
 
-impl crate::front::kind::FrontKind {
+/// The standard (command, state) topics of front config `c` at `at`: its variant's of the
+/// served side; the actuator variant's carry both sides.
+fn variant_topics(c: &Dex1FrontConfig, at: &crate::front::config::TopicAt<'_>) -> Option<(String, String)> {
+    let v = c.variant();
+    (v == Variant::Actuator)
+        .then_some(Side::Left)
+        .or(at.side)
+        .map(|s| v.topics(s))
+}
+
+impl FrontKind {
     /// The Dex1-1 DDS interface (`rt/dex1/{side}/*` or `rt/unitree_actuator/*`).
     #[allow(non_upper_case_globals)]
-    pub const Dex1: crate::front::kind::FrontKind = crate::front::kind::FrontKind::of(&Dex1Front);
+    pub const Dex1: FrontKind = Dex1Front::KIND;
 }

@@ -31,6 +31,8 @@ pub type Dex5Open = ClientOpen<WireConfig, Dex5EmuConfig>;
 
 impl Kind for Dex5Kind {
     const FACTS: KindFacts = KindFacts {
+        // The hand service's own interface (`rt/dex5/{side}/*`): `super::serve`.
+        fronts: &[crate::front::kind::FrontKind::Dex5],
         sides: Sides::LeftOrRight { note: "" },
         sections: &[
             SectionSpec {

@@ -16,6 +16,7 @@ pub mod config;
 pub mod emulator;
 pub mod front;
 pub mod kind;
+pub mod serve;
 pub mod table;
 
 use crate::model::Side;

@@ -1,53 +1,51 @@
-//! The canonical front's registry entry and endpoints; its codec is
+//! The canonical front's registry entry and codec glue; its codec is
 //! `crate::front::canonical`.
+
+use std::sync::atomic::AtomicU64;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
 
 pub use crate::front::canonical::topics;
 use crate::front::canonical::{decode_cmd, encode_state};
+use crate::front::config::{Silence, TopicKey, TopicRole};
+use crate::front::endpoint::{DdsFront, FrontCodec};
+use crate::front::kind::{Front, FrontFacts, FrontKind};
+use crate::front::plan::{FrontPlan, SilencePlan};
+use crate::front::serve::{Bound, Endpoints, FrontEnv, Queue, Routed};
+use crate::front::Rejection;
 use crate::model::SafeAction;
+use crate::units::Topic;
 use handgate_idl::handgate as hg;
 
-use crate::front::config::Silence;
-use crate::front::Rejection;
-use crate::units::Topic;
-
-/// The canonical front's endpoints: handgate's own `HandCmd_` in, `HandState_` out.
-pub struct CanonicalIo {
-    _reader: crate::dds::Reader<hg::HandCmd_>,
-    state: crate::dds::Writer<hg::HandState_>,
+/// The canonical front's own keys.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CanonicalConfig {
+    /// Default `rt/handgate/{device}/cmd` (in `[dds] namespace`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cmd_topic: Option<Topic>,
+    /// Default `rt/handgate/{device}/state` (in `[dds] namespace`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub state_topic: Option<Topic>,
 }
 
-impl CanonicalIo {
-    pub fn open(
-        node: &crate::dds::Node,
-        cmd_topic: &str,
-        state_topic: &str,
-        tx: crate::front::serve::Queue,
-        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<Self, crate::dds::DdsError> {
-        Ok(Self {
-            _reader: crate::front::serve::reader(node, cmd_topic, tx, dropped)?,
-            state: node.writer(state_topic, crate::front::serve::STATE_QOS)?,
-        })
-    }
-}
+/// handgate's own `HandCmd_` in, `HandState_` out, in the bound device's own table.
+pub struct CanonicalCodec;
 
-impl crate::front::serve::FrontIo for CanonicalIo {
-    fn decode(
-        &self,
-        bound: &[crate::front::serve::Bound<'_>],
-        msg: &crate::front::serve::Message,
-    ) -> Result<Vec<(usize, crate::front::serve::Routed)>, Rejection> {
-        let Some(m) = msg.downcast_ref::<hg::HandCmd_>() else {
-            return Ok(Vec::new());
-        };
+impl FrontCodec for CanonicalCodec {
+    type Cmd = hg::HandCmd_;
+    type State = hg::HandState_;
+
+    fn decode(&self, bound: &[Bound<'_>], m: &hg::HandCmd_) -> Result<Vec<(usize, Routed)>, Rejection> {
         let b0 = &bound[0];
         // The device's own names and table: no front table in between.
         Ok(vec![(0, (decode_cmd(m, &b0.route.device, b0.safe_action)?, 0, false))])
     }
 
-    fn publish(&mut self, bound: &[crate::front::serve::Bound<'_>], _lf: bool) {
-        let b0 = &bound[0];
-        let _ = self.state.write(encode_state(b0.device, &b0.route.device, &b0.state));
+    fn encode(&self, bound: &[Bound<'_>]) -> Option<hg::HandState_> {
+        let b0 = bound.first()?;
+        Some(encode_state(b0.device, &b0.route.device, &b0.state))
     }
 }
 
@@ -55,70 +53,69 @@ impl crate::front::serve::FrontIo for CanonicalIo {
 #[derive(Debug)]
 pub struct CanonicalFront;
 
-impl crate::front::kind::FrontFactory for CanonicalFront {
-    fn name(&self) -> &'static str {
-        "canonical"
-    }
-    fn in_namespace(&self) -> bool {
-        true
-    }
-    fn default_topics(
-        &self,
-        _f: &crate::front::config::FrontConfig,
-        _lr: Option<crate::model::Side>,
-        device: &str,
-    ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
-        let (c, s) = topics(device);
-        (Some(Topic(c)), Some(Topic(s)), None)
-    }
-    fn default_state_hz(&self, device_hz: Option<f64>) -> f64 {
+impl Front for CanonicalFront {
+    type Config = CanonicalConfig;
+    const KIND: FrontKind = FrontKind::of(&CanonicalFront);
+    const FACTS: FrontFacts = FrontFacts {
+        in_namespace: true,
+        ..FrontFacts::serving("canonical", None)
+    };
+    const TOPICS: &'static [TopicKey<CanonicalConfig>] = &[
+        TopicKey {
+            key: "cmd_topic",
+            role: TopicRole::Command,
+            set: |c| c.cmd_topic.as_ref(),
+            default: |_, at| Some(Topic(topics(at.device).0)),
+        },
+        TopicKey {
+            key: "state_topic",
+            role: TopicRole::State,
+            set: |c| c.state_topic.as_ref(),
+            default: |_, at| Some(Topic(topics(at.device).1)),
+        },
+    ];
+
+    fn default_state_hz(device_hz: Option<f64>) -> f64 {
         device_hz.map_or(100.0, |d| d.min(100.0))
     }
-    fn default_name(&self, f: &crate::front::config::FrontConfig, _side: &str) -> String {
+    fn default_name(_c: &CanonicalConfig, f: &crate::front::config::FrontConfig, _side: &str) -> String {
         format!("canonical_{}", f.device.as_ref().map_or("?", |d| d.as_str()))
     }
-    fn silence(&self, _mode: Silence, dog: (std::time::Duration, SafeAction)) -> crate::front::plan::SilencePlan {
+    fn silence(_mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
         // handgate's own interface: its service semantics are the strict watchdog.
-        crate::front::plan::SilencePlan {
+        SilencePlan {
             mode: Silence::Watchdog,
             after: Some(dog),
             timeout_bit: None,
         }
     }
-    fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+    fn served(_c: &CanonicalConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
         use crate::dds::type_name;
-        use crate::front::serve::{served_command, served_state};
         use handgate_idl::unitree_hg;
-        let mut out = Vec::new();
-        if let Some(cmd) = &f.cmd_topic {
-            out.push(served_command::<hg::HandCmd_>(cmd).alternative(
-                type_name::<unitree_hg::HandCmd_>(),
-                format!("the client speaks the Dex3 service interface (unitree_hg HandCmd_): serve it with a dex3 front, or send handgate HandCmd_ to front {}", f.name),
-            ));
-        }
-        out.push(served_state::<hg::HandState_>(&f.state_topic));
-        out
+        DdsFront::<CanonicalCodec>::served(f)
+            .into_iter()
+            .map(|s| match s.role {
+                crate::discovery::Role::Reader => s.alternative(
+                    type_name::<unitree_hg::HandCmd_>(),
+                    format!("the client speaks the Dex3 service interface (unitree_hg HandCmd_): serve it with a dex3 front, or send handgate HandCmd_ to front {}", f.name),
+                ),
+                crate::discovery::Role::Writer => s,
+            })
+            .collect()
     }
     fn open(
-        &self,
-        env: &crate::front::serve::FrontEnv,
-        f: &crate::front::plan::FrontPlan,
-        tx: crate::front::serve::Queue,
-        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
-        let cmd = f.cmd_topic.clone().unwrap_or_default();
-        Ok(crate::front::serve::Endpoints::Commands(Box::new(CanonicalIo::open(
-            &env.node,
-            &cmd,
-            &f.state_topic,
-            tx,
-            dropped,
-        )?)))
+        _c: &CanonicalConfig,
+        env: &FrontEnv,
+        f: &FrontPlan,
+        tx: Queue,
+        dropped: Arc<AtomicU64>,
+    ) -> Result<Endpoints, crate::dds::DdsError> {
+        DdsFront::open(env, f, tx, dropped, CanonicalCodec)
     }
 }
 
-impl crate::front::kind::FrontKind {
+impl FrontKind {
     /// handgate's own canonical messages (`rt/handgate/{device}/*`).
     #[allow(non_upper_case_globals)]
-    pub const Canonical: crate::front::kind::FrontKind = crate::front::kind::FrontKind::of(&CanonicalFront);
+    pub const Canonical: FrontKind = CanonicalFront::KIND;
 }

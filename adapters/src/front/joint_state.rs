@@ -19,7 +19,7 @@ pub fn joint_name(m: &JointMap, urdf_names: bool, device: &str) -> String {
 
 /// Appends the joints of device `device` to `out` (a JointState front may carry several
 /// devices; the profile check refuses two that would publish one name,
-/// `FrontFactory::joint_names`).
+/// `Front::joint_names`).
 pub fn append(out: &mut JointState_, device: &DeviceTable, st: &HandState, urdf_names: bool, name: &str) {
     for (m, j) in device.joints.iter().zip(&st.joints) {
         out.name.push(joint_name(m, urdf_names, name));

@@ -1,95 +1,105 @@
 //! The joint_state front's registry entry and writer; its codec is
 //! `crate::front::joint_state`.
 
+use std::sync::atomic::AtomicU64;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use crate::front::config::{FrontConfig, TopicKey, TopicRole};
 use crate::front::joint_state::{append, header, joint_name, DEFAULT_TOPIC};
+use crate::front::kind::{Front, FrontFacts, FrontKind};
+use crate::front::plan::FrontPlan;
+use crate::front::serve::{Endpoints, FrontEnv, Queue};
+use crate::units::Topic;
 use handgate_idl::ros2::JointState_;
 
-use crate::units::Topic;
+/// The joint_state front's own keys.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct JointStateConfig {
+    /// Default `rt/joint_states` (in `[dds] namespace`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub topic: Option<Topic>,
+    /// Name joints as in the URDF (default true); `false`: `<device>/<joint>`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub urdf_names: Option<bool>,
+}
+
+impl JointStateConfig {
+    /// Whether joints are named as in the URDF (default true).
+    pub fn urdf_names(&self) -> bool {
+        self.urdf_names.unwrap_or(true)
+    }
+}
 
 /// ROS 2 JointState over the bound device, or every device: state only.
 #[derive(Debug)]
 pub struct JointStateFront;
 
-impl crate::front::kind::FrontFactory for JointStateFront {
-    fn name(&self) -> &'static str {
-        "joint_state"
-    }
-    fn takes_commands(&self) -> bool {
-        false
-    }
-    fn keys(&self) -> &'static [&'static str] {
-        &["topic", "urdf_names"]
-    }
-    fn in_namespace(&self) -> bool {
-        true
-    }
-    fn state_topic_key(&self) -> &'static str {
-        "topic"
-    }
-    fn default_topics(
-        &self,
-        f: &crate::front::config::FrontConfig,
-        _lr: Option<crate::model::Side>,
-        _device: &str,
-    ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
-        (
-            None,
-            Some(f.topic.clone().unwrap_or_else(|| Topic::new(DEFAULT_TOPIC))),
-            None,
-        )
-    }
-    fn default_state_hz(&self, device_hz: Option<f64>) -> f64 {
+impl Front for JointStateFront {
+    type Config = JointStateConfig;
+    const KIND: FrontKind = FrontKind::of(&JointStateFront);
+    const FACTS: FrontFacts = FrontFacts {
+        takes_commands: false,
+        in_namespace: true,
+        ..FrontFacts::serving("joint_state", None)
+    };
+    const TOPICS: &'static [TopicKey<JointStateConfig>] = &[TopicKey {
+        key: "topic",
+        role: TopicRole::State,
+        set: |c| c.topic.as_ref(),
+        default: |_, _| Some(Topic::new(DEFAULT_TOPIC)),
+    }];
+
+    fn default_state_hz(device_hz: Option<f64>) -> f64 {
         device_hz.map_or(100.0, |d| d.min(100.0))
     }
-    fn joint_names(
-        &self,
-        f: &crate::front::config::FrontConfig,
-        device: &str,
-        table: &crate::mapping::DeviceTable,
-    ) -> Vec<String> {
-        let urdf = f.urdf_names.unwrap_or(true);
-        table.joints.iter().map(|m| joint_name(m, urdf, device)).collect()
+    fn joint_names(c: &JointStateConfig, device: &str, table: &crate::mapping::DeviceTable) -> Vec<String> {
+        table
+            .joints
+            .iter()
+            .map(|m| joint_name(m, c.urdf_names(), device))
+            .collect()
     }
-    fn default_name(&self, f: &crate::front::config::FrontConfig, _side: &str) -> String {
-        match &f.topic {
+    fn default_name(c: &JointStateConfig, _f: &FrontConfig, _side: &str) -> String {
+        match &c.topic {
             Some(t) if t.as_str() != DEFAULT_TOPIC => t.0.clone(),
             _ => "joint_state".into(),
         }
     }
-    fn served(&self, f: &crate::front::plan::FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+    fn served(_c: &JointStateConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
         vec![crate::discovery::diagnose::Served::new(
-            &f.state_topic,
+            f.state_topic(),
             crate::dds::type_name::<JointState_>(),
             crate::discovery::Role::Writer,
             JOINT_STATES_QOS.served(),
         )]
     }
     fn open(
-        &self,
-        env: &crate::front::serve::FrontEnv,
-        f: &crate::front::plan::FrontPlan,
-        _tx: crate::front::serve::Queue,
-        _dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<crate::front::serve::Endpoints, crate::dds::DdsError> {
-        Ok(crate::front::serve::Endpoints::StateOnly(Box::new(JointStateIo {
-            // ROS 2's default QoS (reliable, volatile) subscribers match a reliable writer;
-            // keep-last 1: only the newest state matters (docs/fronts.md, "QoS per topic").
+        c: &JointStateConfig,
+        env: &FrontEnv,
+        f: &FrontPlan,
+        _tx: Queue,
+        _dropped: Arc<AtomicU64>,
+    ) -> Result<Endpoints, crate::dds::DdsError> {
+        Ok(Endpoints::StateOnly(Box::new(JointStateIo {
             writer: env.node.writer_with(
-                &f.state_topic,
+                f.state_topic(),
                 JOINT_STATES_QOS,
                 &crate::ros::user_data::<JointState_>(),
             )?,
-            urdf_names: f.config.urdf_names.unwrap_or(true), // as `joint_names` says
+            urdf_names: c.urdf_names(),
         })))
     }
 }
 
-/// The joint_state front's writer.
 /// The QoS of the joint_states writer: ROS 2's default QoS (reliable, volatile) subscribers
 /// match a reliable writer; keep-last 1: only the newest state matters (docs/fronts.md, "QoS
 /// per topic").
 pub const JOINT_STATES_QOS: crate::dds::Qos = crate::dds::Qos::Reliable { depth: 1 };
 
+/// The joint_state front's writer.
 pub struct JointStateIo {
     writer: crate::dds::Writer<JointState_>,
     urdf_names: bool,
@@ -105,8 +115,8 @@ impl crate::front::serve::StateIo for JointStateIo {
     }
 }
 
-impl crate::front::kind::FrontKind {
+impl FrontKind {
     /// ROS 2 sensor_msgs/JointState.
     #[allow(non_upper_case_globals)]
-    pub const JointState: crate::front::kind::FrontKind = crate::front::kind::FrontKind::of(&JointStateFront);
+    pub const JointState: FrontKind = JointStateFront::KIND;
 }

@@ -14,6 +14,7 @@ pub mod canonical;
 pub mod canonical_serve;
 pub mod config;
 pub mod core;
+pub mod endpoint;
 pub mod joint_state;
 pub mod joint_state_serve;
 pub mod kind;
@@ -40,6 +41,10 @@ pub enum Rejection {
     UnknownJoint(String),
     #[error("closure {0} is not finite")]
     BadClosure(f32),
+    /// A message of another type than the front reads (impossible through
+    /// [`serve::Inbox`], which only queues the front's own type; counted should it happen).
+    #[error("a message of another type than {0}")]
+    WrongType(&'static str),
 }
 
 impl Rejection {
@@ -53,6 +58,7 @@ impl Rejection {
             Rejection::UnknownMode(_) => "unknown_mode",
             Rejection::UnknownJoint(_) => "unknown_joint",
             Rejection::BadClosure(_) => "bad_closure",
+            Rejection::WrongType(_) => "wrong_type",
         }
     }
 }

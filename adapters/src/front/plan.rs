@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::config::{FrontConfig, Silence};
+use super::config::{FrontConfig, Silence, TopicRole};
 use super::kind::FrontKind;
 use crate::mapping::DeviceTable;
 use crate::model::{SafeAction, Side};
@@ -92,35 +92,72 @@ pub struct Binding {
     pub table: Option<Arc<DeviceTable>>,
 }
 
+/// One of a front's topics, resolved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanTopic {
+    /// The profile key that sets it (its kind's `Front::TOPICS`).
+    pub key: &'static str,
+    pub role: TopicRole,
+    pub topic: String,
+}
+
 /// One front, bound to its devices (one, except a front whose messages carry several, like
 /// the Dex1 actuator variant; a state-only front lists its devices in `devices` instead).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrontPlan {
     /// The name logs use (profile `name`, or derived).
     pub name: String,
-    pub kind: FrontKind,
-    /// The front's profile table (its kind's own keys, for its kind to open it).
+    /// The front's profile table (its kind, and its kind's own keys for its kind to open it).
     pub config: FrontConfig,
     pub bindings: Vec<Binding>,
-    /// The low-frequency state copy (topic, Hz), where the kind has one.
-    pub lf_state: Option<(String, f64)>,
     /// The devices a state-only front publishes (its device, or every device).
     pub devices: Vec<String>,
-    pub cmd_topic: Option<String>,
-    pub state_topic: String,
+    /// Every topic the front serves, in its kind's order.
+    pub topics: Vec<PlanTopic>,
     pub state_hz: f64,
+    /// Rate of the low-frequency state copy, where the kind has one.
+    pub lf_state_hz: Option<f64>,
 }
 
 impl FrontPlan {
+    pub fn kind(&self) -> FrontKind {
+        self.config.kind()
+    }
+
     /// Number of elements in this front's messages that carry a device (2 for an actuator
     /// front, else 1).
     pub fn elements(&self) -> usize {
-        self.kind.factory().elements(&self.config)
+        self.config.elements()
     }
 
     /// How long the writer owning this front keeps it after its last accepted command
     /// (`control = "exclusive"`): the longest of its bindings' holds.
     pub fn hold(&self) -> Duration {
         self.bindings.iter().map(|b| b.hold).max().unwrap_or_default()
+    }
+
+    /// The topic set by profile key `key` (or its default).
+    pub fn topic(&self, key: &str) -> Option<&str> {
+        self.topics.iter().find(|t| t.key == key).map(|t| t.topic.as_str())
+    }
+
+    /// The first topic of `role`.
+    pub fn first(&self, role: TopicRole) -> Option<&str> {
+        self.topics.iter().find(|t| t.role == role).map(|t| t.topic.as_str())
+    }
+
+    /// The command topic (`None`: a state-only front).
+    pub fn cmd_topic(&self) -> Option<&str> {
+        self.first(TopicRole::Command)
+    }
+
+    /// The state topic (every front has one).
+    pub fn state_topic(&self) -> &str {
+        self.first(TopicRole::State).unwrap_or_default()
+    }
+
+    /// The low-frequency state copy (topic, Hz), where the kind has one.
+    pub fn lf_state(&self) -> Option<(&str, f64)> {
+        self.first(TopicRole::LowFrequencyState).zip(self.lf_state_hz)
     }
 }

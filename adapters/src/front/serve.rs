@@ -1,6 +1,7 @@
 //! A running front's wire side, for every front kind: its endpoints ([`FrontIo`]: the
 //! command reader, decode through the routes bound at start, the state writers; or a
-//! state-only [`StateIo`]), opened by its kind's factory ([`super::kind::FrontFactory::open`]).
+//! state-only [`StateIo`]), opened by its kind (`Front::open`; most through
+//! [`super::endpoint::DdsFront`], every command front through [`commands`]).
 //! The gateway's runtime drives them all through one front task (queue, silence, prompt
 //! state, deadlines).
 
@@ -139,7 +140,7 @@ pub enum Endpoints {
     StateOnly(Box<dyn StateIo>),
 }
 
-/// The QoS of every front's command reader ([`reader`]).
+/// The QoS of every front's command reader ([`Inbox::reader`]).
 pub const COMMAND_QOS: Qos = Qos::Reliable { depth: 16 };
 /// The QoS of every front's state writers (state, low-frequency state, touch).
 pub const STATE_QOS: Qos = Qos::BestEffort;
@@ -154,46 +155,106 @@ pub fn served_state<T: handgate_idl::TopicType>(topic: &str) -> Served {
     Served::new(topic, crate::dds::type_name::<T>(), Role::Writer, STATE_QOS.served())
 }
 
-/// A command reader on `topic` handing every sample to the front's task as an [`Incoming`]
-/// (the message and its writer, read from CycloneDDS once per new writer); a sample that
-/// finds the queue full is dropped and counted in `dropped`.
-pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
-    node: &Node,
-    topic: &str,
+/// The queue of a front whose readers take messages of type `M`: the one place a typed
+/// message becomes the runtime's [`Message`] (its readers, [`Inbox::reader`]), paired with the
+/// one place it is read back ([`commands`]), so the front's decode sees `M` and nothing else.
+pub struct Inbox<M> {
     tx: Queue,
     dropped: Arc<AtomicU64>,
-) -> Result<Reader<T>, DdsError> {
-    reader_wrapping(node, topic, tx, dropped, |s: T| -> Message { Box::new(s) })
+    _msg: std::marker::PhantomData<fn(M)>,
 }
 
-/// [`reader`], each sample wrapped by `wrap` into the [`Message`] the front's decode expects
-/// (a front that reads one type on two topics tells them apart by the wrapper).
-pub fn reader_wrapping<T: Clone + handgate_idl::TopicType + Send + 'static>(
-    node: &Node,
-    topic: &str,
+impl<M> Clone for Inbox<M> {
+    fn clone(&self) -> Self {
+        Inbox {
+            tx: self.tx.clone(),
+            dropped: self.dropped.clone(),
+            _msg: std::marker::PhantomData,
+        }
+    }
+}
+
+impl<M: Send + 'static> Inbox<M> {
+    /// A command reader on `topic` handing every sample, as `wrap` makes it an `M`, to the
+    /// front's task as an [`Incoming`] (the message and its writer, read from CycloneDDS once
+    /// per new writer); a sample that finds the queue full is dropped and counted.
+    pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
+        &self,
+        node: &Node,
+        topic: &str,
+        wrap: fn(T) -> M,
+    ) -> Result<Reader<T>, DdsError> {
+        let (tx, dropped) = (self.tx.clone(), self.dropped.clone());
+        let mut writers: std::collections::HashMap<WriterHandle, Arc<WriterInfo>> = std::collections::HashMap::new();
+        node.reader_with_callback::<T, _>(topic, COMMAND_QOS, move |h| {
+            let mut v = Vec::new();
+            h.take_with_writers(&mut v);
+            let taken = std::time::Instant::now();
+            for (s, w) in v {
+                if writers.len() >= MAX_WRITERS && !writers.contains_key(&w) {
+                    writers.clear();
+                }
+                let writer = writers
+                    .entry(w)
+                    .or_insert_with(|| Arc::new(h.matched_writer(w)))
+                    .clone();
+                let msg: Message = Box::new(wrap(s));
+                if tx.try_send(Incoming { writer, msg, taken }).is_err() {
+                    dropped.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        })
+    }
+}
+
+/// A front's wire side, typed by the message its readers take ([`Inbox`]): decode, publish.
+/// [`commands`] erases it into the runtime's [`FrontIo`].
+pub trait TypedIo: Send + 'static {
+    /// What the front's readers queue.
+    type Msg: Send + 'static;
+    /// Decodes a message into commands per bound device (index into `bound`), or the reason
+    /// it is rejected whole.
+    fn decode(&self, bound: &[Bound<'_>], msg: &Self::Msg) -> Result<Vec<(usize, Routed)>, Rejection>;
+    /// Publishes the bound devices' state (`lf`: the low-frequency copy, where there is one).
+    fn publish(&mut self, bound: &[Bound<'_>], lf: bool);
+    /// Rate of the low-frequency copy, Hz (0: none).
+    fn lf_hz(&self) -> f64 {
+        0.0
+    }
+}
+
+/// The endpoints of a front taking commands: `open` builds its typed wire side from the
+/// front's [`Inbox`] (whose readers queue `T::Msg`, and nothing else reaches the queue), and
+/// the result is erased here for the runtime.
+pub fn commands<T: TypedIo>(
     tx: Queue,
     dropped: Arc<AtomicU64>,
-    wrap: impl Fn(T) -> Message + Send + 'static,
-) -> Result<Reader<T>, DdsError> {
-    let mut writers: std::collections::HashMap<WriterHandle, Arc<WriterInfo>> = std::collections::HashMap::new();
-    node.reader_with_callback::<T, _>(topic, COMMAND_QOS, move |h| {
-        let mut v = Vec::new();
-        h.take_with_writers(&mut v);
-        let taken = std::time::Instant::now();
-        for (s, w) in v {
-            if writers.len() >= MAX_WRITERS && !writers.contains_key(&w) {
-                writers.clear();
-            }
-            let writer = writers
-                .entry(w)
-                .or_insert_with(|| Arc::new(h.matched_writer(w)))
-                .clone();
-            let msg = wrap(s);
-            if tx.try_send(Incoming { writer, msg, taken }).is_err() {
-                dropped.fetch_add(1, Ordering::Relaxed);
-            }
+    open: impl FnOnce(Inbox<T::Msg>) -> Result<T, DdsError>,
+) -> Result<Endpoints, DdsError> {
+    let inbox = Inbox {
+        tx,
+        dropped,
+        _msg: std::marker::PhantomData,
+    };
+    Ok(Endpoints::Commands(Box::new(Erased(open(inbox)?))))
+}
+
+/// A [`TypedIo`] as the runtime drives it.
+struct Erased<T>(T);
+
+impl<T: TypedIo> FrontIo for Erased<T> {
+    fn decode(&self, bound: &[Bound<'_>], msg: &Message) -> Result<Vec<(usize, Routed)>, Rejection> {
+        match msg.downcast_ref::<T::Msg>() {
+            Some(m) => self.0.decode(bound, m),
+            None => Err(Rejection::WrongType(std::any::type_name::<T::Msg>())),
         }
-    })
+    }
+    fn publish(&mut self, bound: &[Bound<'_>], lf: bool) {
+        self.0.publish(bound, lf)
+    }
+    fn lf_hz(&self) -> f64 {
+        self.0.lf_hz()
+    }
 }
 
 /// What a front kind opens its endpoints with: the gateway's participant and what discovery
@@ -228,10 +289,43 @@ impl FrontShared {
 
 /// The endpoints of front `f`, opened by its kind.
 pub fn open(env: &FrontEnv, f: &FrontPlan, tx: Queue, dropped: Arc<AtomicU64>) -> Result<Endpoints, DdsError> {
-    f.kind.factory().open(env, f, tx, dropped)
+    f.open(env, tx, dropped)
 }
 
 /// A decoded front command routed to the device of `route`.
 pub fn routed(route: &Route, c: FrontCommand) -> Routed {
     (route.command(&c.joints), c.tag, c.timeout_bit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A wire side reading `u32`s: each decodes to nothing but counts as read.
+    struct Counting(std::sync::atomic::AtomicUsize);
+
+    impl TypedIo for Counting {
+        type Msg = u32;
+        fn decode(&self, _bound: &[Bound<'_>], _msg: &u32) -> Result<Vec<(usize, Routed)>, Rejection> {
+            self.0.fetch_add(1, Ordering::Relaxed);
+            Ok(Vec::new())
+        }
+        fn publish(&mut self, _bound: &[Bound<'_>], _lf: bool) {}
+    }
+
+    #[test]
+    fn the_erased_front_decodes_its_own_type_and_counts_another_as_a_rejection() {
+        let (tx, _rx) = mpsc::channel(1);
+        let Endpoints::Commands(io) = commands(tx, Arc::default(), |_inbox: Inbox<u32>| {
+            Ok(Counting(Default::default()))
+        })
+        .unwrap() else {
+            panic!("a front taking commands");
+        };
+        assert_eq!(io.decode(&[], &(Box::new(7u32) as Message)), Ok(Vec::new()));
+        let other = io.decode(&[], &(Box::new("seven") as Message)).unwrap_err();
+        assert_eq!(other, Rejection::WrongType("u32"));
+        assert_eq!(other.reason(), "wrong_type");
+        assert_eq!(io.lf_hz(), 0.0);
+    }
 }

@@ -7,17 +7,22 @@
 //!
 //! Touch: the third writer publishes `inspire_hand_touch` only when the bound device is an
 //! Inspire FTP hand with its tactile pads (its transport carries them); any other device
-//! publishes nothing there, as the driver over RS-485 does. Its topic is always the served
-//! side's standard one (the front registry has no key for a third topic).
+//! publishes nothing there, as the driver over RS-485 does. Its topic is the served side's
+//! standard one unless `touch_topic` sets another.
+
+use std::sync::atomic::AtomicU64;
+use std::sync::Arc;
 
 use handgate_idl::inspire::{InspireHandCtrl, InspireHandState, InspireHandTouch};
+use serde::{Deserialize, Serialize};
 
 use super::emulator::FtpTransport;
 use super::front::{decode, encode_state, encode_touch, topics, CTRL_TOPIC_PREFIX, STATE_TOPIC_PREFIX};
-use crate::front::config::{FrontConfig, Silence};
-use crate::front::kind::{FrontFactory, FrontKind};
+use crate::front::config::{FrontConfig, Silence, TopicAt, TopicKey, TopicRole};
+use crate::front::endpoint::{DdsFront, FrontCodec};
+use crate::front::kind::{Front, FrontFacts, FrontKind};
 use crate::front::plan::{FrontPlan, SilencePlan};
-use crate::front::serve::{reader, routed, Bound, Endpoints, FrontIo, Message, Routed};
+use crate::front::serve::{routed, served_state, Bound, Endpoints, FrontEnv, Queue, Routed, STATE_QOS};
 use crate::front::Rejection;
 use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::Topic;
@@ -25,30 +30,36 @@ use crate::units::Topic;
 /// The front's name (profile `kind = "inspire_ftp"`), the kind's own.
 const NAME: &str = "inspire_ftp";
 
-/// The Inspire FTP front's endpoints: `inspire_hand_ctrl` in, `inspire_hand_state` and
-/// `inspire_hand_touch` out.
-pub struct FtpIo {
-    _reader: crate::dds::Reader<InspireHandCtrl>,
-    state: crate::dds::Writer<InspireHandState>,
-    touch: crate::dds::Writer<InspireHandTouch>,
+/// The Inspire FTP front's own keys.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FtpFrontConfig {
+    /// Which hand's topics (`/l`, `/r`), table and touch topic the front serves (default:
+    /// the device's side; required for a device of side center).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub side: Option<Side>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cmd_topic: Option<Topic>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub state_topic: Option<Topic>,
+    /// Where the touch message goes (default: the served side's `rt/inspire_hand/touch/{l,r}`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub touch_topic: Option<Topic>,
 }
 
-impl FtpIo {
-    pub fn open(
-        node: &crate::dds::Node,
-        cmd_topic: &str,
-        state_topic: &str,
-        touch_topic: &str,
-        tx: crate::front::serve::Queue,
-        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Result<Self, crate::dds::DdsError> {
-        use crate::front::serve::STATE_QOS;
-        Ok(Self {
-            _reader: reader(node, cmd_topic, tx, dropped)?,
-            state: node.writer(state_topic, STATE_QOS)?,
-            touch: node.writer(touch_topic, STATE_QOS)?,
-        })
+/// The driver's topic of the served side (`which` picks it out of the three); none for a
+/// side-less device (refused by validation).
+fn driver_topic(at: &TopicAt<'_>, which: fn((String, String, String)) -> String) -> Option<Topic> {
+    match at.side {
+        Some(s @ (Side::Left | Side::Right)) => Some(Topic(which(topics(s)))),
+        _ => None,
     }
+}
+
+/// `inspire_hand_ctrl` in, `inspire_hand_state` out for the bound hand, and its
+/// `inspire_hand_touch` beside the state.
+pub struct FtpCodec {
+    touch: crate::dds::Writer<InspireHandTouch>,
 }
 
 /// The touch message of a bound device: only an Inspire FTP hand's own tactile pads.
@@ -62,8 +73,8 @@ fn touch_of(b: &Bound<'_>) -> Option<InspireHandTouch> {
 /// Decodes one `inspire_hand_ctrl` for the bound hand. The driver's no operation (mode 0,
 /// force / speed only, every angle −1) is no command at all for the device: an empty list,
 /// never a closure 0.
-pub fn decode_bound(bound: &[Bound<'_>], msg: &Message) -> Result<Vec<(usize, Routed)>, Rejection> {
-    let (Some(m), Some(b0)) = (msg.downcast_ref::<InspireHandCtrl>(), bound.first()) else {
+pub fn decode_bound(bound: &[Bound<'_>], m: &InspireHandCtrl) -> Result<Vec<(usize, Routed)>, Rejection> {
+    let Some(b0) = bound.first() else {
         return Ok(Vec::new());
     };
     Ok(decode(m, &b0.route.front)?
@@ -71,19 +82,21 @@ pub fn decode_bound(bound: &[Bound<'_>], msg: &Message) -> Result<Vec<(usize, Ro
         .unwrap_or_default())
 }
 
-impl FrontIo for FtpIo {
-    fn decode(&self, bound: &[Bound<'_>], msg: &Message) -> Result<Vec<(usize, Routed)>, Rejection> {
-        decode_bound(bound, msg)
+impl FrontCodec for FtpCodec {
+    type Cmd = InspireHandCtrl;
+    type State = InspireHandState;
+
+    fn decode(&self, bound: &[Bound<'_>], m: &InspireHandCtrl) -> Result<Vec<(usize, Routed)>, Rejection> {
+        decode_bound(bound, m)
     }
 
-    fn publish(&mut self, bound: &[Bound<'_>], _lf: bool) {
-        let Some(b0) = bound.first() else {
-            return;
-        };
-        let _ = self
-            .state
-            .write(encode_state(&b0.route.front, &b0.routed_state(), &b0.state));
-        if let Some(t) = touch_of(b0) {
+    fn encode(&self, bound: &[Bound<'_>]) -> Option<InspireHandState> {
+        let b0 = bound.first()?;
+        Some(encode_state(&b0.route.front, &b0.routed_state(), &b0.state))
+    }
+
+    fn beside(&mut self, bound: &[Bound<'_>]) {
+        if let Some(t) = bound.first().and_then(touch_of) {
             let _ = self.touch.write(t);
         }
     }
@@ -93,47 +106,43 @@ impl FrontIo for FtpIo {
 #[derive(Debug)]
 pub struct InspireFtpFront;
 
-impl FrontFactory for InspireFtpFront {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-    fn speaks(&self) -> Option<DeviceKind> {
-        Some(DeviceKind::InspireFtp)
-    }
-    /// `side`: which hand's topics (`/l`, `/r`) and table the front serves (default: the
-    /// device's side; required for a device of side center).
-    fn keys(&self) -> &'static [&'static str] {
-        &["side"]
-    }
-    /// The driver's topics of the served side (none for a side-less device: refused by
-    /// [`Self::validate`]).
-    fn default_topics(
-        &self,
-        _f: &FrontConfig,
-        lr: Option<Side>,
-        _device: &str,
-    ) -> (Option<Topic>, Option<Topic>, Option<Topic>) {
-        match lr {
-            Some(s @ (Side::Left | Side::Right)) => {
-                let (cmd, state, _touch) = topics(s);
-                (Some(Topic(cmd)), Some(Topic(state)), None)
-            }
-            _ => (None, None, None),
-        }
-    }
+impl Front for InspireFtpFront {
+    type Config = FtpFrontConfig;
+    const KIND: FrontKind = FrontKind::of(&InspireFtpFront);
+    const FACTS: FrontFacts = FrontFacts::serving(NAME, Some(DeviceKind::InspireFtp));
+    /// The driver's topics of the served side.
+    const TOPICS: &'static [TopicKey<FtpFrontConfig>] = &[
+        TopicKey::cmd_topic(|c| c.cmd_topic.as_ref(), |_, at| driver_topic(at, |t| t.0)),
+        TopicKey::state_topic(|c| c.state_topic.as_ref(), |_, at| driver_topic(at, |t| t.1)),
+        TopicKey {
+            key: "touch_topic",
+            role: TopicRole::Beside,
+            set: |c| c.touch_topic.as_ref(),
+            default: |_, at| driver_topic(at, |t| t.2),
+        },
+    ];
+
     /// The driver's loop over Modbus TCP (assumed 50 Hz, [`FtpTransport::rate`]), whatever
     /// the device's rate.
-    fn default_state_hz(&self, _device_hz: Option<f64>) -> f64 {
+    fn default_state_hz(_device_hz: Option<f64>) -> f64 {
         FtpTransport::Tcp.rate().0
     }
-    fn default_name(&self, _f: &FrontConfig, side: &str) -> String {
+    fn default_name(_c: &FtpFrontConfig, _f: &FrontConfig, side: &str) -> String {
         format!("{NAME}_{side}")
     }
+    fn side(c: &FtpFrontConfig) -> Option<Side> {
+        c.side
+    }
     /// The driver has no timeout: the hand keeps its last target (docs/sources.md §7).
-    fn silence(&self, mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
+    fn silence(mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
         SilencePlan::keeps_last_target(mode, dog)
     }
-    fn validate(&self, _f: &FrontConfig, served: Option<Side>, dangling: bool) -> Vec<(&'static str, String)> {
+    fn validate(
+        _c: &FtpFrontConfig,
+        _f: &FrontConfig,
+        served: Option<Side>,
+        dangling: bool,
+    ) -> Vec<(&'static str, String)> {
         if dangling || served != Some(Side::Center) {
             return vec![];
         }
@@ -144,61 +153,43 @@ impl FrontFactory for InspireFtpFront {
             ),
         )]
     }
-    /// The touch topic (`describe` is given the front's table only: with no `side` key, the
-    /// served side is the device's, named as `{l,r}`).
-    fn describe(&self, f: &FrontConfig) -> Option<String> {
-        let touch = match f.side {
-            Some(s @ (Side::Left | Side::Right)) => topics(s).2,
+    /// The touch topic (`describe` is given the front's own keys only: with neither
+    /// `touch_topic` nor `side`, the served side is the device's, named as `{l,r}`).
+    fn describe(c: &FtpFrontConfig) -> Option<String> {
+        let touch = match (&c.touch_topic, c.side) {
+            (Some(t), _) => t.0.clone(),
+            (None, Some(s @ (Side::Left | Side::Right))) => topics(s).2,
             _ => format!("{}/{{l,r}} (the served side)", super::front::TOUCH_TOPIC_PREFIX),
         };
         Some(format!(", touch {touch} from an inspire_ftp device with tactile pads"))
     }
-    fn served(&self, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        use crate::front::serve::{served_command, served_state};
-        let (cmd, touch) = cmd_touch_topics(f);
-        vec![
-            served_command::<InspireHandCtrl>(&cmd),
-            served_state::<InspireHandState>(&f.state_topic),
-            served_state::<InspireHandTouch>(&touch),
-        ]
+    fn served(_c: &FtpFrontConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        let mut out = DdsFront::<FtpCodec>::served(f);
+        out.extend(f.topic("touch_topic").map(served_state::<InspireHandTouch>));
+        out
     }
     fn open(
-        &self,
-        env: &crate::front::serve::FrontEnv,
+        _c: &FtpFrontConfig,
+        env: &FrontEnv,
         f: &FrontPlan,
-        tx: crate::front::serve::Queue,
-        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+        tx: Queue,
+        dropped: Arc<AtomicU64>,
     ) -> Result<Endpoints, crate::dds::DdsError> {
-        let (cmd, touch) = cmd_touch_topics(f);
-        Ok(Endpoints::Commands(Box::new(FtpIo::open(
-            &env.node,
-            &cmd,
-            &f.state_topic,
-            &touch,
-            tx,
-            dropped,
-        )?)))
+        let touch = env.node.writer(f.topic("touch_topic").unwrap_or_default(), STATE_QOS)?;
+        DdsFront::open(env, f, tx, dropped, FtpCodec { touch })
     }
-}
-
-/// The command and touch topics of front `f`: the served side's (the plan's command topic
-/// when it has one).
-fn cmd_touch_topics(f: &FrontPlan) -> (String, String) {
-    let side = f.bindings.first().map_or(Side::Right, |b| b.side);
-    let (ctrl, _, touch) = topics(side);
-    (f.cmd_topic.clone().unwrap_or(ctrl), touch)
 }
 
 impl FrontKind {
     /// Inspire's DDS driver's interface for one hand (`rt/inspire_hand/*/{l,r}`).
     #[allow(non_upper_case_globals)]
-    pub const InspireFtp: FrontKind = FrontKind::of(&InspireFtpFront);
+    pub const InspireFtp: FrontKind = InspireFtpFront::KIND;
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::Arc;
+    use crate::front::kind::{FrontFactory, FrontOwn};
     use std::time::Duration;
 
     use crate::mapping::TableOverrides;
@@ -206,12 +197,26 @@ mod tests {
     use crate::route::Route;
     use handgate_idl::inspire::{MODE_ANGLE, MODE_FORCE};
 
-    fn cfg(side: Option<Side>) -> FrontConfig {
+    fn own(c: FtpFrontConfig) -> FrontConfig {
         FrontConfig {
-            kind: FrontKind::InspireFtp,
-            side,
+            own: FrontOwn::new::<InspireFtpFront>(c),
             ..Default::default()
         }
+    }
+
+    fn cfg(side: Option<Side>) -> FrontConfig {
+        own(FtpFrontConfig {
+            side,
+            ..Default::default()
+        })
+    }
+
+    /// (key, topic) of each topic `c` serves on `side`.
+    fn topics_at(c: &FrontConfig, side: Option<Side>) -> Vec<(&'static str, Option<Topic>)> {
+        c.kind_topics(&TopicAt { side, device: "x" })
+            .into_iter()
+            .map(|t| (t.key, t.topic))
+            .collect()
     }
 
     fn route(device: DeviceKind, side: Side) -> Route {
@@ -230,12 +235,12 @@ mod tests {
         }
     }
 
-    fn ctrl(mode: i8, angle: Vec<i16>) -> Message {
-        Box::new(InspireHandCtrl {
+    fn ctrl(mode: i8, angle: Vec<i16>) -> InspireHandCtrl {
+        InspireHandCtrl {
             angle_set: angle,
             mode,
             ..InspireHandCtrl::sdk_default()
-        })
+        }
     }
 
     #[test]
@@ -245,41 +250,62 @@ mod tests {
             .factory()
             .fronts()
             .contains(&FrontKind::InspireFtp));
-        let f = FrontKind::InspireFtp.factory();
-        assert_eq!(f.speaks(), Some(DeviceKind::InspireFtp));
-        assert!(f.takes_commands());
-        assert_eq!(f.keys(), &["side"]);
-        assert_eq!(f.binds_elements(), None);
-        assert_eq!(f.elements(&cfg(None)), 1);
+        let f = FrontKind::InspireFtp.factory().facts();
+        assert_eq!(f.speaks, Some(DeviceKind::InspireFtp));
+        assert!(f.takes_commands);
+        assert_eq!(
+            FrontKind::InspireFtp.factory().keys(),
+            &["side", "cmd_topic", "state_topic", "touch_topic"]
+        );
+        assert_eq!(f.binds_elements, None);
+        assert_eq!(cfg(None).elements(), 1);
     }
 
     #[test]
     fn the_drivers_topics_of_the_served_side_and_its_rate() {
         let f = InspireFtpFront;
-        let (c, s, lf) = f.default_topics(&cfg(None), Some(Side::Left), "x");
-        assert_eq!(c, Some(Topic("rt/inspire_hand/ctrl/l".into())));
-        assert_eq!(s, Some(Topic("rt/inspire_hand/state/l".into())));
-        assert_eq!(lf, None);
-        let (c, s, _) = f.default_topics(&cfg(None), Some(Side::Right), "x");
-        assert_eq!(c, Some(Topic("rt/inspire_hand/ctrl/r".into())));
-        assert_eq!(s, Some(Topic("rt/inspire_hand/state/r".into())));
+        let t = |s: &str| Some(Topic(s.into()));
         assert_eq!(
-            f.default_topics(&cfg(None), Some(Side::Center), "x"),
-            (None, None, None)
+            topics_at(&cfg(None), Some(Side::Left)),
+            [
+                ("cmd_topic", t("rt/inspire_hand/ctrl/l")),
+                ("state_topic", t("rt/inspire_hand/state/l")),
+                ("touch_topic", t("rt/inspire_hand/touch/l"))
+            ]
         );
-        assert_eq!(f.default_topics(&cfg(None), None, "x"), (None, None, None));
-        assert_eq!(f.default_lf_state_hz(), None);
+        assert_eq!(
+            topics_at(&cfg(None), Some(Side::Right)),
+            [
+                ("cmd_topic", t("rt/inspire_hand/ctrl/r")),
+                ("state_topic", t("rt/inspire_hand/state/r")),
+                ("touch_topic", t("rt/inspire_hand/touch/r"))
+            ]
+        );
+        let none = [("cmd_topic", None), ("state_topic", None), ("touch_topic", None)];
+        assert_eq!(topics_at(&cfg(None), Some(Side::Center)), none);
+        assert_eq!(topics_at(&cfg(None), None), none);
+        // The touch topic is a key of its own.
+        let moved = own(FtpFrontConfig {
+            touch_topic: Some(Topic("rt/x/touch".into())),
+            ..Default::default()
+        });
+        assert_eq!(topics_at(&moved, Some(Side::Left))[2], ("touch_topic", t("rt/x/touch")));
+        assert_eq!(
+            moved.describe().unwrap(),
+            ", touch rt/x/touch from an inspire_ftp device with tactile pads"
+        );
+        assert_eq!(cfg(None).lf_state_hz(), None);
         // The driver publishes once per loop (assumed 50 Hz), whatever the bound device's rate.
         for d in [None, Some(1000.0), Some(20.0)] {
             assert_eq!(f.default_state_hz(d), 50.0);
         }
-        assert_eq!(f.default_name(&cfg(None), "left"), "inspire_ftp_left");
-        let d = f.describe(&cfg(Some(Side::Left))).unwrap();
+        assert_eq!(cfg(None).default_name("left"), "inspire_ftp_left");
+        let d = cfg(Some(Side::Left)).describe().unwrap();
         assert_eq!(
             d,
             ", touch rt/inspire_hand/touch/l from an inspire_ftp device with tactile pads"
         );
-        let d = f.describe(&cfg(None)).unwrap();
+        let d = cfg(None).describe().unwrap();
         assert!(d.contains("rt/inspire_hand/touch/{l,r} (the served side)"), "{d}");
     }
 
@@ -298,8 +324,7 @@ mod tests {
 
     #[test]
     fn a_center_device_needs_a_side() {
-        let f = InspireFtpFront;
-        let p = f.validate(&cfg(None), Some(Side::Center), false);
+        let p = cfg(None).validate_own(Some(Side::Center), false);
         assert_eq!(p.len(), 1);
         assert_eq!(p[0].0, "side");
         assert!(
@@ -309,17 +334,17 @@ mod tests {
             "{}",
             p[0].1
         );
-        let given = FrontConfig {
+        let given = own(FtpFrontConfig {
             cmd_topic: Some(Topic("rt/x/cmd".into())),
             state_topic: Some(Topic("rt/x/state".into())),
-            ..cfg(None)
-        };
+            ..Default::default()
+        });
         // Topics given or not: the side still picks the touch topic and the convention.
-        let p = f.validate(&given, Some(Side::Center), false);
+        let p = given.validate_own(Some(Side::Center), false);
         assert!(p.len() == 1 && p[0].1.contains("touch topic"), "{p:?}");
-        assert!(f.validate(&cfg(None), Some(Side::Center), true).is_empty(), "dangling");
+        assert!(cfg(None).validate_own(Some(Side::Center), true).is_empty(), "dangling");
         for s in [Side::Left, Side::Right] {
-            assert!(f.validate(&cfg(Some(s)), Some(s), false).is_empty());
+            assert!(cfg(Some(s)).validate_own(Some(s), false).is_empty());
         }
     }
 

@@ -82,9 +82,9 @@ impl Fleet {
             .iter()
             .map(|f| FrontInfo {
                 name: f.name.clone(),
-                kind: f.kind.as_str().to_string(),
-                cmd_topic: f.cmd_topic.clone(),
-                state_topic: f.state_topic.clone(),
+                kind: f.kind().as_str().to_string(),
+                cmd_topic: f.cmd_topic().map(str::to_string),
+                state_topic: f.state_topic().to_string(),
                 devices: if f.bindings.is_empty() {
                     f.devices.clone()
                 } else {

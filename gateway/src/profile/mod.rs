@@ -292,20 +292,38 @@ fn layer_of(fig: &Figment, key: &KeyPath) -> Layer {
     }
 }
 
-/// Parses every `[[devices]]` table of `raw` (common keys, then the kind's own), each error
-/// naming the device's key path and the layer that set it.
-fn devices(fig: &Figment, raw: &RawProfile, base: &Origin) -> Result<Vec<DeviceConfig>, ProfileError> {
-    raw.devices
-        .iter()
+/// Parses every table of array `key` (`devices`, `fronts`) of `raw` with `parse` (common
+/// keys, then the kind's own), each error naming the table's key path and the layer that
+/// set it.
+fn tables<T>(
+    fig: &Figment,
+    key: &str,
+    raw: &[Value],
+    base: &Origin,
+    parse: fn(&Value) -> Result<T, Box<figment::Error>>,
+) -> Result<Vec<T>, ProfileError> {
+    raw.iter()
         .enumerate()
         .map(|(i, v)| {
-            DeviceConfig::from_value(v).map_err(|mut e| {
-                e.path.splice(0..0, ["devices".to_string(), i.to_string()]);
-                let layer = layer_of(fig, &KeyPath::root().key("devices").index(i));
+            parse(v).map_err(|mut e| {
+                e.path.splice(0..0, [key.to_string(), i.to_string()]);
+                let layer = layer_of(fig, &KeyPath::root().key(key).index(i));
                 ProfileError::Invalid(figment_issues(*e, layer, base))
             })
         })
         .collect()
+}
+
+/// Parses every `[[devices]]` table of `raw`, then every `[[fronts]]` table.
+fn devices_and_fronts(
+    fig: &Figment,
+    raw: &RawProfile,
+    base: &Origin,
+) -> Result<(Vec<DeviceConfig>, Vec<FrontConfig>), ProfileError> {
+    Ok((
+        tables(fig, "devices", &raw.devices, base, DeviceConfig::from_value)?,
+        tables(fig, "fronts", &raw.fronts, base, FrontConfig::from_value)?,
+    ))
 }
 
 /// Loads, layers and validates a profile. On failure every problem found is reported; a
@@ -321,9 +339,9 @@ pub fn load(opts: &LoadOptions) -> Result<Loaded, ProfileError> {
     let raw = fig
         .extract::<RawProfile>()
         .map_err(|e| ProfileError::Invalid(figment_issues(e, Layer::Base, &base)))?;
-    // Each device's table: the common keys and its kind's own (structural errors of the
-    // base layer before the next layer's).
-    devices(&fig, &raw, &base)?;
+    // Each device's and front's table: the common keys and its kind's own (structural errors
+    // of the base layer before the next layer's).
+    devices_and_fronts(&fig, &raw, &base)?;
     if opts.env == EnvLayer::Process {
         fig = fig.merge(env_provider());
         fig.extract::<RawProfile>()
@@ -333,8 +351,8 @@ pub fn load(opts: &LoadOptions) -> Result<Loaded, ProfileError> {
     let raw: RawProfile = fig
         .extract()
         .map_err(|e| ProfileError::Invalid(figment_issues(e, Layer::Cli, &base)))?;
-    let devices = devices(&fig, &raw, &base)?;
-    let mut profile = raw.into_profile(devices);
+    let (devices, fronts) = devices_and_fronts(&fig, &raw, &base)?;
+    let mut profile = raw.into_profile(devices, fronts);
 
     let issues: Vec<Issue> = validate(&profile)
         .into_iter()

@@ -140,22 +140,23 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
             s,
             "  {:<20} {:<11} -> {:<14}",
             f.display_name(dev),
-            f.kind.as_str(),
+            f.kind().as_str(),
             target
         );
-        if let Some(c) = &t.cmd {
-            let _ = write!(s, " cmd {c}");
+        // Each topic by its role; one beside the state is the kind's to describe.
+        for topic in &t.topics {
+            let Some(name) = &topic.topic else { continue };
+            let _ = match (topic.role, t.lf_state_hz) {
+                (TopicRole::Command, _) => write!(s, " cmd {name}"),
+                (TopicRole::State, _) => write!(s, " state {name} at {}", t.state_hz),
+                (TopicRole::LowFrequencyState, Some(hz)) => write!(s, " lf {name} at {hz}"),
+                (TopicRole::LowFrequencyState, None) | (TopicRole::Beside, _) => Ok(()),
+            };
         }
-        if let Some(st) = &t.state {
-            let _ = write!(s, " state {st} at {}", t.state_hz);
-        }
-        if let (Some(lf), Some(hz)) = (&t.lf_state, t.lf_state_hz) {
-            let _ = write!(s, " lf {lf} at {hz}");
-        }
-        if let Some(d) = f.kind.factory().describe(f) {
+        if let Some(d) = f.describe() {
             s.push_str(&d);
         }
-        if f.kind.takes_commands() {
+        if f.kind().takes_commands() {
             let plans: Vec<(String, String)> = f
                 .bindings(lookup)
                 .into_iter()
@@ -185,7 +186,7 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
         }
         s.push('\n');
         let bound: Vec<Side> = f.bindings(lookup).into_iter().map(|(side, _)| side).collect();
-        for line in f.kind.factory().describe_unbound(f, &bound) {
+        for line in f.describe_unbound(&bound) {
             let _ = writeln!(s, "    {line}");
         }
     }

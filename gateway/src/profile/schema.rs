@@ -109,8 +109,9 @@ pub struct Profile {
     pub fronts: Vec<FrontConfig>,
 }
 
-/// The profile as deserialized: each `[[devices]]` table still a raw value, parsed by
-/// [`DeviceConfig::from_value`] (its common keys, then its kind's own).
+/// The profile as deserialized: each `[[devices]]` and `[[fronts]]` table still a raw value,
+/// parsed by [`DeviceConfig::from_value`] and [`FrontConfig::from_value`] (its common keys,
+/// then its kind's own).
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RawProfile {
@@ -124,7 +125,7 @@ pub struct RawProfile {
     pub foxglove: Option<FoxgloveConfig>,
     pub realtime: RealtimeConfig,
     pub devices: Vec<Value>,
-    pub fronts: Vec<FrontConfig>,
+    pub fronts: Vec<Value>,
 }
 
 impl Profile {
@@ -149,19 +150,14 @@ impl Profile {
     }
 
     /// Front `f`'s topics and rates (`device`: its bound device), with handgate's own
-    /// interfaces' topics in the profile's namespace (`FrontFactory::in_namespace`).
+    /// interfaces' topics in the profile's namespace (`FrontFacts::in_namespace`).
     pub fn front_topics(&self, f: &FrontConfig, device: Option<&DeviceConfig>) -> FrontTopics {
         let mut t = f.topics(device);
-        if f.kind.factory().in_namespace() {
+        if f.kind().factory().facts().in_namespace {
             let ns = self.dds.namespace();
-            let map = |t: &mut Option<Topic>| {
-                if let Some(x) = t {
-                    *x = Topic(ns.topic(x.as_str()));
-                }
-            };
-            map(&mut t.cmd);
-            map(&mut t.state);
-            map(&mut t.lf_state);
+            for x in t.topics.iter_mut().filter_map(|t| t.topic.as_mut()) {
+                *x = Topic(ns.topic(x.as_str()));
+            }
         }
         t
     }
@@ -184,8 +180,8 @@ impl Profile {
 }
 
 impl RawProfile {
-    /// The profile with its devices parsed.
-    pub fn into_profile(self, devices: Vec<DeviceConfig>) -> Profile {
+    /// The profile with its devices and fronts parsed.
+    pub fn into_profile(self, devices: Vec<DeviceConfig>, fronts: Vec<FrontConfig>) -> Profile {
         Profile {
             name: self.name,
             description: self.description,
@@ -197,7 +193,7 @@ impl RawProfile {
             foxglove: self.foxglove,
             realtime: self.realtime,
             devices,
-            fronts: self.fronts,
+            fronts,
         }
     }
 }
@@ -781,7 +777,9 @@ pub struct ClosureConfig {
 /// Options for an emulated device (`[devices.emulator]`, every kind): the adapters' section.
 pub use handgate_adapters::open::EmulatorSection as EmulatorConfig;
 
-pub use handgate_adapters::front::config::{ElementDevices, FrontConfig, FrontDevices, FrontTopics};
+pub use handgate_adapters::front::config::{
+    ElementDevices, FrontConfig, FrontDevices, FrontTopic, FrontTopics, TopicAt, TopicRole,
+};
 
 /// What the profile derives for a front from its bound device (its side, name, topics and
 /// rates): the front kind's defaults applied to the device's configuration.
@@ -796,13 +794,13 @@ pub trait FrontConfigExt {
 impl FrontConfigExt for FrontConfig {
     /// The topic side a front with per-side topics serves: `side` or the bound device's.
     fn served_side(&self, device: Option<&DeviceConfig>) -> Option<Side> {
-        self.side.or(device.map(|d| d.side))
+        self.side().or(device.map(|d| d.side))
     }
 
     /// A front whose messages carry several devices, bound by element (`devices`: one topic
-    /// pair, element 0 right, 1 left; `FrontFactory::elements`).
+    /// pair, element 0 right, 1 left; `Front::elements`).
     fn by_element(&self) -> bool {
-        self.kind.factory().elements(self) > 1
+        self.elements() > 1
     }
 
     /// The devices this front drives, with the side whose wire convention each is served in:
@@ -819,18 +817,24 @@ impl FrontConfigExt for FrontConfig {
     }
 
     /// The name logs use: `name`, else derived from what the front serves: an overridden
-    /// command topic as it is, else the kind's (`FrontFactory::default_name`: e.g. the kind
-    /// and the served side). Two fronts cannot derive the same name: they would serve the
-    /// same topic.
+    /// command topic as it is, else the kind's (`Front::default_name`: e.g. the kind and
+    /// the served side). Two fronts cannot derive the same name: they would serve the same
+    /// topic.
     fn display_name(&self, device: Option<&DeviceConfig>) -> String {
         if let Some(n) = &self.name {
             return n.clone();
         }
-        if let (Some(t), true) = (&self.cmd_topic, self.kind.takes_commands()) {
-            return t.0.clone();
+        let lr = self.served_side(device).filter(|s| *s != Side::Center);
+        let at = TopicAt { side: lr, device: "" };
+        let cmd_set = self
+            .kind_topics(&at)
+            .into_iter()
+            .find(|t| t.role == TopicRole::Command && t.set);
+        if let Some(t) = cmd_set.and_then(|t| t.topic) {
+            return t.0;
         }
         let side = self.served_side(device).map_or("?", |s| s.as_str());
-        self.kind.factory().default_name(self, side)
+        self.default_name(side)
     }
 
     /// Topics and rates with defaults applied. `device` is the bound device (`None` for a
@@ -838,34 +842,20 @@ impl FrontConfigExt for FrontConfig {
     /// topics for a device of side `center`) is `None`; validation reports it.
     fn topics(&self, device: Option<&DeviceConfig>) -> FrontTopics {
         // Left/right: the standard topics are per side.
-        let lr = self.served_side(device).filter(|s| *s != Side::Center);
-        let dev_name = device.map(|d| d.name.as_str()).unwrap_or("all");
-        let k = self.kind.factory();
-        let (cmd, state, lf_state) = k.default_topics(self, lr, dev_name);
+        let at = TopicAt {
+            side: self.served_side(device).filter(|s| *s != Side::Center),
+            device: device.map(|d| d.name.as_str()).unwrap_or("all"),
+        };
         let device_hz = device.and_then(|d| match d.rate() {
             DeviceRate::Hz(r) => Some(r.0),
             DeviceRate::AsFastAsBus => None,
         });
-        let default_state_hz = k.default_state_hz(device_hz);
-        let lf_hz = k.default_lf_state_hz();
         FrontTopics {
-            cmd: if k.takes_commands() {
-                self.cmd_topic.clone().or(cmd)
-            } else {
-                None
-            },
-            state: if k.state_topic_key() == "state_topic" {
-                self.state_topic.clone().or(state)
-            } else {
-                state
-            },
-            lf_state: if lf_hz.is_some() {
-                self.lf_state_topic.clone().or(lf_state)
-            } else {
-                None
-            },
-            state_hz: self.state_hz.unwrap_or(RateHz(default_state_hz)),
-            lf_state_hz: lf_hz.map(|d| self.lf_state_hz.unwrap_or(RateHz(d))),
+            topics: self.kind_topics(&at),
+            state_hz: self
+                .state_hz
+                .unwrap_or(RateHz(self.kind().factory().default_state_hz(device_hz))),
+            lf_state_hz: self.lf_state_hz().map(RateHz),
         }
     }
 }

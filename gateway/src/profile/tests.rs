@@ -366,6 +366,24 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "list at least one device",
     ),
     (
+        "unknown front key",
+        "[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\ncmd_topc = \"rt/x\"\n",
+        "fronts[0].cmd_topc",
+        "unknown key (expected one of: kind, name, device, devices, state_hz, silence, control, watchdog_ms, cmd_topic, state_topic)",
+    ),
+    (
+        "topic key of another front kind",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\ncmd_topic = \"rt/x/cmd\"\n",
+        "fronts[0].cmd_topic",
+        "only dex3, dex1, inspire_dfx, brainco, inspire_ftp, dex5 and canonical fronts take `cmd_topic`, this is a joint_state front",
+    ),
+    (
+        "front topic not a topic name",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"inspire_ftp\"\ndevice = \"g\"\ntouch_topic = \"rt/a b\"\n",
+        "fronts[0].touch_topic",
+        "not a topic name",
+    ),
+    (
         "an object on a joint that closes nothing",
         "[[devices]]\nname = \"h\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nobject_at = { index_0 = 0.1 }\n",
         "devices[0].emulator.object_at.index_0",
@@ -532,7 +550,7 @@ fn no_profile_means_the_embedded_default_simulated_fleet() {
         .iter()
         .filter_map(|f| {
             let dev = f.device.as_ref().and_then(|n| p.devices.iter().find(|d| &d.name == n));
-            f.topics(dev).cmd.map(|t| t.0)
+            f.topics(dev).cmd().map(|t| t.0.clone())
         })
         .collect();
     for t in [
@@ -545,7 +563,7 @@ fn no_profile_means_the_embedded_default_simulated_fleet() {
     ] {
         assert!(cmd_topics.iter().any(|c| c == t), "default serves no {t}");
     }
-    assert_eq!(p.fronts.iter().filter(|f| f.kind == FrontKind::JointState).count(), 1);
+    assert_eq!(p.fronts.iter().filter(|f| f.kind() == FrontKind::JointState).count(), 1);
 }
 
 #[test]
@@ -746,8 +764,8 @@ fn one_actuator_front_binds_both_grippers_by_element() {
     let l = r.unwrap();
     let plan = crate::resolve::plan(&l.profile).unwrap();
     let f = &plan.fronts[0];
-    assert_eq!(f.cmd_topic.as_deref(), Some("rt/unitree_actuator/cmd"));
-    assert_eq!(f.state_topic, "rt/unitree_actuator/state");
+    assert_eq!(f.cmd_topic(), Some("rt/unitree_actuator/cmd"));
+    assert_eq!(f.state_topic(), "rt/unitree_actuator/state");
     assert_eq!(f.name, "dex1_actuator");
     let b: Vec<(&str, Side, usize)> = f
         .bindings
@@ -800,7 +818,7 @@ fn joint_state_fronts_split_devices_sharing_joint_names() {
     let fronts: Vec<(&str, Vec<String>)> = plan
         .fronts
         .iter()
-        .map(|f| (f.state_topic.as_str(), f.devices.clone()))
+        .map(|f| (f.state_topic(), f.devices.clone()))
         .collect();
     assert_eq!(
         fronts,
@@ -930,19 +948,20 @@ fn any_front_kind_binds_any_device_kind() {
 
 #[test]
 fn front_defaults_follow_kind_side_and_device_rate() {
+    use handgate_adapters::dex3::serve::{Dex3Front, Dex3FrontConfig};
+    use handgate_adapters::front::kind::FrontOwn;
     let mut d = DeviceConfig {
         rate_hz: Some(RateHz(300.0)),
         ..DeviceConfig::default()
     };
     let f = FrontConfig {
-        kind: FrontKind::Dex3,
         device: Some(d.name.clone()),
-        ..FrontConfig::default()
+        ..FrontConfig::new(FrontKind::Dex3)
     };
     let t = f.topics(Some(&d));
-    assert_eq!(t.cmd, Some(Topic::new("rt/dex3/left/cmd")));
-    assert_eq!(t.state, Some(Topic::new("rt/dex3/left/state")));
-    assert_eq!(t.lf_state, Some(Topic::new("rt/lf/dex3/left/state")));
+    assert_eq!(t.cmd(), Some(&Topic::new("rt/dex3/left/cmd")));
+    assert_eq!(t.state(), Some(&Topic::new("rt/dex3/left/state")));
+    assert_eq!(t.lf_state(), Some(&Topic::new("rt/lf/dex3/left/state")));
     assert_eq!(
         t.state_hz,
         RateHz(300.0),
@@ -952,17 +971,49 @@ fn front_defaults_follow_kind_side_and_device_rate() {
     d.rate_hz = None;
     assert_eq!(f.topics(Some(&d)).state_hz, RateHz(500.0));
     let right = FrontConfig {
-        side: Some(Side::Right),
+        own: FrontOwn::new::<Dex3Front>(Dex3FrontConfig {
+            side: Some(Side::Right),
+            ..Default::default()
+        }),
         ..f.clone()
     };
-    assert_eq!(right.topics(Some(&d)).cmd, Some(Topic::new("rt/dex3/right/cmd")));
+    assert_eq!(right.topics(Some(&d)).cmd(), Some(&Topic::new("rt/dex3/right/cmd")));
 
-    let js = FrontConfig {
-        kind: FrontKind::JointState,
-        ..FrontConfig::default()
-    };
+    let js = FrontConfig::new(FrontKind::JointState);
     let t = js.topics(None);
-    assert_eq!((t.cmd, t.state), (None, Some(Topic::new("rt/joint_states"))));
+    assert_eq!((t.cmd(), t.state()), (None, Some(&Topic::new("rt/joint_states"))));
+}
+
+/// A front's table as it serializes reads back as the same front: its common keys and its
+/// kind's own, in one flat table.
+#[test]
+fn a_front_table_round_trips_through_its_kinds_keys() {
+    let (_, r) = load_text(&format!(
+        "{DEX3}[[fronts]]\nkind = \"dex3\"\ndevice = \"l\"\nname = \"x\"\nside = \"right\"\nlf_state_hz = 20\nsilence = \"watchdog\"\nstate_hz = 100\n"
+    ));
+    let f = r.unwrap().profile.fronts[0].clone();
+    let v = f.to_value().unwrap();
+    let keys: Vec<String> = v
+        .deserialize::<std::collections::BTreeMap<String, figment::value::Value>>()
+        .unwrap()
+        .into_keys()
+        .collect();
+    assert_eq!(
+        keys,
+        [
+            "control",
+            "device",
+            "kind",
+            "lf_state_hz",
+            "name",
+            "side",
+            "silence",
+            "state_hz"
+        ]
+    );
+    assert_eq!(FrontConfig::from_value(&v).unwrap(), f);
+    assert_eq!(f.side(), Some(Side::Right));
+    assert_eq!(f.lf_state_hz(), Some(20.0));
 }
 
 #[test]
@@ -1315,6 +1366,12 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
     };
     let pair = "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"h\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\nvariant = \"actuator\"\n";
     let js = |extra: &str| format!("{}[[fronts]]\nkind = \"joint_state\"\n{extra}\n", dex3("emulator", ""));
+    let ftp_front = |extra: &str| {
+        format!(
+            "{}[[fronts]]\nkind = \"inspire_ftp\"\ndevice = \"d\"\n{extra}\n",
+            dex3("emulator", "")
+        )
+    };
     let canonical = |extra: &str| {
         format!(
             "{}[[fronts]]\nkind = \"canonical\"\ndevice = \"d\"\n",
@@ -1680,6 +1737,11 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
         ),
         ("fronts.topic", js(""), js("topic = \"rt/x/joints\"")),
         ("fronts.urdf_names", js(""), js("urdf_names = false")),
+        (
+            "fronts.touch_topic",
+            ftp_front(""),
+            ftp_front("touch_topic = \"rt/x/touch\""),
+        ),
     ];
     let documented = documented_device_and_front_keys();
     assert!(
@@ -1713,11 +1775,7 @@ fn namespace_moves_handgates_own_topics_only() {
     let (_, r) = load_text(&format!("[dds]\nnamespace = \"/fleet/robot1\"\n{DEX3}{fronts}"));
     let l = r.unwrap();
     let plan = crate::resolve::plan(&l.profile).unwrap();
-    let topics: Vec<(Option<&str>, &str)> = plan
-        .fronts
-        .iter()
-        .map(|f| (f.cmd_topic.as_deref(), f.state_topic.as_str()))
-        .collect();
+    let topics: Vec<(Option<&str>, &str)> = plan.fronts.iter().map(|f| (f.cmd_topic(), f.state_topic())).collect();
     assert_eq!(
         topics,
         [
@@ -1745,7 +1803,7 @@ fn namespace_moves_handgates_own_topics_only() {
     let (_, r) = load_text(&format!("{DEX3}{fronts}"));
     let l = r.unwrap();
     let plan = crate::resolve::plan(&l.profile).unwrap();
-    assert_eq!(plan.fronts[2].state_topic, "rt/joint_states");
+    assert_eq!(plan.fronts[2].state_topic(), "rt/joint_states");
     assert_eq!(plan.status_topic, "rt/handgate/status");
     assert_eq!(plan.namespace.as_ref().map(|n| n.ros()).as_deref(), Some("/"));
     assert!(render_fleet(&l.profile, &l.origin).contains("ROS node /handgate"));

@@ -284,7 +284,7 @@ impl Checker {
                         format!(
                             "only {} binds devices by element; use `device`{}",
                             FrontKind::binding_elements(),
-                            if f.kind.takes_commands() {
+                            if f.kind().takes_commands() {
                                 ""
                             } else {
                                 ", or list them: `devices = [\"..\", \"..\"]`"
@@ -298,8 +298,8 @@ impl Checker {
                         "give either `device` (one device, on the front's side) or `devices` (by element), not both",
                     );
                 }
-                if f.side.is_some() {
-                    let what = f.kind.factory().binds_elements().unwrap_or("this front");
+                if f.side().is_some() {
+                    let what = f.kind().factory().facts().binds_elements.unwrap_or("this front");
                     self.err(
                         k.key("side"),
                         format!("{what} bound with `devices` serves both elements (0 = right, 1 = left); drop `side`"),
@@ -335,10 +335,10 @@ impl Checker {
                     }
                 },
                 None => {
-                    if f.kind.takes_commands() && f.devices.is_none() {
+                    if f.kind().takes_commands() && f.devices.is_none() {
                         self.err(
                             k.key("device"),
-                            format!("{} front must name its device", a(f.kind.as_str())),
+                            format!("{} front must name its device", a(f.kind().as_str())),
                         );
                     }
                     None
@@ -346,7 +346,7 @@ impl Checker {
             };
             let dangling = (f.device.is_some() && dev.is_none()) || missing;
             self.front(&k, f, dev, dangling);
-            if dev.is_none() && f.kind.takes_commands() && (f.devices.is_none() || missing) {
+            if dev.is_none() && f.kind().takes_commands() && (f.devices.is_none() || missing) {
                 // Its topics depend on a device that is not there; already reported.
                 continue;
             }
@@ -369,44 +369,44 @@ impl Checker {
                 }
             }
             let topics = p.front_topics(f, dev);
-            if let (false, Some(t)) = (missing, &topics.state) {
+            if let (false, Some(t)) = (missing, topics.state()) {
                 self.joint_names(&k, f, p, t);
             }
             let mut cmd_clash = None;
-            if let Some(t) = &topics.cmd {
-                if t == &status_topic {
-                    self.err(k.key("cmd_topic"), format!("command topic `{t}` is the status topic"));
+            for t in topics.topics.iter().filter(|t| t.role == TopicRole::Command) {
+                let Some(topic) = &t.topic else { continue };
+                if topic == &status_topic {
+                    self.err(k.key(t.key), format!("command topic `{topic}` is the status topic"));
                 }
-                match cmd_topics.get(t) {
+                match cmd_topics.get(topic) {
                     Some(&j) => {
                         cmd_clash = Some(j);
-                        let why = f.kind.factory().clash_hint(f, &p.fronts[j]);
+                        let why = f.clash_hint(&p.fronts[j]);
                         self.err(
-                            k.key("cmd_topic"),
-                            format!("command topic `{t}` is already served by fronts[{j}]{why}"),
+                            k.key(t.key),
+                            format!("command topic `{topic}` is already served by fronts[{j}]{why}"),
                         );
                     }
                     None => {
-                        cmd_topics.insert(t.clone(), i);
+                        cmd_topics.insert(topic.clone(), i);
                     }
                 }
             }
             // Two publishers of one state topic would interleave two views of the fleet.
-            let state_key = f.kind.factory().state_topic_key();
-            for (key, t) in [(state_key, &topics.state), ("lf_state_topic", &topics.lf_state)] {
-                let Some(t) = t else { continue };
-                if t == &status_topic {
-                    self.err(k.key(key), format!("state topic `{t}` is the status topic"));
+            for t in topics.topics.iter().filter(|t| t.role.writes()) {
+                let Some(topic) = &t.topic else { continue };
+                if topic == &status_topic {
+                    self.err(k.key(t.key), format!("state topic `{topic}` is the status topic"));
                 }
-                match state_topics.get(t) {
+                match state_topics.get(topic) {
                     // Same pair of fronts as the command clash: one error is enough.
                     Some(&j) if cmd_clash == Some(j) => {}
                     Some(&j) => self.err(
-                        k.key(key),
-                        format!("state topic `{t}` is already published by fronts[{j}]: two fronts would interleave their state on it"),
+                        k.key(t.key),
+                        format!("state topic `{topic}` is already published by fronts[{j}]: two fronts would interleave their state on it"),
                     ),
                     None => {
-                        state_topics.insert(t.clone(), i);
+                        state_topics.insert(topic.clone(), i);
                     }
                 }
             }
@@ -414,13 +414,15 @@ impl Checker {
             // the same domain: it would answer its own commands.
             for (di, d) in p.devices.iter().enumerate() {
                 if let Some((dcmd, dstate)) = d.dds_topics() {
-                    let clash = |a: &Option<Topic>, b: &Option<Topic>| a.is_some() && a == b;
-                    if clash(&topics.cmd, &dcmd) || clash(&topics.state, &dstate) || clash(&topics.lf_state, &dstate) {
+                    let clash = topics.topics.iter().find_map(|t| {
+                        let theirs = if t.role.writes() { &dstate } else { &dcmd };
+                        t.topic.as_ref().filter(|t| theirs.as_ref() == Some(*t))
+                    });
+                    if let Some(topic) = clash {
                         self.err(
                             k.clone(),
                             format!(
-                                "serves `{}` which devices[{di}] (`{}`, backend dds) uses to reach the real device on the same domain",
-                                topics.cmd.clone().or(topics.state.clone()).map(|t| t.0).unwrap_or_default(),
+                                "serves `{topic}` which devices[{di}] (`{}`, backend dds) uses to reach the real device on the same domain",
                                 d.name
                             ),
                         );
@@ -440,8 +442,8 @@ impl Checker {
         by_name: &HashMap<&str, usize>,
         known: &dyn Fn() -> String,
     ) -> bool {
-        if f.kind.takes_commands() {
-            let how = match f.kind.factory().binds_elements() {
+        if f.kind().takes_commands() {
+            let how = match f.kind().factory().facts().binds_elements {
                 Some(_) => "bind by element, `devices = { right = \"..\", left = \"..\" }`, or give `device`",
                 None => "give `device`",
             };
@@ -449,7 +451,7 @@ impl Checker {
                 k.key("devices"),
                 format!(
                     "a list of devices is for fronts that publish state only; {} takes commands: {how}",
-                    a(f.kind.as_str())
+                    a(f.kind().as_str())
                 ),
             );
         }
@@ -494,7 +496,7 @@ impl Checker {
         let mut clashes: BTreeMap<(usize, usize), Vec<String>> = BTreeMap::new();
         for (i, d) in devices.iter().enumerate() {
             let table = d.kind.factory().table(d.side, &*d.config);
-            for name in f.kind.factory().joint_names(f, d.name.as_str(), &table) {
+            for name in f.joint_names(d.name.as_str(), &table) {
                 match first.get(&name) {
                     Some(&j) => clashes.entry((j, i)).or_default().push(name),
                     None => {
@@ -516,7 +518,7 @@ impl Checker {
                     devices[a].name,
                     devices[b].name,
                     shown.join(", "),
-                    f.kind.as_str(),
+                    f.kind().as_str(),
                 ),
             );
         }
@@ -767,64 +769,10 @@ impl Checker {
     }
 
     fn front(&mut self, k: &KeyPath, f: &FrontConfig, dev: Option<&DeviceConfig>, dangling: bool) {
-        let kind = f.kind;
-        let only = |this: &mut Self, name: &str, present: bool, ok: bool, what: &str| {
-            if present && !ok {
-                this.err(k.key(name), format!("only {what}, this is {} front", a(kind.as_str())));
-            }
-        };
-        let takes = |key: &str| kind.factory().keys().contains(&key);
-        let what = |key: &str| match key {
-            "side" => format!("{} fronts serve a side", FrontKind::taking(key)),
-            "lf_state_topic" | "lf_state_hz" => {
-                format!("{} fronts have a low-frequency state topic", FrontKind::taking(key))
-            }
-            "variant" => format!("{} fronts have wire variants", FrontKind::taking(key)),
-            _ => format!("{} fronts take `{key}`", FrontKind::taking(key)),
-        };
-        for (key, present) in [
-            ("side", f.side.is_some()),
-            ("lf_state_topic", f.lf_state_topic.is_some()),
-            ("lf_state_hz", f.lf_state_hz.is_some()),
-            ("variant", f.variant.is_some()),
-            ("topic", f.topic.is_some()),
-            ("urdf_names", f.urdf_names.is_some()),
-        ] {
-            only(self, key, present, takes(key), &what(key));
-        }
-        only(
-            self,
-            "cmd_topic",
-            f.cmd_topic.is_some(),
-            kind.takes_commands(),
-            "fronts that take commands have a command topic",
-        );
-        let state_only: Vec<&str> = FrontKind::all()
-            .iter()
-            .filter(|k| k.factory().state_topic_key() != "state_topic")
-            .map(|k| k.as_str())
-            .collect();
-        only(
-            self,
-            "state_topic",
-            f.state_topic.is_some(),
-            kind.factory().state_topic_key() == "state_topic",
-            &format!(
-                "non-{} fronts take `state_topic` ({}: `topic`)",
-                state_only.join("/"),
-                state_only.join("/")
-            ),
-        );
-
-        for (name, t) in [
-            ("cmd_topic", &f.cmd_topic),
-            ("state_topic", &f.state_topic),
-            ("lf_state_topic", &f.lf_state_topic),
-            ("topic", &f.topic),
-        ] {
-            if let Some(t) = t {
-                self.topic(k.key(name), t);
-            }
+        let kind = f.kind();
+        // Keys of another front kind (found while parsing), then the kind's own rules.
+        for p in &f.misplaced {
+            self.err(Self::under(k, &p.key), p.message.clone());
         }
         if !kind.takes_commands() && f.silence != Silence::default() {
             self.err(
@@ -864,10 +812,7 @@ impl Checker {
         if let Some(r) = f.state_hz {
             self.rate(k.key("state_hz"), r, MAX_RATE_HZ);
         }
-        if let Some(r) = f.lf_state_hz {
-            self.rate(k.key("lf_state_hz"), r, MAX_RATE_HZ);
-        }
-        for (key, msg) in kind.factory().validate(f, f.served_side(dev), dangling) {
+        for (key, msg) in f.validate_own(f.served_side(dev), dangling) {
             self.err(k.key(key), msg);
         }
     }
