@@ -179,7 +179,8 @@ mod tests {
         assert_eq!(f.default_rate_hz(Backend::Emulator), Some(500.0));
         assert!(f.check_side(Side::Center).is_err() && f.check_side(Side::Left).is_ok());
         assert!(f.closure_postures_configurable() && !f.closure_is_torque());
-        assert!(f.fronts().is_empty() && f.pads().is_none());
+        assert_eq!(f.fronts(), &[crate::front::kind::FrontKind::Dex5]);
+        assert!(f.pads().is_none());
         assert_eq!(f.hardware_range(Side::Left, "thumb_1"), Some((0.0, 1.8151_f32 as f64)));
         assert_eq!(f.hardware_range(Side::Center, "thumb_1"), None);
     }
