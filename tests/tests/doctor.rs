@@ -396,8 +396,13 @@ fn entries_problem(out: &str, topic: &str) -> (String, String) {
 /// where 20 are expected) as a hand of kind dex3 for a g1-dex5 profile. Domain 83.
 #[test]
 fn another_hand_on_a_hands_topics_is_named_by_its_entry_count() {
-    let args = |profile: &'static str| {
-        [
+    // (profile, the topic the other hand answers on, its entries and kind, the entries expected)
+    for (profile, topic, entries, kind, expected) in [
+        ("g1-dex3", "rt/dex3/left/state", 20, "dex5", 7),
+        ("g1-dex5", "rt/dex5/left/state", 7, "dex3", 20),
+    ] {
+        let _other = HandStateWriter::start(83, topic, entries);
+        let (code, out) = doctor(&[
             "--profile",
             profile,
             "--domain",
@@ -406,32 +411,12 @@ fn another_hand_on_a_hands_topics_is_named_by_its_entry_count() {
             "lo",
             "--no-scan",
             "--no-sweep",
-        ]
-    };
-    let dex5 = HandStateWriter::start(83, "rt/dex3/left/state", 20);
-    let (code, out) = doctor(&args("g1-dex3"));
-    assert_eq!(code, 1, "{out}");
-    let (what, fix) = entries_problem(&out, "rt/dex3/left/state");
-    assert!(
-        what.contains("(device left_hand) carry 20 entries of HandState_ where 7 are expected"),
-        "{out}"
-    );
-    assert!(
-        fix.contains("fix: a hand of kind dex5 carries 20: set that kind for device left_hand"),
-        "{out}"
-    );
-    drop(dex5);
-
-    let _dex3 = HandStateWriter::start(83, "rt/dex5/left/state", 7);
-    let (code, out) = doctor(&args("g1-dex5"));
-    assert_eq!(code, 1, "{out}");
-    let (what, fix) = entries_problem(&out, "rt/dex5/left/state");
-    assert!(
-        what.contains("(device left_hand) carry 7 entries of HandState_ where 20 are expected"),
-        "{out}"
-    );
-    assert!(
-        fix.contains("fix: a hand of kind dex3 carries 7: set that kind for device left_hand"),
-        "{out}"
-    );
+        ]);
+        assert_eq!(code, 1, "{out}");
+        let (what, fix) = entries_problem(&out, topic);
+        let want = format!("(device left_hand) carry {entries} entries of HandState_ where {expected} are expected");
+        assert!(what.contains(&want), "{profile}: {out}");
+        let want = format!("fix: a hand of kind {kind} carries {entries}: set that kind for device left_hand");
+        assert!(fix.contains(&want), "{profile}: {out}");
+    }
 }
