@@ -116,7 +116,7 @@ fn the_emulated_service_rests_off_follows_an_xr_teleoperate_command_and_ignores_
     assert!(snap.states_published > 0);
 }
 
-/// The default Dex5 table of `side` under `config`.
+/// The Dex5 table of `side` under `config`.
 fn table_of(side: Side, config: &Dex5Profile) -> Arc<DeviceTable> {
     Arc::new(
         DeviceKind::Dex5
@@ -124,6 +124,30 @@ fn table_of(side: Side, config: &Dex5Profile) -> Arc<DeviceTable> {
             .table_with(side, config, &TableOverrides::default())
             .unwrap(),
     )
+}
+
+/// A Dex5 device as the gateway resolves it from a profile (watchdog and forwarding at their
+/// defaults).
+fn spec<'a>(
+    name: &'a str,
+    (side, backend, rate_hz): (Side, Backend, f64),
+    table: &'a Arc<DeviceTable>,
+    emulator: &'a EmulatorSection,
+    config: &'a Dex5Profile,
+) -> DeviceSpec<'a> {
+    DeviceSpec {
+        name,
+        kind: DeviceKind::Dex5,
+        side,
+        backend,
+        rate_hz,
+        stale_after: Duration::from_millis(200),
+        forward_on_arrival: true,
+        max_send_hz: None,
+        table,
+        emulator,
+        config: config as &dyn KindConfig,
+    }
 }
 
 #[test]
@@ -146,19 +170,13 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
     };
     emulator.initial.insert("thumb_0".into(), 0.3);
     emulator.object_at.insert("middle_1".into(), 0.6);
-    let spec = DeviceSpec {
-        name: "dex5_reg",
-        kind,
-        side: Side::Right,
-        backend: Backend::Emulator,
-        rate_hz: 250.0,
-        stale_after: Duration::from_millis(200),
-        forward_on_arrival: true,
-        max_send_hz: None,
-        table: &table,
-        emulator: &emulator,
-        config: &config as &dyn KindConfig,
-    };
+    let spec = spec(
+        "dex5_reg",
+        (Side::Right, Backend::Emulator, 250.0),
+        &table,
+        &emulator,
+        &config,
+    );
     let mut shared = Shared::default();
     let mut env = OpenEnv {
         node: &node,
@@ -203,19 +221,13 @@ fn a_client_on_the_services_topics_reaches_a_closure_target_and_goes_stale_when_
     let config = Dex5Profile::default();
     let table = table_of(Side::Left, &config);
     let emulator = EmulatorSection::default();
-    let spec = DeviceSpec {
-        name: "left_hand",
-        kind,
-        side: Side::Left,
-        backend: Backend::Dds,
-        rate_hz: 500.0,
-        stale_after: Duration::from_millis(200),
-        forward_on_arrival: true,
-        max_send_hz: None,
-        table: &table,
-        emulator: &emulator,
-        config: &config as &dyn KindConfig,
-    };
+    let spec = spec(
+        "left_hand",
+        (Side::Left, Backend::Dds, 500.0),
+        &table,
+        &emulator,
+        &config,
+    );
     let mut shared = Shared::default();
     let mut env = OpenEnv {
         node: &node,
