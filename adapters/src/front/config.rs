@@ -536,7 +536,7 @@ mod tests {
             [
                 (
                     vec!["side".to_string()],
-                    "only dex3, dex1, inspire_dfx, brainco and inspire_ftp fronts take `side`, this is a canonical front"
+                    "only dex3, dex1, inspire_dfx, brainco, inspire_ftp and dex5 fronts take `side`, this is a canonical front"
                 ),
                 (vec!["variant".to_string()], "only dex1 fronts take `variant`, this is a canonical front")
             ]
