@@ -24,24 +24,15 @@
 use handgate_idl::unitree_go;
 
 use super::WIRE_LEN;
-use crate::front::{checked_target, FrontCommand, Rejection};
+use crate::front::{FrontCommand, Rejection};
 use crate::mapping::DeviceTable;
 use crate::model::{Freshness, HandState, JointCommand, JointState};
 
-/// `lost` of a state that was never measured (the stale age, saturated).
-pub const NEVER_MEASURED_LOST: u32 = 0xFFFF_FFFE;
+pub use crate::front::NEVER_MEASURED_LOST;
 
 /// Decodes a client's `MotorCmds_` for a BrainCo front whose table is `front`.
 pub fn decode(msg: &unitree_go::MotorCmds_, front: &DeviceTable) -> Result<FrontCommand, Rejection> {
-    if msg.cmds.len() != WIRE_LEN {
-        return Err(Rejection::WrongCount {
-            got: msg.cmds.len(),
-            want: WIRE_LEN,
-        });
-    }
-    for (i, c) in msg.cmds.iter().enumerate() {
-        checked_target(i, [c.q, c.dq, c.tau, c.kp, c.kd])?;
-    }
+    crate::front::go_targets(msg, WIRE_LEN)?;
     let joints = front
         .joints
         .iter()
@@ -75,13 +66,7 @@ pub fn encode(
     now: std::time::Instant,
 ) -> unitree_go::MotorStates_ {
     let stale = st.freshness == Freshness::Stale;
-    let lost = if stale {
-        st.age(now)
-            .map(|a| a.as_millis().min(u128::from(NEVER_MEASURED_LOST)) as u32)
-            .unwrap_or(NEVER_MEASURED_LOST)
-    } else {
-        0
-    };
+    let lost = crate::front::stale_lost(st, now);
     let mut out = unitree_go::MotorStates_::with_len(WIRE_LEN);
     for (j, s) in front.joints.iter().zip(joints) {
         let Some(m) = out.states.get_mut(j.wire_index) else {

@@ -4,9 +4,6 @@
 //! codec is [`super::front`]. One front per hand, as the service runs one per hand: the
 //! served side picks the topic pair ([`super::topics`]).
 
-use std::sync::atomic::AtomicU64;
-use std::sync::Arc;
-
 use handgate_idl::unitree_go;
 
 use super::emulator::BRAINCO_DEFAULT_HZ;
@@ -14,8 +11,8 @@ use super::front::{decode, encode};
 use crate::front::config::{side_rule, FrontConfig, SideTopics, Silence, TopicKey};
 use crate::front::endpoint::{DdsFront, FrontCodec};
 use crate::front::kind::{Front, FrontFacts, FrontKind};
-use crate::front::plan::{FrontPlan, SilencePlan};
-use crate::front::serve::{routed, Bound, Endpoints, FrontEnv, Queue, Routed};
+use crate::front::plan::SilencePlan;
+use crate::front::serve::{routed, Bound, Routed};
 use crate::front::Rejection;
 use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::Topic;
@@ -24,6 +21,7 @@ use crate::units::Topic;
 const NAME: &str = "brainco";
 
 /// `MotorCmds_` (6) in, `MotorStates_` (6) out, for the one bound hand.
+#[derive(Default)]
 pub struct BraincoCodec;
 
 impl FrontCodec for BraincoCodec {
@@ -59,6 +57,7 @@ pub struct BraincoFront;
 
 impl Front for BraincoFront {
     type Config = SideTopics;
+    type Wire = DdsFront<BraincoCodec>;
     const KIND: FrontKind = FrontKind::of(&BraincoFront);
     const FACTS: FrontFacts = FrontFacts::serving(NAME, Some(DeviceKind::Brainco));
     /// `rt/brainco/{side}/cmd` and `.../state` ([`super::topics`]); none for center.
@@ -81,9 +80,6 @@ impl Front for BraincoFront {
     fn default_name(_c: &SideTopics, _f: &FrontConfig, side: &str) -> String {
         format!("{NAME}_{side}")
     }
-    fn side(c: &SideTopics) -> Option<Side> {
-        c.side
-    }
     /// The service has no command timeout: it re-sends the last command to the hand forever
     /// (docs/sources.md §7), so the device keeps its last target; `watchdog` mode: the
     /// device's watchdog.
@@ -96,18 +92,6 @@ impl Front for BraincoFront {
         }
         side_rule(NAME, served, c.cmd_topic.is_some() && c.state_topic.is_some(), false)
     }
-    fn served(_c: &SideTopics, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        DdsFront::<BraincoCodec>::served(f)
-    }
-    fn open(
-        _c: &SideTopics,
-        env: &FrontEnv,
-        f: &FrontPlan,
-        tx: Queue,
-        dropped: Arc<AtomicU64>,
-    ) -> Result<Endpoints, crate::dds::DdsError> {
-        DdsFront::open(env, f, tx, dropped, BraincoCodec)
-    }
 }
 
 impl FrontKind {
@@ -119,7 +103,7 @@ impl FrontKind {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::front::config::TopicAt;
+    use crate::front::kind::testing::{assert_keeps_last_target, assert_registered, topics_at as topics};
     use crate::front::kind::{FrontFactory, FrontOwn};
     use std::time::Duration;
 
@@ -134,28 +118,12 @@ mod tests {
         }
     }
 
-    /// (key, topic) of each topic `c` serves on `side`.
-    fn topics(c: &FrontConfig, side: Option<Side>) -> Vec<(&'static str, Option<Topic>)> {
-        c.kind_topics(&TopicAt { side, device: "x" })
-            .into_iter()
-            .map(|t| (t.key, t.topic))
-            .collect()
-    }
-
     #[test]
     fn registered_by_its_kind_under_its_name() {
-        assert_eq!(FrontKind::by_name("brainco"), Some(FrontKind::Brainco));
+        let keys = ["side", "cmd_topic", "state_topic"];
+        assert_registered(FrontKind::Brainco, "brainco", DeviceKind::Brainco, &keys, None);
         assert_eq!(DeviceKind::Brainco.factory().fronts(), &[FrontKind::Brainco]);
-        let f = FrontKind::Brainco.factory().facts();
-        assert_eq!(f.speaks, Some(DeviceKind::Brainco));
-        assert!(f.takes_commands);
-        assert_eq!(
-            FrontKind::Brainco.factory().keys(),
-            &["side", "cmd_topic", "state_topic"]
-        );
-        assert_eq!(f.binds_elements, None);
         assert_eq!(cfg(None, false).elements(), 1);
-        assert_eq!(cfg(None, false).kind(), FrontKind::Brainco);
     }
 
     #[test]
@@ -190,15 +158,7 @@ mod tests {
 
     #[test]
     fn silence_keeps_the_last_target_as_the_service_or_the_devices_watchdog() {
-        let f = BraincoFront;
-        let dog = (Duration::from_millis(300), SafeAction::Hold);
-        let s = f.silence(Silence::Service, dog);
-        assert_eq!((s.mode, s.after, s.timeout_bit), (Silence::Service, None, None));
-        assert_eq!(s.armed(true), None);
-        assert_eq!(s.to_string(), "service: keeps the last target");
-        let w = f.silence(Silence::Watchdog, dog);
-        assert_eq!((w.mode, w.after, w.timeout_bit), (Silence::Watchdog, Some(dog), None));
-        assert_eq!(w.armed(false), Some(dog));
+        assert_keeps_last_target(FrontKind::Brainco, (Duration::from_millis(300), SafeAction::Hold));
     }
 
     #[test]

@@ -64,18 +64,7 @@ pub fn decode_actuator(
     msg: &unitree_go::MotorCmds_,
     bound: &[(usize, &DeviceTable)],
 ) -> Result<Vec<FrontCommand>, Rejection> {
-    if msg.cmds.len() != 2 {
-        return Err(Rejection::WrongCount {
-            got: msg.cmds.len(),
-            want: 2,
-        });
-    }
-    let targets = msg
-        .cmds
-        .iter()
-        .enumerate()
-        .map(|(i, m)| checked_target(i, [m.q, m.dq, m.tau, m.kp, m.kd]))
-        .collect::<Result<Vec<_>, _>>()?;
+    let targets = crate::front::go_targets(msg, 2)?;
     Ok(bound
         .iter()
         .map(|&(e, table)| one(table, targets[e], msg.cmds[e].reserve[0]))
@@ -97,7 +86,7 @@ pub fn unbound_state(front: &DeviceTable) -> unitree_go::MotorState_ {
 }
 
 /// `lost` of an unbound actuator element (the stale age, saturated: never measured).
-pub const UNBOUND_LOST: u32 = 0xFFFF_FFFE;
+pub use crate::front::NEVER_MEASURED_LOST as UNBOUND_LOST;
 
 /// Decodes the seed spec's HandCmd_ (1 motor).
 pub fn decode_hg(msg: &unitree_hg::HandCmd_, front: &DeviceTable) -> Result<FrontCommand, Rejection> {
@@ -132,15 +121,7 @@ pub fn go_state(
     };
     let fault = st.faults & faults::HARDWARE != 0;
     let stale = st.freshness == Freshness::Stale;
-    let lost = if fault {
-        LOST_FAULT
-    } else if stale {
-        st.age(now)
-            .map(|a| a.as_millis().min(u128::from(UNBOUND_LOST)) as u32)
-            .unwrap_or(UNBOUND_LOST)
-    } else {
-        0
-    };
+    let lost = crate::front::fault_or_stale_lost(st, now);
     unitree_go::MotorState_ {
         mode: if fault { MODE_FAULT } else { st.mode },
         q,

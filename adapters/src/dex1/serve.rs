@@ -8,35 +8,28 @@ use std::sync::atomic::AtomicU64;
 use std::sync::Arc;
 
 use handgate_idl::{unitree_go, unitree_hg};
-use serde::{Deserialize, Serialize};
 
 use crate::dex1::adapter::{actuator_index, Variant};
 pub use crate::dex1::front::MIN_STATE_HZ;
 use crate::dex1::front::{decode_actuator, decode_go, decode_hg, encode_go, encode_hg, go_state, unbound_state};
 use crate::front::config::{side_rule, FrontConfig, Silence, TopicKey};
-use crate::front::endpoint::{DdsFront, FrontCodec};
-use crate::front::kind::{Front, FrontFacts, FrontKind};
+use crate::front::endpoint::{DdsFront, FrontCodec, OpenCodec};
+use crate::front::kind::{Front, FrontFacts, FrontKind, FrontWire};
 use crate::front::plan::{FrontPlan, SilencePlan};
-use crate::front::serve::{commands, routed, Bound, Endpoints, FrontEnv, Inbox, Queue, Routed, TypedIo, STATE_QOS};
+use crate::front::serve::{
+    commands, elements, routed, routed_each, Bound, Endpoints, FrontEnv, Inbox, Queue, Routed, TypedIo, STATE_QOS,
+};
 use crate::front::Rejection;
 use crate::mapping::DeviceTable;
 use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::Topic;
 
-/// The Dex1 front's own keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Dex1FrontConfig {
-    /// Which topic side to serve (default: the device's side).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub side: Option<Side>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<Topic>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<Topic>,
-    /// The wire variant (default `auto`: follows its clients, `crate::dex1::follow`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub variant: Option<Variant>,
+crate::side_topics_config! {
+    /// The Dex1 front's own keys.
+    pub struct Dex1FrontConfig {
+        /// The wire variant (default `auto`: follows its clients, `crate::dex1::follow`).
+        pub variant: Option<Variant>,
+    }
 }
 
 impl Dex1FrontConfig {
@@ -47,6 +40,7 @@ impl Dex1FrontConfig {
 }
 
 /// The `go` variant: unitree_go `MotorCmds_` / `MotorStates_` of one gripper.
+#[derive(Default)]
 pub struct GoCodec;
 
 impl FrontCodec for GoCodec {
@@ -67,6 +61,7 @@ impl FrontCodec for GoCodec {
 }
 
 /// The `hg` (seed-spec) variant: unitree_hg `HandCmd_` / `HandState_` of one gripper.
+#[derive(Default)]
 pub struct HgCodec;
 
 impl FrontCodec for HgCodec {
@@ -92,18 +87,21 @@ pub struct ActuatorCodec {
     elements: usize,
 }
 
+/// The elements of the front's messages.
+impl OpenCodec for ActuatorCodec {
+    fn open(_env: &FrontEnv, plan: &FrontPlan) -> Result<Self, crate::dds::DdsError> {
+        Ok(ActuatorCodec {
+            elements: plan.elements(),
+        })
+    }
+}
+
 impl FrontCodec for ActuatorCodec {
     type Cmd = unitree_go::MotorCmds_;
     type State = unitree_go::MotorStates_;
 
     fn decode(&self, bound: &[Bound<'_>], m: &unitree_go::MotorCmds_) -> Result<Vec<(usize, Routed)>, Rejection> {
-        let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.route.front)).collect();
-        Ok(decode_actuator(m, &elems)?
-            .into_iter()
-            .zip(bound)
-            .enumerate()
-            .map(|(i, (c, b))| (i, routed(b.route, c)))
-            .collect())
+        Ok(routed_each(bound, decode_actuator(m, &elements(bound))?))
     }
 
     /// Every element measured: each from its own gripper; an unbound one as never measured.
@@ -536,6 +534,7 @@ pub struct Dex1Front;
 
 impl Front for Dex1Front {
     type Config = Dex1FrontConfig;
+    type Wire = Dex1Wire;
     const KIND: FrontKind = FrontKind::of(&Dex1Front);
     const FACTS: FrontFacts = FrontFacts {
         binds_elements: Some("an actuator dex1 front"),
@@ -562,9 +561,6 @@ impl Front for Dex1Front {
         } else {
             format!("dex1_{side}")
         }
-    }
-    fn side(c: &Dex1FrontConfig) -> Option<Side> {
-        c.side
     }
     fn silence(mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
         let after = match mode {
@@ -638,6 +634,12 @@ impl Front for Dex1Front {
             v => format!(" ({v})"),
         })
     }
+}
+
+/// The Dex1 front's wire side: one variant's codec on the generic endpoint, or `auto`'s own.
+pub struct Dex1Wire;
+
+impl FrontWire<Dex1FrontConfig> for Dex1Wire {
     fn served(c: &Dex1FrontConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
         served(c, f)
     }
@@ -650,12 +652,11 @@ impl Front for Dex1Front {
     ) -> Result<Endpoints, crate::dds::DdsError> {
         match c.variant() {
             Variant::Auto => open_auto(env, f, tx, dropped),
-            Variant::Go => DdsFront::open(env, f, tx, dropped, GoCodec),
-            Variant::Hg => DdsFront::open(env, f, tx, dropped, HgCodec),
+            Variant::Go => DdsFront::<GoCodec>::open(env, f, tx, dropped),
+            Variant::Hg => DdsFront::<HgCodec>::open(env, f, tx, dropped),
             Variant::Actuator => {
                 env.shared.get::<ActuatorPair>(PAIR_KEY).claim_explicit();
-                let elements = f.elements();
-                DdsFront::open(env, f, tx, dropped, ActuatorCodec { elements })
+                DdsFront::<ActuatorCodec>::open(env, f, tx, dropped)
             }
         }
     }

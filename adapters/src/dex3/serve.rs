@@ -1,11 +1,7 @@
 //! The Dex3 service front's registry entry and codec glue; its codec is
 //! `crate::dex3::front`.
 
-use std::sync::atomic::AtomicU64;
-use std::sync::Arc;
-
 use handgate_idl::unitree_hg::{HandCmd_, HandState_};
-use serde::{Deserialize, Serialize};
 
 use crate::dex3::dds_client::{topics, StateSource};
 use crate::dex3::front::{decode_cmd, encode_state};
@@ -13,32 +9,24 @@ use crate::front::config::{side_rule, FrontConfig, Silence, TopicKey, TopicRole}
 use crate::front::endpoint::{DdsFront, FrontCodec};
 use crate::front::kind::{Front, FrontFacts, FrontKind};
 use crate::front::plan::{FrontPlan, SilencePlan};
-use crate::front::serve::{routed, Bound, Endpoints, FrontEnv, Queue, Routed};
+use crate::front::serve::{routed, Bound, Routed};
 use crate::front::Rejection;
 use crate::kind::{check_rate, MAX_RATE_HZ};
 use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::{RateHz, Topic};
 
-/// The Dex3 front's own keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Dex3FrontConfig {
-    /// Which topic side to serve (default: the device's side).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub side: Option<Side>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<Topic>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<Topic>,
-    /// The low-frequency state copy (default `rt/lf/dex3/{side}/state`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub lf_state_topic: Option<Topic>,
-    /// Rate of the low-frequency copy (default [`super::SERVICE_LF_HZ`]).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub lf_state_hz: Option<RateHz>,
+crate::side_topics_config! {
+    /// The Dex3 front's own keys.
+    pub struct Dex3FrontConfig {
+        /// The low-frequency state copy (default `rt/lf/dex3/{side}/state`).
+        pub lf_state_topic: Option<Topic>,
+        /// Rate of the low-frequency copy (default [`super::SERVICE_LF_HZ`]).
+        pub lf_state_hz: Option<RateHz>,
+    }
 }
 
 /// unitree_hg `HandCmd_` in, `HandState_` out (and its low-frequency copy).
+#[derive(Default)]
 pub struct Dex3Codec;
 
 impl FrontCodec for Dex3Codec {
@@ -55,6 +43,31 @@ impl FrontCodec for Dex3Codec {
         let b0 = bound.first()?;
         Some(encode_state(&b0.route.front, &b0.routed_state(), &b0.state))
     }
+
+    /// Its endpoints, each with the other interfaces' types a client may use there.
+    fn served(f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        use crate::dds::type_name;
+        use crate::discovery::Role;
+        use handgate_idl::{handgate, unitree_go};
+        DdsFront::<Self>::endpoints(f)
+            .into_iter()
+            .map(|s| match s.role {
+                Role::Reader => s
+                    .alternative(
+                        type_name::<unitree_go::MotorCmds_>(),
+                        format!("the client speaks the Dex1 / hand-service interface (unitree_go MotorCmds_), not the Dex3 service's unitree_hg HandCmd_: point it at a dex1 front, or send HandCmd_ to front {}", f.name),
+                    )
+                    .alternative(
+                        type_name::<handgate::HandCmd_>(),
+                        format!("the client speaks handgate's canonical interface: send it to a canonical front, or send unitree_hg HandCmd_ to front {}", f.name),
+                    ),
+                Role::Writer => s.alternative(
+                    type_name::<unitree_go::MotorStates_>(),
+                    format!("the client reads unitree_go MotorStates_ (Dex1 / hand-service interface); front {} publishes the Dex3 service's unitree_hg HandState_", f.name),
+                ),
+            })
+            .collect()
+    }
 }
 
 /// The Dex3-1 service interface.
@@ -63,6 +76,7 @@ pub struct Dex3Front;
 
 impl Front for Dex3Front {
     type Config = Dex3FrontConfig;
+    type Wire = DdsFront<Dex3Codec>;
     const KIND: FrontKind = FrontKind::of(&Dex3Front);
     const FACTS: FrontFacts = FrontFacts::serving("dex3", Some(DeviceKind::Dex3));
     /// The service's topics of the served side (none for center).
@@ -91,9 +105,6 @@ impl Front for Dex3Front {
     }
     fn default_name(_c: &Dex3FrontConfig, _f: &FrontConfig, side: &str) -> String {
         format!("dex3_{side}")
-    }
-    fn side(c: &Dex3FrontConfig) -> Option<Side> {
-        c.side
     }
     fn silence(mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
         use crate::dex3::RIS_TIMEOUT;
@@ -128,38 +139,6 @@ impl Front for Dex3Front {
             out.extend(side_rule("dex3", served, given, false));
         }
         out
-    }
-    fn served(_c: &Dex3FrontConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        use crate::dds::type_name;
-        use crate::discovery::Role;
-        use handgate_idl::{handgate, unitree_go};
-        DdsFront::<Dex3Codec>::served(f)
-            .into_iter()
-            .map(|s| match s.role {
-                Role::Reader => s
-                    .alternative(
-                        type_name::<unitree_go::MotorCmds_>(),
-                        format!("the client speaks the Dex1 / hand-service interface (unitree_go MotorCmds_), not the Dex3 service's unitree_hg HandCmd_: point it at a dex1 front, or send HandCmd_ to front {}", f.name),
-                    )
-                    .alternative(
-                        type_name::<handgate::HandCmd_>(),
-                        format!("the client speaks handgate's canonical interface: send it to a canonical front, or send unitree_hg HandCmd_ to front {}", f.name),
-                    ),
-                Role::Writer => s.alternative(
-                    type_name::<unitree_go::MotorStates_>(),
-                    format!("the client reads unitree_go MotorStates_ (Dex1 / hand-service interface); front {} publishes the Dex3 service's unitree_hg HandState_", f.name),
-                ),
-            })
-            .collect()
-    }
-    fn open(
-        _c: &Dex3FrontConfig,
-        env: &FrontEnv,
-        f: &FrontPlan,
-        tx: Queue,
-        dropped: Arc<AtomicU64>,
-    ) -> Result<Endpoints, crate::dds::DdsError> {
-        DdsFront::open(env, f, tx, dropped, Dex3Codec)
     }
 }
 

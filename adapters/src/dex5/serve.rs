@@ -4,9 +4,6 @@
 //! is [`super::front`]. One front per hand: the served side picks the topic pair
 //! ([`super::topics`]).
 
-use std::sync::atomic::AtomicU64;
-use std::sync::Arc;
-
 use handgate_idl::unitree_hg::{HandCmd_, HandState_};
 
 use super::front::{decode_cmd, encode_state};
@@ -14,8 +11,8 @@ use super::table::{Conventions, WireConfig};
 use crate::front::config::{side_rule, FrontConfig, SideTopics, Silence, TopicKey};
 use crate::front::endpoint::{DdsFront, FrontCodec};
 use crate::front::kind::{Front, FrontFacts, FrontKind};
-use crate::front::plan::{FrontPlan, SilencePlan};
-use crate::front::serve::{routed, Bound, Endpoints, FrontEnv, Queue, Routed};
+use crate::front::plan::SilencePlan;
+use crate::front::serve::{routed, Bound, Routed};
 use crate::front::Rejection;
 use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::Topic;
@@ -25,6 +22,13 @@ const NAME: &str = "dex5";
 /// unitree_hg `HandCmd_` (20 entries) in, `HandState_` out, for the one bound hand, in the
 /// conventions a Dex5 client uses (docs/profiles.md, "Assumptions").
 pub struct Dex5FrontCodec(WireConfig);
+
+impl Default for Dex5FrontCodec {
+    /// The conventions a Dex5 client uses by default (xr_teleoperate's).
+    fn default() -> Self {
+        Dex5FrontCodec(WireConfig::of(&Conventions::default()))
+    }
+}
 
 impl FrontCodec for Dex5FrontCodec {
     type Cmd = HandCmd_;
@@ -50,6 +54,7 @@ pub struct Dex5Front;
 
 impl Front for Dex5Front {
     type Config = SideTopics;
+    type Wire = DdsFront<Dex5FrontCodec>;
     const KIND: FrontKind = FrontKind::of(&Dex5Front);
     const FACTS: FrontFacts = FrontFacts::serving(NAME, Some(DeviceKind::Dex5));
     /// `rt/dex5/{side}/cmd` and `.../state` ([`super::topics`]); none for center.
@@ -71,9 +76,6 @@ impl Front for Dex5Front {
     fn default_name(_c: &SideTopics, _f: &FrontConfig, side: &str) -> String {
         format!("{NAME}_{side}")
     }
-    fn side(c: &SideTopics) -> Option<Side> {
-        c.side
-    }
     /// Assumed to hold its last command (no timeout: docs/profiles.md, "Assumptions");
     /// `watchdog` mode: the device's watchdog.
     fn silence(mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
@@ -84,24 +86,6 @@ impl Front for Dex5Front {
             return vec![];
         }
         side_rule(NAME, served, c.cmd_topic.is_some() && c.state_topic.is_some(), false)
-    }
-    fn served(_c: &SideTopics, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        DdsFront::<Dex5FrontCodec>::served(f)
-    }
-    fn open(
-        _c: &SideTopics,
-        env: &FrontEnv,
-        f: &FrontPlan,
-        tx: Queue,
-        dropped: Arc<AtomicU64>,
-    ) -> Result<Endpoints, crate::dds::DdsError> {
-        DdsFront::open(
-            env,
-            f,
-            tx,
-            dropped,
-            Dex5FrontCodec(WireConfig::of(&Conventions::default())),
-        )
     }
 }
 

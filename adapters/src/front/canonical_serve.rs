@@ -1,9 +1,6 @@
 //! The canonical front's registry entry and codec glue; its codec is
 //! `crate::front::canonical`.
 
-use std::sync::atomic::AtomicU64;
-use std::sync::Arc;
-
 use serde::{Deserialize, Serialize};
 
 pub use crate::front::canonical::topics;
@@ -12,7 +9,7 @@ use crate::front::config::{Silence, TopicKey, TopicRole};
 use crate::front::endpoint::{DdsFront, FrontCodec};
 use crate::front::kind::{Front, FrontFacts, FrontKind};
 use crate::front::plan::{FrontPlan, SilencePlan};
-use crate::front::serve::{Bound, Endpoints, FrontEnv, Queue, Routed};
+use crate::front::serve::{Bound, Routed};
 use crate::front::Rejection;
 use crate::model::SafeAction;
 use crate::units::Topic;
@@ -23,14 +20,16 @@ use handgate_idl::handgate as hg;
 #[serde(deny_unknown_fields, default)]
 pub struct CanonicalConfig {
     /// Default `rt/handgate/{device}/cmd` (in `[dds] namespace`).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub cmd_topic: Option<Topic>,
     /// Default `rt/handgate/{device}/state` (in `[dds] namespace`).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub state_topic: Option<Topic>,
 }
 
+/// No `side`: the device's own table, whatever its side.
+impl crate::front::config::ServedSide for CanonicalConfig {}
+
 /// handgate's own `HandCmd_` in, `HandState_` out, in the bound device's own table.
+#[derive(Default)]
 pub struct CanonicalCodec;
 
 impl FrontCodec for CanonicalCodec {
@@ -47,6 +46,22 @@ impl FrontCodec for CanonicalCodec {
         let b0 = bound.first()?;
         Some(encode_state(b0.device, &b0.route.device, &b0.state))
     }
+
+    /// Its endpoints; a Dex3 client's command type named with the front that serves it.
+    fn served(f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        use crate::dds::type_name;
+        use handgate_idl::unitree_hg;
+        DdsFront::<Self>::endpoints(f)
+            .into_iter()
+            .map(|s| match s.role {
+                crate::discovery::Role::Reader => s.alternative(
+                    type_name::<unitree_hg::HandCmd_>(),
+                    format!("the client speaks the Dex3 service interface (unitree_hg HandCmd_): serve it with a dex3 front, or send handgate HandCmd_ to front {}", f.name),
+                ),
+                crate::discovery::Role::Writer => s,
+            })
+            .collect()
+    }
 }
 
 /// handgate's own interface: the bound device's table, its watchdog as silence.
@@ -55,6 +70,7 @@ pub struct CanonicalFront;
 
 impl Front for CanonicalFront {
     type Config = CanonicalConfig;
+    type Wire = DdsFront<CanonicalCodec>;
     const KIND: FrontKind = FrontKind::of(&CanonicalFront);
     const FACTS: FrontFacts = FrontFacts {
         in_namespace: true,
@@ -88,29 +104,6 @@ impl Front for CanonicalFront {
             after: Some(dog),
             timeout_bit: None,
         }
-    }
-    fn served(_c: &CanonicalConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        use crate::dds::type_name;
-        use handgate_idl::unitree_hg;
-        DdsFront::<CanonicalCodec>::served(f)
-            .into_iter()
-            .map(|s| match s.role {
-                crate::discovery::Role::Reader => s.alternative(
-                    type_name::<unitree_hg::HandCmd_>(),
-                    format!("the client speaks the Dex3 service interface (unitree_hg HandCmd_): serve it with a dex3 front, or send handgate HandCmd_ to front {}", f.name),
-                ),
-                crate::discovery::Role::Writer => s,
-            })
-            .collect()
-    }
-    fn open(
-        _c: &CanonicalConfig,
-        env: &FrontEnv,
-        f: &FrontPlan,
-        tx: Queue,
-        dropped: Arc<AtomicU64>,
-    ) -> Result<Endpoints, crate::dds::DdsError> {
-        DdsFront::open(env, f, tx, dropped, CanonicalCodec)
     }
 }
 

@@ -288,6 +288,8 @@ impl FrontConfig {
             .map_err(Box::new)?;
         let own: Dict = self.own.to_value()?.deserialize().map_err(Box::new)?;
         dict.extend(own);
+        // A key left unset (`None`) is left out, as a profile leaves it out.
+        dict.retain(|_, v| !matches!(v, Value::Empty(..)));
         Ok(Value::from(dict))
     }
 }
@@ -414,18 +416,43 @@ impl<C> TopicKey<C> {
     }
 }
 
-/// The keys of a front serving one command and one state topic per side, the served side
-/// picking the defaults (BrainCo's and Inspire DFX's fronts): `side` and both topics.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SideTopics {
-    /// The side served (default: the bound device's).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub side: Option<Side>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<Topic>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<Topic>,
+/// Defines a front kind's config struct (its own keys, `#[serde(deny_unknown_fields,
+/// default)]`) that starts with the keys of a front serving a command and a state topic per
+/// side: `side`, `cmd_topic`, `state_topic`; then the kind's other keys.
+#[macro_export]
+macro_rules! side_topics_config {
+    ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $f:ident: $t:ty,)* }) => {
+        $(#[$m])*
+        #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+        #[serde(deny_unknown_fields, default)]
+        pub struct $name {
+            /// The side served (default: the bound device's).
+            pub side: Option<$crate::model::Side>,
+            pub cmd_topic: Option<$crate::units::Topic>,
+            pub state_topic: Option<$crate::units::Topic>,
+            $($(#[$fm])* pub $f: $t,)*
+        }
+
+        impl $crate::front::config::ServedSide for $name {
+            fn side(&self) -> Option<$crate::model::Side> {
+                self.side
+            }
+        }
+    };
+}
+
+/// The topic side a front's config says to serve (its `side` key), for the kinds that have
+/// one ([`side_topics_config!`](crate::side_topics_config)); `None`: the bound device's.
+pub trait ServedSide {
+    fn side(&self) -> Option<Side> {
+        None
+    }
+}
+
+side_topics_config! {
+    /// The keys of a front serving one command and one state topic per side, the served side
+    /// picking the defaults (BrainCo's and Inspire DFX's fronts): `side` and both topics.
+    pub struct SideTopics {}
 }
 
 /// The side rule of the fronts serving `rt/.../{left,right}/...` (`kind`'s): a device of

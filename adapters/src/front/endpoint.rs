@@ -10,6 +10,7 @@ use std::sync::atomic::AtomicU64;
 use std::sync::Arc;
 
 use super::config::TopicRole;
+use super::kind::FrontWire;
 use super::plan::FrontPlan;
 use super::serve::{commands, served_command, served_state, Bound, Endpoints, FrontEnv, Queue, Routed, TypedIo};
 use super::Rejection;
@@ -17,8 +18,9 @@ use crate::dds::{DdsError, Reader, Writer};
 use crate::discovery::diagnose::Served;
 
 /// A front's wire codec: the message its reader takes, the one its writers publish, and the
-/// typed decode and encode between them and the bound devices.
-pub trait FrontCodec: Send + 'static {
+/// typed decode and encode between them and the bound devices. A kind whose front is this
+/// endpoint says so with `type Wire = DdsFront<TheCodec>;` (`Front::Wire`).
+pub trait FrontCodec: OpenCodec + Send + 'static {
     /// The command message (its reader's type).
     type Cmd: Clone + handgate_idl::TopicType + Send + 'static;
     /// The state message (its state writer's type, and its low-frequency copy's).
@@ -31,6 +33,24 @@ pub trait FrontCodec: Send + 'static {
     /// After each state sample (not the low-frequency copy): what the codec publishes beside
     /// it, on writers of its own (Inspire FTP's touch).
     fn beside(&mut self, _bound: &[Bound<'_>]) {}
+    /// What the endpoint serves for `plan`, for discovery: by default its command reader and
+    /// state writers ([`DdsFront::endpoints`]); a kind adds the other types a client may use
+    /// there, or its own writers.
+    fn served(plan: &FrontPlan) -> Vec<Served> {
+        DdsFront::<Self>::endpoints(plan)
+    }
+}
+
+/// How the generic endpoint gets a front's codec: a codec with no settings is its `Default`;
+/// one with settings or writers of its own says how it opens for a front's plan.
+pub trait OpenCodec: Sized {
+    fn open(env: &FrontEnv, plan: &FrontPlan) -> Result<Self, DdsError>;
+}
+
+impl<C: Default> OpenCodec for C {
+    fn open(_env: &FrontEnv, _plan: &FrontPlan) -> Result<Self, DdsError> {
+        Ok(C::default())
+    }
 }
 
 /// A front's endpoints over codec `C`: its reader (kept alive), its state writer and its
@@ -43,16 +63,11 @@ pub struct DdsFront<C: FrontCodec> {
 }
 
 impl<C: FrontCodec> DdsFront<C> {
-    /// The endpoints of front `plan` over `codec`, on the plan's topics.
-    pub fn open(
-        env: &FrontEnv,
-        plan: &FrontPlan,
-        tx: Queue,
-        dropped: Arc<AtomicU64>,
-        codec: C,
-    ) -> Result<Endpoints, DdsError> {
+    /// The endpoints of front `plan` over its codec, on the plan's topics.
+    pub fn open(env: &FrontEnv, plan: &FrontPlan, tx: Queue, dropped: Arc<AtomicU64>) -> Result<Endpoints, DdsError> {
         use super::serve::STATE_QOS;
         let node = &env.node;
+        let codec = C::open(env, plan)?;
         commands(tx, dropped, |inbox| {
             Ok(DdsFront {
                 _reader: inbox.reader(node, plan.cmd_topic().unwrap_or_default(), std::convert::identity)?,
@@ -66,9 +81,9 @@ impl<C: FrontCodec> DdsFront<C> {
         })
     }
 
-    /// What [`DdsFront::open`] serves for `plan`: the command reader, the state writer and
-    /// the low-frequency copy's, in the plan's topic order (each kind adds its alternatives).
-    pub fn served(plan: &FrontPlan) -> Vec<Served> {
+    /// What [`DdsFront::open`] opens for `plan`: the command reader, the state writer and
+    /// the low-frequency copy's, in the plan's topic order.
+    pub fn endpoints(plan: &FrontPlan) -> Vec<Served> {
         plan.topics
             .iter()
             .filter_map(|t| match t.role {
@@ -103,5 +118,21 @@ impl<C: FrontCodec> TypedIo for DdsFront<C> {
 
     fn lf_hz(&self) -> f64 {
         self.lf.as_ref().map_or(0.0, |(_, hz)| *hz)
+    }
+}
+
+/// The generic endpoint as a front kind's wire side.
+impl<Cfg, C: FrontCodec> FrontWire<Cfg> for DdsFront<C> {
+    fn served(_c: &Cfg, plan: &FrontPlan) -> Vec<Served> {
+        C::served(plan)
+    }
+    fn open(
+        _c: &Cfg,
+        env: &FrontEnv,
+        plan: &FrontPlan,
+        tx: Queue,
+        dropped: Arc<AtomicU64>,
+    ) -> Result<Endpoints, DdsError> {
+        Self::open(env, plan, tx, dropped)
     }
 }

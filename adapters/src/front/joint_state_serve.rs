@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::front::config::{FrontConfig, TopicKey, TopicRole};
 use crate::front::joint_state::{append, header, joint_name, DEFAULT_TOPIC};
-use crate::front::kind::{Front, FrontFacts, FrontKind};
+use crate::front::kind::{Front, FrontFacts, FrontKind, FrontWire};
 use crate::front::plan::FrontPlan;
 use crate::front::serve::{Endpoints, FrontEnv, Queue};
 use crate::units::Topic;
@@ -19,12 +19,13 @@ use handgate_idl::ros2::JointState_;
 #[serde(deny_unknown_fields, default)]
 pub struct JointStateConfig {
     /// Default `rt/joint_states` (in `[dds] namespace`).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub topic: Option<Topic>,
     /// Name joints as in the URDF (default true); `false`: `<device>/<joint>`.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub urdf_names: Option<bool>,
 }
+
+/// No `side`: every device's joints as they are.
+impl crate::front::config::ServedSide for JointStateConfig {}
 
 impl JointStateConfig {
     /// Whether joints are named as in the URDF (default true).
@@ -39,6 +40,7 @@ pub struct JointStateFront;
 
 impl Front for JointStateFront {
     type Config = JointStateConfig;
+    type Wire = JointStateIo;
     const KIND: FrontKind = FrontKind::of(&JointStateFront);
     const FACTS: FrontFacts = FrontFacts {
         takes_commands: false,
@@ -68,6 +70,21 @@ impl Front for JointStateFront {
             _ => "joint_state".into(),
         }
     }
+}
+
+/// The QoS of the joint_states writer: ROS 2's default QoS (reliable, volatile) subscribers
+/// match a reliable writer; keep-last 1: only the newest state matters (docs/fronts.md, "QoS
+/// per topic").
+pub const JOINT_STATES_QOS: crate::dds::Qos = crate::dds::Qos::Reliable { depth: 1 };
+
+/// The joint_state front's writer.
+pub struct JointStateIo {
+    writer: crate::dds::Writer<JointState_>,
+    urdf_names: bool,
+}
+
+/// Its writer: state only.
+impl FrontWire<JointStateConfig> for JointStateIo {
     fn served(_c: &JointStateConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
         vec![crate::discovery::diagnose::Served::new(
             f.state_topic(),
@@ -92,17 +109,6 @@ impl Front for JointStateFront {
             urdf_names: c.urdf_names(),
         })))
     }
-}
-
-/// The QoS of the joint_states writer: ROS 2's default QoS (reliable, volatile) subscribers
-/// match a reliable writer; keep-last 1: only the newest state matters (docs/fronts.md, "QoS
-/// per topic").
-pub const JOINT_STATES_QOS: crate::dds::Qos = crate::dds::Qos::Reliable { depth: 1 };
-
-/// The joint_state front's writer.
-pub struct JointStateIo {
-    writer: crate::dds::Writer<JointState_>,
-    urdf_names: bool,
 }
 
 impl crate::front::serve::StateIo for JointStateIo {

@@ -17,7 +17,7 @@ use std::time::Duration;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use super::config::{fields_of, FrontConfig, FrontTopic, Silence, TopicAt, TopicKey};
+use super::config::{fields_of, FrontConfig, FrontTopic, ServedSide, Silence, TopicAt, TopicKey};
 use super::plan::{FrontPlan, SilencePlan};
 use super::serve::{Endpoints, FrontEnv, Queue};
 use crate::dds::DdsError;
@@ -65,22 +65,29 @@ impl FrontFacts {
 /// no front module downcasts anything.
 pub trait Front: Sync + Send + fmt::Debug + 'static {
     /// The kind's own keys of a `[[fronts]]` table (besides those every front has).
-    type Config: DeserializeOwned + Serialize + Default + Clone + PartialEq + fmt::Debug + Send + Sync + 'static;
+    type Config: DeserializeOwned
+        + Serialize
+        + Default
+        + Clone
+        + PartialEq
+        + fmt::Debug
+        + ServedSide
+        + Send
+        + Sync
+        + 'static;
     /// The registry's handle of this kind (`FrontKind::of(&TheFront)`).
     const KIND: FrontKind;
     const FACTS: FrontFacts;
     /// Every topic it serves: the key that sets it, its role and default.
     const TOPICS: &'static [TopicKey<Self::Config>];
+    /// Its wire side (what it serves, its endpoints).
+    type Wire: FrontWire<Self::Config>;
 
     /// Default state rate, given the bound device's rate (`None`: as fast as its bus).
     fn default_state_hz(device_hz: Option<f64>) -> f64;
     /// The name logs use when the profile sets none and no command topic is overridden
     /// (`f`: the whole table; `side`: the served side, `?` when unknown).
     fn default_name(c: &Self::Config, f: &FrontConfig, side: &str) -> String;
-    /// The topic side to serve, when the config says (`None`: the bound device's).
-    fn side(_c: &Self::Config) -> Option<Side> {
-        None
-    }
     /// Rate of the low-frequency state copy ([`super::config::TopicRole::LowFrequencyState`]);
     /// `None`: the kind has none.
     fn lf_state_hz(_c: &Self::Config) -> Option<f64> {
@@ -133,19 +140,20 @@ pub trait Front: Sync + Send + fmt::Debug + 'static {
     fn clash_hint(_c: &Self::Config, _other: Option<&Self::Config>) -> &'static str {
         ""
     }
+}
+
+/// A front kind's wire side: what it serves on DDS and how it opens its endpoints, given its
+/// config (`C`). Most kinds' is the generic endpoint, `DdsFront<TheirCodec>`
+/// ([`super::endpoint::DdsFront`]).
+pub trait FrontWire<C>: 'static {
     /// What the front serves on DDS, for discovery's diagnostics: its command topic (role
     /// reader), its state topics (role writer), each with the type name CycloneDDS registers,
     /// the QoS its endpoints use, the other types a client may use there (with the fix in
     /// words) and related topics a client may use instead.
-    fn served(c: &Self::Config, plan: &FrontPlan) -> Vec<Served>;
+    fn served(c: &C, plan: &FrontPlan) -> Vec<Served>;
     /// The front's endpoints.
-    fn open(
-        c: &Self::Config,
-        env: &FrontEnv,
-        plan: &FrontPlan,
-        tx: Queue,
-        dropped: Arc<AtomicU64>,
-    ) -> Result<Endpoints, DdsError>;
+    fn open(c: &C, env: &FrontEnv, plan: &FrontPlan, tx: Queue, dropped: Arc<AtomicU64>)
+        -> Result<Endpoints, DdsError>;
 }
 
 /// A registered front kind, erased: what it is whatever its configuration, and how it reads
@@ -229,7 +237,7 @@ impl<F: Front> Section for Own<F> {
         F::KIND
     }
     fn side(&self) -> Option<Side> {
-        F::side(&self.0)
+        self.0.side()
     }
     fn topics(&self, at: &TopicAt<'_>) -> Vec<FrontTopic> {
         F::TOPICS.iter().map(|k| k.resolve(&self.0, at)).collect()
@@ -269,7 +277,7 @@ impl<F: Front> Section for Own<F> {
         F::clash_hint(&self.0, Self::of(&*other.0))
     }
     fn served(&self, plan: &FrontPlan) -> Vec<Served> {
-        F::served(&self.0, plan)
+        F::Wire::served(&self.0, plan)
     }
     fn open(
         &self,
@@ -278,7 +286,7 @@ impl<F: Front> Section for Own<F> {
         tx: Queue,
         dropped: Arc<AtomicU64>,
     ) -> Result<Endpoints, DdsError> {
-        F::open(&self.0, env, plan, tx, dropped)
+        F::Wire::open(&self.0, env, plan, tx, dropped)
     }
     fn to_value(&self) -> Result<ConfigValue, ConfigError> {
         ConfigValue::serialize(&self.0).map_err(Box::new)
@@ -399,11 +407,11 @@ impl FrontConfig {
 }
 
 impl FrontPlan {
-    /// What this front serves on DDS (its kind's `Front::served`).
+    /// What this front serves on DDS (its kind's `FrontWire::served`).
     pub fn served(&self) -> Vec<Served> {
         self.config.own.0.served(self)
     }
-    /// Opens this front's endpoints (its kind's `Front::open`).
+    /// Opens this front's endpoints (its kind's `FrontWire::open`).
     pub fn open(&self, env: &FrontEnv, tx: Queue, dropped: Arc<AtomicU64>) -> Result<Endpoints, DdsError> {
         self.config.own.0.open(env, self, tx, dropped)
     }
@@ -505,5 +513,47 @@ impl<'de> Deserialize<'de> for FrontKind {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let s = String::deserialize(d)?;
         FrontKind::by_name(&s).ok_or_else(|| serde::de::Error::unknown_variant(&s, FrontKind::names()))
+    }
+}
+
+/// What every front kind's unit tests check the same way.
+#[cfg(test)]
+pub(crate) mod testing {
+    use super::*;
+    use crate::front::config::Silence;
+    use crate::units::Topic;
+
+    /// `kind` is registered by device kind `by` under `name`, speaks `by`'s convention, takes
+    /// commands and `keys` (besides those every front has), and binds devices by element as
+    /// `binds` names it.
+    pub fn assert_registered(kind: FrontKind, name: &str, by: DeviceKind, keys: &[&str], binds: Option<&str>) {
+        assert_eq!(FrontKind::by_name(name), Some(kind));
+        assert!(by.factory().fronts().contains(&kind), "{by} registers {kind}");
+        let f = kind.factory().facts();
+        assert_eq!(f.speaks, Some(by));
+        assert!(f.takes_commands);
+        assert_eq!(kind.factory().keys(), keys);
+        assert_eq!(f.binds_elements, binds);
+        assert_eq!(FrontConfig::new(kind).kind(), kind);
+    }
+
+    /// `kind`'s silence: as its service, the device keeps its last target (the RIS timeout bit
+    /// changes nothing); in watchdog mode, the device's watchdog `dog`.
+    pub fn assert_keeps_last_target(kind: FrontKind, dog: (Duration, SafeAction)) {
+        let s = kind.factory().silence(Silence::Service, dog);
+        assert_eq!((s.mode, s.after, s.timeout_bit), (Silence::Service, None, None));
+        assert_eq!(s.armed(true), None);
+        assert_eq!(s.to_string(), "service: keeps the last target");
+        let w = kind.factory().silence(Silence::Watchdog, dog);
+        assert_eq!((w.mode, w.after, w.timeout_bit), (Silence::Watchdog, Some(dog), None));
+        assert_eq!(w.armed(false), Some(dog));
+    }
+
+    /// (key, topic) of each topic front `c` serves on `side` of a device called `x`.
+    pub fn topics_at(c: &FrontConfig, side: Option<Side>) -> Vec<(&'static str, Option<Topic>)> {
+        c.kind_topics(&TopicAt { side, device: "x" })
+            .into_iter()
+            .map(|t| (t.key, t.topic))
+            .collect()
     }
 }

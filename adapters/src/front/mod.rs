@@ -73,6 +73,51 @@ pub struct FrontCommand {
     pub tag: u32,
 }
 
+/// unitree_go `MotorState_.lost` of a state in a hardware fault.
+pub const FAULT_LOST: u32 = 0xFFFF_FFFF;
+
+/// unitree_go `MotorState_.lost` of state `st` at `now` for the services that mark a fault
+/// there (dex1_1_service, DFX_inspire_service): [`FAULT_LOST`] in a hardware fault, else
+/// [`stale_lost`].
+pub fn fault_or_stale_lost(st: &crate::model::HandState, now: std::time::Instant) -> u32 {
+    if st.faults & crate::model::faults::HARDWARE != 0 {
+        FAULT_LOST
+    } else {
+        stale_lost(st, now)
+    }
+}
+
+/// The targets of a unitree_go `MotorCmds_` that must carry `want` entries, checked whole:
+/// the count, then every field of every entry finite (so a bad message moves nothing).
+pub fn go_targets(msg: &handgate_idl::unitree_go::MotorCmds_, want: usize) -> Result<Vec<WireTarget>, Rejection> {
+    if msg.cmds.len() != want {
+        return Err(Rejection::WrongCount {
+            got: msg.cmds.len(),
+            want,
+        });
+    }
+    msg.cmds
+        .iter()
+        .enumerate()
+        .map(|(i, m)| checked_target(i, [m.q, m.dq, m.tau, m.kp, m.kd]))
+        .collect()
+}
+
+/// unitree_go `MotorState_.lost` of a state never measured: the stale age in ms, saturated
+/// (the services' convention, shared by every front publishing `MotorStates_`).
+pub const NEVER_MEASURED_LOST: u32 = 0xFFFF_FFFE;
+
+/// unitree_go `MotorState_.lost` of state `st` at `now`: 0 while fresh, else how long it has
+/// gone unmeasured in ms, saturating at [`NEVER_MEASURED_LOST`] (also when never measured).
+pub fn stale_lost(st: &crate::model::HandState, now: std::time::Instant) -> u32 {
+    if st.freshness != crate::model::Freshness::Stale {
+        return 0;
+    }
+    st.age(now)
+        .map(|a| a.as_millis().min(u128::from(NEVER_MEASURED_LOST)) as u32)
+        .unwrap_or(NEVER_MEASURED_LOST)
+}
+
 /// Entry `index`'s five command fields as a wire target, refused whole when any of them is
 /// not finite.
 pub fn checked_target(index: usize, [q, dq, tau, kp, kd]: [f32; 5]) -> Result<WireTarget, Rejection> {

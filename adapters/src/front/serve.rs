@@ -292,6 +292,22 @@ pub fn open(env: &FrontEnv, f: &FrontPlan, tx: Queue, dropped: Arc<AtomicU64>) -
     f.open(env, tx, dropped)
 }
 
+/// (element, front table) of each bound device, in `bound`'s order: what the codec of a
+/// message carrying several devices decodes against.
+pub fn elements<'a>(bound: &'a [Bound<'_>]) -> Vec<(usize, &'a crate::mapping::DeviceTable)> {
+    bound.iter().map(|b| (b.element, &*b.route.front)).collect()
+}
+
+/// One decoded command per bound device, in `bound`'s order, each routed to its device.
+pub fn routed_each(bound: &[Bound<'_>], commands: Vec<FrontCommand>) -> Vec<(usize, Routed)> {
+    commands
+        .into_iter()
+        .zip(bound)
+        .enumerate()
+        .map(|(i, (c, b))| (i, routed(b.route, c)))
+        .collect()
+}
+
 /// A decoded front command routed to the device of `route`.
 pub fn routed(route: &Route, c: FrontCommand) -> Routed {
     (route.command(&c.joints), c.tag, c.timeout_bit)

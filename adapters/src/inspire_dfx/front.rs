@@ -21,31 +21,23 @@
 use handgate_idl::unitree_go;
 
 use super::{ENTRIES, HAND_ENTRIES};
-use crate::front::{checked_target, FrontCommand, Rejection};
+use crate::front::{FrontCommand, Rejection};
 use crate::mapping::DeviceTable;
-use crate::model::{faults, Freshness, HandState, JointCommand};
+use crate::model::{Freshness, HandState, JointCommand};
 
 pub use super::{CMD_TOPIC, STATE_TOPIC};
 
 /// `lost` of a hand in a hardware fault.
-pub const LOST_FAULT: u32 = 0xFFFF_FFFF;
+pub use crate::front::FAULT_LOST as LOST_FAULT;
 /// `lost` of an element no device is bound to (the stale age, saturated: never measured).
-pub const UNBOUND_LOST: u32 = 0xFFFF_FFFE;
+pub use crate::front::NEVER_MEASURED_LOST as UNBOUND_LOST;
 
 /// Decodes a 12-entry `MotorCmds_` for the bound elements (`bound[i]` = (element 0 right /
 /// 1 left, that hand's front table)). Checked whole first: 12 entries, every field finite
 /// (the unbound hand's entries included). Returns one command per bound element, in
 /// `bound`'s order.
 pub fn decode(msg: &unitree_go::MotorCmds_, bound: &[(usize, &DeviceTable)]) -> Result<Vec<FrontCommand>, Rejection> {
-    if msg.cmds.len() != ENTRIES {
-        return Err(Rejection::WrongCount {
-            got: msg.cmds.len(),
-            want: ENTRIES,
-        });
-    }
-    for (i, m) in msg.cmds.iter().enumerate() {
-        checked_target(i, [m.q, m.dq, m.tau, m.kp, m.kd])?;
-    }
+    crate::front::go_targets(msg, ENTRIES)?;
     Ok(bound
         .iter()
         .map(|&(e, table)| FrontCommand {
@@ -66,17 +58,8 @@ pub fn decode(msg: &unitree_go::MotorCmds_, bound: &[(usize, &DeviceTable)]) -> 
 
 /// One hand's six entries from its routed state.
 fn hand(front: &DeviceTable, st: &HandState, now: std::time::Instant) -> [unitree_go::MotorState_; HAND_ENTRIES] {
-    let fault = st.faults & faults::HARDWARE != 0;
     let stale = st.freshness == Freshness::Stale;
-    let lost = if fault {
-        LOST_FAULT
-    } else if stale {
-        st.age(now)
-            .map(|a| a.as_millis().min(u128::from(UNBOUND_LOST)) as u32)
-            .unwrap_or(UNBOUND_LOST)
-    } else {
-        0
-    };
+    let lost = crate::front::fault_or_stale_lost(st, now);
     let mut out = [unitree_go::MotorState_::default(); HAND_ENTRIES];
     for (j, s) in front.joints.iter().zip(&st.joints) {
         let q = j.q_to_wire(s.q);
@@ -121,6 +104,7 @@ pub fn encode(bound: &[(usize, &DeviceTable, &HandState)], now: std::time::Insta
 mod tests {
     use super::*;
     use crate::mapping::TableOverrides;
+    use crate::model::faults;
     use crate::model::{DeviceKind, JointState, Side};
 
     fn t(side: Side) -> DeviceTable {

@@ -4,9 +4,6 @@
 //! entries, 0–5 the right hand (element 0) and 6–11 the left (element 1), bound by element
 //! (`devices = { right = "..", left = ".." }`), or one hand with `device` on its side.
 
-use std::sync::atomic::AtomicU64;
-use std::sync::Arc;
-
 use handgate_idl::unitree_go;
 
 use super::front::{decode, encode, UNBOUND_LOST};
@@ -14,8 +11,8 @@ use super::{element, CMD_TOPIC, SERVICE_RATE_HZ, STATE_TOPIC};
 use crate::front::config::{FrontConfig, SideTopics, Silence, TopicKey};
 use crate::front::endpoint::{DdsFront, FrontCodec};
 use crate::front::kind::{Front, FrontFacts, FrontKind};
-use crate::front::plan::{FrontPlan, SilencePlan};
-use crate::front::serve::{routed, Bound, Endpoints, FrontEnv, Queue, Routed};
+use crate::front::plan::SilencePlan;
+use crate::front::serve::{elements, routed_each, Bound, Routed};
 use crate::front::Rejection;
 use crate::mapping::DeviceTable;
 use crate::model::{DeviceKind, HandState, SafeAction, Side};
@@ -25,6 +22,7 @@ use crate::units::Topic;
 const NAME: &str = "inspire_dfx";
 
 /// `MotorCmds_` (12) in, `MotorStates_` (12) out, each bound hand on its element.
+#[derive(Default)]
 pub struct DfxCodec;
 
 impl FrontCodec for DfxCodec {
@@ -34,13 +32,7 @@ impl FrontCodec for DfxCodec {
     /// The whole message is checked first (12 entries, all finite); then each bound hand gets
     /// its own six entries through its route.
     fn decode(&self, bound: &[Bound<'_>], m: &unitree_go::MotorCmds_) -> Result<Vec<(usize, Routed)>, Rejection> {
-        let elems: Vec<(usize, &DeviceTable)> = bound.iter().map(|b| (b.element, &*b.route.front)).collect();
-        Ok(decode(m, &elems)?
-            .into_iter()
-            .zip(bound)
-            .enumerate()
-            .map(|(i, (c, b))| (i, routed(b.route, c)))
-            .collect())
+        Ok(routed_each(bound, decode(m, &elements(bound))?))
     }
 
     /// Each bound hand's six entries from its own device's state (in the front's joint order);
@@ -70,6 +62,7 @@ pub struct InspireDfxFront;
 
 impl Front for InspireDfxFront {
     type Config = SideTopics;
+    type Wire = DdsFront<DfxCodec>;
     const KIND: FrontKind = FrontKind::of(&InspireDfxFront);
     const FACTS: FrontFacts = FrontFacts {
         binds_elements: Some("an inspire_dfx front"),
@@ -88,9 +81,6 @@ impl Front for InspireDfxFront {
     /// One front serves both hands: named after the interface, not a side.
     fn default_name(_c: &SideTopics, _f: &FrontConfig, _side: &str) -> String {
         NAME.into()
-    }
-    fn side(c: &SideTopics) -> Option<Side> {
-        c.side
     }
     /// The service stops writing targets 1 s after the last command and the hand keeps its
     /// last target (docs/sources.md §7): the device keeps its last target.
@@ -136,18 +126,6 @@ impl Front for InspireDfxFront {
             None => "",
         }
     }
-    fn served(_c: &SideTopics, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        DdsFront::<DfxCodec>::served(f)
-    }
-    fn open(
-        _c: &SideTopics,
-        env: &FrontEnv,
-        f: &FrontPlan,
-        tx: Queue,
-        dropped: Arc<AtomicU64>,
-    ) -> Result<Endpoints, crate::dds::DdsError> {
-        DdsFront::open(env, f, tx, dropped, DfxCodec)
-    }
 }
 
 impl FrontKind {
@@ -160,6 +138,7 @@ impl FrontKind {
 mod tests {
     use super::*;
     use crate::front::config::{TopicAt, TopicRole};
+    use crate::front::kind::testing::{assert_keeps_last_target, assert_registered};
     use crate::front::kind::{FrontFactory, FrontOwn};
     use std::time::Duration;
 
@@ -181,19 +160,15 @@ mod tests {
 
     #[test]
     fn registered_by_its_kind_under_its_name() {
-        assert_eq!(FrontKind::by_name("inspire_dfx"), Some(FrontKind::InspireDfx));
-        assert!(DeviceKind::InspireDfx
-            .factory()
-            .fronts()
-            .contains(&FrontKind::InspireDfx));
-        let f = FrontKind::InspireDfx.factory().facts();
-        assert_eq!(f.speaks, Some(DeviceKind::InspireDfx));
-        assert!(f.takes_commands);
-        assert_eq!(
-            FrontKind::InspireDfx.factory().keys(),
-            &["side", "cmd_topic", "state_topic"]
+        let keys = ["side", "cmd_topic", "state_topic"];
+        let binds = Some("an inspire_dfx front");
+        assert_registered(
+            FrontKind::InspireDfx,
+            "inspire_dfx",
+            DeviceKind::InspireDfx,
+            &keys,
+            binds,
         );
-        assert_eq!(f.binds_elements, Some("an inspire_dfx front"));
         assert!(FrontKind::binding_elements().contains("an inspire_dfx front"));
     }
 
@@ -232,15 +207,7 @@ mod tests {
 
     #[test]
     fn silence_keeps_the_last_target_as_the_service_or_the_devices_watchdog() {
-        let f = InspireDfxFront;
-        let dog = (Duration::from_millis(200), SafeAction::Limp);
-        let s = f.silence(Silence::Service, dog);
-        assert_eq!((s.mode, s.after, s.timeout_bit), (Silence::Service, None, None));
-        assert_eq!(s.armed(true), None);
-        assert_eq!(s.to_string(), "service: keeps the last target");
-        let w = f.silence(Silence::Watchdog, dog);
-        assert_eq!((w.mode, w.after, w.timeout_bit), (Silence::Watchdog, Some(dog), None));
-        assert_eq!(w.armed(false), Some(dog));
+        assert_keeps_last_target(FrontKind::InspireDfx, (Duration::from_millis(200), SafeAction::Limp));
     }
 
     #[test]

@@ -10,19 +10,15 @@
 //! publishes nothing there, as the driver over RS-485 does. Its topic is the served side's
 //! standard one unless `touch_topic` sets another.
 
-use std::sync::atomic::AtomicU64;
-use std::sync::Arc;
-
 use handgate_idl::inspire::{InspireHandCtrl, InspireHandState, InspireHandTouch};
-use serde::{Deserialize, Serialize};
 
 use super::emulator::FtpTransport;
 use super::front::{decode, encode_state, encode_touch, topics, CTRL_TOPIC_PREFIX, STATE_TOPIC_PREFIX};
 use crate::front::config::{FrontConfig, Silence, TopicAt, TopicKey, TopicRole};
-use crate::front::endpoint::{DdsFront, FrontCodec};
+use crate::front::endpoint::{DdsFront, FrontCodec, OpenCodec};
 use crate::front::kind::{Front, FrontFacts, FrontKind};
 use crate::front::plan::{FrontPlan, SilencePlan};
-use crate::front::serve::{routed, served_state, Bound, Endpoints, FrontEnv, Queue, Routed, STATE_QOS};
+use crate::front::serve::{routed, served_state, Bound, FrontEnv, Routed, STATE_QOS};
 use crate::front::Rejection;
 use crate::model::{DeviceKind, SafeAction, Side};
 use crate::units::Topic;
@@ -30,21 +26,14 @@ use crate::units::Topic;
 /// The front's name (profile `kind = "inspire_ftp"`), the kind's own.
 const NAME: &str = "inspire_ftp";
 
-/// The Inspire FTP front's own keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct FtpFrontConfig {
-    /// Which hand's topics (`/l`, `/r`), table and touch topic the front serves (default:
-    /// the device's side; required for a device of side center).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub side: Option<Side>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cmd_topic: Option<Topic>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub state_topic: Option<Topic>,
-    /// Where the touch message goes (default: the served side's `rt/inspire_hand/touch/{l,r}`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub touch_topic: Option<Topic>,
+crate::side_topics_config! {
+    /// The Inspire FTP front's own keys: `side` picks the hand's topics (`/l`, `/r`), table
+    /// and touch topic (default: the device's side; required for a device of side center).
+    pub struct FtpFrontConfig {
+        /// Where the touch message goes (default: the served side's
+        /// `rt/inspire_hand/touch/{l,r}`).
+        pub touch_topic: Option<Topic>,
+    }
 }
 
 /// The driver's topic of the served side (`which` picks it out of the three); none for a
@@ -82,6 +71,16 @@ pub fn decode_bound(bound: &[Bound<'_>], m: &InspireHandCtrl) -> Result<Vec<(usi
         .unwrap_or_default())
 }
 
+/// Its touch writer, on the plan's `touch_topic`.
+impl OpenCodec for FtpCodec {
+    fn open(env: &FrontEnv, plan: &FrontPlan) -> Result<Self, crate::dds::DdsError> {
+        let touch = plan.topic("touch_topic").unwrap_or_default();
+        Ok(FtpCodec {
+            touch: env.node.writer(touch, STATE_QOS)?,
+        })
+    }
+}
+
 impl FrontCodec for FtpCodec {
     type Cmd = InspireHandCtrl;
     type State = InspireHandState;
@@ -100,6 +99,13 @@ impl FrontCodec for FtpCodec {
             let _ = self.touch.write(t);
         }
     }
+
+    /// The command reader and state writer, then the touch writer.
+    fn served(plan: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+        let mut out = DdsFront::<Self>::endpoints(plan);
+        out.extend(plan.topic("touch_topic").map(served_state::<InspireHandTouch>));
+        out
+    }
 }
 
 /// Inspire's DDS driver's interface for one hand.
@@ -108,6 +114,7 @@ pub struct InspireFtpFront;
 
 impl Front for InspireFtpFront {
     type Config = FtpFrontConfig;
+    type Wire = DdsFront<FtpCodec>;
     const KIND: FrontKind = FrontKind::of(&InspireFtpFront);
     const FACTS: FrontFacts = FrontFacts::serving(NAME, Some(DeviceKind::InspireFtp));
     /// The driver's topics of the served side.
@@ -129,9 +136,6 @@ impl Front for InspireFtpFront {
     }
     fn default_name(_c: &FtpFrontConfig, _f: &FrontConfig, side: &str) -> String {
         format!("{NAME}_{side}")
-    }
-    fn side(c: &FtpFrontConfig) -> Option<Side> {
-        c.side
     }
     /// The driver has no timeout: the hand keeps its last target (docs/sources.md §7).
     fn silence(mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
@@ -163,21 +167,6 @@ impl Front for InspireFtpFront {
         };
         Some(format!(", touch {touch} from an inspire_ftp device with tactile pads"))
     }
-    fn served(_c: &FtpFrontConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
-        let mut out = DdsFront::<FtpCodec>::served(f);
-        out.extend(f.topic("touch_topic").map(served_state::<InspireHandTouch>));
-        out
-    }
-    fn open(
-        _c: &FtpFrontConfig,
-        env: &FrontEnv,
-        f: &FrontPlan,
-        tx: Queue,
-        dropped: Arc<AtomicU64>,
-    ) -> Result<Endpoints, crate::dds::DdsError> {
-        let touch = env.node.writer(f.topic("touch_topic").unwrap_or_default(), STATE_QOS)?;
-        DdsFront::open(env, f, tx, dropped, FtpCodec { touch })
-    }
 }
 
 impl FrontKind {
@@ -189,7 +178,9 @@ impl FrontKind {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::front::kind::testing::{assert_keeps_last_target, assert_registered, topics_at};
     use crate::front::kind::{FrontFactory, FrontOwn};
+    use std::sync::Arc;
     use std::time::Duration;
 
     use crate::mapping::TableOverrides;
@@ -209,14 +200,6 @@ mod tests {
             side,
             ..Default::default()
         })
-    }
-
-    /// (key, topic) of each topic `c` serves on `side`.
-    fn topics_at(c: &FrontConfig, side: Option<Side>) -> Vec<(&'static str, Option<Topic>)> {
-        c.kind_topics(&TopicAt { side, device: "x" })
-            .into_iter()
-            .map(|t| (t.key, t.topic))
-            .collect()
     }
 
     fn route(device: DeviceKind, side: Side) -> Route {
@@ -245,19 +228,14 @@ mod tests {
 
     #[test]
     fn registered_by_its_kind_under_its_name() {
-        assert_eq!(FrontKind::by_name("inspire_ftp"), Some(FrontKind::InspireFtp));
-        assert!(DeviceKind::InspireFtp
-            .factory()
-            .fronts()
-            .contains(&FrontKind::InspireFtp));
-        let f = FrontKind::InspireFtp.factory().facts();
-        assert_eq!(f.speaks, Some(DeviceKind::InspireFtp));
-        assert!(f.takes_commands);
-        assert_eq!(
-            FrontKind::InspireFtp.factory().keys(),
-            &["side", "cmd_topic", "state_topic", "touch_topic"]
+        let keys = ["side", "cmd_topic", "state_topic", "touch_topic"];
+        assert_registered(
+            FrontKind::InspireFtp,
+            "inspire_ftp",
+            DeviceKind::InspireFtp,
+            &keys,
+            None,
         );
-        assert_eq!(f.binds_elements, None);
         assert_eq!(cfg(None).elements(), 1);
     }
 
@@ -311,15 +289,7 @@ mod tests {
 
     #[test]
     fn silence_keeps_the_last_target_as_the_driver_or_the_devices_watchdog() {
-        let f = InspireFtpFront;
-        let dog = (Duration::from_millis(200), SafeAction::Limp);
-        let s = f.silence(Silence::Service, dog);
-        assert_eq!((s.mode, s.after, s.timeout_bit), (Silence::Service, None, None));
-        assert_eq!(s.armed(true), None);
-        assert_eq!(s.to_string(), "service: keeps the last target");
-        let w = f.silence(Silence::Watchdog, dog);
-        assert_eq!((w.mode, w.after, w.timeout_bit), (Silence::Watchdog, Some(dog), None));
-        assert_eq!(w.armed(false), Some(dog));
+        assert_keeps_last_target(FrontKind::InspireFtp, (Duration::from_millis(200), SafeAction::Limp));
     }
 
     #[test]
