@@ -25,8 +25,6 @@ use crate::front::{checked_target, FrontCommand, Rejection};
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandState, JointCommand};
 
-pub use super::{CMD_TOPIC, STATE_TOPIC};
-
 /// `lost` of a hand in a hardware fault.
 pub const LOST_FAULT: u32 = 0xFFFF_FFFF;
 /// `lost` of an element no device is bound to (the stale age, saturated: never measured).
