@@ -25,8 +25,6 @@ use crate::front::{FrontCommand, Rejection};
 use crate::mapping::DeviceTable;
 use crate::model::{Freshness, HandState, JointCommand};
 
-pub use super::{CMD_TOPIC, STATE_TOPIC};
-
 /// `lost` of a hand in a hardware fault.
 pub use crate::front::FAULT_LOST as LOST_FAULT;
 /// `lost` of an element no device is bound to (the stale age, saturated: never measured).
