@@ -342,6 +342,27 @@ impl KindFacts {
             closure_postures_configurable: false,
         }
     }
+
+    /// A client of a hand service running one instance per hand
+    /// ([`crate::service_client::ServiceHand`]): backends dds and emulator, a left or a right
+    /// hand, a `[devices.dds]` section on backend dds, the service's rate `hz` (the emulated
+    /// service runs at the device's), `fronts` serving the service's interface.
+    pub const fn hand_service(
+        name: &'static str,
+        joints: &'static [&'static str],
+        hz: f64,
+        fronts: &'static [crate::front::kind::FrontKind],
+    ) -> Self {
+        KindFacts {
+            fronts,
+            sides: Sides::LeftOrRight { note: "" },
+            sections: &[SectionSpec {
+                key: "dds",
+                backends: &[Backend::Dds],
+            }],
+            ..KindFacts::new(name, joints, &[Backend::Dds, Backend::Emulator], Rates::fixed(hz))
+        }
+    }
 }
 
 /// A device kind, typed: its facts, its own profile keys ([`Kind::Config`]), what it builds
@@ -919,6 +940,15 @@ impl PartialEq for KindConfigBox {
     }
 }
 
+/// The topic overrides of a `[devices.dds]` section declared with
+/// [`dds_client_keys!`](crate::dds_client_keys).
+pub trait DdsTopicKeys {
+    /// Problems with the topic overrides (keys `dds.cmd_topic`, `dds.state_topic`).
+    fn topic_problems(&self) -> Vec<Problem>;
+    /// (command, state) topics: each override, else the standard pair's.
+    fn topics_or(&self, standard: Option<(String, String)>) -> (Option<String>, Option<String>);
+}
+
 /// Declares the `[devices.dds]` section of a client of a DDS service: `cmd_topic` and
 /// `state_topic` (overrides of the service's topics, checked by `topic_problems`, defaulted
 /// by `topics_or`), then the kind's own optional keys as written. Every field is optional and
@@ -940,17 +970,15 @@ macro_rules! dds_client_keys {
             $($(#[$fm])* #[serde(skip_serializing_if = "Option::is_none")] pub $f: Option<$t>,)*
         }
 
-        impl $name {
-            /// Problems with the topic overrides (keys `dds.cmd_topic`, `dds.state_topic`).
-            pub fn topic_problems(&self) -> Vec<$crate::kind::Problem> {
+        impl $crate::kind::DdsTopicKeys for $name {
+            fn topic_problems(&self) -> Vec<$crate::kind::Problem> {
                 $crate::kind::check_topics(
                     "dds",
                     &[("cmd_topic", self.cmd_topic.as_deref()), ("state_topic", self.state_topic.as_deref())],
                 )
             }
 
-            /// (command, state) topics: each override, else the standard pair's.
-            pub fn topics_or(&self, standard: Option<(String, String)>) -> (Option<String>, Option<String>) {
+            fn topics_or(&self, standard: Option<(String, String)>) -> (Option<String>, Option<String>) {
                 $crate::kind::override_topics(self.cmd_topic.as_ref(), self.state_topic.as_ref(), standard)
             }
         }

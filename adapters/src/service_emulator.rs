@@ -98,6 +98,21 @@ impl ServicePlan {
         }
     }
 
+    /// The loop of `kind`'s service for the hand on `side` at `rate` (named `{kind}-emu-{side}`):
+    /// on `topics` when given, else on the side's `standard` pair (`None`, for center: refused).
+    pub fn one_hand(
+        kind: &str,
+        side: crate::model::Side,
+        rate: Hz,
+        topics: Option<(String, String)>,
+        standard: Option<(String, String)>,
+    ) -> Result<Self, EmulatorError> {
+        let Some((cmd, state)) = topics.or(standard) else {
+            return Err(EmulatorError::InvalidConfig(format!("a {kind} hand is left or right")));
+        };
+        Ok(Self::new(format!("{kind}-emu-{side}"), rate, cmd, Some(state)))
+    }
+
     /// The same with `extra`: a second message's topic and rate (`None`: every cycle), or
     /// `None` for none.
     pub fn with_extra(self, extra: Option<(String, Option<Hz>)>) -> Self {

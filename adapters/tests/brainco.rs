@@ -377,9 +377,10 @@ fn the_service_opens_the_hand_from_its_rest_posture_at_start_up() {
 #[test]
 fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
     use handgate_adapters::brainco::config::BraincoProfile;
-    use handgate_adapters::brainco::kind::{BraincoKind, BraincoOpen};
+    use handgate_adapters::brainco::kind::BraincoKind;
     use handgate_adapters::kind::Kind;
     use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
+    use handgate_adapters::service_client::ClientOpen;
 
     let node = Node::new(49, None).unwrap();
     let kind = DeviceKind::by_name("brainco").expect("registered");
@@ -406,7 +407,7 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
         config: &*config,
     };
     match BraincoKind.configure(&spec.typed(&BraincoProfile::default())).unwrap() {
-        BraincoOpen {
+        ClientOpen {
             peer: Some(peer),
             config,
             codec: speed,

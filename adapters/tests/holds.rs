@@ -400,6 +400,7 @@ mod limp_as_hold {
         use handgate_adapters::brainco::adapter::BraincoCodec;
         use handgate_adapters::brainco::emulator::{BraincoConfig, BraincoCore, REGISTER_STEP};
         use handgate_adapters::brainco::WIRE_LEN;
+        use handgate_adapters::service_emulator::ServiceCore;
         use handgate_idl::unitree_go::{MotorCmds_, MotorStates_};
 
         impl Service for BraincoCore {
@@ -415,7 +416,7 @@ mod limp_as_hold {
                 BraincoCore::step(self, dt);
             }
             fn position(&self, e: usize) -> f32 {
-                self.snapshot().fingers[e].q
+                self.report(Default::default()).fingers[e].q
             }
         }
 

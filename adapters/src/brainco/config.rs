@@ -1,11 +1,10 @@
 //! A BrainCo hand's own profile keys (`[devices.dds]`: topic overrides and the finger speed)
 //! and their rules.
 
-use serde::{Deserialize, Serialize};
-
 use crate::device::Backend;
-use crate::kind::{DeviceCtx, Problem, Settings};
+use crate::kind::{DeviceCtx, Problem};
 use crate::model::Side;
+use crate::service_client::{DdsProfile, DdsSection};
 
 crate::dds_client_keys! {
     /// `[devices.dds]` of a BrainCo hand: topic overrides and the speed sent in every entry.
@@ -16,50 +15,30 @@ crate::dds_client_keys! {
 }
 
 /// A BrainCo hand's own profile keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BraincoProfile {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dds: Option<DdsConfig>,
-}
+pub type BraincoProfile = DdsProfile<DdsConfig>;
 
-impl BraincoProfile {
-    /// `dds.speed`, default 1.0.
+impl DdsConfig {
+    /// `speed`, default 1.0.
     pub fn speed(&self) -> f32 {
-        self.dds
-            .as_ref()
-            .and_then(|d| d.speed)
-            .map_or(super::DEFAULT_SPEED, |s| s as f32)
-    }
-
-    /// (command, state) topics on backend dds: the overrides, else the side's.
-    pub fn topics(&self, side: Side) -> (Option<String>, Option<String>) {
-        self.dds.clone().unwrap_or_default().topics_or(super::topics(side))
+        self.speed.map_or(super::DEFAULT_SPEED, |s| s as f32)
     }
 }
 
-impl Settings for BraincoProfile {
-    fn check(&self, _ctx: &DeviceCtx<'_>) -> Vec<Problem> {
-        let Some(x) = &self.dds else { return Vec::new() };
-        let mut out = x.topic_problems();
-        if let Some(s) = x.speed.filter(|s| !(s.is_finite() && *s > 0.0 && *s <= 1.0)) {
-            out.push(Problem::new(
-                &["dds", "speed"],
-                format!("must be above 0 and at most 1 (1 = the hand's fastest), got {s}"),
-            ));
-        }
-        out
+impl DdsSection for DdsConfig {
+    fn standard(&self, side: Side) -> Option<(String, String)> {
+        super::topics(side)
     }
-
-    fn peer_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
-        Some(self.topics(ctx.side))
+    fn problems(&self, _ctx: &DeviceCtx<'_>) -> Vec<Problem> {
+        let bad = self.speed.filter(|s| !(s.is_finite() && *s > 0.0 && *s <= 1.0));
+        let why = |s| format!("must be above 0 and at most 1 (1 = the hand's fastest), got {s}");
+        bad.map(|s| Problem::new(&["dds", "speed"], why(s)))
+            .into_iter()
+            .collect()
     }
-
     fn summary(&self, ctx: &DeviceCtx<'_>) -> String {
-        if ctx.backend == Backend::Dds {
-            format!(" (speed {})", self.speed())
-        } else {
-            String::new()
+        match ctx.backend {
+            Backend::Dds => format!(" (speed {})", self.speed()),
+            _ => String::new(),
         }
     }
 }

@@ -120,6 +120,11 @@ impl BraincoConfig {
     }
 }
 
+crate::emulated_hand!(BraincoConfig {
+    initial: initial,
+    object: object
+});
+
 /// One finger as the emulator sees it (wire units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FingerView {
@@ -294,16 +299,6 @@ impl BraincoCore {
                 .collect(),
         }
     }
-
-    pub fn snapshot(&self) -> BraincoSnapshot {
-        BraincoSnapshot {
-            last_command: self.last_command.clone(),
-            commands: self.commands,
-            rejected: self.rejected,
-            fingers: self.fingers,
-            states_published: 0,
-        }
-    }
 }
 
 impl ServiceCore for BraincoCore {
@@ -315,19 +310,17 @@ impl ServiceCore for BraincoCore {
     }
 
     fn plan(config: &BraincoConfig) -> Result<ServicePlan, EmulatorError> {
-        let (cmd_topic, state_topic) = match config.topics.clone() {
-            Some(t) => t,
-            None => super::topics(config.side)
-                .ok_or_else(|| EmulatorError::InvalidConfig("a BrainCo hand is left or right".into()))?,
-        };
-        let name = format!("brainco-emu-{}", config.side);
-        Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
+        let (side, topics) = (config.side, config.topics.clone());
+        ServicePlan::one_hand("brainco", side, config.rate, topics, super::topics(side))
     }
 
     fn report(&self, published: Published) -> BraincoSnapshot {
         BraincoSnapshot {
+            last_command: self.last_command.clone(),
+            commands: self.commands,
+            rejected: self.rejected,
+            fingers: self.fingers,
             states_published: published.state,
-            ..self.snapshot()
         }
     }
 }
@@ -402,7 +395,7 @@ mod tests {
         assert!((s.states[2].q - 0.15).abs() < 1e-6, "rest posture first: {s:?}");
         run(&mut core, 1.0);
         assert!(core.state().states.iter().all(|m| m.q == 0.0), "opened with no command");
-        assert_eq!(core.snapshot().commands, 0);
+        assert_eq!(core.report(Published::default()).commands, 0);
     }
 
     #[test]

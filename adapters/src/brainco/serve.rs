@@ -1,98 +1,48 @@
-//! The BrainCo service front's registry entry and endpoints (handgate serving
-//! `brainco_hand_service`'s own `rt/brainco/{left,right}/{cmd,state}`, docs/sources.md §7), so
-//! an unmodified BrainCo client (xr_teleoperate's `Brainco_Controller`) drives any device; its
-//! codec is [`super::front`]. One front per hand, as the service runs one per hand: the
-//! served side picks the topic pair ([`super::topics`]).
+//! The BrainCo service front (handgate serving `brainco_hand_service`'s own
+//! `rt/brainco/{left,right}/{cmd,state}`, docs/sources.md §7), so an unmodified BrainCo client
+//! (xr_teleoperate's `Brainco_Controller`) drives any device: one front per hand, as the
+//! service runs one per hand ([`OneHandFront`]); its codec is [`super::front`].
 
-use handgate_idl::unitree_go;
+use handgate_idl::unitree_go::{MotorCmds_, MotorStates_};
 
 use super::emulator::BRAINCO_DEFAULT_HZ;
-use super::front::{decode, encode};
-use crate::front::config::{side_rule, FrontConfig, SideTopics, Silence, TopicKey};
-use crate::front::endpoint::{DdsFront, FrontCodec};
-use crate::front::kind::{Front, FrontFacts, FrontKind};
-use crate::front::plan::SilencePlan;
-use crate::front::serve::{routed, Bound, Routed};
-use crate::front::Rejection;
-use crate::model::{DeviceKind, SafeAction, Side};
-use crate::units::Topic;
+use crate::front::kind::{Front, FrontKind};
+use crate::front::one_hand::{HandService, OneHandFront};
+use crate::front::{FrontCommand, Rejection};
+use crate::mapping::DeviceTable;
+use crate::model::{DeviceKind, HandState, JointState, Side};
 
-/// The front's name (profile `kind = "brainco"`), the kind's own.
-const NAME: &str = "brainco";
+/// `brainco_hand_service`'s interface: `MotorCmds_` (6) in, `MotorStates_` (6) out.
+#[derive(Debug, Default)]
+pub struct BraincoService;
 
-/// `MotorCmds_` (6) in, `MotorStates_` (6) out, for the one bound hand.
-#[derive(Default)]
-pub struct BraincoCodec;
+impl HandService for BraincoService {
+    const NAME: &'static str = "brainco";
+    const SPEAKS: DeviceKind = DeviceKind::Brainco;
+    /// Once per loop, 500 Hz (docs/sources.md §7).
+    const STATE_HZ: f64 = BRAINCO_DEFAULT_HZ;
+    type Cmd = MotorCmds_;
+    type State = MotorStates_;
 
-impl FrontCodec for BraincoCodec {
-    type Cmd = unitree_go::MotorCmds_;
-    type State = unitree_go::MotorStates_;
-
-    /// The one bound hand's six entries through its route (a bad message is rejected whole by
-    /// the codec).
-    fn decode(&self, bound: &[Bound<'_>], m: &unitree_go::MotorCmds_) -> Result<Vec<(usize, Routed)>, Rejection> {
-        let Some(b) = bound.first() else {
-            return Ok(Vec::new());
-        };
-        Ok(vec![(0, routed(b.route, decode(m, &b.route.front)?))])
+    fn topics(side: Side) -> Option<(String, String)> {
+        super::topics(side)
     }
-
-    /// Six entries in wire order from the bound device's state (in the front's joint order).
-    fn encode(&self, bound: &[Bound<'_>]) -> Option<unitree_go::MotorStates_> {
-        let b = bound.first()?;
-        Some(encode(
-            &b.route.front,
-            &b.routed_state(),
-            &b.state,
-            std::time::Instant::now(),
-        ))
+    fn decode(&self, front: &DeviceTable, cmd: &MotorCmds_) -> Result<FrontCommand, Rejection> {
+        super::front::decode(cmd, front)
+    }
+    fn encode(
+        &self,
+        front: &DeviceTable,
+        joints: &[JointState],
+        st: &HandState,
+        now: std::time::Instant,
+    ) -> MotorStates_ {
+        super::front::encode(front, joints, st, now)
     }
 }
 
-/// `brainco_hand_service`'s interface, one hand per front. Its keys: `side`, which hand's
-/// topics a device is served on (default: the device's side; required for a device of side
-/// center unless both topics are given), and the two topics.
-#[derive(Debug)]
-pub struct BraincoFront;
-
-impl Front for BraincoFront {
-    type Config = SideTopics;
-    type Wire = DdsFront<BraincoCodec>;
-    const KIND: FrontKind = FrontKind::of(&BraincoFront);
-    const FACTS: FrontFacts = FrontFacts::serving(NAME, Some(DeviceKind::Brainco));
-    /// `rt/brainco/{side}/cmd` and `.../state` ([`super::topics`]); none for center.
-    const TOPICS: &'static [TopicKey<SideTopics>] = &[
-        TopicKey::cmd_topic(
-            |c| c.cmd_topic.as_ref(),
-            |_, at| at.side.and_then(super::topics).map(|t| Topic(t.0)),
-        ),
-        TopicKey::state_topic(
-            |c| c.state_topic.as_ref(),
-            |_, at| at.side.and_then(super::topics).map(|t| Topic(t.1)),
-        ),
-    ];
-
-    /// The service publishes state once per loop, 500 Hz (docs/sources.md §7), whatever the
-    /// bound device's rate.
-    fn default_state_hz(_device_hz: Option<f64>) -> f64 {
-        BRAINCO_DEFAULT_HZ
-    }
-    fn default_name(_c: &SideTopics, _f: &FrontConfig, side: &str) -> String {
-        format!("{NAME}_{side}")
-    }
-    /// The service has no command timeout: it re-sends the last command to the hand forever
-    /// (docs/sources.md §7), so the device keeps its last target; `watchdog` mode: the
-    /// device's watchdog.
-    fn silence(mode: Silence, dog: (std::time::Duration, SafeAction)) -> SilencePlan {
-        SilencePlan::keeps_last_target(mode, dog)
-    }
-    fn validate(c: &SideTopics, _f: &FrontConfig, served: Option<Side>, dangling: bool) -> Vec<(&'static str, String)> {
-        if dangling {
-            return vec![];
-        }
-        side_rule(NAME, served, c.cmd_topic.is_some() && c.state_topic.is_some(), false)
-    }
-}
+/// The BrainCo front.
+pub type BraincoFront = OneHandFront<BraincoService>;
 
 impl FrontKind {
     /// `brainco_hand_service`'s DDS interface (`rt/brainco/{side}/*`, one hand per front).
@@ -103,8 +53,11 @@ impl FrontKind {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::front::config::{FrontConfig, SideTopics};
     use crate::front::kind::testing::{assert_keeps_last_target, assert_registered, topics_at as topics};
-    use crate::front::kind::{FrontFactory, FrontOwn};
+    use crate::front::kind::FrontOwn;
+    use crate::model::SafeAction;
+    use crate::units::Topic;
     use std::time::Duration;
 
     fn cfg(side: Option<Side>, topics: bool) -> FrontConfig {
@@ -128,7 +81,7 @@ mod tests {
 
     #[test]
     fn the_services_topics_per_side_and_its_100_hz_whatever_the_device() {
-        let f = BraincoFront;
+        let f = FrontKind::Brainco.factory();
         for (side, s) in [(Side::Left, "left"), (Side::Right, "right")] {
             assert_eq!(
                 topics(&cfg(None, false), Some(side)),

@@ -1,13 +1,12 @@
 //! A Dex1-1's own profile keys (`[devices.dds]`: topics, wire variant, open range) and their
 //! rules.
 
-use serde::{Deserialize, Serialize};
-
 use super::adapter::Variant;
 use super::table::{DEFAULT_RANGE, SEED_SPEC_RANGE_RAD};
 use crate::device::Backend;
-use crate::kind::{center_needs_topics, DeviceCtx, Problem, Settings};
+use crate::kind::{center_needs_topics, DdsTopicKeys, DeviceCtx, Problem};
 use crate::model::Side;
+use crate::service_client::{DdsProfile, DdsSection};
 
 crate::dds_client_keys! {
     /// `[devices.dds]` of a Dex1: topic overrides, wire variant, open position.
@@ -20,56 +19,54 @@ crate::dds_client_keys! {
 }
 
 /// A Dex1's own profile keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Dex1Profile {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dds: Option<DdsConfig>,
-}
+pub type Dex1Profile = DdsProfile<DdsConfig>;
 
 impl Dex1Profile {
     /// The wire variant (`dds.variant`, default `go`).
     pub fn variant(&self) -> Variant {
-        self.dds.as_ref().and_then(|d| d.variant).unwrap_or_default()
+        self.keys().variant()
     }
 
     /// The open position (`dds.range_rad`, default 5.4 rad).
     pub fn range_rad(&self) -> f64 {
-        self.dds.as_ref().and_then(|d| d.range_rad).unwrap_or(DEFAULT_RANGE)
-    }
-
-    /// (command, state) topics on backend dds: `dds.cmd_topic` / `dds.state_topic`, else the
-    /// variant's for the side; `None` where the side (center) gives no default.
-    pub fn topics(&self, side: Side) -> (Option<String>, Option<String>) {
-        let variant = self.variant();
-        self.dds
-            .clone()
-            .unwrap_or_default()
-            .topics_or((variant == Variant::Actuator || side != Side::Center).then(|| variant.topics(side)))
+        self.keys().range_rad.unwrap_or(DEFAULT_RANGE)
     }
 }
 
-impl Settings for Dex1Profile {
-    fn check(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem> {
+impl DdsConfig {
+    fn variant(&self) -> Variant {
+        self.variant.unwrap_or_default()
+    }
+}
+
+impl DdsSection for DdsConfig {
+    /// The variant's for the side; none for a center device but on the actuator variant.
+    fn standard(&self, side: Side) -> Option<(String, String)> {
+        let variant = self.variant();
+        (variant == Variant::Actuator || side != Side::Center).then(|| variant.topics(side))
+    }
+
+    fn problems(&self, ctx: &DeviceCtx<'_>) -> Vec<Problem> {
         let mut out = Vec::new();
-        if let Some(x) = &self.dds {
-            out = x.topic_problems();
-            if x.variant == Some(Variant::Auto) {
+        if self.variant == Some(Variant::Auto) {
+            out.push(Problem::new(
+                &["dds", "variant"],
+                "`auto` is a front's variant (it follows its clients); a device speaks one: go, hg or actuator",
+            ));
+        }
+        if let Some(r) = self.range_rad {
+            if !(r.is_finite() && r > 0.0 && r <= f64::from(SEED_SPEC_RANGE_RAD)) {
                 out.push(Problem::new(
-                    &["dds", "variant"],
-                    "`auto` is a front's variant (it follows its clients); a device speaks one: go, hg or actuator",
+                    &["dds", "range_rad"],
+                    format!("must be above 0 and at most 2pi rad, got {r}"),
                 ));
             }
-            if let Some(r) = x.range_rad {
-                if !(r.is_finite() && r > 0.0 && r <= f64::from(SEED_SPEC_RANGE_RAD)) {
-                    out.push(Problem::new(
-                        &["dds", "range_rad"],
-                        format!("must be above 0 and at most 2pi rad, got {r}"),
-                    ));
-                }
-            }
         }
-        out.extend(center_needs_topics("dex1", ctx, self.topics(ctx.side)));
+        out.extend(center_needs_topics(
+            "dex1",
+            ctx,
+            self.topics_or(self.standard(ctx.side)),
+        ));
         if ctx.backend == Backend::Dds && ctx.side == Side::Center && self.variant() == Variant::Actuator {
             out.push(Problem::new(
                 &["side"],
@@ -77,10 +74,6 @@ impl Settings for Dex1Profile {
             ));
         }
         out
-    }
-
-    fn peer_topics(&self, ctx: &DeviceCtx<'_>) -> Option<(Option<String>, Option<String>)> {
-        Some(self.topics(ctx.side))
     }
 
     /// The actuator variant's message carries both grippers: element 0 right, 1 left.

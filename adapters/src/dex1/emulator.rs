@@ -398,12 +398,8 @@ impl ServiceCore for Dex1Core {
 
     /// The variant's topics, the configured rate.
     fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
-        let (cmd_topic, state_topic) = config
-            .topics
-            .clone()
-            .unwrap_or_else(|| config.variant.topics(config.side));
-        let name = format!("dex1-emu-{}", config.side);
-        Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
+        let (side, topics) = (config.side, config.topics.clone());
+        ServicePlan::one_hand("dex1", side, config.rate, topics, Some(config.variant.topics(side)))
     }
 
     fn report(&self, published: Published) -> Dex1Snapshot {

@@ -16,7 +16,7 @@ use crate::kind::{
 use crate::mapping::DeviceTable;
 use crate::model::{Side, GRIPPER_JOINTS};
 use crate::open::{DeviceSpec, OpenEnv};
-use crate::service_client::{emulate_service, ClientOpen};
+use crate::service_client::{emulate_service, ClientOpen, ClientTopics};
 
 impl DeviceKind {
     /// Unitree Dex1-1 parallel gripper (through dex1_1_service over DDS).

@@ -10,7 +10,7 @@ use super::dds_client::{self, StateSource};
 use super::usb::codec::BUS_COUNT;
 use super::usb::Scalings;
 use super::{JOINTS, PAD_COUNT};
-use crate::kind::{a, center_needs_topics, DeviceCtx, Problem, Settings};
+use crate::kind::{a, center_needs_topics, DdsTopicKeys, DeviceCtx, Problem, Settings};
 use crate::model::Side;
 
 /// Where a motor or a pressure pad sits.

@@ -6,8 +6,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::table::{Conventions, WireConfig};
-use crate::kind::{DeviceCtx, Problem, Settings};
+use crate::kind::{DdsTopicKeys, DeviceCtx, Problem, Settings};
 use crate::model::Side;
+use crate::service_client::ClientTopics;
 
 crate::dds_client_keys! {
     /// `[devices.dds]` of a Dex5: topic overrides.
@@ -35,9 +36,10 @@ impl Dex5Profile {
     pub fn wire(&self) -> WireConfig {
         WireConfig::of(&self.conventions())
     }
+}
 
-    /// (command, state) topics on backend dds: the overrides, else the side's.
-    pub fn topics(&self, side: Side) -> (Option<String>, Option<String>) {
+impl ClientTopics for Dex5Profile {
+    fn topics(&self, side: Side) -> (Option<String>, Option<String>) {
         self.dds.clone().unwrap_or_default().topics_or(super::topics(side))
     }
 }

@@ -118,6 +118,11 @@ impl Dex5EmuConfig {
     }
 }
 
+crate::emulated_hand!(Dex5EmuConfig {
+    initial: initial,
+    object: object_at
+});
+
 /// One motor as the emulator sees it (wire units of its driving entry).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotorView {
@@ -370,13 +375,8 @@ impl ServiceCore for Dex5Core {
     }
 
     fn plan(config: &Dex5EmuConfig) -> Result<ServicePlan, EmulatorError> {
-        let (cmd_topic, state_topic) = match config.topics.clone() {
-            Some(t) => t,
-            None => super::topics(config.side)
-                .ok_or_else(|| EmulatorError::InvalidConfig("a Dex5-1 hand is left or right".into()))?,
-        };
-        let name = format!("dex5-emu-{}", config.side);
-        Ok(ServicePlan::new(name, config.rate, cmd_topic, Some(state_topic)))
+        let (side, topics) = (config.side, config.topics.clone());
+        ServicePlan::one_hand("dex5", side, config.rate, topics, super::topics(side))
     }
 
     fn report(&self, published: Published) -> Dex5Snapshot {

@@ -1,19 +1,20 @@
-//! The Dex5-1 as a registered device kind: its facts, and how a hand opens: a client of the
-//! robot's Dex5 hand service over DDS, or on the emulator backend of the emulated service on
-//! private topics, through the very same codec (`crate::service_client`).
+//! The Dex5-1 as a registered device kind: a client of the robot's Dex5 hand service over
+//! DDS, or on the emulator backend of the emulated service on private topics, through the very
+//! same codec ([`ServiceHand`]).
 
 use super::adapter::Dex5Codec;
 use super::config::Dex5Profile;
-use super::emulator::{Dex5EmuConfig, Dex5Emulator, DEX5_NOISE};
+use super::emulator::{Dex5Core, Dex5EmuConfig, DEX5_NOISE};
 use super::table::{self, WireConfig};
 use super::{JOINTS, SERVICE_HZ};
-use crate::device::{Backend, DeviceError, HandDevice};
-use crate::emu_common::Hz;
-use crate::kind::{DeviceCtx, DeviceKind, EmulateArgs, Emulation, Kind, KindFacts, Problem, Rates, SectionSpec, Sides};
+use crate::device::Backend;
+use crate::front::kind::FrontKind;
+use crate::kind::{DeviceCtx, DeviceKind, KindFacts, Problem, SectionSpec};
 use crate::mapping::DeviceTable;
 use crate::model::Side;
-use crate::open::{DeviceSpec, EmulatorSection, OpenEnv};
-use crate::service_client::{emulate_service, ClientOpen};
+use crate::open::EmulatorSection;
+use crate::service_client::ServiceHand;
+use crate::sim::Noise;
 
 impl DeviceKind {
     /// Unitree Dex5-1 hand, 20 joints (through the robot's hand service over DDS).
@@ -25,15 +26,10 @@ impl DeviceKind {
 #[derive(Debug, Clone, Copy)]
 pub struct Dex5Kind;
 
-/// What a Dex5 hand opens with: a client with the profile's gains, command layout and
-/// coupling (and on the emulator backend, the emulated service).
-pub type Dex5Open = ClientOpen<WireConfig, Dex5EmuConfig>;
-
-impl Kind for Dex5Kind {
+impl ServiceHand for Dex5Kind {
+    /// The service's loop (an assumption, docs/profiles.md); its own interface
+    /// `rt/dex5/{side}/*`; `[devices.dex5]`: the conventions, on both backends.
     const FACTS: KindFacts = KindFacts {
-        // The hand service's own interface (`rt/dex5/{side}/*`): `super::serve`.
-        fronts: &[crate::front::kind::FrontKind::Dex5],
-        sides: Sides::LeftOrRight { note: "" },
         sections: &[
             SectionSpec {
                 key: "dds",
@@ -45,78 +41,37 @@ impl Kind for Dex5Kind {
             },
         ],
         closure_postures_configurable: true,
-        // The service's loop (an assumption, docs/profiles.md); the emulated service runs at
-        // the device's.
-        ..KindFacts::new(
-            "dex5",
-            &JOINTS,
-            &[Backend::Dds, Backend::Emulator],
-            Rates::fixed(SERVICE_HZ),
-        )
+        ..KindFacts::hand_service("dex5", &JOINTS, SERVICE_HZ, &[FrontKind::Dex5])
     };
+    const SERVICE: &'static str = "the Dex5-1 hand service";
+    const NOISE: Noise = DEX5_NOISE;
     type Config = Dex5Profile;
-    type Open = Dex5Open;
-    type Emulate = ();
+    /// The gains, command layout and coupling.
+    type Wire = WireConfig;
+    type Codec = Dex5Codec;
+    type Core = Dex5Core;
 
-    fn table(&self, side: Side, config: &Dex5Profile) -> DeviceTable {
+    fn table(side: Side, config: &Dex5Profile) -> DeviceTable {
         table::table(side, &config.conventions())
     }
-
-    fn configure(&self, spec: &DeviceSpec<'_, Dex5Profile>) -> Result<Dex5Open, DeviceError> {
-        let missing = "a dex5 hand is left or right (or names dds.cmd_topic and dds.state_topic)";
-        let wire = spec.config.wire();
-        ClientOpen::of(spec, spec.config.topics(spec.side), missing, wire, |cmd, state| {
-            let mut peer = Dex5EmuConfig {
-                wire,
-                rate: Hz(spec.rate_hz),
-                topics: Some((cmd, state)),
-                noise: spec.emulator.noise_for(spec.name, DEX5_NOISE),
-                ..Dex5EmuConfig::new(spec.side)
-            };
-            for (i, joint) in JOINTS.iter().enumerate() {
-                peer.initial[i] = spec.initial_wire(joint, peer.initial[i]);
-                peer.object_at[i] = spec.object_wire(joint);
-            }
-            peer
-        })
+    fn wire(config: &Dex5Profile) -> WireConfig {
+        config.wire()
     }
-
-    fn served(&self, open: &Dex5Open) -> Vec<crate::discovery::diagnose::Served> {
-        open.config.served::<Dex5Codec>()
+    fn codec(wire: WireConfig) -> Dex5Codec {
+        Dex5Codec::new(wire)
     }
-
-    fn open(
-        &self,
-        open: Dex5Open,
-        spec: &DeviceSpec<'_, Dex5Profile>,
-        env: &mut OpenEnv<'_>,
-    ) -> Result<Box<dyn HandDevice>, DeviceError> {
-        let codec = Dex5Codec::new(open.codec);
-        open.start(codec, spec, env, Dex5Emulator::start)
-    }
-
-    /// `handgate emulate dex5 --side left|right`: one hand's service on DDS, with the default
-    /// conventions (xr_teleoperate's commands).
-    fn emulate(&self, args: &EmulateArgs, _options: ()) -> Result<(String, Emulation), DeviceError> {
-        let side = args.side("dex5")?;
-        let Some((cmd, state)) = super::topics(side) else {
-            return Err(DeviceError::Config("a dex5 hand is left or right".into()));
-        };
-        let cfg = Dex5EmuConfig {
-            noise: args.noise(DEX5_NOISE),
+    fn service(side: Side, wire: &WireConfig, noise: Noise) -> Dex5EmuConfig {
+        Dex5EmuConfig {
+            wire: *wire,
+            noise,
             ..Dex5EmuConfig::new(side)
-        };
-        let what = format!(
-            "emulating the Dex5-1 hand service ({side} hand): {cmd}, {state} on DDS domain {}",
-            args.domain
-        );
-        Ok((what, emulate_service(args, |node| Dex5Emulator::start(node, cfg))?))
+        }
     }
 
     /// Positions the emulated hand cannot take: a coupled `Pitch_x4` has no motor of its own
     /// (its position is its `Pitch_x3`'s through the coupling), and no object stops a joint
     /// that closes nothing (the spreads, the thumb's yaw).
-    fn validate_emulator(&self, _ctx: &DeviceCtx<'_>, section: &EmulatorSection) -> Vec<Problem> {
+    fn validate_emulator(_ctx: &DeviceCtx<'_>, section: &EmulatorSection) -> Vec<Problem> {
         let index = |joint: &String| JOINTS.iter().position(|j| j == joint);
         let mut out = Vec::new();
         for (joint, i) in section.initial.keys().filter_map(|j| Some((j, index(j)?))) {
@@ -144,7 +99,10 @@ impl Kind for Dex5Kind {
 mod tests {
     use super::*;
     use crate::dex5::table::CommandLayout;
+    use crate::emu_common::Hz;
+    use crate::kind::Kind;
     use crate::mapping::ClosureMap;
+    use crate::open::DeviceSpec;
     use std::sync::Arc;
 
     fn spec_with<'a>(

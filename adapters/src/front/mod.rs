@@ -18,6 +18,7 @@ pub mod endpoint;
 pub mod joint_state;
 pub mod joint_state_serve;
 pub mod kind;
+pub mod one_hand;
 pub mod plan;
 pub mod serve;
 

@@ -22,6 +22,7 @@ use crate::kind::{
 use crate::mapping::DeviceTable;
 use crate::model::Side;
 use crate::open::{DeviceSpec, OpenEnv};
+use crate::service_client::ClientTopics;
 
 impl DeviceKind {
     /// Inspire DFX (RH56DFX) hand, through DFX_inspire_service over DDS.
@@ -121,8 +122,8 @@ impl Kind for InspireDfxKind {
     fn configure(&self, spec: &DeviceSpec<'_, DfxProfile>) -> Result<DfxOpen, DeviceError> {
         let element = element(spec)?;
         if spec.backend == Backend::Dds {
-            let (cmd, state) = spec.config.topics();
-            let config = spec.dds_client(cmd, state);
+            let (cmd, state) = spec.config.topics(spec.side);
+            let config = spec.dds_client(cmd.unwrap_or_default(), state.unwrap_or_default());
             return Ok(DfxOpen::Dds { config, element });
         }
         let (cmd, state) = emulator_topics(EMULATED_SERVICE);
