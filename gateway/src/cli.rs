@@ -402,6 +402,16 @@ pub struct OverrideArgs {
     /// Port of the dashboard's HTTP server (`http.port`; 0: any free port, logged).
     #[arg(long)]
     pub http_port: Option<u16>,
+    /// DDS domain of the clients' side (`export.domain`): fronts, status and the ROS node
+    /// there, the devices on `--domain`.
+    #[arg(long)]
+    pub export_domain: Option<u32>,
+    /// Network interface of the clients' side (`export.interface`), e.g. eth1.
+    #[arg(long)]
+    pub export_interface: Option<String>,
+    /// ROS namespace of handgate's own topics and node (`export.namespace`), e.g. robot1.
+    #[arg(long)]
+    pub namespace: Option<String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -420,6 +430,9 @@ impl From<OverrideArgs> for CliOverrides {
                 LogFormatArg::Json => LogFormat::Json,
             }),
             http_port: a.http_port,
+            export_domain: a.export_domain,
+            export_interface: a.export_interface,
+            namespace: a.namespace,
         }
     }
 }

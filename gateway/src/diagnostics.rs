@@ -320,37 +320,51 @@ pub fn log_changes(prev: &Diagnosis, next: &Diagnosis) {
 pub const MIN_DIAGNOSIS_INTERVAL: std::time::Duration = std::time::Duration::from_millis(100);
 
 /// Starts the diagnostics task (a tokio task that computes on the blocking pool, never on a
-/// device path or a front's worker): on every new discovery snapshot (at most one per
-/// [`MIN_DIAGNOSIS_INTERVAL`]), diagnoses `served`, logs the changes and publishes the result
-/// on the returned channel (read by the status publisher). Ends on `shutdown`.
+/// device path or a front's worker): on every new discovery snapshot of a side (at most one
+/// per [`MIN_DIAGNOSIS_INTERVAL`]), diagnoses what that side serves, logs the changes and
+/// publishes the sides' diagnoses as one on the returned channel (read by the status
+/// publisher). One side, or with `[export]` two: the fronts' on the clients' domain, the
+/// devices' on the robot's. Ends on `shutdown`.
 pub fn spawn(
-    served: Vec<ServedBy>,
-    mut snapshots: watch::Receiver<Arc<Snapshot>>,
+    sides: Vec<Side>,
     mut shutdown: watch::Receiver<bool>,
 ) -> (tokio::task::JoinHandle<()>, watch::Receiver<Arc<Diagnosis>>) {
-    let served = Arc::new(served);
-    let first = Arc::new(diagnose_all(&snapshots.borrow_and_update(), &served));
+    let mut served = Vec::new();
+    let mut snapshots = Vec::new();
+    for (s, r) in sides {
+        served.push(Arc::new(s));
+        snapshots.push(r);
+    }
+    let mut each: Vec<Diagnosis> = served
+        .iter()
+        .zip(snapshots.iter_mut())
+        .map(|(s, r)| diagnose_all(&r.borrow_and_update(), s))
+        .collect();
+    let first = Arc::new(merged(&each));
     log_changes(&Diagnosis::default(), &first);
     let (tx, rx) = watch::channel(first);
     let task = tokio::spawn(async move {
         loop {
-            tokio::select! {
-                r = snapshots.changed() => {
-                    if r.is_err() {
-                        break;
-                    }
-                    let snap = snapshots.borrow_and_update().clone();
-                    let s = Arc::clone(&served);
-                    let Ok(next) = tokio::task::spawn_blocking(move || diagnose_all(&snap, &s)).await else {
-                        break;
-                    };
-                    let prev = tx.borrow().clone();
-                    if next.endpoints != prev.endpoints || next.findings != prev.findings {
-                        log_changes(&prev, &next);
-                        let _ = tx.send(Arc::new(next));
-                    }
-                }
+            // The first side whose discovery changed.
+            let changed = futures_select_changed(&mut snapshots);
+            let i = tokio::select! {
+                r = changed => match r {
+                    Some(i) => i,
+                    None => break,
+                },
                 _ = shutdown.changed() => break,
+            };
+            let snap = snapshots[i].borrow_and_update().clone();
+            let s = Arc::clone(&served[i]);
+            let Ok(next) = tokio::task::spawn_blocking(move || diagnose_all(&snap, &s)).await else {
+                break;
+            };
+            each[i] = next;
+            let next = merged(&each);
+            let prev = tx.borrow().clone();
+            if next.endpoints != prev.endpoints || next.findings != prev.findings {
+                log_changes(&prev, &next);
+                let _ = tx.send(Arc::new(next));
             }
             tokio::select! {
                 _ = tokio::time::sleep(MIN_DIAGNOSIS_INTERVAL) => {}
@@ -360,6 +374,38 @@ pub fn spawn(
     });
     (task, rx)
 }
+
+/// Waits until one of `rx` changes; its index, or `None` once every sender is gone.
+async fn futures_select_changed(rx: &mut [watch::Receiver<Arc<Snapshot>>]) -> Option<usize> {
+    let mut live: Vec<(usize, &mut watch::Receiver<Arc<Snapshot>>)> = rx.iter_mut().enumerate().collect();
+    loop {
+        if live.is_empty() {
+            return None;
+        }
+        let futs = live.iter_mut().map(|(i, r)| {
+            let i = *i;
+            Box::pin(async move { (i, r.changed().await.is_ok()) })
+        });
+        let ((i, ok), _, _) = futures_util::future::select_all(futs).await;
+        if ok {
+            return Some(i);
+        }
+        live.retain(|(j, _)| *j != i);
+    }
+}
+
+/// The diagnoses of each side as one: endpoints and findings in side order, the generation
+/// the sum of the sides' (it changes whenever one does).
+fn merged(each: &[Diagnosis]) -> Diagnosis {
+    Diagnosis {
+        generation: each.iter().map(|d| d.generation).sum(),
+        endpoints: each.iter().flat_map(|d| d.endpoints.iter().cloned()).collect(),
+        findings: each.iter().flat_map(|d| d.findings.iter().cloned()).collect(),
+    }
+}
+
+/// One DDS side of the gateway: what it serves there, and that side's discovery.
+pub type Side = (Vec<ServedBy>, watch::Receiver<Arc<Snapshot>>);
 
 /// Another process's writer on a state topic a front writes: (front, topic, the finding).
 pub fn foreign_state_writers(snapshot: &Snapshot, served: &[ServedBy]) -> Vec<OwnedFinding> {

@@ -206,11 +206,46 @@ fn describe_if(i: &NetIf) -> String {
 /// overrides): joins the domains, listens, then writes its report one section after the
 /// other (each a function of what was seen).
 pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
+    let Some(export) = &plan.export else {
+        return run_side(plan, served(plan), opts, "");
+    };
+    // `[export]`: each side on its own domain and interface, one after the other (a process
+    // holds one CycloneDDS configuration per domain): the fronts' clients on the export side,
+    // then the devices' services on the robot's. The interface sweep runs child doctors on
+    // the profile's `[dds]` side only, so it is left out here.
+    let (fronts, devices): (Vec<ServedBy>, Vec<ServedBy>) = served(plan)
+        .into_iter()
+        .partition(|s| matches!(s.owner, Owner::Front(_)));
+    let clients = Plan {
+        domain: export.domain,
+        interface: export.interface.clone(),
+        export: None,
+        ..plan.clone()
+    };
+    let no_sweep = Options {
+        sweep: None,
+        ..opts.clone()
+    };
+    let mut out = run_side(&clients, fronts, &no_sweep, " (export side: fronts, status)")?;
+    let robot = Plan {
+        export: None,
+        ..plan.clone()
+    };
+    let dev = run_side(&robot, devices, &no_sweep, " (devices' side)")?;
+    out.line("");
+    out.text.push_str(&dev.text);
+    out.problems.extend(dev.problems);
+    out.relevant += dev.relevant;
+    Ok(out)
+}
+
+/// The doctor on one DDS side: `plan`'s domain and interface, what `all` serves there; `side`
+/// follows the domain in the first line.
+fn run_side(plan: &Plan, all: Vec<ServedBy>, opts: &Options, side: &str) -> Result<Outcome, DoctorError> {
     let mut out = Outcome::default();
-    let all = served(plan);
     let ifs = netif::list().map_err(DoctorError::Interfaces)?;
     out.line(format!(
-        "handgate doctor: profile {}, DDS domain {}, listening {:.1} s",
+        "handgate doctor: profile {}, DDS domain {}{side}, listening {:.1} s",
         plan.profile,
         plan.domain,
         opts.listen.as_secs_f64()

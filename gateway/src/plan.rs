@@ -92,6 +92,13 @@ pub struct FoxglovePlan {
     pub required: bool,
 }
 
+/// The clients' side of a gateway whose devices are on another DDS domain (`[export]`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ExportPlan {
+    pub domain: u32,
+    pub interface: Option<String>,
+}
+
 /// The whole fleet.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
@@ -109,6 +116,12 @@ pub struct Plan {
     pub discovery_max_wait: Duration,
     /// Announce handgate as a ROS node in this namespace (`[dds] ros_node`); `None`: not.
     pub namespace: Option<handgate_adapters::ros::Namespace>,
+    /// The namespace of handgate's own topics (status, canonical, `rt/joint_states`).
+    pub own_namespace: handgate_adapters::ros::Namespace,
+    /// `[export]` on a domain of its own: the second participant, which the fronts, status,
+    /// the ROS node, the recorder and the live server use; `None`: everything on the devices'
+    /// participant (`domain`, `interface`).
+    pub export: Option<ExportPlan>,
     /// `[record]`: record from start-up.
     pub record: Option<RecordPlan>,
     /// `[http]`; `None`: off.

@@ -214,7 +214,12 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         domain: p.dds.domain.0,
         interface: p.dds.interface.clone(),
         status_topic: p.status_topic().0,
-        namespace: p.dds.ros_node.then(|| p.dds.namespace()),
+        namespace: p.dds.ros_node.then(|| p.namespace()),
+        own_namespace: p.namespace(),
+        export: p.export_side().map(|(domain, interface)| crate::plan::ExportPlan {
+            domain: domain.0,
+            interface,
+        }),
         status_hz: p.status.rate_hz.0,
         foreign_state_writers: p.dds.foreign_state_writers,
         discovery_settle: p.dds.discovery_settle_ms.as_duration(),

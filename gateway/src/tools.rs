@@ -17,6 +17,33 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         s.profile,
         s.uptime_ms as f64 / 1000.0
     );
+    let iface = |i: &str| {
+        if i.is_empty() {
+            "(any)".to_string()
+        } else {
+            i.to_string()
+        }
+    };
+    let host = if s.host.is_empty() { "?" } else { &s.host };
+    if (s.domain, &s.interface) == (s.export_domain, &s.export_interface) {
+        let _ = writeln!(
+            out,
+            "host {host}  namespace {}  DDS domain {}, interface {}",
+            s.namespace,
+            s.domain,
+            iface(&s.interface)
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "host {host}  namespace {}  devices: domain {}, interface {}  clients (export): domain {}, interface {}",
+            s.namespace,
+            s.domain,
+            iface(&s.interface),
+            s.export_domain,
+            iface(&s.export_interface)
+        );
+    }
     let _ = writeln!(
         out,
         "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7}",
@@ -177,6 +204,34 @@ mod tests {
             ..s
         });
         assert!(t.contains("recording: 10 message(s) written, 2 dropped"), "{t}");
+        let one = render_status(&hg::GatewayStatus_ {
+            domain: 0,
+            interface: "eth0".into(),
+            export_domain: 0,
+            export_interface: "eth0".into(),
+            namespace: "/".into(),
+            host: "pc2".into(),
+            ..Default::default()
+        });
+        assert!(
+            one.contains("host pc2  namespace /  DDS domain 0, interface eth0\n"),
+            "{one}"
+        );
+        let two = render_status(&hg::GatewayStatus_ {
+            domain: 0,
+            interface: "eth0".into(),
+            export_domain: 10,
+            export_interface: "eth1".into(),
+            namespace: "/robot1".into(),
+            host: "pc2".into(),
+            ..Default::default()
+        });
+        assert!(
+            two.contains(
+                "host pc2  namespace /robot1  devices: domain 0, interface eth0  clients (export): domain 10, interface eth1\n"
+            ),
+            "{two}"
+        );
     }
 
     #[test]

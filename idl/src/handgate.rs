@@ -137,5 +137,20 @@ pub struct GatewayStatus_ {
     pub record_messages: u64,
     /// Whole messages it dropped because the disk was slower than the stream.
     pub record_dropped: u64,
+    /// The devices' DDS side (`[dds]`): domain, and interface ("" when any).
+    pub domain: u32,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub interface: String,
+    /// The clients' side, where this message is published (`[export]`; the devices' side
+    /// when there is none).
+    pub export_domain: u32,
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub export_interface: String,
+    /// ROS namespace of handgate's own topics ("/" for the root).
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub namespace: String,
+    /// The host the gateway runs on.
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub host: String,
 }
 keyless_topic_type!(GatewayStatus_, "handgate::msg::dds_::GatewayStatus_");

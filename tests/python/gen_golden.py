@@ -206,7 +206,8 @@ def canonical_typical(key):
     if key == "handgate/GatewayStatus_":
         return c[key](profile="default", uptime_ms=3_600_000, devices=[hg_device_status_typical(i) for i in range(3)],
                       endpoints=[hg_endpoint_status_typical()], diagnostics=[hg_diagnostic_typical()],
-                      record_messages=1_234_567, record_dropped=3)
+                      record_messages=1_234_567, record_dropped=3, domain=0, interface="eth0",
+                      export_domain=10, export_interface="eth1", namespace="/robot1", host="g1-pc2")
     if key == "builtin_interfaces/Time_":
         return c[key](sec=1_763_712_000, nanosec=123_456_789)
     if key == "std_msgs/Header_":

@@ -118,6 +118,12 @@ class GatewayStatus_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatus_")
     diagnostics: types.sequence[Diagnostic_]
     record_messages: types.uint64
     record_dropped: types.uint64
+    domain: types.uint32
+    interface: str
+    export_domain: types.uint32
+    export_interface: str
+    namespace: str
+    host: str
 
 
 @dataclass

@@ -133,6 +133,8 @@ SCHEMA.update({
         ("endpoints", ("seq", "handgate/EndpointStatus_")),
         ("diagnostics", ("seq", "handgate/Diagnostic_")),
         ("record_messages", "u64"), ("record_dropped", "u64"),
+        ("domain", "u32"), ("interface", "string"), ("export_domain", "u32"),
+        ("export_interface", "string"), ("namespace", "string"), ("host", "string"),
     ],
     "builtin_interfaces/Time_": [("sec", "i32"), ("nanosec", "u32")],
     "std_msgs/Header_": [("stamp", ("struct", "builtin_interfaces/Time_")), ("frame_id", "string")],

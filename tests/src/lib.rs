@@ -202,6 +202,85 @@ impl NetNs {
     }
 }
 
+/// Network namespaces joined by veth pairs as a test says ([`Hosts::link`]): a small network
+/// of hosts on one machine (a robot's internal network, a gateway PC with two interfaces, a lab
+/// network). Traffic stays on the pairs; deleted on drop.
+#[derive(Debug)]
+pub struct Hosts {
+    /// Namespace names, in the order given.
+    pub ns: Vec<String>,
+    tag: String,
+    id: u32,
+}
+
+/// One veth pair of [`Hosts`]: each end's interface and IPv4 address.
+#[derive(Debug, Clone)]
+pub struct Link {
+    pub a_if: String,
+    pub a_addr: String,
+    pub b_if: String,
+    pub b_addr: String,
+}
+
+impl Hosts {
+    /// `n` empty hosts (namespaces with `lo` up), named after this process and `tag` (up to 4
+    /// characters).
+    pub fn new(tag: &str, n: usize) -> Result<Self, NetNsError> {
+        // SAFETY: geteuid has no preconditions.
+        let uid = unsafe { libc::geteuid() };
+        if uid != 0 {
+            return Err(NetNsError::NotRoot(uid));
+        }
+        let id = std::process::id() % 100_000;
+        let me = Hosts {
+            ns: (0..n).map(|i| format!("hg-{tag}-{id}-{i}")).collect(),
+            tag: tag.into(),
+            id,
+        };
+        for ns in &me.ns {
+            let _ = ip(&["netns", "del", ns]); // a leftover of a killed run
+            ip(&["netns", "add", ns])?;
+            ip(&["-n", ns, "link", "set", "lo", "up"])?;
+        }
+        Ok(me)
+    }
+
+    /// Joins host `a` (address `subnet.ha`) and host `b` (`subnet.hb`) with veth pair number
+    /// `k` on `subnet`/24 (`subnet`: three octets, e.g. `192.168.123`; two links of one host
+    /// need two subnets, two hosts in different namespaces may reuse one).
+    pub fn link(&self, k: u8, a: usize, b: usize, subnet: &str, (ha, hb): (u8, u8)) -> Result<Link, NetNsError> {
+        let name = |end: &str| format!("hg{}{}{k}{end}", self.tag, self.id);
+        let l = Link {
+            a_if: name("a"),
+            a_addr: format!("{subnet}.{ha}"),
+            b_if: name("b"),
+            b_addr: format!("{subnet}.{hb}"),
+        };
+        let (na, nb) = (&self.ns[a], &self.ns[b]);
+        ip(&[
+            "link", "add", &l.a_if, "netns", na, "type", "veth", "peer", "name", &l.b_if, "netns", nb,
+        ])?;
+        for (ns, v, addr) in [(na, &l.a_if, &l.a_addr), (nb, &l.b_if, &l.b_addr)] {
+            ip(&["-n", ns, "addr", "add", &format!("{addr}/24"), "dev", v])?;
+            ip(&["-n", ns, "link", "set", v, "up"])?;
+        }
+        Ok(l)
+    }
+
+    /// Takes link `dev` of host `host` down or up (a cable pulled, plugged back).
+    pub fn set_link(&self, host: usize, dev: &str, up: bool) -> Result<(), NetNsError> {
+        ip(&["-n", &self.ns[host], "link", "set", dev, if up { "up" } else { "down" }])
+    }
+}
+
+impl Drop for Hosts {
+    fn drop(&mut self) {
+        for ns in &self.ns {
+            let _ = ip(&["netns", "del", ns]);
+        }
+    }
+}
+
 impl Drop for NetNs {
     fn drop(&mut self) {
         for (ns, _, _) in &self.hosts {
@@ -1055,7 +1134,13 @@ plain_struct!(handgate::GatewayStatus_ {
     endpoints,
     diagnostics,
     record_messages,
-    record_dropped
+    record_dropped,
+    domain,
+    interface,
+    export_domain,
+    export_interface,
+    namespace,
+    host
 });
 plain_struct!(ros2::Time_ { sec, nanosec });
 plain_struct!(ros2::Header_ { stamp, frame_id });
@@ -1487,7 +1572,12 @@ pub struct Emulation {
 impl Emulation {
     /// Starts it and waits (up to 30 s) for the line saying what it emulates.
     pub fn start(args: &[&str]) -> Emulation {
-        let mut cmd = Command::new(handgate_bin());
+        Self::start_in(None, args)
+    }
+
+    /// [`Emulation::start`] inside network namespace `netns`.
+    pub fn start_in(netns: Option<&str>, args: &[&str]) -> Emulation {
+        let mut cmd = in_netns(netns, &handgate_bin());
         cmd.arg("emulate").args(args);
         for (k, _) in std::env::vars() {
             if k.starts_with("HANDGATE_") {

@@ -55,6 +55,12 @@ pub struct CliOverrides {
     pub log_format: Option<LogFormat>,
     /// `--http-port`: `http.port`.
     pub http_port: Option<u16>,
+    /// `--export-domain`: `export.domain`.
+    pub export_domain: Option<u32>,
+    /// `--export-interface`: `export.interface`.
+    pub export_interface: Option<String>,
+    /// `--namespace`: `export.namespace`.
+    pub namespace: Option<String>,
 }
 
 const CLI_METADATA_NAME: &str = "command line";
@@ -80,6 +86,19 @@ impl Provider for CliOverrides {
             let mut log = Dict::new();
             log.insert("format".into(), Value::from(f.as_str()));
             root.insert("log".into(), Value::from(log));
+        }
+        let mut export = Dict::new();
+        if let Some(d) = self.export_domain {
+            export.insert("domain".into(), Value::from(d));
+        }
+        if let Some(i) = &self.export_interface {
+            export.insert("interface".into(), Value::from(i.clone()));
+        }
+        if let Some(n) = &self.namespace {
+            export.insert("namespace".into(), Value::from(n.clone()));
+        }
+        if !export.is_empty() {
+            root.insert("export".into(), Value::from(export));
         }
         if let Some(port) = self.http_port {
             let mut http = Dict::new();

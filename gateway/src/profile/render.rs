@@ -13,21 +13,45 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     if !p.description.is_empty() {
         let _ = writeln!(s, "  {}", p.description);
     }
-    let _ = writeln!(
-        s,
-        "dds: domain {}, interface {}, ROS node {}",
-        p.dds.domain.0,
-        p.dds.interface.as_deref().unwrap_or("(any)"),
-        if p.dds.ros_node {
-            format!(
-                "{}/{}",
-                p.dds.namespace().ros().trim_end_matches('/'),
-                handgate_adapters::ros::NODE_NAME
-            )
-        } else {
-            "off".into()
+    let ros_node = if p.dds.ros_node {
+        format!(
+            "{}/{}",
+            p.namespace().ros().trim_end_matches('/'),
+            handgate_adapters::ros::NODE_NAME
+        )
+    } else {
+        "off".into()
+    };
+    let iface = |i: Option<&str>| i.unwrap_or("(any)").to_string();
+    match p.export_side() {
+        None => {
+            let _ = writeln!(
+                s,
+                "dds: domain {}, interface {}, ROS node {ros_node}",
+                p.dds.domain.0,
+                iface(p.dds.interface.as_deref()),
+            );
         }
-    );
+        Some((domain, interface)) => {
+            let _ = writeln!(
+                s,
+                "dds (devices): domain {}, interface {}",
+                p.dds.domain.0,
+                iface(p.dds.interface.as_deref()),
+            );
+            let _ = writeln!(
+                s,
+                "export (fronts, status, ROS node {ros_node}): domain {}, interface {}{}",
+                domain.0,
+                iface(interface.as_deref()),
+                if p.export.as_ref().is_some_and(|e| e.namespace_fronts) {
+                    ", every front's topics in the namespace"
+                } else {
+                    ""
+                }
+            );
+        }
+    }
     let _ = writeln!(s, "log: {} {}", p.log.format, p.log.level);
     let _ = writeln!(s, "status: {} at {}", p.status_topic(), p.status.rate_hz);
     if let Some(r) = &p.record {

@@ -93,6 +93,10 @@ pub struct Profile {
     /// One line saying what setup this profile is for.
     pub description: String,
     pub dds: DdsConfig,
+    /// `[export]`: the fronts, status, `rt/joint_states` and the ROS node on a second DDS
+    /// participant (the lab's network) while the devices stay on `[dds]` (the robot's);
+    /// `None`: one participant (docs/deployment.md, "A lab of robots").
+    pub export: Option<ExportConfig>,
     pub log: LogConfig,
     pub status: StatusConfig,
     /// `[record]`: record from start-up (docs/recording.md).
@@ -118,6 +122,7 @@ pub struct RawProfile {
     pub name: String,
     pub description: String,
     pub dds: DdsConfig,
+    pub export: Option<ExportConfig>,
     pub log: LogConfig,
     pub status: StatusConfig,
     pub record: Option<RecordConfig>,
@@ -149,12 +154,33 @@ impl Profile {
         }
     }
 
+    /// The namespace of handgate's own topics and ROS node: `export.namespace`, else
+    /// `dds.namespace` (validation refuses both), else the root.
+    pub fn namespace(&self) -> Namespace {
+        match self.export.as_ref().and_then(|e| e.namespace.as_deref()) {
+            Some(n) => Namespace::parse(n).unwrap_or_default(),
+            None => self.dds.namespace(),
+        }
+    }
+
+    /// The export side: its domain and interface when it is a second participant (another
+    /// domain id than `[dds]`'s); `None` when everything runs on the devices' participant
+    /// (no `[export]`, or one that sets only the namespace).
+    pub fn export_side(&self) -> Option<(DomainId, Option<String>)> {
+        let e = self.export.as_ref()?;
+        let domain = e.domain.unwrap_or(self.dds.domain);
+        let interface = e.interface.clone().or_else(|| self.dds.interface.clone());
+        (domain != self.dds.domain).then_some((domain, interface))
+    }
+
     /// Front `f`'s topics and rates (`device`: its bound device), with handgate's own
-    /// interfaces' topics in the profile's namespace (`FrontFacts::in_namespace`).
+    /// interfaces' topics in the profile's namespace (`FrontFacts::in_namespace`), and every
+    /// front's with `export.namespace_fronts`.
     pub fn front_topics(&self, f: &FrontConfig, device: Option<&DeviceConfig>) -> FrontTopics {
         let mut t = f.topics(device);
-        if f.kind().factory().facts().in_namespace {
-            let ns = self.dds.namespace();
+        let every = self.export.as_ref().is_some_and(|e| e.namespace_fronts);
+        if every || f.kind().factory().facts().in_namespace {
+            let ns = self.namespace();
             for x in t.topics.iter_mut().filter_map(|t| t.topic.as_mut()) {
                 *x = Topic(ns.topic(x.as_str()));
             }
@@ -164,7 +190,7 @@ impl Profile {
 
     /// The status topic, in the profile's namespace.
     pub fn status_topic(&self) -> Topic {
-        Topic(self.dds.namespace().topic(self.status.topic.as_str()))
+        Topic(self.namespace().topic(self.status.topic.as_str()))
     }
 
     /// The `[foxglove]` settings in force: the section, or its defaults when absent.
@@ -186,6 +212,7 @@ impl RawProfile {
             name: self.name,
             description: self.description,
             dds: self.dds,
+            export: self.export,
             log: self.log,
             status: self.status,
             record: self.record,
@@ -243,6 +270,27 @@ impl Default for DdsConfig {
             ros_node: true,
         }
     }
+}
+
+/// `[export]`: where handgate serves its clients when that is not where its devices are (a
+/// robot PC's second network interface on the lab's network, another DDS domain per robot).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ExportConfig {
+    /// The clients' DDS domain (default: `dds.domain`, which makes `[export]` a namespace only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub domain: Option<DomainId>,
+    /// The clients' network interface (default: `dds.interface`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interface: Option<String>,
+    /// ROS namespace of handgate's own topics (canonical, `rt/joint_states`, status) and of
+    /// its ROS node, as `dds.namespace` (one of the two).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub namespace: Option<String>,
+    /// Also prefix the device-compatible fronts' topics (`rt/dex3/left/cmd` becomes
+    /// `rt/<namespace>/dex3/left/cmd`): off by default, since unmodified clients use the
+    /// standard names and pick the robot by domain.
+    pub namespace_fronts: bool,
 }
 
 /// Default `dds.discovery_settle_ms`.

@@ -408,6 +408,32 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "xr_teleoperate",
     ),
     ("status rate", "[status]\nrate_hz = 50\n", "status.rate_hz", "at most 10 Hz"),
+    (
+        "export on the devices' domain through another interface",
+        "[dds]\ndomain = 0\ninterface = \"eth0\"\n[export]\ninterface = \"eth1\"\n",
+        "export.interface",
+        "CycloneDDS holds one configuration per domain id in a process, so one domain cannot be on two interfaces",
+    ),
+    (
+        "export naming the devices' domain through another interface",
+        "[dds]\ndomain = 3\n[export]\ndomain = 3\ninterface = \"eth1\"\n",
+        "export.domain",
+        "puts the export side on domain 3 like the devices, on interface eth1 while the devices are on (any)",
+    ),
+    (
+        "two namespaces",
+        "[dds]\nnamespace = \"a\"\n[export]\ndomain = 2\nnamespace = \"b\"\n",
+        "export.namespace",
+        "and dds.namespace are both set",
+    ),
+    (
+        "fronts in no namespace",
+        "[export]\ndomain = 2\nnamespace_fronts = true\n",
+        "export.namespace_fronts",
+        "set export.namespace",
+    ),
+    ("export domain", "[export]\ndomain = 300\n", "export.domain", "must be between 0 and 232"),
+    ("unknown export key", "[export]\ndomian = 3\n", "export.domian", "unknown key"),
     ("bad topic", "[status]\ntopic = \"rt/a b\"\n", "status.topic", "not a topic name"),
 ];
 
@@ -592,6 +618,7 @@ fn cli_flags_override_the_file() {
             interface: None,
             log_format: Some(LogFormat::Json),
             http_port: Some(0),
+            ..Default::default()
         },
         ..opts(Some(p.display().to_string()))
     })
@@ -2057,4 +2084,109 @@ fn realtime_section_errors_name_file_and_key() {
             lines[0]
         );
     }
+}
+
+#[test]
+fn export_puts_the_clients_on_a_second_domain_from_file_env_or_flags() {
+    use crate::profile::render::render_fleet;
+    let fronts = "[[fronts]]\nkind = \"dex3\"\ndevice = \"l\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n";
+    // Without [export]: one side, as before.
+    let (_, r) = load_text(&format!("[dds]\ndomain = 0\ninterface = \"eth0\"\n{DEX3}{fronts}"));
+    let l = r.unwrap();
+    assert_eq!(l.profile.export_side(), None);
+    let text = render_fleet(&l.profile, &l.origin);
+    assert!(
+        text.contains("dds: domain 0, interface eth0, ROS node /handgate"),
+        "{text}"
+    );
+    // A second domain on the lab's interface, with a namespace.
+    let (_, r) = load_text(&format!(
+        "[dds]\ndomain = 0\ninterface = \"eth0\"\n[export]\ndomain = 10\ninterface = \"eth1\"\nnamespace = \"robot1\"\n{DEX3}{fronts}"
+    ));
+    let l = r.unwrap();
+    let p = &l.profile;
+    assert_eq!(p.export_side(), Some((DomainId(10), Some("eth1".into()))));
+    assert_eq!(p.status_topic().0, "rt/robot1/handgate/status");
+    let text = render_fleet(p, &l.origin);
+    assert!(text.contains("dds (devices): domain 0, interface eth0\n"), "{text}");
+    assert!(
+        text.contains("export (fronts, status, ROS node /robot1/handgate): domain 10, interface eth1\n"),
+        "{text}"
+    );
+    let topics = |p: &Profile, i: usize| {
+        let t = p.front_topics(&p.fronts[i], p.devices.first());
+        t.topics
+            .iter()
+            .filter_map(|t| t.topic.clone())
+            .map(|t| t.0)
+            .collect::<Vec<_>>()
+    };
+    // The unitree-style front keeps its standard names; handgate's own move into the namespace.
+    assert_eq!(
+        topics(p, 0),
+        ["rt/dex3/left/cmd", "rt/dex3/left/state", "rt/lf/dex3/left/state"]
+    );
+    assert!(
+        topics(p, 1).iter().all(|t| t.starts_with("rt/robot1/handgate/")),
+        "{:?}",
+        topics(p, 1)
+    );
+    let plan = crate::resolve::plan(p).unwrap();
+    assert_eq!(
+        plan.export,
+        Some(crate::plan::ExportPlan {
+            domain: 10,
+            interface: Some("eth1".into())
+        })
+    );
+    assert_eq!(
+        plan.namespace.as_ref().map(|n| n.ros().to_string()).as_deref(),
+        Some("/robot1")
+    );
+    // Opt in: every front's topics in the namespace.
+    let (_, r) = load_text(&format!(
+        "[export]\ndomain = 10\nnamespace = \"robot1\"\nnamespace_fronts = true\n{DEX3}{fronts}"
+    ));
+    let p = r.unwrap().profile;
+    assert_eq!(
+        topics(&p, 0),
+        [
+            "rt/robot1/dex3/left/cmd",
+            "rt/robot1/dex3/left/state",
+            "rt/robot1/lf/dex3/left/state"
+        ]
+    );
+    // Only a namespace: no second participant; the interface defaults to the devices'.
+    let (_, r) = load_text(&format!(
+        "[dds]\ninterface = \"eth0\"\n[export]\nnamespace = \"robot1\"\n{DEX3}"
+    ));
+    let p = r.unwrap().profile;
+    assert_eq!(p.export_side(), None);
+    assert_eq!(p.status_topic().0, "rt/robot1/handgate/status");
+    // The flags, and the environment like every other key.
+    let path = temp_profile(DEX3);
+    let l = load(&LoadOptions {
+        overrides: CliOverrides {
+            export_domain: Some(7),
+            export_interface: Some("eth1".into()),
+            namespace: Some("robot2".into()),
+            ..Default::default()
+        },
+        ..opts(Some(path.display().to_string()))
+    })
+    .unwrap();
+    assert_eq!(l.profile.export_side(), Some((DomainId(7), Some("eth1".into()))));
+    assert_eq!(l.profile.namespace().ros(), "/robot2");
+    figment::Jail::expect_with(|jail| {
+        jail.set_env("HANDGATE_EXPORT__DOMAIN", 9);
+        jail.set_env("HANDGATE_EXPORT__NAMESPACE", "robot3");
+        let l = load(&LoadOptions {
+            env: EnvLayer::Process,
+            ..opts(Some(path.display().to_string()))
+        })
+        .unwrap();
+        assert_eq!(l.profile.export_side(), Some((DomainId(9), None)));
+        assert_eq!(l.profile.status_topic().0, "rt/robot3/handgate/status");
+        Ok(())
+    });
 }

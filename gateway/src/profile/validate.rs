@@ -115,6 +115,59 @@ impl Checker {
         }
     }
 
+    /// `[export]`: each key, and the two sides together: CycloneDDS holds one configuration
+    /// per domain id per process, so one domain id cannot be on two interfaces.
+    fn export(&mut self, p: &Profile, e: &ExportConfig) {
+        let key = |k| root().key("export").key(k);
+        if let Some(d) = e.domain.filter(|d| d.0 > MAX_DOMAIN_ID) {
+            self.err(
+                key("domain"),
+                format!("must be between 0 and {MAX_DOMAIN_ID}, got {}", d.0),
+            );
+        }
+        if let Some(i) = &e.interface {
+            if i.trim().is_empty() || i.chars().any(char::is_whitespace) {
+                self.err(key("interface"), format!("`{i}` is not an interface name"));
+            }
+        }
+        if let Some(n) = &e.namespace {
+            if let Err(why) = handgate_adapters::ros::Namespace::parse(n) {
+                self.err(key("namespace"), format!("`{n}` is not a ROS namespace: it {why}"));
+            } else if p.dds.namespace.is_some() {
+                self.err(
+                    key("namespace"),
+                    "and dds.namespace are both set: handgate's own topics have one namespace; set it in [export]",
+                );
+            }
+        }
+        if e.namespace_fronts && p.namespace().is_root() {
+            self.err(
+                key("namespace_fronts"),
+                "prefixes the fronts' topics with the namespace, but there is none: set export.namespace",
+            );
+        }
+        let domain = e.domain.unwrap_or(p.dds.domain);
+        let devices_if = p.dds.interface.as_deref();
+        let export_if = e.interface.as_deref().or(devices_if);
+        if domain == p.dds.domain && export_if != devices_if {
+            self.err(
+                if e.domain.is_some() {
+                    key("domain")
+                } else {
+                    key("interface")
+                },
+                format!(
+                    "puts the export side on domain {} like the devices, on interface {} while the devices are on {}: \
+                     CycloneDDS holds one configuration per domain id in a process, so one domain cannot be on two \
+                     interfaces; give the export side a domain of its own (export.domain)",
+                    domain.0,
+                    export_if.unwrap_or("(any)"),
+                    devices_if.unwrap_or("(any)"),
+                ),
+            );
+        }
+    }
+
     fn profile(&mut self, p: &Profile) {
         // dds
         if p.dds.domain.0 > MAX_DOMAIN_ID {
@@ -138,6 +191,9 @@ impl Checker {
                     format!("`{i}` is not an interface name"),
                 );
             }
+        }
+        if let Some(e) = &p.export {
+            self.export(p, e);
         }
         let (settle, max_wait) = (p.dds.discovery_settle_ms.0, p.dds.discovery_max_wait_ms.0);
         if max_wait > MAX_DISCOVERY_WAIT_MS {
@@ -411,8 +467,11 @@ impl Checker {
                 }
             }
             // A front must not serve a topic handgate itself uses to reach a DDS device on
-            // the same domain: it would answer its own commands.
-            for (di, d) in p.devices.iter().enumerate() {
+            // the same domain: it would answer its own commands. With `[export]` on a domain
+            // of its own the fronts are on another domain: the robot's service names, served
+            // to the lab (the point of exporting).
+            let same_domain = p.export_side().is_none();
+            for (di, d) in p.devices.iter().enumerate().filter(|_| same_domain) {
                 if let Some((dcmd, dstate)) = d.dds_topics() {
                     let clash = topics.topics.iter().find_map(|t| {
                         let theirs = if t.role.writes() { &dstate } else { &dcmd };

@@ -112,6 +112,12 @@ pub struct DeviceSlot {
     pub counters: Arc<FrontCounters>,
 }
 
+/// The clients' side of a gateway with `[export]` on a domain of its own.
+pub struct Export {
+    pub node: Node,
+    pub discovery: Discovery,
+}
+
 /// A running gateway.
 pub struct Runtime {
     pub node: Node,
@@ -122,8 +128,10 @@ pub struct Runtime {
     /// What several devices share (a bus per port, an emulated service), alive as long as the
     /// runtime.
     pub shared: Shared,
-    /// Every reader and writer on the gateway's domain (its own thread; docs/discovery.md).
+    /// Every reader and writer on the devices' domain (its own thread; docs/discovery.md).
     pub discovery: Discovery,
+    /// `[export]`: the clients' participant and its discovery; `None`: they share the devices'.
+    pub export: Option<Export>,
     /// The `[record]` recorder (its own threads; never on a device path).
     recorder: Option<handgate_record::Recorder>,
     /// The latest status the status task computed (the dashboard, `/metrics`).
@@ -150,22 +158,35 @@ impl Runtime {
         let node = Node::new(plan.domain, plan.interface.as_deref())?;
         // Started first, so what is already on the domain is known by the time fronts open.
         let discovery = Discovery::start(&node, DiscoveryConfig::default())?;
+        // `[export]`: the clients' side on a participant of its own, with its own discovery.
+        let export = match &plan.export {
+            Some(e) => {
+                let n = Node::new(e.domain, e.interface.as_deref())?;
+                let d = Discovery::start(&n, DiscoveryConfig::default())?;
+                Some(Export { node: n, discovery: d })
+            }
+            None => None,
+        };
+        let (clients, clients_discovery) = match &export {
+            Some(e) => (e.node.clone(), &e.discovery),
+            None => (node.clone(), &discovery),
+        };
         let env = FrontEnv {
-            node: node.clone(),
-            discovery: discovery.subscribe(),
+            node: clients.clone(),
+            discovery: clients_discovery.subscribe(),
             shared: Default::default(),
         };
         // Before any device opens, so a server that cannot listen stops the start without
         // touching hardware. Its DDS readers exist only while a client subscribes, by then
         // the fronts serve what it advertises.
         #[cfg(feature = "foxglove")]
-        let live = start_live(&node, plan)?;
+        let live = start_live(&clients, plan)?;
         // Likewise the dashboard's port.
         let http_listener = plan.http.as_ref().map(crate::http::bind).transpose()?;
         let mut shared = Shared::default();
         let opened = open_devices(&node, plan, &mut shared)?;
         let served = crate::diagnostics::served(plan);
-        check_foreign_state_writers(&discovery, plan, &served)?;
+        check_foreign_state_writers(clients_discovery, plan, &served)?;
         let mut devices = Vec::new();
         let mut by_name = HashMap::new();
         for (p, device) in plan.devices.iter().zip(opened) {
@@ -183,13 +204,25 @@ impl Runtime {
         for f in &plan.fronts {
             tasks.push(fronts::spawn_front(&env, f, &by_name, shutdown_rx.clone())?);
         }
-        let (diag_task, diagnosis) = crate::diagnostics::spawn(served, discovery.subscribe(), shutdown_rx.clone());
+        let sides = match &export {
+            // Each endpoint diagnosed on its own side: the fronts' on the clients', the
+            // devices' on the robot's.
+            Some(e) => {
+                let (fronts, devices) = served
+                    .iter()
+                    .cloned()
+                    .partition(|s| matches!(s.owner, crate::diagnostics::Owner::Front(_)));
+                vec![(fronts, e.discovery.subscribe()), (devices, discovery.subscribe())]
+            }
+            None => vec![(served, discovery.subscribe())],
+        };
+        let (diag_task, diagnosis) = crate::diagnostics::spawn(sides, shutdown_rx.clone());
         tasks.push(diag_task);
         // Started after the fronts, so it subscribes what they serve.
         let recorder = match &plan.record {
             Some(r) => {
                 let opts = crate::recording::options(&r.dir, r.max_mb, r.max_seconds, r.zstd);
-                let rec = handgate_record::Recorder::start(&node, crate::recording::topics(plan, &r.topics), opts)?;
+                let rec = handgate_record::Recorder::start(&clients, crate::recording::topics(plan, &r.topics), opts)?;
                 tracing::info!(dir = %r.dir.display(), topics = rec.topics.len(), "recording");
                 Some(rec)
             }
@@ -198,7 +231,7 @@ impl Runtime {
         let record_stats = recorder.as_ref().map(|r| r.stats());
         let (status_tx, status_rx) = watch::channel(Arc::new(handgate_idl::handgate::GatewayStatus_::default()));
         tasks.push(status::spawn_status(
-            &node,
+            &clients,
             plan,
             devices.clone(),
             diagnosis,
@@ -207,11 +240,11 @@ impl Runtime {
             shutdown_rx.clone(),
         )?);
         if let (Some(h), Some(listener)) = (&plan.http, http_listener) {
-            let fleet = crate::http::Fleet::new(plan, &devices, discovery.subscribe(), status_rx.clone());
+            let fleet = crate::http::Fleet::new(plan, &devices, clients_discovery.subscribe(), status_rx.clone());
             tasks.extend(crate::http::spawn(h, listener, fleet, &by_name, shutdown_rx.clone())?);
         }
         if let Some(ns) = &plan.namespace {
-            tasks.push(ros::spawn_presence(&node, ns.clone(), shutdown_rx.clone())?);
+            tasks.push(ros::spawn_presence(&clients, ns.clone(), shutdown_rx.clone())?);
         }
         Ok(Self {
             node,
@@ -221,6 +254,7 @@ impl Runtime {
             started: Instant::now(),
             shared,
             discovery,
+            export,
             recorder,
             status: status_rx,
             #[cfg(feature = "foxglove")]

@@ -26,6 +26,21 @@ pub(super) fn spawn_status(
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let mut writer = node.writer::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::Reliable { depth: 1 })?;
     let profile = plan.profile.clone();
+    // Both DDS sides and where the gateway runs, so `handgate status` and `handgate fleet`
+    // show them (`[export]`: the clients' side is where this is published).
+    let sides = hgmsg::GatewayStatus_ {
+        domain: plan.domain,
+        interface: plan.interface.clone().unwrap_or_default(),
+        export_domain: plan.export.as_ref().map_or(plan.domain, |e| e.domain),
+        export_interface: match &plan.export {
+            Some(e) => e.interface.clone(),
+            None => plan.interface.clone(),
+        }
+        .unwrap_or_default(),
+        namespace: plan.own_namespace.ros().to_string(),
+        host: host_name(),
+        ..Default::default()
+    };
     let period = Duration::from_secs_f64(1.0 / plan.status_hz.clamp(0.1, 10.0));
     let started = Instant::now();
     Ok(tokio::spawn(async move {
@@ -36,7 +51,7 @@ pub(super) fn spawn_status(
                 _ = tick.tick() => {
                     let now = Instant::now();
                     let (endpoints, diagnostics) = crate::diagnostics::to_status(&diagnosis.borrow());
-                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![], endpoints, diagnostics, ..Default::default() };
+                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![], endpoints, diagnostics, ..sides.clone() };
                     if let Some(r) = &record {
                         msg.record_messages = r.written.load(Ordering::Relaxed);
                         msg.record_dropped = r.dropped.load(Ordering::Relaxed);
@@ -72,4 +87,11 @@ pub(super) fn spawn_status(
             }
         }
     }))
+}
+
+/// This host's name (the kernel's), empty when it cannot be read.
+fn host_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .unwrap_or_default()
 }

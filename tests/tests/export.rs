@@ -1,0 +1,159 @@
+//! Two DDS sides in one process (issue #28, part 1): a robot PC whose gateway reaches its hand
+//! service on the robot's internal network (`[dds]`: domain 0, 192.168.123.0/24) and serves its
+//! clients on the lab's (`[export]`: another domain, another interface). An official-SDK client
+//! on the lab network drives the hand; a packet capture on each network shows that nothing of
+//! the export side's domain crosses the robot's network and nothing of the robot's domain
+//! crosses the lab's; `handgate status` on the lab side shows both sides.
+//!
+//! Three network namespaces made by the test (robot, robot PC, operator) joined by two veth
+//! pairs; needs root, elsewhere it says why and passes without running. Nothing leaves the
+//! namespaces; they are deleted when the test ends. DDS domains 0 (inside the robot's
+//! namespaces only) and 221.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use handgate_tests::{handgate_bin, in_netns, Emulation, Gateway, Hosts, NetNsError, PyProcess};
+use serde_json::Value;
+
+const ROBOT_DOMAIN: u32 = 0;
+const LAB_DOMAIN: u32 = 221;
+
+/// CycloneDDS's UDP ports of `domain` (7400 + 250 × domain and the 250 above).
+fn domain_ports(domain: u32) -> std::ops::Range<u16> {
+    let base = (7400 + 250 * domain) as u16;
+    base..base + 250
+}
+
+fn hosts() -> Option<Hosts> {
+    match Hosts::new("ex", 3) {
+        Ok(h) => Some(h),
+        Err(e @ NetNsError::NotRoot(_)) => {
+            eprintln!("SKIPPED export: {e}; run `cargo test -p handgate-tests --test export` as root");
+            None
+        }
+        Err(e) => panic!("could not make the test hosts: {e}"),
+    }
+}
+
+/// The datagrams a capture counted per destination port.
+fn ports(capture: &PyProcess) -> BTreeMap<u16, u64> {
+    let line = capture
+        .wait_line("PORTS ", Duration::from_secs(60))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let v: Value = serde_json::from_str(line.trim_start_matches("PORTS ")).unwrap();
+    v.as_object()
+        .unwrap()
+        .iter()
+        .map(|(k, n)| (k.parse().unwrap(), n.as_u64().unwrap()))
+        .collect()
+}
+
+fn count_in(ports: &BTreeMap<u16, u64>, range: std::ops::Range<u16>) -> u64 {
+    ports.range(range).map(|(_, n)| n).sum()
+}
+
+#[test]
+fn the_clients_side_and_the_robots_side_stay_on_their_networks() {
+    let Some(h) = hosts() else { return };
+    let (robot, pc, op) = (0, 1, 2);
+    // The robot's internal network, as on every G1, and the lab's.
+    let internal = h.link(0, robot, pc, "192.168.123", (161, 164)).unwrap();
+    let lab = h.link(1, pc, op, "10.228.7", (2, 100)).unwrap();
+    let ns = |i: usize| Some(h.ns[i].as_str());
+
+    // A capture on each network for the whole run.
+    let seconds = "20".to_string();
+    let on_robot = PyProcess::spawn_in(ns(robot), "udp_ports.py", &[internal.a_if.clone(), seconds.clone()]).unwrap();
+    let on_lab = PyProcess::spawn_in(ns(op), "udp_ports.py", &[lab.b_if.clone(), seconds]).unwrap();
+    for c in [&on_robot, &on_lab] {
+        c.wait_line("READY", Duration::from_secs(30)).unwrap();
+    }
+
+    // The robot's Dex1 service, on its internal network.
+    let _service = Emulation::start_in(
+        ns(robot),
+        &["dex1", "--side", "left", "--domain", "0", "--interface", &internal.a_if],
+    );
+    // The robot PC's gateway: the hand through the service on the internal network, its
+    // clients on the lab's.
+    let profile = std::env::temp_dir().join(format!("handgate-export-{}.toml", std::process::id()));
+    std::fs::write(
+        &profile,
+        "name = \"lab-robot\"\n\
+         [export]\nnamespace = \"robot_a\"\n\
+         [[devices]]\nname = \"left\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"dds\"\n\
+         [[fronts]]\nkind = \"dex1\"\ndevice = \"left\"\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"left\"\n",
+    )
+    .unwrap();
+    let profile_arg = profile.display().to_string();
+    let lab_domain = LAB_DOMAIN.to_string();
+    let gw = Gateway::spawn_in(
+        ns(pc),
+        ROBOT_DOMAIN,
+        &[
+            "--profile",
+            &profile_arg,
+            "--export-domain",
+            &lab_domain,
+            "--export-interface",
+            &lab.a_if,
+        ],
+        Some(&internal.b_if),
+    )
+    .expect("start the gateway");
+    gw.wait_stdout("handgate serving", Duration::from_secs(30))
+        .unwrap_or_else(|e| panic!("{e}"));
+
+    // An xr_teleoperate-style Dex1 client on the operator's machine, given only the robot's
+    // domain: it closes the gripper to 2 rad through the robot's hand service.
+    let client = PyProcess::spawn_in(
+        ns(op),
+        "e2e_xr_dex1.py",
+        &[lab_domain.clone(), "2.0".into(), lab.b_if.clone()],
+    )
+    .unwrap();
+    let done = client
+        .wait_line("DONE ", Duration::from_secs(45))
+        .unwrap_or_else(|e| panic!("{e}\ngateway:\n{}", gw.transcript()));
+    let done: Value = serde_json::from_str(done.trim_start_matches("DONE ")).unwrap();
+    assert!(done["samples"].as_u64().unwrap() > 0, "{done}");
+
+    // `handgate status` on the lab network names both sides and the namespace.
+    let out = in_netns(ns(op), &handgate_bin())
+        .args(["status", "--domain", &lab_domain, "--interface", &lab.b_if])
+        .args(["--namespace", "robot_a", "--once", "--timeout", "10"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}{}", String::from_utf8_lossy(&out.stderr));
+    let sides = format!(
+        "namespace /robot_a  devices: domain 0, interface {}  clients (export): domain {LAB_DOMAIN}, interface {}",
+        internal.b_if, lab.a_if
+    );
+    assert!(text.contains(&sides), "{text}");
+
+    // Each network carried its own side and nothing of the other's.
+    let robot_ports = ports(&on_robot);
+    let lab_ports = ports(&on_lab);
+    assert!(
+        count_in(&robot_ports, domain_ports(ROBOT_DOMAIN)) > 0,
+        "the capture on the robot's network saw the gateway talk to the service: {robot_ports:?}"
+    );
+    assert!(
+        count_in(&lab_ports, domain_ports(LAB_DOMAIN)) > 0,
+        "the capture on the lab network saw the client's traffic: {lab_ports:?}"
+    );
+    assert_eq!(
+        count_in(&robot_ports, domain_ports(LAB_DOMAIN)),
+        0,
+        "the export side's domain appeared on the robot's network: {robot_ports:?}"
+    );
+    assert_eq!(
+        count_in(&lab_ports, domain_ports(ROBOT_DOMAIN)),
+        0,
+        "the robot's domain appeared on the lab network: {lab_ports:?}"
+    );
+    let _ = std::fs::remove_file(profile);
+}
