@@ -67,6 +67,9 @@ pub struct Outcome {
     /// Remote participants with endpoints for the profile on its domain (clients, services,
     /// near misses; a running gateway not counted).
     pub relevant: usize,
+    /// The running gateways found, by (host, pid): with `[export]` the devices' side knows
+    /// the gateway by the process the clients' side found (its status is published there).
+    pub gateways: Vec<(Option<String>, u32)>,
 }
 
 impl Outcome {
@@ -207,7 +210,7 @@ fn describe_if(i: &NetIf) -> String {
 /// other (each a function of what was seen).
 pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     let Some(export) = &plan.export else {
-        return run_side(plan, served(plan), opts, "");
+        return run_side(plan, served(plan), opts, "", &[]);
     };
     // `[export]`: each side on its own domain and interface, one after the other (a process
     // holds one CycloneDDS configuration per domain): the fronts' clients on the export side,
@@ -226,12 +229,12 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
         sweep: None,
         ..opts.clone()
     };
-    let mut out = run_side(&clients, fronts, &no_sweep, " (export side: fronts, status)")?;
+    let mut out = run_side(&clients, fronts, &no_sweep, " (export side: fronts, status)", &[])?;
     let robot = Plan {
         export: None,
         ..plan.clone()
     };
-    let dev = run_side(&robot, devices, &no_sweep, " (devices' side)")?;
+    let dev = run_side(&robot, devices, &no_sweep, " (devices' side)", &out.gateways)?;
     out.line("");
     out.text.push_str(&dev.text);
     out.problems.extend(dev.problems);
@@ -240,8 +243,14 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
 }
 
 /// The doctor on one DDS side: `plan`'s domain and interface, what `all` serves there; `side`
-/// follows the domain in the first line.
-fn run_side(plan: &Plan, all: Vec<ServedBy>, opts: &Options, side: &str) -> Result<Outcome, DoctorError> {
+/// follows the domain in the first line; `known`: gateway processes found on the other side.
+fn run_side(
+    plan: &Plan,
+    all: Vec<ServedBy>,
+    opts: &Options,
+    side: &str,
+    known: &[(Option<String>, u32)],
+) -> Result<Outcome, DoctorError> {
     let mut out = Outcome::default();
     let ifs = netif::list().map_err(DoctorError::Interfaces)?;
     out.line(format!(
@@ -257,7 +266,7 @@ fn run_side(plan: &Plan, all: Vec<ServedBy>, opts: &Options, side: &str) -> Resu
     let snap = look.discovery.snapshot();
     let trace = look.trace();
 
-    let gateways = gateways_section(&mut out, plan, &all, &snap);
+    let gateways = gateways_section(&mut out, plan, &all, &snap, known);
     let served_list: Vec<Served> = all.iter().map(|s| s.served.clone()).collect();
     let report = diagnose(&snap, &served_list);
     let seen = Seen {
@@ -450,9 +459,40 @@ fn interface_section(out: &mut Outcome, plan: &Plan, ifs: &[NetIf]) -> Option<St
 
 /// A gateway already running on the domain (a remote writer of the status topic): one line
 /// each. Returns them.
-fn gateways_section(out: &mut Outcome, plan: &Plan, all: &[ServedBy], snap: &Snapshot) -> BTreeSet<Guid> {
+fn gateways_section(
+    out: &mut Outcome,
+    plan: &Plan,
+    all: &[ServedBy],
+    snap: &Snapshot,
+    known: &[(Option<String>, u32)],
+) -> BTreeSet<Guid> {
     let gateways = running_gateways(snap, &plan.status_topic);
+    // A known gateway's participant on this side (its devices', status elsewhere).
+    let by_process: BTreeSet<Guid> = snap
+        .participants
+        .iter()
+        .filter(|p| p.origin == Origin::Remote && !gateways.contains(&p.key))
+        .filter(|p| {
+            let host = p.hostname.as_deref().map(str::to_string);
+            p.pid.is_some_and(|pid| known.contains(&(host, pid)))
+        })
+        .map(|p| p.key)
+        .collect();
+    for g in &by_process {
+        let who = snap
+            .participant(g)
+            .map_or_else(|| format!("participant {g}"), who_participant);
+        out.line(format!(
+            "handgate already serving, its devices on domain {}: {who} (the gateway found on the export side); its writers are not counted as foreign below",
+            plan.domain
+        ));
+    }
     for g in &gateways {
+        if let Some(p) = snap.participant(g) {
+            if let Some(pid) = p.pid {
+                out.gateways.push((p.hostname.as_deref().map(str::to_string), pid));
+            }
+        }
         let who = snap
             .participant(g)
             .map_or_else(|| format!("participant {g}"), who_participant);
@@ -476,7 +516,7 @@ fn gateways_section(out: &mut Outcome, plan: &Plan, all: &[ServedBy], snap: &Sna
             plan.domain, plan.status_topic
         ));
     }
-    gateways
+    gateways.into_iter().chain(by_process).collect()
 }
 
 /// Each front and device of the profile ([`owner_section`]); a device without its service is

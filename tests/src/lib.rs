@@ -1607,6 +1607,13 @@ impl Emulation {
     }
 }
 
+impl Emulation {
+    /// The process id.
+    pub fn id(&self) -> u32 {
+        self.child.id()
+    }
+}
+
 impl Drop for Emulation {
     fn drop(&mut self) {
         let _ = self.child.kill();

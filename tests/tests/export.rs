@@ -71,7 +71,7 @@ fn the_clients_side_and_the_robots_side_stay_on_their_networks() {
     }
 
     // The robot's Dex1 service, on its internal network.
-    let _service = Emulation::start_in(
+    let service = Emulation::start_in(
         ns(robot),
         &["dex1", "--side", "left", "--domain", "0", "--interface", &internal.a_if],
     );
@@ -133,6 +133,49 @@ fn the_clients_side_and_the_robots_side_stay_on_their_networks() {
         internal.b_if, lab.a_if
     );
     assert!(text.contains(&sides), "{text}");
+
+    // `handgate doctor` on the robot PC looks at each side: the fronts' clients on the lab
+    // network, the robot's hand service on the internal one.
+    let out = in_netns(ns(pc), &handgate_bin())
+        .args([
+            "doctor",
+            "--profile",
+            &profile_arg,
+            "--domain",
+            "0",
+            "--interface",
+            &internal.b_if,
+        ])
+        .args(["--export-domain", &lab_domain, "--export-interface", &lab.a_if])
+        .args(["--no-scan", "--seconds", "2"])
+        .output()
+        .unwrap();
+    let doctor = String::from_utf8_lossy(&out.stdout);
+    let (clients_side, devices_side) = doctor
+        .split_once("handgate doctor: profile lab-robot, DDS domain 0 (devices' side)")
+        .unwrap_or_else(|| panic!("no devices' side: {doctor}"));
+    assert!(
+        clients_side.starts_with(&format!(
+            "handgate doctor: profile lab-robot, DDS domain {LAB_DOMAIN} (export side: fronts, status)"
+        )),
+        "{doctor}"
+    );
+    assert!(
+        clients_side.contains("handgate already serving on domain 221"),
+        "{doctor}"
+    );
+    assert!(
+        devices_side.contains(&format!("1 matched reader(s): process handgate (pid {})", service.id())),
+        "the robot's service found on the internal network: {doctor}"
+    );
+    assert!(
+        devices_side.contains("handgate already serving, its devices on domain 0"),
+        "{doctor}"
+    );
+    assert!(
+        !doctor.contains("PROBLEM foreign writer"),
+        "the gateway's own device is not foreign: {doctor}"
+    );
 
     // Each network carried its own side and nothing of the other's.
     let robot_ports = ports(&on_robot);
