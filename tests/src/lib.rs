@@ -247,7 +247,8 @@ impl Hosts {
 
     /// Joins host `a` (address `subnet.ha`) and host `b` (`subnet.hb`) with veth pair number
     /// `k` on `subnet`/24 (`subnet`: three octets, e.g. `192.168.123`; two links of one host
-    /// need two subnets, two hosts in different namespaces may reuse one).
+    /// need two subnets, two hosts in different namespaces may reuse one). A host number 0
+    /// leaves that end without an address (a switch's port, [`Hosts::bridge`]).
     pub fn link(&self, k: u8, a: usize, b: usize, subnet: &str, (ha, hb): (u8, u8)) -> Result<Link, NetNsError> {
         let name = |end: &str| format!("hg{}{}{k}{end}", self.tag, self.id);
         let l = Link {
@@ -260,11 +261,24 @@ impl Hosts {
         ip(&[
             "link", "add", &l.a_if, "netns", na, "type", "veth", "peer", "name", &l.b_if, "netns", nb,
         ])?;
-        for (ns, v, addr) in [(na, &l.a_if, &l.a_addr), (nb, &l.b_if, &l.b_addr)] {
-            ip(&["-n", ns, "addr", "add", &format!("{addr}/24"), "dev", v])?;
+        for (ns, v, addr, host) in [(na, &l.a_if, &l.a_addr, ha), (nb, &l.b_if, &l.b_addr, hb)] {
+            if host != 0 {
+                ip(&["-n", ns, "addr", "add", &format!("{addr}/24"), "dev", v])?;
+            }
             ip(&["-n", ns, "link", "set", v, "up"])?;
         }
         Ok(l)
+    }
+
+    /// A switch in host `host`: a bridge over its interfaces `ports` (ends of [`Hosts::link`]s
+    /// given no address, `hb = 0`), so the hosts at their other ends share one network.
+    pub fn bridge(&self, host: usize, ports: &[&str]) -> Result<(), NetNsError> {
+        let ns = &self.ns[host];
+        ip(&["-n", ns, "link", "add", "br0", "type", "bridge"])?;
+        for p in ports {
+            ip(&["-n", ns, "link", "set", p, "master", "br0"])?;
+        }
+        ip(&["-n", ns, "link", "set", "br0", "up"])
     }
 
     /// Takes link `dev` of host `host` down or up (a cable pulled, plugged back).
@@ -286,6 +300,68 @@ impl Drop for NetNs {
         for (ns, _, _) in &self.hosts {
             let _ = ip(&["netns", "del", ns]);
         }
+    }
+}
+
+/// A packet capture on one interface of a test host (`tests/python/rtps_capture.py`): the UDP
+/// datagrams per destination port and the RTPS participants that sent them.
+pub struct Capture(PyProcess);
+
+/// What a [`Capture`] saw.
+#[derive(Debug, Clone)]
+pub struct Traffic {
+    pub ports: std::collections::BTreeMap<u16, u64>,
+    /// GUID prefixes (hex) of the RTPS participants that sent on the interface.
+    pub participants: std::collections::BTreeSet<String>,
+}
+
+impl Capture {
+    /// Starts capturing on `iface` in `netns` (at most `max` long) and waits until it does.
+    pub fn start(netns: &str, iface: &str, max: Duration) -> Capture {
+        let args = [iface.to_string(), max.as_secs().to_string()];
+        let p = PyProcess::spawn_in(Some(netns), "rtps_capture.py", &args).expect("start the capture");
+        p.wait_line("READY", Duration::from_secs(30))
+            .unwrap_or_else(|e| panic!("{e}"));
+        Capture(p)
+    }
+
+    /// Ends the capture (SIGTERM) and reads what it saw.
+    pub fn finish(&self) -> Traffic {
+        // SAFETY: kill(2) on the capture's own pid.
+        unsafe { libc::kill(self.0.id() as i32, libc::SIGTERM) };
+        let line = |prefix: &str| {
+            let l = self
+                .0
+                .wait_line(prefix, Duration::from_secs(30))
+                .unwrap_or_else(|e| panic!("{e}"));
+            serde_json::from_str::<serde_json::Value>(l.trim_start_matches(prefix)).unwrap()
+        };
+        let ports = line("PORTS ");
+        let participants = line("PARTICIPANTS ");
+        Traffic {
+            ports: ports
+                .as_object()
+                .unwrap()
+                .iter()
+                .map(|(k, n)| (k.parse().unwrap(), n.as_u64().unwrap()))
+                .collect(),
+            participants: participants
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| p.as_str().unwrap().to_string())
+                .collect(),
+        }
+    }
+}
+
+impl Traffic {
+    /// Datagrams to the well-known ports of DDS domain `domain` (7400 + 250 × domain and the
+    /// 250 above: discovery, and user traffic where CycloneDDS uses fixed ports; its unicast
+    /// data ports are otherwise ephemeral, see `participants`).
+    pub fn on_domain(&self, domain: u32) -> u64 {
+        let base = (7400 + 250 * domain) as u16;
+        self.ports.range(base..base + 250).map(|(_, n)| n).sum()
     }
 }
 

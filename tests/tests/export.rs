@@ -10,20 +10,13 @@
 //! namespaces; they are deleted when the test ends. DDS domains 0 (inside the robot's
 //! namespaces only) and 221.
 
-use std::collections::BTreeMap;
 use std::time::Duration;
 
-use handgate_tests::{handgate_bin, in_netns, Emulation, Gateway, Hosts, NetNsError, PyProcess};
+use handgate_tests::{handgate_bin, in_netns, Capture, Emulation, Gateway, Hosts, NetNsError, PyProcess};
 use serde_json::Value;
 
 const ROBOT_DOMAIN: u32 = 0;
 const LAB_DOMAIN: u32 = 221;
-
-/// CycloneDDS's UDP ports of `domain` (7400 + 250 × domain and the 250 above).
-fn domain_ports(domain: u32) -> std::ops::Range<u16> {
-    let base = (7400 + 250 * domain) as u16;
-    base..base + 250
-}
 
 fn hosts() -> Option<Hosts> {
     match Hosts::new("ex", 3) {
@@ -36,23 +29,6 @@ fn hosts() -> Option<Hosts> {
     }
 }
 
-/// The datagrams a capture counted per destination port.
-fn ports(capture: &PyProcess) -> BTreeMap<u16, u64> {
-    let line = capture
-        .wait_line("PORTS ", Duration::from_secs(60))
-        .unwrap_or_else(|e| panic!("{e}"));
-    let v: Value = serde_json::from_str(line.trim_start_matches("PORTS ")).unwrap();
-    v.as_object()
-        .unwrap()
-        .iter()
-        .map(|(k, n)| (k.parse().unwrap(), n.as_u64().unwrap()))
-        .collect()
-}
-
-fn count_in(ports: &BTreeMap<u16, u64>, range: std::ops::Range<u16>) -> u64 {
-    ports.range(range).map(|(_, n)| n).sum()
-}
-
 #[test]
 fn the_clients_side_and_the_robots_side_stay_on_their_networks() {
     let Some(h) = hosts() else { return };
@@ -63,12 +39,8 @@ fn the_clients_side_and_the_robots_side_stay_on_their_networks() {
     let ns = |i: usize| Some(h.ns[i].as_str());
 
     // A capture on each network for the whole run.
-    let seconds = "20".to_string();
-    let on_robot = PyProcess::spawn_in(ns(robot), "udp_ports.py", &[internal.a_if.clone(), seconds.clone()]).unwrap();
-    let on_lab = PyProcess::spawn_in(ns(op), "udp_ports.py", &[lab.b_if.clone(), seconds]).unwrap();
-    for c in [&on_robot, &on_lab] {
-        c.wait_line("READY", Duration::from_secs(30)).unwrap();
-    }
+    let on_robot = Capture::start(&h.ns[robot], &internal.a_if, Duration::from_secs(300));
+    let on_lab = Capture::start(&h.ns[op], &lab.b_if, Duration::from_secs(300));
 
     // The robot's Dex1 service, on its internal network.
     let service = Emulation::start_in(
@@ -177,26 +149,34 @@ fn the_clients_side_and_the_robots_side_stay_on_their_networks() {
         "the gateway's own device is not foreign: {doctor}"
     );
 
-    // Each network carried its own side and nothing of the other's.
-    let robot_ports = ports(&on_robot);
-    let lab_ports = ports(&on_lab);
+    // Each network carried its own side and nothing of the other's: the lab's domain never
+    // on the robot's network, the robot's never on the lab's, and no participant (the
+    // gateway has one per side) sending on both.
+    let robot_net = on_robot.finish();
+    let lab_net = on_lab.finish();
     assert!(
-        count_in(&robot_ports, domain_ports(ROBOT_DOMAIN)) > 0,
-        "the capture on the robot's network saw the gateway talk to the service: {robot_ports:?}"
+        robot_net.on_domain(ROBOT_DOMAIN) > 0,
+        "the gateway talked to the service: {robot_net:?}"
     );
     assert!(
-        count_in(&lab_ports, domain_ports(LAB_DOMAIN)) > 0,
-        "the capture on the lab network saw the client's traffic: {lab_ports:?}"
+        lab_net.on_domain(LAB_DOMAIN) > 0,
+        "the client talked to the gateway: {lab_net:?}"
     );
     assert_eq!(
-        count_in(&robot_ports, domain_ports(LAB_DOMAIN)),
+        robot_net.on_domain(LAB_DOMAIN),
         0,
-        "the export side's domain appeared on the robot's network: {robot_ports:?}"
+        "the lab's domain on the robot's network: {robot_net:?}"
     );
     assert_eq!(
-        count_in(&lab_ports, domain_ports(ROBOT_DOMAIN)),
+        lab_net.on_domain(ROBOT_DOMAIN),
         0,
-        "the robot's domain appeared on the lab network: {lab_ports:?}"
+        "the robot's domain on the lab network: {lab_net:?}"
     );
+    assert!(
+        robot_net.participants.len() >= 2 && lab_net.participants.len() >= 2,
+        "{robot_net:?} {lab_net:?}"
+    );
+    let both: Vec<_> = robot_net.participants.intersection(&lab_net.participants).collect();
+    assert!(both.is_empty(), "participants sending on both networks: {both:?}");
     let _ = std::fs::remove_file(profile);
 }

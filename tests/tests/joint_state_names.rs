@@ -85,8 +85,18 @@ fn every_shipped_profile_publishes_each_joint_name_once_per_topic() {
             seen.insert(name, vec![]);
             continue;
         }
-        let gw = Gateway::try_start_on(DOMAIN, &["--profile", path.to_str().unwrap()], Some(&iface))
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        // A profile with `[export]` serves its fronts there: the same domain and interface
+        // here, so every profile's JointState is read on one.
+        let domain = DOMAIN.to_string();
+        let args = [
+            "--profile",
+            path.to_str().unwrap(),
+            "--export-domain",
+            &domain,
+            "--export-interface",
+            &iface,
+        ];
+        let gw = Gateway::try_start_on(DOMAIN, &args, Some(&iface)).unwrap_or_else(|e| panic!("{name}: {e}"));
         for topic in &topics {
             let mut js = Latest::<ros2::JointState_>::new(&n, topic, Qos::Reliable { depth: 1 });
             let m = js
