@@ -69,6 +69,8 @@ pub fn decode_state(s: &unitree_go::MotorStates_, table: &DeviceTable, st: &mut 
 impl DdsCodec for BraincoCodec {
     type Cmd = unitree_go::MotorCmds_;
     type State = unitree_go::MotorStates_;
+    /// Six entries per message, so `handgate doctor` tells another hand on these topics.
+    const ENTRIES: Option<usize> = Some(WIRE_LEN);
 
     fn encode_into(&mut self, active: &Active, table: &DeviceTable, _dt: f32, msg: &mut Self::Cmd) -> bool {
         if !matches!(active, Active::Safe(SafeAction::Limp, _)) {
