@@ -143,6 +143,8 @@ impl PageFront {
                 writer,
                 msg: Box::new(PageMsg { index: *index, body }),
                 taken: Instant::now(),
+                // A page's command has no source timestamp: never dropped as out of order.
+                stamp: None,
             })
             .map_err(|_| "the dashboard's command queue is full".to_string())
     }
