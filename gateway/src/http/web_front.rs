@@ -178,6 +178,7 @@ pub fn spawn(
         control: Control::Exclusive,
         hold: watchdog,
         state_hz: 1.0,
+        max_command_age: None,
         bindings,
     };
     let handle = run_front(

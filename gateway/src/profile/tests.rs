@@ -288,6 +288,18 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "silence = \"watchdog\"",
     ),
     (
+        "max_command_age_ms of zero",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nmax_command_age_ms = 0\n",
+        "fronts[0].max_command_age_ms",
+        "between 1 and 60000",
+    ),
+    (
+        "max_command_age_ms on a front that takes no commands",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\nmax_command_age_ms = 100\n",
+        "fronts[0].max_command_age_ms",
+        "takes no commands",
+    ),
+    (
         "two fronts with one name",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nname = \"grip\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\nname = \"grip\"\n",
         "fronts[1].name",
@@ -369,7 +381,7 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "unknown front key",
         "[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\ncmd_topc = \"rt/x\"\n",
         "fronts[0].cmd_topc",
-        "unknown key (expected one of: kind, name, device, devices, state_hz, silence, control, watchdog_ms, cmd_topic, state_topic)",
+        "unknown key (expected one of: kind, name, device, devices, state_hz, silence, control, watchdog_ms, max_command_age_ms, cmd_topic, state_topic)",
     ),
     (
         "topic key of another front kind",
@@ -1730,6 +1742,11 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
         ("fronts.variant", dex1_front(""), dex1_front("variant = \"hg\"")),
         ("fronts.silence", front(""), front("silence = \"watchdog\"")),
         ("fronts.control", front(""), front("control = \"shared\"")),
+        (
+            "fronts.max_command_age_ms",
+            front(""),
+            front("max_command_age_ms = 250"),
+        ),
         (
             "fronts.watchdog_ms",
             front("silence = \"watchdog\""),
