@@ -1032,7 +1032,10 @@ plain_struct!(handgate::DeviceStatus_ {
     reconnects,
     missed_cycles,
     age_ms,
-    foreign_cmd
+    foreign_cmd,
+    duplicate_cmd,
+    reordered_cmd,
+    late_cmd
 });
 plain_struct!(handgate::EndpointStatus_ {
     owner,
