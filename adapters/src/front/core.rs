@@ -1365,9 +1365,19 @@ mod tests {
             taken: now,
             stamp: None,
         };
+        feed(core, devs, &s, decoded)
+    }
+
+    /// Sample `s` through the core, decoded as `decoded`, at the time it was taken.
+    fn feed(
+        core: &mut FrontCore,
+        devs: &mut Mock,
+        s: &Sample<'_>,
+        decoded: Result<Vec<(usize, Routed)>, Rejection>,
+    ) -> Vec<Action> {
         let mut out = Vec::new();
-        if let Some(admitted) = core.admit(&s, &mut out) {
-            core.decoded(admitted, now, &s, decoded, devs, &mut out);
+        if let Some(admitted) = core.admit(s, &mut out) {
+            core.decoded(admitted, s.taken, s, decoded, devs, &mut out);
         }
         out
     }
@@ -2011,18 +2021,13 @@ mod tests {
         taken: u64,
         q: f32,
     ) -> Vec<Action> {
-        let now = at(t0, taken);
         let s = Sample {
             writer: w,
             force: false,
-            taken: now,
+            taken: at(t0, taken),
             stamp,
         };
-        let mut out = Vec::new();
-        if let Some(admitted) = core.admit(&s, &mut out) {
-            core.decoded(admitted, now, &s, Ok(vec![(0, cmd(q, 0, false))]), devs, &mut out);
-        }
-        out
+        feed(core, devs, &s, Ok(vec![(0, cmd(q, 0, false))]))
     }
 
     /// The targets the devices took, in order (joint 0's q of each command).
@@ -2105,16 +2110,16 @@ mod tests {
             )]
         );
         assert_eq!(taken_q(&devs), vec![0.1, 0.3, 0.4], "the newest target last");
-        // Nothing dropped refreshed the silence: it runs from the command taken at 34 ms.
-        let mut core2_devs = Mock::new(2);
-        let (mut c2, _) = front(Control::Exclusive, &[dog, dog]);
-        stamped(&mut c2, &mut core2_devs, t0, &a, stamp(10, 0), 0, 0.1);
-        reflect_all(&mut c2, at(t0, 1), &core2_devs);
-        stamped(&mut c2, &mut core2_devs, t0, &a, stamp(10, 150), 150, 0.2);
-        stamped(&mut c2, &mut core2_devs, t0, &a, stamp(5, 160), 160, 0.2);
-        assert_eq!(c2.next_deadline(), Some(at(t0, 200)));
+        // Nothing dropped refreshes the silence (a front of its own: the silence runs from the
+        // command taken at 0 ms, through a copy at 150 ms and an older one at 160 ms).
+        let (mut core, mut devs) = front(Control::Exclusive, &[dog, dog]);
+        stamped(&mut core, &mut devs, t0, &a, stamp(10, 0), 0, 0.1);
+        reflect_all(&mut core, at(t0, 1), &devs);
+        stamped(&mut core, &mut devs, t0, &a, stamp(10, 150), 150, 0.2);
+        stamped(&mut core, &mut devs, t0, &a, stamp(5, 160), 160, 0.2);
+        assert_eq!(core.next_deadline(), Some(at(t0, 200)));
         assert_eq!(
-            safes(&deadline(&mut c2, &mut core2_devs, at(t0, 200))),
+            safes(&deadline(&mut core, &mut devs, at(t0, 200))),
             vec![(0, SafeAction::Hold)]
         );
     }
