@@ -20,35 +20,17 @@ use handgate_adapters::front::serve::wall_ns;
 use handgate_idl::handgate as hg;
 use handgate_idl::unitree_hg;
 use handgate_tests::{
-    default_profile_edited, device_metrics, handgate_bin, http_get, interop_interface, node, poll, repo_root, serial,
-    status_device, Gateway, Latest,
+    default_profile_edited, device_metrics, dex3_cmd, handgate_bin, http_get, interop_interface, node, poll, repo_root,
+    serial, status_device, Gateway, Latest, DEX3_INDEX_0 as INDEX_0,
 };
 
 const DEADLINE: Duration = Duration::from_secs(20);
 /// "At a target", rad.
 const TOL: f32 = 0.05;
-/// IDL index of index_0 on the Dex3 wire (the left index closes negative).
-const INDEX_0: usize = 5;
 const MS: i64 = 1_000_000;
 
 /// The default profile's left Dex3 front (the line that binds it).
 const DEX3_LEFT_FRONT: &str = "device = \"dex3_left\"      # rt/dex3/left/{cmd,state}, rt/lf/dex3/left/state";
-
-/// A Dex3 command as the SDK's clients write it: every motor id i, FOC, kp 1.5, kd 0.1, q 0,
-/// except index_0 at `q` (wire frame).
-fn dex3_cmd(q: f32) -> unitree_hg::HandCmd_ {
-    let mut c = unitree_hg::HandCmd_::sdk_default();
-    for (i, m) in c.motor_cmd.iter_mut().enumerate() {
-        *m = unitree_hg::MotorCmd_ {
-            mode: 0x10 | i as u8,
-            kp: 1.5,
-            kd: 0.1,
-            ..Default::default()
-        };
-    }
-    c.motor_cmd[INDEX_0].q = q;
-    c
-}
 
 /// A client's writer on the left Dex3 front, matched by the gateway's reader. Reliable with a
 /// history deep enough that every command written reaches the gateway.
@@ -116,7 +98,7 @@ fn duplicated_and_reordered_commands_are_dropped_and_counted_and_the_hand_ends_a
     // another target (-0.1), another older one (-0.6 at t + 25 ms).
     let t = wall_ns();
     for (q, at_ms) in [(-0.3, 10), (-1.0, 30), (-0.6, 20), (-0.1, 30), (-0.6, 25)] {
-        w.write_ts(dex3_cmd(q), t + at_ms * MS).expect("write_ts");
+        w.write_ts(dex3_cmd(q, 0), t + at_ms * MS).expect("write_ts");
     }
     let d = status_until(&mut status, &gw, |d| d.reordered_cmd + d.duplicate_cmd >= 3);
     assert_eq!(
@@ -200,8 +182,8 @@ fn with_max_command_age_a_stale_command_is_dropped_as_late_and_a_clock_ahead_is_
 
     // Stamped 2 s ago: late. Then a fresh one: taken.
     let mut w = client(&n);
-    w.write_ts(dex3_cmd(-0.2), wall_ns() - 2000 * MS).expect("write_ts");
-    w.write_ts(dex3_cmd(-0.8), wall_ns()).expect("write_ts");
+    w.write_ts(dex3_cmd(-0.2, 0), wall_ns() - 2000 * MS).expect("write_ts");
+    w.write_ts(dex3_cmd(-0.8, 0), wall_ns()).expect("write_ts");
     let d = status_until(&mut status, &gw, |d| d.late_cmd >= 1);
     assert_eq!((d.late_cmd, d.reordered_cmd, d.duplicate_cmd), (1, 0, 0), "{d:?}");
     let worst = ends_at(&mut state, &gw, -0.8, 20);
@@ -215,8 +197,12 @@ fn with_max_command_age_a_stale_command_is_dropped_as_late_and_a_clock_ahead_is_
 
     // A second writer whose clock runs 1 s ahead: named once, its commands taken.
     let mut ahead = client(&n);
-    ahead.write_ts(dex3_cmd(-0.4), wall_ns() + 1000 * MS).expect("write_ts");
-    ahead.write_ts(dex3_cmd(-0.5), wall_ns() + 1010 * MS).expect("write_ts");
+    ahead
+        .write_ts(dex3_cmd(-0.4, 0), wall_ns() + 1000 * MS)
+        .expect("write_ts");
+    ahead
+        .write_ts(dex3_cmd(-0.5, 0), wall_ns() + 1010 * MS)
+        .expect("write_ts");
     let worst = ends_at(&mut state, &gw, -0.5, 20);
     assert!(worst < TOL, "{worst}\n{}", gw.transcript());
     let named: Vec<String> = gw
