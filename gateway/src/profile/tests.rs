@@ -2075,3 +2075,21 @@ fn realtime_section_errors_name_file_and_key() {
         );
     }
 }
+
+/// `max_command_age_ms` reaches the plan the front task is built from and `handgate check`
+/// names it; a front without it shows nothing of it (docs/fronts.md, "Commands in order").
+#[test]
+fn max_command_age_ms_reaches_the_plan_and_the_check_listing() {
+    let fronts = "[[fronts]]\nkind = \"dex3\"\ndevice = \"l\"\nmax_command_age_ms = 250\n[[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n";
+    let (_, r) = load_text(&format!("{DEX3}{fronts}"));
+    let l = r.unwrap();
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    let ages: Vec<Option<u32>> = plan
+        .fronts
+        .iter()
+        .map(|f| f.config.max_command_age_ms.map(|m| m.0))
+        .collect();
+    assert_eq!(ages, [Some(250), None]);
+    let text = render_fleet(&l.profile, &l.origin);
+    assert_eq!(text.matches("max command age 250 ms").count(), 1, "{text}");
+}
