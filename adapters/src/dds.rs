@@ -481,16 +481,17 @@ impl<T: TopicType> DdsReaderHandle<T> {
     where
         T: Clone,
     {
-        take_each(&self.entity, |s, _| out.push(s))
+        take_each(&self.entity, |s, _, _| out.push(s))
     }
 
     /// Takes every available sample, oldest first, appending clones to `out` with the
-    /// handle of the writer that wrote each.
-    pub fn take_with_writers(&self, out: &mut Vec<(T, WriterHandle)>) -> usize
+    /// handle of the writer that wrote each and its source timestamp (ns since the UNIX
+    /// epoch by the writer's clock; `None`: the sample carries none).
+    pub fn take_with_writers(&self, out: &mut Vec<(T, WriterHandle, Option<i64>)>) -> usize
     where
         T: Clone,
     {
-        take_each(&self.entity, |s, w| out.push((s, w)))
+        take_each(&self.entity, |s, w, t| out.push((s, w, t)))
     }
 
     /// What this reader knows of the matched writer `handle` (its GUID, its participant's,
@@ -563,9 +564,16 @@ fn matched_writer(reader: cyclonedds_sys::dds_entity_t, handle: WriterHandle) ->
     info
 }
 
+/// CycloneDDS's "no timestamp" (`DDS_TIME_INVALID`): the source timestamp of a sample whose
+/// writer sent none.
+const DDS_TIME_INVALID: i64 = i64::MIN;
+
 /// Takes every available sample, oldest first, handing each (cloned) to `each` with the
-/// handle of its writer.
-fn take_each<T: TopicType + Clone>(entity: &cyclonedds_sys::DdsEntity, mut each: impl FnMut(T, WriterHandle)) -> usize {
+/// handle of its writer and its source timestamp (`None`: it carries none).
+fn take_each<T: TopicType + Clone>(
+    entity: &cyclonedds_sys::DdsEntity,
+    mut each: impl FnMut(T, WriterHandle, Option<i64>),
+) -> usize {
     const BATCH: usize = 16;
     let mut total = 0;
     loop {
@@ -582,9 +590,9 @@ fn take_each<T: TopicType + Clone>(entity: &cyclonedds_sys::DdsEntity, mut each:
             if buf.is_valid_sample(i) {
                 // SAFETY: `infos` points to the buffer's BATCH infos, alive as long as `buf`;
                 // i < BATCH.
-                let writer = unsafe { (*infos.add(i)).publication_handle };
+                let (writer, stamp) = unsafe { ((*infos.add(i)).publication_handle, (*infos.add(i)).source_timestamp) };
                 if let Some(s) = buf.get(i).try_deref() {
-                    each(s.clone(), writer);
+                    each(s.clone(), writer, (stamp != DDS_TIME_INVALID).then_some(stamp));
                     total += 1;
                 }
             }
@@ -670,6 +678,30 @@ impl<T: TopicType> Writer<T> {
         self.writer.write(Arc::new(sample.clone())).map_err(dds_err("write"))
     }
 
+    /// Writes `sample` with source timestamp `source_ns` (ns since the UNIX epoch) instead of
+    /// this host's clock at the write (CycloneDDS's `dds_write_ts`): a client replaying what
+    /// a bridge delivers out of order, or a test of a front's ordering rule.
+    pub fn write_ts(&mut self, sample: T, source_ns: i64) -> Result<(), DdsError> {
+        let _within = Enter::new(Within::Write);
+        let sample = cyclonedds_rs::Sample::<T>::from(Arc::new(sample));
+        // SAFETY: a live writer; `sample` is what cyclonedds-rs's own `write` hands
+        // `dds_write` (a `Sample<T>` the sertype's callbacks read), alive across the call.
+        let rc = unsafe {
+            cyclonedds_sys::dds_write_ts(
+                self.writer.entity().entity(),
+                (&sample as *const cyclonedds_rs::Sample<T>).cast(),
+                source_ns,
+            )
+        };
+        if rc < 0 {
+            return Err(DdsError::Dds {
+                what: "write",
+                source: cyclonedds_rs::DDSError::from(rc),
+            });
+        }
+        Ok(())
+    }
+
     pub fn topic(&self) -> &str {
         &self.topic
     }
@@ -718,7 +750,7 @@ impl<T: TopicType + Clone> Reader<T> {
     /// Takes every available sample, oldest first.
     pub fn take(&self) -> Vec<T> {
         let mut out = Vec::new();
-        take_each(self.reader.entity(), |s, _| out.push(s));
+        take_each(self.reader.entity(), |s, _, _| out.push(s));
         out
     }
 

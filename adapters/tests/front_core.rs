@@ -45,7 +45,7 @@ fn carry_out(acts: &mut Vec<Action>, devices: &OwnDevices, rt: &tokio::runtime::
             Action::Count { counter, .. } => match counter {
                 Counter::Accepted => done.accepted += 1,
                 Counter::WatchdogTrip => done.trips += 1,
-                Counter::Rejected | Counter::ForeignCmd => {}
+                Counter::Rejected | Counter::ForeignCmd | Counter::Duplicate | Counter::Reordered | Counter::Late => {}
             },
             Action::Publish => done.publishes += 1,
             Action::Safe { device, action } => {
@@ -110,6 +110,7 @@ fn a_library_front_core_moves_a_silent_clients_device_to_its_safe_action() {
                 writer: &client,
                 force: false,
                 taken: Instant::now(),
+                stamp: None,
             };
             let admitted = core.admit(&sample, acts).expect("the only writer is admitted");
             let body = CommandBody::Joints(vec![(index_0, JointCommand::hold(q, 1.5, 0.1))]);

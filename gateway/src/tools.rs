@@ -88,6 +88,27 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
             d.foreign_cmd
         );
     }
+    // Commands dropped by their source timestamps (docs/fronts.md, "Commands in order"): a
+    // table of its own, only when any was, so the device table keeps its columns.
+    let dropped: Vec<&hg::DeviceStatus_> = s
+        .devices
+        .iter()
+        .filter(|d| d.duplicate_cmd + d.reordered_cmd + d.late_cmd > 0)
+        .collect();
+    if !dropped.is_empty() {
+        let _ = writeln!(
+            out,
+            "\ncommands dropped by source timestamp\n  {:<16} {:>9} {:>9} {:>9}",
+            "device", "duplicate", "reordered", "late"
+        );
+        for d in dropped {
+            let _ = writeln!(
+                out,
+                "  {:<16} {:>9} {:>9} {:>9}",
+                d.device, d.duplicate_cmd, d.reordered_cmd, d.late_cmd
+            );
+        }
+    }
     if !s.endpoints.is_empty() {
         let _ = writeln!(out, "\nendpoints (matched counterparts)");
         for e in &s.endpoints {
@@ -232,6 +253,44 @@ mod tests {
             ),
             "{two}"
         );
+    }
+
+    /// The commands dropped by their source timestamps get a table of their own, only for
+    /// the devices with any; the device table keeps its columns.
+    #[test]
+    fn renders_the_commands_dropped_by_source_timestamp_only_when_there_are_some() {
+        let dev = |name: &str| hg::DeviceStatus_ {
+            device: name.into(),
+            kind: "dex3".into(),
+            backend: "emulator".into(),
+            ..Default::default()
+        };
+        let mut s = hg::GatewayStatus_ {
+            devices: vec![dev("left_hand"), dev("right_hand")],
+            ..Default::default()
+        };
+        let t = render_status(&s);
+        assert!(!t.contains("commands dropped"), "{t}");
+        s.devices[0].duplicate_cmd = 3;
+        s.devices[0].late_cmd = 1;
+        let t = render_status(&s);
+        let table: Vec<Vec<&str>> = t
+            .lines()
+            .skip_while(|l| !l.starts_with("commands dropped by source timestamp"))
+            .skip(1)
+            .take_while(|l| !l.is_empty())
+            .map(|l| l.split_whitespace().collect())
+            .collect();
+        assert_eq!(
+            table,
+            [
+                vec!["device", "duplicate", "reordered", "late"],
+                vec!["left_hand", "3", "0", "1"]
+            ],
+            "{t}"
+        );
+        let first = t.lines().find(|l| l.starts_with("left_hand")).unwrap();
+        assert_eq!(first.split_whitespace().count(), 14, "{t}");
     }
 
     #[test]

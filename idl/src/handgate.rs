@@ -86,6 +86,12 @@ pub struct DeviceStatus_ {
     pub age_ms: f32,
     /// Commands refused whole because another client owns the front (`control`).
     pub foreign_cmd: u64,
+    /// Commands dropped whole: the same source timestamp as their writer's last accepted one.
+    pub duplicate_cmd: u64,
+    /// Commands dropped whole: older than their writer's last accepted one.
+    pub reordered_cmd: u64,
+    /// Commands dropped whole: older than the front's `max_command_age_ms` on arrival.
+    pub late_cmd: u64,
 }
 keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
 

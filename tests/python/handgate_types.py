@@ -83,6 +83,9 @@ class DeviceStatus_(idl.IdlStruct, typename="handgate.msg.dds_.DeviceStatus_"):
     missed_cycles: types.uint64
     age_ms: types.float32
     foreign_cmd: types.uint64
+    duplicate_cmd: types.uint64
+    reordered_cmd: types.uint64
+    late_cmd: types.uint64
 
 
 @dataclass

@@ -1187,7 +1187,10 @@ plain_struct!(handgate::DeviceStatus_ {
     reconnects,
     missed_cycles,
     age_ms,
-    foreign_cmd
+    foreign_cmd,
+    duplicate_cmd,
+    reordered_cmd,
+    late_cmd
 });
 plain_struct!(handgate::EndpointStatus_ {
     owner,
@@ -1609,6 +1612,26 @@ pub fn canonical_q(s: &handgate::HandState_, name: &str) -> f32 {
         .find(|j| j.name == name)
         .unwrap_or_else(|| panic!("no joint {name} in {s:?}"))
         .q
+}
+
+/// IDL index of index_0 on the Dex3 wire (the left index closes negative).
+pub const DEX3_INDEX_0: usize = 5;
+
+/// A Dex3 command as the SDK's clients write it: every motor id i, FOC (RIS byte `0x10 | i`),
+/// kp 1.5, kd 0.1, q 0, except index_0 at `index_0` (wire frame); `tag` in `reserve[0]`.
+pub fn dex3_cmd(index_0: f32, tag: u32) -> unitree_hg::HandCmd_ {
+    let mut c = unitree_hg::HandCmd_::sdk_default();
+    for (i, m) in c.motor_cmd.iter_mut().enumerate() {
+        *m = unitree_hg::MotorCmd_ {
+            mode: 0x10 | i as u8,
+            kp: 1.5,
+            kd: 0.1,
+            ..Default::default()
+        };
+    }
+    c.motor_cmd[DEX3_INDEX_0].q = index_0;
+    c.reserve[0] = tag;
+    c
 }
 
 /// A canonical closure command (0 open, 1 closed).

@@ -18,8 +18,8 @@ use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::handgate as hg;
 use handgate_idl::{unitree_go, unitree_hg};
 use handgate_tests::{
-    handgate_bin, interop_interface, node, poll, repo_root, serial, status_device as device, stream_until, venv_python,
-    Gateway, Latest, PyProcess, Signal,
+    dex3_cmd, handgate_bin, interop_interface, node, poll, repo_root, serial, status_device as device, stream_until,
+    venv_python, Gateway, Latest, PyProcess, Signal,
 };
 use serde_json::Value;
 
@@ -35,22 +35,6 @@ const LEFT_INDEX_0_LIMIT: (f32, f32) = (-std::f32::consts::FRAC_PI_2, 0.0);
 
 fn status_reader(node: &Node) -> Latest<hg::GatewayStatus_> {
     Latest::new(node, "rt/handgate/status", Qos::Reliable { depth: 1 })
-}
-
-/// A Dex3 command: every motor id i, FOC, kp 1.5, kd 0.1, q 0, except index_0.
-fn dex3_cmd(index_0: f32, tag: u32) -> unitree_hg::HandCmd_ {
-    let mut c = unitree_hg::HandCmd_::sdk_default();
-    for (i, m) in c.motor_cmd.iter_mut().enumerate() {
-        *m = unitree_hg::MotorCmd_ {
-            mode: 0x10 | i as u8,
-            kp: 1.5,
-            kd: 0.1,
-            ..Default::default()
-        };
-    }
-    c.motor_cmd[INDEX_0].q = index_0;
-    c.reserve[0] = tag;
-    c
 }
 
 /// A Dex1 `go` command: one element, wire q (0 closed, 5.4 open), kp 5, kd 0.05.

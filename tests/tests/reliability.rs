@@ -31,8 +31,8 @@ use handgate_adapters::model::{faults, CommandBody, DeviceKind, Freshness, HandC
 use handgate_idl::handgate as hg;
 use handgate_idl::{unitree_go, unitree_hg};
 use handgate_tests::{
-    device_metrics, handgate_bin, http_get, interop_interface, node, poll, repo_root, serial, status_device as device,
-    stream_until, vm_rss_kib, Gateway, Latest, STREAM_PERIOD as PERIOD,
+    device_metrics, dex3_cmd, handgate_bin, http_get, interop_interface, node, poll, repo_root, serial,
+    status_device as device, stream_until, vm_rss_kib, Gateway, Latest, STREAM_PERIOD as PERIOD,
 };
 
 /// Upper bound for any single readiness wait.
@@ -55,21 +55,6 @@ fn figure(suite: &str, key: &str, value: impl std::fmt::Display) {
 
 fn ms(d: Duration) -> String {
     format!("{:.1}", d.as_secs_f64() * 1000.0)
-}
-
-fn dex3_cmd(index_0: f32, tag: u32) -> unitree_hg::HandCmd_ {
-    let mut c = unitree_hg::HandCmd_::sdk_default();
-    for (i, m) in c.motor_cmd.iter_mut().enumerate() {
-        *m = unitree_hg::MotorCmd_ {
-            mode: 0x10 | i as u8,
-            kp: 1.5,
-            kd: 0.1,
-            ..Default::default()
-        };
-    }
-    c.motor_cmd[INDEX_0].q = index_0;
-    c.reserve[0] = tag;
-    c
 }
 
 fn dex1_cmd(q: f32, tag: u32) -> unitree_go::MotorCmds_ {

@@ -171,6 +171,10 @@ pub struct FrontConfig {
     /// `silence = "watchdog"`: a per-front timeout, shorter than the device's
     /// `watchdog.timeout_ms` (the smaller of the two applies); default: the device's.
     pub watchdog_ms: Option<Millis>,
+    /// Commands older than this on arrival (this host's clock against the source timestamp
+    /// their writer's clock put on them) are dropped and counted `late`; default none: it
+    /// needs the clocks synchronised (docs/fronts.md, "Commands in order").
+    pub max_command_age_ms: Option<Millis>,
     /// Keys of this table that another front kind takes (found while parsing; validation
     /// reports them with the other semantic errors, naming the kinds that take them).
     pub misplaced: Vec<Problem>,
@@ -195,6 +199,8 @@ struct Common {
     control: Control,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     watchdog_ms: Option<Millis>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    max_command_age_ms: Option<Millis>,
 }
 
 /// The keys every `[[fronts]]` table may have, in the order errors list them.
@@ -266,6 +272,7 @@ impl FrontConfig {
             silence: c.silence,
             control: c.control,
             watchdog_ms: c.watchdog_ms,
+            max_command_age_ms: c.max_command_age_ms,
             misplaced,
         })
     }
@@ -281,6 +288,7 @@ impl FrontConfig {
             silence: self.silence,
             control: self.control,
             watchdog_ms: self.watchdog_ms,
+            max_command_age_ms: self.max_command_age_ms,
         };
         let mut dict: Dict = Value::serialize(&common)
             .map_err(Box::new)?
@@ -542,7 +550,8 @@ mod tests {
                 "state_hz",
                 "silence",
                 "control",
-                "watchdog_ms"
+                "watchdog_ms",
+                "max_command_age_ms"
             ]
         );
         assert_eq!(fields_of::<SideTopics>(), ["side", "cmd_topic", "state_topic"]);

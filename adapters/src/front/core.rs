@@ -1,7 +1,9 @@
 //! The decisions of a front that takes commands, as a plain state machine with no clock: which
-//! writer owns the front (`control`), decode → check against the device's table → command,
-//! the silence action per bound device (`silence`, the watchdog), the prompt state publish and
-//! the rejection log's rate limit (docs/fronts.md). Every call takes `now`; the core never
+//! writer owns the front (`control`), each writer's commands in order by their source
+//! timestamps and no older than `max_command_age_ms` ([`Order`]), decode → check against the
+//! device's table → command, the silence action per bound device (`silence`, the watchdog),
+//! the prompt state publish and the rejection log's rate limit (docs/fronts.md). Every call
+//! takes `now` (and a sample its wall-clock [`Stamp`]); the core never
 //! sleeps, spawns or touches DDS, and says what to do as [`Action`]s, in order. The gateway's
 //! front task (`handgate_gateway::runtime::fronts`) is one async loop around it that only
 //! moves messages; a program using this crate as a library runs the same watchdog the same
@@ -10,14 +12,15 @@
 //! # Running a front core
 //!
 //! Build it with [`FrontCore::new`] from a [`FrontId`] ([`FrontId::next`]), the front's
-//! `control` and hold time, and per bound device its route and [`SilencePlan`] ([`Driven`]).
+//! `control` and hold time, and per bound device its route and [`SilencePlan`] ([`Driven`]);
+//! [`FrontCore::with_max_command_age`] sets the front's `max_command_age_ms`.
 //! Give it the devices through [`Devices`]: [`OwnDevices`] when this front alone drives them,
 //! or an implementation over state shared with the other fronts on a device (the gateway's
 //! per-device counters). Then feed it, in one task:
 //!
-//! - **A command sample** (its writer, whether it asks to take over, when it was taken:
-//!   [`Sample`]): [`FrontCore::admit`]; when it returns [`Admitted`], decode the message (the
-//!   front kind's codec, [`super::serve::FrontIo::decode`], over views built with
+//! - **A command sample** (its writer, whether it asks to take over, when it was taken, its
+//!   source timestamp: [`Sample`]): [`FrontCore::admit`]; when it returns [`Admitted`], decode
+//!   the message (the front kind's codec, [`super::serve::FrontIo::decode`], over views built with
 //!   [`FrontCore::route`]), wait for any silence action still running on a device the decoded
 //!   commands go to (so the safe state never lands after a newer command), then
 //!   [`FrontCore::decoded`], which checks each body against the device's table and hands it
@@ -46,7 +49,7 @@ use std::time::{Duration, Instant};
 
 use super::config::{Control, Silence};
 use super::plan::SilencePlan;
-use super::serve::{Incoming, Routed};
+use super::serve::{Incoming, Routed, Stamp};
 use super::Rejection;
 use crate::dds::{WriterHandle, WriterInfo};
 use crate::device::{DeviceError, HandDevice};
@@ -179,6 +182,239 @@ impl Ownership {
                 })
             }
         }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Commands in order
+
+/// Writers whose order a front keeps at most; beyond, the one heard from longest ago is
+/// forgotten (its next sample starts its order afresh).
+const MAX_ORDERED: usize = 64;
+
+/// How far a writer's clock may run ahead of this host's before its samples' ages are not
+/// trusted (`max_command_age_ms`): two hosts synchronised by chrony or PTP disagree by well
+/// under a millisecond, and a sample is never taken before it was written.
+pub const CLOCK_AHEAD_TOLERANCE: Duration = Duration::from_millis(5);
+
+/// Why a sample was dropped before decode: its writer's order, or its age.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dropped {
+    /// Its source timestamp equals that of the last sample accepted from its writer (a copy,
+    /// as a bridge delivers twice).
+    Duplicate,
+    /// Its source timestamp is older than that of the last sample accepted from its writer,
+    /// by `behind`.
+    Reordered { behind: Duration },
+    /// It was `age` old when the reader took it, older than the front's `max_command_age_ms`
+    /// (`max`).
+    Late { age: Duration, max: Duration },
+}
+
+impl Dropped {
+    /// The log's key (rate-limited per key) and the counter's name.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            Dropped::Duplicate => "duplicate",
+            Dropped::Reordered { .. } => "reordered",
+            Dropped::Late { .. } => "late",
+        }
+    }
+
+    /// The counter it is counted in, on every device of the front.
+    pub fn counter(&self) -> Counter {
+        match self {
+            Dropped::Duplicate => Counter::Duplicate,
+            Dropped::Reordered { .. } => Counter::Reordered,
+            Dropped::Late { .. } => Counter::Late,
+        }
+    }
+}
+
+impl std::fmt::Display for Dropped {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Dropped::Duplicate => f.write_str("the same source timestamp as the last command accepted from its writer"),
+            Dropped::Reordered { behind } => write!(
+                f,
+                "source timestamp {:.3} ms older than the last command accepted from its writer",
+                behind.as_secs_f64() * 1e3
+            ),
+            Dropped::Late { age, max } => write!(
+                f,
+                "{:.3} ms old on arrival, older than max_command_age_ms = {}",
+                age.as_secs_f64() * 1e3,
+                max.as_millis()
+            ),
+        }
+    }
+}
+
+/// What a front knows of one writer's order.
+#[derive(Debug, Clone, Copy)]
+struct Seen {
+    /// Source timestamp of its last accepted sample (`None`: none yet, or it starts afresh).
+    last: Option<i64>,
+    /// When its last sample was taken (the writer heard from longest ago is forgotten first).
+    at: Instant,
+    /// Since its last accepted sample, its samples dropped as reordered in one stream (none
+    /// a restart time after the one before): when the first and the latest were taken. A
+    /// writer whose samples have all been behind for the restart time had its clock stepped
+    /// back; a lone late copy long after its last is not that.
+    behind: Option<(Instant, Instant)>,
+    /// Its clock was seen ahead of this host's by more than [`CLOCK_AHEAD_TOLERANCE`]: its
+    /// ages are not trusted, and none of its samples is late.
+    ahead: bool,
+    /// That was logged.
+    named_ahead: bool,
+}
+
+/// Whether a sample goes on to decode ([`Order::check`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ordered {
+    /// It goes on.
+    Yes,
+    /// It goes on, and its writer's order starts afresh from it: every sample of the writer
+    /// had been dropped as older than its last accepted one (this one by `behind`) for the
+    /// restart time, so its clock was stepped back.
+    Restarted { behind: Duration },
+    /// It is dropped (counted, rate-limited in the log).
+    No(Dropped),
+}
+
+/// [`Order::check`]'s answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Checked {
+    pub ordered: Ordered,
+    /// The writer's clock runs ahead of this host's by this much: log it now (once per writer,
+    /// at most one such line a second).
+    pub ahead: Option<Duration>,
+}
+
+/// Commands that arrive in order (docs/fronts.md, "Commands in order").
+///
+/// Per writer (its DDS publication handle: a restarted client is a new writer, and a front's
+/// new owner is judged by its own samples only), a sample whose source timestamp is not newer
+/// than that of the last sample accepted from that writer is dropped: equal, a
+/// [`Dropped::Duplicate`], older, [`Dropped::Reordered`]. With a maximum age, a sample older
+/// than that when the reader took it (this host's clock against the writer's) is
+/// [`Dropped::Late`], unless the writer's clock was ever seen ahead of this host's (then its
+/// ages mean nothing: it is named once in the log and none of its samples is late). A sample
+/// without a source timestamp (a dashboard page's) always goes on.
+///
+/// A writer whose clock is stepped back would have every sample dropped as reordered until
+/// its clock passes its last accepted one; once its samples have all been dropped so, in one
+/// stream (no gap of the restart time), for the restart time (the front's hold time, after
+/// which its silence has acted and its ownership lapsed anyway), its order starts afresh. At most [`MAX_ORDERED`] writers are kept: the
+/// core has no word of a writer going away, and a publication handle is never reused, so the
+/// writer heard from longest ago is forgotten when a new one comes.
+#[derive(Debug)]
+pub struct Order {
+    max_age: Option<Duration>,
+    restart: Duration,
+    writers: HashMap<WriterHandle, Seen>,
+    /// At most one "clock ahead" line a second.
+    ahead_log: RateLimit,
+}
+
+impl Order {
+    /// Commands in order, and (`max_age`) no older than that on arrival; a writer whose
+    /// samples have all been behind for `restart` starts afresh.
+    pub fn new(max_age: Option<Duration>, restart: Duration) -> Self {
+        Self {
+            max_age,
+            restart,
+            writers: HashMap::new(),
+            ahead_log: RateLimit::default(),
+        }
+    }
+
+    /// Whether a sample of `writer` with `stamp`, taken at `now`, goes on to decode. Changes
+    /// only what is known of the writer's clock; its order moves on once a sample is
+    /// [`Self::accepted`].
+    pub fn check(&mut self, writer: WriterHandle, stamp: Option<Stamp>, now: Instant) -> Checked {
+        let mut checked = Checked {
+            ordered: Ordered::Yes,
+            ahead: None,
+        };
+        let Some(stamp) = stamp else {
+            return checked;
+        };
+        if self.writers.len() >= MAX_ORDERED && !self.writers.contains_key(&writer) {
+            if let Some(w) = self.writers.iter().min_by_key(|(_, s)| s.at).map(|(w, _)| *w) {
+                self.writers.remove(&w);
+            }
+        }
+        let e = self.writers.entry(writer).or_insert(Seen {
+            last: None,
+            at: now,
+            behind: None,
+            ahead: false,
+            named_ahead: false,
+        });
+        e.at = now;
+        let age = stamp.age_ns();
+        if self.max_age.is_some() && age < -(CLOCK_AHEAD_TOLERANCE.as_nanos() as i64) {
+            e.ahead = true;
+            if !e.named_ahead && self.ahead_log.admit("clock_ahead", now).is_some() {
+                e.named_ahead = true;
+                checked.ahead = Some(Duration::from_nanos(age.unsigned_abs()));
+            }
+        }
+        let mut restart = false;
+        if let Some(last) = e.last {
+            if stamp.written_ns == last {
+                checked.ordered = Ordered::No(Dropped::Duplicate);
+                return checked;
+            }
+            if stamp.written_ns < last {
+                let behind = Duration::from_nanos(last.abs_diff(stamp.written_ns));
+                let since = match e.behind {
+                    Some((since, latest)) if now.saturating_duration_since(latest) < self.restart => since,
+                    _ => now,
+                };
+                e.behind = Some((since, now));
+                if now.saturating_duration_since(since) < self.restart {
+                    checked.ordered = Ordered::No(Dropped::Reordered { behind });
+                    return checked;
+                }
+                restart = true;
+                checked.ordered = Ordered::Restarted { behind };
+            }
+        }
+        if let Some(max) = self.max_age.filter(|_| !e.ahead) {
+            if age > 0 && age.unsigned_abs() > max.as_nanos() as u64 {
+                checked.ordered = Ordered::No(Dropped::Late {
+                    age: Duration::from_nanos(age.unsigned_abs()),
+                    max,
+                });
+                return checked;
+            }
+        }
+        if restart {
+            e.last = None;
+            e.behind = None;
+        }
+        checked
+    }
+
+    /// A sample of `writer` with `stamp` was accepted (at least one device took it): the
+    /// writer's order goes on from it.
+    pub fn accepted(&mut self, writer: WriterHandle, stamp: Option<Stamp>) {
+        let (Some(stamp), Some(e)) = (stamp, self.writers.get_mut(&writer)) else {
+            return;
+        };
+        e.last = Some(stamp.written_ns);
+        e.behind = None;
+    }
+
+    /// Number of writers whose order is kept.
+    pub fn len(&self) -> usize {
+        self.writers.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.writers.is_empty()
     }
 }
 
@@ -323,7 +559,8 @@ pub struct Driven {
     pub silence: SilencePlan,
 }
 
-/// A command sample as the core sees it: who wrote it and when the reader took it.
+/// A command sample as the core sees it: who wrote it, when it was written and when the
+/// reader took it.
 #[derive(Debug, Clone, Copy)]
 pub struct Sample<'a> {
     pub writer: &'a Arc<WriterInfo>,
@@ -332,6 +569,9 @@ pub struct Sample<'a> {
     /// When the reader took it, not when the core sees it: a front task that fell behind
     /// must not see its owner as silent because of its own backlog.
     pub taken: Instant,
+    /// Its source timestamp and the wall-clock time the reader took it (`None`: it carries
+    /// none; never dropped by [`Order`]).
+    pub stamp: Option<Stamp>,
 }
 
 impl<'a> Sample<'a> {
@@ -341,6 +581,7 @@ impl<'a> Sample<'a> {
             writer: &incoming.writer,
             force: incoming.force(),
             taken: incoming.taken,
+            stamp: incoming.stamp,
         }
     }
 }
@@ -362,6 +603,12 @@ pub enum Counter {
     ForeignCmd,
     /// A silence action run on the device.
     WatchdogTrip,
+    /// A sample dropped whole: the same source timestamp as its writer's last accepted one.
+    Duplicate,
+    /// A sample dropped whole: older than its writer's last accepted one.
+    Reordered,
+    /// A sample dropped whole: older than the front's `max_command_age_ms` on arrival.
+    Late,
 }
 
 /// Why a command was rejected.
@@ -416,6 +663,24 @@ pub enum Log {
     Resumed { device: usize },
     /// The front's queue dropped `dropped` samples since the last report (`total` in all).
     QueueFull { dropped: u64, total: u64 },
+    /// A sample of `writer` was dropped before decode ([`Order`]); `suppressed` more of the
+    /// same reason were not logged since the last line (at most one line per reason per
+    /// second).
+    Dropped {
+        writer: Arc<WriterInfo>,
+        why: Dropped,
+        suppressed: u64,
+    },
+    /// `writer`'s clock runs `ahead` of this host's: `max_command_age_ms` drops none of its
+    /// samples as late. Once per writer.
+    ClockAhead { writer: Arc<WriterInfo>, ahead: Duration },
+    /// `writer`'s samples were all older than its last accepted one for `after` (this one by
+    /// `behind`): its clock was stepped back; its order starts afresh from this sample.
+    Restarted {
+        writer: Arc<WriterInfo>,
+        behind: Duration,
+        after: Duration,
+    },
 }
 
 /// What the caller does, in the order the core pushed them.
@@ -472,6 +737,8 @@ pub struct FrontCore {
     id: FrontId,
     hold: Duration,
     ownership: Ownership,
+    /// Each writer's commands in order, and their age.
+    order: Order,
     /// The writer owning the front (`control = "exclusive"`), to name it in the log.
     owner: Option<Arc<WriterInfo>>,
     devices: Vec<Device>,
@@ -492,6 +759,7 @@ impl FrontCore {
             id,
             hold,
             ownership: Ownership::new(control, hold),
+            order: Order::new(None, hold),
             owner: None,
             devices: devices
                 .into_iter()
@@ -509,6 +777,13 @@ impl FrontCore {
             rejections: RateLimit::default(),
             dropped_reported: (0, None),
         }
+    }
+
+    /// This core, dropping commands older than `max` on arrival (the front's
+    /// `max_command_age_ms`; `None`: no age limit, the default).
+    pub fn with_max_command_age(mut self, max: Option<Duration>) -> Self {
+        self.order = Order::new(max, self.hold);
+        self
     }
 
     pub fn id(&self) -> FrontId {
@@ -531,10 +806,12 @@ impl FrontCore {
 
     /// Whether `sample` may go on to decode: `None` when another writer owns the front (the
     /// sample is refused whole and counted on every device; the writer is named once per
-    /// owner). A refused sample refreshes nothing: not the silence, not the ownership.
+    /// owner), or when its writer's order or its age drops it ([`Order`]: counted on every
+    /// device, logged at most once a second per reason). A refused or dropped sample
+    /// refreshes nothing: not the silence, not the ownership.
     pub fn admit(&mut self, sample: &Sample<'_>, out: &mut Vec<Action>) -> Option<Admitted> {
         match self.ownership.admit(sample.writer.handle, sample.force, sample.taken) {
-            Admit::Yes => Some(Admitted(())),
+            Admit::Yes => self.ordered(sample, out),
             Admit::Foreign { first } => {
                 out.extend((0..self.devices.len()).map(|device| Action::Count {
                     device,
@@ -545,6 +822,42 @@ impl FrontCore {
                         writer: sample.writer.clone(),
                         owner: self.owner.clone(),
                         hold: self.hold,
+                    }));
+                }
+                None
+            }
+        }
+    }
+
+    /// [`Order`]'s word on a sample its ownership admits.
+    fn ordered(&mut self, sample: &Sample<'_>, out: &mut Vec<Action>) -> Option<Admitted> {
+        let checked = self.order.check(sample.writer.handle, sample.stamp, sample.taken);
+        if let Some(ahead) = checked.ahead {
+            out.push(Action::Log(Log::ClockAhead {
+                writer: sample.writer.clone(),
+                ahead,
+            }));
+        }
+        match checked.ordered {
+            Ordered::Yes => Some(Admitted(())),
+            Ordered::Restarted { behind } => {
+                out.push(Action::Log(Log::Restarted {
+                    writer: sample.writer.clone(),
+                    behind,
+                    after: self.hold,
+                }));
+                Some(Admitted(()))
+            }
+            Ordered::No(why) => {
+                out.extend((0..self.devices.len()).map(|device| Action::Count {
+                    device,
+                    counter: why.counter(),
+                }));
+                if let Some(suppressed) = self.rejections.admit(why.reason(), sample.taken) {
+                    out.push(Action::Log(Log::Dropped {
+                        writer: sample.writer.clone(),
+                        why,
+                        suppressed,
                     }));
                 }
                 None
@@ -627,6 +940,7 @@ impl FrontCore {
         if !any {
             return;
         }
+        self.order.accepted(sample.writer.handle, sample.stamp);
         self.prompt_since = Some(now);
         if let Some(change) = self.ownership.accepted(sample.writer.handle, sample.taken) {
             out.push(Action::Log(Log::Commands {
@@ -1049,10 +1363,21 @@ mod tests {
             writer: w,
             force,
             taken: now,
+            stamp: None,
         };
+        feed(core, devs, &s, decoded)
+    }
+
+    /// Sample `s` through the core, decoded as `decoded`, at the time it was taken.
+    fn feed(
+        core: &mut FrontCore,
+        devs: &mut Mock,
+        s: &Sample<'_>,
+        decoded: Result<Vec<(usize, Routed)>, Rejection>,
+    ) -> Vec<Action> {
         let mut out = Vec::new();
-        if let Some(admitted) = core.admit(&s, &mut out) {
-            core.decoded(admitted, now, &s, decoded, devs, &mut out);
+        if let Some(admitted) = core.admit(s, &mut out) {
+            core.decoded(admitted, s.taken, s, decoded, devs, &mut out);
         }
         out
     }
@@ -1667,5 +1992,423 @@ mod tests {
         assert_eq!(q(&mut core, 1010, 5), vec![(2, 5)]);
         assert_eq!(q(&mut core, 3000, 5), vec![], "nothing new");
         assert_eq!(q(&mut core, 3001, 6), vec![(1, 6)]);
+    }
+
+    // -----------------------------------------------------------------------------------------
+    // Commands in order: a mock wall clock (ns since the epoch) beside the mock Instant clock
+
+    /// The mock wall clock's origin, ns since the UNIX epoch (2027-01-15): `t0` of a test is
+    /// this instant by this host's clock.
+    const WALL: i64 = 1_800_000_000_000_000_000;
+    const MS: i64 = 1_000_000;
+
+    /// A sample written at `written` ms by its writer's clock, taken at `taken` ms by ours.
+    fn stamp(written: i64, taken: u64) -> Option<Stamp> {
+        Some(Stamp {
+            written_ns: WALL + written * MS,
+            taken_ns: WALL + taken as i64 * MS,
+        })
+    }
+
+    /// One sample of `w` commanding device 0 to `q`, written at `written` ms by its clock and
+    /// taken at `t0 + taken` ms (`stamp`: `None` for a sample without a source timestamp).
+    fn stamped(
+        core: &mut FrontCore,
+        devs: &mut Mock,
+        t0: Instant,
+        w: &Arc<WriterInfo>,
+        stamp: Option<Stamp>,
+        taken: u64,
+        q: f32,
+    ) -> Vec<Action> {
+        let s = Sample {
+            writer: w,
+            force: false,
+            taken: at(t0, taken),
+            stamp,
+        };
+        feed(core, devs, &s, Ok(vec![(0, cmd(q, 0, false))]))
+    }
+
+    /// The targets the devices took, in order (joint 0's q of each command).
+    fn taken_q(devs: &Mock) -> Vec<f32> {
+        devs.sent
+            .iter()
+            .map(|(_, _, body, _)| match body {
+                CommandBody::Joints(j) => j[0].1.q,
+                other => panic!("{other:?}"),
+            })
+            .collect()
+    }
+
+    fn dropped(acts: &[Action]) -> Vec<(WriterHandle, Dropped, u64)> {
+        logs(acts)
+            .iter()
+            .filter_map(|l| match l {
+                Log::Dropped {
+                    writer,
+                    why,
+                    suppressed,
+                } => Some((writer.handle, *why, *suppressed)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Per writer, a command whose source timestamp is not newer than the last one accepted
+    /// from it is dropped whole: equal, a duplicate; older, reordered. Counted on every device
+    /// of the front, logged at most once a second per reason; it moves nothing and refreshes
+    /// nothing (the silence still runs from the last accepted command). The hand ends at the
+    /// newest target.
+    #[test]
+    fn in_order_commands_are_taken_and_duplicates_and_reordered_ones_dropped_counted_and_logged() {
+        let dog = watchdog(HOLD, SafeAction::Hold);
+        let (mut core, mut devs) = front(Control::Exclusive, &[dog, dog]);
+        let a = writer(A);
+        let t0 = Instant::now();
+        let mut send =
+            |written: i64, taken: u64, q: f32| stamped(&mut core, &mut devs, t0, &a, stamp(written, taken), taken, q);
+        assert_eq!(counted(&send(10, 11, 0.1), Counter::Accepted), vec![0]);
+        assert_eq!(counted(&send(30, 31, 0.3), Counter::Accepted), vec![0]);
+        let acts = send(20, 32, 0.2);
+        assert_eq!(counted(&acts, Counter::Reordered), vec![0, 1], "on every device");
+        assert_eq!(counted(&acts, Counter::Accepted), Vec::<usize>::new());
+        assert_eq!(
+            dropped(&acts),
+            vec![(
+                A,
+                Dropped::Reordered {
+                    behind: Duration::from_millis(10)
+                },
+                0
+            )]
+        );
+        let acts = send(30, 33, 0.9);
+        assert_eq!(counted(&acts, Counter::Duplicate), vec![0, 1]);
+        assert_eq!(dropped(&acts), vec![(A, Dropped::Duplicate, 0)]);
+        assert_eq!(counted(&send(40, 34, 0.4), Counter::Accepted), vec![0]);
+        // Within the second: counted, not logged; a second later, logged with the suppressed.
+        for k in 0..3 {
+            let acts = send(40, 40 + k, 0.9);
+            assert_eq!(counted(&acts, Counter::Duplicate), vec![0, 1]);
+            assert!(dropped(&acts).is_empty(), "{acts:?}");
+        }
+        assert!(
+            dropped(&send(39, 60, 0.9)).is_empty(),
+            "within the second of the last reordered"
+        );
+        // A lone old copy long after: still reordered (not a clock stepped back).
+        assert_eq!(dropped(&send(40, 1040, 0.9)), vec![(A, Dropped::Duplicate, 3)]);
+        assert_eq!(
+            dropped(&send(39, 1041, 0.9)),
+            vec![(
+                A,
+                Dropped::Reordered {
+                    behind: Duration::from_millis(1)
+                },
+                1
+            )]
+        );
+        assert_eq!(taken_q(&devs), vec![0.1, 0.3, 0.4], "the newest target last");
+        // Nothing dropped refreshes the silence (a front of its own: the silence runs from the
+        // command taken at 0 ms, through a copy at 150 ms and an older one at 160 ms).
+        let (mut core, mut devs) = front(Control::Exclusive, &[dog, dog]);
+        stamped(&mut core, &mut devs, t0, &a, stamp(10, 0), 0, 0.1);
+        reflect_all(&mut core, at(t0, 1), &devs);
+        stamped(&mut core, &mut devs, t0, &a, stamp(10, 150), 150, 0.2);
+        stamped(&mut core, &mut devs, t0, &a, stamp(5, 160), 160, 0.2);
+        assert_eq!(core.next_deadline(), Some(at(t0, 200)));
+        assert_eq!(
+            safes(&deadline(&mut core, &mut devs, at(t0, 200))),
+            vec![(0, SafeAction::Hold)]
+        );
+    }
+
+    /// Each writer has its own order: two writers interleaved on a shared front, each in
+    /// order by its own clock (B's a second behind A's), are all taken; each one's copies are
+    /// dropped against its own last.
+    #[test]
+    fn two_writers_interleaved_each_in_order_are_all_taken() {
+        let (mut core, mut devs) = front(Control::Shared, &[keeps_last_target()]);
+        let (a, b) = (writer(A), writer(B));
+        let t0 = Instant::now();
+        let mut acts = Vec::new();
+        for k in 0..5u64 {
+            let ms = 10 * k as i64;
+            acts.extend(stamped(
+                &mut core,
+                &mut devs,
+                t0,
+                &a,
+                stamp(1000 + ms, 2 * k),
+                2 * k,
+                0.1,
+            ));
+            acts.extend(stamped(
+                &mut core,
+                &mut devs,
+                t0,
+                &b,
+                stamp(ms, 2 * k + 1),
+                2 * k + 1,
+                0.2,
+            ));
+        }
+        assert_eq!(counted(&acts, Counter::Accepted).len(), 10, "{acts:?}");
+        assert!(dropped(&acts).is_empty());
+        let acts = stamped(&mut core, &mut devs, t0, &b, stamp(40, 20), 20, 0.2);
+        assert_eq!(counted(&acts, Counter::Duplicate), vec![0]);
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(1039, 21), 21, 0.1);
+        assert_eq!(counted(&acts, Counter::Reordered), vec![0]);
+    }
+
+    /// Owner hand-over: a new owner is judged by its own stamps only (its clock far behind the
+    /// old owner's), so its first command is taken; the old owner's samples meanwhile are
+    /// foreign, not out of order; once the new owner is silent, the old one's next newer
+    /// command is taken, and one older than its own last is still dropped.
+    #[test]
+    fn a_new_owners_first_command_is_taken_whatever_the_old_owners_stamps() {
+        let (mut core, mut devs) = front(Control::Exclusive, &[keeps_last_target()]);
+        let (a, b) = (writer(A), writer(B));
+        let t0 = Instant::now();
+        for k in 0..5u64 {
+            stamped(
+                &mut core,
+                &mut devs,
+                t0,
+                &a,
+                stamp(60_000 + 10 * k as i64, 10 * k),
+                10 * k,
+                0.1,
+            );
+        }
+        // A silent from 40 ms; B, its clock a minute behind A's, after the hold time.
+        let acts = stamped(&mut core, &mut devs, t0, &b, stamp(300, 300), 300, 0.2);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0]);
+        assert!(
+            matches!(
+                logs(&acts)[..],
+                [Log::Commands {
+                    change: Change::AfterSilence { .. },
+                    ..
+                }]
+            ),
+            "{acts:?}"
+        );
+        stamped(&mut core, &mut devs, t0, &b, stamp(310, 310), 310, 0.3);
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(60_050, 315), 315, 0.9);
+        assert_eq!(counted(&acts, Counter::ForeignCmd), vec![0]);
+        assert_eq!(counted(&acts, Counter::Reordered), Vec::<usize>::new());
+        // B silent from 310 ms: A again, newer than its own last, then older.
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(60_600, 600), 600, 0.4);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0]);
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(60_030, 601), 601, 0.9);
+        assert_eq!(counted(&acts, Counter::Reordered), vec![0]);
+        assert_eq!(taken_q(&devs), vec![0.1, 0.1, 0.1, 0.1, 0.1, 0.2, 0.3, 0.4]);
+    }
+
+    /// A client that restarts has a new publication handle: a new writer, whose stamps are
+    /// not compared with the old one's (here its first repeats the old writer's last).
+    #[test]
+    fn a_restarted_writer_is_a_new_writer() {
+        let (mut core, mut devs) = front(Control::Exclusive, &[keeps_last_target()]);
+        let (old, new) = (writer(A), writer(0xd));
+        let t0 = Instant::now();
+        stamped(&mut core, &mut devs, t0, &old, stamp(500, 0), 0, 0.1);
+        stamped(&mut core, &mut devs, t0, &old, stamp(510, 10), 10, 0.2);
+        let acts = stamped(&mut core, &mut devs, t0, &new, stamp(510, 400), 400, 0.3);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0], "{acts:?}");
+        let acts = stamped(&mut core, &mut devs, t0, &new, stamp(510, 401), 401, 0.9);
+        assert_eq!(counted(&acts, Counter::Duplicate), vec![0], "its own copy is one");
+        assert_eq!(taken_q(&devs), vec![0.1, 0.2, 0.3]);
+    }
+
+    /// `max_command_age_ms`: a command older than that on arrival is dropped and counted
+    /// late (logged with its age); one exactly that old is taken. Without the key, the same
+    /// command is taken.
+    #[test]
+    fn a_command_older_than_max_command_age_is_dropped_as_late_only_with_the_key() {
+        let t0 = Instant::now();
+        let a = writer(A);
+        let max = Duration::from_millis(100);
+        let (core, mut devs) = front(Control::Exclusive, &[keeps_last_target(), keeps_last_target()]);
+        let mut core = core.with_max_command_age(Some(max));
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(0, 50), 50, 0.1);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0]);
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(100, 200), 200, 0.2);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0], "exactly max old: taken");
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(110, 261), 261, 0.9);
+        assert_eq!(counted(&acts, Counter::Late), vec![0, 1], "on every device");
+        assert_eq!(
+            dropped(&acts),
+            vec![(
+                A,
+                Dropped::Late {
+                    age: Duration::from_millis(151),
+                    max
+                },
+                0
+            )]
+        );
+        assert_eq!(taken_q(&devs), vec![0.1, 0.2]);
+        // A late command is not the writer's last: a newer, fresh one is taken.
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(105, 262), 262, 0.3);
+        assert_eq!(counted(&acts, Counter::Late), vec![0, 1]);
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(250, 263), 263, 0.4);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0]);
+
+        let (mut core, mut devs) = front(Control::Exclusive, &[keeps_last_target()]);
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(110, 10_000), 10_000, 0.9);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0], "no key: no age limit");
+        assert!(logs(&acts).iter().all(|l| !matches!(l, Log::ClockAhead { .. })));
+    }
+
+    /// A writer whose clock runs ahead of ours (a negative age beyond the tolerance): named
+    /// once in the log (at most one such line a second over all writers), none of its
+    /// commands dropped as late, even one whose age later comes out past the maximum. A
+    /// writer within the tolerance is neither named nor spared. Without the key, nothing is
+    /// named.
+    #[test]
+    fn a_writer_whose_clock_runs_ahead_is_named_once_and_never_late() {
+        let t0 = Instant::now();
+        let (a, b, c) = (writer(A), writer(B), writer(C));
+        let max = Duration::from_millis(100);
+        let (core, mut devs) = front(Control::Shared, &[keeps_last_target()]);
+        let mut core = core.with_max_command_age(Some(max));
+        let ahead = |acts: &[Action]| -> Vec<(WriterHandle, Duration)> {
+            logs(acts)
+                .iter()
+                .filter_map(|l| match l {
+                    Log::ClockAhead { writer, ahead } => Some((writer.handle, *ahead)),
+                    _ => None,
+                })
+                .collect()
+        };
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(60, 10), 10, 0.1);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0]);
+        assert_eq!(ahead(&acts), vec![(A, Duration::from_millis(50))]);
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(70, 20), 20, 0.2);
+        assert!(ahead(&acts).is_empty(), "once per writer");
+        // C, also ahead, within the same second: not named yet, but spared at once.
+        let acts = stamped(&mut core, &mut devs, t0, &c, stamp(90, 30), 30, 0.3);
+        assert!(ahead(&acts).is_empty());
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0]);
+        let acts = stamped(&mut core, &mut devs, t0, &c, stamp(1000, 1010), 1010, 0.3);
+        assert_eq!(ahead(&acts), vec![], "C's age is positive now");
+        let acts = stamped(&mut core, &mut devs, t0, &c, stamp(1100, 1020), 1020, 0.3);
+        assert_eq!(ahead(&acts), vec![(C, Duration::from_millis(80))], "a second later");
+        // A's age past the maximum: not late (its ages mean nothing).
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(100, 2000), 2000, 0.4);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0], "{acts:?}");
+        // B within the tolerance: not named, and late as anyone.
+        let acts = stamped(&mut core, &mut devs, t0, &b, stamp(2004, 2000), 2000, 0.5);
+        assert!(ahead(&acts).is_empty());
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0]);
+        let acts = stamped(&mut core, &mut devs, t0, &b, stamp(2010, 2200), 2200, 0.9);
+        assert_eq!(counted(&acts, Counter::Late), vec![0]);
+
+        let (mut core, mut devs) = front(Control::Shared, &[keeps_last_target()]);
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(600, 10), 10, 0.1);
+        assert!(ahead(&acts).is_empty(), "no key: clocks are not compared");
+    }
+
+    /// A writer whose clock is stepped back: its commands are dropped as reordered (the
+    /// front's silence acts meanwhile) until they have all been behind for the hold time;
+    /// then its order starts afresh (logged) and its commands are taken again. Copies of its
+    /// last command never start it afresh, however long they come.
+    #[test]
+    fn a_writer_whose_clock_steps_back_starts_afresh_after_the_hold_time() {
+        let (mut core, mut devs) = front(Control::Exclusive, &[watchdog(HOLD, SafeAction::Hold)]);
+        let a = writer(A);
+        let t0 = Instant::now();
+        stamped(&mut core, &mut devs, t0, &a, stamp(5000, 0), 0, 0.1);
+        stamped(&mut core, &mut devs, t0, &a, stamp(5010, 10), 10, 0.2);
+        reflect_all(&mut core, at(t0, 11), &devs);
+        // The clock steps back 4 s at 20 ms; the client streams every 10 ms.
+        let mut acts = Vec::new();
+        let mut k = 0;
+        while counted(&acts, Counter::Accepted).is_empty() {
+            let taken = 20 + 10 * k;
+            acts.extend(stamped(
+                &mut core,
+                &mut devs,
+                t0,
+                &a,
+                stamp(1000 + 10 * k as i64, taken),
+                taken,
+                0.3,
+            ));
+            while let Some(d) = core.next_deadline().filter(|d| *d <= at(t0, taken)) {
+                acts.extend(deadline(&mut core, &mut devs, d));
+            }
+            k += 1;
+        }
+        assert_eq!(
+            k, 21,
+            "dropped from 20 ms, taken at 220 ms: the hold time after the first"
+        );
+        assert_eq!(counted(&acts, Counter::Reordered).len(), 20);
+        assert_eq!(safes(&acts), vec![(0, SafeAction::Hold)], "the silence acted meanwhile");
+        assert!(
+            logs(&acts)
+                .iter()
+                .any(|l| matches!(l, Log::Restarted { writer, behind, after }
+                if writer.handle == A && *behind == Duration::from_millis(3810) && *after == HOLD)),
+            "{acts:?}"
+        );
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(1210, 230), 230, 0.4);
+        assert_eq!(counted(&acts, Counter::Accepted), vec![0], "in order from there");
+        assert_eq!(taken_q(&devs), vec![0.1, 0.2, 0.3, 0.4]);
+
+        // Copies of the last command for longer than the hold time stay copies.
+        for taken in (240..1000).step_by(10) {
+            let acts = stamped(&mut core, &mut devs, t0, &a, stamp(1210, taken), taken, 0.9);
+            assert_eq!(counted(&acts, Counter::Duplicate), vec![0]);
+        }
+        assert_eq!(taken_q(&devs).len(), 4);
+    }
+
+    /// A sample without a source timestamp (a dashboard page's command) is never dropped by
+    /// the order rule, whatever came before it.
+    #[test]
+    fn a_sample_without_a_source_timestamp_is_never_dropped_as_out_of_order() {
+        let (core, mut devs) = front(Control::Exclusive, &[keeps_last_target()]);
+        let mut core = core.with_max_command_age(Some(Duration::from_millis(10)));
+        let a = writer(A);
+        let t0 = Instant::now();
+        stamped(&mut core, &mut devs, t0, &a, stamp(100, 100), 100, 0.1);
+        for k in 0..3 {
+            let acts = stamped(&mut core, &mut devs, t0, &a, None, 101 + k, 0.2);
+            assert_eq!(counted(&acts, Counter::Accepted), vec![0]);
+        }
+        let acts = stamped(&mut core, &mut devs, t0, &a, stamp(100, 110), 110, 0.9);
+        assert_eq!(counted(&acts, Counter::Duplicate), vec![0], "the stamped order holds");
+    }
+
+    /// At most MAX_ORDERED writers are kept: a new one forgets the one heard from longest
+    /// ago, whose next copy is then taken; the others' copies are still dropped.
+    #[test]
+    fn the_order_keeps_at_most_max_ordered_writers_forgetting_the_longest_silent() {
+        let t0 = Instant::now();
+        let mut o = Order::new(None, HOLD);
+        let n = MAX_ORDERED as u64;
+        for w in 0..=n {
+            let t = at(t0, w);
+            assert_eq!(o.check(w, stamp(7, w), t).ordered, Ordered::Yes);
+            o.accepted(w, stamp(7, w));
+            assert!(o.len() <= MAX_ORDERED);
+        }
+        assert_eq!(o.len(), MAX_ORDERED);
+        let again = at(t0, 1000);
+        assert_eq!(
+            o.check(0, stamp(7, 1000), again).ordered,
+            Ordered::Yes,
+            "writer 0 forgotten"
+        );
+        assert_eq!(
+            o.check(n, stamp(7, 1000), again).ordered,
+            Ordered::No(Dropped::Duplicate),
+            "the newest is kept"
+        );
     }
 }

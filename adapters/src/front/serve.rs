@@ -56,6 +56,34 @@ pub struct Incoming {
     /// When the reader took it (a front task that falls behind still sees when each writer
     /// last spoke).
     pub taken: std::time::Instant,
+    /// When its writer wrote it and when the reader took it, by the wall clocks (`None`: the
+    /// sample carries no source timestamp, as a dashboard page's command).
+    pub stamp: Option<Stamp>,
+}
+
+/// When a sample was written, by its writer's clock (the DDS source timestamp), and when the
+/// reader took it, by this host's: ns since the UNIX epoch each. The front core orders a
+/// writer's commands by the first and ages them by the difference (`max_command_age_ms`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stamp {
+    pub written_ns: i64,
+    pub taken_ns: i64,
+}
+
+impl Stamp {
+    /// How long the sample took from its writer to the reader, ns, as the two clocks say (a
+    /// negative age: the writer's clock is ahead of this host's).
+    pub fn age_ns(&self) -> i64 {
+        self.taken_ns.saturating_sub(self.written_ns)
+    }
+}
+
+/// This host's wall clock, ns since the UNIX epoch (what a [`Stamp`] is taken by).
+pub fn wall_ns() -> i64 {
+    match std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH) {
+        Ok(d) => i64::try_from(d.as_nanos()).unwrap_or(i64::MAX),
+        Err(e) => -i64::try_from(e.duration().as_nanos()).unwrap_or(i64::MAX),
+    }
 }
 
 /// The queue a front's readers feed.
@@ -190,7 +218,8 @@ impl<M: Send + 'static> Inbox<M> {
             let mut v = Vec::new();
             h.take_with_writers(&mut v);
             let taken = std::time::Instant::now();
-            for (s, w) in v {
+            let taken_ns = wall_ns();
+            for (s, w, written) in v {
                 if writers.len() >= MAX_WRITERS && !writers.contains_key(&w) {
                     writers.clear();
                 }
@@ -199,7 +228,16 @@ impl<M: Send + 'static> Inbox<M> {
                     .or_insert_with(|| Arc::new(h.matched_writer(w)))
                     .clone();
                 let msg: Message = Box::new(wrap(s));
-                if tx.try_send(Incoming { writer, msg, taken }).is_err() {
+                let stamp = written.map(|written_ns| Stamp { written_ns, taken_ns });
+                if tx
+                    .try_send(Incoming {
+                        writer,
+                        msg,
+                        taken,
+                        stamp,
+                    })
+                    .is_err()
+                {
                     dropped.fetch_add(1, Ordering::Relaxed);
                 }
             }

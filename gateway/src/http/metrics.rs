@@ -198,7 +198,7 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         }
     }
     type Counter = fn(&handgate_adapters::device::DeviceStats, &crate::runtime::FrontCounters) -> u64;
-    let counters: [(&str, &str, Counter); 12] = [
+    let counters: [(&str, &str, Counter); 15] = [
         (
             "handgate_device_commands_total",
             "Commands accepted from fronts.",
@@ -228,6 +228,21 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
             "handgate_device_foreign_cmd_total",
             "Commands refused: another client owns the front.",
             |_, c| c.foreign_cmd.load(Ordering::Relaxed),
+        ),
+        (
+            "handgate_device_duplicate_cmd_total",
+            "Commands dropped: the same source timestamp as their writer's last accepted one.",
+            |_, c| c.duplicate_cmd.load(Ordering::Relaxed),
+        ),
+        (
+            "handgate_device_reordered_cmd_total",
+            "Commands dropped: older than their writer's last accepted one.",
+            |_, c| c.reordered_cmd.load(Ordering::Relaxed),
+        ),
+        (
+            "handgate_device_late_cmd_total",
+            "Commands dropped: older than the front's max_command_age_ms on arrival.",
+            |_, c| c.late_cmd.load(Ordering::Relaxed),
         ),
         (
             "handgate_device_watchdog_trips_total",

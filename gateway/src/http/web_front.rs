@@ -143,6 +143,8 @@ impl PageFront {
                 writer,
                 msg: Box::new(PageMsg { index: *index, body }),
                 taken: Instant::now(),
+                // A page's command has no source timestamp: never dropped as out of order.
+                stamp: None,
             })
             .map_err(|_| "the dashboard's command queue is full".to_string())
     }
@@ -176,6 +178,7 @@ pub fn spawn(
         control: Control::Exclusive,
         hold: watchdog,
         state_hz: 1.0,
+        max_command_age: None,
         bindings,
     };
     let handle = run_front(

@@ -207,6 +207,9 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
                 }
                 Control::Shared => s.push_str(", control: shared"),
             }
+            if let Some(m) = f.max_command_age_ms {
+                let _ = write!(s, ", max command age {} ms", m.0);
+            }
         }
         s.push('\n');
         let bound: Vec<Side> = f.bindings(lookup).into_iter().map(|(side, _)| side).collect();

@@ -21,6 +21,8 @@ pub const MIN_PAGE_WATCHDOG_MS: u32 = 200;
 pub const MAX_PAGE_WATCHDOG_MS: u32 = 10_000;
 /// Watchdog timeouts must lie in this range, ms.
 pub const WATCHDOG_MS_RANGE: (u32, u32) = (10, 10_000);
+/// A front's `max_command_age_ms` must lie in this range, ms.
+pub const MAX_COMMAND_AGE_MS_RANGE: (u32, u32) = (1, 60_000);
 
 /// A DDS domain id (0..=232).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

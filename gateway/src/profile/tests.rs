@@ -288,6 +288,18 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "silence = \"watchdog\"",
     ),
     (
+        "max_command_age_ms of zero",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nmax_command_age_ms = 0\n",
+        "fronts[0].max_command_age_ms",
+        "between 1 and 60000",
+    ),
+    (
+        "max_command_age_ms on a front that takes no commands",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state\"\nmax_command_age_ms = 100\n",
+        "fronts[0].max_command_age_ms",
+        "takes no commands",
+    ),
+    (
         "two fronts with one name",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nname = \"grip\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\nname = \"grip\"\n",
         "fronts[1].name",
@@ -369,7 +381,7 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "unknown front key",
         "[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\ncmd_topc = \"rt/x\"\n",
         "fronts[0].cmd_topc",
-        "unknown key (expected one of: kind, name, device, devices, state_hz, silence, control, watchdog_ms, cmd_topic, state_topic)",
+        "unknown key (expected one of: kind, name, device, devices, state_hz, silence, control, watchdog_ms, max_command_age_ms, cmd_topic, state_topic)",
     ),
     (
         "topic key of another front kind",
@@ -1758,6 +1770,11 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
         ("fronts.silence", front(""), front("silence = \"watchdog\"")),
         ("fronts.control", front(""), front("control = \"shared\"")),
         (
+            "fronts.max_command_age_ms",
+            front(""),
+            front("max_command_age_ms = 250"),
+        ),
+        (
             "fronts.watchdog_ms",
             front("silence = \"watchdog\""),
             front("silence = \"watchdog\"\nwatchdog_ms = 50"),
@@ -2189,4 +2206,22 @@ fn export_puts_the_clients_on_a_second_domain_from_file_env_or_flags() {
         assert_eq!(l.profile.status_topic().0, "rt/robot3/handgate/status");
         Ok(())
     });
+}
+
+/// `max_command_age_ms` reaches the plan the front task is built from and `handgate check`
+/// names it; a front without it shows nothing of it (docs/fronts.md, "Commands in order").
+#[test]
+fn max_command_age_ms_reaches_the_plan_and_the_check_listing() {
+    let fronts = "[[fronts]]\nkind = \"dex3\"\ndevice = \"l\"\nmax_command_age_ms = 250\n[[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n";
+    let (_, r) = load_text(&format!("{DEX3}{fronts}"));
+    let l = r.unwrap();
+    let plan = crate::resolve::plan(&l.profile).unwrap();
+    let ages: Vec<Option<u32>> = plan
+        .fronts
+        .iter()
+        .map(|f| f.config.max_command_age_ms.map(|m| m.0))
+        .collect();
+    assert_eq!(ages, [Some(250), None]);
+    let text = render_fleet(&l.profile, &l.origin);
+    assert_eq!(text.matches("max command age 250 ms").count(), 1, "{text}");
 }

@@ -868,6 +868,20 @@ impl Checker {
                 );
             }
         }
+        if let Some(m) = f.max_command_age_ms {
+            let (lo, hi) = MAX_COMMAND_AGE_MS_RANGE;
+            if !kind.takes_commands() {
+                self.err(
+                    k.key("max_command_age_ms"),
+                    format!("{} front takes no commands, so has none to age", a(kind.as_str())),
+                );
+            } else if !(lo..=hi).contains(&m.0) {
+                self.err(
+                    k.key("max_command_age_ms"),
+                    format!("must be between {lo} and {hi}, got {}", m.0),
+                );
+            }
+        }
         if let Some(r) = f.state_hz {
             self.rate(k.key("state_hz"), r, MAX_RATE_HZ);
         }

@@ -89,6 +89,7 @@ pub(super) fn spawn_front(
         control: f.config.control,
         hold: f.hold(),
         state_hz: f.state_hz,
+        max_command_age: f.config.max_command_age_ms.map(|m| m.as_duration()),
         bindings: f
             .bindings
             .iter()
@@ -107,6 +108,8 @@ pub(crate) struct FrontTask {
     pub control: handgate_adapters::front::config::Control,
     pub hold: Duration,
     pub state_hz: f64,
+    /// Commands older than this on arrival are dropped (`max_command_age_ms`; `None`: none).
+    pub max_command_age: Option<Duration>,
     pub bindings: Vec<(
         String,
         usize,
@@ -222,6 +225,15 @@ impl Task {
                         Counter::WatchdogTrip => {
                             c.watchdog_trips.fetch_add(1, Ordering::Relaxed);
                         }
+                        Counter::Duplicate => {
+                            c.duplicate_cmd.fetch_add(1, Ordering::Relaxed);
+                        }
+                        Counter::Reordered => {
+                            c.reordered_cmd.fetch_add(1, Ordering::Relaxed);
+                        }
+                        Counter::Late => {
+                            c.late_cmd.fetch_add(1, Ordering::Relaxed);
+                        }
                     }
                 }
                 Action::Publish => {
@@ -307,6 +319,26 @@ impl Task {
                 warn!(front = %name, dropped, queue_full_total = total,
                     "front queue full: commands dropped unprocessed");
             }
+            Log::Dropped {
+                writer,
+                why,
+                suppressed,
+            } => {
+                warn!(front = %name, reason = why.reason(), suppressed,
+                    "dropped a command of {}: {why} (counted in {}_cmd)", describe(&writer), why.reason());
+            }
+            Log::ClockAhead { writer, ahead } => {
+                warn!(front = %name, ahead_ms = ahead.as_secs_f64() * 1e3,
+                    "the clock of {} runs {:.1} ms ahead of this host's: its commands' ages are negative, \
+                    so max_command_age_ms drops none of them as late (synchronise the clocks: chrony or PTP)",
+                    describe(&writer), ahead.as_secs_f64() * 1e3);
+            }
+            Log::Restarted { writer, behind, after } => {
+                warn!(front = %name, behind_ms = behind.as_secs_f64() * 1e3,
+                    "the commands of {} were all older than its last accepted one for {} ms (this one by {:.1} ms): \
+                    its clock was stepped back; its commands are accepted again from this one",
+                    describe(&writer), after.as_millis(), behind.as_secs_f64() * 1e3);
+            }
         }
     }
 }
@@ -347,7 +379,7 @@ pub(crate) fn run_front(
     let span = tracing::info_span!("front", name = %f.name, devices = %devices_list);
     let lf_hz = out.lf_hz();
     let mut task = Task {
-        core: FrontCore::new(f.id, f.control, f.hold, driven),
+        core: FrontCore::new(f.id, f.control, f.hold, driven).with_max_command_age(f.max_command_age),
         name: f.name,
         devices: bound,
         out,

@@ -64,6 +64,14 @@ pub struct FrontCounters {
     /// Commands refused whole because another writer owns the front (`foreign_cmd` in
     /// status; `control = "exclusive"`).
     pub foreign_cmd: AtomicU64,
+    /// Commands dropped whole: the same source timestamp as their writer's last accepted one
+    /// (`duplicate_cmd` in status).
+    pub duplicate_cmd: AtomicU64,
+    /// Commands dropped whole: older than their writer's last accepted one (`reordered_cmd`).
+    pub reordered_cmd: AtomicU64,
+    /// Commands dropped whole: older than the front's `max_command_age_ms` on arrival
+    /// (`late_cmd`).
+    pub late_cmd: AtomicU64,
     /// Silence actions run (`wdog` in status): watchdog trips, a service's brake or timeout.
     pub watchdog_trips: AtomicU64,
     /// 1 while a silence action holds the device (until the next accepted command).

@@ -77,6 +77,9 @@ pub(super) fn spawn_status(
                             reconnects: s.reconnects,
                             missed_cycles: s.missed_cycles,
                             foreign_cmd: d.counters.foreign_cmd.load(Ordering::Relaxed),
+                            duplicate_cmd: d.counters.duplicate_cmd.load(Ordering::Relaxed),
+                            reordered_cmd: d.counters.reordered_cmd.load(Ordering::Relaxed),
+                            late_cmd: d.counters.late_cmd.load(Ordering::Relaxed),
                             age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
                         });
                     }
