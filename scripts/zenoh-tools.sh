@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# Builds the Zenoh tools that join sites (docs/deployment.md, "Sites over Zenoh") from their
+# crates.io sources, never from a prebuilt binary: the router zenohd and the DDS plugin
+# zenoh-plugin-dds (its cdylib libzenoh_plugin_dds.so, which zenohd loads at run time).
+#
+#   tools/zenoh/bin/zenohd
+#   tools/zenoh/lib/libzenoh_plugin_dds.so
+#   tools/zenoh/BUILD            what was built, with which rustc, and how long it took
+#
+# tools/ is git-ignored. Idempotent: when BUILD names this version and the current rustc and both
+# files are there, it does nothing. Usage: scripts/zenoh-tools.sh [--force]
+#
+# One pinned version for both crates. zenohd loads a plugin only if it was built from the same
+# zenoh version, with the same zenoh feature set and by the same rustc (zenoh-plugin-trait's
+# compatibility check; Rust has no stable ABI), so the two are always rebuilt together, and a
+# rustc change rebuilds both. Each is built with `--locked` against the Cargo.lock its crate
+# publishes; the two locks pin the same zenoh and the same run-time crates.
+#
+# The plugin builds CycloneDDS 11 (crate cyclors) with cmake and generates its bindings with
+# bindgen (libclang): the Debian packages cmake and libclang-dev are installed when missing.
+# Lean build: release, default features only (zenohd's zenoh/default, the plugin's
+# dynamic_plugin); no DDS security, no shared memory, no stats, no other plugin. zenohd needs
+# zenoh's default features anyway: the plugin's zenoh has them, and zenohd refuses a plugin whose
+# zenoh features differ.
+#
+# The build goes to $CARGO_TARGET_DIR/zenoh-tools (default target/zenoh-tools), a directory this
+# script owns: it is deleted once the two files are copied out, so the disk is returned (the
+# crates.io downloads stay in cargo's own cache).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+
+version=1.10.2
+out="$root/tools/zenoh"
+stamp="$out/BUILD"
+
+force=0
+[ "${1:-}" = "--force" ] && force=1
+
+rustc_v=$(rustc -V)
+want="zenoh $version; $rustc_v"
+if [ "$force" -eq 0 ] && [ -x "$out/bin/zenohd" ] && [ -f "$out/lib/libzenoh_plugin_dds.so" ] \
+  && [ -f "$stamp" ] && [ "$(head -n1 "$stamp")" = "$want" ]; then
+  echo "zenoh-tools: up to date ($want) in tools/zenoh"
+  exit 0
+fi
+
+sudo_cmd=""
+[ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+pkgs=(cmake libclang-dev g++ make)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "zenoh-tools: installing Debian packages: ${missing[*]}"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+
+build="${CARGO_TARGET_DIR:-$root/target}/zenoh-tools"
+rm -rf "$build"
+mkdir -p "$build/fetch/src" "$build/src"
+start=$(date +%s)
+
+# The plugin's source as crates.io publishes it (checksummed by cargo): a throwaway manifest
+# that depends on exactly this version, resolved by `cargo metadata`, which downloads it and says
+# where it is. The empty [workspace] keeps cargo from adopting a workspace above the build dir.
+cat > "$build/fetch/Cargo.toml" <<EOF
+[package]
+name = "handgate-zenoh-fetch"
+version = "0.0.0"
+edition = "2021"
+publish = false
+
+[lib]
+path = "src/lib.rs"
+
+[dependencies]
+zenoh-plugin-dds = "=$version"
+
+[workspace]
+EOF
+: > "$build/fetch/src/lib.rs"
+plugin_manifest=$(cargo metadata --format-version 1 --manifest-path "$build/fetch/Cargo.toml" \
+  | python3 -c '
+import json, sys
+m = json.load(sys.stdin)
+print(next(p["manifest_path"] for p in m["packages"]
+           if p["name"] == "zenoh-plugin-dds" and p["version"] == sys.argv[1]))' "$version")
+plugin_src="$build/src/zenoh-plugin-dds-$version"
+cp -r "$(dirname "$plugin_manifest")" "$plugin_src"
+printf '\n[workspace]\n' >> "$plugin_src/Cargo.toml"
+
+echo "zenoh-tools: building zenohd $version (cargo install --locked)"
+cargo install zenohd --version "=$version" --locked --root "$build/install" --target-dir "$build"
+
+echo "zenoh-tools: building zenoh-plugin-dds $version (cdylib, --locked)"
+CARGO_TARGET_DIR="$build" cargo build --release --locked --lib --manifest-path "$plugin_src/Cargo.toml"
+
+secs=$(($(date +%s) - start))
+disk=$(du -sh "$build" | cut -f1)
+mkdir -p "$out/bin" "$out/lib"
+install -m 0755 "$build/install/bin/zenohd" "$out/bin/zenohd"
+install -m 0644 "$build/release/libzenoh_plugin_dds.so" "$out/lib/libzenoh_plugin_dds.so"
+{
+  echo "$want"
+  echo "built $(date -u +%Y-%m-%dT%H:%M:%SZ) on $(nproc) cores in ${secs}s; build dir at the end $disk"
+  echo "tools/zenoh: $(du -sh "$out/bin/zenohd" | cut -f1) zenohd, $(du -sh "$out/lib/libzenoh_plugin_dds.so" | cut -f1) libzenoh_plugin_dds.so"
+} > "$stamp"
+rm -rf "$build"
+cat "$stamp"
