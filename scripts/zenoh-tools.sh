@@ -14,7 +14,8 @@
 # zenoh version, with the same zenoh feature set and by the same rustc (zenoh-plugin-trait's
 # compatibility check; Rust has no stable ABI), so the two are always rebuilt together, and a
 # rustc change rebuilds both. Each is built with `--locked` against the Cargo.lock its crate
-# publishes; the two locks pin the same zenoh and the same run-time crates.
+# publishes; the two locks pin the same zenoh and the same run-time crates. The plugin's source
+# gets one fix before it is built (below: two calls that abort zenohd).
 #
 # The plugin builds CycloneDDS 11 (crate cyclors) with cmake and generates its bindings with
 # bindgen (libclang): the Debian packages cmake and libclang-dev are installed when missing.
@@ -38,7 +39,7 @@ force=0
 [ "${1:-}" = "--force" ] && force=1
 
 rustc_v=$(rustc -V)
-want="zenoh $version; $rustc_v"
+want="zenoh $version; $rustc_v; plugin fix spawn_runtime"
 if [ "$force" -eq 0 ] && [ -x "$out/bin/zenohd" ] && [ -f "$out/lib/libzenoh_plugin_dds.so" ] \
   && [ -f "$stamp" ] && [ "$(head -n1 "$stamp")" = "$want" ]; then
   echo "zenoh-tools: up to date ($want) in tools/zenoh"
@@ -91,6 +92,22 @@ print(next(p["manifest_path"] for p in m["packages"]
 plugin_src="$build/src/zenoh-plugin-dds-$version"
 cp -r "$(dirname "$plugin_manifest")" "$plugin_src"
 printf '\n[workspace]\n' >> "$plugin_src/Cargo.toml"
+
+# One fix to the plugin's source, the same call in two places. Two of its tasks are started with
+# tokio::task::spawn, which needs the caller to be inside a Tokio runtime of the plugin's own
+# copy of tokio. In a plugin that zenohd loads at run time that is never the case on zenohd's
+# threads: the plugin brings spawn_runtime (src/lib.rs) for exactly this, and uses it everywhere
+# else. Unpatched, a sample that reaches a Zenoh->DDS route before the route's DDS writer exists
+# (the subscriber callback's fallback, src/route_zenoh_dds.rs) panics there, the panic cannot
+# unwind out of the plugin, and the whole zenohd aborts: seen on a link with sub-millisecond
+# round trips (scripts/zenoh-sites.sh --no-netem), in most runs. The second call
+# (src/dds_mgt.rs, readers with a max_frequencies period) is fixed alike. spawn_runtime runs
+# the task on the current runtime when there is one, as before, and on the plugin's own
+# otherwise.
+fix_files=("$plugin_src/src/route_zenoh_dds.rs" "$plugin_src/src/dds_mgt.rs")
+[ "$(cat "${fix_files[@]}" | grep -c 'tokio::task::spawn(')" -eq 2 ] \
+  || { echo "zenoh-tools: zenoh-plugin-dds $version does not have the two calls this script fixes; review the fix" >&2; exit 1; }
+sed -i 's/tokio::task::spawn(/crate::spawn_runtime(/' "${fix_files[@]}"
 
 echo "zenoh-tools: building zenohd $version (cargo install --locked)"
 cargo install zenohd --version "=$version" --locked --root "$build/install" --target-dir "$build"
