@@ -18,7 +18,7 @@
 #   after --            passed to zenohd as they are (e.g. --cfg KEY:VALUE).
 #
 # zenohd and libzenoh_plugin_dds.so come from tools/zenoh (scripts/zenoh-tools.sh builds them).
-# zenohd runs in the foreground (exec): stop it with a signal; RUST_LOG sets its log level
+# zenohd replaces this script (exec): stop it with a signal. RUST_LOG sets its log level
 # (default info).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -73,8 +73,11 @@ case "$side" in
 esac
 [ -z "$domain" ] || args+=(--cfg "plugins/dds/domain:$domain")
 
-# The plugin's CycloneDDS on this site's DDS interface only; multicast forced on, since
-# CycloneDDS does not trust the multicast flag of every virtual interface (veth).
-export CYCLONEDDS_URI="<CycloneDDS><Domain><General><Interfaces><NetworkInterface name=\"$iface\" multicast=\"true\"/></Interfaces></General></Domain></CycloneDDS>"
+# The plugin's CycloneDDS on this site's DDS interface only, with multicast on it whatever
+# CycloneDDS makes of the interface (discovery with handgate and the SDK clients is by
+# multicast). A CYCLONEDDS_URI already set (peers where multicast is blocked, say) still
+# applies after it: CycloneDDS reads a comma-separated list of configurations in order.
+own="<CycloneDDS><Domain><General><Interfaces><NetworkInterface name=\"$iface\" multicast=\"true\"/></Interfaces></General></Domain></CycloneDDS>"
+export CYCLONEDDS_URI="$own${CYCLONEDDS_URI:+,$CYCLONEDDS_URI}"
 export RUST_LOG=${RUST_LOG:-info}
 exec "$zenohd" "${args[@]}" "${extra[@]}"
