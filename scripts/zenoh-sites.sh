@@ -31,7 +31,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 
-netem=1 domain=77 logs=""
+netem=1 domain=29 logs=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --no-netem) netem=0; shift ;;
@@ -65,6 +65,11 @@ cleanup() {
     kill -KILL "$pid" 2>/dev/null
     wait "$pid" 2>/dev/null
   done
+  # Anything still inside the namespaces (nothing, when every start above was a direct child).
+  for n in "$rb" "$op"; do
+    left=$(ip netns pids "$n" 2>/dev/null | paste -sd' ' -)
+    [ -z "$left" ] || { echo "zenoh-sites: killing what is left in $n: $left" >&2; kill -KILL $left 2>/dev/null; }
+  done
   ip netns del "$rb" 2>/dev/null
   ip netns del "$op" 2>/dev/null
   grep -h "^STATS " "$logs/link.log" 2>/dev/null | sed 's/^STATS /zenoh-sites: shaped link, packets per direction: /'
@@ -74,6 +79,8 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
+# In the foreground only: a function run with & is a subshell, whose $! is not the program's pid
+# (the background starts below call ip netns exec directly, which execs the program).
 in_rb() { ip netns exec "$rb" "$@"; }
 in_op() { ip netns exec "$op" "$@"; }
 
@@ -130,22 +137,22 @@ for n in "$rb" "$op"; do
 done
 
 # Robot site: handgate serving its default profile's fronts on zl-rb, then the robot's zenohd.
-in_rb "$handgate" run --domain "$domain" --interface zl-rb --http-port 0 \
+ip netns exec "$rb" "$handgate" run --domain "$domain" --interface zl-rb --http-port 0 \
   > "$logs/handgate.log" 2>&1 &
 pids+=($!)
 wait_log "$logs/handgate.log" "handgate serving" 60 "handgate serving"
 
-in_rb "$root/scripts/zenoh-bridge.sh" robot --dds-interface zl-rb --domain "$domain" \
+ip netns exec "$rb" "$root/scripts/zenoh-bridge.sh" robot --dds-interface zl-rb --domain "$domain" \
   --listen tcp/10.77.0.2:7447 > "$logs/zenohd-robot.log" 2>&1 &
 pids+=($!)
-in_op "$root/scripts/zenoh-bridge.sh" operator --dds-interface zl-op --domain "$domain" \
+ip netns exec "$op" "$root/scripts/zenoh-bridge.sh" operator --dds-interface zl-op --domain "$domain" \
   --robot 10.77.0.2 > "$logs/zenohd-operator.log" 2>&1 &
 pids+=($!)
 
 # Operator site: xr_teleoperate's Dex3 start-up (wait for both hands' state, nonzero), then its
 # command stream closing index_0 until the state reads it back.
 echo "zenoh-sites: operator: xr_dex3_client.py on zl-op, domain $domain"
-in_op "$py" "$root/tests/python/xr_dex3_client.py" --domain "$domain" --interface zl-op \
+ip netns exec "$op" "$py" "$root/tests/python/xr_dex3_client.py" --domain "$domain" --interface zl-op \
   --timeout 60 > "$logs/client.log" 2>&1 &
 client=$!
 pids+=("$client")

@@ -25,7 +25,10 @@ itself after --max-seconds, or on SIGTERM/SIGINT, and then prints its counts.
 stdout (flushed lines):
     READY                       both devices exist (the caller addresses and raises them)
     STATS <json>                at exit, per direction: packets read, sent, lost, duplicated,
-                                sent early by reorder, and sent after a later-read packet
+                                sent early by reorder, sent after a later-read packet
+                                (overtaken), not taken by the receiving device (unsent), and
+                                still waiting when it stopped (queued_at_exit): read - lost +
+                                duplicated = sent + unsent + queued_at_exit
 """
 
 import argparse
@@ -75,7 +78,10 @@ class Direction:
         self.seq = 0  # order of reading
         self.tiebreak = itertools.count()
         self.last_sent_seq = -1
-        self.counts = {"read": 0, "sent": 0, "lost": 0, "duplicated": 0, "reorder_early": 0, "overtaken": 0}
+        self.counts = {
+            "read": 0, "sent": 0, "lost": 0, "duplicated": 0, "reorder_early": 0, "overtaken": 0, "unsent": 0,
+            "queued_at_exit": 0,
+        }
 
     def correlated(self, last, corr):
         # netem's get_crandom: the next draw leans towards the previous one by corr.
@@ -106,8 +112,10 @@ class Direction:
     def send(self, seq, packet):
         try:
             os.write(self.dst, packet)
-        except (BlockingIOError, OSError):
-            return  # the receiving device is down or full: the packet is lost, as on a wire
+        except OSError:
+            # The receiving device is not up yet, or its queue is full: lost, as on a wire.
+            self.counts["unsent"] += 1
+            return
         self.counts["sent"] += 1
         if seq < self.last_sent_seq:
             self.counts["overtaken"] += 1
@@ -165,6 +173,8 @@ def main():
                 except OSError:
                     break  # the device went down
                 d.take(packet, now, queue)
+    for entry in queue:
+        entry[-1].counts["queued_at_exit"] += 1
     print("STATS " + json.dumps({d.name: d.counts for d in dirs.values()}), flush=True)
     return 0
 
