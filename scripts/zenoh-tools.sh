@@ -46,18 +46,8 @@ if [ "$force" -eq 0 ] && [ -x "$out/bin/zenohd" ] && [ -f "$out/lib/libzenoh_plu
   exit 0
 fi
 
-sudo_cmd=""
-[ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
-pkgs=(cmake libclang-dev g++ make)
-missing=()
-for p in "${pkgs[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ "${#missing[@]}" -gt 0 ]; then
-  echo "zenoh-tools: installing Debian packages: ${missing[*]}"
-  $sudo_cmd apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
-fi
+source "$root/scripts/debian-packages.sh"
+ensure_debian_packages zenoh-tools cmake libclang-dev g++ make
 
 build="${CARGO_TARGET_DIR:-$root/target}/zenoh-tools"
 rm -rf "$build"
