@@ -84,8 +84,8 @@ trap 'exit 130' INT TERM
 in_rb() { ip netns exec "$rb" "$@"; }
 in_op() { ip netns exec "$op" "$@"; }
 
-# Lines of FILE matching PATTERN, waiting up to SECONDS for the first (a deadline, not a sleep
-# for readiness); fails with the file's tail.
+# Waits up to SECONDS for a line of FILE matching PATTERN (a deadline, not a sleep for
+# readiness); fails with the file's tail.
 wait_log() {
   local file=$1 pattern=$2 secs=$3 what=$4
   local end=$((SECONDS + secs))
