@@ -21,16 +21,9 @@ want_python=1
 sudo_cmd=""
 [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
 
-pkgs=(cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config iproute2 chromium valgrind)
-missing=()
-for p in "${pkgs[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ "${#missing[@]}" -gt 0 ]; then
-  echo "setup: installing Debian packages: ${missing[*]}"
-  $sudo_cmd apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
-fi
+source "$root/scripts/debian-packages.sh"
+ensure_debian_packages setup cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config \
+  iproute2 chromium valgrind
 # systemd-analyze checks the shipped unit (tests/tests/least_privilege.rs: offline exposure
 # <= 2.0, verify). Debian's systemd package installs cleanly in a container without an init
 # (it does not start anything); no recommends (dbus, timesyncd), only the tool is needed.

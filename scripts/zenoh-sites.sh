@@ -1,0 +1,184 @@
+#!/usr/bin/env bash
+# Two sites joined only by a Zenoh TCP link, on this machine (docs/deployment.md, "Sites over
+# Zenoh"): proves that the project's Zenoh recipe carries a robot's Dex3 hands and handgate's
+# status to an operator site, and the operator's commands back.
+#
+#   scripts/zenoh-sites.sh [--no-netem] [--domain N] [--logs DIR]
+#
+# Two network namespaces (names from $ZENOH_SITES_NS, default hg-zenoh: hg-zenoh-rb, hg-zenoh-op),
+# made here and deleted on exit, whatever happens:
+#
+#   robot site (…-rb)                                     operator site (…-op)
+#   handgate run (default profile: emulated Dex3 pair,    xr_dex3_client.py (unitree_sdk2py,
+#     Dex1 pair; fronts rt/dex3/*, status)                  as xr_teleoperate's Dex3 controller)
+#   zenohd + dds plugin (robot.json5)                     handgate status --once
+#        |  DDS on zl-rb 10.77.1.1/24                     zenohd + dds plugin (operator.json5)
+#        |                                                     |  DDS on zl-op 10.77.2.1/24
+#   zw-rb 10.77.0.2/24  ====== the link, Zenoh TCP 7447 ======  zw-op 10.77.0.1/24
+#
+# Each site's DDS runs on an interface of its own (a veth pair inside the namespace, multicast
+# on): the two DDS networks have no route between them, so whatever crosses, crosses through
+# Zenoh. The plugin's CycloneDDS 11 and the 0.10 of handgate and unitree_sdk2py do not discover
+# each other over a loopback without multicast, hence the veth. The link between the sites is
+# shaped both ways as `netem delay 50ms 10ms loss 1% duplicate 1% reorder 25% 50%` would shape
+# it, by tests/python/shaped_link.py between two TUN devices (this kernel has no sch_netem);
+# --no-netem: a plain veth pair. No packet leaves the two namespaces.
+#
+# Needs root (namespaces), tools/zenoh (scripts/zenoh-tools.sh), the handgate binary
+# ($HANDGATE_BIN, default ${CARGO_TARGET_DIR:-target}/debug/handgate: cargo build -p handgate)
+# and .venv with unitree_sdk2py (scripts/setup.sh). Exit 0 when the state crossed to the
+# operator, the operator's command reached the robot's hands and handgate's status crossed.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+
+netem=1 domain=29 logs=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --no-netem) netem=0; shift ;;
+    --domain) domain=${2:?--domain takes a DDS domain id}; shift 2 ;;
+    --logs) logs=${2:?--logs takes a directory}; shift 2 ;;
+    *) echo "usage: scripts/zenoh-sites.sh [--no-netem] [--domain N] [--logs DIR]" >&2; exit 2 ;;
+  esac
+done
+
+[ "$(id -u)" -eq 0 ] || { echo "zenoh-sites: needs root (network namespaces)" >&2; exit 2; }
+handgate=${HANDGATE_BIN:-${CARGO_TARGET_DIR:-$root/target}/debug/handgate}
+py="$root/.venv/bin/python"
+[ -x "$handgate" ] || { echo "zenoh-sites: no handgate binary at $handgate (cargo build -p handgate, or set HANDGATE_BIN)" >&2; exit 2; }
+[ -x "$py" ] || { echo "zenoh-sites: no .venv (scripts/setup.sh)" >&2; exit 2; }
+[ -x "$root/tools/zenoh/bin/zenohd" ] || { echo "zenoh-sites: tools/zenoh is not built (scripts/zenoh-tools.sh)" >&2; exit 2; }
+
+ns=${ZENOH_SITES_NS:-hg-zenoh}
+rb="$ns-rb" op="$ns-op"
+[ -n "$logs" ] || logs=$(mktemp -d /tmp/zenoh-sites.XXXXXX)
+mkdir -p "$logs"
+# handgate's own settings come from this script's flags, not from the caller's environment.
+for v in $(env | sed -n 's/^\(HANDGATE_[A-Z0-9_]*\)=.*/\1/p'); do unset "$v"; done
+
+pids=()
+cleanup() {
+  local rc=$?
+  set +e
+  for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null; done
+  for pid in "${pids[@]}"; do
+    for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+    kill -KILL "$pid" 2>/dev/null
+    wait "$pid" 2>/dev/null
+  done
+  # Anything still inside the namespaces (nothing, when every start above was a direct child).
+  for n in "$rb" "$op"; do
+    left=$(ip netns pids "$n" 2>/dev/null | paste -sd' ' -)
+    [ -z "$left" ] || { echo "zenoh-sites: killing what is left in $n: $left" >&2; kill -KILL $left 2>/dev/null; }
+  done
+  ip netns del "$rb" 2>/dev/null
+  ip netns del "$op" 2>/dev/null
+  grep -h "^STATS " "$logs/link.log" 2>/dev/null | sed 's/^STATS /zenoh-sites: shaped link, packets per direction: /'
+  echo "zenoh-sites: namespaces $rb and $op removed; logs in $logs"
+  exit "$rc"
+}
+trap cleanup EXIT
+trap 'exit 130' INT TERM
+
+# In the foreground only: a function run with & is a subshell, whose $! is not the program's pid
+# (the background starts below call ip netns exec directly, which execs the program).
+in_rb() { ip netns exec "$rb" "$@"; }
+in_op() { ip netns exec "$op" "$@"; }
+
+# Waits up to SECONDS for a line of FILE matching PATTERN (a deadline, not a sleep for
+# readiness); fails with the file's tail.
+wait_log() {
+  local file=$1 pattern=$2 secs=$3 what=$4
+  local end=$((SECONDS + secs))
+  until grep -q -- "$pattern" "$file" 2>/dev/null; do
+    if [ "$SECONDS" -ge "$end" ]; then
+      echo "zenoh-sites: FAILED: $what not seen within ${secs}s ($file):" >&2
+      tail -n 30 "$file" >&2
+      return 1
+    fi
+    sleep 0.2
+  done
+}
+
+echo "zenoh-sites: namespaces $rb (robot) and $op (operator), DDS domain $domain, logs in $logs"
+for n in "$rb" "$op"; do
+  ip netns del "$n" 2>/dev/null || true # a leftover of a killed run
+  ip netns add "$n"
+  ip netns exec "$n" ip link set lo up
+done
+# The Zenoh link: the only connection between the sites. Shaped: a user-space netem
+# (tests/python/shaped_link.py: this kernel has no sch_netem) moving packets between a TUN device
+# in each namespace; plain: a veth pair.
+if [ "$netem" -eq 1 ]; then
+  shape=(--delay-ms 50 --jitter-ms 10 --loss 0.01 --duplicate 0.01 --reorder 0.25 --reorder-corr 0.5)
+  python3 "$root/tests/python/shaped_link.py" "$rb" zw-rb "$op" zw-op "${shape[@]}" \
+    --max-seconds 900 > "$logs/link.log" 2>&1 &
+  link=$!
+  pids+=("$link")
+  wait_log "$logs/link.log" "^READY" 10 "the shaped link's TUN devices"
+  echo "zenoh-sites: Zenoh link shaped both ways as netem delay 50ms 10ms loss 1% duplicate 1% reorder 25% 50%"
+else
+  ip link add zw-rb netns "$rb" type veth peer name zw-op netns "$op"
+fi
+in_rb ip addr add 10.77.0.2/24 dev zw-rb
+in_op ip addr add 10.77.0.1/24 dev zw-op
+in_rb ip link set zw-rb up
+in_op ip link set zw-op up
+# Each site's DDS network: a veth pair inside the namespace, one end addressed, multicast on.
+in_rb ip link add zl-rb type veth peer name zl-rbp
+in_rb ip addr add 10.77.1.1/24 dev zl-rb
+in_op ip link add zl-op type veth peer name zl-opp
+in_op ip addr add 10.77.2.1/24 dev zl-op
+for l in zl-rb zl-rbp; do in_rb ip link set "$l" multicast on up; done
+for l in zl-op zl-opp; do in_op ip link set "$l" multicast on up; done
+
+# Nothing but the link joins the sites: each one's routes are its own two networks.
+for n in "$rb" "$op"; do
+  echo "zenoh-sites: routes in $n: $(ip netns exec "$n" ip -4 route | awk '{print $1" dev "$3}' | paste -sd, -)"
+done
+
+# Robot site: handgate serving its default profile's fronts on zl-rb, then the robot's zenohd.
+ip netns exec "$rb" "$handgate" run --domain "$domain" --interface zl-rb --http-port 0 \
+  > "$logs/handgate.log" 2>&1 &
+pids+=($!)
+wait_log "$logs/handgate.log" "handgate serving" 60 "handgate serving"
+
+ip netns exec "$rb" "$root/scripts/zenoh-bridge.sh" robot --dds-interface zl-rb --domain "$domain" \
+  --listen tcp/10.77.0.2:7447 > "$logs/zenohd-robot.log" 2>&1 &
+pids+=($!)
+ip netns exec "$op" "$root/scripts/zenoh-bridge.sh" operator --dds-interface zl-op --domain "$domain" \
+  --robot 10.77.0.2 > "$logs/zenohd-operator.log" 2>&1 &
+pids+=($!)
+
+# Operator site: xr_teleoperate's Dex3 start-up (wait for both hands' state, nonzero), then its
+# command stream closing index_0 until the state reads it back.
+echo "zenoh-sites: operator: xr_dex3_client.py on zl-op, domain $domain"
+ip netns exec "$op" "$py" "$root/tests/python/xr_dex3_client.py" --domain "$domain" --interface zl-op \
+  --timeout 60 > "$logs/client.log" 2>&1 &
+client=$!
+pids+=("$client")
+wait_log "$logs/client.log" "^WAITED " 90 "the client's wait for the robot's state"
+waited=$(grep "^WAITED " "$logs/client.log")
+echo "zenoh-sites: robot -> operator, rt/dex3/{left,right}/state: $waited"
+grep -q '"nonzero": true' <<<"$waited" \
+  || { echo "zenoh-sites: FAILED: the robot's Dex3 state never reached the operator site" >&2; exit 1; }
+wait_log "$logs/client.log" "^RESULT " 90 "the client's command result"
+result=$(grep "^RESULT " "$logs/client.log")
+echo "zenoh-sites: operator -> robot, rt/dex3/{left,right}/cmd, read back in the state: $result"
+grep -q '"converged": true' <<<"$result" \
+  || { echo "zenoh-sites: FAILED: the operator's command did not reach the robot's hands" >&2; exit 1; }
+wait "$client" || true
+
+# handgate's status heartbeat, read at the operator site.
+echo "zenoh-sites: operator: handgate status --once (rt/handgate/status across the link)"
+in_op "$handgate" status --domain "$domain" --interface zl-op --once --timeout 30 \
+  | tee "$logs/status.txt" | sed 's/^/  /'
+
+# The allow-list at work: the routes each side's plugin made, and the topics it refused.
+for side in robot operator; do
+  f="$logs/zenohd-$side.log"
+  routes=$(sed -n 's/.*Route \(DDS->Zenoh\|Zenoh->DDS\) (\([^ ]*\) -> .*created.*/\1 \2/p' "$f" | sort -u | paste -sd, -)
+  refused=$(sed -n 's/.*resource \([^ ]*\) as it is not allowed.*/\1/p' "$f" | sort -u | paste -sd' ' -)
+  echo "zenoh-sites: $side plugin routes: ${routes:-none}"
+  echo "zenoh-sites: $side plugin refused (allow-list): ${refused:-none}"
+done
+echo "zenoh-sites: OK"
