@@ -48,6 +48,20 @@ pub enum Command {
     /// (docs/troubleshooting.md). Exit 0 when nothing is wrong, 1 otherwise, 2 for an invalid
     /// profile.
     Doctor(DoctorCmd),
+    /// List every handgate on the lab's DDS domains (docs/deployment.md, "A lab of robots"):
+    /// robot namespace, host, both DDS sides, devices with freshness and safe state, who
+    /// commands each, from each gateway's status topic. Reads only; commands nothing.
+    Fleet {
+        /// The domains to look on, `A-B` or `N`.
+        #[arg(long, default_value = "10-20")]
+        domains: String,
+        /// Network interface for DDS (the lab network's), e.g. eth1.
+        #[arg(long)]
+        interface: Option<String>,
+        /// How long to look, seconds (a gateway publishes its status once a second by default).
+        #[arg(long, default_value_t = 3.0)]
+        seconds: f64,
+    },
     /// Show a live table of the running gateway's devices (from its status topic).
     Status {
         #[command(flatten)]

@@ -3,6 +3,7 @@
 pub mod cli;
 pub mod diagnostics;
 pub mod doctor;
+pub mod fleet;
 pub mod http;
 #[cfg(feature = "foxglove")]
 pub mod live;

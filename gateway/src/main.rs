@@ -17,6 +17,11 @@ fn main() -> anyhow::Result<ExitCode> {
             overrides,
         } => commands::check::check(profile, list, overrides),
         Command::Doctor(cmd) => commands::doctor::doctor(cmd),
+        Command::Fleet {
+            domains,
+            interface,
+            seconds,
+        } => commands::fleet(&domains, interface.as_deref(), seconds),
         Command::Status {
             dds,
             topic,

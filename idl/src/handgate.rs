@@ -92,6 +92,9 @@ pub struct DeviceStatus_ {
     pub reordered_cmd: u64,
     /// Commands dropped whole: older than the front's `max_command_age_ms` on arrival.
     pub late_cmd: u64,
+    /// Who commands the device: the front and its writer ("" before any command).
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub owner: String,
 }
 keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
 

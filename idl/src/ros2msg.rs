@@ -113,7 +113,7 @@ macro_rules! handgate_device_status {
         "string device\nstring kind\nstring backend\nuint8 freshness\nbool safe\nfloat32 cmd_rate_hz\n\
 float32 state_rate_hz\nuint64 crc_errors\nuint64 bad_input\nuint64 watchdog_trips\nuint64 reconnects\n\
 uint64 missed_cycles\nfloat32 age_ms\nuint64 foreign_cmd\nuint64 duplicate_cmd\nuint64 reordered_cmd\n\
-uint64 late_cmd\n"
+uint64 late_cmd\nstring owner\n"
     };
 }
 const HANDGATE_HAND_CMD: &str = concat!(
@@ -128,7 +128,8 @@ float32[3] gyroscope\nfloat32 power_v\nfloat32 power_a\nuint32 faults\n",
 );
 const HANDGATE_STATUS: &str = concat!(
     "string profile\nuint64 uptime_ms\nhandgate/DeviceStatus[] devices\nhandgate/EndpointStatus[] endpoints\n\
-handgate/Diagnostic[] diagnostics\nuint64 record_messages\nuint64 record_dropped\n",
+handgate/Diagnostic[] diagnostics\nuint64 record_messages\nuint64 record_dropped\nuint32 domain\n\
+string interface\nuint32 export_domain\nstring export_interface\nstring namespace\nstring host\n",
     dep!("handgate/DeviceStatus", handgate_device_status!()),
     dep!(
         "handgate/EndpointStatus",
@@ -268,6 +269,42 @@ mod tests {
             schema(unitree_hg::HandCmd_::DDS_TYPE_NAME).unwrap().ros_type,
             "unitree_hg/msg/HandCmd"
         );
+    }
+
+    /// The field names of a schema's main message and of its dependency `dep` ("" for the
+    /// main one), in order.
+    fn fields(text: &str, dep: &str) -> Vec<String> {
+        let sep = "=".repeat(80);
+        let part = if dep.is_empty() {
+            text.split(&sep).next().unwrap().to_string()
+        } else {
+            let head = format!("MSG: {dep}\n");
+            let at = text.find(&head).unwrap_or_else(|| panic!("no {dep}"));
+            text[at + head.len()..].split(&sep).next().unwrap().to_string()
+        };
+        part.lines()
+            .filter_map(|l| l.split_whitespace().nth(1))
+            .map(str::to_string)
+            .collect()
+    }
+
+    /// The serde field names of `T`, sorted (serde_json's map sorts them).
+    fn serde_fields<T: serde::Serialize + Default>() -> Vec<String> {
+        let v = serde_json::to_value(T::default()).unwrap();
+        v.as_object().unwrap().keys().cloned().collect()
+    }
+
+    #[test]
+    fn the_status_schemas_name_every_field_of_the_status_types() {
+        let text = schema(handgate::GatewayStatus_::DDS_TYPE_NAME).unwrap().text;
+        for (dep, want) in [
+            ("", serde_fields::<handgate::GatewayStatus_>()),
+            ("handgate/DeviceStatus", serde_fields::<handgate::DeviceStatus_>()),
+        ] {
+            let mut got = fields(text, dep);
+            got.sort();
+            assert_eq!(got, want, "{dep}: the schema text and the struct differ");
+        }
     }
 
     #[test]

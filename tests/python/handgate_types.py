@@ -86,6 +86,7 @@ class DeviceStatus_(idl.IdlStruct, typename="handgate.msg.dds_.DeviceStatus_"):
     duplicate_cmd: types.uint64
     reordered_cmd: types.uint64
     late_cmd: types.uint64
+    owner: str
 
 
 @dataclass

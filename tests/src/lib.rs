@@ -1190,7 +1190,8 @@ plain_struct!(handgate::DeviceStatus_ {
     foreign_cmd,
     duplicate_cmd,
     reordered_cmd,
-    late_cmd
+    late_cmd,
+    owner
 });
 plain_struct!(handgate::EndpointStatus_ {
     owner,

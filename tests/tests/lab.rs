@@ -245,6 +245,44 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
         "commanded",
         streaming,
     );
+    // `handgate fleet` on the operator lists both robots, and who commands each hand.
+    let out = in_netns(Some(&h.ns[OPERATOR]), &handgate_bin())
+        .args([
+            "fleet",
+            "--domains",
+            &format!("{DOMAIN_A}-{DOMAIN_B}"),
+            "--interface",
+            &op_if,
+            "--seconds",
+            "5",
+        ])
+        .output()
+        .unwrap();
+    let fleet = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{fleet}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(fleet.starts_with("2 gateway(s)\n"), "{fleet}");
+    for r in [&a, &b] {
+        assert!(
+            fleet.contains(&format!("domain {}  /{}  host ", r.domain, r.name)),
+            "{fleet}"
+        );
+        assert!(
+            fleet.contains(&format!(
+                "  devices on domain 0, interface {}; clients on domain {}, interface {}\n",
+                r.internal.b_if, r.domain, r.lab.a_if
+            )),
+            "{fleet}"
+        );
+    }
+    let commanded = fleet
+        .lines()
+        .filter(|l| l.trim_start().starts_with("left_hand") && l.contains("dex3_left: python pid"))
+        .count();
+    assert_eq!(
+        commanded, 2,
+        "each robot's left hand commanded through its dex3 front: {fleet}"
+    );
+
     let mut gw_b = b.gateway.take().unwrap();
     gw_b.child().kill().unwrap(); // SIGKILL: no shutdown, as a crash or a power cut
     assert!(

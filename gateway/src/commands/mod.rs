@@ -121,3 +121,16 @@ pub async fn wait_for_signal() -> anyhow::Result<&'static str> {
         _ = term.recv() => Ok("SIGTERM"),
     }
 }
+
+/// `handgate fleet`: every gateway on `domains`, read from their status topics.
+pub fn fleet(domains: &str, interface: Option<&str>, seconds: f64) -> anyhow::Result<ExitCode> {
+    let domains = handgate_gateway::doctor::parse_scan(domains).map_err(|e| anyhow::anyhow!("--domains: {e}"))?;
+    let listen = handgate_gateway::doctor::listen_time(seconds).map_err(|e| anyhow::anyhow!("--seconds: {e}"))?;
+    let f = handgate_gateway::fleet::look(&domains, interface, listen);
+    print!("{}", handgate_gateway::fleet::render(&f));
+    Ok(if f.errors.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}

@@ -80,6 +80,7 @@ pub(super) fn spawn_status(
                             duplicate_cmd: d.counters.duplicate_cmd.load(Ordering::Relaxed),
                             reordered_cmd: d.counters.reordered_cmd.load(Ordering::Relaxed),
                             late_cmd: d.counters.late_cmd.load(Ordering::Relaxed),
+                            owner: d.counters.owner().unwrap_or_default(),
                             age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
                         });
                     }

@@ -1,0 +1,228 @@
+//! `handgate fleet`: every handgate seen on the lab's DDS domains, from each gateway's own
+//! status topic (docs/deployment.md, "A lab of robots"). It joins each domain, finds the
+//! writers of handgate's status type whatever their namespace, reads one sample of each and
+//! lists them: robot namespace, host, both DDS sides, devices with freshness and safe state,
+//! who commands each device. It reads; it never writes anything.
+
+use std::collections::BTreeSet;
+use std::fmt::Write;
+use std::time::{Duration, Instant};
+
+use handgate_adapters::dds::{Node, Qos, Reader};
+use handgate_adapters::discovery::{Discovery, DiscoveryConfig, Origin, Role};
+use handgate_idl::handgate as hg;
+
+/// One gateway's status as read on `domain`, `topic`.
+#[derive(Debug, Clone)]
+pub struct Seen {
+    pub domain: u32,
+    pub topic: String,
+    pub status: hg::GatewayStatus_,
+}
+
+/// What the look found: each gateway (by domain, then topic), and the domains it could not
+/// join (with why).
+#[derive(Debug, Default)]
+pub struct Fleet {
+    pub gateways: Vec<Seen>,
+    pub errors: Vec<(u32, String)>,
+    /// Status writers found but silent for the whole look (domain, topic).
+    pub silent: Vec<(u32, String)>,
+}
+
+/// Joins `domains` (on `interface`) and reads every gateway's status there for up to
+/// `listen`: discovery first (a third of it), then one sample per status topic.
+pub fn look(domains: &[u32], interface: Option<&str>, listen: Duration) -> Fleet {
+    let start = Instant::now();
+    let mut fleet = Fleet::default();
+    let mut joined: Vec<(u32, Node, Discovery)> = Vec::new();
+    for &d in domains {
+        match Node::new(d, interface).and_then(|n| Ok((Discovery::start(&n, DiscoveryConfig::default())?, n))) {
+            Ok((disc, node)) => joined.push((d, node, disc)),
+            Err(e) => fleet.errors.push((d, e.to_string())),
+        }
+    }
+    let status_type = handgate_adapters::dds::type_name::<hg::GatewayStatus_>();
+    // Readers are made as status writers appear, so a gateway found late is still read.
+    let mut readers: Vec<(u32, String, Reader<hg::GatewayStatus_>)> = Vec::new();
+    let mut made: BTreeSet<(u32, String)> = BTreeSet::new();
+    let mut got: BTreeSet<(u32, String)> = BTreeSet::new();
+    while start.elapsed() < listen {
+        for (d, node, disc) in &joined {
+            let snap = disc.snapshot();
+            let topics: BTreeSet<String> = snap
+                .endpoints
+                .iter()
+                .filter(|e| e.origin == Origin::Remote && e.role == Role::Writer && *e.type_name == *status_type)
+                .map(|e| e.topic.to_string())
+                .collect();
+            for t in topics {
+                if made.insert((*d, t.clone())) {
+                    match node.reader::<hg::GatewayStatus_>(&t, Qos::Reliable { depth: 1 }) {
+                        Ok(r) => readers.push((*d, t, r)),
+                        Err(e) => fleet.errors.push((*d, format!("{t}: {e}"))),
+                    }
+                }
+            }
+        }
+        for (d, t, r) in &readers {
+            if got.contains(&(*d, t.clone())) {
+                continue;
+            }
+            if let Some(s) = r.take().pop() {
+                got.insert((*d, t.clone()));
+                fleet.gateways.push(Seen {
+                    domain: *d,
+                    topic: t.clone(),
+                    status: s,
+                });
+            }
+        }
+        if !made.is_empty() && got.len() == made.len() && start.elapsed() > listen / 3 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    fleet.silent = made.difference(&got).cloned().collect();
+    fleet
+        .gateways
+        .sort_by(|a, b| (a.domain, &a.topic).cmp(&(b.domain, &b.topic)));
+    fleet
+}
+
+/// The fleet as `handgate fleet` prints it: one block per gateway.
+pub fn render(f: &Fleet) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "{} gateway(s)", f.gateways.len());
+    for g in &f.gateways {
+        let s = &g.status;
+        let host = if s.host.is_empty() { "?" } else { &s.host };
+        let fresh = s.devices.iter().filter(|d| d.freshness == hg::FRESH).count();
+        let safe = s.devices.iter().filter(|d| d.safe).count();
+        let _ = writeln!(
+            out,
+            "\ndomain {}  {}  host {host}  profile {}  up {:.0} s  devices {fresh}/{} fresh, {safe} safe",
+            g.domain,
+            if s.namespace.is_empty() { "/" } else { &s.namespace },
+            s.profile,
+            s.uptime_ms as f64 / 1000.0,
+            s.devices.len(),
+        );
+        if (s.domain, &s.interface) != (s.export_domain, &s.export_interface) {
+            let iface = |i: &str| {
+                if i.is_empty() {
+                    "(any)".to_string()
+                } else {
+                    i.to_string()
+                }
+            };
+            let _ = writeln!(
+                out,
+                "  devices on domain {}, interface {}; clients on domain {}, interface {}",
+                s.domain,
+                iface(&s.interface),
+                s.export_domain,
+                iface(&s.export_interface)
+            );
+        }
+        for d in &s.devices {
+            let state = match d.freshness {
+                hg::FRESH => "fresh",
+                hg::STALE => "STALE",
+                hg::COMMANDED_ONLY => "cmd-only",
+                _ => "?",
+            };
+            let _ = writeln!(
+                out,
+                "  {:<16} {:<10} {:<8} {:<7} {}",
+                d.device,
+                d.kind,
+                state,
+                if d.safe { "SAFE" } else { "-" },
+                if d.owner.is_empty() { "no command yet" } else { &d.owner }
+            );
+        }
+    }
+    for (d, t) in &f.silent {
+        let _ = writeln!(out, "\ndomain {d}: {t} has a writer but sent nothing during the look");
+    }
+    for (d, e) in &f.errors {
+        let _ = writeln!(out, "\ndomain {d}: not joined: {e}");
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_gateway_with_its_sides_devices_and_who_commands_them() {
+        let status = |ns: &str, export: u32, owner: &str| hg::GatewayStatus_ {
+            profile: "lab-g1-dex3".into(),
+            uptime_ms: 12_000,
+            domain: 0,
+            interface: "eth0".into(),
+            export_domain: export,
+            export_interface: "eth1".into(),
+            namespace: ns.into(),
+            host: "pc2".into(),
+            devices: vec![
+                hg::DeviceStatus_ {
+                    device: "left_hand".into(),
+                    kind: "dex3".into(),
+                    freshness: hg::FRESH,
+                    owner: owner.into(),
+                    ..Default::default()
+                },
+                hg::DeviceStatus_ {
+                    device: "right_hand".into(),
+                    kind: "dex3".into(),
+                    freshness: hg::STALE,
+                    safe: true,
+                    ..Default::default()
+                },
+            ],
+            ..Default::default()
+        };
+        let f = Fleet {
+            gateways: vec![
+                Seen {
+                    domain: 11,
+                    topic: "rt/robot_a/handgate/status".into(),
+                    status: status("/robot_a", 11, "front dex3_left: process xr (pid 7) on op at 10.0.0.5"),
+                },
+                Seen {
+                    domain: 12,
+                    topic: "rt/robot_b/handgate/status".into(),
+                    status: status("/robot_b", 12, ""),
+                },
+            ],
+            errors: vec![(13, "no such interface".into())],
+            silent: vec![(14, "rt/handgate/status".into())],
+        };
+        let t = render(&f);
+        assert!(t.starts_with("2 gateway(s)\n"), "{t}");
+        assert!(
+            t.contains("domain 11  /robot_a  host pc2  profile lab-g1-dex3  up 12 s  devices 1/2 fresh, 1 safe\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("  devices on domain 0, interface eth0; clients on domain 11, interface eth1\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("front dex3_left: process xr (pid 7) on op at 10.0.0.5"),
+            "{t}"
+        );
+        assert!(
+            t.contains("right_hand       dex3       STALE    SAFE    no command yet"),
+            "{t}"
+        );
+        assert!(
+            t.contains("domain 14: rt/handgate/status has a writer but sent nothing"),
+            "{t}"
+        );
+        assert!(t.contains("domain 13: not joined: no such interface"), "{t}");
+    }
+}
