@@ -176,6 +176,16 @@ impl Participant {
     }
 }
 
+impl Participant {
+    /// Every unicast IP in `network_addresses`.
+    pub fn ip_addresses(&self) -> impl Iterator<Item = std::net::IpAddr> + '_ {
+        self.network_addresses.iter().filter_map(|a| {
+            let ip: std::net::IpAddr = locator_ip(a)?.parse().ok()?;
+            (!ip.is_multicast()).then_some(ip)
+        })
+    }
+}
+
 /// `udp/1.2.3.4:7410@3` -> `1.2.3.4`; `udp/[::1]:7410@3` -> `::1`.
 fn locator_ip(locator: &str) -> Option<&str> {
     let rest = locator.split_once('/').map_or(locator, |(_, r)| r);

@@ -599,9 +599,9 @@
   // status: fleet table, card badges, diagnostics.
 
   const FLEET_COLS = ['device', 'kind', 'backend', 'state', 'safe', 'cmd', 'stateHz', 'age', 'crc', 'bad',
-    'wdog', 'recon', 'missed', 'foreign', 'dup', 'reord', 'late', 'faults', 'closure', 'owner'];
+    'wdog', 'recon', 'missed', 'foreign', 'dup', 'reord', 'late', 'notallowed', 'faults', 'closure', 'owner'];
   const NUMERIC = new Set(['cmd', 'stateHz', 'age', 'crc', 'bad', 'wdog', 'recon', 'missed', 'foreign', 'dup',
-    'reord', 'late', 'closure']);
+    'reord', 'late', 'notallowed', 'closure']);
 
   function fleetRow(name) {
     let r = rows.get(name);
@@ -645,7 +645,8 @@
       setText(c.age, fixed(dev.age_ms, 1));
       for (const [k, field] of [['crc', 'crc_errors'], ['bad', 'bad_input'], ['wdog', 'watchdog_trips'],
         ['recon', 'reconnects'], ['missed', 'missed_cycles'], ['foreign', 'foreign_cmd'],
-        ['dup', 'duplicate_cmd'], ['reord', 'reordered_cmd'], ['late', 'late_cmd']]) {
+        ['dup', 'duplicate_cmd'], ['reord', 'reordered_cmd'], ['late', 'late_cmd'],
+        ['notallowed', 'not_allowed_cmd']]) {
         setText(c[k], String(dev[field] ?? '—'));
       }
       const faults = dev.faults && dev.faults.length ? dev.faults.join(', ') : 'none';

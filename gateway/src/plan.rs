@@ -116,6 +116,9 @@ pub struct Plan {
     pub discovery_max_wait: Duration,
     /// Announce handgate as a ROS node in this namespace (`[dds] ros_node`); `None`: not.
     pub namespace: Option<handgate_adapters::ros::Namespace>,
+    /// `export.allow_commands_from`: the only hosts whose commands the fronts take (`None`:
+    /// anyone's).
+    pub allow_sources: Option<handgate_adapters::front::sources::Sources>,
     /// The namespace of handgate's own topics (status, canonical, `rt/joint_states`).
     pub own_namespace: handgate_adapters::ros::Namespace,
     /// `[export]` on a domain of its own: the second participant, which the fronts, status,

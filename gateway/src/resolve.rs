@@ -216,6 +216,18 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         status_topic: p.status_topic().0,
         namespace: p.dds.ros_node.then(|| p.namespace()),
         own_namespace: p.namespace(),
+        allow_sources: p
+            .export
+            .as_ref()
+            .filter(|e| !e.allow_commands_from.is_empty())
+            .map(|e| {
+                // Validated: every entry parses.
+                let nets = e
+                    .allow_commands_from
+                    .iter()
+                    .filter_map(|a| handgate_adapters::front::sources::Net::parse(a).ok());
+                handgate_adapters::front::sources::Sources::new(nets.collect())
+            }),
         export: p.export_side().map(|(domain, interface)| crate::plan::ExportPlan {
             domain: domain.0,
             interface,

@@ -109,6 +109,14 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
             );
         }
     }
+    // Commands from a host not in `export.allow_commands_from`, when any were.
+    for d in s.devices.iter().filter(|d| d.not_allowed_cmd > 0) {
+        let _ = writeln!(
+            out,
+            "\n{}: {} command(s) refused: their host is not in export.allow_commands_from",
+            d.device, d.not_allowed_cmd
+        );
+    }
     if !s.endpoints.is_empty() {
         let _ = writeln!(out, "\nendpoints (matched counterparts)");
         for e in &s.endpoints {

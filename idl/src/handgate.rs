@@ -95,6 +95,8 @@ pub struct DeviceStatus_ {
     /// Who commands the device: the front and its writer ("" before any command).
     #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
     pub owner: String,
+    /// Commands refused whole: their host is not in `export.allow_commands_from`.
+    pub not_allowed_cmd: u64,
 }
 keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
 

@@ -87,6 +87,7 @@ class DeviceStatus_(idl.IdlStruct, typename="handgate.msg.dds_.DeviceStatus_"):
     reordered_cmd: types.uint64
     late_cmd: types.uint64
     owner: str
+    not_allowed_cmd: types.uint64
 
 
 @dataclass

@@ -281,6 +281,11 @@ impl Hosts {
         ip(&["-n", ns, "link", "set", "br0", "up"])
     }
 
+    /// Adds port `port` to host `host`'s switch ([`Hosts::bridge`]).
+    pub fn bridge_add(&self, host: usize, port: &str) -> Result<(), NetNsError> {
+        ip(&["-n", &self.ns[host], "link", "set", port, "master", "br0"])
+    }
+
     /// Takes link `dev` of host `host` down or up (a cable pulled, plugged back).
     pub fn set_link(&self, host: usize, dev: &str, up: bool) -> Result<(), NetNsError> {
         ip(&["-n", &self.ns[host], "link", "set", dev, if up { "up" } else { "down" }])
@@ -1191,7 +1196,8 @@ plain_struct!(handgate::DeviceStatus_ {
     duplicate_cmd,
     reordered_cmd,
     late_cmd,
-    owner
+    owner,
+    not_allowed_cmd
 });
 plain_struct!(handgate::EndpointStatus_ {
     owner,

@@ -1,17 +1,20 @@
-//! A simulated lab of robots (issue #28, part 3): two G1s whose internal networks are the same
-//! (192.168.123.0/24, DDS domain 0, each robot's Dex3 hand service emulated there by
+//! A simulated lab of robots (issue #28, parts 3 and 6): two G1s whose internal networks are the
+//! same (192.168.123.0/24, DDS domain 0, each robot's Dex3 hand service emulated there by
 //! `handgate emulate dex3 --service`), each robot PC running handgate on the shipped
 //! `lab-g1-dex3` profile between its robot's network and the lab's, and an operator on the lab
 //! network. Unmodified official-SDK clients on the operator, given only a robot's domain, drive
-//! that robot's hands; robot A keeps working while robot B's handgate is killed and restarted;
-//! the operator's link cut for 3 s makes both robots hold (the profile's `silence =
-//! "watchdog"`) and their clients take over again when it is back; a capture on robot A's
-//! internal network and on the lab's shows that neither carries the other's domains.
+//! that robot's hands; `handgate fleet` lists both robots; robot A keeps working while robot
+//! B's handgate is killed and restarted; the operator's link cut for 3 s makes both robots hold
+//! (the profile's `silence = "watchdog"`) and their clients take over again when it is back; a
+//! second operator outside `export.allow_commands_from` sees the state but its commands are
+//! refused and counted; a capture on robot A's internal network and on the lab's shows that
+//! neither carries the other's domains and no participant sends on both.
 //!
 //! Seven network namespaces made by the test (two robots, two robot PCs, a lab switch, the
-//! operator; the switch is a bridge), six veth pairs; needs root, elsewhere it says why and
-//! passes without running. Nothing leaves the namespaces; they are deleted when the test
-//! ends. DDS domains 0 (inside each robot's namespaces only), 222 (robot A) and 223 (robot B).
+//! operator, the second operator; the switch is a bridge), six veth pairs; needs root,
+//! elsewhere it says why and passes without running. Nothing leaves the namespaces; they are
+//! deleted when the test ends. DDS domains 0 (inside each robot's namespaces only), 222 (robot
+//! A) and 223 (robot B).
 
 use std::time::{Duration, Instant};
 
@@ -27,9 +30,11 @@ const ROBOT_B: usize = 2;
 const PC_B: usize = 3;
 const SWITCH: usize = 4;
 const OPERATOR: usize = 5;
+/// A second operator on the lab network, not in the robots' `allow_commands_from`.
+const STRAY: usize = 6;
 
 fn hosts() -> Option<Hosts> {
-    match Hosts::new("lab", 6) {
+    match Hosts::new("lab", 7) {
         Ok(h) => Some(h),
         Err(e @ NetNsError::NotRoot(_)) => {
             eprintln!("SKIPPED lab: {e}; run `cargo test -p handgate-tests --test lab` as root");
@@ -48,10 +53,18 @@ struct Robot {
     lab: Link,
     _services: Vec<Emulation>,
     gateway: Option<Gateway>,
+    profile: std::path::PathBuf,
 }
 
 impl Robot {
-    fn start(h: &Hosts, name: &'static str, domain: u32, robot: usize, pc: usize, internal: Link, lab: Link) -> Robot {
+    fn start(
+        h: &Hosts,
+        name: &'static str,
+        domain: u32,
+        (robot, pc): (usize, usize),
+        (internal, lab): (Link, Link),
+        profile: &std::path::Path,
+    ) -> Robot {
         let ns = Some(h.ns[robot].as_str());
         let services = ["left", "right"]
             .map(|side| {
@@ -78,15 +91,16 @@ impl Robot {
             lab,
             _services: services,
             gateway: None,
+            profile: profile.to_path_buf(),
         };
         r.start_gateway(h);
         r
     }
 
-    /// `handgate run` on the shipped lab profile, this robot's domain and namespace given on the
+    /// `handgate run` on the lab profile, this robot's domain and namespace given on the
     /// command line as the profile says, both interfaces the PC's veths.
     fn start_gateway(&mut self, h: &Hosts) {
-        let profile = handgate_tests::repo_root().join("profiles/lab-g1-dex3.toml");
+        let profile = self.profile.clone();
         let domain = self.domain.to_string();
         let gw = Gateway::spawn_in(
             Some(&h.ns[self.pc]),
@@ -216,15 +230,23 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
     let cap_lab = Capture::start(&h.ns[OPERATOR], &op_if, Duration::from_secs(300));
     let started = Instant::now();
 
-    let a = Robot::start(&h, "robot_a", DOMAIN_A, ROBOT_A, PC_A, int_a, lab_a);
-    let mut b = Robot::start(&h, "robot_b", DOMAIN_B, ROBOT_B, PC_B, int_b, lab_b);
+    let stray = h.link(5, STRAY, SWITCH, "10.229.0", (101, 0)).unwrap();
+    h.bridge_add(SWITCH, &stray.b_if).unwrap();
+
+    // The shipped lab profile, commands allowed from the operator's address only.
+    let shipped = std::fs::read_to_string(handgate_tests::repo_root().join("profiles/lab-g1-dex3.toml")).unwrap();
+    let profile = std::env::temp_dir().join(format!("handgate-lab-{}.toml", std::process::id()));
+    let allow = format!("[export]\nallow_commands_from = [\"{}\"]\n", lab_op.a_addr);
+    std::fs::write(&profile, shipped.replacen("[export]\n", &allow, 1)).unwrap();
+    let a = Robot::start(&h, "robot_a", DOMAIN_A, (ROBOT_A, PC_A), (int_a, lab_a), &profile);
+    let mut b = Robot::start(&h, "robot_b", DOMAIN_B, (ROBOT_B, PC_B), (int_b, lab_b), &profile);
 
     // The operator drives each robot's hands, picking it by domain.
     drive(&h, &op_if, &a);
     drive(&h, &op_if, &b);
 
     // Both robots streamed to; robot B's handgate killed: robot A keeps being commanded.
-    let _stream_a = stream(&h, &op_if, &a);
+    let stream_a = stream(&h, &op_if, &a);
     let _stream_b = stream(&h, &op_if, &b);
     let streaming = |r: (bool, f32, u64)| !r.0 && r.1 > 10.0;
     let (_, _, trips_a) = wait_status(
@@ -336,6 +358,77 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
         eprintln!("{}: watchdog trips {trips} before the cut, {after} after", r.name);
     }
 
+    // A second operator on the lab network, not in the list: its commands to robot A are
+    // refused and counted, the state still reaches it, the first operator keeps the hand.
+    let stray_client = {
+        let args = [
+            "--domain",
+            &DOMAIN_A.to_string(),
+            "--side",
+            "left",
+            "--target",
+            "0.4",
+            "--interface",
+            &stray.a_if,
+        ]
+        .map(String::from);
+        let c = PyProcess::spawn_in(Some(&h.ns[STRAY]), "stream_client.py", &args).unwrap();
+        c.wait_line("STREAMING", Duration::from_secs(30))
+            .unwrap_or_else(|e| panic!("the stray operator never saw robot A's state: {e}"));
+        c
+    };
+    let refused = |h: &Hosts| {
+        let out = in_netns(Some(&h.ns[OPERATOR]), &handgate_bin())
+            .args(["status", "--domain", &DOMAIN_A.to_string(), "--interface", &op_if])
+            .args(["--namespace", "robot_a", "--once", "--timeout", "5"])
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .find_map(|l| {
+                l.strip_prefix("left_hand: ")?
+                    .split_whitespace()
+                    .next()?
+                    .parse::<u64>()
+                    .ok()
+            })
+            .unwrap_or(0)
+    };
+    let start = Instant::now();
+    while refused(&h) < 10 {
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "robot A never refused the stray operator's commands"
+        );
+    }
+    let out = in_netns(Some(&h.ns[OPERATOR]), &handgate_bin())
+        .args([
+            "fleet",
+            "--domains",
+            &DOMAIN_A.to_string(),
+            "--interface",
+            &op_if,
+            "--seconds",
+            "3",
+        ])
+        .output()
+        .unwrap();
+    let fleet = String::from_utf8_lossy(&out.stdout);
+    let owner = fleet
+        .lines()
+        .find(|l| l.trim_start().starts_with("left_hand"))
+        .unwrap_or("");
+    assert!(
+        owner.contains(&format!("python pid {} ", stream_a.id())),
+        "the operator, not the stray client (pid {}), commands robot A's left hand: {fleet}",
+        stray_client.id()
+    );
+    assert_eq!(
+        status_row(&h, &op_if, &a, "left_hand").map(|r| r.0),
+        Some(false),
+        "not held"
+    );
+
     // Each network carried its own domains only (the captures' window covers the whole run).
     assert!(
         started.elapsed() < Duration::from_secs(290),
@@ -362,4 +455,5 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
         both.is_empty(),
         "participants sending on robot A's network and the lab's: {both:?}"
     );
+    let _ = std::fs::remove_file(profile);
 }

@@ -21,6 +21,7 @@ pub mod kind;
 pub mod one_hand;
 pub mod plan;
 pub mod serve;
+pub mod sources;
 
 use crate::mapping::WireTarget;
 use crate::model::JointCommand;

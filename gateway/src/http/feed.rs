@@ -126,6 +126,7 @@ pub fn status(fleet: &Fleet) -> String {
                 "crc_errors": d.crc_errors, "bad_input": d.bad_input, "watchdog_trips": d.watchdog_trips,
                 "reconnects": d.reconnects, "missed_cycles": d.missed_cycles, "foreign_cmd": d.foreign_cmd,
                 "duplicate_cmd": d.duplicate_cmd, "reordered_cmd": d.reordered_cmd, "late_cmd": d.late_cmd,
+                "not_allowed_cmd": d.not_allowed_cmd,
                 "faults": state.map(|(f, _)| fault_names(f)).unwrap_or_default(),
                 "closure": state.map(|(_, c)| num(c)).unwrap_or(Value::Null),
                 "owner": slot.and_then(|s| s.counters.owner()),

@@ -198,7 +198,7 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         }
     }
     type Counter = fn(&handgate_adapters::device::DeviceStats, &crate::runtime::FrontCounters) -> u64;
-    let counters: [(&str, &str, Counter); 15] = [
+    let counters: [(&str, &str, Counter); 16] = [
         (
             "handgate_device_commands_total",
             "Commands accepted from fronts.",
@@ -243,6 +243,11 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
             "handgate_device_late_cmd_total",
             "Commands dropped: older than the front's max_command_age_ms on arrival.",
             |_, c| c.late_cmd.load(Ordering::Relaxed),
+        ),
+        (
+            "handgate_device_not_allowed_cmd_total",
+            "Commands refused: their host is not in export.allow_commands_from.",
+            |_, c| c.not_allowed_cmd.load(Ordering::Relaxed),
         ),
         (
             "handgate_device_watchdog_trips_total",

@@ -179,6 +179,8 @@ pub fn spawn(
         hold: watchdog,
         state_hz: 1.0,
         max_command_age: None,
+        // The page's commands come through the HTTP server's own checks, not from DDS.
+        allow: None,
         bindings,
     };
     let handle = run_front(

@@ -293,6 +293,11 @@ pub struct ExportConfig {
     /// `rt/<namespace>/dex3/left/cmd`): off by default, since unmodified clients use the
     /// standard names and pick the robot by domain.
     pub namespace_fronts: bool,
+    /// Who may command the fronts: addresses or `ADDRESS/PREFIX` networks of the clients'
+    /// hosts (empty: anyone on the network). A command from a participant with no address in
+    /// the list is refused and counted; states still flow.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub allow_commands_from: Vec<String>,
 }
 
 /// Default `dds.discovery_settle_ms`.

@@ -140,6 +140,11 @@ impl Checker {
                 );
             }
         }
+        for (i, a) in e.allow_commands_from.iter().enumerate() {
+            if let Err(why) = handgate_adapters::front::sources::Net::parse(a) {
+                self.err(key("allow_commands_from").index(i), why);
+            }
+        }
         if e.namespace_fronts && p.namespace().is_root() {
             self.err(
                 key("namespace_fronts"),

@@ -2,6 +2,8 @@
 //! its devices and its core (`handgate_adapters::front::core`, where every decision is:
 //! ownership, checks, silence, prompt state); state-only fronts' publishing.
 
+use handgate_adapters::dds::WriterHandle;
+use handgate_adapters::front::sources::{Sources, Verdict};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -73,6 +75,7 @@ fn spawn_state_only(
 pub(super) fn spawn_front(
     env: &fronts::FrontEnv,
     f: &FrontPlan,
+    allow: Option<&Sources>,
     devices: &HashMap<String, Arc<DeviceSlot>>,
     shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
@@ -90,6 +93,7 @@ pub(super) fn spawn_front(
         hold: f.hold(),
         state_hz: f.state_hz,
         max_command_age: f.config.max_command_age_ms.map(|m| m.as_duration()),
+        allow: allow.cloned(),
         bindings: f
             .bindings
             .iter()
@@ -110,6 +114,8 @@ pub(crate) struct FrontTask {
     pub state_hz: f64,
     /// Commands older than this on arrival are dropped (`max_command_age_ms`; `None`: none).
     pub max_command_age: Option<Duration>,
+    /// Only these hosts' commands are taken (`export.allow_commands_from`; `None`: anyone's).
+    pub allow: Option<Sources>,
     pub bindings: Vec<(
         String,
         usize,
@@ -178,13 +184,31 @@ struct Task {
     state_tick: Ticker,
     /// The core's actions, carried out as they come (kept to reuse its allocation).
     acts: Vec<Action>,
+    /// `export.allow_commands_from`, and each writer's verdict once discovery knew its
+    /// participant (at most [`MAX_JUDGED`] writers, then all are judged again).
+    allow: Option<(Sources, HashMap<WriterHandle, bool>)>,
 }
+
+/// Writers whose source verdict a front keeps.
+const MAX_JUDGED: usize = 64;
 
 impl Task {
     /// A command sample: the core admits it, the front kind's codec decodes it, and the core
     /// checks and routes its commands. A command for a device waits for the silence action
     /// running on it (`pending_safe`), so the safe state never lands after a newer command.
     async fn sample(&mut self, msg: fronts::Incoming) {
+        match self.source_allowed(&msg.writer) {
+            Some(true) => {}
+            Some(false) => {
+                for d in &self.devices {
+                    d.slot.counters.not_allowed_cmd.fetch_add(1, Ordering::Relaxed);
+                }
+                return;
+            }
+            // Its participant not discovered yet: refused, not counted against a host that
+            // may be listed.
+            None => return,
+        }
         let sample = Sample::of(&msg);
         let Some(admitted) = self.core.admit(&sample, &mut self.acts) else {
             self.carry_out();
@@ -202,6 +226,38 @@ impl Task {
         self.core
             .decoded(admitted, Instant::now(), &sample, decoded, devices, &mut self.acts);
         self.carry_out();
+    }
+
+    /// Whether `writer`'s host may command this front (`export.allow_commands_from`): checked
+    /// at the edge, before the core sees the sample, so a refused host neither commands nor
+    /// takes the front over. A writer's verdict is kept once discovery knows its participant;
+    /// until then (`None`) its commands are refused (fail closed) and it is asked again.
+    /// Logged once per writer.
+    fn source_allowed(&mut self, writer: &handgate_adapters::dds::WriterInfo) -> Option<bool> {
+        let Some((sources, judged)) = &mut self.allow else {
+            return Some(true);
+        };
+        if let Some(ok) = judged.get(&writer.handle) {
+            return Some(*ok);
+        }
+        let snap = self.discovery.borrow().clone();
+        let verdict = sources.judge(writer, &snap);
+        let ok = verdict == Verdict::Allowed;
+        if let Verdict::Refused(ips) = &verdict {
+            if judged.len() >= MAX_JUDGED {
+                judged.clear();
+            }
+            judged.insert(writer.handle, false);
+            let at: Vec<String> = ips.iter().map(|i| i.to_string()).collect();
+            warn!(front = %self.name, "refused the commands of {}: its host ({}) is not in export.allow_commands_from \
+                (counted in not_allowed_cmd; its state still flows)", fronts::describe_writer(writer, &snap), at.join(", "));
+        } else if ok {
+            if judged.len() >= MAX_JUDGED {
+                judged.clear();
+            }
+            judged.insert(writer.handle, true);
+        }
+        (verdict != Verdict::Unknown).then_some(ok)
     }
 
     /// Carries out the core's actions, in order.
@@ -386,6 +442,7 @@ pub(crate) fn run_front(
         discovery,
         state_tick: Ticker::hz(f.state_hz),
         acts: Vec::new(),
+        allow: f.allow.map(|s| (s, HashMap::new())),
     };
     Ok(tokio::spawn(tracing::Instrument::instrument(
         async move {

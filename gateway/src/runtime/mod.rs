@@ -72,6 +72,9 @@ pub struct FrontCounters {
     /// Commands dropped whole: older than the front's `max_command_age_ms` on arrival
     /// (`late_cmd`).
     pub late_cmd: AtomicU64,
+    /// Commands refused whole: their host is not in `export.allow_commands_from`
+    /// (`not_allowed_cmd`).
+    pub not_allowed_cmd: AtomicU64,
     /// Silence actions run (`wdog` in status): watchdog trips, a service's brake or timeout.
     pub watchdog_trips: AtomicU64,
     /// 1 while a silence action holds the device (until the next accepted command).
@@ -210,7 +213,13 @@ impl Runtime {
         let (shutdown, shutdown_rx) = watch::channel(false);
         let mut tasks = Vec::new();
         for f in &plan.fronts {
-            tasks.push(fronts::spawn_front(&env, f, &by_name, shutdown_rx.clone())?);
+            tasks.push(fronts::spawn_front(
+                &env,
+                f,
+                plan.allow_sources.as_ref(),
+                &by_name,
+                shutdown_rx.clone(),
+            )?);
         }
         let sides = match &export {
             // Each endpoint diagnosed on its own side: the fronts' on the clients', the

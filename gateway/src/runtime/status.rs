@@ -81,6 +81,7 @@ pub(super) fn spawn_status(
                             reordered_cmd: d.counters.reordered_cmd.load(Ordering::Relaxed),
                             late_cmd: d.counters.late_cmd.load(Ordering::Relaxed),
                             owner: d.counters.owner().unwrap_or_default(),
+                            not_allowed_cmd: d.counters.not_allowed_cmd.load(Ordering::Relaxed),
                             age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
                         });
                     }
