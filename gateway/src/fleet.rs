@@ -8,12 +8,15 @@ use std::collections::BTreeSet;
 use std::fmt::Write;
 use std::time::{Duration, Instant};
 
+use std::sync::Arc;
+
 use handgate_adapters::dds::{Node, Qos, Reader};
-use handgate_adapters::discovery::{Discovery, DiscoveryConfig, Origin, Role};
+use handgate_adapters::discovery::{Discovery, DiscoveryConfig, Role, Snapshot};
 use handgate_idl::handgate as hg;
+use tokio::sync::watch;
 
 /// One gateway's status as read on `domain`, `topic`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Seen {
     pub domain: u32,
     pub topic: String,
@@ -22,7 +25,7 @@ pub struct Seen {
 
 /// What the look found: each gateway (by domain, then topic), and the domains it could not
 /// join (with why).
-#[derive(Debug, Default)]
+#[derive(Debug, Default, serde::Serialize)]
 pub struct Fleet {
     pub gateways: Vec<Seen>,
     pub errors: Vec<(u32, String)>,
@@ -30,30 +33,55 @@ pub struct Fleet {
     pub silent: Vec<(u32, String)>,
 }
 
+/// One domain to look on: its participant and that participant's discovery.
+pub type Side = (u32, Node, watch::Receiver<Arc<Snapshot>>);
+
 /// Joins `domains` (on `interface`) and reads every gateway's status there for up to
-/// `listen`: discovery first (a third of it), then one sample per status topic.
+/// `listen` ([`look_on`]).
 pub fn look(domains: &[u32], interface: Option<&str>, listen: Duration) -> Fleet {
-    let start = Instant::now();
-    let mut fleet = Fleet::default();
-    let mut joined: Vec<(u32, Node, Discovery)> = Vec::new();
+    let (sides, _discoveries, errors) = join(domains, interface);
+    let mut fleet = look_on(&sides, listen);
+    fleet.errors.extend(errors);
+    fleet
+}
+
+/// Joins each of `domains` on `interface`: the sides to look on, the discoveries to keep alive
+/// as long as they are looked on, and the domains that could not be joined (with why).
+pub fn join(domains: &[u32], interface: Option<&str>) -> (Vec<Side>, Vec<Discovery>, Vec<(u32, String)>) {
+    let mut sides = Vec::new();
+    let mut keep = Vec::new();
+    let mut errors = Vec::new();
     for &d in domains {
         match Node::new(d, interface).and_then(|n| Ok((Discovery::start(&n, DiscoveryConfig::default())?, n))) {
-            Ok((disc, node)) => joined.push((d, node, disc)),
-            Err(e) => fleet.errors.push((d, e.to_string())),
+            Ok((disc, node)) => {
+                sides.push((d, node, disc.subscribe()));
+                keep.push(disc);
+            }
+            Err(e) => errors.push((d, e.to_string())),
         }
     }
+    (sides, keep, errors)
+}
+
+/// Reads every gateway's status on `sides` for up to `listen`: the writers of handgate's
+/// status type as discovery finds them, one sample each; done early once every writer found
+/// (after a third of `listen`) has given one.
+pub fn look_on(sides: &[Side], listen: Duration) -> Fleet {
+    let start = Instant::now();
+    let mut fleet = Fleet::default();
     let status_type = handgate_adapters::dds::type_name::<hg::GatewayStatus_>();
     // Readers are made as status writers appear, so a gateway found late is still read.
     let mut readers: Vec<(u32, String, Reader<hg::GatewayStatus_>)> = Vec::new();
     let mut made: BTreeSet<(u32, String)> = BTreeSet::new();
     let mut got: BTreeSet<(u32, String)> = BTreeSet::new();
     while start.elapsed() < listen {
-        for (d, node, disc) in &joined {
-            let snap = disc.snapshot();
+        for (d, node, disc) in sides {
+            let snap = disc.borrow().clone();
             let topics: BTreeSet<String> = snap
                 .endpoints
                 .iter()
-                .filter(|e| e.origin == Origin::Remote && e.role == Role::Writer && *e.type_name == *status_type)
+                // This process's own status writer too (the dashboard's own gateway).
+                .filter(|e| e.role == Role::Writer && *e.type_name == *status_type)
                 .map(|e| e.topic.to_string())
                 .collect();
             for t in topics {
@@ -152,6 +180,21 @@ pub fn render(f: &Fleet) -> String {
     out
 }
 
+/// The dashboard's fleet page (`/fleet`): [`render`]'s text in a page that reloads itself
+/// every few seconds. Everything in it is escaped: the texts come from other hosts' status.
+pub fn page(f: &Fleet) -> String {
+    let text = render(f)
+        .replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;");
+    format!(
+        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><meta http-equiv=\"refresh\" content=\"3\">\
+         <title>handgate fleet</title></head><body><h1>handgate fleet</h1><p><a href=\"/\">this gateway</a> \
+         &middot; <a href=\"/api/fleet\">JSON</a></p><pre>{text}</pre></body></html>\n"
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -224,5 +267,24 @@ mod tests {
             "{t}"
         );
         assert!(t.contains("domain 13: not joined: no such interface"), "{t}");
+    }
+
+    #[test]
+    fn the_page_escapes_what_other_hosts_send() {
+        let f = Fleet {
+            gateways: vec![Seen {
+                domain: 11,
+                topic: "rt/handgate/status".into(),
+                status: hg::GatewayStatus_ {
+                    profile: "<script>alert(1)</script>".into(),
+                    ..Default::default()
+                },
+            }],
+            ..Default::default()
+        };
+        let p = page(&f);
+        assert!(p.contains("&lt;script&gt;alert(1)&lt;/script&gt;"), "{p}");
+        assert!(!p.contains("<script>"), "{p}");
+        assert!(p.contains("<meta http-equiv=\"refresh\" content=\"3\">"), "{p}");
     }
 }

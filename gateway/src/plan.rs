@@ -78,6 +78,8 @@ pub struct HttpPlan {
     /// `[http] allowed_hosts`: names and addresses a request's `Host` may name besides the
     /// loopback ones and the address the connection reached.
     pub allowed_hosts: Vec<crate::http::host::Host>,
+    /// `[http] fleet_domains`: the lab's domains the fleet page looks on (empty: no page).
+    pub fleet_domains: Vec<u32>,
 }
 
 /// The gateway's Foxglove WebSocket live server (`[foxglove]`, docs/foxglove.md).

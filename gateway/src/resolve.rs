@@ -266,6 +266,13 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
                 .iter()
                 .filter_map(|h| crate::http::host::Host::parse(h).ok())
                 .collect(),
+            // Validated: parses.
+            fleet_domains: p
+                .http
+                .fleet_domains
+                .as_deref()
+                .and_then(|d| crate::doctor::parse_scan(d).ok())
+                .unwrap_or_default(),
         }),
         foxglove: p.foxglove_enabled().then(|| {
             let f = p.foxglove();

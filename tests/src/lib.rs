@@ -779,11 +779,10 @@ impl Gateway {
     /// The dashboard's base URL (`http://ADDR/`), from its start-up log line.
     pub fn http_url(&self) -> Result<String, GatewayError> {
         let line = self.wait_stdout("http: listening", GATEWAY_START_TIMEOUT)?;
-        Ok(line
-            .split_whitespace()
-            .find_map(|w| w.strip_prefix("url="))
-            .unwrap_or_default()
-            .to_string())
+        // `url=...` in the human log format, `"url":"..."` in the JSON one.
+        let human = line.split_whitespace().find_map(|w| w.strip_prefix("url="));
+        let json = || line.split("\"url\":\"").nth(1).and_then(|r| r.split('"').next());
+        Ok(human.or_else(json).unwrap_or_default().to_string())
     }
 
     /// The DDS domain it serves.

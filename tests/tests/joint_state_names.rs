@@ -17,6 +17,8 @@ use handgate_idl::ros2;
 use handgate_tests::{handgate_bin, interop_interface, repo_root, temp_profile, Gateway, Latest};
 
 const DOMAIN: u32 = 220;
+/// The devices' domain of a profile with `[export]` (its fronts on [`DOMAIN`]).
+const EXPORT_DEVICES: u32 = 224;
 const DEADLINE: Duration = Duration::from_secs(30);
 
 /// The shipped profiles (profiles/*.toml), by name.
@@ -85,18 +87,17 @@ fn every_shipped_profile_publishes_each_joint_name_once_per_topic() {
             seen.insert(name, vec![]);
             continue;
         }
-        // A profile with `[export]` serves its fronts there: the same domain and interface
-        // here, so every profile's JointState is read on one.
+        // A profile with `[export]` serves its fronts there: on DOMAIN here, its devices on a
+        // domain of their own (EXPORT_DEVICES), so every profile's JointState is read on one.
         let domain = DOMAIN.to_string();
-        let args = [
-            "--profile",
-            path.to_str().unwrap(),
-            "--export-domain",
-            &domain,
-            "--export-interface",
-            &iface,
-        ];
-        let gw = Gateway::try_start_on(DOMAIN, &args, Some(&iface)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let (devices_domain, args) = if text.contains("\n[export]") {
+            let export = ["--export-domain", &domain, "--export-interface", &iface];
+            (EXPORT_DEVICES, export.to_vec())
+        } else {
+            (DOMAIN, vec![])
+        };
+        let args = [["--profile", path.to_str().unwrap()].as_slice(), &args].concat();
+        let gw = Gateway::try_start_on(devices_domain, &args, Some(&iface)).unwrap_or_else(|e| panic!("{name}: {e}"));
         for topic in &topics {
             let mut js = Latest::<ros2::JointState_>::new(&n, topic, Qos::Reliable { depth: 1 });
             let m = js

@@ -237,7 +237,9 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
     let shipped = std::fs::read_to_string(handgate_tests::repo_root().join("profiles/lab-g1-dex3.toml")).unwrap();
     let profile = std::env::temp_dir().join(format!("handgate-lab-{}.toml", std::process::id()));
     let allow = format!("[export]\nallow_commands_from = [\"{}\"]\n", lab_op.a_addr);
-    std::fs::write(&profile, shipped.replacen("[export]\n", &allow, 1)).unwrap();
+    // The dashboard's fleet page lists the lab's two domains.
+    let fleet_page = format!("\n[http]\nfleet_domains = \"{DOMAIN_A}-{DOMAIN_B}\"\n");
+    std::fs::write(&profile, shipped.replacen("[export]\n", &allow, 1) + &fleet_page).unwrap();
     let a = Robot::start(&h, "robot_a", DOMAIN_A, (ROBOT_A, PC_A), (int_a, lab_a), &profile);
     let mut b = Robot::start(&h, "robot_b", DOMAIN_B, (ROBOT_B, PC_B), (int_b, lab_b), &profile);
 
@@ -294,6 +296,30 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
                 r.internal.b_if, r.domain, r.lab.a_if
             )),
             "{fleet}"
+        );
+    }
+    // And robot A's dashboard, on its fleet page.
+    let url = format!("{}fleet", a.gateway.as_ref().unwrap().http_url().unwrap());
+    let start = Instant::now();
+    loop {
+        let out = std::process::Command::new("ip")
+            .args(["netns", "exec", &h.ns[PC_A], "python3", "-c"])
+            .arg("import sys, urllib.request; print(urllib.request.urlopen(sys.argv[1]).read().decode())")
+            .arg(&url)
+            .output()
+            .unwrap();
+        let page = String::from_utf8_lossy(&out.stdout);
+        if page.contains("2 gateway(s)") {
+            assert!(
+                page.contains("domain 222  /robot_a  host ") && page.contains("domain 223  /robot_b  host "),
+                "{page}"
+            );
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "robot A's fleet page: {page}{}",
+            String::from_utf8_lossy(&out.stderr)
         );
     }
     let commanded = fleet

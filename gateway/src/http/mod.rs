@@ -68,6 +68,8 @@ pub struct Fleet {
     pub clients: AtomicUsize,
     /// Requests refused for their `Host` or `Origin`.
     pub refused: host::Refused,
+    /// The fleet page's latest look (`[http] fleet_domains`); `None`: no fleet page.
+    pub lab: Option<watch::Receiver<Arc<crate::fleet::Fleet>>>,
 }
 
 impl Fleet {
@@ -101,6 +103,7 @@ impl Fleet {
             started: crate::runtime::epoch(),
             clients: AtomicUsize::new(0),
             refused: host::Refused::default(),
+            lab: None,
         }
     }
 }
@@ -387,6 +390,17 @@ impl Server {
                 feed::hello(&self.fleet, self.page.is_some(), self.sample_hz),
             ),
             "/api/status" => Response::new(200, "application/json", feed::status(&self.fleet)),
+            "/api/fleet" | "/fleet" => match &self.fleet.lab {
+                None => Response::text(404, "no fleet page: set [http] fleet_domains\n"),
+                Some(lab) => {
+                    let f = lab.borrow().clone();
+                    if path == "/fleet" {
+                        Response::new(200, "text/html; charset=utf-8", crate::fleet::page(&f))
+                    } else {
+                        Response::new(200, "application/json", serde_json::to_vec(&*f).unwrap_or_default())
+                    }
+                }
+            },
             _ => match assets::get(path) {
                 Some((ty, bytes)) => Response::new(200, ty, bytes.to_vec()),
                 None => Response::text(404, "not found\n"),

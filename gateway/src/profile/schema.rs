@@ -397,6 +397,10 @@ pub struct HttpConfig {
     /// loopback addresses and the address the connection reached (DNS rebinding:
     /// docs/dashboard.md, "Security").
     pub allowed_hosts: Vec<String>,
+    /// The lab's DDS domains whose gateways the fleet page (`/fleet`) lists, `A-B` or `N`
+    /// (looked on through the clients' interface); unset: no fleet page.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fleet_domains: Option<String>,
 }
 
 /// The dashboard's default port.
@@ -412,6 +416,7 @@ impl Default for HttpConfig {
             sample_hz: RateHz(50.0),
             command_watchdog_ms: Millis(500),
             allowed_hosts: Vec::new(),
+            fleet_domains: None,
         }
     }
 }

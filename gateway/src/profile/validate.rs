@@ -257,6 +257,9 @@ impl Checker {
                     format!("must be {MIN_PAGE_WATCHDOG_MS}..={MAX_PAGE_WATCHDOG_MS} ms, got {wd}"),
                 );
             }
+            if let Some(Err(why)) = p.http.fleet_domains.as_deref().map(crate::doctor::parse_scan) {
+                self.err(k.key("fleet_domains"), why);
+            }
             for h in &p.http.allowed_hosts {
                 if let Err(e) = crate::http::host::Host::parse(h) {
                     self.err(

@@ -257,7 +257,16 @@ impl Runtime {
             shutdown_rx.clone(),
         )?);
         if let (Some(h), Some(listener)) = (&plan.http, http_listener) {
-            let fleet = crate::http::Fleet::new(plan, &devices, clients_discovery.subscribe(), status_rx.clone());
+            let mut fleet = crate::http::Fleet::new(plan, &devices, clients_discovery.subscribe(), status_rx.clone());
+            if !h.fleet_domains.is_empty() {
+                fleet.lab = Some(spawn_fleet_look(
+                    plan,
+                    &h.fleet_domains,
+                    &clients,
+                    clients_discovery,
+                    shutdown_rx.clone(),
+                ));
+            }
             tasks.extend(crate::http::spawn(h, listener, fleet, &by_name, shutdown_rx.clone())?);
         }
         if let Some(ns) = &plan.namespace {
@@ -344,6 +353,56 @@ fn start_live(node: &Node, plan: &Plan) -> Result<Option<crate::live::Live>, Run
         Err(e) => Err(e.into()),
     }
 }
+
+/// The fleet page's look (`[http] fleet_domains`), on a thread of its own (it blocks while it
+/// listens): every few seconds, every gateway's status on those domains. The clients' domain
+/// is looked on through the gateway's own participant there; the devices' domain (with
+/// `[export]`: the robot's network) is not looked on; every other domain is joined on the
+/// clients' interface. Ends on `shutdown`.
+fn spawn_fleet_look(
+    plan: &Plan,
+    domains: &[u32],
+    clients: &Node,
+    clients_discovery: &Discovery,
+    shutdown: watch::Receiver<bool>,
+) -> watch::Receiver<Arc<crate::fleet::Fleet>> {
+    let (tx, rx) = watch::channel(Arc::new(crate::fleet::Fleet::default()));
+    let clients_domain = plan.export.as_ref().map_or(plan.domain, |e| e.domain);
+    let interface = match &plan.export {
+        Some(e) => e.interface.clone(),
+        None => plan.interface.clone(),
+    };
+    let own = (clients_domain, clients.clone(), clients_discovery.subscribe());
+    let others: Vec<u32> = domains
+        .iter()
+        .copied()
+        .filter(|d| *d != clients_domain && (plan.export.is_none() || *d != plan.domain))
+        .collect();
+    let look_own = domains.contains(&clients_domain);
+    let spawned = std::thread::Builder::new().name("fleet-look".into()).spawn(move || {
+        let (mut sides, _keep, errors) = crate::fleet::join(&others, interface.as_deref());
+        if look_own {
+            sides.insert(0, own);
+        }
+        while !*shutdown.borrow() {
+            let mut f = crate::fleet::look_on(&sides, FLEET_LOOK);
+            f.errors.extend(errors.iter().cloned());
+            let _ = tx.send(Arc::new(f));
+            let until = Instant::now() + FLEET_EVERY;
+            while Instant::now() < until && !*shutdown.borrow() {
+                std::thread::sleep(Duration::from_millis(100));
+            }
+        }
+    });
+    if let Err(e) = spawned {
+        tracing::warn!(error = %e, "http: no fleet page (its thread did not start)");
+    }
+    rx
+}
+
+/// How long each look of the fleet page listens, and how often it looks.
+const FLEET_LOOK: Duration = Duration::from_secs(3);
+const FLEET_EVERY: Duration = Duration::from_secs(2);
 
 /// Waits until discovery has settled (no change for `plan.discovery_settle`, at most
 /// `plan.discovery_max_wait` in all); returns the snapshot and how long it took.
