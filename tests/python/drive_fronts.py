@@ -11,7 +11,7 @@ Sets (the fronts of the profile of the same name):
               Dex1 left/right (unitree_go MotorCmds_ / MotorStates_)
     sim-all   the above, the actuator pair and Inspire DFX (unitree_go), Inspire FTP per side
               (inspire_hand_ctrl 65 B / inspire_hand_state 98 B / inspire_hand_touch 2.2 KB,
-              above the default 1344 B fragment size), BrainCo per side, every canonical front
+              above the default 1344 B fragment size), BrainCo and Dex5-1 per side, every canonical front
               (handgate HandCmd_ / HandState_), rt/joint_states (ROS 2 JointState) and
               rt/handgate/status (GatewayStatus_)
 
@@ -42,7 +42,7 @@ SIDES = ("left", "right")
 # Devices of profiles/sim-all.toml, each with a canonical front rt/handgate/<device>/*.
 SIM_ALL_DEVICES = [
     "%s_%s" % (kind, side)
-    for kind in ("dex3", "dex1", "ezgripper", "inspire_dfx", "inspire_ftp", "brainco")
+    for kind in ("dex3", "dex1", "ezgripper", "inspire_dfx", "inspire_ftp", "brainco", "dex5")
     for side in SIDES
 ] + ["hand_sdk"]
 
@@ -51,6 +51,14 @@ def dex3_cmd():
     cmd = unitree_hg_msg_dds__HandCmd_()
     for i, m in enumerate(cmd.motor_cmd):
         m.mode, m.q, m.kp, m.kd = 0x10 | i, 0.0, 1.5, 0.1  # RIS byte: motor i, FOC
+    return cmd
+
+
+def dex5_cmd():
+    # The Dex5-1 service's 20 entries, enabled (mode 1), xr_teleoperate's gains.
+    cmd = HandCmd_(motor_cmd=[unitree_hg_msg_dds__HandCmd_().motor_cmd[0] for _ in range(20)], reserve=[0] * 4)
+    for m in cmd.motor_cmd:
+        m.mode, m.q, m.kp, m.kd = 1, 0.2, 1.5, 0.1
     return cmd
 
 
@@ -90,11 +98,16 @@ def fronts(which):
     for side in SIDES:
         cmds.append(("rt/brainco/%s/cmd" % side, MotorCmds_, go_cmds(6, 0.5)))
         states.append(("rt/brainco/%s/state" % side, MotorStates_))
+        cmds.append(("rt/dex5/%s/cmd" % side, HandCmd_, dex5_cmd()))
+        states.append(("rt/dex5/%s/state" % side, HandState_))
     for dev in SIM_ALL_DEVICES:
         msg = hg.HandCmd_(seq=1, mode=1, closure=0.5, stiffness=0.0, joints=[])
         cmds.append(("rt/handgate/%s/cmd" % dev, hg.HandCmd_, msg))
         states.append(("rt/handgate/%s/state" % dev, hg.HandState_))
-    states += [("rt/joint_states", hg.RosJointState_), ("rt/handgate/status", hg.GatewayStatus_)]
+    states += [
+        ("rt/joint_states", hg.RosJointState_),
+        ("rt/handgate/status", hg.GatewayStatus_),
+    ]
     return cmds, states
 
 

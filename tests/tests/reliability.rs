@@ -1406,6 +1406,8 @@ const SIM_ALL: &[(&str, Nominal)] = &[
     ("inspire_ftp_right", Nominal::Hz(50.0)),
     ("brainco_left", Nominal::Hz(500.0)),
     ("brainco_right", Nominal::Hz(500.0)),
+    ("dex5_left", Nominal::Hz(500.0)),
+    ("dex5_right", Nominal::Hz(500.0)),
     ("hand_sdk", Nominal::NoState),
 ];
 
@@ -1414,7 +1416,7 @@ const RATE_TOL: f64 = 0.05;
 /// The window a state rate is measured over (5 s: 250 samples at the slowest, 50 Hz, so one
 /// sample of scrape jitter is 0.4 %).
 const RATE_WINDOW: Duration = Duration::from_secs(5);
-/// Start-up bound for the whole fleet (the EZGrippers calibrate first; 13 devices on a
+/// Start-up bound for the whole fleet (the EZGrippers calibrate first; 15 devices on a
 /// shared 2-core machine).
 const FLEET_START: Duration = Duration::from_secs(60);
 
@@ -1789,6 +1791,20 @@ fn sim_all_streams(n: &Node) -> Vec<Stream> {
             m.cmds.iter_mut().for_each(|c| {
                 c.q = swing(k, hz);
                 c.dq = 1.0;
+            });
+            m
+        }));
+    }
+    for side in ["left", "right"] {
+        // The Dex5-1 service's 20 entries, enabled, xr_teleoperate's gains (docs/profiles.md,
+        // "Assumptions"); every joint at a fraction of its closing travel.
+        v.push(stream(n, &format!("rt/dex5/{side}/cmd"), hz, move |k| {
+            let mut m = unitree_hg::HandCmd_::with_motors(handgate_adapters::dex5::WIRE_LEN);
+            m.motor_cmd.iter_mut().for_each(|c| {
+                c.mode = handgate_adapters::dex5::MODE_ENABLED;
+                c.q = 0.5 * swing(k, hz);
+                c.kp = 1.5;
+                c.kd = 0.1;
             });
             m
         }));
