@@ -24,7 +24,9 @@ use crate::dds_device::{emulator_topics, DdsCodec, DdsDevice, DdsDeviceConfig, W
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::discovery::diagnose::Served;
 use crate::emu_common::{EmulatorError, Hz};
-use crate::kind::{DdsTopicKeys, DeviceCtx, EmulateArgs, Emulation, Kind, KindFacts, Problem, Settings};
+use crate::kind::{
+    DdsTopicKeys, DeviceCtx, EmulateArgs, EmulateOptions, Emulation, Kind, KindFacts, Problem, Settings,
+};
 use crate::mapping::DeviceTable;
 use crate::model::Side;
 use crate::open::{DeviceSpec, EmulatorSection, OpenEnv};
@@ -123,6 +125,8 @@ pub trait ServiceHand: Sync + Send + fmt::Debug + 'static {
     /// What the codec is built from, decided from the profile (and shown by `handgate check`).
     type Wire: Clone + fmt::Debug + PartialEq + Send + Sync + 'static;
     type Codec: DdsCodec;
+    /// The options of `handgate emulate <kind>` besides the common ones (`()`: none).
+    type Emulate: EmulateOptions;
     /// The emulated service's core; its configuration holds one entry per joint in
     /// `FACTS.joints` order ([`EmulatedHand`]).
     type Core: ServiceCore<Config: EmulatedHand + fmt::Debug + Clone + PartialEq> + ServiceWire<Self::Core>;
@@ -134,6 +138,11 @@ pub trait ServiceHand: Sync + Send + fmt::Debug + 'static {
     /// The emulated service of one hand on `side` at its defaults (its own rate and topics,
     /// its rest posture) speaking `wire`, with `noise`.
     fn service(side: Side, wire: &Self::Wire, noise: Noise) -> <Self::Core as ServiceCore>::Config;
+    /// What the service run alone (`handgate emulate`) speaks, given its options. Default:
+    /// what a device with no keys of its own speaks.
+    fn emulated_wire(_options: &Self::Emulate) -> Self::Wire {
+        Self::wire(&Self::Config::default())
+    }
     /// [`Kind::validate_emulator`].
     fn validate_emulator(_ctx: &DeviceCtx<'_>, _section: &EmulatorSection) -> Vec<Problem> {
         Vec::new()
@@ -254,7 +263,7 @@ impl<H: ServiceHand> Kind for H {
     const FACTS: KindFacts = H::FACTS;
     type Config = H::Config;
     type Open = ClientOpen<H::Wire, PeerOf<H>>;
-    type Emulate = ();
+    type Emulate = H::Emulate;
 
     fn table(&self, side: Side, config: &H::Config) -> DeviceTable {
         H::table(side, config)
@@ -293,13 +302,13 @@ impl<H: ServiceHand> Kind for H {
     }
 
     /// One hand's service on its standard topics, on the command line's domain.
-    fn emulate(&self, args: &EmulateArgs, _options: ()) -> Result<(String, Emulation), DeviceError> {
+    fn emulate(&self, args: &EmulateArgs, options: H::Emulate) -> Result<(String, Emulation), DeviceError> {
         let name = H::FACTS.name;
         let side = args.side(name)?;
         let (Some(cmd), Some(state)) = H::Config::default().topics(side) else {
             return Err(DeviceError::Config(format!("a {name} hand is left or right")));
         };
-        let wire = H::wire(&H::Config::default());
+        let wire = H::emulated_wire(&options);
         let cfg = H::service(side, &wire, args.noise(H::NOISE));
         let what = format!(
             "emulating {} ({side} hand): {cmd}, {state} on DDS domain {}",

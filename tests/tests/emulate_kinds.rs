@@ -72,6 +72,36 @@ fn g1_dex5_profile_runs_against_two_emulated_hand_services() {
     wait_status(197, &["left_hand", "right_hand"], hg::FRESH);
 }
 
+/// The wrapper's conventions on both sides: the emulated service started with them on the
+/// command line, the robot profile set to them; a canonical closure command closes the hand.
+#[test]
+fn g1_dex5_in_the_wrappers_conventions_runs_against_the_service_emulated_in_them() {
+    let _g = serial();
+    let conventions = ["--command-layout", "motors", "--gains", "unitree_dds_wrapper"];
+    let _left = Emulator::start(&[["dex5", "--side", "left", "--domain", "198"].as_slice(), &conventions].concat());
+    let _right = Emulator::start(&[["dex5", "--side", "right", "--domain", "198"].as_slice(), &conventions].concat());
+    let profile = shipped_edited(
+        "g1-dex5",
+        &[
+            ("gains = \"xr_teleoperate\"      #", "gains = \"unitree_dds_wrapper\" #"),
+            ("command_layout = \"joints\"     #", "command_layout = \"motors\"     #"),
+        ],
+    );
+    let _gw = Gateway::start(198, &["--profile", profile.to_str().unwrap()]);
+    wait_status(198, &["left_hand", "right_hand"], hg::FRESH);
+    let n = node(198);
+    let mut w = n
+        .writer::<hg::HandCmd_>("rt/handgate/left_hand/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    w.wait_matched(1, DEADLINE)
+        .expect("the canonical front reads its command topic");
+    let mut state: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/left_hand/state", Qos::BestEffort);
+    let closed = handgate_tests::stream_until(&mut w, &handgate_tests::closure_cmd(1, 0.8), DEADLINE, || {
+        state.update().is_some_and(|s| s.closure > 0.6)
+    });
+    assert!(closed, "the hand did not close: {:?}", state.update());
+}
+
 #[test]
 fn a_dex1_client_profile_runs_against_the_emulated_service_in_each_variant() {
     let _g = serial();

@@ -32,6 +32,7 @@ impl ServiceHand for BraincoKind {
     /// The finger speed sent in every entry's `dq`.
     type Wire = f32;
     type Codec = BraincoCodec;
+    type Emulate = ();
     type Core = BraincoCore;
 
     fn table(side: Side, _config: &BraincoProfile) -> DeviceTable {

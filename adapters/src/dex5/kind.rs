@@ -5,11 +5,11 @@
 use super::adapter::Dex5Codec;
 use super::config::Dex5Profile;
 use super::emulator::{Dex5Core, Dex5EmuConfig, DEX5_NOISE};
-use super::table::{self, WireConfig};
+use super::table::{self, Conventions, WireConfig};
 use super::{JOINTS, SERVICE_HZ};
 use crate::device::Backend;
 use crate::front::kind::FrontKind;
-use crate::kind::{DeviceCtx, DeviceKind, KindFacts, Problem, SectionSpec};
+use crate::kind::{DeviceCtx, DeviceKind, EmulateOption, EmulateOptions, KindFacts, Problem, SectionSpec};
 use crate::mapping::DeviceTable;
 use crate::model::Side;
 use crate::open::EmulatorSection;
@@ -49,6 +49,7 @@ impl ServiceHand for Dex5Kind {
     /// The gains, command layout and coupling.
     type Wire = WireConfig;
     type Codec = Dex5Codec;
+    type Emulate = Dex5Emulate;
     type Core = Dex5Core;
 
     fn table(side: Side, config: &Dex5Profile) -> DeviceTable {
@@ -59,6 +60,11 @@ impl ServiceHand for Dex5Kind {
     }
     fn codec(wire: WireConfig) -> Dex5Codec {
         Dex5Codec::new(wire)
+    }
+    /// The conventions given on the command line (`--gains`, `--command-layout`,
+    /// `--coupling`), the defaults' otherwise.
+    fn emulated_wire(options: &Dex5Emulate) -> WireConfig {
+        WireConfig::of(&options.0)
     }
     fn service(side: Side, wire: &WireConfig, noise: Noise) -> Dex5EmuConfig {
         Dex5EmuConfig {
@@ -92,6 +98,51 @@ impl ServiceHand for Dex5Kind {
             }
         }
         out
+    }
+}
+
+/// `handgate emulate dex5`'s own options: the conventions the emulated service takes where the
+/// sources disagree (`[devices.dex5]`'s keys but the URDF names, which the service does not
+/// use; docs/profiles.md, "Assumptions").
+#[derive(Debug, Default)]
+pub struct Dex5Emulate(pub Conventions);
+
+impl EmulateOptions for Dex5Emulate {
+    const OPTIONS: &'static [EmulateOption] = &[
+        EmulateOption {
+            name: "gains",
+            value: Some("xr_teleoperate|unitree_dds_wrapper"),
+            help: "the gains its motors move with as measured (default xr_teleoperate's)",
+        },
+        EmulateOption {
+            name: "command-layout",
+            value: Some("joints|motors"),
+            help: "the commands it takes: 20 entries, one per joint (default), or the wrapper's 16, one per motor",
+        },
+        EmulateOption {
+            name: "coupling",
+            value: Some("K"),
+            help: "rad of each Pitch_x4 per rad of its Pitch_x3 (default 0.829)",
+        },
+    ];
+
+    fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
+        use serde::de::IntoDeserializer;
+        use serde::Deserialize;
+        let v = value.unwrap_or("");
+        let bad = |e: serde::de::value::Error| e.to_string();
+        match name {
+            "gains" => self.0.gains = table::GainSource::deserialize(v.into_deserializer()).map_err(bad)?,
+            "command-layout" => {
+                self.0.command_layout = table::CommandLayout::deserialize(v.into_deserializer()).map_err(bad)?
+            }
+            "coupling" => {
+                self.0.coupling = v.parse().map_err(|_| format!("`{v}` is not a number"))?;
+                self.0.validate()?;
+            }
+            _ => return Err(format!("--{name} is not an option")),
+        }
+        Ok(())
     }
 }
 
@@ -218,5 +269,31 @@ mod tests {
         assert!(p[0].starts_with("emulator.initial.ring_3: has no effect") && p[0].contains("set ring_2"));
         assert!(p[1].starts_with("emulator.object_at.pinky_0: has no effect"));
         assert!(p[2].starts_with("emulator.object_at.thumb_0: has no effect"));
+    }
+
+    #[test]
+    fn the_emulated_service_takes_the_conventions_on_the_command_line() {
+        let mut o = Dex5Emulate::default();
+        assert_eq!(Dex5Kind::emulated_wire(&o), WireConfig::of(&Conventions::default()));
+        o.set("gains", Some("unitree_dds_wrapper")).unwrap();
+        o.set("command-layout", Some("motors")).unwrap();
+        o.set("coupling", Some("1.0")).unwrap();
+        let c = Conventions {
+            gains: table::GainSource::UnitreeDdsWrapper,
+            command_layout: CommandLayout::Motors,
+            coupling: 1.0,
+            ..Default::default()
+        };
+        assert_eq!(Dex5Kind::emulated_wire(&o), WireConfig::of(&c));
+        let e = o.set("gains", Some("mine")).unwrap_err();
+        assert!(
+            e.starts_with("unknown variant `mine`, expected `xr_teleoperate`"),
+            "{e}"
+        );
+        assert!(o.set("command-layout", Some("motor")).is_err());
+        assert!(o.set("coupling", Some("3")).unwrap_err().starts_with("must be above 0"));
+        assert!(o.set("coupling", Some("x")).is_err());
+        let names: Vec<&str> = Dex5Emulate::OPTIONS.iter().map(|o| o.name).collect();
+        assert_eq!(names, ["gains", "command-layout", "coupling"]);
     }
 }
