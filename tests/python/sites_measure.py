@@ -26,7 +26,8 @@ echoed exactly is reported too.
 
 stdout (flushed lines) of latency:
     READY               the hand's state was seen
-    ECHOED              the state reflected this client's first command
+    ECHOED              the state reflected one of this client's commands (the stream does
+                        not wait for it: a pause would trip a watchdog front)
     RESULT <json>       {"count", "reflected", "exact", "median_ms", "p99_ms", ...}
     DONE
 latency stops after --count commands, or on SIGTERM (then it writes what it has). observe
@@ -127,7 +128,9 @@ def cmd_latency(a):
                 reflected[i] = now
                 exact[i] = i == k
                 seen["next"] += 1
-            seen["echoed"].set()
+            if not seen["echoed"].is_set():
+                seen["echoed"].set()
+                print("ECHOED", flush=True)
 
     sub = ChannelSubscriber(f"rt/dex3/{a.side}/state", HandState_)
     sub.Init(on_state, 0)
@@ -165,11 +168,6 @@ def cmd_latency(a):
             writes_wall[k] = time.time()
         pub.Write(cmd)
         sent += 1
-        if k == 0:
-            if seen["echoed"].wait(a.timeout):
-                print("ECHOED", flush=True)
-            else:
-                break
     # The last commands' states are still on their way: wait for them, with a deadline.
     end = time.monotonic() + a.drain
     while time.monotonic() < end and not stop.is_set():
@@ -581,7 +579,11 @@ def report(r):
     out.append("")
     out.append("### Duplicates, reorders, late commands")
     out.append("")
-    out.append("The gateway's counters at the end of the run (`/metrics`), per device:")
+    out.append(
+        "The gateway's counters at the end of the run (`/metrics`), per device (watchdog trips: every "
+        "silence action of the run, one each time a client of the `silence = \"watchdog\"` front "
+        "stopped or was cut off):"
+    )
     out.append("")
     out.append("| device | commands | duplicate_cmd | reordered_cmd | late_cmd (max_command_age_ms = 100) | watchdog trips |")
     out.append("|---|---|---|---|---|---|")
