@@ -19,6 +19,10 @@
 #   make mutants - cargo-mutants on the safety core (scripts/mutants.sh; hours for the gateway
 #                set); not part of make test
 #   make bench - release benchmarks (minutes); rewrites docs/benchmarks.md
+#   make fleet - as root: the simulated lab of robots (the lab and export tests, release) and two
+#                sites joined by a shaped Zenoh link, measured (latency, the bridges' CPU, dropped
+#                commands, a 3 s link cut); rewrites docs/benchmarks.md's "Sites over Zenoh"
+#                (scripts/fleet.sh; builds zenohd and its DDS plugin once, 12-19 min on 2 cores)
 SHELL := /bin/bash
 CARGO ?= cargo
 ARGS ?=
@@ -26,7 +30,7 @@ ARGS ?=
 # of a clean debug build, no TLS or compression). The tests build the binary with it too.
 FEATURES ?= --features handgate/foxglove
 
-.PHONY: run test test-loaded ports setup build lint fmt bench reliability mutants valgrind fixtures clean-venv
+.PHONY: run test test-loaded ports setup build lint fmt bench fleet reliability mutants valgrind fixtures clean-venv
 
 setup:
 	@scripts/setup.sh
@@ -75,6 +79,9 @@ mutants: setup
 
 bench: setup
 	@scripts/bench.sh
+
+fleet: setup
+	CARGO="$(CARGO)" FEATURES="$(FEATURES)" scripts/fleet.sh
 
 lint:
 	$(CARGO) clippy --workspace --all-targets $(FEATURES) -- -D warnings

@@ -3,7 +3,7 @@
 # Zenoh"): proves that the project's Zenoh recipe carries a robot's Dex3 hands and handgate's
 # status to an operator site, and the operator's commands back.
 #
-#   scripts/zenoh-sites.sh [--no-netem] [--domain N] [--logs DIR]
+#   scripts/zenoh-sites.sh [--no-netem] [--domain N] [--logs DIR] [--measure FILE]
 #
 # Two network namespaces (names from $ZENOH_SITES_NS, default hg-zenoh: hg-zenoh-rb, hg-zenoh-op),
 # made here and deleted on exit, whatever happens:
@@ -28,18 +28,38 @@
 # ($HANDGATE_BIN, default ${CARGO_TARGET_DIR:-target}/debug/handgate: cargo build -p handgate)
 # and .venv with unitree_sdk2py (scripts/setup.sh). Exit 0 when the state crossed to the
 # operator, the operator's command reached the robot's hands and handgate's status crossed.
+#
+# --measure FILE (make fleet, scripts/fleet.sh; docs/benchmarks.md "Sites over Zenoh"): handgate
+# runs profiles/zenoh/sites-robot.toml instead (two emulated Dex3 hands; the right one's front
+# with silence = "watchdog"), and the run measures, with tests/python/sites_measure.py, then
+# writes its figures to FILE (JSON):
+#   1. before the bridges start, the baseline: the latency client (tagged Dex3 commands at
+#      100 Hz, each timed until the state echoes it) in the robot site, on handgate's network;
+#   2. the proof above;
+#   3. the link's own TCP round trip, operator -> robot;
+#   4. the same latency client at the operator site, across Zenoh, and meanwhile the CPU of
+#      both zenohd, handgate and the shaped link;
+#   5. a 3 s cut of the link (shaped: tests/python/shaped_link.py's SIGUSR1/SIGUSR2; plain: the
+#      operator's end down) while the client streams to the right hand: the watchdog trips, the
+#      gateway's log times the hold and the resumption, a subscriber at the robot site sees
+#      which commands reach the hand after the restore;
+#   6. the gateway's counters (/metrics), handgate status --once at the operator site.
+# $SITES_COMMAND names the command that ran it in FILE (default this script's command line).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 
-netem=1 domain=29 logs=""
+command="scripts/zenoh-sites.sh $*"
+netem=1 domain=29 logs="" measure=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --no-netem) netem=0; shift ;;
     --domain) domain=${2:?--domain takes a DDS domain id}; shift 2 ;;
     --logs) logs=${2:?--logs takes a directory}; shift 2 ;;
-    *) echo "usage: scripts/zenoh-sites.sh [--no-netem] [--domain N] [--logs DIR]" >&2; exit 2 ;;
+    --measure) measure=${2:?--measure takes the file to write the figures to}; shift 2 ;;
+    *) echo "usage: scripts/zenoh-sites.sh [--no-netem] [--domain N] [--logs DIR] [--measure FILE]" >&2; exit 2 ;;
   esac
 done
+command=${SITES_COMMAND:-$command}
 
 [ "$(id -u)" -eq 0 ] || { echo "zenoh-sites: needs root (network namespaces)" >&2; exit 2; }
 handgate=${HANDGATE_BIN:-${CARGO_TARGET_DIR:-$root/target}/debug/handgate}
@@ -73,7 +93,16 @@ cleanup() {
   ip netns del "$rb" 2>/dev/null
   ip netns del "$op" 2>/dev/null
   grep -h "^STATS " "$logs/link.log" 2>/dev/null | sed 's/^STATS /zenoh-sites: shaped link, packets per direction: /'
-  echo "zenoh-sites: namespaces $rb and $op removed; logs in $logs"
+  # Say so if anything survived: a process of this run, or a namespace.
+  survived=""
+  for pid in "${pids[@]}"; do kill -0 "$pid" 2>/dev/null && survived+=" pid $pid"; done
+  for n in "$rb" "$op"; do ip netns list | grep -qx "$n\( .*\)\?" && survived+=" netns $n"; done
+  if [ -n "$survived" ]; then
+    echo "zenoh-sites: FAILED to clean up:$survived" >&2
+    [ "$rc" -ne 0 ] || rc=1
+  else
+    echo "zenoh-sites: namespaces $rb and $op removed, no process of this run left; logs in $logs"
+  fi
   exit "$rc"
 }
 trap cleanup EXIT
@@ -83,6 +112,15 @@ trap 'exit 130' INT TERM
 # (the background starts below call ip netns exec directly, which execs the program).
 in_rb() { ip netns exec "$rb" "$@"; }
 in_op() { ip netns exec "$op" "$@"; }
+# Runs a command to its end in the background and waits for it: bash runs a trap only between
+# foreground commands, but interrupts `wait`, so a signal to this script cleans up at once. Give
+# it a program (ip netns exec ...), not a function, so that its pid is the program's.
+run() {
+  "$@" &
+  local pid=$!
+  pids+=("$pid")
+  wait "$pid"
+}
 
 # Waits up to SECONDS for a line of FILE matching PATTERN (a deadline, not a sleep for
 # readiness); fails with the file's tail.
@@ -136,18 +174,42 @@ for n in "$rb" "$op"; do
   echo "zenoh-sites: routes in $n: $(ip netns exec "$n" ip -4 route | awk '{print $1" dev "$3}' | paste -sd, -)"
 done
 
-# Robot site: handgate serving its default profile's fronts on zl-rb, then the robot's zenohd.
-ip netns exec "$rb" "$handgate" run --domain "$domain" --interface zl-rb --http-port 0 \
-  > "$logs/handgate.log" 2>&1 &
-pids+=($!)
+# Robot site: handgate serving its default profile's fronts on zl-rb (--measure: the measured
+# run's profile, its dashboard and /metrics on a port of the namespace's own), then the robot's
+# zenohd.
+profile=() http_port=0
+if [ -n "$measure" ]; then
+  profile=(--profile "$root/profiles/zenoh/sites-robot.toml")
+  http_port=8780
+  metrics_url="http://127.0.0.1:$http_port/"
+  uptime_before=$(uptime)
+fi
+ip netns exec "$rb" "$handgate" run "${profile[@]}" --domain "$domain" --interface zl-rb \
+  --http-port "$http_port" > "$logs/handgate.log" 2>&1 &
+gateway=$!
+pids+=("$gateway")
 wait_log "$logs/handgate.log" "handgate serving" 60 "handgate serving"
+
+measure_py=("$py" "$root/tests/python/sites_measure.py")
+rate=100 samples=1000
+if [ -n "$measure" ]; then
+  # 1. The baseline: the same client and gateway with no Zenoh (the client on handgate's own
+  # network, in the robot site), before any bridge exists.
+  echo "zenoh-sites: measure: baseline latency, the client in the robot site on zl-rb (no Zenoh), $samples commands at $rate Hz"
+  run ip netns exec "$rb" "${measure_py[@]}" latency --domain "$domain" --interface zl-rb --side left \
+    --count "$samples" --rate "$rate" --tag-base 1000000 --out "$logs/latency-direct.json" \
+    > "$logs/latency-direct.log" 2>&1
+  sed -n 's/^RESULT /zenoh-sites: measure: direct: /p' "$logs/latency-direct.log"
+fi
 
 ip netns exec "$rb" "$root/scripts/zenoh-bridge.sh" robot --dds-interface zl-rb --domain "$domain" \
   --listen tcp/10.77.0.2:7447 > "$logs/zenohd-robot.log" 2>&1 &
-pids+=($!)
+zenohd_robot=$!
+pids+=("$zenohd_robot")
 ip netns exec "$op" "$root/scripts/zenoh-bridge.sh" operator --dds-interface zl-op --domain "$domain" \
   --robot 10.77.0.2 > "$logs/zenohd-operator.log" 2>&1 &
-pids+=($!)
+zenohd_operator=$!
+pids+=("$zenohd_operator")
 
 # Operator site: xr_teleoperate's Dex3 start-up (wait for both hands' state, nonzero), then its
 # command stream closing index_0 until the state reads it back.
@@ -169,9 +231,13 @@ grep -q '"converged": true' <<<"$result" \
 wait "$client" || true
 
 # handgate's status heartbeat, read at the operator site.
-echo "zenoh-sites: operator: handgate status --once (rt/handgate/status across the link)"
-in_op "$handgate" status --domain "$domain" --interface zl-op --once --timeout 30 \
-  | tee "$logs/status.txt" | sed 's/^/  /'
+status_once() {
+  echo "zenoh-sites: operator: handgate status --once (rt/handgate/status across the link)"
+  run ip netns exec "$op" "$handgate" status --domain "$domain" --interface zl-op --once --timeout 30 \
+    > "$logs/status.txt"
+  sed 's/^/  /' "$logs/status.txt"
+}
+status_once
 
 # The allow-list at work: the routes each side's plugin made, and the topics it refused.
 for side in robot operator; do
@@ -181,4 +247,94 @@ for side in robot operator; do
   echo "zenoh-sites: $side plugin routes: ${routes:-none}"
   echo "zenoh-sites: $side plugin refused (allow-list): ${refused:-none}"
 done
+[ -n "$measure" ] || { echo "zenoh-sites: OK"; exit 0; }
+
+# The measured run (--measure), after the proof above.
+procs=(handgate="$gateway" zenohd_robot="$zenohd_robot" zenohd_operator="$zenohd_operator")
+[ "$netem" -eq 0 ] || procs+=(shaped_link="$link")
+metrics() { ip netns exec "$rb" "${measure_py[@]}" metrics --url "$metrics_url" --out "$logs/metrics-$1.json"; }
+
+# 3. The link alone: TCP round trips operator -> robot, at the commands' rate.
+echo "zenoh-sites: measure: the link's own TCP round trip, $samples messages at $rate Hz"
+ip netns exec "$rb" "${measure_py[@]}" echo-server --listen 10.77.0.2:7448 > "$logs/echo-server.log" 2>&1 &
+pids+=($!)
+wait_log "$logs/echo-server.log" "^READY" 10 "the echo server"
+run ip netns exec "$op" "${measure_py[@]}" echo-client --to 10.77.0.2:7448 --count "$samples" --rate "$rate" \
+  --out "$logs/echo.json" > "$logs/echo-client.log" 2>&1
+sed -n 's/^RESULT /zenoh-sites: measure: link: /p' "$logs/echo-client.log"
+
+# 4. The latency across Zenoh, and the CPU meanwhile.
+echo "zenoh-sites: measure: latency across Zenoh, the client at the operator site on zl-op, $samples commands at $rate Hz"
+"${measure_py[@]}" cpu --out "$logs/cpu-latency-start.json" "${procs[@]}"
+run ip netns exec "$op" "${measure_py[@]}" latency --domain "$domain" --interface zl-op --side left \
+  --count "$samples" --rate "$rate" --tag-base 2000000 --out "$logs/latency-zenoh.json" \
+  > "$logs/latency-zenoh.log" 2>&1
+"${measure_py[@]}" cpu --out "$logs/cpu-latency-end.json" "${procs[@]}"
+sed -n 's/^RESULT /zenoh-sites: measure: across Zenoh: /p' "$logs/latency-zenoh.log"
+
+# 5. A 3 s cut while the client streams to the right hand (silence = "watchdog").
+cut_link() { # on | off
+  if [ "$netem" -eq 1 ]; then
+    local want=CUT signal=USR1
+    [ "$1" = on ] || { want=RESTORED; signal=USR2; }
+    local before
+    before=$(grep -c "^$want " "$logs/link.log" || true)
+    kill -"$signal" "$link"
+    local end=$((SECONDS + 5))
+    until [ "$(grep -c "^$want " "$logs/link.log" || true)" -gt "$before" ]; do
+      [ "$SECONDS" -lt "$end" ] || { echo "zenoh-sites: FAILED: the shaped link did not say $want" >&2; return 1; }
+      sleep 0.01
+    done
+  else
+    local state=down word=CUT
+    [ "$1" = on ] || { state=up; word=RESTORED; }
+    ip -n "$op" link set zw-op "$state"
+    "$py" -c "import time; print('$word', f'{time.time():.6f}', f'{time.monotonic():.6f}')" >> "$logs/link.log"
+  fi
+}
+echo "zenoh-sites: measure: a 3 s cut of the link while the client streams to the right hand"
+ip netns exec "$rb" "${measure_py[@]}" observe --domain "$domain" --interface zl-rb --side right \
+  --out "$logs/observe-cut.json" > "$logs/observe-cut.log" 2>&1 &
+observer=$!
+pids+=("$observer")
+wait_log "$logs/observe-cut.log" "^READY" 30 "the robot-side observer"
+ip netns exec "$op" "${measure_py[@]}" latency --domain "$domain" --interface zl-op --side right \
+  --count 6000 --rate "$rate" --tag-base 3000000 --out "$logs/stream-cut.json" > "$logs/stream-cut.log" 2>&1 &
+streamer=$!
+pids+=("$streamer")
+wait_log "$logs/stream-cut.log" "^ECHOED" 60 "the streaming client's first command echoed"
+metrics stream
+sleep 3 # the stream before the cut: part of the experiment, not a wait for readiness
+metrics before-cut
+resumed='commands resumed after the silence action.*"dex3_right"'
+resumed_before=$(grep -c "$resumed" "$logs/handgate.log" || true)
+cut_link on
+sleep 3 # the cut
+cut_link off
+end=$((SECONDS + 30))
+until [ "$(grep -c "$resumed" "$logs/handgate.log" || true)" -gt "$resumed_before" ]; do
+  [ "$SECONDS" -lt "$end" ] || { echo "zenoh-sites: FAILED: the right hand's commands did not resume within 30 s of the restore" >&2; exit 1; }
+  sleep 0.2
+done
+sleep 1 # the stream after the restore
+metrics after-cut
+kill -TERM "$streamer" "$observer"
+wait "$streamer" || { echo "zenoh-sites: FAILED: the streaming client" >&2; tail -n 20 "$logs/stream-cut.log" >&2; exit 1; }
+wait "$observer" || { echo "zenoh-sites: FAILED: the observer" >&2; tail -n 20 "$logs/observe-cut.log" >&2; exit 1; }
+
+# 6. The end: counters, status across the link, the whole run's CPU, the link's counts.
+metrics final
+status_once
+"${measure_py[@]}" cpu --out "$logs/cpu-end.json" "${procs[@]}"
+if [ "$netem" -eq 1 ]; then
+  kill -TERM "$link"
+  wait "$link" || true
+  shape_text="netem delay 50ms 10ms loss 1% duplicate 1% reorder 25% 50%"
+else
+  shape_text=""
+fi
+"${measure_py[@]}" summarize --logs "$logs" --out "$measure" --command "$command" \
+  --uptime-before "$uptime_before" --uptime-after "$(uptime)" --shaped "$netem" --shape "$shape_text" \
+  --domain "$domain"
+echo "zenoh-sites: measure: figures in $measure"
 echo "zenoh-sites: OK"

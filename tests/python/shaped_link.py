@@ -18,17 +18,25 @@ netem applies on egress, in each direction:
 Only the two namespaces' TUN devices carry anything: no packet goes anywhere else. It stops by
 itself after --max-seconds, or on SIGTERM/SIGINT, and then prints its counts.
 
+A cut, as a cable pulled: SIGUSR1 cuts the link both ways, SIGUSR2 restores it. While cut,
+nothing is delivered: a packet read is dropped, and so is a copy already queued whose time to be
+sent comes during the cut (counted `cut`); a copy due after the restore is sent as usual.
+
     shaped_link.py NS_A IFNAME_A NS_B IFNAME_B [--delay-ms 50] [--jitter-ms 10] [--loss 0.01]
                    [--duplicate 0.01] [--reorder 0.25] [--reorder-corr 0.5] [--seed 1]
                    [--max-seconds 900]
 
 stdout (flushed lines):
     READY                       both devices exist (the caller addresses and raises them)
+    CUT <wall> <monotonic>      the link is cut (SIGUSR1), at these times (time.time(),
+                                time.monotonic(): seconds)
+    RESTORED <wall> <monotonic> the link is back (SIGUSR2)
     STATS <json>                at exit, per direction: packets read, sent, lost, duplicated,
                                 sent early by reorder, sent after a later-read packet
-                                (overtaken), not taken by the receiving device (unsent), and
-                                still waiting when it stopped (queued_at_exit): read - lost +
-                                duplicated = sent + unsent + queued_at_exit
+                                (overtaken), not taken by the receiving device (unsent), dropped
+                                by a cut (cut), and still waiting when it stopped
+                                (queued_at_exit): read - lost + duplicated = sent + unsent + cut
+                                + queued_at_exit
 """
 
 import argparse
@@ -80,18 +88,21 @@ class Direction:
         self.last_sent_seq = -1
         self.counts = {
             "read": 0, "sent": 0, "lost": 0, "duplicated": 0, "reorder_early": 0, "overtaken": 0, "unsent": 0,
-            "queued_at_exit": 0,
+            "cut": 0, "queued_at_exit": 0,
         }
 
     def correlated(self, last, corr):
         # netem's get_crandom: the next draw leans towards the previous one by corr.
         return (1.0 - corr) * self.rng.random() + corr * last
 
-    def take(self, packet, now, queue):
+    def take(self, packet, now, queue, cut):
         a = self.args
         self.counts["read"] += 1
         seq = self.seq
         self.seq += 1
+        if cut:
+            self.counts["cut"] += 1
+            return
         if self.rng.random() < a.loss:
             self.counts["lost"] += 1
             return
@@ -109,7 +120,10 @@ class Direction:
                 due = now + max(0.0, a.delay_ms + jitter) / 1000.0
             heapq.heappush(queue, (due, next(self.tiebreak), self.name, seq, packet, self))
 
-    def send(self, seq, packet):
+    def send(self, seq, packet, cut):
+        if cut:
+            self.counts["cut"] += 1
+            return
         try:
             os.write(self.dst, packet)
         except OSError:
@@ -148,6 +162,14 @@ def main():
     stop = []
     signal.signal(signal.SIGTERM, lambda *_: stop.append(1))
     signal.signal(signal.SIGINT, lambda *_: stop.append(1))
+    cut = [False]
+
+    def set_cut(on):
+        cut[0] = on
+        print(f"{'CUT' if on else 'RESTORED'} {time.time():.6f} {time.monotonic():.6f}", flush=True)
+
+    signal.signal(signal.SIGUSR1, lambda *_: set_cut(True))
+    signal.signal(signal.SIGUSR2, lambda *_: set_cut(False))
     print("READY", flush=True)
 
     queue = []
@@ -156,7 +178,7 @@ def main():
         now = time.monotonic()
         while queue and queue[0][0] <= now:
             _, _, _, seq, packet, d = heapq.heappop(queue)
-            d.send(seq, packet)
+            d.send(seq, packet, cut[0])
         timeout = max(0.0, queue[0][0] - now) if queue else 0.5
         try:
             ready, _, _ = select.select(list(dirs), [], [], min(timeout, 0.5))
@@ -172,7 +194,7 @@ def main():
                     break
                 except OSError:
                     break  # the device went down
-                d.take(packet, now, queue)
+                d.take(packet, now, queue, cut[0])
     for entry in queue:
         entry[-1].counts["queued_at_exit"] += 1
     print("STATS " + json.dumps({d.name: d.counts for d in dirs.values()}), flush=True)
