@@ -137,13 +137,7 @@ pub fn render(f: &Fleet) -> String {
             s.devices.len(),
         );
         if (s.domain, &s.interface) != (s.export_domain, &s.export_interface) {
-            let iface = |i: &str| {
-                if i.is_empty() {
-                    "(any)".to_string()
-                } else {
-                    i.to_string()
-                }
-            };
+            let iface = crate::tools::interface_word;
             let _ = writeln!(
                 out,
                 "  devices on domain {}, interface {}; clients on domain {}, interface {}",

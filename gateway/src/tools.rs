@@ -8,6 +8,25 @@ use handgate_adapters::dds::{DdsError, EndpointOptions, Node, Qos};
 use handgate_adapters::front::serve::FORCE_USER_DATA;
 use handgate_idl::handgate as hg;
 
+/// A device's freshness as the status tables print it.
+pub fn freshness_word(f: u8) -> &'static str {
+    match f {
+        hg::FRESH => "fresh",
+        hg::STALE => "STALE",
+        hg::COMMANDED_ONLY => "cmd-only",
+        _ => "?",
+    }
+}
+
+/// A status's interface name as the tables print it ("" is any).
+pub fn interface_word(i: &str) -> &str {
+    if i.is_empty() {
+        "(any)"
+    } else {
+        i
+    }
+}
+
 /// Renders one status sample as a table.
 pub fn render_status(s: &hg::GatewayStatus_) -> String {
     let mut out = String::new();
@@ -17,13 +36,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         s.profile,
         s.uptime_ms as f64 / 1000.0
     );
-    let iface = |i: &str| {
-        if i.is_empty() {
-            "(any)".to_string()
-        } else {
-            i.to_string()
-        }
-    };
+    let iface = interface_word;
     let host = if s.host.is_empty() { "?" } else { &s.host };
     if (s.domain, &s.interface) == (s.export_domain, &s.export_interface) {
         let _ = writeln!(
@@ -63,12 +76,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         "foreign"
     );
     for d in &s.devices {
-        let fresh = match d.freshness {
-            hg::FRESH => "fresh",
-            hg::STALE => "STALE",
-            hg::COMMANDED_ONLY => "cmd-only",
-            _ => "?",
-        };
+        let fresh = freshness_word(d.freshness);
         let _ = writeln!(
             out,
             "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7}",
