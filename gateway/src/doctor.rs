@@ -209,9 +209,9 @@ fn describe_if(i: &NetIf) -> String {
 /// overrides): joins the domains, listens, then writes its report one section after the
 /// other (each a function of what was seen).
 pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
-    let Some(export) = &plan.export else {
+    if plan.export.is_none() {
         return run_side(plan, served(plan), opts, "", &[]);
-    };
+    }
     // `[export]`: each side on its own domain and interface, one after the other (a process
     // holds one CycloneDDS configuration per domain): the fronts' clients on the export side,
     // then the devices' services on the robot's. The interface sweep runs child doctors on
@@ -219,9 +219,10 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     let (fronts, devices): (Vec<ServedBy>, Vec<ServedBy>) = served(plan)
         .into_iter()
         .partition(|s| matches!(s.owner, Owner::Front(_)));
+    let (domain, interface) = plan.clients_side();
     let clients = Plan {
-        domain: export.domain,
-        interface: export.interface.clone(),
+        domain,
+        interface: interface.map(str::to_string),
         export: None,
         ..plan.clone()
     };

@@ -101,6 +101,17 @@ pub struct ExportPlan {
     pub interface: Option<String>,
 }
 
+impl Plan {
+    /// The clients' side, where the fronts, status and ROS node are: `[export]`'s domain and
+    /// interface, else the devices'.
+    pub fn clients_side(&self) -> (u32, Option<&str>) {
+        match &self.export {
+            Some(e) => (e.domain, e.interface.as_deref()),
+            None => (self.domain, self.interface.as_deref()),
+        }
+    }
+}
+
 /// The whole fleet.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {

@@ -165,14 +165,19 @@ impl Profile {
         }
     }
 
+    /// `[export]`'s domain and interface with their defaults (`[dds]`'s); `None` without it.
+    pub fn export_target(&self) -> Option<(DomainId, Option<&str>)> {
+        let e = self.export.as_ref()?;
+        let interface = e.interface.as_deref().or(self.dds.interface.as_deref());
+        Some((e.domain.unwrap_or(self.dds.domain), interface))
+    }
+
     /// The export side: its domain and interface when it is a second participant (another
     /// domain id than `[dds]`'s); `None` when everything runs on the devices' participant
     /// (no `[export]`, or one that sets only the namespace).
     pub fn export_side(&self) -> Option<(DomainId, Option<String>)> {
-        let e = self.export.as_ref()?;
-        let domain = e.domain.unwrap_or(self.dds.domain);
-        let interface = e.interface.clone().or_else(|| self.dds.interface.clone());
-        (domain != self.dds.domain).then_some((domain, interface))
+        let (domain, interface) = self.export_target()?;
+        (domain != self.dds.domain).then(|| (domain, interface.map(str::to_string)))
     }
 
     /// Front `f`'s topics and rates (`device`: its bound device), with handgate's own

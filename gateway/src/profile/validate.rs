@@ -151,9 +151,10 @@ impl Checker {
                 "prefixes the fronts' topics with the namespace, but there is none: set export.namespace",
             );
         }
-        let domain = e.domain.unwrap_or(p.dds.domain);
+        let Some((domain, export_if)) = p.export_target() else {
+            return;
+        };
         let devices_if = p.dds.interface.as_deref();
-        let export_if = e.interface.as_deref().or(devices_if);
         if domain == p.dds.domain && export_if != devices_if {
             self.err(
                 if e.domain.is_some() {

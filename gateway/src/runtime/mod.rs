@@ -367,11 +367,8 @@ fn spawn_fleet_look(
     shutdown: watch::Receiver<bool>,
 ) -> watch::Receiver<Arc<crate::fleet::Fleet>> {
     let (tx, rx) = watch::channel(Arc::new(crate::fleet::Fleet::default()));
-    let clients_domain = plan.export.as_ref().map_or(plan.domain, |e| e.domain);
-    let interface = match &plan.export {
-        Some(e) => e.interface.clone(),
-        None => plan.interface.clone(),
-    };
+    let (clients_domain, interface) = plan.clients_side();
+    let interface = interface.map(str::to_string);
     let own = (clients_domain, clients.clone(), clients_discovery.subscribe());
     let others: Vec<u32> = domains
         .iter()

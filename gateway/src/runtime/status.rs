@@ -28,15 +28,12 @@ pub(super) fn spawn_status(
     let profile = plan.profile.clone();
     // Both DDS sides and where the gateway runs, so `handgate status` and `handgate fleet`
     // show them (`[export]`: the clients' side is where this is published).
+    let (export_domain, export_interface) = plan.clients_side();
     let sides = hgmsg::GatewayStatus_ {
         domain: plan.domain,
         interface: plan.interface.clone().unwrap_or_default(),
-        export_domain: plan.export.as_ref().map_or(plan.domain, |e| e.domain),
-        export_interface: match &plan.export {
-            Some(e) => e.interface.clone(),
-            None => plan.interface.clone(),
-        }
-        .unwrap_or_default(),
+        export_domain,
+        export_interface: export_interface.unwrap_or_default().to_string(),
         namespace: plan.own_namespace.ros().to_string(),
         host: host_name(),
         ..Default::default()
