@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::{Node, Qos, Reader};
-use handgate_adapters::device::Backend;
+use handgate_adapters::device::{Backend, HandDevice};
 use handgate_adapters::dex5::config::Dex5Profile;
 use handgate_adapters::dex5::emulator::{Dex5EmuConfig, Dex5Emulator};
 use handgate_adapters::dex5::table::{self, closed_posture, CommandLayout, Conventions, Gains, COUPLING};
@@ -128,6 +128,18 @@ fn table_of(side: Side, config: &Dex5Profile) -> Arc<DeviceTable> {
 
 /// A Dex5 device as the gateway resolves it from a profile (watchdog and forwarding at their
 /// defaults).
+/// Opens `spec` through the registry, as the gateway does: the device, and what it shares
+/// with others (kept alive with it).
+fn open(node: &Node, spec: &DeviceSpec<'_>) -> (Box<dyn HandDevice>, Shared) {
+    let mut shared = Shared::default();
+    let mut env = OpenEnv {
+        node,
+        shared: &mut shared,
+    };
+    let dev = spec.kind.factory().open(spec, &mut env).unwrap();
+    (dev, shared)
+}
+
 fn spec<'a>(
     name: &'a str,
     (side, backend, rate_hz): (Side, Backend, f64),
@@ -153,7 +165,7 @@ fn spec<'a>(
 #[test]
 fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
     let node = Node::new(67, None).unwrap();
-    let kind = DeviceKind::by_name("dex5").expect("registered");
+    assert_eq!(DeviceKind::by_name("dex5"), Some(DeviceKind::Dex5), "registered");
     // The wrapper's motor layout and a stiffer coupling: the emulated service takes the same.
     let config = Dex5Profile {
         dex5: Some(Conventions {
@@ -177,12 +189,7 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
         &emulator,
         &config,
     );
-    let mut shared = Shared::default();
-    let mut env = OpenEnv {
-        node: &node,
-        shared: &mut shared,
-    };
-    let dev = kind.factory().open(&spec, &mut env).unwrap();
+    let (dev, _shared) = open(&node, &spec);
     let mut rx = dev.state();
     wait_for("fresh state", || rx.borrow_and_update().freshness == Freshness::Fresh);
     let s = rx.borrow().clone();
@@ -217,7 +224,6 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
 fn a_client_on_the_services_topics_reaches_a_closure_target_and_goes_stale_when_it_stops() {
     let node = Node::new(68, None).unwrap();
     let emu = Dex5Emulator::start(&node, Dex5EmuConfig::new(Side::Left)).unwrap();
-    let kind = DeviceKind::Dex5;
     let config = Dex5Profile::default();
     let table = table_of(Side::Left, &config);
     let emulator = EmulatorSection::default();
@@ -228,12 +234,7 @@ fn a_client_on_the_services_topics_reaches_a_closure_target_and_goes_stale_when_
         &emulator,
         &config,
     );
-    let mut shared = Shared::default();
-    let mut env = OpenEnv {
-        node: &node,
-        shared: &mut shared,
-    };
-    let dev = kind.factory().open(&spec, &mut env).unwrap();
+    let (dev, _shared) = open(&node, &spec);
     let mut rx = dev.state();
     wait_for("fresh state", || rx.borrow_and_update().freshness == Freshness::Fresh);
     dev.command(HandCommand::closure(1, 0.5)).unwrap();

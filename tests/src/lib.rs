@@ -245,6 +245,20 @@ impl Hosts {
         Ok(me)
     }
 
+    /// [`Hosts::new`] for the test file `test`: `None`, with a line saying why (`SKIPPED
+    /// <test>: ...`), where it may not make network namespaces (not root); any other failure
+    /// panics.
+    pub fn for_test(test: &str, tag: &str, n: usize) -> Option<Self> {
+        match Self::new(tag, n) {
+            Ok(h) => Some(h),
+            Err(e @ NetNsError::NotRoot(_)) => {
+                eprintln!("SKIPPED {test}: {e}; run `cargo test -p handgate-tests --test {test}` as root");
+                None
+            }
+            Err(e) => panic!("could not make the test hosts: {e}"),
+        }
+    }
+
     /// Joins host `a` (address `subnet.ha`) and host `b` (`subnet.hb`) with veth pair number
     /// `k` on `subnet`/24 (`subnet`: three octets, e.g. `192.168.123`; two links of one host
     /// need two subnets, two hosts in different namespaces may reuse one). A host number 0

@@ -12,26 +12,17 @@
 
 use std::time::Duration;
 
-use handgate_tests::{handgate_bin, in_netns, Capture, Emulation, Gateway, Hosts, NetNsError, PyProcess};
+use handgate_tests::{handgate_bin, in_netns, Capture, Emulation, Gateway, Hosts, PyProcess};
 use serde_json::Value;
 
 const ROBOT_DOMAIN: u32 = 0;
 const LAB_DOMAIN: u32 = 221;
 
-fn hosts() -> Option<Hosts> {
-    match Hosts::new("ex", 3) {
-        Ok(h) => Some(h),
-        Err(e @ NetNsError::NotRoot(_)) => {
-            eprintln!("SKIPPED export: {e}; run `cargo test -p handgate-tests --test export` as root");
-            None
-        }
-        Err(e) => panic!("could not make the test hosts: {e}"),
-    }
-}
-
 #[test]
 fn the_clients_side_and_the_robots_side_stay_on_their_networks() {
-    let Some(h) = hosts() else { return };
+    let Some(h) = Hosts::for_test("export", "ex", 3) else {
+        return;
+    };
     let (robot, pc, op) = (0, 1, 2);
     // The robot's internal network, as on every G1, and the lab's.
     let internal = h.link(0, robot, pc, "192.168.123", (161, 164)).unwrap();

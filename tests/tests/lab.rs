@@ -18,7 +18,7 @@
 
 use std::time::{Duration, Instant};
 
-use handgate_tests::{handgate_bin, in_netns, Capture, Emulation, Gateway, Hosts, Link, NetNsError, PyProcess};
+use handgate_tests::{handgate_bin, in_netns, Capture, Emulation, Gateway, Hosts, Link, PyProcess};
 use serde_json::Value;
 
 const DOMAIN_A: u32 = 222;
@@ -32,17 +32,6 @@ const SWITCH: usize = 4;
 const OPERATOR: usize = 5;
 /// A second operator on the lab network, not in the robots' `allow_commands_from`.
 const STRAY: usize = 6;
-
-fn hosts() -> Option<Hosts> {
-    match Hosts::new("lab", 7) {
-        Ok(h) => Some(h),
-        Err(e @ NetNsError::NotRoot(_)) => {
-            eprintln!("SKIPPED lab: {e}; run `cargo test -p handgate-tests --test lab` as root");
-            None
-        }
-        Err(e) => panic!("could not make the lab: {e}"),
-    }
-}
 
 /// One robot: its internal network, its hand services, its PC's gateway (restartable).
 struct Robot {
@@ -128,15 +117,53 @@ impl Robot {
     }
 }
 
+/// `handgate ARGS` run on the operator's machine.
+fn on_operator(h: &Hosts, args: &[&str]) -> std::process::Output {
+    in_netns(Some(&h.ns[OPERATOR]), &handgate_bin())
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// `handgate status --once` of `robot`, read on the operator's machine.
+fn status_text(h: &Hosts, op_if: &str, robot: (u32, &str)) -> String {
+    let domain = robot.0.to_string();
+    let args = [
+        "status",
+        "--domain",
+        &domain,
+        "--interface",
+        op_if,
+        "--namespace",
+        robot.1,
+    ];
+    let out = on_operator(h, &[args.as_slice(), &["--once", "--timeout", "5"]].concat());
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `handgate fleet` on `domains`, read on the operator's machine.
+fn fleet_text(h: &Hosts, op_if: &str, domains: &str, seconds: &str) -> String {
+    let out = on_operator(
+        h,
+        &[
+            "fleet",
+            "--domains",
+            domains,
+            "--interface",
+            op_if,
+            "--seconds",
+            seconds,
+        ],
+    );
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{text}{}", String::from_utf8_lossy(&out.stderr));
+    text
+}
+
 /// A device's row of `handgate status` read on the operator's machine: (safe, command Hz,
 /// watchdog trips), or `None` when no status came.
 fn status_row(h: &Hosts, op_if: &str, robot: &Robot, device: &str) -> Option<(bool, f32, u64)> {
-    let out = in_netns(Some(&h.ns[OPERATOR]), &handgate_bin())
-        .args(["status", "--domain", &robot.domain.to_string(), "--interface", op_if])
-        .args(["--namespace", robot.name, "--once", "--timeout", "5"])
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    let text = status_text(h, op_if, (robot.domain, robot.name));
     let row = text.lines().find(|l| l.split_whitespace().next() == Some(device))?;
     let w: Vec<&str> = row.split_whitespace().collect();
     Some((w[4] == "yes", w[5].parse().ok()?, w[10].parse().ok()?))
@@ -214,7 +241,9 @@ fn stream(h: &Hosts, op_if: &str, robot: &Robot) -> PyProcess {
 
 #[test]
 fn two_identical_robots_one_operator_each_robot_by_its_domain() {
-    let Some(h) = hosts() else { return };
+    let Some(h) = Hosts::for_test("lab", "lab", 7) else {
+        return;
+    };
     // Each robot's internal network, the same addresses on both (as on every G1).
     let int_a = h.link(0, ROBOT_A, PC_A, "192.168.123", (161, 164)).unwrap();
     let int_b = h.link(1, ROBOT_B, PC_B, "192.168.123", (161, 164)).unwrap();
@@ -270,20 +299,7 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
         streaming,
     );
     // `handgate fleet` on the operator lists both robots, and who commands each hand.
-    let out = in_netns(Some(&h.ns[OPERATOR]), &handgate_bin())
-        .args([
-            "fleet",
-            "--domains",
-            &format!("{DOMAIN_A}-{DOMAIN_B}"),
-            "--interface",
-            &op_if,
-            "--seconds",
-            "5",
-        ])
-        .output()
-        .unwrap();
-    let fleet = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{fleet}{}", String::from_utf8_lossy(&out.stderr));
+    let fleet = fleet_text(&h, &op_if, &format!("{DOMAIN_A}-{DOMAIN_B}"), "5");
     assert!(fleet.starts_with("2 gateway(s)\n"), "{fleet}");
     for r in [&a, &b] {
         assert!(
@@ -404,12 +420,7 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
         c
     };
     let refused = |h: &Hosts| {
-        let out = in_netns(Some(&h.ns[OPERATOR]), &handgate_bin())
-            .args(["status", "--domain", &DOMAIN_A.to_string(), "--interface", &op_if])
-            .args(["--namespace", "robot_a", "--once", "--timeout", "5"])
-            .output()
-            .unwrap();
-        String::from_utf8_lossy(&out.stdout)
+        status_text(h, &op_if, (a.domain, a.name))
             .lines()
             .find_map(|l| {
                 l.strip_prefix("left_hand: ")?
@@ -427,19 +438,7 @@ fn two_identical_robots_one_operator_each_robot_by_its_domain() {
             "robot A never refused the stray operator's commands"
         );
     }
-    let out = in_netns(Some(&h.ns[OPERATOR]), &handgate_bin())
-        .args([
-            "fleet",
-            "--domains",
-            &DOMAIN_A.to_string(),
-            "--interface",
-            &op_if,
-            "--seconds",
-            "3",
-        ])
-        .output()
-        .unwrap();
-    let fleet = String::from_utf8_lossy(&out.stdout);
+    let fleet = fleet_text(&h, &op_if, &DOMAIN_A.to_string(), "3");
     let owner = fleet
         .lines()
         .find(|l| l.trim_start().starts_with("left_hand"))
