@@ -388,12 +388,21 @@ mod tests {
             fields(diag, "diagnostic_msgs/DiagnosticStatus"),
             serde_fields::<ros2::DiagnosticStatus_>()
         );
-        assert_eq!(fields(diag, "diagnostic_msgs/KeyValue"), serde_fields::<ros2::KeyValue_>());
+        assert_eq!(
+            fields(diag, "diagnostic_msgs/KeyValue"),
+            serde_fields::<ros2::KeyValue_>()
+        );
         let hw = schema(ros2::HardwareStatus_::DDS_TYPE_NAME).unwrap().text;
         for (dep, want) in [
             ("", serde_fields::<ros2::HardwareStatus_>()),
-            ("control_msgs/HardwareDeviceStatus", serde_fields::<ros2::HardwareDeviceStatus_>()),
-            ("control_msgs/GenericHardwareState", serde_fields::<ros2::GenericHardwareState_>()),
+            (
+                "control_msgs/HardwareDeviceStatus",
+                serde_fields::<ros2::HardwareDeviceStatus_>(),
+            ),
+            (
+                "control_msgs/GenericHardwareState",
+                serde_fields::<ros2::GenericHardwareState_>(),
+            ),
             ("control_msgs/CANopenState", serde_fields::<ros2::CANopenState_>()),
             ("control_msgs/EtherCATState", serde_fields::<ros2::EtherCATState_>()),
             ("control_msgs/VDA5050State", serde_fields::<ros2::VDA5050State_>()),

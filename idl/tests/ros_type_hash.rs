@@ -140,6 +140,12 @@ fn dds_type_names_follow_the_ros_names() {
         dds(ros2::PARTICIPANT_ENTITIES_INFO.type_name),
         ros2::ParticipantEntitiesInfo_::DDS_TYPE_NAME
     );
-    assert_eq!(dds(ros2::DIAGNOSTIC_ARRAY.type_name), ros2::DiagnosticArray_::DDS_TYPE_NAME);
-    assert_eq!(dds(ros2::HARDWARE_STATUS.type_name), ros2::HardwareStatus_::DDS_TYPE_NAME);
+    assert_eq!(
+        dds(ros2::DIAGNOSTIC_ARRAY.type_name),
+        ros2::DiagnosticArray_::DDS_TYPE_NAME
+    );
+    assert_eq!(
+        dds(ros2::HARDWARE_STATUS.type_name),
+        ros2::HardwareStatus_::DDS_TYPE_NAME
+    );
 }
