@@ -302,4 +302,13 @@ CLASSES = {
     "builtin_interfaces/Time_": Time_,
     "std_msgs/Header_": Header_,
     "sensor_msgs/JointState_": RosJointState_,
+    "diagnostic_msgs/KeyValue_": KeyValue_,
+    "diagnostic_msgs/DiagnosticStatus_": DiagnosticStatus_,
+    "diagnostic_msgs/DiagnosticArray_": DiagnosticArray_,
+    "control_msgs/GenericHardwareState_": GenericHardwareState_,
+    "control_msgs/CANopenState_": CANopenState_,
+    "control_msgs/EtherCATState_": EtherCATState_,
+    "control_msgs/VDA5050State_": VDA5050State_,
+    "control_msgs/HardwareDeviceStatus_": HardwareDeviceStatus_,
+    "control_msgs/HardwareStatus_": HardwareStatus_,
 }
