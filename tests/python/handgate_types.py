@@ -9,6 +9,8 @@ from dataclasses import dataclass
 import cyclonedds.idl as idl
 import cyclonedds.idl.annotations as annotate
 import cyclonedds.idl.types as types
+from cyclonedds.core import Policy, Qos
+from cyclonedds.util import duration
 
 
 @dataclass
@@ -288,6 +290,16 @@ class HardwareStatus_(idl.IdlStruct, typename="control_msgs.msg.dds_.HardwareSta
     header: Header_
     hardware_id: str
     hardware_device_states: types.sequence[HardwareDeviceStatus_]
+
+
+def ros_default_qos():
+    """ROS 2's default QoS for topics (rmw's `rmw_qos_profile_default`): reliable, volatile,
+    keep last 10; what a ROS node's subscription uses unless told otherwise."""
+    return Qos(
+        Policy.Reliability.Reliable(duration(milliseconds=100)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(10),
+    )
 
 
 CLASSES = {

@@ -27,11 +27,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from cyclonedds.core import Qos, Policy  # noqa: E402
 from cyclonedds.domain import DomainParticipant  # noqa: E402
 from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
-from cyclonedds.util import duration  # noqa: E402
 
 import handgate_types as ht  # noqa: E402
 
@@ -88,11 +86,7 @@ def main():
     threading.Timer(args.timeout, lambda: os._exit(3)).start()
 
     dp = DomainParticipant(args.domain)
-    ros_default = Qos(
-        Policy.Reliability.Reliable(duration(milliseconds=100)),
-        Policy.Durability.Volatile,
-        Policy.History.KeepLast(10),
-    )
+    ros_default = ht.ros_default_qos()
     readers = [
         ("DIAG", DataReader(dp, Topic(dp, args.diagnostics, ht.DiagnosticArray_), qos=ros_default), diag),
         ("HW", DataReader(dp, Topic(dp, args.hardware_status, ht.HardwareStatus_), qos=ros_default), hw),
