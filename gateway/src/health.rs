@@ -173,12 +173,10 @@ pub struct HealthMessages {
     /// The node's name without its leading `/` (`handgate`, `robot1/handgate`):
     /// `HardwareStatus.hardware_id` and the prefix of each diagnostic's name.
     pub hardware_id: String,
-    /// Each device's `stale_after`.
+    /// Each device's `stale_after` (a device the plan does not name, which the status task
+    /// never reports, would get the default).
     stale_after: HashMap<String, Duration>,
 }
-
-/// Used for a device the plan does not name (a status from another gateway).
-const DEFAULT_STALE_AFTER: Duration = Duration::from_millis(500);
 
 impl HealthMessages {
     pub fn new(plan: &Plan) -> Self {
@@ -195,7 +193,10 @@ impl HealthMessages {
     fn verdict(&self, d: &hg::DeviceStatus_) -> Verdict {
         judge(
             d,
-            self.stale_after.get(&d.device).copied().unwrap_or(DEFAULT_STALE_AFTER),
+            self.stale_after
+                .get(&d.device)
+                .copied()
+                .unwrap_or(crate::resolve::DEFAULT_STALE_AFTER),
         )
     }
 
