@@ -10,6 +10,7 @@
 use std::collections::HashMap;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_idl::ros2::{
     diagnostic_level as level, generic_state as gs, DiagnosticArray_, DiagnosticStatus_, GenericHardwareState_,
@@ -17,6 +18,29 @@ use handgate_idl::ros2::{
 };
 
 use crate::plan::Plan;
+
+/// Both writers' QoS: ROS 2's default (reliable, volatile, keep last 10), as
+/// `diagnostic_updater` publishes `/diagnostics`.
+pub const QOS: Qos = Qos::Reliable { depth: 10 };
+
+/// The health messages' DDS topics and types, when `plan` publishes them (`[dds] ros_node`):
+/// `/diagnostics` (global) and `hardware_status` in handgate's namespace.
+pub fn topics(plan: &Plan) -> Vec<(String, &'static str)> {
+    use handgate_idl::DdsTypeName;
+    if plan.namespace.is_none() {
+        return Vec::new();
+    }
+    vec![
+        (
+            handgate_idl::ros2::DIAGNOSTICS_TOPIC.to_string(),
+            DiagnosticArray_::DDS_TYPE_NAME,
+        ),
+        (
+            plan.own_namespace.topic(handgate_idl::ros2::HARDWARE_STATUS_TOPIC),
+            HardwareStatus_::DDS_TYPE_NAME,
+        ),
+    ]
+}
 
 /// A fresh device counts as slow below this many state samples per `stale_after` window on
 /// average over one status period: one more missed sample and it would be stale.

@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use handgate_adapters::dds::{Node, Qos};
+use handgate_adapters::dds::Node;
 use handgate_adapters::ros::user_data;
 use handgate_idl::handgate::GatewayStatus_;
 use handgate_idl::ros2::{self, DiagnosticArray_, HardwareStatus_};
@@ -11,12 +11,8 @@ use tokio::sync::watch;
 use tracing::warn;
 
 use super::RuntimeError;
-use crate::health::HealthMessages;
+use crate::health::{HealthMessages, QOS};
 use crate::plan::Plan;
-
-/// Keep-last depth of both writers: ROS 2's default (reliable, volatile, keep last 10), as
-/// `diagnostic_updater` publishes `/diagnostics`.
-const DEPTH: i32 = 10;
 
 pub(super) fn spawn_health(
     node: &Node,
@@ -24,7 +20,7 @@ pub(super) fn spawn_health(
     mut status: watch::Receiver<Arc<GatewayStatus_>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
-    let qos = Qos::Reliable { depth: DEPTH };
+    let qos = QOS;
     let mut diagnostics =
         node.writer_with::<DiagnosticArray_>(ros2::DIAGNOSTICS_TOPIC, qos, &user_data::<DiagnosticArray_>())?;
     let mut hardware = node.writer_with::<HardwareStatus_>(
