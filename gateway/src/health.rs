@@ -35,11 +35,13 @@ pub fn topics(plan: &Plan) -> Vec<(String, &'static str)> {
             handgate_idl::ros2::DIAGNOSTICS_TOPIC.to_string(),
             DiagnosticArray_::DDS_TYPE_NAME,
         ),
-        (
-            plan.own_namespace.topic(handgate_idl::ros2::HARDWARE_STATUS_TOPIC),
-            HardwareStatus_::DDS_TYPE_NAME,
-        ),
+        (hardware_status_topic(plan), HardwareStatus_::DDS_TYPE_NAME),
     ]
+}
+
+/// The DDS topic of `hardware_status`: `rt/hardware_status` in handgate's namespace.
+pub fn hardware_status_topic(plan: &Plan) -> String {
+    plan.own_namespace.topic(handgate_idl::ros2::HARDWARE_STATUS_TOPIC)
 }
 
 /// A fresh device counts as slow below this many state samples per `stale_after` window on

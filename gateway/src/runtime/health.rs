@@ -20,12 +20,11 @@ pub(super) fn spawn_health(
     mut status: watch::Receiver<Arc<GatewayStatus_>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
-    let qos = QOS;
     let mut diagnostics =
-        node.writer_with::<DiagnosticArray_>(ros2::DIAGNOSTICS_TOPIC, qos, &user_data::<DiagnosticArray_>())?;
+        node.writer_with::<DiagnosticArray_>(ros2::DIAGNOSTICS_TOPIC, QOS, &user_data::<DiagnosticArray_>())?;
     let mut hardware = node.writer_with::<HardwareStatus_>(
-        &plan.own_namespace.topic(ros2::HARDWARE_STATUS_TOPIC),
-        qos,
+        &crate::health::hardware_status_topic(plan),
+        QOS,
         &user_data::<HardwareStatus_>(),
     )?;
     let health = HealthMessages::new(plan);
