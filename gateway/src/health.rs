@@ -27,7 +27,7 @@ pub const QOS: Qos = Qos::Reliable { depth: 10 };
 /// `/diagnostics` (global) and `hardware_status` in handgate's namespace.
 pub fn topics(plan: &Plan) -> Vec<(String, &'static str)> {
     use handgate_idl::DdsTypeName;
-    if plan.namespace.is_none() {
+    if !published(plan) {
         return Vec::new();
     }
     vec![
@@ -37,6 +37,12 @@ pub fn topics(plan: &Plan) -> Vec<(String, &'static str)> {
         ),
         (hardware_status_topic(plan), HardwareStatus_::DDS_TYPE_NAME),
     ]
+}
+
+/// Whether `plan`'s gateway publishes the health messages: they are part of its ROS presence,
+/// on with the ROS node (`[dds] ros_node`).
+pub fn published(plan: &Plan) -> bool {
+    plan.namespace.is_some()
 }
 
 /// The DDS topic of `hardware_status`: `rt/hardware_status` in handgate's namespace.
@@ -404,6 +410,23 @@ mod tests {
             values(&dev(hg::COMMANDED_ONLY, 0.0, f32::NAN, false))[0].value,
             "commanded-only"
         );
+    }
+
+    #[test]
+    fn the_topics_follow_the_ros_node_and_the_namespace() {
+        let mut plan = crate::resolve::default_plan();
+        let names = |p: &Plan| topics(p).into_iter().map(|(t, _)| t).collect::<Vec<_>>();
+        assert!(published(&plan));
+        assert_eq!(names(&plan), ["rt/diagnostics", "rt/hardware_status"]);
+        assert_eq!(HealthMessages::new(&plan).hardware_id, "handgate");
+        plan.own_namespace = handgate_adapters::ros::Namespace::parse("fleet/robot1").unwrap();
+        plan.namespace = Some(plan.own_namespace.clone());
+        assert_eq!(names(&plan), ["rt/diagnostics", "rt/fleet/robot1/hardware_status"]);
+        assert_eq!(HealthMessages::new(&plan).hardware_id, "fleet/robot1/handgate");
+        // `[dds] ros_node = false`: no node, no health messages.
+        plan.namespace = None;
+        assert!(!published(&plan));
+        assert!(names(&plan).is_empty());
     }
 
     #[test]

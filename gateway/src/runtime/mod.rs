@@ -272,7 +272,7 @@ impl Runtime {
         }
         // The health messages are part of handgate's ROS presence (`[dds] ros_node`), on the
         // clients' side like the status; opened before the node is announced, which lists them.
-        if plan.namespace.is_some() {
+        if crate::health::published(plan) {
             tasks.push(health::spawn_health(
                 &clients,
                 plan,
