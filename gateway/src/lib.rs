@@ -4,6 +4,7 @@ pub mod cli;
 pub mod diagnostics;
 pub mod doctor;
 pub mod fleet;
+pub mod health;
 pub mod http;
 #[cfg(feature = "foxglove")]
 pub mod live;

@@ -1,6 +1,7 @@
 //! What a plan records: every endpoint it serves on DDS ([`crate::diagnostics::served`]:
 //! each front's command and state topics, each DDS-client device's topics, the canonical
-//! state and `rt/joint_states` fronts) plus the status topic, filtered by topic globs.
+//! state and `rt/joint_states` fronts) plus the status topic and the health messages
+//! ([`crate::health::topics`]), filtered by topic globs.
 
 use handgate_adapters::dds::Qos;
 use handgate_idl::{handgate, DdsTypeName};
@@ -8,7 +9,8 @@ use handgate_record::TopicSpec;
 
 use crate::plan::Plan;
 
-/// Every topic `plan` serves (each (topic, type) once, plan order, status last), with
+/// Every topic `plan` serves (each (topic, type) once, plan order, then status and the health
+/// messages), with
 /// whether it carries commands: what fronts read from clients and what DDS-client devices
 /// write to their robot service.
 fn served_topics(plan: &Plan) -> Vec<(TopicSpec, bool)> {
@@ -42,7 +44,18 @@ fn served_topics(plan: &Plan) -> Vec<(TopicSpec, bool)> {
         dds_type: handgate::GatewayStatus_::DDS_TYPE_NAME.to_string(),
         qos: Qos::Reliable { depth: 1 }.served(),
     };
-    for (t, command) in served.chain(std::iter::once((status, false))) {
+    // The health messages (`[dds] ros_node`): states, after status.
+    let health = crate::health::topics(plan).into_iter().map(|(topic, ty)| {
+        (
+            TopicSpec {
+                dds_topic: topic,
+                dds_type: ty.to_string(),
+                qos: crate::health::QOS.served(),
+            },
+            false,
+        )
+    });
+    for (t, command) in served.chain(std::iter::once((status, false))).chain(health) {
         if !out
             .iter()
             .any(|(o, _)| o.dds_topic == t.dds_topic && o.dds_type == t.dds_type)
@@ -150,6 +163,8 @@ mod tests {
             "rt/handgate/dex3_left/state",
             "rt/dex1/right/state",
             plan.status_topic.as_str(),
+            "rt/diagnostics",
+            "rt/hardware_status",
         ] {
             assert!(names.contains(&want), "{want}: {names:?}");
         }

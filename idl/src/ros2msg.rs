@@ -149,6 +149,63 @@ const JOINT_STATE: &str = concat!(
     dep!("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n")
 );
 
+// --- diagnostic_msgs, control_msgs 6.8.0 ----------------------------------------------------
+
+macro_rules! header_deps {
+    () => {
+        concat!(
+            dep!("std_msgs/Header", "builtin_interfaces/Time stamp\nstring frame_id\n"),
+            dep!("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n")
+        )
+    };
+}
+macro_rules! key_value {
+    () => {
+        "string key\nstring value\n"
+    };
+}
+const DIAGNOSTIC_ARRAY: &str = concat!(
+    "std_msgs/Header header\ndiagnostic_msgs/DiagnosticStatus[] status\n",
+    header_deps!(),
+    dep!(
+        "diagnostic_msgs/DiagnosticStatus",
+        "byte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\nbyte level\nstring name\nstring message\n\
+string hardware_id\ndiagnostic_msgs/KeyValue[] values\n"
+    ),
+    dep!("diagnostic_msgs/KeyValue", key_value!())
+);
+const HARDWARE_STATUS: &str = concat!(
+    "std_msgs/Header header\nstring hardware_id\ncontrol_msgs/HardwareDeviceStatus[] hardware_device_states\n",
+    header_deps!(),
+    dep!(
+        "control_msgs/HardwareDeviceStatus",
+        "std_msgs/Header header\nstring device_id\ncontrol_msgs/GenericHardwareState[] hardware_status\n\
+control_msgs/CANopenState[] canopen_states\ncontrol_msgs/EtherCATState[] ethercat_states\n\
+control_msgs/VDA5050State[] vda5050_states\n"
+    ),
+    dep!(
+        "control_msgs/GenericHardwareState",
+        "uint8 health_status\nuint8[] error_domain\nuint8 operational_mode\nuint8 power_state\n\
+uint8 connectivity_status\nstring manufacturer\nstring model\nstring firmware_version\n\
+diagnostic_msgs/KeyValue[] state_details\n"
+    ),
+    dep!("diagnostic_msgs/KeyValue", key_value!()),
+    dep!(
+        "control_msgs/CANopenState",
+        "uint8 node_id\nuint8 nmt_state\nuint8 dsp_402_state\nuint32 last_emcy_code\n"
+    ),
+    dep!(
+        "control_msgs/EtherCATState",
+        "uint16 slave_position\nstring vendor_id\nstring product_code\nuint8 al_state\nbool has_error\n\
+uint16 al_status_code\n"
+    ),
+    dep!(
+        "control_msgs/VDA5050State",
+        "string order_id\nstring action_status\nuint32 last_node_id\nbool driving\nfloat64 battery_charge\n\
+string operating_mode\nstring error_type\nstring error_description\n"
+    )
+);
+
 // --- inspire --------------------------------------------------------------------------------
 
 const INSPIRE_CTRL: &str =
@@ -203,6 +260,16 @@ pub const SCHEMAS: &[MsgSchema] = &[
         dds_type: ros2::JointState_::DDS_TYPE_NAME,
         ros_type: "sensor_msgs/msg/JointState",
         text: JOINT_STATE,
+    },
+    MsgSchema {
+        dds_type: ros2::DiagnosticArray_::DDS_TYPE_NAME,
+        ros_type: "diagnostic_msgs/msg/DiagnosticArray",
+        text: DIAGNOSTIC_ARRAY,
+    },
+    MsgSchema {
+        dds_type: ros2::HardwareStatus_::DDS_TYPE_NAME,
+        ros_type: "control_msgs/msg/HardwareStatus",
+        text: HARDWARE_STATUS,
     },
     MsgSchema {
         dds_type: inspire::InspireHandCtrl::DDS_TYPE_NAME,
@@ -304,6 +371,43 @@ mod tests {
             let mut got = fields(text, dep);
             got.sort();
             assert_eq!(got, want, "{dep}: the schema text and the struct differ");
+        }
+    }
+
+    #[test]
+    fn the_health_schemas_name_every_field_of_the_ros_types() {
+        // Constant lines (`byte OK=0`) are not fields.
+        let fields = |text: &str, dep: &str| -> Vec<String> {
+            let mut f: Vec<String> = fields(text, dep).into_iter().filter(|n| !n.contains('=')).collect();
+            f.sort();
+            f
+        };
+        let diag = schema(ros2::DiagnosticArray_::DDS_TYPE_NAME).unwrap().text;
+        assert_eq!(fields(diag, ""), serde_fields::<ros2::DiagnosticArray_>());
+        assert_eq!(
+            fields(diag, "diagnostic_msgs/DiagnosticStatus"),
+            serde_fields::<ros2::DiagnosticStatus_>()
+        );
+        assert_eq!(
+            fields(diag, "diagnostic_msgs/KeyValue"),
+            serde_fields::<ros2::KeyValue_>()
+        );
+        let hw = schema(ros2::HardwareStatus_::DDS_TYPE_NAME).unwrap().text;
+        for (dep, want) in [
+            ("", serde_fields::<ros2::HardwareStatus_>()),
+            (
+                "control_msgs/HardwareDeviceStatus",
+                serde_fields::<ros2::HardwareDeviceStatus_>(),
+            ),
+            (
+                "control_msgs/GenericHardwareState",
+                serde_fields::<ros2::GenericHardwareState_>(),
+            ),
+            ("control_msgs/CANopenState", serde_fields::<ros2::CANopenState_>()),
+            ("control_msgs/EtherCATState", serde_fields::<ros2::EtherCATState_>()),
+            ("control_msgs/VDA5050State", serde_fields::<ros2::VDA5050State_>()),
+        ] {
+            assert_eq!(fields(hw, dep), want, "{dep}");
         }
     }
 

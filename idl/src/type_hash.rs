@@ -21,9 +21,13 @@ use sha2::{Digest, Sha256};
 pub mod field_type {
     pub const NESTED_TYPE: u8 = 1;
     pub const UINT8: u8 = 3;
+    pub const UINT16: u8 = 5;
     pub const INT32: u8 = 6;
     pub const UINT32: u8 = 7;
     pub const DOUBLE: u8 = 11;
+    pub const BOOLEAN: u8 = 15;
+    /// `byte` (`octet` in IDL).
+    pub const BYTE: u8 = 16;
     pub const STRING: u8 = 17;
     pub const BOUNDED_STRING: u8 = 21;
     /// Added to a value type's id for a fixed-size array of it.

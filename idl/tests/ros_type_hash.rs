@@ -32,6 +32,44 @@ const PUBLISHED: &[(&str, &str)] = &[
         "rmw_dds_common/msg/Gid",
         "RIHS01_ab6f21cfbb0a6dbb837161e1110c2051a2850ed9f9c53944d7115d9bcebedf71",
     ),
+    // diagnostic_msgs: `diagnostic_array__description.c` (ROS 2 Jazzy and later).
+    (
+        "diagnostic_msgs/msg/DiagnosticArray",
+        "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e",
+    ),
+    (
+        "diagnostic_msgs/msg/DiagnosticStatus",
+        "RIHS01_b0e3e692ea2d54a8af2f4ef1930e81556a2db55216b771f8a7d2724ed47bf0e4",
+    ),
+    (
+        "diagnostic_msgs/msg/KeyValue",
+        "RIHS01_d68081eaa540288c5440753baecef0c4e16e81a5f78ad68902ded5100413bb42",
+    ),
+    // control_msgs 6.5.0 to 6.8.0: `hardware_status__description.c`.
+    (
+        "control_msgs/msg/HardwareStatus",
+        "RIHS01_d4d081efebdea6d8863855733ea95c58338ac4ffdb501a9524da4cbbad9927a2",
+    ),
+    (
+        "control_msgs/msg/HardwareDeviceStatus",
+        "RIHS01_ecbdff2572d29afc687e31fe6e2006c95eda8d7bb5bb98fca1a262942c5e96cd",
+    ),
+    (
+        "control_msgs/msg/GenericHardwareState",
+        "RIHS01_bcaf0de2186757418ed4bb211738c0bb59fccb10f0612660e2c5048eb567d7bc",
+    ),
+    (
+        "control_msgs/msg/CANopenState",
+        "RIHS01_9a99909feb08be78066dc0922dad6d98e4e156883bca5bfac6f69d7cfa0d8c59",
+    ),
+    (
+        "control_msgs/msg/EtherCATState",
+        "RIHS01_baea23cdc1772b7c5b012bcaadee0a763b02938b9bc463fe5898a0021c7b1e09",
+    ),
+    (
+        "control_msgs/msg/VDA5050State",
+        "RIHS01_f80ff130c012ef7efd918e8056bb914b38fb36e84339d889bca5fc5681414a34",
+    ),
 ];
 
 fn published(type_name: &str) -> &'static str {
@@ -59,6 +97,15 @@ fn every_described_type_hashes_to_its_published_value() {
         ros2::ParticipantEntitiesInfo_::DESCRIPTION,
         ros2::NodeEntitiesInfo_::DESCRIPTION,
         ros2::Gid_::DESCRIPTION,
+        ros2::DiagnosticArray_::DESCRIPTION,
+        ros2::DiagnosticStatus_::DESCRIPTION,
+        ros2::KeyValue_::DESCRIPTION,
+        ros2::HardwareStatus_::DESCRIPTION,
+        ros2::HardwareDeviceStatus_::DESCRIPTION,
+        ros2::GenericHardwareState_::DESCRIPTION,
+        ros2::CANopenState_::DESCRIPTION,
+        ros2::EtherCATState_::DESCRIPTION,
+        ros2::VDA5050State_::DESCRIPTION,
     ];
     assert_eq!(all.len(), PUBLISHED.len());
     for d in all {
@@ -92,5 +139,13 @@ fn dds_type_names_follow_the_ros_names() {
     assert_eq!(
         dds(ros2::PARTICIPANT_ENTITIES_INFO.type_name),
         ros2::ParticipantEntitiesInfo_::DDS_TYPE_NAME
+    );
+    assert_eq!(
+        dds(ros2::DIAGNOSTIC_ARRAY.type_name),
+        ros2::DiagnosticArray_::DDS_TYPE_NAME
+    );
+    assert_eq!(
+        dds(ros2::HARDWARE_STATUS.type_name),
+        ros2::HardwareStatus_::DDS_TYPE_NAME
     );
 }

@@ -136,6 +136,8 @@ wire_types!(
     handgate::HandState_,
     handgate::GatewayStatus_,
     ros2::JointState_,
+    ros2::DiagnosticArray_,
+    ros2::HardwareStatus_,
     inspire::InspireHandCtrl,
     inspire::InspireHandState,
     inspire::InspireHandTouch,

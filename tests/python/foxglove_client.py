@@ -10,6 +10,7 @@ Foxglove's new name for the same v1 protocol, and refuses a client offering only
 
     foxglove_client.py URL TOPIC [TOPIC ...] [--seconds N] [--quiet]
                        [--as-host NAME] [--origin ORIGIN] [--try-write TOPIC]
+                       [--subprotocols NAME[,NAME...]]
 
 TOPIC `*` subscribes every advertised channel. `--quiet` (the benchmark's viewer,
 bench/dashboard_cost.py): no MSG lines; `READY` at the first message, `COUNT n` at the end.
@@ -19,10 +20,13 @@ page of a domain rebound to the server's address; it still connects to URL's add
 advertised, try every way the protocol has to send the server something: advertise a client
 channel on TOPIC and publish a message on it, set a parameter, call a service; prints
 `WRITE_TRIED`, then the server's answers as STATUS / SERVICE_FAILURE lines.
+`--subprotocols`: offer these names instead (comma-separated, in order; an empty value offers
+none), as a given viewer release does; the handshake's outcome is the HANDSHAKE line.
 
 It connects with the subprotocol, reads serverInfo and the advertised channels, subscribes the
 channels of the given topics and decodes each message. Prints one line per event:
 
+    HANDSHAKE {"offered": [...], "status": HTTP status (101 or the refusal's), "chosen": ...}
     SERVERINFO {"name": ..., "capabilities": [...], "subprotocol": ...}
     CHANNELS [{"id", "topic", "encoding", "schemaName", "schemaEncoding", "schema"}, ...]
     SUBSCRIBED {"TOPIC": subscription id, ...}
@@ -184,7 +188,7 @@ def emit(kind, value):
 
 
 QUIET = {"on": False, "count": 0}
-OPTS = {"as_host": None, "origin": None, "try_write": None}
+OPTS = {"as_host": None, "origin": None, "try_write": None, "subprotocols": None}
 
 
 async def try_write(ws, topic):
@@ -209,7 +213,14 @@ async def run(url, topics):
         url = f"ws://{OPTS['as_host']}:{target.port}"
     if OPTS["origin"]:
         kwargs["origin"] = OPTS["origin"]
-    async with websockets.connect(url, subprotocols=SUBPROTOCOLS, max_size=None, **kwargs) as ws:
+    offered = SUBPROTOCOLS if OPTS["subprotocols"] is None else [s for s in OPTS["subprotocols"].split(",") if s]
+    try:
+        conn = await websockets.connect(url, subprotocols=offered or None, max_size=None, **kwargs)
+    except websockets.exceptions.InvalidStatus as e:
+        emit("HANDSHAKE", {"offered": offered, "status": e.response.status_code, "chosen": None})
+        return None
+    emit("HANDSHAKE", {"offered": offered, "status": 101, "chosen": conn.subprotocol})
+    async with conn as ws:
         subscribed = {}  # subscription id -> advertised channel
         info = None
         async for frame in ws:
@@ -285,7 +296,7 @@ def main():
     if "--quiet" in args:
         args.remove("--quiet")
         QUIET["on"] = True
-    for opt in ("--as-host", "--origin", "--try-write"):
+    for opt in ("--as-host", "--origin", "--try-write", "--subprotocols"):
         if opt in args:
             i = args.index(opt)
             OPTS[opt[2:].replace("-", "_")] = args[i + 1]

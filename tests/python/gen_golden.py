@@ -8,7 +8,7 @@ How to run (from the repository root):
 What it does: for each of the ten Unitree wire types handgate speaks (unitree_hg MotorCmd_,
 MotorState_, PressSensorState_, IMUState_, HandCmd_, HandState_; unitree_go MotorCmd_,
 MotorCmds_, MotorState_, MotorStates_) -- plus handgate's canonical types (idl/handgate.idl) and
-the ROS 2 JointState_ chain, declared for CycloneDDS Python in handgate_types.py -- and each case (empty, typical, extreme, nan, plus
+the ROS 2 JointState_ chain and health messages (diagnostic_msgs, control_msgs 6.8.0), declared for CycloneDDS Python in handgate_types.py -- and each case (empty, typical, extreme, nan, plus
 sdk_default for HandCmd_/HandState_) it builds the message with unitree_sdk2py's idl classes
 (unitree-sdk2 1.0.1; handgate_types.py for the non-Unitree types) and serialises it with CycloneDDS Python 0.10.2 (`msg.serialize()`, plain
 CDR / XCDR1, little-endian, with the 4-byte encapsulation header 00 01 00 00). It writes
@@ -221,6 +221,50 @@ def canonical_typical(key):
             name=names, position=[0.1 * i for i in range(7)], velocity=[-0.01 * i for i in range(7)],
             effort=[],
         )
+    if key.startswith(("diagnostic_msgs/", "control_msgs/")):
+        return health_typical(key)
+    raise KeyError(key)
+
+
+def health_typical(key):
+    """What handgate's health messages carry for a fresh and a stale hand (gateway/src/health.rs)."""
+    c = ws.CLASSES
+    stamp = c["std_msgs/Header_"](c["builtin_interfaces/Time_"](1_763_712_000, 250_000_000), "")
+    kv = c["diagnostic_msgs/KeyValue_"]
+    details = [kv("freshness", "fresh"), kv("safe", "false"), kv("state_rate_hz", "500.0"), kv("owner", "")]
+    if key == "diagnostic_msgs/KeyValue_":
+        return kv("state_rate_hz", "500.0")
+    if key == "diagnostic_msgs/DiagnosticStatus_":
+        return c[key](level=2, name="robot1/handgate: left_hand", message="stale: no state for 812 ms",
+                      hardware_id="left_hand", values=details)
+    if key == "diagnostic_msgs/DiagnosticArray_":
+        return c[key](header=stamp, status=[
+            c["diagnostic_msgs/DiagnosticStatus_"](0, "handgate: left_hand", "ok", "left_hand", details),
+            c["diagnostic_msgs/DiagnosticStatus_"](1, "handgate: right_hand", "safe state", "right_hand", []),
+        ])
+    if key == "control_msgs/GenericHardwareState_":
+        return c[key](health_status=4, error_domain=[2, 8], operational_mode=3, power_state=0,
+                      connectivity_status=2, manufacturer="", model="dex3", firmware_version="",
+                      state_details=details)
+    if key == "control_msgs/CANopenState_":
+        return c[key](node_id=3, nmt_state=5, dsp_402_state=4, last_emcy_code=0x8130)
+    if key == "control_msgs/EtherCATState_":
+        return c[key](slave_position=2, vendor_id="0x0000009a", product_code="0x00030924", al_state=8,
+                      has_error=False, al_status_code=0)
+    if key == "control_msgs/VDA5050State_":
+        return c[key](order_id="order-7", action_status="RUNNING", last_node_id=12, driving=True,
+                      battery_charge=87.5, operating_mode="AUTOMATIC", error_type="", error_description="")
+    generic = c["control_msgs/GenericHardwareState_"](1, [0], 2, 0, 1, "", "dex3", "", details)
+    if key == "control_msgs/HardwareDeviceStatus_":
+        return c[key](header=stamp, device_id="left_hand", hardware_status=[generic], canopen_states=[],
+                      ethercat_states=[], vda5050_states=[])
+    if key == "control_msgs/HardwareStatus_":
+        dev = c["control_msgs/HardwareDeviceStatus_"]
+        return c[key](header=stamp, hardware_id="handgate", hardware_device_states=[
+            dev(stamp, "left_hand", [generic], [], [], []),
+            dev(stamp, "right_hand", [c["control_msgs/GenericHardwareState_"](4, [2], 2, 0, 2, "", "dex3", "", [])],
+                [], [], []),
+        ])
     raise KeyError(key)
 
 
@@ -306,6 +350,7 @@ INT_EXTREMES = {
     "i8": [-128, 127, -1],
     "u8": [255, 0, 0x80],
     "i16": [-32768, 32767, -1],
+    "u16": [0xFFFF, 0, 0x8000],
     "i32": [-0x8000_0000, 0x7FFF_FFFF, -1],
     "u32": [0xFFFF_FFFF, 0, 0x8000_0000],
     "u64": [0xFFFF_FFFF_FFFF_FFFF, 0, 0x8000_0000_0000_0000],
@@ -384,6 +429,9 @@ def build(key, case):
         # bound.
         if key.startswith("inspire/"):
             return Filler(cycling_extremes(), 1 << 16).build(key)
+        if key == "control_msgs/HardwareStatus_":
+            # Sequences three levels deep: 32 devices of 3 x 3 elements would be 650 KB.
+            return Filler(cycling_extremes(), 4, 3).build(key)
         return Filler(cycling_extremes(), 32, 3).build(key)
     if case == "nan":
         return Filler(nan_scalar, 2).build(key)

@@ -9,6 +9,8 @@ from dataclasses import dataclass
 import cyclonedds.idl as idl
 import cyclonedds.idl.annotations as annotate
 import cyclonedds.idl.types as types
+from cyclonedds.core import Policy, Qos
+from cyclonedds.util import duration
 
 
 @dataclass
@@ -186,6 +188,120 @@ class ParticipantEntitiesInfo_(idl.IdlStruct, typename="rmw_dds_common.msg.dds_.
     node_entities_info_seq: types.sequence[NodeEntitiesInfo_]
 
 
+# ROS 2's health messages (idl/src/ros2.rs): diagnostic_msgs and control_msgs 6.8.0, with the
+# DDS type names rmw_cyclonedds gives them. `byte` (DiagnosticStatus.level) is one octet on the
+# wire, as uint8.
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class KeyValue_(idl.IdlStruct, typename="diagnostic_msgs.msg.dds_.KeyValue_"):
+    key: str
+    value: str
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class DiagnosticStatus_(idl.IdlStruct, typename="diagnostic_msgs.msg.dds_.DiagnosticStatus_"):
+    level: types.uint8
+    name: str
+    message: str
+    hardware_id: str
+    values: types.sequence[KeyValue_]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class DiagnosticArray_(idl.IdlStruct, typename="diagnostic_msgs.msg.dds_.DiagnosticArray_"):
+    header: Header_
+    status: types.sequence[DiagnosticStatus_]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class GenericHardwareState_(idl.IdlStruct, typename="control_msgs.msg.dds_.GenericHardwareState_"):
+    health_status: types.uint8
+    error_domain: types.sequence[types.uint8]
+    operational_mode: types.uint8
+    power_state: types.uint8
+    connectivity_status: types.uint8
+    manufacturer: str
+    model: str
+    firmware_version: str
+    state_details: types.sequence[KeyValue_]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class CANopenState_(idl.IdlStruct, typename="control_msgs.msg.dds_.CANopenState_"):
+    node_id: types.uint8
+    nmt_state: types.uint8
+    dsp_402_state: types.uint8
+    last_emcy_code: types.uint32
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class EtherCATState_(idl.IdlStruct, typename="control_msgs.msg.dds_.EtherCATState_"):
+    slave_position: types.uint16
+    vendor_id: str
+    product_code: str
+    al_state: types.uint8
+    has_error: bool
+    al_status_code: types.uint16
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class VDA5050State_(idl.IdlStruct, typename="control_msgs.msg.dds_.VDA5050State_"):
+    order_id: str
+    action_status: str
+    last_node_id: types.uint32
+    driving: bool
+    battery_charge: types.float64
+    operating_mode: str
+    error_type: str
+    error_description: str
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class HardwareDeviceStatus_(idl.IdlStruct, typename="control_msgs.msg.dds_.HardwareDeviceStatus_"):
+    header: Header_
+    device_id: str
+    hardware_status: types.sequence[GenericHardwareState_]
+    canopen_states: types.sequence[CANopenState_]
+    ethercat_states: types.sequence[EtherCATState_]
+    vda5050_states: types.sequence[VDA5050State_]
+
+
+@dataclass
+@annotate.final
+@annotate.autoid("sequential")
+class HardwareStatus_(idl.IdlStruct, typename="control_msgs.msg.dds_.HardwareStatus_"):
+    header: Header_
+    hardware_id: str
+    hardware_device_states: types.sequence[HardwareDeviceStatus_]
+
+
+def ros_default_qos():
+    """ROS 2's default QoS for topics (rmw's `rmw_qos_profile_default`): reliable, volatile,
+    keep last 10; what a ROS node's subscription uses unless told otherwise."""
+    return Qos(
+        Policy.Reliability.Reliable(duration(milliseconds=100)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(10),
+    )
+
+
 CLASSES = {
     "handgate/JointCmd_": JointCmd_,
     "handgate/HandCmd_": HandCmd_,
@@ -198,4 +314,13 @@ CLASSES = {
     "builtin_interfaces/Time_": Time_,
     "std_msgs/Header_": Header_,
     "sensor_msgs/JointState_": RosJointState_,
+    "diagnostic_msgs/KeyValue_": KeyValue_,
+    "diagnostic_msgs/DiagnosticStatus_": DiagnosticStatus_,
+    "diagnostic_msgs/DiagnosticArray_": DiagnosticArray_,
+    "control_msgs/GenericHardwareState_": GenericHardwareState_,
+    "control_msgs/CANopenState_": CANopenState_,
+    "control_msgs/EtherCATState_": EtherCATState_,
+    "control_msgs/VDA5050State_": VDA5050State_,
+    "control_msgs/HardwareDeviceStatus_": HardwareDeviceStatus_,
+    "control_msgs/HardwareStatus_": HardwareStatus_,
 }

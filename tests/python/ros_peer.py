@@ -66,11 +66,7 @@ def main():
         Policy.History.KeepLast(1),
     )
     info = DataReader(dp, Topic(dp, "ros_discovery_info", ht.ParticipantEntitiesInfo_), qos=info_qos)
-    ros_default = Qos(
-        Policy.Reliability.Reliable(duration(milliseconds=100)),
-        Policy.Durability.Volatile,
-        Policy.History.KeepLast(10),
-    )
+    ros_default = ht.ros_default_qos()
     js = DataReader(dp, Topic(dp, args.joint_states, ht.RosJointState_), qos=ros_default)
     pubs = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
     print(f"READY {os.getpid()}", flush=True)

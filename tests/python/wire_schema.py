@@ -146,6 +146,47 @@ SCHEMA.update({
     ],
 })
 
+# ROS 2's health messages (idl/src/ros2.rs): diagnostic_msgs, and control_msgs 6.8.0.
+SCHEMA.update({
+    "diagnostic_msgs/KeyValue_": [("key", "string"), ("value", "string")],
+    "diagnostic_msgs/DiagnosticStatus_": [
+        ("level", "u8"), ("name", "string"), ("message", "string"), ("hardware_id", "string"),
+        ("values", ("seq", "diagnostic_msgs/KeyValue_")),
+    ],
+    "diagnostic_msgs/DiagnosticArray_": [
+        ("header", ("struct", "std_msgs/Header_")), ("status", ("seq", "diagnostic_msgs/DiagnosticStatus_")),
+    ],
+    "control_msgs/GenericHardwareState_": [
+        ("health_status", "u8"), ("error_domain", ("seq", "u8")), ("operational_mode", "u8"),
+        ("power_state", "u8"), ("connectivity_status", "u8"), ("manufacturer", "string"),
+        ("model", "string"), ("firmware_version", "string"),
+        ("state_details", ("seq", "diagnostic_msgs/KeyValue_")),
+    ],
+    "control_msgs/CANopenState_": [
+        ("node_id", "u8"), ("nmt_state", "u8"), ("dsp_402_state", "u8"), ("last_emcy_code", "u32"),
+    ],
+    "control_msgs/EtherCATState_": [
+        ("slave_position", "u16"), ("vendor_id", "string"), ("product_code", "string"),
+        ("al_state", "u8"), ("has_error", "bool"), ("al_status_code", "u16"),
+    ],
+    "control_msgs/VDA5050State_": [
+        ("order_id", "string"), ("action_status", "string"), ("last_node_id", "u32"),
+        ("driving", "bool"), ("battery_charge", "f64"), ("operating_mode", "string"),
+        ("error_type", "string"), ("error_description", "string"),
+    ],
+    "control_msgs/HardwareDeviceStatus_": [
+        ("header", ("struct", "std_msgs/Header_")), ("device_id", "string"),
+        ("hardware_status", ("seq", "control_msgs/GenericHardwareState_")),
+        ("canopen_states", ("seq", "control_msgs/CANopenState_")),
+        ("ethercat_states", ("seq", "control_msgs/EtherCATState_")),
+        ("vda5050_states", ("seq", "control_msgs/VDA5050State_")),
+    ],
+    "control_msgs/HardwareStatus_": [
+        ("header", ("struct", "std_msgs/Header_")), ("hardware_id", "string"),
+        ("hardware_device_states", ("seq", "control_msgs/HardwareDeviceStatus_")),
+    ],
+})
+
 import handgate_types as _hgt  # noqa: E402
 
 CLASSES.update(_hgt.CLASSES)
@@ -192,6 +233,7 @@ RANGES = {
     "i8": (-0x80, 0x7F),
     "u8": (0, 0xFF),
     "i16": (-0x8000, 0x7FFF),
+    "u16": (0, 0xFFFF),
     "i32": (-0x8000_0000, 0x7FFF_FFFF),
     "u32": (0, 0xFFFF_FFFF),
     "u64": (0, 0xFFFF_FFFF_FFFF_FFFF),

@@ -974,7 +974,7 @@ macro_rules! plain_int {
         }
     )*};
 }
-plain_int!(i8, u8, i16, i32, u32);
+plain_int!(i8, u8, i16, u16, i32, u32);
 
 impl FromPlain for u64 {
     fn from_plain(v: &Value, at: &str) -> Result<Self, PlainError> {
@@ -1249,6 +1249,63 @@ plain_struct!(ros2::JointState_ {
     position,
     velocity,
     effort
+});
+plain_struct!(ros2::KeyValue_ { key, value });
+plain_struct!(ros2::DiagnosticStatus_ {
+    level,
+    name,
+    message,
+    hardware_id,
+    values
+});
+plain_struct!(ros2::DiagnosticArray_ { header, status });
+plain_struct!(ros2::GenericHardwareState_ {
+    health_status,
+    error_domain,
+    operational_mode,
+    power_state,
+    connectivity_status,
+    manufacturer,
+    model,
+    firmware_version,
+    state_details
+});
+plain_struct!(ros2::CANopenState_ {
+    node_id,
+    nmt_state,
+    dsp_402_state,
+    last_emcy_code
+});
+plain_struct!(ros2::EtherCATState_ {
+    slave_position,
+    vendor_id,
+    product_code,
+    al_state,
+    has_error,
+    al_status_code
+});
+plain_struct!(ros2::VDA5050State_ {
+    order_id,
+    action_status,
+    last_node_id,
+    driving,
+    battery_charge,
+    operating_mode,
+    error_type,
+    error_description
+});
+plain_struct!(ros2::HardwareDeviceStatus_ {
+    header,
+    device_id,
+    hardware_status,
+    canopen_states,
+    ethercat_states,
+    vda5050_states
+});
+plain_struct!(ros2::HardwareStatus_ {
+    header,
+    hardware_id,
+    hardware_device_states
 });
 plain_struct!(inspire::InspireHandCtrl {
     pos_set,

@@ -1,5 +1,5 @@
 //! The Foxglove WebSocket live server (`[foxglove]`, docs/foxglove.md) end to end, on DDS
-//! domains 77–79 and 188: the real `handgate run` (built with the `foxglove` feature, as
+//! domains 77–79, 129 and 188: the real `handgate run` (built with the `foxglove` feature, as
 //! [`handgate_bin`] builds it) and a client written against the protocol spec alone
 //! (`tests/python/foxglove_client.py`: the websockets package, CDR decoded by hand).
 
@@ -332,4 +332,51 @@ fn a_rebinding_page_reads_the_live_topics_but_cannot_write_anything() {
         0.0,
         "{text}"
     );
+}
+
+/// The subprotocol names the live server accepts (docs/foxglove.md, "Clients"), measured: a
+/// client offers exactly the names a given viewer release offers, and the handshake's HTTP
+/// status and chosen name are recorded (101 and a `serverInfo`, or the refusal's status).
+#[test]
+fn each_subprotocol_name_a_viewer_offers_is_accepted_or_refused_as_documented() {
+    let _serial = serial();
+    let domain = 129;
+    let profile = profile_with("foxglove-subprotocols", "[foxglove]\nport = 0");
+    let gw = Gateway::start(domain, &["--profile", &profile]);
+    let url = gw.foxglove_url().unwrap();
+    // (offered, in the viewer's order; HTTP status; the name the server chose)
+    let cases: [(&str, u16, Option<&str>); 5] = [
+        // Foxglove's current app, PlotJuggler 3.16 and later, foxglove_bridge 3.x clients.
+        ("foxglove.sdk.v1", 101, Some("foxglove.sdk.v1")),
+        // Foxglove Studio 1.x (open source), Lichtblick up to 1.21, @foxglove/ws-protocol.
+        ("foxglove.websocket.v1", 400, None),
+        // Lichtblick 1.22 and later: both names, the old one first.
+        ("foxglove.websocket.v1,foxglove.sdk.v1", 101, Some("foxglove.sdk.v1")),
+        // The foxglove crate's schema-table variant.
+        ("foxglove.sdk.v1.1", 101, Some("foxglove.sdk.v1.1")),
+        ("", 400, None),
+    ];
+    for (offered, status, chosen) in cases {
+        let py = PyProcess::spawn(
+            "foxglove_client.py",
+            &[
+                url.clone(),
+                "/handgate/status".into(),
+                "--subprotocols".into(),
+                offered.into(),
+                "--seconds".into(),
+                "20".into(),
+            ],
+        )
+        .unwrap();
+        let hs = next(&py, "HANDSHAKE");
+        eprintln!("offered [{offered}] -> HTTP {} chose {}", hs["status"], hs["chosen"]);
+        assert_eq!(hs["status"], status, "[{offered}]: {hs}\n{}", py.transcript());
+        assert_eq!(hs["chosen"].as_str(), chosen, "[{offered}]: {hs}");
+        if status == 101 {
+            let info = next(&py, "SERVERINFO");
+            assert_eq!(info["subprotocol"].as_str(), chosen, "{info}");
+            assert_eq!(info["name"], "handgate default", "{info}");
+        }
+    }
 }

@@ -10,7 +10,8 @@
 //!
 //! NaN cases are compared bit-for-bit (re-encoding) because NaN != NaN as a value.
 //!
-//! handgate's canonical types and the ROS 2 JointState_ chain have no SDK classes; their
+//! handgate's canonical types, the ROS 2 JointState_ chain and the ROS 2 health messages
+//! (diagnostic_msgs, control_msgs 6.8.0) have no SDK classes; their
 //! fixtures come from CycloneDDS Python 0.10.2 serialising handgate's declarations
 //! (tests/python/handgate_types.py), an independent XCDR1 implementation (u64/f64 alignment,
 //! strings, booleans, sequences of primitives).
@@ -312,6 +313,34 @@ fn ros2_joint_state() {
 }
 
 #[test]
+fn ros2_diagnostics() {
+    let kv = check_type::<ros2::KeyValue_>("diagnostic_msgs", "KeyValue_");
+    assert_eq!(case(&kv, "empty"), &ros2::KeyValue_::default());
+    let st = check_type::<ros2::DiagnosticStatus_>("diagnostic_msgs", "DiagnosticStatus_");
+    assert_eq!(case(&st, "typical").level, ros2::diagnostic_level::ERROR);
+    let all = check_type::<ros2::DiagnosticArray_>("diagnostic_msgs", "DiagnosticArray_");
+    assert_eq!(case(&all, "empty"), &ros2::DiagnosticArray_::default());
+    assert_eq!(case(&all, "typical").status[1].name, "handgate: right_hand");
+}
+
+#[test]
+fn ros2_hardware_status() {
+    check_type::<ros2::CANopenState_>("control_msgs", "CANopenState_");
+    check_type::<ros2::EtherCATState_>("control_msgs", "EtherCATState_");
+    check_type::<ros2::VDA5050State_>("control_msgs", "VDA5050State_");
+    let g = check_type::<ros2::GenericHardwareState_>("control_msgs", "GenericHardwareState_");
+    assert_eq!(case(&g, "typical").operational_mode, ros2::generic_state::MODE_SAFE);
+    check_type::<ros2::HardwareDeviceStatus_>("control_msgs", "HardwareDeviceStatus_");
+    let all = check_type::<ros2::HardwareStatus_>("control_msgs", "HardwareStatus_");
+    assert_eq!(case(&all, "empty"), &ros2::HardwareStatus_::default());
+    let t = case(&all, "typical");
+    assert_eq!(
+        t.hardware_device_states[1].hardware_status[0].connectivity_status,
+        ros2::generic_state::CONNECT_DOWN
+    );
+}
+
+#[test]
 fn inspire_hand_ctrl() {
     let all = check_type::<inspire::InspireHandCtrl>("inspire", "inspire_hand_ctrl");
     assert_eq!(case(&all, "empty"), &inspire::InspireHandCtrl::default());
@@ -399,6 +428,15 @@ fn every_fixture_is_checked() {
         ("builtin_interfaces", "Time_"),
         ("std_msgs", "Header_"),
         ("sensor_msgs", "JointState_"),
+        ("diagnostic_msgs", "KeyValue_"),
+        ("diagnostic_msgs", "DiagnosticStatus_"),
+        ("diagnostic_msgs", "DiagnosticArray_"),
+        ("control_msgs", "GenericHardwareState_"),
+        ("control_msgs", "CANopenState_"),
+        ("control_msgs", "EtherCATState_"),
+        ("control_msgs", "VDA5050State_"),
+        ("control_msgs", "HardwareDeviceStatus_"),
+        ("control_msgs", "HardwareStatus_"),
         ("inspire", "inspire_hand_ctrl"),
         ("inspire", "inspire_hand_state"),
         ("inspire", "inspire_hand_touch"),

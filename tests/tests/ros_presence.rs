@@ -22,6 +22,8 @@ const DEADLINE: Duration = Duration::from_secs(45);
 /// REP-2011 hashes as ROS 2's generated code publishes them (docs/sources.md §10).
 const JOINT_STATE_HASH: &str = "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e";
 const PARTICIPANT_ENTITIES_INFO_HASH: &str = "RIHS01_91a0593bacdcc50ea9bdcf849a938b128412cc1ea821245c663bcd26f83c295e";
+const DIAGNOSTIC_ARRAY_HASH: &str = "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e";
+const HARDWARE_STATUS_HASH: &str = "RIHS01_d4d081efebdea6d8863855733ea95c58338ac4ffdb501a9524da4cbbad9927a2";
 
 /// What the peer reported: the node message and the participant's writers.
 struct Seen {
@@ -128,12 +130,39 @@ fn check_presence(seen: &Seen, namespace: &str, joint_states: &str) {
     assert_eq!(seen.joint_names, 16, "{ctx}");
 }
 
+/// The health writers: `/diagnostics` (global) and `hardware_status` (at `hardware_status`),
+/// reliable and volatile like a ROS 2 default publisher, with their type hashes.
+fn check_health_writers(seen: &Seen, hardware_status: &str) {
+    let ctx = format!("{:#?}", seen.pubs);
+    for (topic, ty, hash) in [
+        (
+            "rt/diagnostics",
+            "diagnostic_msgs::msg::dds_::DiagnosticArray_",
+            DIAGNOSTIC_ARRAY_HASH,
+        ),
+        (
+            hardware_status,
+            "control_msgs::msg::dds_::HardwareStatus_",
+            HARDWARE_STATUS_HASH,
+        ),
+    ] {
+        let w = seen
+            .by_topic(topic)
+            .unwrap_or_else(|| panic!("no {topic} writer: {ctx}"));
+        assert_eq!(w["type"], ty, "{ctx}");
+        assert_eq!(w["reliability"], "Reliability.Reliable", "{ctx}");
+        assert_eq!(w["durability"], "Durability.Volatile", "{ctx}");
+        assert_eq!(w["user_data"], format!("typehash={hash};"), "{ctx}");
+    }
+}
+
 #[test]
 fn default_profile_is_a_ros_node_and_joint_states_match_a_default_qos_reader() {
     let _serial = serial();
     let gw = Gateway::start(204, &[]);
     let seen = peer(&gw, "rt/joint_states");
     check_presence(&seen, "/", "rt/joint_states");
+    check_health_writers(&seen, "rt/hardware_status");
     let topics = seen.topics();
     for t in [
         "rt/handgate/status",
@@ -154,6 +183,7 @@ fn namespace_moves_handgates_own_topics_and_names_the_node() {
     let gw = Gateway::start(205, &["--profile", profile.to_str().unwrap()]);
     let seen = peer(&gw, "rt/robot1/joint_states");
     check_presence(&seen, "/robot1", "rt/robot1/joint_states");
+    check_health_writers(&seen, "rt/robot1/hardware_status");
     let topics = seen.topics();
     for t in [
         "rt/robot1/handgate/status",
@@ -165,7 +195,12 @@ fn namespace_moves_handgates_own_topics_and_names_the_node() {
     ] {
         assert!(topics.contains(t), "{t} in {topics:?}");
     }
-    for t in ["rt/joint_states", "rt/handgate/status", "rt/handgate/dex3_left/state"] {
+    for t in [
+        "rt/joint_states",
+        "rt/handgate/status",
+        "rt/handgate/dex3_left/state",
+        "rt/hardware_status",
+    ] {
         assert!(!topics.contains(t), "{t} in {topics:?}");
     }
 

@@ -5,6 +5,7 @@
 
 mod devices;
 pub(crate) mod fronts;
+mod health;
 mod ros;
 mod status;
 
@@ -268,6 +269,16 @@ impl Runtime {
                 ));
             }
             tasks.extend(crate::http::spawn(h, listener, fleet, &by_name, shutdown_rx.clone())?);
+        }
+        // The health messages are part of handgate's ROS presence (`[dds] ros_node`), on the
+        // clients' side like the status; opened before the node is announced, which lists them.
+        if crate::health::published(plan) {
+            tasks.push(health::spawn_health(
+                &clients,
+                plan,
+                status_rx.clone(),
+                shutdown_rx.clone(),
+            )?);
         }
         if let Some(ns) = &plan.namespace {
             tasks.push(ros::spawn_presence(&clients, ns.clone(), shutdown_rx.clone())?);

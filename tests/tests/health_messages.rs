@@ -1,0 +1,162 @@
+//! handgate's health in ROS 2's standard messages (docs/fronts.md, "Health messages"), read the
+//! way a ROS 2 node reads them: CycloneDDS Python with its own declarations of
+//! `diagnostic_msgs::msg::dds_::DiagnosticArray_` and `control_msgs::msg::dds_::HardwareStatus_`
+//! (tests/python/health_peer.py, ROS 2's default QoS), against the real binary running
+//! `profiles/g1-dex3.toml` on two emulated Dex3 services. Stopping one service turns that hand
+//! from OK / up to ERROR / down in both messages while the other stays OK.
+//!
+//! Domain 128 (docs/development.md; 233 and above are not valid domain ids).
+
+use std::time::Duration;
+
+use handgate_idl::ros2::{diagnostic_level as level, generic_state as gs};
+use handgate_tests::{serial, Emulation, Gateway, PyProcess};
+use serde_json::Value;
+
+const DEADLINE: Duration = Duration::from_secs(30);
+const DOMAIN: u32 = 128;
+
+/// Reads the peer's lines until `want` holds for a `DIAG` and then for an `HW` sample (each
+/// judged on its own lines); returns the two samples that satisfied it.
+fn wait_for(
+    py: &PyProcess,
+    gw: &Gateway,
+    what: &str,
+    want_diag: impl Fn(&Value) -> bool,
+    want_hw: impl Fn(&Value) -> bool,
+) -> (Value, Value) {
+    let (mut diag, mut hw) = (None, None);
+    let until = std::time::Instant::now() + DEADLINE;
+    let mut last = (Value::Null, Value::Null);
+    while diag.is_none() || hw.is_none() {
+        let left = until.saturating_duration_since(std::time::Instant::now());
+        let line = py.wait_line("", left).unwrap_or_else(|e| {
+            panic!(
+                "{what}: {e}\nlast DIAG {:#}\nlast HW {:#}\n{}\n{}",
+                last.0,
+                last.1,
+                py.transcript(),
+                gw.transcript()
+            )
+        });
+        if let Some(j) = line.strip_prefix("DIAG ") {
+            let v: Value = serde_json::from_str(j).unwrap();
+            if diag.is_none() && want_diag(&v) {
+                diag = Some(v.clone());
+            }
+            last.0 = v;
+        } else if let Some(j) = line.strip_prefix("HW ") {
+            let v: Value = serde_json::from_str(j).unwrap();
+            if hw.is_none() && want_hw(&v) {
+                hw = Some(v.clone());
+            }
+            last.1 = v;
+        }
+    }
+    (diag.unwrap(), hw.unwrap())
+}
+
+fn diag_of<'a>(d: &'a Value, device: &str) -> Option<&'a Value> {
+    d["status"]
+        .as_array()?
+        .iter()
+        .find(|s| s["name"] == format!("handgate: {device}"))
+}
+
+fn hw_of<'a>(h: &'a Value, device: &str) -> Option<&'a Value> {
+    h["devices"].as_array()?.iter().find(|s| s["device_id"] == device)
+}
+
+#[test]
+fn a_stopped_service_turns_its_hand_from_ok_to_error_in_both_messages() {
+    let _g = serial();
+    let d = DOMAIN.to_string();
+    let left = Emulation::start(&["dex3", "--service", "--side", "left", "--domain", &d]);
+    let _right = Emulation::start(&["dex3", "--service", "--side", "right", "--domain", &d]);
+    let gw = Gateway::start(DOMAIN, &["--profile", "g1-dex3"]);
+    let py = PyProcess::spawn(
+        "health_peer.py",
+        &["--domain".into(), d.clone(), "--timeout".into(), "120".into()],
+    )
+    .unwrap();
+    py.wait_line("READY", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+
+    let ok = |name: &str| {
+        let name = name.to_string();
+        move |d: &Value| diag_of(d, &name).is_some_and(|s| s["level"] == level::OK)
+    };
+    let up = |name: &str| {
+        let name = name.to_string();
+        move |h: &Value| hw_of(h, &name).is_some_and(|s| s["connectivity"] == gs::CONNECT_UP)
+    };
+    let both = |a: &dyn Fn(&Value) -> bool, b: &dyn Fn(&Value) -> bool, v: &Value| a(v) && b(v);
+    let (ok_l, ok_r, up_l, up_r) = (ok("left_hand"), ok("right_hand"), up("left_hand"), up("right_hand"));
+    let (diag, hw) = wait_for(
+        &py,
+        &gw,
+        "both hands OK and up",
+        |v| both(&ok_l, &ok_r, v),
+        |v| both(&up_l, &up_r, v),
+    );
+    let s = diag_of(&diag, "left_hand").unwrap();
+    assert_eq!(s["message"], "ok", "{diag:#}");
+    assert_eq!(s["hardware_id"], "left_hand", "{diag:#}");
+    assert_eq!(s["values"]["freshness"], "fresh", "{diag:#}");
+    assert_eq!(s["values"]["safe"], "false", "{diag:#}");
+    for key in [
+        "cmd_rate_hz",
+        "state_rate_hz",
+        "age_ms",
+        "owner",
+        "crc_errors",
+        "watchdog_trips",
+        "late_cmd",
+    ] {
+        assert!(s["values"].get(key).is_some(), "{key} in {diag:#}");
+    }
+    assert!(
+        diag["stamp"][0].as_i64().unwrap() > 1_700_000_000,
+        "wall-clock stamp: {diag:#}"
+    );
+    assert_eq!(hw["hardware_id"], "handgate", "{hw:#}");
+    let h = hw_of(&hw, "left_hand").unwrap();
+    assert_eq!(
+        (h["health"].clone(), h["errors"].clone(), h["generic_states"].clone()),
+        (
+            Value::from(gs::HEALTH_OK),
+            Value::from(vec![gs::ERROR_NONE]),
+            Value::from(1)
+        ),
+        "{hw:#}"
+    );
+    assert_eq!(h["model"], "dex3", "{hw:#}");
+    assert_eq!(
+        (h["canopen"].as_u64(), h["ethercat"].as_u64(), h["vda5050"].as_u64()),
+        (Some(0), Some(0), Some(0))
+    );
+
+    // The left hand's service goes away: its state stops.
+    drop(left);
+    let err_l = |d: &Value| diag_of(d, "left_hand").is_some_and(|s| s["level"] == level::ERROR);
+    let down_l = |h: &Value| hw_of(h, "left_hand").is_some_and(|s| s["connectivity"] == gs::CONNECT_DOWN);
+    let (diag, hw) = wait_for(&py, &gw, "the left hand ERROR and down", err_l, down_l);
+    let s = diag_of(&diag, "left_hand").unwrap();
+    assert!(
+        s["message"].as_str().unwrap().starts_with("stale: no state for "),
+        "{diag:#}"
+    );
+    assert_eq!(s["values"]["freshness"], "stale", "{diag:#}");
+    assert_eq!(diag_of(&diag, "right_hand").unwrap()["level"], level::OK, "{diag:#}");
+    let h = hw_of(&hw, "left_hand").unwrap();
+    assert_eq!(
+        (h["health"].clone(), h["errors"].clone()),
+        (Value::from(gs::HEALTH_ERROR), Value::from(vec![gs::ERROR_HW])),
+        "{hw:#}"
+    );
+    assert_eq!(
+        hw_of(&hw, "right_hand").unwrap()["connectivity"],
+        gs::CONNECT_UP,
+        "{hw:#}"
+    );
+}
