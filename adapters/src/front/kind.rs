@@ -43,6 +43,10 @@ pub struct FrontFacts {
     /// Which of this kind's fronts bind devices by element (`devices = { right, left }`), as
     /// errors name them (`an actuator dex1 front`); `None`: none do.
     pub binds_elements: Option<&'static str>,
+    /// Binds a list of devices by name (`devices = [..]`, or `device`, default every device),
+    /// each in its own table, and its messages name the joints of the devices they command
+    /// (ROS 2 JointState); `false`: one device, or devices by element.
+    pub binds_list: bool,
 }
 
 impl FrontFacts {
@@ -55,6 +59,7 @@ impl FrontFacts {
             takes_commands: true,
             in_namespace: false,
             binds_elements: None,
+            binds_list: false,
         }
     }
 }
