@@ -1,7 +1,7 @@
 //! The `joint_state_command` front (ROS 2 `sensor_msgs/JointState` as a command,
 //! docs/fronts.md) through the real `handgate run` binary on the shipped `sim-all` profile,
 //! driven by a client that behaves as ros2_control's `joint_state_topic_hardware_interface`
-//! does (docs/sources.md §7b): one system of the URDF joints of a Dex3, an Inspire DFX hand and
+//! does (docs/sources.md §10): one system of the URDF joints of a Dex3, an Inspire DFX hand and
 //! a Dex1 gripper; every controller cycle (100 Hz) it reads the latest `joint_states` and
 //! publishes one JointState with every joint's position command on `rt/robot_joint_commands`
 //! (reliable, keep-last 1, the ROS 2 type name and REP-2011 type hash), unless the summed

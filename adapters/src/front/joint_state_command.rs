@@ -1,6 +1,6 @@
 //! ROS 2 `sensor_msgs/msg/JointState` taken as a command (as `sensor_msgs::msg::dds_::JointState_`
 //! on `rt/<topic>`), the way ros2_control's `joint_state_topic_hardware_interface` sends one
-//! (docs/sources.md §7b): joints by the names `rt/joint_states` publishes
+//! (docs/sources.md §10): joints by the names `rt/joint_states` publishes
 //! ([`super::joint_state::joint_name`]), positions in radians in the URDF's frame (the inverse
 //! of [`super::joint_state::append`]), any subset of names per message. Pure functions; the
 //! front's registry entry and reader are `crate::front::joint_state_command_serve`.

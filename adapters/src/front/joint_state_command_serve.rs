@@ -69,7 +69,7 @@ impl Front for JointStateCommandFront {
         "joint_state_command".into()
     }
     /// The plugin stops publishing once the state is within its threshold of the command
-    /// (`trigger_joint_command_threshold`, docs/sources.md §7b): its silence means "stay
+    /// (`trigger_joint_command_threshold`, docs/sources.md §10): its silence means "stay
     /// there". `service` keeps the last target; `watchdog` is the device's watchdog.
     fn silence(mode: Silence, dog: (Duration, SafeAction)) -> SilencePlan {
         SilencePlan::keeps_last_target(mode, dog)
