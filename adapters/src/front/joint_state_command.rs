@@ -19,7 +19,7 @@ use crate::model::{JointCommand, JointId};
 use handgate_idl::ros2::JointState_;
 
 use super::joint_state::joint_name;
-use super::Rejection;
+use super::{FrontCommand, Rejection};
 
 /// Where each joint name of a front's messages goes: (device index, joint) by name, built once
 /// when the front binds its devices. Two devices naming one joint are refused by the profile
@@ -73,15 +73,15 @@ pub fn canonical_q(table: &DeviceTable, j: JointId, urdf: f32) -> f32 {
 }
 
 /// Decodes a JointState command against the bound devices' tables (`tables`, in the order
-/// `index` was built with): per device the message names, its joints in the device's canonical
-/// order (`None`: not named, the joint keeps its target), in device order; or the reason the
-/// message is rejected whole. Positions are not clamped here: the device's table clamps them,
-/// as for every front.
+/// `index` was built with): per device the message names, in device order, its command (its
+/// joints in the device's canonical order, `None`: not named, the joint keeps its target); or
+/// the reason the message is rejected whole. Positions are not clamped here: the device's
+/// table clamps them, as for every front.
 pub fn decode(
     index: &JointIndex,
     tables: &[&DeviceTable],
     msg: &JointState_,
-) -> Result<Vec<(usize, Vec<Option<JointCommand>>)>, Rejection> {
+) -> Result<Vec<(usize, FrontCommand)>, Rejection> {
     if msg.name.is_empty() {
         return Err(Rejection::NoJoints);
     }
@@ -113,7 +113,16 @@ pub fn decode(
     Ok(per
         .into_iter()
         .enumerate()
-        .filter_map(|(d, j)| j.map(|j| (d, j)))
+        .filter_map(|(d, j)| {
+            j.map(|joints| {
+                let c = FrontCommand {
+                    joints,
+                    timeout_bit: false,
+                    tag: 0,
+                };
+                (d, c)
+            })
+        })
         .collect())
 }
 
@@ -163,7 +172,8 @@ mod tests {
         let ix = index(&devs, true);
         let got = decode(&ix, &tables(&devs), &msg(&[("left_hand_three_joint", -0.5)])).unwrap();
         assert_eq!(got.len(), 1, "{got:?}");
-        let (d, joints) = &got[0];
+        let (d, c) = &got[0];
+        let joints = &c.joints;
         assert_eq!(*d, 0);
         let t = &devs[0].1;
         let i = t.joint_by_name("index_0").unwrap().index();
@@ -195,8 +205,8 @@ mod tests {
         }
         let got = decode(&ix, &tables(&devs), &out).unwrap();
         assert_eq!(got.iter().map(|(d, _)| *d).collect::<Vec<_>>(), [0, 1, 2]);
-        for (d, joints) in got {
-            let q: Vec<f32> = joints.iter().map(|j| j.unwrap().q).collect();
+        for (d, c) in got {
+            let q: Vec<f32> = c.joints.iter().map(|j| j.unwrap().q).collect();
             for (a, b) in q.iter().zip(&want[d]) {
                 assert!((a - b).abs() < 1e-5, "{}: {q:?} vs {:?}", devs[d].0, want[d]);
             }
@@ -213,7 +223,7 @@ mod tests {
             &msg(&[("R_index_proximal_joint", 1.0), ("left_hand_zero_joint", 0.3)]),
         )
         .unwrap();
-        let by_dev: HashMap<usize, &Vec<Option<JointCommand>>> = got.iter().map(|(d, j)| (*d, j)).collect();
+        let by_dev: HashMap<usize, &Vec<Option<JointCommand>>> = got.iter().map(|(d, c)| (*d, &c.joints)).collect();
         let dfx = &devs[1].1;
         let i = dfx
             .joints
@@ -247,7 +257,7 @@ mod tests {
         .unwrap();
         let named: Vec<(usize, usize)> = got
             .iter()
-            .map(|(d, j)| (*d, j.iter().filter(|c| c.is_some()).count()))
+            .map(|(d, c)| (*d, c.joints.iter().filter(|j| j.is_some()).count()))
             .collect();
         assert_eq!(named, [(0, 1), (1, 2), (2, 1)]);
     }

@@ -12,7 +12,7 @@ use crate::front::joint_state_command::{decode, JointIndex, DEFAULT_TOPIC};
 use crate::front::kind::{Front, FrontFacts, FrontKind, FrontWire};
 use crate::front::plan::{FrontPlan, SilencePlan};
 use crate::front::serve::{commands, routed, served_command, Bound, Endpoints, FrontEnv, Queue, Routed, TypedIo};
-use crate::front::{FrontCommand, Rejection};
+use crate::front::Rejection;
 use crate::mapping::DeviceTable;
 use crate::model::SafeAction;
 use crate::units::Topic;
@@ -146,14 +146,7 @@ impl TypedIo for JointStateCommandIo {
         let tables: Vec<&DeviceTable> = bound.iter().map(|b| &*b.route.front).collect();
         Ok(decode(index, &tables, msg)?
             .into_iter()
-            .map(|(d, joints)| {
-                let c = FrontCommand {
-                    joints,
-                    timeout_bit: false,
-                    tag: 0,
-                };
-                (d, routed(bound[d].route, c))
-            })
+            .map(|(d, c)| (d, routed(bound[d].route, c)))
             .collect())
     }
 
