@@ -69,6 +69,15 @@ fn posture(closed: bool) -> Vec<(String, f64)> {
     out
 }
 
+/// The positions of a JointState by joint name.
+fn by_name(s: &ros2::JointState_) -> BTreeMap<&str, f64> {
+    s.name
+        .iter()
+        .map(|n| n.as_str())
+        .zip(s.position.iter().copied())
+        .collect()
+}
+
 /// The client: ros2_control's JointStateTopicSystem over the joints of [`DEVICES`].
 struct PluginClient {
     commands: Writer<ros2::JointState_>,
@@ -83,13 +92,7 @@ impl PluginClient {
     /// The latest position of each of `joints` on `joint_states` (`None` until every one has
     /// been read).
     fn positions(&mut self, joints: &[(String, f64)]) -> Option<Vec<f64>> {
-        let s = self.states.update()?;
-        let by: BTreeMap<&str, f64> = s
-            .name
-            .iter()
-            .map(|n| n.as_str())
-            .zip(s.position.iter().copied())
-            .collect();
+        let by = by_name(self.states.update()?);
         joints.iter().map(|(n, _)| by.get(n.as_str()).copied()).collect()
     }
 
@@ -253,12 +256,7 @@ fn a_ros2_control_topic_client_closes_and_opens_three_hands_and_they_stay_when_i
         while Instant::now() < end {
             if let Some(s) = client.states.next(Duration::from_millis(200)) {
                 samples += 1;
-                let by: BTreeMap<&str, f64> = s
-                    .name
-                    .iter()
-                    .map(|n| n.as_str())
-                    .zip(s.position.iter().copied())
-                    .collect();
+                let by = by_name(&s);
                 let d: f64 = target.iter().map(|(n, q)| (by[n.as_str()] - q).abs()).sum();
                 worst = worst.max(d);
                 for (n, q) in target.iter() {

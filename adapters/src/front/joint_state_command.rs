@@ -166,11 +166,21 @@ mod tests {
         devs.iter().map(|(_, t)| t).collect()
     }
 
+    /// `m` decoded against [`three`] (`urdf`: URDF names).
+    fn decode3(urdf: bool, m: &JointState_) -> Result<Vec<(usize, FrontCommand)>, Rejection> {
+        let devs = three();
+        decode(&index(&devs, urdf), &tables(&devs), m)
+    }
+
+    /// The canonical index of the joint of `t` whose URDF name is `urdf`.
+    fn at(t: &DeviceTable, urdf: &str) -> usize {
+        t.joints.iter().position(|m| m.urdf == urdf).unwrap()
+    }
+
     #[test]
     fn a_subset_of_one_device_sets_those_joints_and_leaves_the_others_unset() {
         let devs = three();
-        let ix = index(&devs, true);
-        let got = decode(&ix, &tables(&devs), &msg(&[("left_hand_three_joint", -0.5)])).unwrap();
+        let got = decode3(true, &msg(&[("left_hand_three_joint", -0.5)])).unwrap();
         assert_eq!(got.len(), 1, "{got:?}");
         let (d, c) = &got[0];
         let joints = &c.joints;
@@ -216,37 +226,23 @@ mod tests {
     #[test]
     fn an_inspire_urdf_angle_is_its_canonical_radians_and_a_dex3_one_its_wire_angle() {
         let devs = three();
-        let ix = index(&devs, true);
-        let got = decode(
-            &ix,
-            &tables(&devs),
+        let got = decode3(
+            true,
             &msg(&[("R_index_proximal_joint", 1.0), ("left_hand_zero_joint", 0.3)]),
         )
         .unwrap();
         let by_dev: HashMap<usize, &Vec<Option<JointCommand>>> = got.iter().map(|(d, c)| (*d, &c.joints)).collect();
-        let dfx = &devs[1].1;
-        let i = dfx
-            .joints
-            .iter()
-            .position(|m| m.urdf == "R_index_proximal_joint")
-            .unwrap();
+        let i = at(&devs[1].1, "R_index_proximal_joint");
         assert_eq!(by_dev[&1][i].unwrap().q, 1.0, "canonical frame: as sent");
         let dex3 = &devs[0].1;
-        let k = dex3
-            .joints
-            .iter()
-            .position(|m| m.urdf == "left_hand_zero_joint")
-            .unwrap();
+        let k = at(dex3, "left_hand_zero_joint");
         assert_eq!(by_dev[&0][k].unwrap().q, dex3.joints[k].q_from_wire(0.3));
     }
 
     #[test]
     fn one_message_naming_three_devices_is_one_command_per_device() {
-        let devs = three();
-        let ix = index(&devs, true);
-        let got = decode(
-            &ix,
-            &tables(&devs),
+        let got = decode3(
+            true,
             &msg(&[
                 ("left_gripper_joint", 0.01),
                 ("R_pinky_proximal_joint", 0.5),
@@ -264,52 +260,39 @@ mod tests {
 
     #[test]
     fn an_unknown_name_a_non_finite_position_or_a_count_mismatch_rejects_the_whole_message() {
-        let devs = three();
-        let ix = index(&devs, true);
-        let t = tables(&devs);
         assert_eq!(
-            decode(&ix, &t, &msg(&[("left_hand_one_joint", 0.2), ("elbow", 0.1)])),
+            decode3(true, &msg(&[("left_hand_one_joint", 0.2), ("elbow", 0.1)])),
             Err(Rejection::UnknownJoint("elbow".into()))
         );
         for bad in [f64::NAN, f64::INFINITY, 1e300] {
             assert_eq!(
-                decode(
-                    &ix,
-                    &t,
-                    &msg(&[("left_hand_one_joint", 0.2), ("left_gripper_joint", bad)])
-                ),
+                decode3(true, &msg(&[("left_hand_one_joint", 0.2), ("left_gripper_joint", bad)])),
                 Err(Rejection::NonFinite(1)),
                 "{bad}"
             );
         }
         let mut m = msg(&[("left_hand_one_joint", 0.2), ("left_gripper_joint", 0.0)]);
         m.position.pop();
-        assert_eq!(decode(&ix, &t, &m), Err(Rejection::WrongCount { got: 1, want: 2 }));
+        assert_eq!(decode3(true, &m), Err(Rejection::WrongCount { got: 1, want: 2 }));
         // Velocity and effort are not read (a position-only client leaves them empty; one
         // that fills them does not change what the hand is told).
         m.position.push(0.0);
         m.velocity = vec![f64::NAN];
-        assert!(decode(&ix, &t, &m).is_ok());
-        assert_eq!(decode(&ix, &t, &msg(&[])), Err(Rejection::NoJoints));
+        assert!(decode3(true, &m).is_ok());
+        assert_eq!(decode3(true, &msg(&[])), Err(Rejection::NoJoints));
         assert_eq!(
-            decode(
-                &ix,
-                &t,
-                &msg(&[("left_gripper_joint", 0.0), ("left_gripper_joint", 0.1)])
-            ),
+            decode3(true, &msg(&[("left_gripper_joint", 0.0), ("left_gripper_joint", 0.1)])),
             Err(Rejection::DuplicateJoint("left_gripper_joint".into()))
         );
     }
 
     #[test]
     fn without_urdf_names_joints_are_device_slash_canonical_name() {
-        let devs = three();
-        let ix = index(&devs, false);
-        assert_eq!(ix.len(), 7 + 6 + 1);
-        let got = decode(&ix, &tables(&devs), &msg(&[("dex1_left/jaw", 0.5)])).unwrap();
+        assert_eq!(index(&three(), false).len(), 7 + 6 + 1);
+        let got = decode3(false, &msg(&[("dex1_left/jaw", 0.5)])).unwrap();
         assert_eq!(got[0].0, 2);
         assert_eq!(
-            decode(&ix, &tables(&devs), &msg(&[("left_gripper_joint", 0.5)])),
+            decode3(false, &msg(&[("left_gripper_joint", 0.5)])),
             Err(Rejection::UnknownJoint("left_gripper_joint".into()))
         );
     }

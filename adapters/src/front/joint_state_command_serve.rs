@@ -5,10 +5,9 @@ use std::sync::atomic::AtomicU64;
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
-use serde::{Deserialize, Serialize};
-
 use crate::front::config::{FrontConfig, Silence, TopicKey, TopicRole};
 use crate::front::joint_state_command::{decode, JointIndex, DEFAULT_TOPIC};
+use crate::front::joint_state_serve::JointStateConfig;
 use crate::front::kind::{Front, FrontFacts, FrontKind, FrontWire};
 use crate::front::plan::{FrontPlan, SilencePlan};
 use crate::front::serve::{commands, routed, served_command, Bound, Endpoints, FrontEnv, Queue, Routed, TypedIo};
@@ -18,34 +17,13 @@ use crate::model::SafeAction;
 use crate::units::Topic;
 use handgate_idl::ros2::JointState_;
 
-/// The joint_state_command front's own keys.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct JointStateCommandConfig {
-    /// Default `rt/robot_joint_commands` (in `[dds] namespace`).
-    pub topic: Option<Topic>,
-    /// Joints are named as in the URDF (default true); `false`: `<device>/<joint>`, as a
-    /// joint_state front with `urdf_names = false` publishes them.
-    pub urdf_names: Option<bool>,
-}
-
-/// No `side`: every device in its own table.
-impl crate::front::config::ServedSide for JointStateCommandConfig {}
-
-impl JointStateCommandConfig {
-    /// Whether joints are named as in the URDF (default true).
-    pub fn urdf_names(&self) -> bool {
-        self.urdf_names.unwrap_or(true)
-    }
-}
-
 /// ROS 2 JointState as a command (ros2_control's `joint_state_topic_hardware_interface`), over
 /// the devices it lists, or every device: commands only, its client reads a joint_state front.
 #[derive(Debug)]
 pub struct JointStateCommandFront;
 
 impl Front for JointStateCommandFront {
-    type Config = JointStateCommandConfig;
+    type Config = JointStateConfig;
     type Wire = JointStateCommandIo;
     const KIND: FrontKind = FrontKind::of(&JointStateCommandFront);
     const FACTS: FrontFacts = FrontFacts {
@@ -53,7 +31,7 @@ impl Front for JointStateCommandFront {
         binds_list: true,
         ..FrontFacts::serving("joint_state_command", None)
     };
-    const TOPICS: &'static [TopicKey<JointStateCommandConfig>] = &[TopicKey {
+    const TOPICS: &'static [TopicKey<JointStateConfig>] = &[TopicKey {
         key: "topic",
         role: TopicRole::Command,
         set: |c| c.topic.as_ref(),
@@ -65,7 +43,7 @@ impl Front for JointStateCommandFront {
     fn default_state_hz(_device_hz: Option<f64>) -> f64 {
         10.0
     }
-    fn default_name(_c: &JointStateCommandConfig, _f: &FrontConfig, _side: &str) -> String {
+    fn default_name(_c: &JointStateConfig, _f: &FrontConfig, _side: &str) -> String {
         "joint_state_command".into()
     }
     /// The plugin stops publishing once the state is within its threshold of the command
@@ -74,15 +52,11 @@ impl Front for JointStateCommandFront {
     fn silence(mode: Silence, dog: (Duration, SafeAction)) -> SilencePlan {
         SilencePlan::keeps_last_target(mode, dog)
     }
-    fn joint_names(c: &JointStateCommandConfig, device: &str, table: &DeviceTable) -> Vec<String> {
-        table
-            .joints
-            .iter()
-            .map(|m| crate::front::joint_state::joint_name(m, c.urdf_names(), device))
-            .collect()
+    fn joint_names(c: &JointStateConfig, device: &str, table: &DeviceTable) -> Vec<String> {
+        c.joint_names(device, table)
     }
     fn validate(
-        _c: &JointStateCommandConfig,
+        _c: &JointStateConfig,
         f: &FrontConfig,
         _served: Option<crate::model::Side>,
         _dangling: bool,
@@ -95,7 +69,7 @@ impl Front for JointStateCommandFront {
             None => vec![],
         }
     }
-    fn describe(c: &JointStateCommandConfig) -> Option<String> {
+    fn describe(c: &JointStateConfig) -> Option<String> {
         Some(if c.urdf_names() {
             ", joints by URDF name, positions in rad".into()
         } else {
@@ -113,12 +87,12 @@ pub struct JointStateCommandIo {
 }
 
 /// Its reader: commands only.
-impl FrontWire<JointStateCommandConfig> for JointStateCommandIo {
-    fn served(_c: &JointStateCommandConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
+impl FrontWire<JointStateConfig> for JointStateCommandIo {
+    fn served(_c: &JointStateConfig, f: &FrontPlan) -> Vec<crate::discovery::diagnose::Served> {
         f.cmd_topic().map(served_command::<JointState_>).into_iter().collect()
     }
     fn open(
-        c: &JointStateCommandConfig,
+        c: &JointStateConfig,
         env: &FrontEnv,
         f: &FrontPlan,
         tx: Queue,
