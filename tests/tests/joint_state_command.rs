@@ -9,9 +9,12 @@
 //! nothing. Once there it goes quiet, and the hands must stay where they are (silence keeps the
 //! last target on this front; no watchdog trip).
 //!
-//! Domain 225 (docs/development.md). Every wait is on readiness with a deadline; the client's
-//! 10 ms period is the controller rate it imitates. Needs the binary (`cargo build -p
-//! handgate`).
+//! Also: the front's reader as a ROS 2 node sees it (its type name, its REP-2011 type hash in
+//! USER_DATA, reliable), read from DCPSSubscription by tests/python/ros_subscription_peer.py.
+//!
+//! Domains 225 and 226 (docs/development.md). Every wait is on readiness with a deadline; the
+//! client's 10 ms period is the controller rate it imitates. Needs the binary (`cargo build -p
+//! handgate`) and `.venv`.
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
@@ -21,7 +24,7 @@ use handgate_adapters::mapping::{ClosureMap, DeviceTable, TableOverrides, UrdfFr
 use handgate_adapters::model::{DeviceKind, Side};
 use handgate_idl::handgate as hg;
 use handgate_idl::ros2;
-use handgate_tests::{node, poll, Gateway, Latest};
+use handgate_tests::{emulated_device, node, poll, serial, temp_profile, Gateway, Latest, PyProcess};
 
 const DOMAIN: u32 = 225;
 /// Generous: sim-all starts 15 emulated devices on a shared 2-core machine.
@@ -189,6 +192,7 @@ fn closures(canon: &mut [Latest<hg::HandState_>]) -> Vec<f32> {
 /// no device goes to its safe state, and the front owns every device.
 #[test]
 fn a_ros2_control_topic_client_closes_and_opens_three_hands_and_they_stay_when_it_goes_quiet() {
+    let _serial = serial();
     let gw = Gateway::start(DOMAIN, &["--profile", "sim-all"]);
     let n = node(DOMAIN);
     let mut client = PluginClient {
@@ -292,4 +296,40 @@ fn a_ros2_control_topic_client_closes_and_opens_three_hands_and_they_stay_when_i
             client.published - before
         );
     }
+}
+
+/// The front's reader as a ROS 2 node's graph cache reads it from DCPSSubscription: the ROS 2
+/// type name, `typehash=<JointState's REP-2011 hash>;` in USER_DATA (what a ROS 2 subscription
+/// carries), reliable. On a one-gripper profile with the front at a topic of its own.
+#[test]
+fn the_front_reader_carries_the_ros_type_name_and_hash() {
+    let _serial = serial();
+    const JOINT_STATE_HASH: &str = "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e";
+    let profile = temp_profile(
+        "joint-state-command",
+        "jsc-reader",
+        &format!(
+            "name = \"jsc-reader\"\n{}[[fronts]]\nkind = \"joint_state_command\"\ntopic = \"rt/grip/joint_commands\"\n",
+            emulated_device("dex1_left", "dex1", "left"),
+        ),
+    );
+    let gw = Gateway::start(226, &["--profile", profile.to_str().unwrap()]);
+    let args = [
+        "--domain",
+        "226",
+        "--topic",
+        "rt/grip/joint_commands",
+        "--timeout",
+        "60",
+    ]
+    .map(String::from);
+    let py = PyProcess::spawn("ros_subscription_peer.py", &args).expect("python peer");
+    let ctx = || format!("{}\n{}", py.transcript(), gw.transcript());
+    let line = py
+        .wait_line("SUB ", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", ctx()));
+    let sub: serde_json::Value = serde_json::from_str(line.trim_start_matches("SUB ")).unwrap();
+    assert_eq!(sub["type"], "sensor_msgs::msg::dds_::JointState_", "{}", ctx());
+    assert_eq!(sub["user_data"], format!("typehash={JOINT_STATE_HASH};"), "{}", ctx());
+    assert_eq!(sub["reliability"], "Reliability.Reliable", "{}", ctx());
 }

@@ -100,7 +100,13 @@ impl FrontWire<JointStateConfig> for JointStateCommandIo {
     ) -> Result<Endpoints, crate::dds::DdsError> {
         commands(tx, dropped, |inbox| {
             Ok(JointStateCommandIo {
-                _reader: inbox.reader(&env.node, f.cmd_topic().unwrap_or_default(), std::convert::identity)?,
+                // A ROS-typed reader: its type hash, as a ROS 2 subscription's.
+                _reader: inbox.reader_with(
+                    &env.node,
+                    f.cmd_topic().unwrap_or_default(),
+                    &crate::ros::user_data::<JointState_>(),
+                    std::convert::identity,
+                )?,
                 urdf_names: c.urdf_names(),
                 index: OnceLock::new(),
             })
