@@ -458,6 +458,42 @@ mod tests {
         assert_eq!(q(cmd.step(&measured)), open.iter().map(|c| c.q).collect::<Vec<_>>());
     }
 
+    /// On every device kind's table, joints a partial command leaves out keep the targets an
+    /// earlier command gave them (every device kind's loop resolves commands through this slot).
+    #[test]
+    fn every_kind_keeps_the_targets_a_partial_command_leaves_out() {
+        for kind in crate::kinds::KINDS {
+            let table = Arc::new(kind.table(Side::Left, &Default::default()).unwrap());
+            let n = table.joints.len();
+            if n < 2 {
+                continue; // one joint: every command names it
+            }
+            let cmd = CommandState::new(table.clone());
+            cmd.mark_measured();
+            let measured = vec![JointState::default(); n];
+            // A point inside each joint's limits, different per joint.
+            let at = |i: usize, f: f32| {
+                let l = table.joints[i].limits;
+                (JointId(i as u8), JointCommand::hold(l.min + l.span() * f, 1.0, 0.1))
+            };
+            cmd.submit(HandCommand::joints(1, (0..n).map(|i| at(i, 0.25)).collect()))
+                .unwrap();
+            let first = match cmd.step(&measured) {
+                Active::Command(t) => t,
+                a => panic!("{kind}: {a:?}"),
+            };
+            cmd.submit(HandCommand::joints(2, vec![at(1, 0.75)])).unwrap();
+            let second = match cmd.step(&measured) {
+                Active::Command(t) => t,
+                a => panic!("{kind}: {a:?}"),
+            };
+            for i in 0..n {
+                let want = if i == 1 { at(1, 0.75).1.q } else { first[i].q };
+                assert!((second[i].q - want).abs() < 1e-5, "{kind} joint {i}: {second:?}");
+            }
+        }
+    }
+
     /// Every hold is resolved once, when it begins: a repeated hold request, a client
     /// streaming `hold`, a hold after a reseed keep the position taken first, whatever the
     /// measurement does meanwhile (a joint that sags under a load); a client command ends it,
