@@ -107,26 +107,31 @@ impl PluginClient {
             .expect("joint_states read before the controller runs");
         let diff: f64 = state.iter().zip(cmd).map(|(s, (_, c))| (s - c).abs()).sum();
         if diff > self.threshold {
-            let d = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .unwrap_or_default();
-            let msg = ros2::JointState_ {
-                header: ros2::Header_ {
-                    stamp: ros2::Time_ {
-                        sec: d.as_secs() as i32,
-                        nanosec: d.subsec_nanos(),
-                    },
-                    frame_id: String::new(),
-                },
-                name: cmd.iter().map(|(n, _)| n.clone()).collect(),
-                position: cmd.iter().map(|(_, q)| *q).collect(),
-                velocity: vec![],
-                effort: vec![],
-            };
-            self.commands.write(msg).expect("write");
-            self.published += 1;
+            self.publish(cmd);
         }
         diff
+    }
+
+    /// Publishes one JointState with `cmd`'s names and positions, stamped now.
+    fn publish(&mut self, cmd: &[(String, f64)]) {
+        let d = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default();
+        let msg = ros2::JointState_ {
+            header: ros2::Header_ {
+                stamp: ros2::Time_ {
+                    sec: d.as_secs() as i32,
+                    nanosec: d.subsec_nanos(),
+                },
+                frame_id: String::new(),
+            },
+            name: cmd.iter().map(|(n, _)| n.clone()).collect(),
+            position: cmd.iter().map(|(_, q)| *q).collect(),
+            velocity: vec![],
+            effort: vec![],
+        };
+        self.commands.write(msg).expect("write");
+        self.published += 1;
     }
 
     /// The three joints farthest from `cmd` in the latest state, with their distance (rad).
@@ -189,7 +194,8 @@ fn closures(canon: &mut [Latest<hg::HandState_>]) -> Vec<f32> {
 /// Dex3, an Inspire DFX hand and a Dex1 gripper of `sim-all` through the joint_state_command
 /// front; each time it goes quiet once the hands are within its threshold, and for
 /// [`QUIET`] after that every joint stays within [`STAY`] of its target, no watchdog trips,
-/// no device goes to its safe state, and the front owns every device.
+/// no device goes to its safe state, and the front owns every device. Then an unknown name and
+/// a NaN position are each rejected whole and counted once on every device.
 #[test]
 fn a_ros2_control_topic_client_closes_and_opens_three_hands_and_they_stay_when_it_goes_quiet() {
     let _serial = serial();
@@ -296,6 +302,38 @@ fn a_ros2_control_topic_client_closes_and_opens_three_hands_and_they_stay_when_i
             client.published - before
         );
     }
+
+    // Bad input, from the same client: an unknown name, then a NaN position (the closed
+    // posture otherwise), each rejected whole and counted once on every device of the front;
+    // the hands stay open. One at a time: a keep-last-1 writer may replace an unsent sample.
+    let mut unknown = closed.clone();
+    unknown.push(("elbow_joint".into(), 0.0));
+    let mut nan = closed.clone();
+    nan[0].1 = f64::NAN;
+    for (what, bad) in [("unknown name", unknown), ("NaN", nan)] {
+        let bad0: BTreeMap<String, u64> = poll(DEADLINE, || {
+            let s = statuses(&mut status);
+            (s.len() == DEVICES.len()).then_some(s)
+        })
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(k, d)| (k, d.bad_input))
+        .collect();
+        client.publish(&bad);
+        let counted = poll(DEADLINE, || {
+            let s = statuses(&mut status);
+            (s.len() == DEVICES.len() && s.iter().all(|(k, d)| d.bad_input > bad0[k])).then_some(s)
+        })
+        .unwrap_or_else(|| panic!("{what}: not counted: {:?}\n{}", status.last, gw.transcript()));
+        for (name, d) in &counted {
+            assert_eq!(d.bad_input, bad0[name] + 1, "{what}: {name}: {d:?}");
+        }
+    }
+    let c = closures(&mut canon);
+    assert!(
+        c.iter().all(|c| *c < 0.1),
+        "a rejected command moved a hand: closures {c:?}"
+    );
 }
 
 /// The front's reader as a ROS 2 node's graph cache reads it from DCPSSubscription: the ROS 2
