@@ -18,12 +18,18 @@ It exits on its own after --timeout seconds (exit 3).
 import argparse
 import json
 import os
+import sys
 import threading
 import time
+from pathlib import Path
 
-from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsSubscription
-from cyclonedds.core import Policy
-from cyclonedds.domain import DomainParticipant
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsSubscription  # noqa: E402
+from cyclonedds.core import Policy  # noqa: E402
+from cyclonedds.domain import DomainParticipant  # noqa: E402
+
+from ros_peer import policy_name, user_data  # noqa: E402
 
 
 def main():
@@ -41,18 +47,12 @@ def main():
         for s in subs.take(N=64):
             if s.topic_name != args.topic:
                 continue
-            ud = None
-            try:
-                u = s.qos[Policy.Userdata]
-                if u is not None:
-                    ud = bytes(u.data).decode("utf-8", "replace")
-            except KeyError:
-                pass
-            try:
-                rel = type(s.qos[Policy.Reliability]).__name__
-            except KeyError:
-                rel = None
-            sub = {"topic": s.topic_name, "type": s.type_name, "user_data": ud, "reliability": rel}
+            sub = {
+                "topic": s.topic_name,
+                "type": s.type_name,
+                "user_data": user_data(s.qos),
+                "reliability": policy_name(s.qos, Policy.Reliability),
+            }
             print("SUB " + json.dumps(sub), flush=True)
             print("DONE", flush=True)
             os._exit(0)
@@ -64,7 +64,6 @@ if __name__ == "__main__":
         main()
     except Exception:  # the timer thread would keep the process alive until the timeout
         import traceback
-        import sys
 
         traceback.print_exc()
         sys.stderr.flush()
