@@ -230,20 +230,32 @@ impl CommandState {
     }
 
     /// Accepts a command already checked against this slot's table (latest wins), without
-    /// checking it again.
+    /// checking it again. Joint targets replacing a pending command that set joint targets too
+    /// keep the pending command's targets of the joints they leave out (latest wins per
+    /// joint): two commands naming different joints of one device (a JointState client's
+    /// subsets) within one device cycle move both sets of joints, as they would one cycle apart.
     pub fn submit_checked(&self, seq: u64, body: CheckedBody, tag: u32) {
-        let cmd = HandCommand {
-            seq,
-            body: body.into_body(),
-            tag,
-        };
         Counters::inc(&self.counters.commands);
         let mut g = self.lock();
-        if let CommandBody::Safe(a) = cmd.body {
+        let body = match (g.pending.take(), body.into_body()) {
+            (
+                Some(HandCommand {
+                    body: CommandBody::Joints(mut earlier),
+                    ..
+                }),
+                CommandBody::Joints(now),
+            ) => {
+                earlier.retain(|(id, _)| !now.iter().any(|(n, _)| n == id));
+                earlier.extend(now);
+                CommandBody::Joints(earlier)
+            }
+            (_, body) => body,
+        };
+        if let CommandBody::Safe(a) = body {
             g.pending_safe = Some(a);
             g.pending = None;
         } else {
-            g.pending = Some(cmd);
+            g.pending = Some(HandCommand { seq, body, tag });
             g.pending_safe = None;
         }
     }
@@ -406,6 +418,80 @@ mod tests {
         assert_eq!(h.measured(), Some(0.8));
         h.release();
         assert_eq!(h.hold(), Some(0.8), "a new hold: the newest measurement");
+    }
+
+    /// Two partial joint commands that reach the slot within one device cycle both take
+    /// effect (latest wins per joint), and the joints neither names keep their targets; a
+    /// closure or a full command in between replaces what was pending, as before.
+    #[test]
+    fn partial_commands_within_one_cycle_each_keep_their_joints() {
+        let table = Arc::new(DeviceKind::Dex3.table(Side::Left, &Default::default()).unwrap());
+        let cmd = CommandState::new(table.clone());
+        cmd.mark_measured();
+        let measured = vec![JointState::default(); 7];
+        let joint = |i: u8, q: f32| (JointId(i), JointCommand::hold(q, 1.0, 0.1));
+        let q = |a: Active| match a {
+            Active::Command(t) => t.iter().map(|c| c.q).collect::<Vec<f32>>(),
+            a => panic!("{a:?}"),
+        };
+        cmd.submit(HandCommand::joints(1, (0..7).map(|i| joint(i, 0.0)).collect()))
+            .unwrap();
+        assert_eq!(q(cmd.step(&measured)), [0.0; 7]);
+        let lim = |i: usize, v: f32| table.joints[i].limits.clamp(v);
+        cmd.submit(HandCommand::joints(2, vec![joint(3, 0.4), joint(4, 0.4)]))
+            .unwrap();
+        cmd.submit(HandCommand::joints(3, vec![joint(4, 0.6), joint(5, 0.5)]))
+            .unwrap();
+        let got = q(cmd.step(&measured));
+        assert_eq!(got[3], lim(3, 0.4), "{got:?}");
+        assert_eq!(got[4], lim(4, 0.6), "latest wins: {got:?}");
+        assert_eq!(got[5], lim(5, 0.5), "{got:?}");
+        assert_eq!(
+            [got[0], got[1], got[2], got[6]],
+            [lim(0, 0.0), lim(1, 0.0), lim(2, 0.0), lim(6, 0.0)]
+        );
+        assert_eq!(cmd.applied().0, 3);
+        // A closure pending replaces earlier joints, and joints after it replace the closure.
+        cmd.submit(HandCommand::joints(4, vec![joint(3, 0.1)])).unwrap();
+        cmd.submit(HandCommand::closure(5, 0.0)).unwrap();
+        let open = table.closure_targets(0.0, None).unwrap();
+        assert_eq!(q(cmd.step(&measured)), open.iter().map(|c| c.q).collect::<Vec<_>>());
+    }
+
+    /// On every device kind's table, joints a partial command leaves out keep the targets an
+    /// earlier command gave them (every device kind's loop resolves commands through this slot).
+    #[test]
+    fn every_kind_keeps_the_targets_a_partial_command_leaves_out() {
+        for kind in crate::kinds::KINDS {
+            let table = Arc::new(kind.table(Side::Left, &Default::default()).unwrap());
+            let n = table.joints.len();
+            if n < 2 {
+                continue; // one joint: every command names it
+            }
+            let cmd = CommandState::new(table.clone());
+            cmd.mark_measured();
+            let measured = vec![JointState::default(); n];
+            // A point inside each joint's limits, different per joint.
+            let at = |i: usize, f: f32| {
+                let l = table.joints[i].limits;
+                (JointId(i as u8), JointCommand::hold(l.min + l.span() * f, 1.0, 0.1))
+            };
+            cmd.submit(HandCommand::joints(1, (0..n).map(|i| at(i, 0.25)).collect()))
+                .unwrap();
+            let first = match cmd.step(&measured) {
+                Active::Command(t) => t,
+                a => panic!("{kind}: {a:?}"),
+            };
+            cmd.submit(HandCommand::joints(2, vec![at(1, 0.75)])).unwrap();
+            let second = match cmd.step(&measured) {
+                Active::Command(t) => t,
+                a => panic!("{kind}: {a:?}"),
+            };
+            for i in 0..n {
+                let want = if i == 1 { at(1, 0.75).1.q } else { first[i].q };
+                assert!((second[i].q - want).abs() < 1e-5, "{kind} joint {i}: {second:?}");
+            }
+        }
     }
 
     /// Every hold is resolved once, when it begins: a repeated hold request, a client

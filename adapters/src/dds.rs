@@ -436,7 +436,23 @@ impl Node {
     /// here and logged: it never reaches CycloneDDS's C frames (the listener trampoline is
     /// `extern "C"`, where a panic aborts the process: every device would stop where it is,
     /// with no safe state); the next samples call `on_data` again.
-    pub fn reader_with_callback<T, F>(&self, name: &str, qos: Qos, mut on_data: F) -> Result<Reader<T>, DdsError>
+    pub fn reader_with_callback<T, F>(&self, name: &str, qos: Qos, on_data: F) -> Result<Reader<T>, DdsError>
+    where
+        T: TopicType + 'static,
+        F: FnMut(&DdsReaderHandle<T>) + Send + 'static,
+    {
+        self.reader_with_callback_opts(name, qos, &EndpointOptions::default(), on_data)
+    }
+
+    /// [`Self::reader_with_callback`] with durability and USER_DATA from `opts` (a ROS-typed
+    /// reader's type hash).
+    pub fn reader_with_callback_opts<T, F>(
+        &self,
+        name: &str,
+        qos: Qos,
+        opts: &EndpointOptions,
+        mut on_data: F,
+    ) -> Result<Reader<T>, DdsError>
     where
         T: TopicType + 'static,
         F: FnMut(&DdsReaderHandle<T>) + Send + 'static,
@@ -455,8 +471,13 @@ impl Node {
                 }
             })
             .build();
-        let reader = DdsReader::create(&self.inner.participant, topic, Some(qos.to_dds()?), Some(listener))
-            .map_err(dds_err("reader create"))?;
+        let reader = DdsReader::create(
+            &self.inner.participant,
+            topic,
+            Some(qos.to_dds_with(opts)?),
+            Some(listener),
+        )
+        .map_err(dds_err("reader create"))?;
         // SAFETY: only reads the integer handle out of the wrapper.
         let guid = self.register(Role::Reader, unsafe { reader.entity().entity() })?;
         Ok(Reader {

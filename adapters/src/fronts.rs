@@ -6,8 +6,13 @@
 use crate::front::kind::FrontKind;
 use crate::kinds::KINDS;
 
-/// handgate's own fronts: its canonical messages and ROS 2 `joint_states`.
-pub const OWN: &[FrontKind] = &[FrontKind::Canonical, FrontKind::JointState];
+/// handgate's own fronts: its canonical messages, ROS 2 `joint_states` and ROS 2 JointState
+/// commands.
+pub const OWN: &[FrontKind] = &[
+    FrontKind::Canonical,
+    FrontKind::JointState,
+    FrontKind::JointStateCommand,
+];
 
 /// Every front kind, in the order `handgate check` and errors list them: the device kinds'
 /// (in [`KINDS`] order), then [`OWN`].

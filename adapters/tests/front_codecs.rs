@@ -38,6 +38,8 @@ fn every_rejection_has_its_documented_reason_key() {
         (Rejection::UnknownStatus { index: 1, status: 6 }, "unknown_status"),
         (Rejection::UnknownMode(9), "unknown_mode"),
         (Rejection::UnknownJoint("pinky".into()), "unknown_joint"),
+        (Rejection::DuplicateJoint("jaw".into()), "duplicate_joint"),
+        (Rejection::NoJoints, "no_joints"),
         (Rejection::BadClosure(f32::NAN), "bad_closure"),
     ];
     for (r, key) in cases {

@@ -615,6 +615,13 @@ pub(crate) mod tests {
                 "inspire_ftp" => (Some(t::<inspire::InspireHandCtrl>()), t::<inspire::InspireHandState>()),
                 "canonical" => (Some(t::<handgate::HandCmd_>()), t::<handgate::HandState_>()),
                 "joint_state" => (None, t::<ros2::JointState_>()),
+                "joint_state_command" => {
+                    // Commands only: its reader, nothing written (its client reads a
+                    // joint_state front's topic).
+                    let topic = f.cmd_topic().expect("its command topic").to_string();
+                    assert_eq!(got, [(topic, t::<ros2::JointState_>(), Role::Reader)], "{}", f.name);
+                    continue;
+                }
                 other => panic!("front kind {other} of sim-all has no expectation here"),
             };
             match cmd {

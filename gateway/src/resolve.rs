@@ -146,7 +146,7 @@ fn front(i: usize, f: &FrontConfig, p: &Profile) -> Result<FrontPlan, ResolveErr
     let mut bindings = Vec::new();
     let takes_commands = f.kind().takes_commands();
     if takes_commands {
-        for (side, n) in f.bindings(lookup) {
+        for (side, n) in p.front_bindings(f) {
             let d = lookup(n).ok_or_else(|| ResolveError::Front(i, format!("no device named {n}")))?;
             bindings.push(Binding {
                 device: n.to_string(),

@@ -51,6 +51,15 @@ def policy_name(qos, policy):
     return p.__name__ if isinstance(p, type) else type(p).__name__
 
 
+def user_data(qos):
+    """An endpoint's USER_DATA as text (where ROS 2 puts its type hash), or None."""
+    try:
+        u = qos[Policy.Userdata]
+    except KeyError:
+        return None
+    return None if u is None else bytes(u.data).decode("utf-8", "replace")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--domain", type=int, required=True)
@@ -90,19 +99,12 @@ def main():
         for s in js.take(N=16):
             joint_names = len(s.name)
         for p in pubs.take(N=64):
-            ud = None
-            try:
-                u = p.qos[Policy.Userdata]
-                if u is not None:
-                    ud = bytes(u.data).decode("utf-8", "replace")
-            except KeyError:
-                pass
             seen[p.key.bytes.hex()] = {
                 "key": p.key.bytes.hex(),
                 "participant": p.participant_key.bytes.hex(),
                 "topic": p.topic_name,
                 "type": p.type_name,
-                "user_data": ud,
+                "user_data": user_data(p.qos),
                 "reliability": policy_name(p.qos, Policy.Reliability),
                 "durability": policy_name(p.qos, Policy.Durability),
             }

@@ -86,8 +86,8 @@ pub struct ElementDevices {
 }
 
 /// A front's `devices`: the grippers of a message carrying several, by element
-/// (`{ right = "..", left = ".." }`), or the list of devices a state-only front publishes
-/// (`["a", "b"]`).
+/// (`{ right = "..", left = ".." }`), or the list of devices a state-only front publishes or a
+/// front binding a list drives (`["a", "b"]`).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 #[serde(untagged)]
 pub enum FrontDevices {
@@ -155,12 +155,14 @@ pub struct FrontConfig {
     /// and what it serves (`handgate_gateway`'s `display_name`).
     pub name: Option<String>,
     /// The device this front drives. Required, except for a state-only front (`joint_state`),
-    /// which publishes every device unless `device` or `devices` names them, and for a front
-    /// bound by element with `devices`.
+    /// which publishes every device unless `device` or `devices` names them, a front binding a
+    /// list (`joint_state_command`, `FrontFacts::binds_list`), which drives every device unless
+    /// they are named the same way, and a front bound by element with `devices`.
     pub device: Option<DeviceName>,
     /// Fronts bound by element (`actuator` dex1, inspire_dfx): the device of each element,
     /// `{ right = "..", left = ".." }`; an element left out is not driven and reports no
-    /// measurement. State-only fronts: the devices published, `["..", ".."]`.
+    /// measurement. State-only fronts: the devices published, `["..", ".."]`; fronts binding a
+    /// list: the devices driven, `["..", ".."]`.
     pub devices: Option<FrontDevices>,
     /// Rate of the state topic (default: the kind's, `FrontFactory::default_state_hz`).
     pub state_hz: Option<RateHz>,

@@ -14,11 +14,14 @@ use crate::front::serve::{Endpoints, FrontEnv, Queue};
 use crate::units::Topic;
 use handgate_idl::ros2::JointState_;
 
-/// The joint_state front's own keys.
+/// The own keys of the fronts that speak ROS 2 JointState: joint_state, and
+/// joint_state_command (`crate::front::joint_state_command_serve`), which takes the names the
+/// first publishes.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct JointStateConfig {
-    /// Default `rt/joint_states` (in `[dds] namespace`).
+    /// Default: the kind's (joint_state `rt/joint_states`, joint_state_command
+    /// `rt/robot_joint_commands`; in `[dds] namespace`).
     pub topic: Option<Topic>,
     /// Name joints as in the URDF (default true); `false`: `<device>/<joint>`.
     pub urdf_names: Option<bool>,
@@ -31,6 +34,15 @@ impl JointStateConfig {
     /// Whether joints are named as in the URDF (default true).
     pub fn urdf_names(&self) -> bool {
         self.urdf_names.unwrap_or(true)
+    }
+
+    /// The names the joints of `device` (table `table`) carry in this front's messages.
+    pub fn joint_names(&self, device: &str, table: &crate::mapping::DeviceTable) -> Vec<String> {
+        table
+            .joints
+            .iter()
+            .map(|m| joint_name(m, self.urdf_names(), device))
+            .collect()
     }
 }
 
@@ -58,11 +70,7 @@ impl Front for JointStateFront {
         device_hz.map_or(100.0, |d| d.min(100.0))
     }
     fn joint_names(c: &JointStateConfig, device: &str, table: &crate::mapping::DeviceTable) -> Vec<String> {
-        table
-            .joints
-            .iter()
-            .map(|m| joint_name(m, c.urdf_names(), device))
-            .collect()
+        c.joint_names(device, table)
     }
     fn default_name(c: &JointStateConfig, _f: &FrontConfig, _side: &str) -> String {
         match &c.topic {

@@ -43,6 +43,10 @@ pub struct FrontFacts {
     /// Which of this kind's fronts bind devices by element (`devices = { right, left }`), as
     /// errors name them (`an actuator dex1 front`); `None`: none do.
     pub binds_elements: Option<&'static str>,
+    /// Binds a list of devices by name (`devices = [..]`, or `device`, default every device),
+    /// each in its own table, and its messages name the joints of the devices they command
+    /// (ROS 2 JointState); `false`: one device, or devices by element.
+    pub binds_list: bool,
 }
 
 impl FrontFacts {
@@ -55,6 +59,7 @@ impl FrontFacts {
             takes_commands: true,
             in_namespace: false,
             binds_elements: None,
+            binds_list: false,
         }
     }
 }
@@ -120,9 +125,10 @@ pub trait Front: Sync + Send + fmt::Debug + 'static {
     ) -> Vec<(&'static str, String)> {
         vec![]
     }
-    /// The joint names a state-only front publishes for `device` (table `table`) in messages
-    /// readers key by joint name (ROS 2 JointState); the profile check refuses a front on which
-    /// two devices would publish one name. Empty: the front's messages carry no names.
+    /// The joint names the front's messages carry for `device` (table `table`) where they are
+    /// keyed by joint name (ROS 2 JointState, published or taken as a command); the profile
+    /// check refuses a front on which two devices would have one name. Empty: the front's
+    /// messages carry no names.
     fn joint_names(_c: &Self::Config, _device: &str, _table: &DeviceTable) -> Vec<String> {
         vec![]
     }
@@ -388,7 +394,7 @@ impl FrontConfig {
     pub fn validate_own(&self, served: Option<Side>, dangling: bool) -> Vec<(&'static str, String)> {
         self.own.0.validate(self, served, dangling)
     }
-    /// The joint names this state-only front publishes for `device`.
+    /// The joint names this front's messages carry for `device`.
     pub fn joint_names(&self, device: &str, table: &DeviceTable) -> Vec<String> {
         self.own.0.joint_names(device, table)
     }

@@ -1,5 +1,5 @@
 //! The fronts' wire codecs that belong to no device kind (handgate's own `canonical` messages,
-//! ROS 2 `joint_state`) and what every front codec shares: the rejection reasons and the
+//! ROS 2 `joint_state` and `joint_state_command`) and what every front codec shares: the rejection reasons and the
 //! decoded command. The Dex3 and Dex1 service fronts' codecs live in their kind folders
 //! (`dex3::front`, `dex1::front`). Pure functions (wire message ⇄ canonical, validated by the
 //! rules in docs/fronts.md); the gateway's front registry (`handgate_gateway::fronts`) opens
@@ -16,6 +16,8 @@ pub mod config;
 pub mod core;
 pub mod endpoint;
 pub mod joint_state;
+pub mod joint_state_command;
+pub mod joint_state_command_serve;
 pub mod joint_state_serve;
 pub mod kind;
 pub mod one_hand;
@@ -41,6 +43,12 @@ pub enum Rejection {
     UnknownMode(u8),
     #[error("unknown joint {0:?}")]
     UnknownJoint(String),
+    /// A message that names one joint twice (which of the two is meant?).
+    #[error("joint {0:?} named twice")]
+    DuplicateJoint(String),
+    /// A message that names no joint (a JointState command with no names).
+    #[error("no joint named")]
+    NoJoints,
     #[error("closure {0} is not finite")]
     BadClosure(f32),
     /// A message of another type than the front reads (impossible through
@@ -59,6 +67,8 @@ impl Rejection {
             Rejection::UnknownStatus { .. } => "unknown_status",
             Rejection::UnknownMode(_) => "unknown_mode",
             Rejection::UnknownJoint(_) => "unknown_joint",
+            Rejection::DuplicateJoint(_) => "duplicate_joint",
+            Rejection::NoJoints => "no_joints",
             Rejection::BadClosure(_) => "bad_closure",
             Rejection::WrongType(_) => "wrong_type",
         }

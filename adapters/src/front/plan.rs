@@ -102,7 +102,8 @@ pub struct PlanTopic {
 }
 
 /// One front, bound to its devices (one, except a front whose messages carry several, like
-/// the Dex1 actuator variant; a state-only front lists its devices in `devices` instead).
+/// the Dex1 actuator variant, or name their joints, like joint_state_command; a state-only
+/// front lists its devices in `devices` instead).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrontPlan {
     /// The name logs use (profile `name`, or derived).
@@ -110,7 +111,8 @@ pub struct FrontPlan {
     /// The front's profile table (its kind, and its kind's own keys for its kind to open it).
     pub config: FrontConfig,
     pub bindings: Vec<Binding>,
-    /// The devices a state-only front publishes (its device, or every device).
+    /// The devices a state-only front publishes, or a front binding a list drives (its
+    /// device, its list, or every device).
     pub devices: Vec<String>,
     /// Every topic the front serves, in its kind's order.
     pub topics: Vec<PlanTopic>,

@@ -212,9 +212,21 @@ impl<M: Send + 'static> Inbox<M> {
         topic: &str,
         wrap: fn(T) -> M,
     ) -> Result<Reader<T>, DdsError> {
+        self.reader_with(node, topic, &crate::dds::EndpointOptions::default(), wrap)
+    }
+
+    /// [`Self::reader`] with USER_DATA from `opts` (a ROS-typed reader's type hash,
+    /// `ros::user_data`).
+    pub fn reader_with<T: Clone + handgate_idl::TopicType + Send + 'static>(
+        &self,
+        node: &Node,
+        topic: &str,
+        opts: &crate::dds::EndpointOptions,
+        wrap: fn(T) -> M,
+    ) -> Result<Reader<T>, DdsError> {
         let (tx, dropped) = (self.tx.clone(), self.dropped.clone());
         let mut writers: std::collections::HashMap<WriterHandle, Arc<WriterInfo>> = std::collections::HashMap::new();
-        node.reader_with_callback::<T, _>(topic, COMMAND_QOS, move |h| {
+        node.reader_with_callback_opts::<T, _>(topic, COMMAND_QOS, opts, move |h| {
             let mut v = Vec::new();
             h.take_with_writers(&mut v);
             let taken = std::time::Instant::now();

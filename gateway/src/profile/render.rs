@@ -181,8 +181,8 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
             s.push_str(&d);
         }
         if f.kind().takes_commands() {
-            let plans: Vec<(String, String)> = f
-                .bindings(lookup)
+            let plans: Vec<(String, String)> = p
+                .front_bindings(f)
                 .into_iter()
                 .filter_map(|(_, n)| lookup(n).map(|d| (n.0.clone(), crate::resolve::silence_plan(f, d).to_string())))
                 .collect();
@@ -195,8 +195,8 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
                     let _ = write!(s, ", silence ({n}): {p}");
                 }
             }
-            let hold = f
-                .bindings(lookup)
+            let hold = p
+                .front_bindings(f)
                 .into_iter()
                 .filter_map(|(_, n)| lookup(n).map(|d| crate::resolve::hold(f, d)))
                 .max()
@@ -212,7 +212,7 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
             }
         }
         s.push('\n');
-        let bound: Vec<Side> = f.bindings(lookup).into_iter().map(|(side, _)| side).collect();
+        let bound: Vec<Side> = p.front_bindings(f).into_iter().map(|(side, _)| side).collect();
         for line in f.describe_unbound(&bound) {
             let _ = writeln!(s, "    {line}");
         }

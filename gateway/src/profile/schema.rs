@@ -136,9 +136,9 @@ pub struct RawProfile {
 }
 
 impl Profile {
-    /// The devices a state-only front publishes, in its order: `devices = [..]` (each once;
-    /// a name no device has is left out, validation reports it), else `device`, else every
-    /// device.
+    /// The devices a state-only front publishes, or a front binding a list of devices
+    /// (`FrontFacts::binds_list`) drives, in its order: `devices = [..]` (each once; a name no
+    /// device has is left out, validation reports it), else `device`, else every device.
     pub fn published_devices(&self, f: &FrontConfig) -> Vec<&DeviceConfig> {
         let by_name = |n: &DeviceName| self.devices.iter().find(|d| &d.name == n);
         match (f.devices.as_ref().and_then(|d| d.list()), &f.device) {
@@ -154,6 +154,24 @@ impl Profile {
             (None, Some(n)) => by_name(n).into_iter().collect(),
             (None, None) => self.devices.iter().collect(),
         }
+    }
+
+    /// The devices front `f` drives, with the side whose wire convention each is served in:
+    /// a front binding a list of devices (`FrontFacts::binds_list`) drives each listed device
+    /// (or every device) on its own side; any other front, its `bindings`. Empty for a front
+    /// taking no commands.
+    pub fn front_bindings<'a>(&'a self, f: &'a FrontConfig) -> Vec<(Side, &'a DeviceName)> {
+        if !f.kind().takes_commands() {
+            return vec![];
+        }
+        if f.kind().factory().facts().binds_list {
+            return self
+                .published_devices(f)
+                .into_iter()
+                .map(|d| (d.side, &d.name))
+                .collect();
+        }
+        f.bindings(|n| self.devices.iter().find(|d| &d.name == n))
     }
 
     /// The namespace of handgate's own topics and ROS node: `export.namespace`, else

@@ -378,6 +378,30 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "list at least one device",
     ),
     (
+        "two devices with one joint name on one JointState command front",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"e\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state_command\"\n",
+        "fronts[0].devices",
+        "`g` and `e` both have `left_gripper_joint`: a command on `rt/robot_joint_commands` naming it would be ambiguous",
+    ),
+    (
+        "a state rate on a front that publishes no state",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state_command\"\nstate_hz = 50\n",
+        "fronts[0].state_hz",
+        "a joint_state_command front publishes no state",
+    ),
+    (
+        "a JointState command front bound by element",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state_command\"\ndevices = { left = \"g\" }\n",
+        "fronts[0].devices",
+        "binds devices by element; use `device`, or list them",
+    ),
+    (
+        "a JointState command front listing a missing device",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state_command\"\ndevices = [\"g\", \"nope\"]\n",
+        "fronts[0].devices[1]",
+        "no device named `nope`",
+    ),
+    (
         "unknown front key",
         "[[fronts]]\nkind = \"canonical\"\ndevice = \"g\"\ncmd_topc = \"rt/x\"\n",
         "fronts[0].cmd_topc",
@@ -841,6 +865,52 @@ fn one_actuator_front_binds_both_grippers_by_element() {
     assert!(
         lines[0].contains("one actuator front serves both grippers"),
         "{lines:?}"
+    );
+}
+
+/// A JointState command front binds every device by default, each on its own side in its own
+/// table, or the devices it lists; its silence keeps the last target unless `watchdog` is set.
+#[test]
+fn a_joint_state_command_front_binds_a_list_of_devices_each_on_its_side() {
+    let two = "[[devices]]\nname = \"l\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n";
+    let bound = |extra: &str| {
+        let (_, r) = load_text(&format!("{two}[[fronts]]\nkind = \"joint_state_command\"\n{extra}"));
+        let plan = crate::resolve::plan(&r.unwrap().profile).unwrap();
+        let f = &plan.fronts[0];
+        assert_eq!(f.cmd_topic(), Some("rt/robot_joint_commands"));
+        f.bindings
+            .iter()
+            .map(|b| (b.device.clone(), b.side, b.table.is_none(), b.silence.after))
+            .collect::<Vec<_>>()
+    };
+    let dog = Some((std::time::Duration::from_millis(200), SafeAction::Hold));
+    assert_eq!(
+        bound(""),
+        [
+            ("l".to_string(), Side::Left, true, None),
+            ("g".to_string(), Side::Right, true, None)
+        ]
+    );
+    assert_eq!(
+        bound("devices = [\"g\"]\n"),
+        [("g".to_string(), Side::Right, true, None)]
+    );
+    assert_eq!(bound("device = \"l\"\n"), [("l".to_string(), Side::Left, true, None)]);
+    assert_eq!(
+        bound("devices = [\"g\"]\nsilence = \"watchdog\"\n"),
+        [("g".to_string(), Side::Right, true, dog)]
+    );
+    let (_, r) = load_text(&format!("{two}[[fronts]]\nkind = \"joint_state_command\"\n"));
+    let l = r.unwrap();
+    let text = render_fleet(&l.profile, &l.origin);
+    let line = text
+        .lines()
+        .find(|l| l.contains("joint_state_command ->"))
+        .unwrap_or_default();
+    assert!(line.contains("-> all devices "), "{text}");
+    assert!(
+        line.contains(" cmd rt/robot_joint_commands, joints by URDF name, positions in rad, silence: service: keeps the last target"),
+        "{text}"
     );
 }
 

@@ -349,7 +349,7 @@ impl Checker {
                         format!(
                             "only {} binds devices by element; use `device`{}",
                             FrontKind::binding_elements(),
-                            if f.kind().takes_commands() {
+                            if f.kind().takes_commands() && !f.kind().factory().facts().binds_list {
                                 ""
                             } else {
                                 ", or list them: `devices = [\"..\", \"..\"]`"
@@ -400,7 +400,7 @@ impl Checker {
                     }
                 },
                 None => {
-                    if f.kind().takes_commands() && f.devices.is_none() {
+                    if one_device(f) && f.devices.is_none() {
                         self.err(
                             k.key("device"),
                             format!("{} front must name its device", a(f.kind().as_str())),
@@ -411,7 +411,7 @@ impl Checker {
             };
             let dangling = (f.device.is_some() && dev.is_none()) || missing;
             self.front(&k, f, dev, dangling);
-            if dev.is_none() && f.kind().takes_commands() && (f.devices.is_none() || missing) {
+            if dev.is_none() && one_device(f) && (f.devices.is_none() || missing) {
                 // Its topics depend on a device that is not there; already reported.
                 continue;
             }
@@ -434,7 +434,8 @@ impl Checker {
                 }
             }
             let topics = p.front_topics(f, dev);
-            if let (false, Some(t)) = (missing, topics.state()) {
+            // A front binding a list names its devices' joints in the messages it takes.
+            if let (false, Some(t)) = (missing, topics.state().or(topics.cmd())) {
                 self.joint_names(&k, f, p, t);
             }
             let mut cmd_clash = None;
@@ -510,7 +511,7 @@ impl Checker {
         by_name: &HashMap<&str, usize>,
         known: &dyn Fn() -> String,
     ) -> bool {
-        if f.kind().takes_commands() {
+        if one_device(f) {
             let how = match f.kind().factory().facts().binds_elements {
                 Some(_) => "bind by element, `devices = { right = \"..\", left = \"..\" }`, or give `device`",
                 None => "give `device`",
@@ -518,7 +519,7 @@ impl Checker {
             self.err(
                 k.key("devices"),
                 format!(
-                    "a list of devices is for fronts that publish state only; {} takes commands: {how}",
+                    "a list of devices is for fronts that publish state only or name joints (joint_state, joint_state_command); {} takes commands: {how}",
                     a(f.kind().as_str())
                 ),
             );
@@ -551,8 +552,9 @@ impl Checker {
         missing
     }
 
-    /// A state-only front whose messages readers key by joint name (ROS 2 JointState): no two
-    /// of its devices may publish one name, or a reader sees one of them and loses the other.
+    /// A front whose messages are keyed by joint name (ROS 2 JointState): no two of its
+    /// devices may carry one name, or a reader sees one of them and loses the other (a state
+    /// front), or one name would move two joints (a command front).
     fn joint_names(&mut self, k: &KeyPath, f: &FrontConfig, p: &Profile, topic: &Topic) {
         if matches!(f.devices, Some(FrontDevices::Elements(_))) {
             return; // refused for a front that publishes state only
@@ -579,16 +581,24 @@ impl Checker {
                 n if n > 3 => format!(" and {} more", n - 3),
                 _ => String::new(),
             };
-            self.err(
-                k.key("devices"),
+            let msg = if f.kind().takes_commands() {
+                format!(
+                    "`{}` and `{}` both have {}{more}: a command on `{topic}` naming it would be ambiguous. Command one of them on its own topic (a second `{}` front with `topic` and `devices = [..]`, and `devices` here), or set `urdf_names = false` (names `<device>/<joint>`)",
+                    devices[a].name,
+                    devices[b].name,
+                    shown.join(", "),
+                    f.kind().as_str(),
+                )
+            } else {
                 format!(
                     "`{}` and `{}` would both publish {}{more} on `{topic}`: a reader keyed by joint name (every ROS tool) sees one of them and loses the other. Publish one of them on its own topic (a second `{}` front with `topic` and `devices = [..]`, and `devices` here), or set `urdf_names = false` (names `<device>/<joint>`)",
                     devices[a].name,
                     devices[b].name,
                     shown.join(", "),
                     f.kind().as_str(),
-                ),
-            );
+                )
+            };
+            self.err(k.key("devices"), msg);
         }
     }
 
@@ -898,4 +908,10 @@ impl Checker {
             self.err(k.key(key), msg);
         }
     }
+}
+
+/// Whether front `f` drives one device named by `device` (or devices by element): a front
+/// taking commands that does not bind a list of devices (`FrontFacts::binds_list`).
+fn one_device(f: &FrontConfig) -> bool {
+    f.kind().takes_commands() && !f.kind().factory().facts().binds_list
 }
