@@ -27,11 +27,8 @@
 
 use std::time::{Duration, Instant};
 
-/// The motion verdicts, as `DeviceStatus_::motion` carries them (idl `MOTION_*`).
-pub const MOTION_OK: u8 = 0;
-pub const MOTION_FROZEN: u8 = 1;
-pub const MOTION_JOINT_STUCK: u8 = 2;
-pub const MOTION_NOT_FOLLOWING: u8 = 3;
+/// The motion verdicts, as `DeviceStatus_::motion` carries them (idl/handgate.idl).
+pub use handgate_idl::handgate::{MOTION_FROZEN, MOTION_JOINT_STUCK, MOTION_NOT_FOLLOWING, MOTION_OK};
 
 /// Two measurements of a joint closer than this (rad) are "the same": a repeated sample.
 /// Far below every kind's measurement noise and resolution (docs/adapters.md "Emulators").

@@ -98,14 +98,23 @@ impl<S, P> ClientOpen<S, P> {
 }
 
 /// `handgate emulate <kind>` for a service hand: the service `start` starts on the command
-/// line's domain, running until the process stops.
-pub fn emulate_service<E: Send + 'static>(
+/// line's domain, with the command line's `--fault` (joints named as on a `kind` hand on
+/// `side`), running until the process stops.
+pub fn emulate_service<C: ServiceCore>(
     args: &EmulateArgs,
-    start: impl FnOnce(&Node) -> Result<E, EmulatorError>,
+    kind: crate::model::DeviceKind,
+    side: Side,
+    start: impl FnOnce(&Node) -> Result<ServiceEmulator<C>, EmulatorError>,
 ) -> Result<Emulation, DeviceError> {
     let node = args.node()?;
     let emu = start(&node)?;
+    args.inject_fault(&emu, kind, side)?;
     Ok(Emulation::Running(Box::new((emu, node))))
+}
+
+/// The registered kind called `name` (a kind's own name: always registered).
+fn registered(name: &str) -> Result<crate::model::DeviceKind, DeviceError> {
+    crate::model::DeviceKind::by_name(name).ok_or_else(|| DeviceError::Config(format!("kind {name} is not registered")))
 }
 
 /// A hand that is a client of a robot's hand service running one instance per hand on the
@@ -317,7 +326,9 @@ impl<H: ServiceHand> Kind for H {
         );
         Ok((
             what,
-            emulate_service(args, |node| ServiceEmulator::<H::Core>::start(node, cfg))?,
+            emulate_service(args, registered(name)?, side, |node| {
+                ServiceEmulator::<H::Core>::start(node, cfg)
+            })?,
         ))
     }
 

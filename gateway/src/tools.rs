@@ -59,7 +59,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
     }
     let _ = writeln!(
         out,
-        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7}",
+        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9}  {}",
         "device",
         "kind",
         "backend",
@@ -73,13 +73,15 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         "wdog",
         "recon",
         "missed",
-        "foreign"
+        "foreign",
+        "track rad",
+        "motion"
     );
     for d in &s.devices {
         let fresh = freshness_word(d.freshness);
         let _ = writeln!(
             out,
-            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7}",
+            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9.3}  {}",
             d.device,
             d.kind,
             d.backend,
@@ -93,7 +95,19 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
             d.watchdog_trips,
             d.reconnects,
             d.missed_cycles,
-            d.foreign_cmd
+            d.foreign_cmd,
+            d.tracking_error,
+            motion_word(d)
+        );
+    }
+    // Devices that report but do not move (docs/adapters.md, "Motion"), when any.
+    for d in s.devices.iter().filter(|d| d.motion != hg::MOTION_OK) {
+        let _ = writeln!(
+            out,
+            "\n{}: {} (tracking error {:.3} rad)",
+            d.device,
+            motion_sentence(d),
+            d.tracking_error
         );
     }
     // Commands dropped by their source timestamps (docs/fronts.md, "Commands in order"): a
@@ -334,5 +348,31 @@ mod tests {
             t.contains("[type_mismatch]: 1 writer(s) use type x::T_") && t.contains("fix: set variant"),
             "{t}"
         );
+    }
+}
+
+/// The motion column: the verdict's word, with the joint it names (`joint_stuck:thumb_1`).
+pub fn motion_word(d: &hg::DeviceStatus_) -> String {
+    let w = handgate_adapters::motion::Verdict::word(d.motion);
+    if d.motion_joint.is_empty() {
+        w.to_string()
+    } else {
+        format!("{w}:{}", d.motion_joint)
+    }
+}
+
+/// The motion verdict as a sentence (`handgate status`, `handgate doctor`).
+pub fn motion_sentence(d: &hg::DeviceStatus_) -> String {
+    let j = &d.motion_joint;
+    match d.motion {
+        hg::MOTION_OK => "follows its command".into(),
+        hg::MOTION_FROZEN => format!(
+            "reports but does not move: its state samples repeat while it is commanded to move (largest error at {j})"
+        ),
+        hg::MOTION_JOINT_STUCK => format!("joint {j} does not follow its target while the other joints do"),
+        hg::MOTION_NOT_FOLLOWING => format!(
+            "does not follow its command: the state varies but no joint approaches its target (largest error at {j})"
+        ),
+        other => format!("unknown motion verdict {other}"),
     }
 }

@@ -154,6 +154,9 @@ impl Kind for Dex1Kind {
             "emulating dex1_1_service ({variant}): {cmd}, {state} on DDS domain {}",
             args.domain
         );
-        Ok((what, emulate_service(args, |node| Dex1Emulator::start(node, cfg))?))
+        Ok((
+            what,
+            emulate_service(args, DeviceKind::Dex1, side, |node| Dex1Emulator::start(node, cfg))?,
+        ))
     }
 }

@@ -336,6 +336,9 @@ impl Kind for InspireFtpKind {
                 args.domain
             ),
         };
-        Ok((what, emulate_service(args, |node| FtpEmulator::start(node, cfg))?))
+        Ok((
+            what,
+            emulate_service(args, DeviceKind::InspireFtp, side, |node| FtpEmulator::start(node, cfg))?,
+        ))
     }
 }

@@ -288,6 +288,24 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "silence = \"watchdog\"",
     ),
     (
+        "motion tolerance of zero",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\ntolerance = 0.0\n",
+        "devices[0].motion.tolerance",
+        "above 0 and at most 1 rad",
+    ),
+    (
+        "motion hold too long to report within a second",
+        "[[devices]]\nname = \"g\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\nhold_ms = 2000\n",
+        "devices[0].motion.hold_ms",
+        "between 50 and 900 ms",
+    ),
+    (
+        "an unknown motion key",
+        "[[devices]]\nname = \"g\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\nholdms = 200\n",
+        "devices[0].motion.holdms",
+        "unknown",
+    ),
+    (
         "max_command_age_ms of zero",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nmax_command_age_ms = 0\n",
         "fronts[0].max_command_age_ms",

@@ -5,6 +5,7 @@ use std::collections::{BTreeMap, HashMap};
 use super::error::KeyPath;
 use super::schema::*;
 use handgate_adapters::kind::{a, check_rate, check_topic, FleetMember};
+use handgate_adapters::motion::MotionThresholds;
 
 /// A problem found by [`validate`]: key path and message (the loader adds the origin).
 pub type Problem = (KeyPath, String);
@@ -693,6 +694,30 @@ impl Checker {
             let max = lim.max.map_or(hi, |r| r.0);
             if min >= max {
                 self.err(jk.clone(), format!("min ({min}) must be below max ({max})"));
+            }
+        }
+
+        // motion
+        let mk = k.key("motion");
+        if let Some(t) = d.motion.tolerance {
+            let max = f64::from(MotionThresholds::TOLERANCE_MAX);
+            if !(t.0.is_finite() && t.0 > 0.0 && t.0 <= max) {
+                self.err(
+                    mk.key("tolerance"),
+                    format!("must be above 0 and at most {max} rad, got {}", t.0),
+                );
+            }
+        }
+        if let Some(h) = d.motion.hold_ms {
+            let (lo, hi) = MotionThresholds::HOLD_MS_RANGE;
+            if !(lo..=hi).contains(&u64::from(h.0)) {
+                self.err(
+                    mk.key("hold_ms"),
+                    format!(
+                        "must be between {lo} and {hi} ms (a hand that does not move must be reported within a second), got {}",
+                        h.0
+                    ),
+                );
             }
         }
 

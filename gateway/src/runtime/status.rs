@@ -80,6 +80,9 @@ pub(super) fn spawn_status(
                             owner: d.counters.owner().unwrap_or_default(),
                             not_allowed_cmd: d.counters.not_allowed_cmd.load(Ordering::Relaxed),
                             age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
+                            motion: st.motion.verdict.code(),
+                            motion_joint: st.motion.joint.and_then(|j| d.plan.kind.joint_names().get(j)).map(|n| n.to_string()).unwrap_or_default(),
+                            tracking_error: st.motion.tracking_error(),
                         });
                     }
                     latest.send_replace(Arc::new(msg.clone()));
