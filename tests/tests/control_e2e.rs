@@ -131,7 +131,7 @@ fn a_second_sdk_client_is_refused_while_the_first_streams_and_takes_over_once_it
         gw.transcript()
     );
 
-    // `handgate status --once` shows the count in its last column.
+    // `handgate status --once` shows the count in its foreign column.
     let o = handgate(domain, &["status", "--once"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let out = text(&o.stdout);
