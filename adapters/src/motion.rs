@@ -34,6 +34,10 @@ pub use handgate_idl::handgate::{MOTION_FROZEN, MOTION_JOINT_STUCK, MOTION_NOT_F
 /// Far below every kind's measurement noise and resolution (docs/adapters.md "Emulators").
 pub const FREEZE_EPS: f32 = 1.0e-6;
 
+/// The fewest samples a window of no progress must hold before a joint is reported: a stream
+/// slowed to a few samples a second (a starved peer) is not judged on a handful.
+pub const MIN_SAMPLES: u32 = 10;
+
 /// Whether a device follows its command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Verdict {
@@ -163,6 +167,8 @@ struct Track {
     /// Where and when the joint last made progress (or the demand began).
     anchor_q: f32,
     anchor_t: Instant,
+    /// Samples seen since the anchor.
+    samples: u32,
     /// The sign of the error the anchor is measured against.
     dir: f32,
 }
@@ -222,7 +228,19 @@ impl MotionDetector {
         if self.last_t.is_some_and(|t| at <= t) {
             return &self.report;
         }
+        // The stream was interrupted (a stalled peer, a loaded machine): whatever did not
+        // move before the gap is judged again from here (a stall is staleness's business).
+        let gap = self
+            .last_t
+            .is_some_and(|t| at.saturating_duration_since(t) > self.thresholds.hold / 4);
         self.last_t = Some(at);
+        if gap {
+            self.last_change = None;
+            for t in self.tracks.iter_mut().flatten() {
+                t.anchor_t = at;
+                t.samples = 0;
+            }
+        }
         let n = measured.len();
         // Repeated samples: every joint where it was.
         let same = self.last_q.len() == n
@@ -271,14 +289,20 @@ impl MotionDetector {
                     demand_since: at,
                     anchor_q: measured[j],
                     anchor_t: at,
+                    samples: 0,
                     dir,
                 }),
             };
+            if gap {
+                t.anchor_q = measured[j];
+            }
+            t.samples = t.samples.saturating_add(1);
             if (measured[j] - t.anchor_q) * dir >= th.progress() {
                 t.anchor_q = measured[j];
                 t.anchor_t = at;
+                t.samples = 0;
                 self.progressed[j] = Some(at);
-            } else if at.saturating_duration_since(t.anchor_t) >= th.hold {
+            } else if Self::no_progress(t, at, th) {
                 if stuck.map_or(true, |(_, best)| e.abs() > best) {
                     stuck = Some((j, e.abs()));
                 }
@@ -312,7 +336,15 @@ impl MotionDetector {
 
     /// Whether joint `k` is demanded and has made no progress for the hold time at `at`.
     fn is_stuck(&self, k: usize, at: Instant) -> bool {
-        self.tracks[k].is_some_and(|t| at.saturating_duration_since(t.anchor_t) >= self.thresholds.hold)
+        self.tracks[k]
+            .as_ref()
+            .is_some_and(|t| Self::no_progress(t, at, self.thresholds))
+    }
+
+    /// A demanded joint has made no progress for the hold time, over at least [`MIN_SAMPLES`]
+    /// samples (a slow stream is not judged on a handful).
+    fn no_progress(t: &Track, at: Instant, th: MotionThresholds) -> bool {
+        at.saturating_duration_since(t.anchor_t) >= th.hold && t.samples >= MIN_SAMPLES
     }
 }
 
@@ -467,6 +499,31 @@ mod tests {
         assert_eq!(seen, [Verdict::Ok]);
     }
 
+    /// A stream with gaps longer than a quarter of the hold time is judged again after each;
+    /// a slow stream needs [`MIN_SAMPLES`] samples of no progress.
+    #[test]
+    fn an_interrupted_or_slow_stream_is_judged_on_enough_samples() {
+        let mut d = MotionDetector::new(MotionThresholds::HAND);
+        let t0 = Instant::now();
+        let tg = [1.0; N];
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        // A sample every 150 ms, never moving: every gap restarts the window.
+        for k in 0..20 {
+            let m = [0.001 * (k % 2) as f32; N];
+            assert_eq!(d.observe(at(150 * k), Some(&tg), &m).verdict, Verdict::Ok, "{k}");
+        }
+        // Every 60 ms: the hold time passes at the seventh sample, the verdict waits for the tenth.
+        let mut d = MotionDetector::new(MotionThresholds::HAND);
+        let mut first = None;
+        for k in 0..20u64 {
+            let m = [0.001 * (k % 2) as f32; N];
+            if d.observe(at(60 * k), Some(&tg), &m).verdict != Verdict::Ok && first.is_none() {
+                first = Some(60 * k);
+            }
+        }
+        assert_eq!(first, Some(540), "the tenth sample, the first counted");
+    }
+
     #[test]
     fn a_republished_sample_is_not_a_new_one_and_reset_forgets() {
         let mut d = MotionDetector::new(MotionThresholds::HAND);
@@ -477,7 +534,9 @@ mod tests {
             let r = d.observe(t0, Some(&tg), &[0.0; N]);
             assert_eq!(r.verdict, Verdict::Ok, "{k}");
         }
-        d.observe(t0 + Duration::from_millis(600), Some(&tg), &[0.0; N]);
+        for k in 1..=300 {
+            d.observe(t0 + Duration::from_millis(2 * k), Some(&tg), &[0.0; N]);
+        }
         assert_eq!(d.report().verdict, Verdict::Frozen);
         d.reset();
         assert_eq!(d.report().verdict, Verdict::Ok);

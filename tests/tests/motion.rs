@@ -72,7 +72,14 @@ fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -
     let d = domain.to_string();
     // The Dex3 emulates its USB MCU or its service; the others only their service.
     let service: &[&str] = if kind == "dex3" { &["--service"] } else { &[] };
-    let _emu = Emulator::start(&[&[kind][..], service, &["--side", "left", "--domain", &d, "--fault", fault]].concat());
+    let _emu = Emulator::start(
+        &[
+            &[kind][..],
+            service,
+            &["--side", "left", "--domain", &d, "--fault", fault],
+        ]
+        .concat(),
+    );
     let profile = client_profile(kind);
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let n = node(domain);
