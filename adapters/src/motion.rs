@@ -169,6 +169,9 @@ struct Track {
     anchor_t: Instant,
     /// Samples seen since the anchor.
     samples: u32,
+    /// Reported as not following: it stays reported until it moves towards its target (or
+    /// reaches it), whatever gaps the stream has meanwhile.
+    reported: bool,
     /// The sign of the error the anchor is measured against.
     dir: f32,
 }
@@ -228,19 +231,13 @@ impl MotionDetector {
         if self.last_t.is_some_and(|t| at <= t) {
             return &self.report;
         }
-        // The stream was interrupted (a stalled peer, a loaded machine): whatever did not
-        // move before the gap is judged again from here (a stall is staleness's business).
+        // The stream was interrupted (a stalled peer, a loaded machine): a joint not reported
+        // yet is judged again from here (a stall is staleness's business, and a starved
+        // emulator's joints move slower than the wall clock). One already reported stays so.
         let gap = self
             .last_t
             .is_some_and(|t| at.saturating_duration_since(t) > self.thresholds.hold / 4);
         self.last_t = Some(at);
-        if gap {
-            self.last_change = None;
-            for t in self.tracks.iter_mut().flatten() {
-                t.anchor_t = at;
-                t.samples = 0;
-            }
-        }
         let n = measured.len();
         // Repeated samples: every joint where it was.
         let same = self.last_q.len() == n
@@ -290,19 +287,24 @@ impl MotionDetector {
                     anchor_q: measured[j],
                     anchor_t: at,
                     samples: 0,
+                    reported: false,
                     dir,
                 }),
             };
-            if gap {
+            if gap && !t.reported {
                 t.anchor_q = measured[j];
+                t.anchor_t = at;
+                t.samples = 0;
             }
             t.samples = t.samples.saturating_add(1);
             if (measured[j] - t.anchor_q) * dir >= th.progress() {
                 t.anchor_q = measured[j];
                 t.anchor_t = at;
                 t.samples = 0;
+                t.reported = false;
                 self.progressed[j] = Some(at);
             } else if Self::no_progress(t, at, th) {
+                t.reported = true;
                 if stuck.map_or(true, |(_, best)| e.abs() > best) {
                     stuck = Some((j, e.abs()));
                 }
@@ -341,10 +343,10 @@ impl MotionDetector {
             .is_some_and(|t| Self::no_progress(t, at, self.thresholds))
     }
 
-    /// A demanded joint has made no progress for the hold time, over at least [`MIN_SAMPLES`]
-    /// samples (a slow stream is not judged on a handful).
+    /// A demanded joint was reported, or has made no progress for the hold time over at least
+    /// [`MIN_SAMPLES`] samples (a slow stream is not judged on a handful).
     fn no_progress(t: &Track, at: Instant, th: MotionThresholds) -> bool {
-        at.saturating_duration_since(t.anchor_t) >= th.hold && t.samples >= MIN_SAMPLES
+        t.reported || (at.saturating_duration_since(t.anchor_t) >= th.hold && t.samples >= MIN_SAMPLES)
     }
 }
 
@@ -522,6 +524,11 @@ mod tests {
             }
         }
         assert_eq!(first, Some(540), "the tenth sample, the first counted");
+        // Reported, then a gap: still reported (only moving clears it).
+        let r = d.observe(at(60 * 20 + 300), Some(&tg), &[0.0; N]);
+        assert_eq!(r.verdict, Verdict::NotFollowing, "{r:?}");
+        let r = d.observe(at(60 * 20 + 310), Some(&tg), &[0.9; N]);
+        assert_eq!(r.verdict, Verdict::Ok, "moved: {r:?}");
     }
 
     #[test]

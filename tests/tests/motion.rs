@@ -15,8 +15,8 @@ use std::time::{Duration, Instant};
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_tests::{
-    closure_cmd, handgate_bin, interop_interface, node, poll, repo_root, serial, status_device, Emulation as Emulator,
-    Gateway, Latest, PyProcess,
+    closure_cmd, handgate_bin, http_get, interop_interface, node, poll, repo_root, serial, status_device,
+    Emulation as Emulator, Gateway, Latest, PyProcess,
 };
 
 /// Bound on an emulator's start, a gateway's first fresh state and a match.
@@ -45,14 +45,10 @@ fn client_profile(kind: &str) -> PathBuf {
     )
 }
 
-/// `handgate status --once` on `domain` (the status table).
-fn status_table(domain: u32) -> String {
-    let mut args = vec![
-        "status".to_string(),
-        "--once".into(),
-        "--domain".into(),
-        domain.to_string(),
-    ];
+/// `handgate <args> --domain <domain> [--interface ...]`: its stdout.
+fn handgate_out(domain: u32, args: &[&str]) -> String {
+    let mut args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+    args.extend(["--domain".to_string(), domain.to_string()]);
     if let Some(i) = interop_interface() {
         args.extend(["--interface".to_string(), i]);
     }
@@ -60,15 +56,21 @@ fn status_table(domain: u32) -> String {
         .current_dir(repo_root())
         .args(&args)
         .output()
-        .expect("handgate status runs");
+        .expect("handgate runs");
     String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// What `handgate status --once` and `handgate doctor` print while the hand is reported.
+struct Shown {
+    status: String,
+    doctor: String,
 }
 
 /// Emulates `kind`'s left hand service (`handgate emulate`) with `fault` on `domain`, runs a gateway for it,
 /// waits for a fresh state, then streams a closure of 0.8: the status must report `want`
 /// (naming `joint`, when given) within [`WITHIN`] of the first command, and keep reporting it.
 /// Returns the report and `handgate status`'s table.
-fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -> (hg::DeviceStatus_, String) {
+fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -> (hg::DeviceStatus_, Shown) {
     let d = domain.to_string();
     // The Dex3 emulates its USB MCU or its service; the others only their service.
     let service: &[&str] = if kind == "dex3" { &["--service"] } else { &[] };
@@ -108,11 +110,13 @@ fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -
     let cmd = closure_cmd(1, 0.8);
     let start = Instant::now();
     let mut reported: Option<(Duration, hg::DeviceStatus_)> = None;
-    let mut table: Option<std::thread::JoinHandle<String>> = None;
+    let mut table: Option<std::thread::JoinHandle<Shown>> = None;
+    let mut metrics = String::new();
     let mut next = start;
     let mut seq = 1;
     // Stream at 50 Hz (the front's watchdog holds the hand after 200 ms of silence), until the
-    // verdict has been seen, held for another second and `handgate status` has shown it.
+    // verdict has been seen, held for another second, and `handgate status` and `handgate
+    // doctor` have shown it.
     while start.elapsed() < DEADLINE {
         if Instant::now() >= next {
             seq += 1;
@@ -123,7 +127,23 @@ fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -
             let dev = status_device(s, "hand");
             if reported.is_none() && dev.motion != hg::MOTION_OK {
                 reported = Some((start.elapsed(), dev.clone()));
-                table = Some(std::thread::spawn(move || status_table(domain)));
+                let p = profile.clone();
+                table = Some(std::thread::spawn(move || Shown {
+                    status: handgate_out(domain, &["status", "--once"]),
+                    doctor: handgate_out(
+                        domain,
+                        &[
+                            "doctor",
+                            "--profile",
+                            p.to_str().unwrap(),
+                            "--seconds",
+                            "2",
+                            "--no-scan",
+                            "--no-sweep",
+                        ],
+                    ),
+                }));
+                metrics = http_get(&gw.http_url().expect("the dashboard serves"), "/metrics").1;
             }
             if let Some((at, _)) = &reported {
                 assert_eq!(
@@ -164,18 +184,49 @@ fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -
         at.as_millis(),
         WITHIN.as_millis()
     );
-    let table = table.expect("started with the report").join().expect("handgate status");
-    (dev, table)
+    // `/metrics`: the verdict (its joint as a label) and each joint's tracking error.
+    let verdict = metrics
+        .lines()
+        .find(|l| l.starts_with("handgate_device_motion{device=\"hand\""))
+        .unwrap_or_else(|| panic!("no handgate_device_motion for hand:\n{metrics}"));
+    assert!(verdict.ends_with(&format!(" {want}")), "{verdict}");
+    if let Some(j) = joint {
+        assert!(verdict.contains(&format!("joint=\"{j}\"")), "{verdict}");
+    }
+    let errors = metrics
+        .lines()
+        .filter(|l| l.starts_with("handgate_joint_tracking_error_radians{device=\"hand\""))
+        .count();
+    assert!(errors >= 6, "a tracking error per joint:\n{metrics}");
+    let shown = table
+        .expect("started with the report")
+        .join()
+        .expect("handgate status and doctor");
+    assert!(
+        shown.doctor.contains("PROBLEM motion: device hand"),
+        "{kind} --fault {fault}: the doctor:\n{}",
+        shown.doctor
+    );
+    (dev, shown)
 }
 
 #[test]
 fn a_stuck_joint_a_frozen_stream_and_ignored_commands_of_a_dex3_service_are_caught_within_a_second() {
     let _g = serial();
-    let (_, table) = caught("dex3", 207, "stuck=index_0", hg::MOTION_JOINT_STUCK, Some("index_0"));
-    assert!(table.contains("joint_stuck:index_0"), "{table}");
-    assert!(table.contains("joint index_0 does not follow"), "{table}");
-    let (_, table) = caught("dex3", 207, "frozen", hg::MOTION_FROZEN, None);
-    assert!(table.contains("frozen:"), "{table}");
+    let (_, shown) = caught("dex3", 207, "stuck=index_0", hg::MOTION_JOINT_STUCK, Some("index_0"));
+    assert!(shown.status.contains("joint_stuck:index_0"), "{}", shown.status);
+    assert!(
+        shown.status.contains("joint index_0 does not follow"),
+        "{}",
+        shown.status
+    );
+    assert!(
+        shown.doctor.contains("joint index_0 does not follow"),
+        "{}",
+        shown.doctor
+    );
+    let (_, shown) = caught("dex3", 207, "frozen", hg::MOTION_FROZEN, None);
+    assert!(shown.status.contains("frozen:"), "{}", shown.status);
     caught("dex3", 207, "ignore-commands", hg::MOTION_NOT_FOLLOWING, None);
 }
 
@@ -191,6 +242,7 @@ fn a_stuck_finger_a_frozen_stream_and_ignored_commands_of_a_brainco_service_are_
 /// `handgate emulate` refuses what it cannot emulate, naming what it can.
 #[test]
 fn faults_the_emulators_cannot_emulate_are_refused() {
+    let _g = serial();
     let run = |args: &[&str]| {
         let o = Command::new(handgate_bin())
             .current_dir(repo_root())
