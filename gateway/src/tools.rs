@@ -287,6 +287,44 @@ mod tests {
 
     /// The commands dropped by their source timestamps get a table of their own, only for
     /// the devices with any; the device table keeps its columns.
+    /// The motion column names the verdict and its joint; a device that reports but does not
+    /// move gets a sentence under the table, the others none.
+    #[test]
+    fn renders_the_motion_verdict_with_its_joint() {
+        let dev = |name: &str, motion: u8, joint: &str, err: f32| hg::DeviceStatus_ {
+            device: name.into(),
+            kind: "dex3".into(),
+            backend: "dds".into(),
+            motion,
+            motion_joint: joint.into(),
+            tracking_error: err,
+            ..Default::default()
+        };
+        let s = hg::GatewayStatus_ {
+            devices: vec![
+                dev("left_hand", hg::MOTION_JOINT_STUCK, "thumb_1", 0.8),
+                dev("right_hand", hg::MOTION_OK, "", f32::NAN),
+            ],
+            ..Default::default()
+        };
+        let t = render_status(&s);
+        let row = |name: &str| -> Vec<String> {
+            t.lines()
+                .find(|l| l.starts_with(name))
+                .unwrap()
+                .split_whitespace()
+                .map(str::to_string)
+                .collect()
+        };
+        assert_eq!(row("left_hand")[14..], ["0.800", "joint_stuck:thumb_1"], "{t}");
+        assert_eq!(row("right_hand")[14..], ["NaN", "ok"], "{t}");
+        assert!(
+            t.contains("left_hand: joint thumb_1 does not follow its target while the other joints do (tracking error 0.800 rad)"),
+            "{t}"
+        );
+        assert!(!t.contains("right_hand:"), "{t}");
+    }
+
     #[test]
     fn renders_the_commands_dropped_by_source_timestamp_only_when_there_are_some() {
         let dev = |name: &str| hg::DeviceStatus_ {
@@ -320,7 +358,8 @@ mod tests {
             "{t}"
         );
         let first = t.lines().find(|l| l.starts_with("left_hand")).unwrap();
-        assert_eq!(first.split_whitespace().count(), 14, "{t}");
+        // device kind backend state safe cmdHz stateHz age crc bad wdog recon missed foreign track motion
+        assert_eq!(first.split_whitespace().count(), 16, "{t}");
     }
 
     #[test]

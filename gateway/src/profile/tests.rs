@@ -1475,6 +1475,16 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             dex3("emulator", "limits = { joints = { index_0 = { max = 1.0 } } }"),
         ),
         (
+            "devices.motion.tolerance",
+            dex3("emulator", ""),
+            dex3("emulator", "motion = { tolerance = 0.1 }"),
+        ),
+        (
+            "devices.motion.hold_ms",
+            dex1("emulator", ""),
+            dex1("emulator", "motion = { hold_ms = 300 }"),
+        ),
+        (
             "devices.watchdog.timeout_ms",
             canonical(""),
             canonical("watchdog = { timeout_ms = 300 }"),
