@@ -273,7 +273,9 @@ impl MotionDetector {
             if e.is_finite() {
                 report.max_error = report.max_error.max(e.abs());
             }
-            if !(e.abs() > th.tolerance) {
+            // A NaN error (a non-finite measurement) is no demand.
+            let demanded = e.abs() > th.tolerance;
+            if !demanded {
                 if self.tracks[j].take().is_some() {
                     self.progressed[j] = Some(at); // reached its target
                 }
@@ -394,9 +396,9 @@ mod tests {
             for _ in 0..ms / 2 {
                 self.t += DT;
                 if let (Some(tg), false) = (target, self.ignore) {
-                    for j in 0..N {
-                        if !self.stuck[j] {
-                            self.q[j] += (tg[j] - self.q[j]) * (2.0 / 80.0);
+                    for ((q, t), stuck) in self.q.iter_mut().zip(tg).zip(self.stuck) {
+                        if !stuck {
+                            *q += (t - *q) * (2.0 / 80.0);
                         }
                     }
                 }

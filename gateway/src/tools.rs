@@ -59,7 +59,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
     }
     let _ = writeln!(
         out,
-        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9}  {}",
+        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9}  motion",
         "device",
         "kind",
         "backend",
@@ -75,7 +75,6 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         "missed",
         "foreign",
         "track rad",
-        "motion"
     );
     for d in &s.devices {
         let fresh = freshness_word(d.freshness);
@@ -226,6 +225,32 @@ pub fn send(
         std::thread::sleep(next.saturating_duration_since(std::time::Instant::now()));
     }
     Ok(n)
+}
+
+/// The motion column: the verdict's word, with the joint it names (`joint_stuck:thumb_1`).
+pub fn motion_word(d: &hg::DeviceStatus_) -> String {
+    let w = handgate_adapters::motion::Verdict::word(d.motion);
+    if d.motion_joint.is_empty() {
+        w.to_string()
+    } else {
+        format!("{w}:{}", d.motion_joint)
+    }
+}
+
+/// The motion verdict as a sentence (`handgate status`, `handgate doctor`).
+pub fn motion_sentence(d: &hg::DeviceStatus_) -> String {
+    let j = &d.motion_joint;
+    match d.motion {
+        hg::MOTION_OK => "follows its command".into(),
+        hg::MOTION_FROZEN => format!(
+            "reports but does not move: its state samples repeat while it is commanded to move (largest error at {j})"
+        ),
+        hg::MOTION_JOINT_STUCK => format!("joint {j} does not follow its target while the other joints do"),
+        hg::MOTION_NOT_FOLLOWING => format!(
+            "does not follow its command: the state varies but no joint approaches its target (largest error at {j})"
+        ),
+        other => format!("unknown motion verdict {other}"),
+    }
 }
 
 #[cfg(test)]
@@ -387,31 +412,5 @@ mod tests {
             t.contains("[type_mismatch]: 1 writer(s) use type x::T_") && t.contains("fix: set variant"),
             "{t}"
         );
-    }
-}
-
-/// The motion column: the verdict's word, with the joint it names (`joint_stuck:thumb_1`).
-pub fn motion_word(d: &hg::DeviceStatus_) -> String {
-    let w = handgate_adapters::motion::Verdict::word(d.motion);
-    if d.motion_joint.is_empty() {
-        w.to_string()
-    } else {
-        format!("{w}:{}", d.motion_joint)
-    }
-}
-
-/// The motion verdict as a sentence (`handgate status`, `handgate doctor`).
-pub fn motion_sentence(d: &hg::DeviceStatus_) -> String {
-    let j = &d.motion_joint;
-    match d.motion {
-        hg::MOTION_OK => "follows its command".into(),
-        hg::MOTION_FROZEN => format!(
-            "reports but does not move: its state samples repeat while it is commanded to move (largest error at {j})"
-        ),
-        hg::MOTION_JOINT_STUCK => format!("joint {j} does not follow its target while the other joints do"),
-        hg::MOTION_NOT_FOLLOWING => format!(
-            "does not follow its command: the state varies but no joint approaches its target (largest error at {j})"
-        ),
-        other => format!("unknown motion verdict {other}"),
     }
 }
