@@ -128,6 +128,16 @@ impl ServicePlan {
     }
 }
 
+/// [`ServiceCore::stick`] for a core that keeps one flag per wire entry: sets `entry`'s, or
+/// refuses an entry `what` (e.g. "a Dex3-1") does not have.
+pub fn stick_entry(stuck: &mut [bool], entry: usize, what: &str) -> Result<(), EmulatorError> {
+    let s = stuck
+        .get_mut(entry)
+        .ok_or_else(|| EmulatorError::InvalidConfig(format!("no entry {entry} on {what}")))?;
+    *s = true;
+    Ok(())
+}
+
 /// The time of one cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tick {

@@ -252,27 +252,21 @@ fn faults_the_emulators_cannot_emulate_are_refused() {
             .expect("handgate emulate runs");
         (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
     };
-    let (ok, err) = run(&[
-        "dex3",
-        "--service",
-        "--side",
-        "left",
-        "--domain",
-        "207",
-        "--fault",
-        "stuck=pinky",
-    ]);
+    let dex3 = |fault: &str| {
+        run(&[
+            "dex3",
+            "--service",
+            "--side",
+            "left",
+            "--domain",
+            "207",
+            "--fault",
+            fault,
+        ])
+    };
+    let (ok, err) = dex3("stuck=pinky");
     assert!(!ok && err.contains("thumb_0"), "{err}");
-    let (ok, err) = run(&[
-        "dex3",
-        "--service",
-        "--side",
-        "left",
-        "--domain",
-        "207",
-        "--fault",
-        "slow",
-    ]);
+    let (ok, err) = dex3("slow");
     assert!(!ok && err.contains("stuck=<joint>, frozen or ignore-commands"), "{err}");
     let (ok, err) = run(&["hand_sdk", "--domain", "207", "--fault", "frozen"]);
     assert!(!ok && err.contains("--fault"), "{err}");

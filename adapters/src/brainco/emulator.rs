@@ -323,12 +323,7 @@ impl ServiceCore for BraincoCore {
     }
 
     fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
-        let s = self
-            .stuck
-            .get_mut(entry)
-            .ok_or_else(|| EmulatorError::InvalidConfig(format!("no finger {entry} on a BrainCo hand")))?;
-        *s = true;
-        Ok(())
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "a BrainCo hand")
     }
 
     fn report(&self, published: Published) -> BraincoSnapshot {

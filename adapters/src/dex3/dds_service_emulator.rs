@@ -544,12 +544,7 @@ impl ServiceCore for Dex3Core {
     }
 
     fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
-        let s = self
-            .stuck
-            .get_mut(entry)
-            .ok_or_else(|| EmulatorError::InvalidConfig(format!("no motor {entry} on a Dex3-1")))?;
-        *s = true;
-        Ok(())
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "a Dex3-1")
     }
 
     fn report(&self, published: Published) -> Dex3Snapshot {
