@@ -197,7 +197,10 @@ fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -
         .lines()
         .filter(|l| l.starts_with("handgate_joint_tracking_error_radians{device=\"hand\""))
         .count();
-    assert!(errors >= 6, "a tracking error per joint:\n{metrics}");
+    let joints = handgate_adapters::model::DeviceKind::by_name(kind)
+        .expect("a registered kind")
+        .joint_count();
+    assert_eq!(errors, joints, "a tracking error per joint:\n{metrics}");
     let shown = table
         .expect("started with the report")
         .join()
@@ -237,6 +240,16 @@ fn a_stuck_finger_a_frozen_stream_and_ignored_commands_of_a_brainco_service_are_
     assert_eq!(dev.kind, "brainco");
     caught("brainco", 208, "frozen", hg::MOTION_FROZEN, None);
     caught("brainco", 208, "ignore-commands", hg::MOTION_NOT_FOLLOWING, None);
+}
+
+/// A stuck joint on the other service emulators whose cores emulate one: an Inspire FTP finger
+/// (named among six) and a Dex1 jaw (its only joint: nothing else follows, so the gripper
+/// does not follow).
+#[test]
+fn a_stuck_inspire_ftp_finger_and_a_stuck_dex1_jaw_are_caught_within_a_second() {
+    let _g = serial();
+    caught("inspire_ftp", 208, "stuck=index", hg::MOTION_JOINT_STUCK, Some("index"));
+    caught("dex1", 208, "stuck=jaw", hg::MOTION_NOT_FOLLOWING, Some("jaw"));
 }
 
 /// `handgate emulate` refuses what it cannot emulate, naming what it can.
