@@ -47,19 +47,23 @@ pub(super) fn spawn_status(
         // "Motion"). Checking costs a borrow of each device's state.
         let mut motion_tick = Ticker::new(MOTION_CHECK);
         let mut prev: HashMap<String, (u64, u64, Instant)> = HashMap::new();
+        // The rates of the last tick, (cmd, state) per device: a sample published early for a
+        // motion verdict repeats them rather than measuring over a few milliseconds.
+        let mut rates: HashMap<String, (f32, f32)> = HashMap::new();
         let mut published_motion: Vec<u8> = vec![hgmsg::MOTION_OK; devices.len()];
         loop {
-            tokio::select! {
-                _ = tick.tick() => {}
+            let on_tick = tokio::select! {
+                _ = tick.tick() => true,
                 _ = motion_tick.tick() => {
                     let same = devices.len() == published_motion.len()
                         && devices.iter().zip(&published_motion).all(|(d, m)| d.device.state().borrow().motion.verdict.code() == *m);
                     if same {
                         continue;
                     }
+                    false
                 }
                 _ = shutdown.changed() => break,
-            }
+            };
             let now = Instant::now();
             let (endpoints, diagnostics) = crate::diagnostics::to_status(&diagnosis.borrow());
             let mut msg = hgmsg::GatewayStatus_ {
@@ -77,13 +81,21 @@ pub(super) fn spawn_status(
             for d in &devices {
                 let s = d.device.stats();
                 let st = d.device.state().borrow().clone();
-                let (pc, ps, pt) = prev
-                    .get(&d.plan.name)
-                    .cloned()
-                    .unwrap_or((s.sent, s.state_samples, now));
-                let dt = now.duration_since(pt).as_secs_f32();
-                let rate = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
-                prev.insert(d.plan.name.clone(), (s.sent, s.state_samples, now));
+                let (cmd_rate_hz, state_rate_hz) = match rates.get(&d.plan.name) {
+                    Some(r) if !on_tick => *r,
+                    _ => {
+                        let (pc, ps, pt) = prev
+                            .get(&d.plan.name)
+                            .cloned()
+                            .unwrap_or((s.sent, s.state_samples, now));
+                        let dt = now.duration_since(pt).as_secs_f32();
+                        let rate = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
+                        prev.insert(d.plan.name.clone(), (s.sent, s.state_samples, now));
+                        let r = (rate(s.sent, pc), rate(s.state_samples, ps));
+                        rates.insert(d.plan.name.clone(), r);
+                        r
+                    }
+                };
                 msg.devices.push(hgmsg::DeviceStatus_ {
                     device: d.plan.name.clone(),
                     kind: d.plan.kind.as_str().into(),
@@ -95,8 +107,8 @@ pub(super) fn spawn_status(
                     },
                     safe: d.counters.tripped.load(Ordering::Relaxed) != 0
                         || st.faults & handgate_adapters::model::faults::SAFE_STATE != 0,
-                    cmd_rate_hz: rate(s.sent, pc),
-                    state_rate_hz: rate(s.state_samples, ps),
+                    cmd_rate_hz,
+                    state_rate_hz,
                     crc_errors: s.crc_errors,
                     bad_input: d.counters.rejected.load(Ordering::Relaxed) + s.rejected,
                     watchdog_trips: d.counters.watchdog_trips.load(Ordering::Relaxed),
