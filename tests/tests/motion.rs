@@ -286,7 +286,19 @@ fn faults_the_emulators_cannot_emulate_are_refused() {
 }
 
 /// `sim-all` (every kind emulated, noise on) with its status at 10 Hz while a client drives
-/// every front for `seconds`: no device is ever reported as not moving.
+/// every front for `seconds`, the canonical fronts' closure sweeping 0.1..0.9 at 0.25 Hz (the
+/// hands move all along): no device is ever reported as not moving.
+/// Devices whose closure the sweep must move: one of each kind with feedback.
+const SWEPT: &[&str] = &[
+    "dex3_left",
+    "dex1_left",
+    "ezgripper_left",
+    "inspire_dfx_left",
+    "inspire_ftp_left",
+    "brainco_left",
+    "dex5_left",
+];
+
 fn no_false_alarm(seconds: u32) {
     let _g = serial();
     let domain = 209;
@@ -305,6 +317,8 @@ fn no_false_alarm(seconds: u32) {
         &domain.to_string(),
         "--seconds",
         &seconds.to_string(),
+        "--sweep-hz",
+        "0.25",
     ]
     .iter()
     .map(|s| s.to_string())
@@ -316,7 +330,21 @@ fn no_false_alarm(seconds: u32) {
     let mut samples = 0u64;
     let mut commanded: std::collections::BTreeSet<String> = Default::default();
     let mut alarms: Vec<hg::DeviceStatus_> = Vec::new();
+    // The closure each hand's canonical state reports: its range shows the hand moved.
+    let mut moved: Vec<(&str, Latest<hg::HandState_>, f32, f32)> = SWEPT
+        .iter()
+        .map(|d| {
+            let st = Latest::new(&n, &format!("rt/handgate/{d}/state"), Qos::BestEffort);
+            (*d, st, f32::INFINITY, f32::NEG_INFINITY)
+        })
+        .collect();
     while start.elapsed() < Duration::from_secs(u64::from(seconds)) {
+        for (_, st, lo, hi) in &mut moved {
+            if let Some(s) = st.update() {
+                *lo = lo.min(s.closure);
+                *hi = hi.max(s.closure);
+            }
+        }
         status.update_with(|s| {
             samples += 1;
             for d in &s.devices {
@@ -336,7 +364,15 @@ fn no_false_alarm(seconds: u32) {
         "false alarms in a normal run: {alarms:#?}\n{}",
         gw.transcript()
     );
-    // What the run held: status samples all along, and the devices really commanded.
+    // What the run held: status samples all along, the hands moving, and the devices really
+    // commanded.
+    for (d, _, lo, hi) in &moved {
+        assert!(hi - lo > 0.3, "{d} did not move with the sweep: closure {lo}..{hi}");
+    }
+    let ranges: Vec<String> = moved
+        .iter()
+        .map(|(d, _, lo, hi)| format!("{d} {lo:.2}..{hi:.2}"))
+        .collect();
     assert!(
         samples >= u64::from(seconds) * 5,
         "{samples} status samples in {seconds} s"
@@ -355,7 +391,9 @@ fn no_false_alarm(seconds: u32) {
             "{d} was never commanded (no tracking error): {commanded:?}"
         );
     }
-    println!("no false alarm in {seconds} s: {samples} status samples, commanded {commanded:?}; {done}");
+    println!(
+        "no false alarm in {seconds} s: {samples} status samples, closures {ranges:?}, commanded {commanded:?}; {done}"
+    );
 }
 
 #[test]
