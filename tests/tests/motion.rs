@@ -285,10 +285,8 @@ fn faults_the_emulators_cannot_emulate_are_refused() {
     assert!(!ok && err.contains("--fault"), "{err}");
 }
 
-/// `sim-all` (every kind emulated, noise on) with its status at 10 Hz while a client drives
-/// every front for `seconds`, the canonical fronts' closure sweeping 0.1..0.9 at 0.25 Hz (the
-/// hands move all along): no device is ever reported as not moving.
-/// Devices whose closure the sweep must move: one of each kind with feedback.
+/// Devices whose closure the sweep must move, and that must be commanded: one of each kind with
+/// feedback.
 const SWEPT: &[&str] = &[
     "dex3_left",
     "dex1_left",
@@ -299,6 +297,9 @@ const SWEPT: &[&str] = &[
     "dex5_left",
 ];
 
+/// `sim-all` (every kind emulated, noise on) with its status at 10 Hz while a client drives
+/// every front for `seconds`, the canonical fronts' closure sweeping 0.1..0.9 at 0.25 Hz (the
+/// hands move all along): no device is ever reported as not moving.
 fn no_false_alarm(seconds: u32) {
     let _g = serial();
     let domain = 209;
@@ -377,15 +378,7 @@ fn no_false_alarm(seconds: u32) {
         samples >= u64::from(seconds) * 5,
         "{samples} status samples in {seconds} s"
     );
-    for d in [
-        "dex3_left",
-        "dex1_left",
-        "ezgripper_left",
-        "inspire_dfx_left",
-        "inspire_ftp_left",
-        "brainco_left",
-        "dex5_left",
-    ] {
+    for &d in SWEPT {
         assert!(
             commanded.contains(d),
             "{d} was never commanded (no tracking error): {commanded:?}"
