@@ -563,7 +563,7 @@ fn motion_section(out: &mut Outcome, statuses: &BTreeMap<(String, String), hgmsg
             out.problem(
                 "",
                 format!(
-                    "motion: device {} {} (tracking error {:.3} rad)",
+                    "motion: device {}: {} (tracking error {:.3} rad)",
                     d.device,
                     crate::tools::motion_sentence(d),
                     d.tracking_error

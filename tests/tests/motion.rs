@@ -228,6 +228,7 @@ fn a_stuck_joint_a_frozen_stream_and_ignored_commands_of_a_dex3_service_are_caug
         "{}",
         shown.doctor
     );
+    println!("handgate status --once:\n{}\nhandgate doctor:\n{}", shown.status, shown.doctor);
     let (_, shown) = caught("dex3", 207, "frozen", hg::MOTION_FROZEN, None);
     assert!(shown.status.contains("frozen:"), "{}", shown.status);
     caught("dex3", 207, "ignore-commands", hg::MOTION_NOT_FOLLOWING, None);
