@@ -55,6 +55,15 @@ impl FaultArg {
     /// The forms `--fault` takes, as help and errors list them.
     pub const FORMS: &'static str = "stuck=<joint>, frozen or ignore-commands";
 
+    /// The fault's form: `stuck`, `frozen` or `ignore-commands`.
+    pub fn form(&self) -> &'static str {
+        match self {
+            FaultArg::Stuck(_) => "stuck",
+            FaultArg::Frozen => "frozen",
+            FaultArg::IgnoreCommands => "ignore-commands",
+        }
+    }
+
     /// The wire entry of the joint a `stuck` names, found in `table` (the emulated hand's).
     pub fn resolve(&self, table: &crate::mapping::DeviceTable) -> Result<Fault, EmulatorError> {
         Ok(match self {

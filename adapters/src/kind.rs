@@ -372,6 +372,9 @@ impl KindFacts {
 /// hands each method back its typed configuration, so no kind folder downcasts anything.
 pub trait Kind: Sync + Send + fmt::Debug + 'static {
     const FACTS: KindFacts;
+    /// The faults its emulator backend's service injects (`[devices.emulator] fault`, the
+    /// forms of [`crate::emu_common::FaultArg::form`]); empty: none (the key is refused).
+    const EMULATOR_FAULTS: &'static [&'static str] = &[];
     /// The kind's own profile keys (absent keys take their defaults).
     type Config: Settings;
     /// What a device opens with, decided from the profile before anything starts (transport,
@@ -581,7 +584,12 @@ impl<K: Kind> KindFactory for K {
     }
 
     fn validate_emulator(&self, ctx: &DeviceCtx<'_>, section: &crate::open::EmulatorSection) -> Vec<Problem> {
-        Kind::validate_emulator(self, ctx, section)
+        let mut out = Kind::validate_emulator(self, ctx, section);
+        let fault_key = ["emulator", "fault"];
+        if !out.iter().any(|p| p.key == fault_key) {
+            out.extend(section.fault_problem(K::FACTS.name, K::EMULATOR_FAULTS));
+        }
+        out
     }
 
     fn validate_fleet(&self, members: &[FleetMember<'_>]) -> Vec<FleetProblem> {

@@ -66,10 +66,8 @@ struct Shown {
     doctor: String,
 }
 
-/// Emulates `kind`'s left hand service (`handgate emulate`) with `fault` on `domain`, runs a gateway for it,
-/// waits for a fresh state, then streams a closure of 0.8: the status must report `want`
-/// (naming `joint`, when given) within [`WITHIN`] of the first command, and keep reporting it.
-/// Returns the report and `handgate status`'s table.
+/// Emulates `kind`'s left hand service (`handgate emulate`) with `fault` on `domain` and runs
+/// a gateway for it: [`watched`].
 fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -> (hg::DeviceStatus_, Shown) {
     let d = domain.to_string();
     // The Dex3 emulates its USB MCU or its service; the others only their service.
@@ -82,7 +80,22 @@ fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -
         ]
         .concat(),
     );
-    let profile = client_profile(kind);
+    watched(kind, domain, fault, &client_profile(kind), want, joint)
+}
+
+/// Runs a gateway with `profile` (its device `hand`, a `kind`, has `fault`), waits for a fresh
+/// state, then streams a closure of 0.8: the status must report `want` (naming `joint`, when
+/// given) within [`WITHIN`] of the first command, and keep reporting it; `/metrics`, `handgate
+/// status` and `handgate doctor` show it meanwhile. Returns the report and what they printed.
+fn watched(
+    kind: &str,
+    domain: u32,
+    fault: &str,
+    profile: &std::path::Path,
+    want: u8,
+    joint: Option<&str>,
+) -> (hg::DeviceStatus_, Shown) {
+    let profile = profile.to_path_buf();
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let n = node(domain);
     let mut status: Latest<hg::GatewayStatus_> = Latest::new(&n, "rt/handgate/status", Qos::Reliable { depth: 1 });
@@ -228,7 +241,10 @@ fn a_stuck_joint_a_frozen_stream_and_ignored_commands_of_a_dex3_service_are_caug
         "{}",
         shown.doctor
     );
-    println!("handgate status --once:\n{}\nhandgate doctor:\n{}", shown.status, shown.doctor);
+    println!(
+        "handgate status --once:\n{}\nhandgate doctor:\n{}",
+        shown.status, shown.doctor
+    );
     let (_, shown) = caught("dex3", 207, "frozen", hg::MOTION_FROZEN, None);
     assert!(shown.status.contains("frozen:"), "{}", shown.status);
     caught("dex3", 207, "ignore-commands", hg::MOTION_NOT_FOLLOWING, None);
@@ -251,6 +267,28 @@ fn a_stuck_inspire_ftp_finger_and_a_stuck_dex1_jaw_are_caught_within_a_second() 
     let _g = serial();
     caught("inspire_ftp", 208, "stuck=index", hg::MOTION_JOINT_STUCK, Some("index"));
     caught("dex1", 208, "stuck=jaw", hg::MOTION_NOT_FOLLOWING, Some("jaw"));
+}
+
+/// The same fault on a device of the emulator backend (`[devices.emulator] fault`): the
+/// service the gateway runs in-process injects it.
+#[test]
+fn an_in_process_emulated_brainco_with_a_stuck_finger_is_caught_within_a_second() {
+    let _g = serial();
+    let profile = write_profile(
+        "brainco-emulated-stuck",
+        "name = \"brainco-emulated-stuck\"\n[status]\nrate_hz = 10\n\
+         [[devices]]\nname = \"hand\"\nkind = \"brainco\"\nside = \"left\"\nbackend = \"emulator\"\n\
+         [devices.emulator]\nfault = \"stuck=ring\"\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n",
+    );
+    watched(
+        "brainco",
+        208,
+        "stuck=ring",
+        &profile,
+        hg::MOTION_JOINT_STUCK,
+        Some("ring"),
+    );
 }
 
 /// `handgate emulate` refuses what it cannot emulate, naming what it can.

@@ -66,6 +66,7 @@ impl EmulateOptions for Dex1Emulate {
 }
 
 impl Kind for Dex1Kind {
+    const EMULATOR_FAULTS: &'static [&'static str] = &["stuck", "frozen", "ignore-commands"];
     const FACTS: KindFacts = KindFacts {
         fronts: &[FrontKind::Dex1],
         sections: &[SectionSpec {

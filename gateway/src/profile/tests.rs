@@ -288,6 +288,24 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "silence = \"watchdog\"",
     ),
     (
+        "an emulator fault that is none",
+        "[[devices]]\nname = \"g\"\nkind = \"brainco\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"slow\"\n",
+        "devices[0].emulator.fault",
+        "stuck=<joint>, frozen or ignore-commands",
+    ),
+    (
+        "an emulator fault on a joint the kind does not have",
+        "[[devices]]\nname = \"g\"\nkind = \"brainco\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"stuck=index_0\"\n",
+        "devices[0].emulator.fault",
+        "no such joint",
+    ),
+    (
+        "a stuck joint on an emulator that cannot",
+        "[[devices]]\nname = \"g\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"stuck=index_1\"\n",
+        "devices[0].emulator.fault",
+        "cannot inject stuck",
+    ),
+    (
         "motion tolerance of zero",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\ntolerance = 0.0\n",
         "devices[0].motion.tolerance",
@@ -1332,10 +1350,14 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
                 "position_noise_rad",
                 "velocity_noise_rad_s",
                 "torque_noise_nm",
+                "fault",
             ],
         ),
-        // DFX_inspire_service reports only q (docs/sources.md §7).
-        ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm"]),
+        // DFX_inspire_service reports only q (docs/sources.md §7); the emulators that inject
+        // no fault in-process (the Dex3 USB MCU, the EZGripper bus, the DFX pair's service).
+        ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm", "fault"]),
+        ("dex3", &["fault"]),
+        ("ezgripper", &["fault"]),
         // Inspire's driver reports no velocity and no torque in N·m.
         ("inspire_ftp", &["velocity_noise_rad_s", "torque_noise_nm"]),
     ];
@@ -1366,6 +1388,7 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
                 "position_noise_rad" => "0.001".into(),
                 "velocity_noise_rad_s" => "0.01".into(),
                 "torque_noise_nm" => "0.01".into(),
+                "fault" => "\"ignore-commands\"".into(),
                 other => panic!("docs/profiles.md documents devices.emulator.{other}: add a sample value here"),
             };
             let with = device(&format!("[devices.emulator]\n{key} = {value}"));
@@ -1750,6 +1773,11 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "devices.emulator.torque_noise_nm",
             dex3("emulator", ""),
             dex3("emulator", "[devices.emulator]\ntorque_noise_nm = 0.01"),
+        ),
+        (
+            "devices.emulator.fault",
+            dex1("emulator", ""),
+            dex1("emulator", "[devices.emulator]\nfault = \"stuck=jaw\""),
         ),
         (
             "fronts.kind",

@@ -808,6 +808,21 @@ impl Checker {
                     self.position(ek.key(which).key(j.clone()), d, j, Radians(*v));
                 }
             }
+            // A stuck joint: one of the kind's, by its canonical or URDF name.
+            if let Some(Ok(handgate_adapters::emu_common::FaultArg::Stuck(j))) = e.fault_arg() {
+                let t = d.kind.factory().table(d.side, &*d.config);
+                if !t.joints.iter().any(|m| m.name == j || m.urdf == j) {
+                    self.err(
+                        ek.key("fault"),
+                        format!(
+                            "stuck={j}: no such joint on a {} {} (joints: {})",
+                            d.side,
+                            d.kind,
+                            d.kind.joint_names().join(", ")
+                        ),
+                    );
+                }
+            }
             for p in e
                 .validate()
                 .into_iter()
