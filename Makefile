@@ -64,6 +64,7 @@ FUZZ_SECS ?= 600
 reliability: setup ports
 	$(CARGO) build --release -p handgate $(FEATURES)
 	HANDGATE_RELIABILITY_FULL=1 $(CARGO) test --release -p handgate-tests --test reliability --test fronts_service --test dex1_auto -- --nocapture --test-threads=1
+	$(CARGO) test --release -p handgate-tests --test motion -- --ignored --nocapture
 	scripts/fuzz.sh full $(FUZZ_SECS)
 	scripts/mutants.sh all
 	scripts/valgrind.sh all

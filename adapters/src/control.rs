@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use crate::device::DeviceStats;
 use crate::mapping::{CheckedBody, DeviceTable, MappingError};
-use crate::model::{CommandBody, HandCommand, JointCommand, JointState, SafeAction};
+use crate::model::{CommandBody, Freshness, HandCommand, HandState, JointCommand, JointState, SafeAction};
 
 /// What the loop should send this cycle.
 #[derive(Debug, PartialEq)]
@@ -57,7 +57,14 @@ struct Inner {
     resolved: Vec<JointCommand>,
     last_seq: u64,
     last_tag: u32,
+    /// Whether the device follows the targets in force ([`CommandState::observe_motion`]).
+    motion: crate::motion::MotionDetector,
+    /// The positions of the targets in force, for the motion detector (buffer reused).
+    motion_targets: Vec<f32>,
 }
+
+/// The most joints the motion detector judges (every kind has fewer).
+const MOTION_MAX_JOINTS: usize = 64;
 
 /// Latest-command slot plus the targets currently in force.
 #[derive(Debug, Clone)]
@@ -185,6 +192,7 @@ impl Counters {
 
 impl CommandState {
     pub fn new(table: Arc<DeviceTable>) -> Self {
+        let thresholds = table.motion;
         Self {
             table,
             inner: Arc::new(Mutex::new(Inner {
@@ -194,6 +202,8 @@ impl CommandState {
                 resolved: Vec::new(),
                 last_seq: 0,
                 last_tag: 0,
+                motion: crate::motion::MotionDetector::new(thresholds),
+                motion_targets: Vec::new(),
             })),
             counters: Arc::new(Counters::default()),
             measured: Arc::new(AtomicBool::new(false)),
@@ -356,6 +366,40 @@ impl CommandState {
             Active::Idle => None,
             Active::Command(t) | Active::Safe(_, t) => Some(t.iter().map(|c| c.q).collect()),
         }
+    }
+
+    /// Judges whether the device follows the targets in force, from the state about to be
+    /// published, and writes the report into it (`st.motion`). Only a fresh measurement is
+    /// judged (a stale or commanded-only state resets the detector); a limp device or one
+    /// never commanded has no target to follow. A state republished without a new sample
+    /// (same `measured_at`) is not a new observation.
+    pub fn observe_motion(&self, st: &mut HandState) {
+        let mut guard = self.lock();
+        let g = &mut *guard;
+        let at = match (st.freshness, st.measured_at) {
+            (Freshness::Fresh, Some(at)) => at,
+            _ => {
+                g.motion.reset();
+                st.motion.clone_from(g.motion.report());
+                return;
+            }
+        };
+        let targets = match &g.active {
+            Active::Command(t) | Active::Safe(SafeAction::Hold | SafeAction::Open, t) => {
+                g.motion_targets.clear();
+                g.motion_targets.extend(t.iter().map(|c| c.q));
+                Some(g.motion_targets.as_slice())
+            }
+            Active::Idle | Active::Safe(SafeAction::Limp, _) => None,
+        };
+        // Measured positions without a buffer of their own: at most a few dozen joints.
+        let mut q = [0.0f32; MOTION_MAX_JOINTS];
+        let n = st.joints.len().min(MOTION_MAX_JOINTS);
+        for (d, j) in q.iter_mut().zip(&st.joints) {
+            *d = j.q;
+        }
+        let report = g.motion.observe(at, targets, &q[..n]);
+        st.motion.clone_from(report);
     }
 
     /// Whether a safe state is in force.

@@ -37,6 +37,83 @@ pub enum EmulatorError {
     Spawn(#[from] std::io::Error),
 }
 
+/// A fault an emulated service injects (`handgate emulate <kind> --fault ...`, docs/adapters.md
+/// "Motion"), so that a hand that reports but does not move can be reproduced: as given on the
+/// command line, a joint by name.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum FaultArg {
+    /// `stuck=<joint>`: that joint stays where it is, whatever the command (canonical name, or
+    /// the URDF name `rt/joint_states` publishes).
+    Stuck(String),
+    /// `frozen`: the service keeps publishing its last state, repeated.
+    Frozen,
+    /// `ignore-commands`: the state evolves as if no command came (noise continues).
+    IgnoreCommands,
+}
+
+impl FaultArg {
+    /// The forms `--fault` takes, as help and errors list them.
+    pub const FORMS: &'static str = "stuck=<joint>, frozen or ignore-commands";
+
+    /// The fault's form: `stuck`, `frozen` or `ignore-commands`.
+    pub fn form(&self) -> &'static str {
+        match self {
+            FaultArg::Stuck(_) => "stuck",
+            FaultArg::Frozen => "frozen",
+            FaultArg::IgnoreCommands => "ignore-commands",
+        }
+    }
+
+    /// The wire entry of the joint a `stuck` names, found in `table` (the emulated hand's).
+    pub fn resolve(&self, table: &crate::mapping::DeviceTable) -> Result<Fault, EmulatorError> {
+        Ok(match self {
+            FaultArg::Frozen => Fault::Frozen,
+            FaultArg::IgnoreCommands => Fault::IgnoreCommands,
+            FaultArg::Stuck(name) => {
+                let j = table
+                    .joints
+                    .iter()
+                    .find(|j| j.name == name || j.urdf == *name)
+                    .ok_or_else(|| {
+                        let names: Vec<&str> = table.joints.iter().map(|j| j.name).collect();
+                        EmulatorError::InvalidConfig(format!(
+                            "--fault stuck={name}: no such joint on a {} {} (joints: {})",
+                            table.side,
+                            table.kind,
+                            names.join(", ")
+                        ))
+                    })?;
+                Fault::Stuck(j.wire_index)
+            }
+        })
+    }
+}
+
+impl std::str::FromStr for FaultArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.split_once('=') {
+            Some(("stuck", j)) if !j.trim().is_empty() => Ok(FaultArg::Stuck(j.trim().to_string())),
+            None if s == "frozen" => Ok(FaultArg::Frozen),
+            None if s == "ignore-commands" => Ok(FaultArg::IgnoreCommands),
+            _ => Err(format!("unknown fault {s:?} (expected {})", Self::FORMS)),
+        }
+    }
+}
+
+/// A fault as an emulated service runs it ([`crate::service_emulator::ServiceEmulator::inject`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// The motor at this wire entry stays where it is (the core's
+    /// [`crate::service_emulator::ServiceCore::stick`]).
+    Stuck(usize),
+    /// The state message of the cycle the fault began is published again every cycle.
+    Frozen,
+    /// Commands are taken from the reader and dropped.
+    IgnoreCommands,
+}
+
 /// `Err(InvalidConfig)` unless every value is finite (an array, or the values set of an
 /// array of options: `objects.into_iter().flatten()`).
 pub(crate) fn ensure_finite(what: &str, values: impl IntoIterator<Item = f32>) -> Result<(), EmulatorError> {
@@ -130,6 +207,23 @@ mod tests {
     use super::*;
     use std::sync::atomic::Ordering;
     use std::sync::Arc;
+
+    #[test]
+    fn faults_parse_and_name_their_joint() {
+        assert_eq!("frozen".parse(), Ok(FaultArg::Frozen));
+        assert_eq!("ignore-commands".parse(), Ok(FaultArg::IgnoreCommands));
+        assert_eq!("stuck=thumb_1".parse(), Ok(FaultArg::Stuck("thumb_1".into())));
+        assert!("stuck=".parse::<FaultArg>().is_err());
+        assert!("slow".parse::<FaultArg>().unwrap_err().contains("stuck=<joint>"));
+        let t = crate::model::DeviceKind::Dex3
+            .table(Side::Right, &Default::default())
+            .unwrap();
+        let by_name = FaultArg::Stuck("index_0".into()).resolve(&t).unwrap();
+        let urdf = t.joints[t.joint_by_name("index_0").unwrap().index()].urdf.clone();
+        assert_eq!(FaultArg::Stuck(urdf).resolve(&t).unwrap(), by_name, "the URDF name too");
+        let e = FaultArg::Stuck("pinky".into()).resolve(&t).unwrap_err().to_string();
+        assert!(e.contains("thumb_0"), "{e}");
+    }
 
     #[test]
     fn hz_period_validates() {

@@ -372,6 +372,9 @@ impl KindFacts {
 /// hands each method back its typed configuration, so no kind folder downcasts anything.
 pub trait Kind: Sync + Send + fmt::Debug + 'static {
     const FACTS: KindFacts;
+    /// The faults its emulator backend's service injects (`[devices.emulator] fault`, the
+    /// forms of [`crate::emu_common::FaultArg::form`]); empty: none (the key is refused).
+    const EMULATOR_FAULTS: &'static [&'static str] = &[];
     /// The kind's own profile keys (absent keys take their defaults).
     type Config: Settings;
     /// What a device opens with, decided from the profile before anything starts (transport,
@@ -581,7 +584,12 @@ impl<K: Kind> KindFactory for K {
     }
 
     fn validate_emulator(&self, ctx: &DeviceCtx<'_>, section: &crate::open::EmulatorSection) -> Vec<Problem> {
-        Kind::validate_emulator(self, ctx, section)
+        let mut out = Kind::validate_emulator(self, ctx, section);
+        let fault_key = ["emulator", "fault"];
+        if !out.iter().any(|p| p.key == fault_key) {
+            out.extend(section.fault_problem(K::FACTS.name, K::EMULATOR_FAULTS));
+        }
+        out
     }
 
     fn validate_fleet(&self, members: &[FleetMember<'_>]) -> Vec<FleetProblem> {
@@ -754,6 +762,8 @@ pub struct EmulateArgs {
     pub no_noise: bool,
     /// Seed of the measurement noise.
     pub seed: Option<u64>,
+    /// A fault to inject (`--fault`, docs/adapters.md "Motion").
+    pub fault: Option<crate::emu_common::FaultArg>,
     /// The common options given on the command line (names without `--`), so a kind's
     /// emulator refuses those it has no use for.
     pub common_given: Vec<&'static str>,
@@ -762,7 +772,7 @@ pub struct EmulateArgs {
 }
 
 /// The options every kind's emulator takes, as errors list them.
-pub const COMMON_EMULATE_OPTIONS: &[&str] = &["side", "domain", "interface", "no-noise", "seed"];
+pub const COMMON_EMULATE_OPTIONS: &[&str] = &["side", "domain", "interface", "no-noise", "seed", "fault"];
 
 impl EmulateArgs {
     /// The measurement noise to emulate, given the kind's figures.
@@ -772,6 +782,22 @@ impl EmulateArgs {
         } else {
             kind_default.with_seed(self.seed.unwrap_or(crate::sim::Noise::DEFAULT_SEED))
         }
+    }
+
+    /// Injects `--fault`, if given, into the emulated service `emu` of a `kind` hand on `side`
+    /// (a stuck joint named as that hand's table names it).
+    pub fn inject_fault<C: crate::service_emulator::ServiceCore>(
+        &self,
+        emu: &crate::service_emulator::ServiceEmulator<C>,
+        kind: DeviceKind,
+        side: Side,
+    ) -> Result<(), DeviceError> {
+        let Some(f) = &self.fault else {
+            return Ok(());
+        };
+        let table = kind.table(side, &Default::default())?;
+        emu.inject(f.resolve(&table)?)?;
+        Ok(())
     }
 
     /// The side, or an error naming the kind that needs it.

@@ -25,6 +25,7 @@ pub mod link;
 pub mod loops;
 pub mod mapping;
 pub mod model;
+pub mod motion;
 pub mod netif;
 pub mod open;
 pub mod realtime;

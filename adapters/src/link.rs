@@ -66,7 +66,8 @@ pub fn blind_hold_request(st: &HandState, action: SafeAction) -> bool {
 /// Stamps `st` with the seq and tag of the last applied command, the safe-state fault and,
 /// when `wall` is set, the wall-clock time of its measurement. Every device loop calls it on
 /// each state it publishes, so it also counts the fresh → stale transitions
-/// (`Counters::stale_events`).
+/// (`Counters::stale_events`) and judges whether the device follows its targets
+/// ([`CommandState::observe_motion`]).
 pub fn stamp(st: &mut HandState, cmd: &CommandState, safe: bool, wall: bool) {
     let fresh = st.freshness == Freshness::Fresh;
     let was_fresh = cmd.counters.published_fresh.swap(fresh, Ordering::Relaxed);
@@ -84,6 +85,7 @@ pub fn stamp(st: &mut HandState, cmd: &CommandState, safe: bool, wall: bool) {
     } else {
         st.faults &= !faults::SAFE_STATE;
     }
+    cmd.observe_motion(st);
 }
 
 #[cfg(test)]

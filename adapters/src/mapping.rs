@@ -169,6 +169,9 @@ pub struct TableOverrides {
     /// Feed-forward torque at closure 0 / 1, N*m (torque maps only).
     pub tau_open: Option<f32>,
     pub tau_closed: Option<f32>,
+    /// The motion detector's tolerance (rad) and hold time replacing the kind's.
+    pub motion_tolerance: Option<f32>,
+    pub motion_hold: Option<std::time::Duration>,
 }
 
 /// Errors mapping a command onto a device.
@@ -206,6 +209,9 @@ pub struct DeviceTable {
     pub max_tau: f32,
     /// The frame of the URDF joint angles `rt/joint_states` publishes.
     pub urdf_frame: UrdfFrame,
+    /// When a joint that does not follow its target is reported ([`crate::motion`]; profile
+    /// `[devices.motion]`).
+    pub motion: crate::motion::MotionThresholds,
 }
 
 /// A command body that passed [`DeviceTable::check`] for a device's table: every joint it
@@ -259,6 +265,7 @@ impl DeviceTable {
             max_kd: 5.0,
             max_tau: 5.0,
             urdf_frame,
+            motion: crate::motion::MotionThresholds::HAND,
         }
     }
 
@@ -274,7 +281,10 @@ impl DeviceTable {
             offset,
             limits: Limits::new(0.0, range),
         };
-        Self::with_postures(kind, side, vec![jaw], (vec![0.0], vec![range]), gains, UrdfFrame::Wire)
+        Self {
+            motion: crate::motion::MotionThresholds::GRIPPER,
+            ..Self::with_postures(kind, side, vec![jaw], (vec![0.0], vec![range]), gains, UrdfFrame::Wire)
+        }
     }
     pub fn joint_count(&self) -> usize {
         self.joints.len()
@@ -610,6 +620,12 @@ impl DeviceTable {
     /// The table with a profile's overrides applied. Unknown joint names are errors.
     pub fn with_overrides(mut self, o: &TableOverrides) -> Result<Self, MappingError> {
         self.max_step = o.max_step;
+        if let Some(t) = o.motion_tolerance {
+            self.motion.tolerance = t;
+        }
+        if let Some(h) = o.motion_hold {
+            self.motion.hold = h;
+        }
         for (name, l) in &o.limits {
             self = self.with_limits(name, *l)?;
         }

@@ -324,6 +324,9 @@ pub struct HandState {
     pub cmd_tag: u32,
     /// Device-specific status byte (EZGripper grasp state, Dex1 service mode...).
     pub mode: u8,
+    /// Tracking error and the "reports but does not move" verdict for this state
+    /// ([`crate::motion`]; set by `link::stamp` on every state a device loop publishes).
+    pub motion: crate::motion::MotionReport,
 }
 
 clone_reusing_buffers!(HandState {
@@ -339,6 +342,7 @@ clone_reusing_buffers!(HandState {
     cmd_seq,
     cmd_tag,
     mode,
+    motion,
 });
 
 impl HandState {

@@ -41,6 +41,10 @@ pub struct EmulatorSection {
     pub velocity_noise_rad_s: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub torque_noise_nm: Option<f64>,
+    /// A fault the emulated service injects (`stuck=<joint>`, `frozen`, `ignore-commands`:
+    /// docs/adapters.md "Motion"), on the kinds whose emulator takes it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fault: Option<String>,
 }
 
 impl EmulatorSection {
@@ -73,12 +77,40 @@ impl EmulatorSection {
             ("position_noise_rad", self.position_noise_rad.is_some()),
             ("velocity_noise_rad_s", self.velocity_noise_rad_s.is_some()),
             ("torque_noise_nm", self.torque_noise_nm.is_some()),
+            ("fault", self.fault.is_some()),
         ] {
             if set {
                 out.push(key);
             }
         }
         out
+    }
+
+    /// The fault to inject, parsed (`None`: none set).
+    pub fn fault_arg(&self) -> Option<Result<crate::emu_common::FaultArg, String>> {
+        self.fault.as_deref().map(str::parse)
+    }
+
+    /// A problem with `fault` for a `kind` whose emulator takes the fault forms `takes`: not
+    /// parsed, or a form it cannot inject.
+    pub fn fault_problem(&self, kind: &str, takes: &[&str]) -> Option<Problem> {
+        let key = ["emulator", "fault"];
+        match self.fault_arg()? {
+            Err(e) => Some(Problem::new(&key, e)),
+            Ok(_) if takes.is_empty() => Some(Problem::new(
+                &key,
+                format!("has no effect on a {kind}: its emulator injects no fault (handgate emulate's service emulators do), remove it"),
+            )),
+            Ok(f) if !takes.contains(&f.form()) => Some(Problem::new(
+                &key,
+                format!(
+                    "has no effect on a {kind}: its emulator cannot inject {} (it takes {})",
+                    f.form(),
+                    takes.join(", ")
+                ),
+            )),
+            Ok(_) => None,
+        }
     }
 
     /// Checks the noise keys (positions are checked against the kind's joints by the profile).

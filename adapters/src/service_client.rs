@@ -43,6 +43,8 @@ pub struct ClientOpen<S, P> {
     pub codec: S,
     /// Emulator backend: the emulated service's configuration (on the client's topics).
     pub peer: Option<P>,
+    /// Emulator backend: the fault its service injects (`[devices.emulator] fault`).
+    pub fault: Option<crate::emu_common::Fault>,
 }
 
 impl<S, P> ClientOpen<S, P> {
@@ -64,31 +66,41 @@ impl<S, P> ClientOpen<S, P> {
                 config: spec.dds_client(cmd, state),
                 codec,
                 peer: None,
+                fault: None,
             });
         }
+        let fault = match spec.emulator.fault_arg() {
+            Some(f) => Some(f.map_err(DeviceError::Config)?.resolve(spec.table)?),
+            None => None,
+        };
         let (cmd, state) = emulator_topics(spec.name);
         Ok(Self {
             config: spec.dds_client(cmd.clone(), state.clone()),
             codec,
             peer: Some(peer(cmd, state)),
+            fault,
         })
     }
 
     /// Starts the device with `codec`, and first its emulated service with `start_peer`
-    /// (e.g. `ServiceEmulator::<Core>::start`) when there is one.
-    pub fn start<D, C, E>(
+    /// (e.g. `ServiceEmulator::<Core>::start`) when there is one, with its fault injected.
+    pub fn start<D, C, K>(
         self,
         codec: D,
         spec: &DeviceSpec<'_, C>,
         env: &mut OpenEnv<'_>,
-        start_peer: impl FnOnce(&Node, P) -> Result<E, EmulatorError>,
+        start_peer: impl FnOnce(&Node, P) -> Result<ServiceEmulator<K>, EmulatorError>,
     ) -> Result<Box<dyn HandDevice>, DeviceError>
     where
         D: DdsCodec,
         C: ?Sized,
-        E: Send + Sync + 'static,
+        K: ServiceCore,
+        K::Config: Sync,
     {
         let peer = self.peer.map(|p| start_peer(env.node, p)).transpose()?;
+        if let (Some(f), Some(peer)) = (self.fault, &peer) {
+            peer.inject(f)?;
+        }
         let device = DdsDevice::start(env.node, spec.info(), self.config, codec)?;
         Ok(match peer {
             Some(peer) => Box::new(WithPeer::new(device, peer)),
@@ -98,14 +110,23 @@ impl<S, P> ClientOpen<S, P> {
 }
 
 /// `handgate emulate <kind>` for a service hand: the service `start` starts on the command
-/// line's domain, running until the process stops.
-pub fn emulate_service<E: Send + 'static>(
+/// line's domain, with the command line's `--fault` (joints named as on a `kind` hand on
+/// `side`), running until the process stops.
+pub fn emulate_service<C: ServiceCore>(
     args: &EmulateArgs,
-    start: impl FnOnce(&Node) -> Result<E, EmulatorError>,
+    kind: crate::model::DeviceKind,
+    side: Side,
+    start: impl FnOnce(&Node) -> Result<ServiceEmulator<C>, EmulatorError>,
 ) -> Result<Emulation, DeviceError> {
     let node = args.node()?;
     let emu = start(&node)?;
+    args.inject_fault(&emu, kind, side)?;
     Ok(Emulation::Running(Box::new((emu, node))))
+}
+
+/// The registered kind called `name` (a kind's own name: always registered).
+fn registered(name: &str) -> Result<crate::model::DeviceKind, DeviceError> {
+    crate::model::DeviceKind::by_name(name).ok_or_else(|| DeviceError::Config(format!("kind {name} is not registered")))
 }
 
 /// A hand that is a client of a robot's hand service running one instance per hand on the
@@ -118,6 +139,8 @@ pub trait ServiceHand: Sync + Send + fmt::Debug + 'static {
     const FACTS: KindFacts;
     /// The service, as `handgate emulate` names it.
     const SERVICE: &'static str;
+    /// The faults its emulated service injects ([`Kind::EMULATOR_FAULTS`]).
+    const EMULATOR_FAULTS: &'static [&'static str] = &["frozen", "ignore-commands"];
     /// The emulated service's measurement noise.
     const NOISE: Noise;
     /// The kind's profile keys.
@@ -261,6 +284,7 @@ type PeerOf<H> = <<H as ServiceHand>::Core as ServiceCore>::Config;
 
 impl<H: ServiceHand> Kind for H {
     const FACTS: KindFacts = H::FACTS;
+    const EMULATOR_FAULTS: &'static [&'static str] = H::EMULATOR_FAULTS;
     type Config = H::Config;
     type Open = ClientOpen<H::Wire, PeerOf<H>>;
     type Emulate = H::Emulate;
@@ -317,7 +341,9 @@ impl<H: ServiceHand> Kind for H {
         );
         Ok((
             what,
-            emulate_service(args, |node| ServiceEmulator::<H::Core>::start(node, cfg))?,
+            emulate_service(args, registered(name)?, side, |node| {
+                ServiceEmulator::<H::Core>::start(node, cfg)
+            })?,
         ))
     }
 

@@ -46,6 +46,14 @@ pub trait ServiceCore: Sized + Send + 'static {
 
     /// A consistent copy of the core's state, with what the emulator published.
     fn report(&self, published: Published) -> Self::Snapshot;
+
+    /// Makes the motor at wire entry `entry` stay where it is, whatever the command
+    /// ([`crate::emu_common::Fault::Stuck`]). The default: a service whose core cannot.
+    fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
+        Err(EmulatorError::InvalidConfig(format!(
+            "this emulated service cannot hold entry {entry} stuck (--fault frozen and ignore-commands work)"
+        )))
+    }
 }
 
 /// The messages core `C` exchanges on DDS, and what it does with them.
@@ -120,6 +128,16 @@ impl ServicePlan {
     }
 }
 
+/// [`ServiceCore::stick`] for a core that keeps one flag per wire entry: sets `entry`'s, or
+/// refuses an entry `what` (e.g. "a Dex3-1") does not have.
+pub fn stick_entry(stuck: &mut [bool], entry: usize, what: &str) -> Result<(), EmulatorError> {
+    let s = stuck
+        .get_mut(entry)
+        .ok_or_else(|| EmulatorError::InvalidConfig(format!("no entry {entry} on {what}")))?;
+    *s = true;
+    Ok(())
+}
+
 /// The time of one cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tick {
@@ -138,8 +156,9 @@ pub struct Published {
     pub extra: u64,
 }
 
-/// A message a service publishes: any DDS topic type, or [`Silent`].
-pub trait Outlet: Send + 'static {
+/// A message a service publishes: any DDS topic type, or [`Silent`]. `Clone`: a frozen
+/// service publishes one message again ([`crate::emu_common::Fault::Frozen`]).
+pub trait Outlet: Send + Clone + 'static {
     type Writer: Send + 'static;
     /// The writer on `topic` (reliable, keep last 1).
     fn open(node: &Node, topic: &str) -> Result<Self::Writer, DdsError>;
@@ -147,7 +166,7 @@ pub trait Outlet: Send + 'static {
     fn write(self, writer: &mut Self::Writer) -> bool;
 }
 
-impl<T: TopicType + Send + 'static> Outlet for T {
+impl<T: TopicType + Clone + Send + 'static> Outlet for T {
     type Writer = Writer<T>;
 
     fn open(node: &Node, topic: &str) -> Result<Writer<T>, DdsError> {
@@ -179,6 +198,9 @@ impl Outlet for Silent {
 struct Shared<C> {
     core: C,
     published: Published,
+    /// Faults injected ([`ServiceEmulator::inject`]).
+    frozen: bool,
+    ignore_commands: bool,
 }
 
 /// A running emulated service around the core `C`. Dropping it stops its loop.
@@ -222,9 +244,13 @@ impl<C: ServiceCore> ServiceEmulator<C> {
         let shared = Arc::new(Mutex::new(Shared {
             core,
             published: Published::default(),
+            frozen: false,
+            ignore_commands: false,
         }));
         let sh = shared.clone();
         let mut prev = None;
+        // The state a frozen service repeats: the one of the cycle the fault began.
+        let mut repeat: Option<W::State> = None;
         let mut next_extra = Instant::now();
         let worker = Worker::spawn(&plan.name, period, move |now| {
             let cmds = reader.take();
@@ -238,15 +264,25 @@ impl<C: ServiceCore> ServiceEmulator<C> {
             let (state, extra) = {
                 let mut g = lock(&sh);
                 let received = Instant::now();
-                for c in &cmds {
-                    W::receive(&mut g.core, c, received);
+                if !g.ignore_commands {
+                    for c in &cmds {
+                        W::receive(&mut g.core, c, received);
+                    }
                 }
                 let tick = Tick {
                     now: Instant::now(),
                     dt,
                     period,
                 };
-                let state = W::cycle(&mut g.core, tick);
+                let mut state = W::cycle(&mut g.core, tick);
+                if g.frozen {
+                    match &repeat {
+                        Some(r) => state = Some(r.clone()),
+                        None => repeat = state.clone(),
+                    }
+                } else {
+                    repeat = None;
+                }
                 let extra = match &state {
                     Some(s) if extra_due => W::extra(&mut g.core, s),
                     _ => None,
@@ -286,6 +322,22 @@ impl<C: ServiceCore> ServiceEmulator<C> {
     pub fn snapshot(&self) -> C::Snapshot {
         let g = lock(&self.shared);
         g.core.report(g.published)
+    }
+
+    /// Injects `fault` from the next cycle on (docs/adapters.md, "Motion"): a stuck motor
+    /// (the core's [`ServiceCore::stick`]), a frozen state (the next state message is
+    /// published again every cycle, the core running on unseen), or commands ignored (taken
+    /// from the reader and dropped: the core runs as if none came). Faults add up.
+    pub fn inject(&self, fault: crate::emu_common::Fault) -> Result<(), EmulatorError> {
+        use crate::emu_common::Fault;
+        let mut g = lock(&self.shared);
+        match fault {
+            Fault::Stuck(entry) => g.core.stick(entry)?,
+            Fault::Frozen => g.frozen = true,
+            Fault::IgnoreCommands => g.ignore_commands = true,
+        }
+        tracing::warn!(emulator = %self.name, ?fault, "fault injected");
+        Ok(())
     }
 
     /// Runs `f` on the core between two cycles (a kind's inspection and set-up calls).

@@ -411,6 +411,7 @@ fn the_registry_opens_an_emulated_hand_that_honours_the_profile() {
             peer: Some(peer),
             config,
             codec: speed,
+            ..
         } => {
             assert!((peer.initial[0] - 0.5).abs() < 1e-4, "thumb 0.7592 rad = wire 0.5");
             assert!(

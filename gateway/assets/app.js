@@ -329,7 +329,9 @@
     const badges = el('span', { class: 'card-badges' });
     d.freshBadge = el('span', { class: 'badge', text: '…' });
     d.safeBadge = el('span', { class: 'badge bad', text: 'safe state', hidden: true });
-    badges.append(d.freshBadge, ' ', d.safeBadge);
+    // "Reports but does not move" (docs/adapters.md, "Motion"): the verdict and its joint.
+    d.motionBadge = el('span', { class: 'badge bad', 'data-motion': '', hidden: true });
+    badges.append(d.freshBadge, ' ', d.safeBadge, ' ', d.motionBadge);
     const sub = [dev.kind, dev.side, dev.backend].filter(Boolean).join(' · ');
     const topics = fronts.map((f) => f.cmd_topic || f.state_topic).filter(Boolean);
     const head = el('div', { class: 'card-head' },
@@ -599,9 +601,18 @@
   // status: fleet table, card badges, diagnostics.
 
   const FLEET_COLS = ['device', 'kind', 'backend', 'state', 'safe', 'cmd', 'stateHz', 'age', 'crc', 'bad',
-    'wdog', 'recon', 'missed', 'foreign', 'dup', 'reord', 'late', 'notallowed', 'faults', 'closure', 'owner'];
+    'wdog', 'recon', 'missed', 'foreign', 'dup', 'reord', 'late', 'notallowed', 'faults', 'closure', 'owner',
+    'track', 'motion'];
   const NUMERIC = new Set(['cmd', 'stateHz', 'age', 'crc', 'bad', 'wdog', 'recon', 'missed', 'foreign', 'dup',
-    'reord', 'late', 'notallowed', 'closure']);
+    'reord', 'late', 'notallowed', 'closure', 'track']);
+  /** The card's words for a motion verdict (`DeviceStatus_::motion`), and the joint it names. */
+  const MOTION_WORDS = { frozen: 'frozen', joint_stuck: 'joint stuck', not_following: 'not following' };
+
+  function motionText(dev) {
+    const w = MOTION_WORDS[dev.motion];
+    if (!w) return '';
+    return dev.motion_joint ? `${w}: ${dev.motion_joint}` : w;
+  }
 
   function fleetRow(name) {
     let r = rows.get(name);
@@ -655,12 +666,22 @@
       setText(c.closure, fixed(dev.closure, 2));
       setText(c.owner, shortOwner(dev.owner) || '—');
       c.owner.title = dev.owner || 'nobody commanded it yet';
+      setText(c.track, fixed(dev.tracking_error, 3));
+      const motion = motionText(dev);
+      setText(c.motion, motion || 'ok');
+      c.motion.className = motion ? 'alert' : '';
 
       const d = devices.get(dev.device);
       if (d) {
         setText(d.freshBadge, fresh === 'commanded_only' ? 'commanded only' : fresh);
         d.freshBadge.className = 'badge ' + (fresh === 'fresh' ? 'ok' : fresh === 'stale' ? 'bad' : 'warn');
         d.safeBadge.hidden = !dev.safe;
+        d.motionBadge.hidden = !motion;
+        d.motionBadge.dataset.motion = dev.motion || 'ok';
+        setText(d.motionBadge, motion);
+        d.motionBadge.title = motion
+          ? `reports but does not move: tracking error ${fixed(dev.tracking_error, 3)} rad`
+          : '';
         d.owner.title = dev.owner || '';
         setText(d.owner, `commanded by: ${shortOwner(dev.owner) || 'nobody yet'}` +
           (faults === 'none' ? '' : ` · faults: ${faults}`));

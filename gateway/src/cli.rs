@@ -307,6 +307,12 @@ pub struct EmulateCmd {
     /// Seed of the measurement noise (default fixed, so runs repeat exactly).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Inject a fault (docs/adapters.md, "Motion"): `stuck=<joint>` (that joint stays where
+    /// it is whatever the command; the kind's canonical joint name or its URDF name),
+    /// `frozen` (the service repeats its last state) or `ignore-commands` (the state evolves
+    /// as if no command came). Service emulators only.
+    #[arg(long, value_name = "FAULT")]
+    pub fault: Option<handgate_adapters::emu_common::FaultArg>,
     /// The kind's own options (`--name value`; listed below, per kind; another is refused
     /// with the kind's list).
     #[arg(trailing_var_arg = true, allow_hyphen_values = true, value_name = "KIND OPTIONS")]
@@ -326,6 +332,10 @@ fn emulate_help() -> String {
             s.push_str(&format!("  {kind} --{}{v}: {}\n", o.name, o.help));
         }
     }
+    s.push_str("Joints --fault stuck=<joint> names (canonical; the URDF names work too):\n");
+    for kind in handgate_adapters::kind::DeviceKind::all() {
+        s.push_str(&format!("  {kind}: {}\n", kind.joint_names().join(", ")));
+    }
     s
 }
 
@@ -343,6 +353,7 @@ impl TryFrom<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
                 ("interface", Some(v)) => c.interface = Some(v.to_string()),
                 ("seed", Some(v)) => c.seed = Some(v.parse().map_err(|e| bad(format!("{e}")))?),
                 ("no-noise", None) => c.no_noise = true,
+                ("fault", Some(v)) => c.fault = Some(v.parse().map_err(|e: String| bad(e))?),
                 _ => options.push((name, value)),
             }
         }
@@ -352,6 +363,7 @@ impl TryFrom<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
             ("interface", c.interface.is_some()),
             ("no-noise", c.no_noise),
             ("seed", c.seed.is_some()),
+            ("fault", c.fault.is_some()),
         ]
         .into_iter()
         .filter_map(|(n, given)| given.then_some(n))
@@ -362,6 +374,7 @@ impl TryFrom<EmulateCmd> for handgate_adapters::kind::EmulateArgs {
             interface: c.interface,
             no_noise: c.no_noise,
             seed: c.seed,
+            fault: c.fault,
             common_given,
             options,
         })

@@ -15,12 +15,13 @@ use std::net::IpAddr;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use handgate_adapters::dds::{layout_reader, DdsError, InterfaceTrace, Node, RawTake};
+use handgate_adapters::dds::{layout_reader, DdsError, InterfaceTrace, Node, Qos, RawTake};
 use handgate_adapters::device::Backend;
 use handgate_adapters::discovery::diagnose::{diagnose, FindingKind, RemoteRef, Report, Served};
 use handgate_adapters::discovery::{Discovery, DiscoveryConfig, Guid, Origin, Participant, Role, Snapshot};
 use handgate_adapters::model::Side;
 use handgate_adapters::netif::{self, NetIf};
+use handgate_idl::handgate as hgmsg;
 use handgate_idl::layout::{self, Verdict};
 
 use crate::diagnostics::{served, Owner, ServedBy};
@@ -210,7 +211,7 @@ fn describe_if(i: &NetIf) -> String {
 /// other (each a function of what was seen).
 pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     if plan.export.is_none() {
-        return run_side(plan, served(plan), opts, "", &[]);
+        return run_side(plan, served(plan), opts, "", &[], true);
     }
     // `[export]`: each side on its own domain and interface, one after the other (a process
     // holds one CycloneDDS configuration per domain): the fronts' clients on the export side,
@@ -230,12 +231,12 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
         sweep: None,
         ..opts.clone()
     };
-    let mut out = run_side(&clients, fronts, &no_sweep, " (export side: fronts, status)", &[])?;
+    let mut out = run_side(&clients, fronts, &no_sweep, " (export side: fronts, status)", &[], true)?;
     let robot = Plan {
         export: None,
         ..plan.clone()
     };
-    let dev = run_side(&robot, devices, &no_sweep, " (devices' side)", &out.gateways)?;
+    let dev = run_side(&robot, devices, &no_sweep, " (devices' side)", &out.gateways, false)?;
     out.line("");
     out.text.push_str(&dev.text);
     out.problems.extend(dev.problems);
@@ -244,13 +245,15 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
 }
 
 /// The doctor on one DDS side: `plan`'s domain and interface, what `all` serves there; `side`
-/// follows the domain in the first line; `known`: gateway processes found on the other side.
+/// follows the domain in the first line; `known`: gateway processes found on the other side;
+/// `status`: the gateway's status is published on this side (read for [`motion_section`]).
 fn run_side(
     plan: &Plan,
     all: Vec<ServedBy>,
     opts: &Options,
     side: &str,
     known: &[(Option<String>, u32)],
+    status: bool,
 ) -> Result<Outcome, DoctorError> {
     let mut out = Outcome::default();
     let ifs = netif::list().map_err(DoctorError::Interfaces)?;
@@ -262,12 +265,13 @@ fn run_side(
     ));
     let interface = interface_section(&mut out, plan, &ifs);
 
-    let mut look = Look::join(plan, interface.as_deref(), &all, &opts.scan)?;
+    let mut look = Look::join(plan, interface.as_deref(), &all, &opts.scan, status)?;
     look.listen(opts.listen);
     let snap = look.discovery.snapshot();
     let trace = look.trace();
 
     let gateways = gateways_section(&mut out, plan, &all, &snap, known);
+    motion_section(&mut out, &look.statuses);
     let served_list: Vec<Served> = all.iter().map(|s| s.served.clone()).collect();
     let report = diagnose(&snap, &served_list);
     let seen = Seen {
@@ -310,6 +314,10 @@ fn run_side(
 /// participant last.
 struct Look {
     probes: Vec<Probe>,
+    /// The running gateways' status (`status_topic`), when read on this side, and the
+    /// newest sample of each gateway (by profile and host).
+    status: Option<handgate_adapters::dds::Reader<hgmsg::GatewayStatus_>>,
+    statuses: BTreeMap<(String, String), hgmsg::GatewayStatus_>,
     scans: Vec<Scan>,
     scan_errors: Vec<String>,
     discovery: Discovery,
@@ -322,7 +330,13 @@ impl Look {
     /// Joins `plan`'s domain through `interface` (with CycloneDDS's trace of its interface
     /// choice), a layout probe on each topic where the profile reads a type with a layout
     /// history, and the `scan` domains other than the profile's.
-    fn join(plan: &Plan, interface: Option<&str>, all: &[ServedBy], scan: &[u32]) -> Result<Look, DoctorError> {
+    fn join(
+        plan: &Plan,
+        interface: Option<&str>,
+        all: &[ServedBy],
+        scan: &[u32],
+        status: bool,
+    ) -> Result<Look, DoctorError> {
         let trace_file =
             std::env::temp_dir().join(format!("handgate-doctor-{}-{}.log", std::process::id(), plan.domain));
         let node = match Node::with_trace(plan.domain, interface, &trace_file) {
@@ -354,6 +368,11 @@ impl Look {
                 });
             }
         }
+        let status = if status {
+            Some(node.reader::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::BestEffort)?)
+        } else {
+            None
+        };
         let mut scans = Vec::new();
         let mut scan_errors = Vec::new();
         for &d in scan.iter().filter(|&&d| d != plan.domain) {
@@ -368,6 +387,8 @@ impl Look {
         }
         Ok(Look {
             probes,
+            status,
+            statuses: BTreeMap::new(),
             scans,
             scan_errors,
             discovery,
@@ -380,13 +401,20 @@ impl Look {
     fn listen(&mut self, listen: Duration) {
         let start = Instant::now();
         while start.elapsed() < listen {
-            for p in &mut self.probes {
-                p.poll();
-            }
+            self.poll();
             std::thread::sleep(Duration::from_millis(50).min(listen.saturating_sub(start.elapsed())));
         }
+        self.poll();
+    }
+
+    fn poll(&mut self) {
         for p in &mut self.probes {
             p.poll();
+        }
+        if let Some(r) = &self.status {
+            for s in r.take() {
+                self.statuses.insert((s.profile.clone(), s.host.clone()), s);
+            }
         }
     }
 
@@ -518,6 +546,36 @@ fn gateways_section(
         ));
     }
     gateways.into_iter().chain(by_process).collect()
+}
+
+/// Whether the running gateways' devices follow their commands (their status's `motion`,
+/// docs/adapters.md "Motion"): a device that reports but does not move is a problem.
+fn motion_section(out: &mut Outcome, statuses: &BTreeMap<(String, String), hgmsg::GatewayStatus_>) {
+    for s in statuses.values() {
+        let moving: Vec<&hgmsg::DeviceStatus_> = s.devices.iter().filter(|d| d.motion != hgmsg::MOTION_OK).collect();
+        if moving.is_empty() {
+            out.line(format!(
+                "motion: every device of gateway {} on {} follows its command",
+                s.profile, s.host
+            ));
+        }
+        for d in moving {
+            out.problem(
+                "",
+                format!(
+                    "motion: device {}: {} (tracking error {:.3} rad)",
+                    d.device,
+                    crate::tools::motion_sentence(d),
+                    d.tracking_error
+                ),
+                match d.motion {
+                    hgmsg::MOTION_FROZEN => "the device's service or firmware repeats one state: restart the service, check its bus and the hand's power",
+                    hgmsg::MOTION_JOINT_STUCK => "the joint is blocked or its motor faulted: check the finger for an obstacle or a broken tendon, the motor's error bits and temperature",
+                    _ => "the device takes no command: check that its service receives this gateway's commands (topic, domain), its mode and that its motors are enabled",
+                },
+            );
+        }
+    }
 }
 
 /// Each front and device of the profile ([`owner_section`]); a device without its service is

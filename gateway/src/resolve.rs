@@ -68,6 +68,8 @@ fn overrides(d: &DeviceConfig) -> TableOverrides {
         closed_posture: posture(&d.closure.closed, true),
         tau_open: d.closure.tau_open.map(|v| v as f32),
         tau_closed: d.closure.tau_closed.map(|v| v as f32),
+        motion_tolerance: d.motion.tolerance.map(|r| r.0 as f32),
+        motion_hold: d.motion.hold_ms.map(|m| m.as_duration()),
     }
 }
 

@@ -59,7 +59,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
     }
     let _ = writeln!(
         out,
-        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7}",
+        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9}  motion",
         "device",
         "kind",
         "backend",
@@ -73,13 +73,14 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         "wdog",
         "recon",
         "missed",
-        "foreign"
+        "foreign",
+        "track rad",
     );
     for d in &s.devices {
         let fresh = freshness_word(d.freshness);
         let _ = writeln!(
             out,
-            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7}",
+            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9.3}  {}",
             d.device,
             d.kind,
             d.backend,
@@ -93,7 +94,19 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
             d.watchdog_trips,
             d.reconnects,
             d.missed_cycles,
-            d.foreign_cmd
+            d.foreign_cmd,
+            d.tracking_error,
+            motion_word(d)
+        );
+    }
+    // Devices that report but do not move (docs/adapters.md, "Motion"), when any.
+    for d in s.devices.iter().filter(|d| d.motion != hg::MOTION_OK) {
+        let _ = writeln!(
+            out,
+            "\n{}: {} (tracking error {:.3} rad)",
+            d.device,
+            motion_sentence(d),
+            d.tracking_error
         );
     }
     // Commands dropped by their source timestamps (docs/fronts.md, "Commands in order"): a
@@ -214,6 +227,32 @@ pub fn send(
     Ok(n)
 }
 
+/// The motion column: the verdict's word, with the joint it names (`joint_stuck:thumb_1`).
+pub fn motion_word(d: &hg::DeviceStatus_) -> String {
+    let w = handgate_adapters::motion::Verdict::word(d.motion);
+    if d.motion_joint.is_empty() {
+        w.to_string()
+    } else {
+        format!("{w}:{}", d.motion_joint)
+    }
+}
+
+/// The motion verdict as a sentence (`handgate status`, `handgate doctor`).
+pub fn motion_sentence(d: &hg::DeviceStatus_) -> String {
+    let j = &d.motion_joint;
+    match d.motion {
+        hg::MOTION_OK => "follows its command".into(),
+        hg::MOTION_FROZEN => format!(
+            "reports but does not move: its state samples repeat while it is commanded to move (largest error at {j})"
+        ),
+        hg::MOTION_JOINT_STUCK => format!("joint {j} does not follow its target while the other joints do"),
+        hg::MOTION_NOT_FOLLOWING => format!(
+            "does not follow its command: the state varies but no joint approaches its target (largest error at {j})"
+        ),
+        other => format!("unknown motion verdict {other}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -273,6 +312,44 @@ mod tests {
 
     /// The commands dropped by their source timestamps get a table of their own, only for
     /// the devices with any; the device table keeps its columns.
+    /// The motion column names the verdict and its joint; a device that reports but does not
+    /// move gets a sentence under the table, the others none.
+    #[test]
+    fn renders_the_motion_verdict_with_its_joint() {
+        let dev = |name: &str, motion: u8, joint: &str, err: f32| hg::DeviceStatus_ {
+            device: name.into(),
+            kind: "dex3".into(),
+            backend: "dds".into(),
+            motion,
+            motion_joint: joint.into(),
+            tracking_error: err,
+            ..Default::default()
+        };
+        let s = hg::GatewayStatus_ {
+            devices: vec![
+                dev("left_hand", hg::MOTION_JOINT_STUCK, "thumb_1", 0.8),
+                dev("right_hand", hg::MOTION_OK, "", f32::NAN),
+            ],
+            ..Default::default()
+        };
+        let t = render_status(&s);
+        let row = |name: &str| -> Vec<String> {
+            t.lines()
+                .find(|l| l.starts_with(name))
+                .unwrap()
+                .split_whitespace()
+                .map(str::to_string)
+                .collect()
+        };
+        assert_eq!(row("left_hand")[14..], ["0.800", "joint_stuck:thumb_1"], "{t}");
+        assert_eq!(row("right_hand")[14..], ["NaN", "ok"], "{t}");
+        assert!(
+            t.contains("left_hand: joint thumb_1 does not follow its target while the other joints do (tracking error 0.800 rad)"),
+            "{t}"
+        );
+        assert!(!t.contains("right_hand:"), "{t}");
+    }
+
     #[test]
     fn renders_the_commands_dropped_by_source_timestamp_only_when_there_are_some() {
         let dev = |name: &str| hg::DeviceStatus_ {
@@ -306,7 +383,8 @@ mod tests {
             "{t}"
         );
         let first = t.lines().find(|l| l.starts_with("left_hand")).unwrap();
-        assert_eq!(first.split_whitespace().count(), 14, "{t}");
+        // device kind backend state safe cmdHz stateHz age crc bad wdog recon missed foreign track motion
+        assert_eq!(first.split_whitespace().count(), 16, "{t}");
     }
 
     #[test]

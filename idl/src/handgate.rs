@@ -11,6 +11,16 @@ pub const FRESH: u8 = 0;
 pub const STALE: u8 = 1;
 pub const COMMANDED_ONLY: u8 = 2;
 
+/// `DeviceStatus_::motion`: whether the device follows its command (docs/adapters.md, "Motion").
+/// Following, settled, or not commanded.
+pub const MOTION_OK: u8 = 0;
+/// State samples keep arriving, identical, while the device is commanded to move.
+pub const MOTION_FROZEN: u8 = 1;
+/// One joint (`motion_joint`) does not follow while the others do.
+pub const MOTION_JOINT_STUCK: u8 = 2;
+/// No joint follows the command, though the state still varies.
+pub const MOTION_NOT_FOLLOWING: u8 = 3;
+
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct JointCmd_ {
     #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
@@ -97,6 +107,15 @@ pub struct DeviceStatus_ {
     pub owner: String,
     /// Commands refused whole: their host is not in `export.allow_commands_from`.
     pub not_allowed_cmd: u64,
+    /// Whether the device follows its command: `MOTION_OK`, `MOTION_FROZEN`,
+    /// `MOTION_JOINT_STUCK`, `MOTION_NOT_FOLLOWING`.
+    pub motion: u8,
+    /// The canonical joint the verdict names ("" when `motion` is `MOTION_OK`).
+    #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]
+    pub motion_joint: String,
+    /// The largest |target in force - measured position| over the joints, canonical rad
+    /// (NaN while nothing is commanded, or the state is not fresh).
+    pub tracking_error: f32,
 }
 keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
 

@@ -19,10 +19,14 @@ stdout protocol (flushed lines):
     READY            endpoints set up
     STREAMING        every state topic delivered a sample (or --wait passed); --seconds start
     DONE <json>      {"commands": n, "samples": {topic: n}, "silent": [topics with 0 samples]}
+
+--sweep-hz F moves every hand: the canonical fronts' closure follows 0.5 + 0.4 sin(2 pi F t)
+(tests/tests/motion.rs: no motion alarm while the hands move).
 """
 
 import argparse
 import json
+import math
 import sys
 import threading
 import time
@@ -133,6 +137,8 @@ def main():
     ap.add_argument("--seconds", type=float, default=15.0)
     ap.add_argument("--hz", type=float, default=50.0)
     ap.add_argument("--wait", type=float, default=300.0, help="at most this long for first states")
+    ap.add_argument("--sweep-hz", type=float, default=0.0,
+                    help="the canonical fronts' closure follows 0.5 + 0.4 sin(2 pi f t) (0: a constant 0.5)")
     a = ap.parse_args()
 
     ChannelFactoryInitialize(a.domain, a.interface)
@@ -157,7 +163,10 @@ def main():
     t0 = time.monotonic()
     streaming_since = None
     while True:
+        closure = 0.5 + 0.4 * math.sin(2.0 * math.pi * a.sweep_hz * (time.monotonic() - t0))
         for p, msg in pubs:
+            if a.sweep_hz > 0 and isinstance(msg, hg.HandCmd_) and msg.mode == 1:
+                msg.closure = closure
             p.Write(msg)
             written += 1
         now = time.monotonic()

@@ -90,6 +90,9 @@ class DeviceStatus_(idl.IdlStruct, typename="handgate.msg.dds_.DeviceStatus_"):
     late_cmd: types.uint64
     owner: str
     not_allowed_cmd: types.uint64
+    motion: types.uint8
+    motion_joint: str
+    tracking_error: types.float32
 
 
 @dataclass

@@ -1210,7 +1210,10 @@ plain_struct!(handgate::DeviceStatus_ {
     reordered_cmd,
     late_cmd,
     owner,
-    not_allowed_cmd
+    not_allowed_cmd,
+    motion,
+    motion_joint,
+    tracking_error
 });
 plain_struct!(handgate::EndpointStatus_ {
     owner,

@@ -131,7 +131,7 @@ fn a_second_sdk_client_is_refused_while_the_first_streams_and_takes_over_once_it
         gw.transcript()
     );
 
-    // `handgate status --once` shows the count in its last column.
+    // `handgate status --once` shows the count in its foreign column.
     let o = handgate(domain, &["status", "--once"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let out = text(&o.stdout);
@@ -140,7 +140,8 @@ fn a_second_sdk_client_is_refused_while_the_first_streams_and_takes_over_once_it
         .lines()
         .find(|l| l.starts_with("dex3_left "))
         .unwrap_or_else(|| panic!("no dex3_left row:\n{out}"));
-    let foreign: u64 = row.split_whitespace().last().unwrap().parse().unwrap();
+    // device kind backend state safe cmdHz stateHz age crc bad wdog recon missed foreign track motion
+    let foreign: u64 = row.split_whitespace().nth(13).unwrap().parse().unwrap();
     assert!(foreign >= 100, "{out}");
 
     // The log names the second client once (its process and pid), with who owns the front.

@@ -14,7 +14,9 @@
 //!   "safe" puts the device in its safe state (the status topic says so); a device another front commands is refused and the
 //!   card shows the reason.
 //!
-//! Domains 182-183 (docs/development.md). Tests take turns ([`serial`]); every wait is on
+//! - a hand that reports but does not move: its card's badge and its fleet row name the joint.
+//!
+//! Domains 182-183 and 199 (docs/development.md). Tests take turns ([`serial`]); every wait is on
 //! readiness with a deadline (DDS samples, the page's state through `waitForFunction`).
 //! Without Chromium the tests are skipped with a message, unless `CI` is set: then they fail.
 
@@ -30,7 +32,7 @@ use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_tests::{
     canonical_q, closure_cmd, default_profile_edited, handgate_check, node, poll, repo_root, serial, status_device,
-    Gateway, Latest, Signal, STREAM_PERIOD,
+    Emulation, Gateway, Latest, Signal, STREAM_PERIOD,
 };
 use serde_json::{json, Value};
 
@@ -521,4 +523,55 @@ fn with_commands_enabled_the_slider_moves_the_hand_safe_stops_it_and_a_foreign_o
     println!("card: {text}");
     let st = b.call(json!({"op": "state"}), &gw);
     assert_eq!(st["pageErrors"], json!([]), "the page reported errors: {st}");
+}
+
+/// A hand that reports but does not move (`handgate emulate dex3 --service --fault
+/// stuck=index_0`, a closure streamed on its canonical front): its card's badge names the
+/// verdict and the joint, and so does the fleet table (docs/dashboard.md; docs/adapters.md
+/// "Motion"). Domain 199.
+#[test]
+fn a_card_names_the_joint_of_a_hand_that_reports_but_does_not_move() {
+    let _serial = serial();
+    let Some(mut b) = browser_or_skip("dashboard motion") else {
+        return;
+    };
+    let domain = 199;
+    let d = domain.to_string();
+    let _emu = Emulation::start(&[
+        "dex3",
+        "--service",
+        "--side",
+        "left",
+        "--domain",
+        &d,
+        "--fault",
+        "stuck=index_0",
+    ]);
+    let dir = std::env::temp_dir().join(format!("handgate-dashboard-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("dex3-client.toml");
+    std::fs::write(
+        &profile,
+        "name = \"dex3-client\"\n[[devices]]\nname = \"hand\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n",
+    )
+    .unwrap();
+    let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
+    let url = gw.http_url().unwrap_or_else(|e| panic!("{e}"));
+    b.call(json!({"op": "open", "url": url}), &gw);
+    let (stop, t) = stream_closure(domain, "hand", 0.8);
+    let badge = b.try_call(json!({
+        "op": "wait_text",
+        "selector": r#"article.card[data-device="hand"] [data-motion="joint_stuck"]"#,
+        "contains": "joint stuck: index_0",
+    }));
+    let cell = b.try_call(json!({
+        "op": "wait_text",
+        "selector": r#"#fleet tr[data-row="hand"] td[data-col="motion"]"#,
+        "contains": "joint stuck: index_0",
+    }));
+    stop.store(true, Ordering::Relaxed);
+    t.join().expect("the closure stream");
+    badge.unwrap_or_else(|e| panic!("the card's badge: {e}\n{}", gw.transcript()));
+    cell.unwrap_or_else(|e| panic!("the fleet table: {e}\n{}", gw.transcript()));
 }

@@ -274,8 +274,8 @@ fn watchdog_trips_holds_and_resumes() {
         .unwrap_or_else(|| panic!("no dex1_left row:\n{out}"))
         .split_whitespace()
         .collect();
-    // device kind backend state safe cmdHz stateHz age crc bad wdog recon missed foreign
-    assert_eq!(row.len(), 14, "{out}");
+    // device kind backend state safe cmdHz stateHz age crc bad wdog recon missed foreign track motion
+    assert_eq!(row.len(), 16, "{out}");
     assert_eq!(&row[1..3], ["dex1", "emulator"], "{out}");
     let wdog: u64 = row[10]
         .parse()

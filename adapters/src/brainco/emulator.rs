@@ -165,6 +165,8 @@ pub struct BraincoCore {
     last_command: Option<MotorCmds_>,
     commands: u64,
     rejected: u64,
+    /// Fingers held where they are whatever the command (`--fault stuck=<joint>`).
+    stuck: [bool; WIRE_LEN],
 }
 
 /// The hand's hard stops, wire: the service clamps to [0, 1] and sends 0–1000, the Revo2's
@@ -215,6 +217,7 @@ impl BraincoCore {
             last_command: None,
             commands: 0,
             rejected: 0,
+            stuck: [false; WIRE_LEN],
         })
     }
 
@@ -246,7 +249,12 @@ impl BraincoCore {
     pub fn step(&mut self, dt: f32) {
         let t = &self.tuning;
         let (lo, hi) = HARD_STOPS;
-        for ((f, obj), sag) in self.fingers.iter_mut().zip(self.object).zip(self.sag) {
+        for (((f, obj), sag), stuck) in self.fingers.iter_mut().zip(self.object).zip(self.sag).zip(self.stuck) {
+            if stuck {
+                // A stuck finger stays where it is, whatever the command.
+                f.dq = 0.0;
+                continue;
+            }
             let vmax = t.full_speed * f.target_speed;
             // Under a load the position loop settles short of its target.
             let goal = sag.goal(f.target_q).clamp(lo, hi);
@@ -312,6 +320,10 @@ impl ServiceCore for BraincoCore {
     fn plan(config: &BraincoConfig) -> Result<ServicePlan, EmulatorError> {
         let (side, topics) = (config.side, config.topics.clone());
         ServicePlan::one_hand("brainco", side, config.rate, topics, super::topics(side))
+    }
+
+    fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "a BrainCo hand")
     }
 
     fn report(&self, published: Published) -> BraincoSnapshot {

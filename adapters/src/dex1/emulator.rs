@@ -172,6 +172,8 @@ struct Gripper {
     target: MotorTarget,
     braked: bool,
     last_cmd_at: Option<Instant>,
+    /// Held where it is whatever the command (`--fault stuck=jaw`).
+    stuck: bool,
 }
 
 /// One element of a command, variant-independent: (q, kp, kd).
@@ -235,6 +237,7 @@ impl Dex1Core {
                     joint,
                     braked: true,
                     last_cmd_at: None,
+                    stuck: false,
                 }
             })
             .collect();
@@ -310,8 +313,9 @@ impl Dex1Core {
             {
                 g.braked = true;
             }
-            if g.braked {
-                // The brake holds the jaw where it is; the motor applies nothing.
+            if g.braked || g.stuck {
+                // The brake (or a stuck jaw) holds the jaw where it is; the motor applies
+                // nothing.
                 g.joint.dq = 0.0;
                 g.joint.tau = 0.0;
             } else {
@@ -400,6 +404,20 @@ impl ServiceCore for Dex1Core {
     fn plan(config: &Dex1Config) -> Result<ServicePlan, EmulatorError> {
         let (side, topics) = (config.side, config.topics.clone());
         ServicePlan::one_hand("dex1", side, config.rate, topics, Some(config.variant.topics(side)))
+    }
+
+    /// The service's one gripper (the actuator variant, carrying two, refuses: which one is
+    /// not said by the entry).
+    fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
+        match (entry, self.grippers.as_mut_slice()) {
+            (0, [g]) => {
+                g.stuck = true;
+                Ok(())
+            }
+            _ => Err(EmulatorError::InvalidConfig(
+                "a stuck jaw is emulated for one gripper (the go and hg variants), not the actuator pair".into(),
+            )),
+        }
     }
 
     fn report(&self, published: Published) -> Dex1Snapshot {

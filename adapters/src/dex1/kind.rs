@@ -66,6 +66,7 @@ impl EmulateOptions for Dex1Emulate {
 }
 
 impl Kind for Dex1Kind {
+    const EMULATOR_FAULTS: &'static [&'static str] = &["stuck", "frozen", "ignore-commands"];
     const FACTS: KindFacts = KindFacts {
         fronts: &[FrontKind::Dex1],
         sections: &[SectionSpec {
@@ -154,6 +155,9 @@ impl Kind for Dex1Kind {
             "emulating dex1_1_service ({variant}): {cmd}, {state} on DDS domain {}",
             args.domain
         );
-        Ok((what, emulate_service(args, |node| Dex1Emulator::start(node, cfg))?))
+        Ok((
+            what,
+            emulate_service(args, DeviceKind::Dex1, side, |node| Dex1Emulator::start(node, cfg))?,
+        ))
     }
 }

@@ -264,6 +264,8 @@ pub struct Dex3Core {
     slots: [MotorSlot; MOTORS],
     prev_dq: [f32; MOTORS],
     ddq: [f32; MOTORS],
+    /// Motors held where they are whatever the command (`--fault stuck=<joint>`).
+    stuck: [bool; MOTORS],
     last_cmd_at: Option<Instant>,
     last_command: Option<HandCmd_>,
     commands: u64,
@@ -291,6 +293,7 @@ impl Dex3Core {
             slots,
             prev_dq: [0.0; MOTORS],
             ddq: [0.0; MOTORS],
+            stuck: [false; MOTORS],
             last_cmd_at: None,
             last_command: None,
             commands: 0,
@@ -407,6 +410,13 @@ impl Dex3Core {
     pub fn step(&mut self, now: Instant, dt: f32) {
         self.check_timeouts(now);
         for i in 0..MOTORS {
+            if self.stuck[i] {
+                // A stuck joint: it stays where it is, whatever the command.
+                self.joints[i].dq = 0.0;
+                self.ddq[i] = 0.0;
+                self.prev_dq[i] = 0.0;
+                continue;
+            }
             let target = self.applied(i);
             self.joints[i].step(&target, dt);
             let dq = self.joints[i].dq;
@@ -531,6 +541,10 @@ impl ServiceCore for Dex3Core {
             .unwrap_or_else(|| (cmd_topic(side), state_topic(side), lf_state_topic(side)));
         let lf = config.publish_lf.then_some((lf_t, Some(config.lf_rate)));
         Ok(ServicePlan::new(format!("dex3-emu-{side}"), config.state_rate, cmd_t, Some(state_t)).with_extra(lf))
+    }
+
+    fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "a Dex3-1")
     }
 
     fn report(&self, published: Published) -> Dex3Snapshot {

@@ -183,6 +183,9 @@ pub fn emulate(args: &EmulateArgs, options: Dex3Emulate) -> Result<(String, Emul
     let side = args.side("dex3")?;
     let noise = args.noise(super::physical::HG_MOTOR_NOISE);
     match (&options.socket, options.service) {
+        (Some(_), false) if args.fault.is_some() => Err(DeviceError::Config(
+            "--fault is emulated by the Dex3 hand service (--service), not the USB MCU (--socket)".into(),
+        )),
         (Some(socket), false) => {
             let socket = socket.clone();
             let what = format!("emulating a Dex3-1 {side} hand on {}", socket.display());
@@ -199,6 +202,7 @@ pub fn emulate(args: &EmulateArgs, options: Dex3Emulate) -> Result<(String, Emul
             let mut cfg = Dex3ServiceConfig::new(side);
             cfg.noise = noise;
             let emu = Dex3ServiceEmulator::start(&node, cfg)?;
+            args.inject_fault(&emu, crate::model::DeviceKind::Dex3, side)?;
             let (cmd, state) = super::dds_client::topics(side, super::dds_client::StateSource::State);
             let what = format!(
                 "emulating the G1's Dex3-1 {side} hand service: {cmd}, {state} and its rt/lf copy on DDS domain {}",

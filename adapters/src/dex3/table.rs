@@ -98,6 +98,7 @@ pub fn table(side: Side) -> DeviceTable {
         max_kd: 1.0,
         max_tau: 1.5,
         urdf_frame: crate::mapping::UrdfFrame::Wire,
+        motion: crate::motion::MotionThresholds::HAND,
     }
 }
 

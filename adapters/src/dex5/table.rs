@@ -510,6 +510,7 @@ pub fn table(side: Side, conventions: &Conventions) -> DeviceTable {
         max_kd: MAX_GAIN_FACTOR,
         max_tau: MAX_TAU,
         urdf_frame: UrdfFrame::Wire,
+        motion: crate::motion::MotionThresholds::HAND,
     }
 }
 

@@ -42,5 +42,6 @@ pub fn table(side: Side) -> DeviceTable {
         max_kd: 1.0,
         max_tau: 1.0,
         urdf_frame: crate::mapping::UrdfFrame::Wire,
+        motion: crate::motion::MotionThresholds::HAND,
     }
 }

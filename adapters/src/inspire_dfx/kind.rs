@@ -59,7 +59,7 @@ pub enum DfxOpen {
 pub struct DfxEmulate;
 
 impl EmulateOptions for DfxEmulate {
-    const COMMON: &'static [&'static str] = &["domain", "interface", "no-noise", "seed"];
+    const COMMON: &'static [&'static str] = &["domain", "interface", "no-noise", "seed", "fault"];
     const OPTIONS: &'static [EmulateOption] = &[];
 }
 
@@ -231,6 +231,9 @@ impl Kind for InspireDfxKind {
             ..DfxConfig::default()
         };
         let emu = DfxEmulator::start(&node, cfg)?;
+        // Both hands in one message: a stuck joint is not emulated (the core cannot), frozen
+        // and ignore-commands act on both.
+        args.inject_fault(&emu, DeviceKind::InspireDfx, Side::Right)?;
         let (cmd, state) = emu.topics();
         let what = format!(
             "emulating DFX_inspire_service (both hands, entries 0-5 right, 6-11 left): {cmd}, {state} on DDS domain {}",

@@ -86,5 +86,6 @@ pub fn table(side: Side) -> DeviceTable {
         max_kd: 5.0,
         max_tau: 1.0,
         urdf_frame: crate::mapping::UrdfFrame::Canonical,
+        motion: crate::motion::MotionThresholds::HAND,
     }
 }

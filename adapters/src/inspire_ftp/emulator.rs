@@ -259,6 +259,8 @@ pub struct FtpCore {
     commands: u64,
     noops: u64,
     bad_arrays: u64,
+    /// Actuators held where they are whatever the command (`--fault stuck=<joint>`).
+    stuck: [bool; ACTUATORS],
 }
 
 const MAX: f32 = UNITS_MAX as f32;
@@ -321,6 +323,7 @@ impl FtpCore {
             commands: 0,
             noops: 0,
             bad_arrays: 0,
+            stuck: [false; ACTUATORS],
         };
         for (i, o) in config.object.iter().enumerate() {
             core.set_object(i, *o);
@@ -375,7 +378,11 @@ impl FtpCore {
     /// Advances every actuator by `dt` seconds.
     pub fn step(&mut self, dt: f32) {
         let t = &self.tuning;
-        for a in &mut self.act {
+        for (a, stuck) in self.act.iter_mut().zip(self.stuck) {
+            if stuck {
+                // A stuck actuator stays where it is, whatever the command.
+                continue;
+            }
             let vmax = t.max_speed * f32::from(a.speed_set) / MAX;
             // Under a load the position loop settles short of its target.
             let goal = a.sag.goal(a.target).clamp(0.0, MAX);
@@ -521,6 +528,10 @@ impl ServiceCore for FtpCore {
         let name = format!("ftp-emu-{}", config.side);
         let touch = config.transport.publishes_touch().then_some((touch, None));
         Ok(ServicePlan::new(name, config.rate, ctrl, Some(state)).with_extra(touch))
+    }
+
+    fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "an Inspire FTP hand")
     }
 
     fn report(&self, published: Published) -> FtpSnapshot {

@@ -210,6 +210,7 @@ impl EmulateOptions for FtpEmulate {
 }
 
 impl Kind for InspireFtpKind {
+    const EMULATOR_FAULTS: &'static [&'static str] = &["stuck", "frozen", "ignore-commands"];
     const FACTS: KindFacts = KindFacts {
         // Inspire's DDS driver's own interface (`rt/inspire_hand/*/{l,r}`, one hand): `super::serve`.
         fronts: &[FrontKind::InspireFtp],
@@ -336,6 +337,9 @@ impl Kind for InspireFtpKind {
                 args.domain
             ),
         };
-        Ok((what, emulate_service(args, |node| FtpEmulator::start(node, cfg))?))
+        Ok((
+            what,
+            emulate_service(args, DeviceKind::InspireFtp, side, |node| FtpEmulator::start(node, cfg))?,
+        ))
     }
 }

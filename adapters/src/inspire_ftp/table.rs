@@ -68,6 +68,7 @@ pub fn table(side: Side) -> DeviceTable {
         max_kd: 1.0,
         max_tau: 1.0,
         urdf_frame: crate::mapping::UrdfFrame::Canonical,
+        motion: crate::motion::MotionThresholds::HAND,
     }
 }
 

@@ -127,6 +127,8 @@ pub fn status(fleet: &Fleet) -> String {
                 "reconnects": d.reconnects, "missed_cycles": d.missed_cycles, "foreign_cmd": d.foreign_cmd,
                 "duplicate_cmd": d.duplicate_cmd, "reordered_cmd": d.reordered_cmd, "late_cmd": d.late_cmd,
                 "not_allowed_cmd": d.not_allowed_cmd,
+                "motion": handgate_adapters::motion::Verdict::word(d.motion), "motion_joint": d.motion_joint,
+                "tracking_error": num(d.tracking_error),
                 "faults": state.map(|(f, _)| fault_names(f)).unwrap_or_default(),
                 "closure": state.map(|(_, c)| num(c)).unwrap_or(Value::Null),
                 "owner": slot.and_then(|s| s.counters.owner()),

@@ -49,6 +49,11 @@ struct Seen {
     freshness: Freshness,
     age: Option<std::time::Duration>,
     faults: u32,
+    /// The motion verdict (`MOTION_*`) and the joint it names.
+    motion: u8,
+    motion_joint: Option<usize>,
+    /// Per joint |target - measured|, rad (empty while nothing is commanded).
+    errors: Vec<f32>,
 }
 
 /// The whole exposition.
@@ -74,6 +79,9 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
                     freshness: st.freshness,
                     age: st.age(now),
                     faults: st.faults,
+                    motion: st.motion.verdict.code(),
+                    motion_joint: st.motion.joint,
+                    errors: st.motion.errors.iter().map(|e| e.abs()).collect(),
                 }
             };
             let s = d.device.stats();
@@ -179,6 +187,40 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
     );
     for (_, l, st, _, _) in &devs {
         f.sample("handgate_device_faults", l, st.faults as f64);
+    }
+    let mut f = Family::new(
+        &mut out,
+        "handgate_device_motion",
+        "gauge",
+        "Whether the device follows its command: 0 ok, 1 frozen (state samples repeat while commanded to move), \
+         2 joint_stuck (label joint), 3 not_following (docs/adapters.md, \"Motion\").",
+    );
+    for (d, l, st, _, _) in &devs {
+        let joint = st
+            .motion_joint
+            .and_then(|j| d.plan.kind.joint_names().get(j))
+            .copied()
+            .unwrap_or("");
+        f.sample(
+            "handgate_device_motion",
+            &format!("{l},joint=\"{}\"", esc(joint)),
+            f64::from(st.motion),
+        );
+    }
+    let mut f = Family::new(
+        &mut out,
+        "handgate_joint_tracking_error_radians",
+        "gauge",
+        "|target in force - measured position| per joint, canonical rad (no sample while nothing is commanded).",
+    );
+    for (d, l, st, _, _) in &devs {
+        for (name, e) in d.plan.kind.joint_names().iter().zip(&st.errors) {
+            f.sample(
+                "handgate_joint_tracking_error_radians",
+                &format!("{l},joint=\"{}\"", esc(name)),
+                f64::from(*e),
+            );
+        }
     }
     for (name, help, get) in [
         (

@@ -552,6 +552,8 @@ pub struct DeviceConfig {
     pub watchdog: WatchdogConfig,
     pub closure: ClosureConfig,
     pub emulator: Option<EmulatorConfig>,
+    /// The motion detector's thresholds (`[devices.motion]`; omitted: the kind's table's).
+    pub motion: MotionConfig,
     /// The kind's own keys, parsed by the kind (`KindFactory::parse`).
     pub config: KindConfigBox,
     /// Keys this device's table sets that belong to another kind or backend (found while
@@ -572,6 +574,7 @@ pub const COMMON_DEVICE_KEYS: &[&str] = &[
     "watchdog",
     "closure",
     "emulator",
+    "motion",
 ];
 
 /// The common keys as deserialized.
@@ -596,6 +599,8 @@ struct DeviceCommon {
     closure: ClosureConfig,
     #[serde(default)]
     emulator: Option<EmulatorConfig>,
+    #[serde(default)]
+    motion: MotionConfig,
 }
 
 impl Default for DeviceConfig {
@@ -614,6 +619,7 @@ impl Default for DeviceConfig {
             watchdog: WatchdogConfig::default(),
             closure: ClosureConfig::default(),
             emulator: None,
+            motion: MotionConfig::default(),
             config: KindConfigBox(kind.factory().default_config()),
             misplaced: Vec::new(),
         }
@@ -763,6 +769,7 @@ impl DeviceConfig {
             watchdog: c.watchdog,
             closure: c.closure,
             emulator: c.emulator,
+            motion: c.motion,
             config: KindConfigBox(config),
             misplaced,
         })
@@ -819,6 +826,21 @@ pub struct JointLimit {
     pub min: Option<Radians>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max: Option<Radians>,
+}
+
+/// `[devices.motion]`: when a device that reports but does not move is reported
+/// (docs/adapters.md, "Motion"). Omitted keys keep the kind's table's values (assumptions:
+/// docs/profiles.md, "Assumptions").
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MotionConfig {
+    /// An error between the target in force and the measured position above this is a
+    /// demand to move, rad.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<Radians>,
+    /// How long a demanded joint may make no progress before it is reported, ms.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hold_ms: Option<Millis>,
 }
 
 /// Device watchdog: what happens when no command arrives in time.

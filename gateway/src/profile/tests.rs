@@ -288,6 +288,42 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "silence = \"watchdog\"",
     ),
     (
+        "an emulator fault that is none",
+        "[[devices]]\nname = \"g\"\nkind = \"brainco\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"slow\"\n",
+        "devices[0].emulator.fault",
+        "stuck=<joint>, frozen or ignore-commands",
+    ),
+    (
+        "an emulator fault on a joint the kind does not have",
+        "[[devices]]\nname = \"g\"\nkind = \"brainco\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"stuck=index_0\"\n",
+        "devices[0].emulator.fault",
+        "no such joint",
+    ),
+    (
+        "a stuck joint on an emulator that cannot",
+        "[[devices]]\nname = \"g\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"stuck=index_1\"\n",
+        "devices[0].emulator.fault",
+        "cannot inject stuck",
+    ),
+    (
+        "motion tolerance of zero",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\ntolerance = 0.0\n",
+        "devices[0].motion.tolerance",
+        "above 0 and at most 1 rad",
+    ),
+    (
+        "motion hold too long to report within a second",
+        "[[devices]]\nname = \"g\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\nhold_ms = 2000\n",
+        "devices[0].motion.hold_ms",
+        "between 50 and 900 ms",
+    ),
+    (
+        "an unknown motion key",
+        "[[devices]]\nname = \"g\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\nholdms = 200\n",
+        "devices[0].motion.holdms",
+        "unknown",
+    ),
+    (
         "max_command_age_ms of zero",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\ndevice = \"g\"\nmax_command_age_ms = 0\n",
         "fronts[0].max_command_age_ms",
@@ -1384,10 +1420,14 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
                 "position_noise_rad",
                 "velocity_noise_rad_s",
                 "torque_noise_nm",
+                "fault",
             ],
         ),
-        // DFX_inspire_service reports only q (docs/sources.md §7).
-        ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm"]),
+        // DFX_inspire_service reports only q (docs/sources.md §7); the emulators that inject
+        // no fault in-process (the Dex3 USB MCU, the EZGripper bus, the DFX pair's service).
+        ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm", "fault"]),
+        ("dex3", &["fault"]),
+        ("ezgripper", &["fault"]),
         // Inspire's driver reports no velocity and no torque in N·m.
         ("inspire_ftp", &["velocity_noise_rad_s", "torque_noise_nm"]),
     ];
@@ -1418,6 +1458,7 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
                 "position_noise_rad" => "0.001".into(),
                 "velocity_noise_rad_s" => "0.01".into(),
                 "torque_noise_nm" => "0.01".into(),
+                "fault" => "\"ignore-commands\"".into(),
                 other => panic!("docs/profiles.md documents devices.emulator.{other}: add a sample value here"),
             };
             let with = device(&format!("[devices.emulator]\n{key} = {value}"));
@@ -1525,6 +1566,16 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "devices.limits.joints.NAME",
             dex3("emulator", ""),
             dex3("emulator", "limits = { joints = { index_0 = { max = 1.0 } } }"),
+        ),
+        (
+            "devices.motion.tolerance",
+            dex3("emulator", ""),
+            dex3("emulator", "motion = { tolerance = 0.1 }"),
+        ),
+        (
+            "devices.motion.hold_ms",
+            dex1("emulator", ""),
+            dex1("emulator", "motion = { hold_ms = 300 }"),
         ),
         (
             "devices.watchdog.timeout_ms",
@@ -1792,6 +1843,11 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "devices.emulator.torque_noise_nm",
             dex3("emulator", ""),
             dex3("emulator", "[devices.emulator]\ntorque_noise_nm = 0.01"),
+        ),
+        (
+            "devices.emulator.fault",
+            dex1("emulator", ""),
+            dex1("emulator", "[devices.emulator]\nfault = \"stuck=jaw\""),
         ),
         (
             "fronts.kind",

@@ -5,6 +5,7 @@ use std::collections::{BTreeMap, HashMap};
 use super::error::KeyPath;
 use super::schema::*;
 use handgate_adapters::kind::{a, check_rate, check_topic, FleetMember};
+use handgate_adapters::motion::MotionThresholds;
 
 /// A problem found by [`validate`]: key path and message (the loader adds the origin).
 pub type Problem = (KeyPath, String);
@@ -706,6 +707,30 @@ impl Checker {
             }
         }
 
+        // motion
+        let mk = k.key("motion");
+        if let Some(t) = d.motion.tolerance {
+            let max = f64::from(MotionThresholds::TOLERANCE_MAX);
+            if !(t.0.is_finite() && t.0 > 0.0 && t.0 <= max) {
+                self.err(
+                    mk.key("tolerance"),
+                    format!("must be above 0 and at most {max} rad, got {}", t.0),
+                );
+            }
+        }
+        if let Some(h) = d.motion.hold_ms {
+            let (lo, hi) = MotionThresholds::HOLD_MS_RANGE;
+            if !(lo..=hi).contains(&u64::from(h.0)) {
+                self.err(
+                    mk.key("hold_ms"),
+                    format!(
+                        "must be between {lo} and {hi} ms (a hand that does not move must be reported within a second), got {}",
+                        h.0
+                    ),
+                );
+            }
+        }
+
         // watchdog
         let (wlo, whi) = WATCHDOG_MS_RANGE;
         if !(wlo..=whi).contains(&d.watchdog.timeout_ms.0) {
@@ -791,6 +816,21 @@ impl Checker {
             for (which, m) in [("initial", &e.initial), ("object_at", &e.object_at)] {
                 for (j, v) in m {
                     self.position(ek.key(which).key(j.clone()), d, j, Radians(*v));
+                }
+            }
+            // A stuck joint: one of the kind's, by its canonical or URDF name.
+            if let Some(Ok(handgate_adapters::emu_common::FaultArg::Stuck(j))) = e.fault_arg() {
+                let t = d.kind.factory().table(d.side, &*d.config);
+                if !t.joints.iter().any(|m| m.name == j || m.urdf == j) {
+                    self.err(
+                        ek.key("fault"),
+                        format!(
+                            "stuck={j}: no such joint on a {} {} (joints: {})",
+                            d.side,
+                            d.kind,
+                            d.kind.joint_names().join(", ")
+                        ),
+                    );
                 }
             }
             for p in e

@@ -42,54 +42,105 @@ pub(super) fn spawn_status(
     let started = Instant::now();
     Ok(tokio::spawn(async move {
         let mut tick = Ticker::new(period);
+        // A motion verdict that changes is published at once, not at the next tick: at the
+        // default 1 Hz a fault would otherwise wait up to a second more (docs/adapters.md,
+        // "Motion"). Checking costs a borrow of each device's state.
+        let mut motion_tick = Ticker::new(MOTION_CHECK);
         let mut prev: HashMap<String, (u64, u64, Instant)> = HashMap::new();
+        // The rates of the last tick, (cmd, state) per device: a sample published early for a
+        // motion verdict repeats them rather than measuring over a few milliseconds.
+        let mut rates: HashMap<String, (f32, f32)> = HashMap::new();
+        let mut published_motion: Vec<u8> = vec![hgmsg::MOTION_OK; devices.len()];
         loop {
-            tokio::select! {
-                _ = tick.tick() => {
-                    let now = Instant::now();
-                    let (endpoints, diagnostics) = crate::diagnostics::to_status(&diagnosis.borrow());
-                    let mut msg = hgmsg::GatewayStatus_ { profile: profile.clone(), uptime_ms: started.elapsed().as_millis() as u64, devices: vec![], endpoints, diagnostics, ..sides.clone() };
-                    if let Some(r) = &record {
-                        msg.record_messages = r.written.load(Ordering::Relaxed);
-                        msg.record_dropped = r.dropped.load(Ordering::Relaxed);
+            let on_tick = tokio::select! {
+                _ = tick.tick() => true,
+                _ = motion_tick.tick() => {
+                    let same = devices.len() == published_motion.len()
+                        && devices.iter().zip(&published_motion).all(|(d, m)| d.device.state().borrow().motion.verdict.code() == *m);
+                    if same {
+                        continue;
                     }
-                    for d in &devices {
-                        let s = d.device.stats();
-                        let st = d.device.state().borrow().clone();
-                        let (pc, ps, pt) = prev.get(&d.plan.name).cloned().unwrap_or((s.sent, s.state_samples, now));
+                    false
+                }
+                _ = shutdown.changed() => break,
+            };
+            let now = Instant::now();
+            let (endpoints, diagnostics) = crate::diagnostics::to_status(&diagnosis.borrow());
+            let mut msg = hgmsg::GatewayStatus_ {
+                profile: profile.clone(),
+                uptime_ms: started.elapsed().as_millis() as u64,
+                devices: vec![],
+                endpoints,
+                diagnostics,
+                ..sides.clone()
+            };
+            if let Some(r) = &record {
+                msg.record_messages = r.written.load(Ordering::Relaxed);
+                msg.record_dropped = r.dropped.load(Ordering::Relaxed);
+            }
+            for d in &devices {
+                let s = d.device.stats();
+                let st = d.device.state().borrow().clone();
+                let (cmd_rate_hz, state_rate_hz) = match rates.get(&d.plan.name) {
+                    Some(r) if !on_tick => *r,
+                    _ => {
+                        let (pc, ps, pt) = prev
+                            .get(&d.plan.name)
+                            .cloned()
+                            .unwrap_or((s.sent, s.state_samples, now));
                         let dt = now.duration_since(pt).as_secs_f32();
                         let rate = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
                         prev.insert(d.plan.name.clone(), (s.sent, s.state_samples, now));
-                        msg.devices.push(hgmsg::DeviceStatus_ {
-                            device: d.plan.name.clone(),
-                            kind: d.plan.kind.as_str().into(),
-                            backend: d.plan.backend.as_str().into(),
-                            freshness: match st.freshness { Freshness::Fresh => hgmsg::FRESH, Freshness::Stale => hgmsg::STALE, Freshness::CommandedOnly => hgmsg::COMMANDED_ONLY },
-                            safe: d.counters.tripped.load(Ordering::Relaxed) != 0 || st.faults & handgate_adapters::model::faults::SAFE_STATE != 0,
-                            cmd_rate_hz: rate(s.sent, pc),
-                            state_rate_hz: rate(s.state_samples, ps),
-                            crc_errors: s.crc_errors,
-                            bad_input: d.counters.rejected.load(Ordering::Relaxed) + s.rejected,
-                            watchdog_trips: d.counters.watchdog_trips.load(Ordering::Relaxed),
-                            reconnects: s.reconnects,
-                            missed_cycles: s.missed_cycles,
-                            foreign_cmd: d.counters.foreign_cmd.load(Ordering::Relaxed),
-                            duplicate_cmd: d.counters.duplicate_cmd.load(Ordering::Relaxed),
-                            reordered_cmd: d.counters.reordered_cmd.load(Ordering::Relaxed),
-                            late_cmd: d.counters.late_cmd.load(Ordering::Relaxed),
-                            owner: d.counters.owner().unwrap_or_default(),
-                            not_allowed_cmd: d.counters.not_allowed_cmd.load(Ordering::Relaxed),
-                            age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
-                        });
+                        let r = (rate(s.sent, pc), rate(s.state_samples, ps));
+                        rates.insert(d.plan.name.clone(), r);
+                        r
                     }
-                    latest.send_replace(Arc::new(msg.clone()));
-                    let _ = writer.write(msg);
-                }
-                _ = shutdown.changed() => break,
+                };
+                msg.devices.push(hgmsg::DeviceStatus_ {
+                    device: d.plan.name.clone(),
+                    kind: d.plan.kind.as_str().into(),
+                    backend: d.plan.backend.as_str().into(),
+                    freshness: match st.freshness {
+                        Freshness::Fresh => hgmsg::FRESH,
+                        Freshness::Stale => hgmsg::STALE,
+                        Freshness::CommandedOnly => hgmsg::COMMANDED_ONLY,
+                    },
+                    safe: d.counters.tripped.load(Ordering::Relaxed) != 0
+                        || st.faults & handgate_adapters::model::faults::SAFE_STATE != 0,
+                    cmd_rate_hz,
+                    state_rate_hz,
+                    crc_errors: s.crc_errors,
+                    bad_input: d.counters.rejected.load(Ordering::Relaxed) + s.rejected,
+                    watchdog_trips: d.counters.watchdog_trips.load(Ordering::Relaxed),
+                    reconnects: s.reconnects,
+                    missed_cycles: s.missed_cycles,
+                    foreign_cmd: d.counters.foreign_cmd.load(Ordering::Relaxed),
+                    duplicate_cmd: d.counters.duplicate_cmd.load(Ordering::Relaxed),
+                    reordered_cmd: d.counters.reordered_cmd.load(Ordering::Relaxed),
+                    late_cmd: d.counters.late_cmd.load(Ordering::Relaxed),
+                    owner: d.counters.owner().unwrap_or_default(),
+                    not_allowed_cmd: d.counters.not_allowed_cmd.load(Ordering::Relaxed),
+                    age_ms: st.age(now).map(|a| a.as_secs_f32() * 1000.0).unwrap_or(f32::NAN),
+                    motion: st.motion.verdict.code(),
+                    motion_joint: st
+                        .motion
+                        .joint
+                        .and_then(|j| d.plan.kind.joint_names().get(j))
+                        .map(|n| n.to_string())
+                        .unwrap_or_default(),
+                    tracking_error: st.motion.tracking_error(),
+                });
             }
+            published_motion.clear();
+            published_motion.extend(msg.devices.iter().map(|d| d.motion));
+            latest.send_replace(Arc::new(msg.clone()));
+            let _ = writer.write(msg);
         }
     }))
 }
+
+/// How often the status task looks for a changed motion verdict to publish at once.
+const MOTION_CHECK: Duration = Duration::from_millis(50);
 
 /// This host's name (the kernel's), empty when it cannot be read.
 fn host_name() -> String {
