@@ -89,11 +89,12 @@ struct Finding {
 /// | stale after a state was seen | ERROR | ERROR | DOWN | HW |
 /// | stale, no state ever | STALE | UNKNOWN | DOWN | UNKNOWN |
 /// | `safe` (a silence action or the device's safe state holds it) | at least WARN | at least WARNING | (as above) | + PROTECTIVE_STOP_SW |
+/// | motion `joint_stuck` (one joint does not follow while the others do) | at least WARN | at least WARNING | (as above) | + HW |
+/// | motion `frozen` or `not_following` (the hand reports but does not move) | ERROR | ERROR | (as above) | + HW |
 ///
 /// `safe` sets the mode to `MODE_SAFE` (else `MODE_AUTO`: the gateway drives the device). The
 /// levels of several findings combine by their maximum, the texts are joined. A new fact about
-/// a device (such as a "does not move" verdict appended to `DeviceStatus_`) is one more
-/// `findings.push(..)` below, with its level, health and error domain.
+/// a device is one more `findings.push(..)` below, with its level, health and error domain.
 pub fn judge(d: &hg::DeviceStatus_, stale_after: Duration) -> Verdict {
     let mut findings: Vec<Finding> = Vec::new();
     let min_state_hz = SLOW_SAMPLES_PER_STALE_WINDOW / stale_after.as_secs_f32().max(1e-3);
@@ -137,7 +138,26 @@ pub fn judge(d: &hg::DeviceStatus_, stale_after: Duration) -> Verdict {
             text: "safe state".into(),
         });
     }
-    // The place for further findings (e.g. the motion verdict: WARN/ERROR with ERROR_HW).
+    // The motion verdict (docs/adapters.md, "Motion"): one joint that does not follow while
+    // the others do leaves a working hand (WARN); a hand whose state repeats or that follows
+    // no command does not work (ERROR).
+    match d.motion {
+        hg::MOTION_OK => {}
+        m => findings.push(Finding {
+            level: if m == hg::MOTION_JOINT_STUCK {
+                level::WARN
+            } else {
+                level::ERROR
+            },
+            health: if m == hg::MOTION_JOINT_STUCK {
+                gs::HEALTH_WARNING
+            } else {
+                gs::HEALTH_ERROR
+            },
+            error: gs::ERROR_HW,
+            text: crate::tools::motion_sentence(d),
+        }),
+    }
     let mut errors: Vec<u8> = findings
         .iter()
         .map(|f| f.error)
@@ -196,6 +216,16 @@ pub fn values(d: &hg::DeviceStatus_) -> Vec<KeyValue_> {
         kv("reordered_cmd", d.reordered_cmd.to_string()),
         kv("late_cmd", d.late_cmd.to_string()),
         kv("not_allowed_cmd", d.not_allowed_cmd.to_string()),
+        kv("motion", handgate_adapters::motion::Verdict::word(d.motion).to_string()),
+        kv("motion_joint", d.motion_joint.clone()),
+        kv(
+            "tracking_error_rad",
+            if d.tracking_error.is_finite() {
+                format!("{:.3}", d.tracking_error)
+            } else {
+                "none".into()
+            },
+        ),
     ]
 }
 
@@ -339,6 +369,35 @@ mod tests {
             judge(&dev(hg::FRESH, 0.0, 3.0, false), WINDOW).connectivity,
             gs::CONNECT_UP
         );
+    }
+
+    #[test]
+    fn a_stuck_joint_warns_and_a_hand_that_does_not_move_is_an_error() {
+        let moving = |motion: u8| hg::DeviceStatus_ {
+            motion,
+            motion_joint: "index_0".into(),
+            tracking_error: 0.4,
+            ..dev(hg::FRESH, 100.0, 3.0, false)
+        };
+        let v = judge(&moving(hg::MOTION_JOINT_STUCK), WINDOW);
+        assert_eq!(
+            (v.level, v.health, v.connectivity, v.errors),
+            (level::WARN, gs::HEALTH_WARNING, gs::CONNECT_UP, vec![gs::ERROR_HW])
+        );
+        assert!(v.message.contains("joint index_0 does not follow"), "{}", v.message);
+        for m in [hg::MOTION_FROZEN, hg::MOTION_NOT_FOLLOWING] {
+            let v = judge(&moving(m), WINDOW);
+            assert_eq!(
+                (v.level, v.health, v.errors),
+                (level::ERROR, gs::HEALTH_ERROR, vec![gs::ERROR_HW])
+            );
+            assert!(v.message.contains("index_0"), "{}", v.message);
+        }
+        let kv = values(&moving(hg::MOTION_JOINT_STUCK));
+        let get = |k: &str| kv.iter().find(|x| x.key == k).map(|x| x.value.clone());
+        assert_eq!(get("motion").as_deref(), Some("joint_stuck"));
+        assert_eq!(get("motion_joint").as_deref(), Some("index_0"));
+        assert_eq!(get("tracking_error_rad").as_deref(), Some("0.400"));
     }
 
     #[test]

@@ -160,3 +160,94 @@ fn a_stopped_service_turns_its_hand_from_ok_to_error_in_both_messages() {
         "{hw:#}"
     );
 }
+
+/// A Dex3 service emulated with its index finger stuck (`handgate emulate dex3 --service
+/// --fault stuck=index_0`), commanded to close through a canonical front: the hand stays up
+/// and fresh but both messages report the stuck joint (WARN / HEALTH_WARNING, `ERROR_HW`, the
+/// joint named), within a few status periods of the command that should have moved it.
+#[test]
+fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
+    let _g = serial();
+    let d = DOMAIN.to_string();
+    let _left = Emulation::start(&[
+        "dex3",
+        "--service",
+        "--side",
+        "left",
+        "--domain",
+        &d,
+        "--fault",
+        "stuck=index_0",
+    ]);
+    let dir = std::env::temp_dir().join(format!("handgate-health-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("stuck.toml");
+    std::fs::write(
+        &profile,
+        "name = \"stuck\"\n[status]\nrate_hz = 10\n\
+         [[devices]]\nname = \"hand\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n\
+         [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n",
+    )
+    .unwrap();
+    let gw = Gateway::start(DOMAIN, &["--profile", profile.to_str().unwrap()]);
+    let py = PyProcess::spawn(
+        "health_peer.py",
+        &["--domain".into(), d.clone(), "--timeout".into(), "120".into()],
+    )
+    .unwrap();
+    py.wait_line("READY", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    let (diag, _) = wait_for(
+        &py,
+        &gw,
+        "the hand OK and up before any command",
+        |v| diag_of(v, "hand").is_some_and(|s| s["level"] == level::OK),
+        |v| hw_of(v, "hand").is_some_and(|s| s["connectivity"] == gs::CONNECT_UP),
+    );
+    assert_eq!(diag_of(&diag, "hand").unwrap()["values"]["motion"], "ok", "{diag:#}");
+
+    // Close the hand at 50 Hz (the canonical front's watchdog holds it after 200 ms of
+    // silence) until the reports are in.
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let streaming = {
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            let n = handgate_tests::node(DOMAIN);
+            let mut w = n
+                .writer::<handgate_idl::handgate::HandCmd_>(
+                    "rt/handgate/hand/cmd",
+                    handgate_adapters::dds::Qos::Reliable { depth: 1 },
+                )
+                .unwrap();
+            w.wait_matched(1, DEADLINE)
+                .expect("the canonical front reads its command topic");
+            let mut seq = 1;
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                seq += 1;
+                w.write(handgate_tests::closure_cmd(seq, 0.8)).unwrap();
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        })
+    };
+    let warn = |v: &Value| diag_of(v, "hand").is_some_and(|s| s["level"] == level::WARN);
+    let warning = |v: &Value| hw_of(v, "hand").is_some_and(|s| s["health"] == gs::HEALTH_WARNING);
+    let (diag, hw) = wait_for(&py, &gw, "the stuck joint reported", warn, warning);
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    streaming.join().unwrap();
+
+    let s = diag_of(&diag, "hand").unwrap();
+    assert_eq!(s["values"]["motion"], "joint_stuck", "{diag:#}");
+    assert_eq!(s["values"]["motion_joint"], "index_0", "{diag:#}");
+    assert_eq!(s["values"]["freshness"], "fresh", "{diag:#}");
+    assert!(
+        s["message"].as_str().unwrap().contains("joint index_0 does not follow"),
+        "{diag:#}"
+    );
+    let h = hw_of(&hw, "hand").unwrap();
+    assert_eq!(
+        (h["connectivity"].clone(), h["errors"].clone()),
+        (Value::from(gs::CONNECT_UP), Value::from(vec![gs::ERROR_HW])),
+        "{hw:#}"
+    );
+    assert_eq!(h["details"]["motion_joint"], "index_0", "{hw:#}");
+}
