@@ -209,6 +209,7 @@ fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
     // Close the hand at 50 Hz (the canonical front's watchdog holds it after 200 ms of
     // silence) until the reports are in.
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let (first_tx, first) = std::sync::mpsc::channel::<std::time::Instant>();
     let streaming = {
         let stop = stop.clone();
         std::thread::spawn(move || {
@@ -225,6 +226,9 @@ fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
             while !stop.load(std::sync::atomic::Ordering::Relaxed) {
                 seq += 1;
                 w.write(handgate_tests::closure_cmd(seq, 0.8)).unwrap();
+                if seq == 2 {
+                    let _ = first_tx.send(std::time::Instant::now());
+                }
                 std::thread::sleep(Duration::from_millis(20));
             }
         })
@@ -232,8 +236,16 @@ fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
     let warn = |v: &Value| diag_of(v, "hand").is_some_and(|s| s["level"] == level::WARN);
     let warning = |v: &Value| hw_of(v, "hand").is_some_and(|s| s["health"] == gs::HEALTH_WARNING);
     let (diag, hw) = wait_for(&py, &gw, "the stuck joint reported", warn, warning);
+    // Both samples read by the peer: an upper bound on the time from the first command that
+    // should have moved the hand to the report (the bound: a second).
+    let took = first.recv().unwrap().elapsed();
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     streaming.join().unwrap();
+    println!(
+        "stuck joint in /diagnostics and hardware_status {} ms after the first command",
+        took.as_millis()
+    );
+    assert!(took < Duration::from_secs(1), "reported after {took:?}: {diag:#}");
 
     let s = diag_of(&diag, "hand").unwrap();
     assert_eq!(s["values"]["motion"], "joint_stuck", "{diag:#}");
