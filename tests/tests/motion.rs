@@ -6,7 +6,8 @@
 //! should have moved the hand, naming the joint, and in `handgate status`; a normal run of
 //! every emulated kind (`sim-all`, noise on, every front driven) raises none.
 //!
-//! Domains 207 (Dex3), 208 (BrainCo) and 209 (sim-all): docs/development.md.
+//! Domains 207 (Dex3), 208 (BrainCo), 209 (sim-all), 227 (Dex5, Inspire DFX) and 228 (the
+//! Dex3 USB MCU, the EZGripper bus, in-process emulators): docs/development.md.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -289,6 +290,65 @@ fn an_in_process_emulated_brainco_with_a_stuck_finger_is_caught_within_a_second(
         hg::MOTION_JOINT_STUCK,
         Some("ring"),
     );
+}
+
+/// A stuck joint on the service cores that emulate one since #29's follow-up: a Dex5-1 finger
+/// joint (its own motor, not a coupled `Pitch_x4`) and a finger of the left hand of
+/// DFX_inspire_service's pair (entries 6-11 of its one message).
+#[test]
+fn a_stuck_dex5_joint_and_a_stuck_inspire_dfx_finger_are_caught_within_a_second() {
+    let _g = serial();
+    caught("dex5", 227, "stuck=index_1", hg::MOTION_JOINT_STUCK, Some("index_1"));
+    caught("inspire_dfx", 227, "stuck=index", hg::MOTION_JOINT_STUCK, Some("index"));
+}
+
+/// A gateway profile of one device `hand` (`device`: the rest of its table) with a canonical
+/// front and the status at 10 Hz.
+fn one_hand_profile(name: &str, device: &str) -> PathBuf {
+    write_profile(
+        name,
+        &format!(
+            "name = \"{name}\"\n[status]\nrate_hz = 10\n[[devices]]\nname = \"hand\"\n{device}\n\
+             [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n"
+        ),
+    )
+}
+
+/// The emulators outside the service shell: a stuck joint on the Dex3-1's USB MCU (`handgate
+/// emulate dex3 --socket`, a gateway on backend usb), and a frozen EZGripper bus (`handgate
+/// emulate ezgripper --pty`, a gateway on backend serial: its Present Position repeats).
+#[test]
+fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_a_second() {
+    let _g = serial();
+    let tmp = std::env::temp_dir();
+    let socket = tmp.join(format!("handgate-motion-{}-dex3.sock", std::process::id()));
+    let _ = std::fs::remove_file(&socket);
+    let s = socket.to_str().unwrap();
+    let mcu = Emulator::start(&["dex3", "--side", "left", "--socket", s, "--fault", "stuck=index_0"]);
+    assert!(mcu.line.contains(s), "{}", mcu.line);
+    let profile = one_hand_profile(
+        "dex3-usb-stuck",
+        &format!("kind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n[devices.usb]\nsocket = \"{s}\""),
+    );
+    watched(
+        "dex3",
+        228,
+        "stuck=index_0",
+        &profile,
+        hg::MOTION_JOINT_STUCK,
+        Some("index_0"),
+    );
+    drop(mcu);
+
+    let pty = tmp.join(format!("handgate-motion-{}-ezgripper", std::process::id()));
+    let p = pty.to_str().unwrap();
+    let bus = Emulator::start(&["ezgripper", "--side", "left", "--pty", p, "--fault", "frozen"]);
+    assert!(bus.line.contains(p), "{}", bus.line);
+    let profile = one_hand_profile(
+        "ezgripper-frozen",
+        &format!("kind = \"ezgripper\"\nside = \"left\"\nbackend = \"serial\"\n[devices.ezgripper]\nport = \"{p}\""),
+    );
+    watched("ezgripper", 228, "frozen", &profile, hg::MOTION_FROZEN, None);
 }
 
 /// `handgate emulate` refuses what it cannot emulate, naming what it can.

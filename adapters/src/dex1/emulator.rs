@@ -172,8 +172,6 @@ struct Gripper {
     target: MotorTarget,
     braked: bool,
     last_cmd_at: Option<Instant>,
-    /// Held where it is whatever the command (`--fault stuck=jaw`).
-    stuck: bool,
 }
 
 /// One element of a command, variant-independent: (q, kp, kd).
@@ -188,6 +186,8 @@ pub struct Dex1Core {
     last_command: Option<Dex1Command>,
     commands: u64,
     rejected: u64,
+    /// Per gripper (wire order), held where it is whatever the command (`--fault stuck=jaw`).
+    stuck: Vec<bool>,
 }
 
 impl Dex1Core {
@@ -221,7 +221,7 @@ impl Dex1Core {
             q_min: lo,
             q_max: hi,
         };
-        let grippers = config
+        let grippers: Vec<Gripper> = config
             .variant
             .layout(config.side)
             .into_iter()
@@ -237,12 +237,12 @@ impl Dex1Core {
                     joint,
                     braked: true,
                     last_cmd_at: None,
-                    stuck: false,
                 }
             })
             .collect();
         let mut core = Self {
             tuning: config.tuning.clone(),
+            stuck: vec![false; grippers.len()],
             grippers,
             sensor: Sensor::new(config.noise),
             last_command: None,
@@ -306,14 +306,14 @@ impl Dex1Core {
     /// Applies the brake where due and advances the jaws by `dt` seconds.
     pub fn step(&mut self, now: Instant, dt: f32) {
         let brake_after = self.tuning.brake_after;
-        for g in &mut self.grippers {
+        for (g, &stuck) in self.grippers.iter_mut().zip(&self.stuck) {
             if !g.braked
                 && g.last_cmd_at
                     .is_some_and(|t| now.saturating_duration_since(t) >= brake_after)
             {
                 g.braked = true;
             }
-            if g.braked || g.stuck {
+            if g.braked || stuck {
                 // The brake (or a stuck jaw) holds the jaw where it is; the motor applies
                 // nothing.
                 g.joint.dq = 0.0;
@@ -406,18 +406,9 @@ impl ServiceCore for Dex1Core {
         ServicePlan::one_hand("dex1", side, config.rate, topics, Some(config.variant.topics(side)))
     }
 
-    /// The service's one gripper (the actuator variant, carrying two, refuses: which one is
-    /// not said by the entry).
+    /// The gripper at wire element `entry` (the actuator pair: 0 right, 1 left).
     fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
-        match (entry, self.grippers.as_mut_slice()) {
-            (0, [g]) => {
-                g.stuck = true;
-                Ok(())
-            }
-            _ => Err(EmulatorError::InvalidConfig(
-                "a stuck jaw is emulated for one gripper (the go and hg variants), not the actuator pair".into(),
-            )),
-        }
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "this dex1_1_service")
     }
 
     fn report(&self, published: Published) -> Dex1Snapshot {
