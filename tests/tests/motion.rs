@@ -351,6 +351,32 @@ fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_
     watched("ezgripper", 228, "frozen", &profile, hg::MOTION_FROZEN, None);
 }
 
+/// The same faults as `[devices.emulator] fault` on the in-process emulators outside the
+/// service-client kinds: the Dex3's USB MCU, an Inspire DFX hand's entries in the pair's
+/// shared service, an EZGripper's servo on the in-process bus.
+#[test]
+fn in_process_emulated_dex3_inspire_dfx_and_ezgripper_faults_are_caught_within_a_second() {
+    let _g = serial();
+    for (kind, fault, want, joint) in [
+        ("dex3", "stuck=index_0", hg::MOTION_JOINT_STUCK, Some("index_0")),
+        (
+            "inspire_dfx",
+            "stuck=L_middle_proximal_joint",
+            hg::MOTION_JOINT_STUCK,
+            Some("middle"),
+        ),
+        ("ezgripper", "frozen", hg::MOTION_FROZEN, None),
+    ] {
+        let profile = one_hand_profile(
+            &format!("{kind}-emulated-{}", fault.replace('=', "-")),
+            &format!(
+                "kind = \"{kind}\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"{fault}\""
+            ),
+        );
+        watched(kind, 228, fault, &profile, want, joint);
+    }
+}
+
 /// `handgate emulate` refuses what it cannot emulate, naming what it can.
 #[test]
 fn faults_the_emulators_cannot_emulate_are_refused() {
