@@ -323,32 +323,42 @@ fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_
     let tmp = std::env::temp_dir();
     let socket = tmp.join(format!("handgate-motion-{}-dex3.sock", std::process::id()));
     let _ = std::fs::remove_file(&socket);
-    let s = socket.to_str().unwrap();
-    let mcu = Emulator::start(&["dex3", "--side", "left", "--socket", s, "--fault", "stuck=index_0"]);
-    assert!(mcu.line.contains(s), "{}", mcu.line);
-    let profile = one_hand_profile(
-        "dex3-usb-stuck",
-        &format!("kind = \"dex3\"\nside = \"left\"\nbackend = \"usb\"\n[devices.usb]\nsocket = \"{s}\""),
-    );
-    watched(
-        "dex3",
-        228,
+    behind(
+        ("dex3", "--socket", "usb", "usb.socket"),
+        &socket,
         "stuck=index_0",
-        &profile,
         hg::MOTION_JOINT_STUCK,
         Some("index_0"),
     );
-    drop(mcu);
-
     let pty = tmp.join(format!("handgate-motion-{}-ezgripper", std::process::id()));
-    let p = pty.to_str().unwrap();
-    let bus = Emulator::start(&["ezgripper", "--side", "left", "--pty", p, "--fault", "frozen"]);
-    assert!(bus.line.contains(p), "{}", bus.line);
-    let profile = one_hand_profile(
-        "ezgripper-frozen",
-        &format!("kind = \"ezgripper\"\nside = \"left\"\nbackend = \"serial\"\n[devices.ezgripper]\nport = \"{p}\""),
+    behind(
+        ("ezgripper", "--pty", "serial", "ezgripper.port"),
+        &pty,
+        "frozen",
+        hg::MOTION_FROZEN,
+        None,
     );
-    watched("ezgripper", 228, "frozen", &profile, hg::MOTION_FROZEN, None);
+}
+
+/// `handgate emulate <kind> --side left <option> <path> --fault <fault>` (the emulator behind a
+/// socket or a pty), and [`watched`] a gateway whose left `kind` on `backend` reaches it by its
+/// `key` (`section.key` of `[devices.section]`) set to `path`.
+fn behind(
+    (kind, option, backend, key): (&str, &str, &str, &str),
+    path: &std::path::Path,
+    fault: &str,
+    want: u8,
+    joint: Option<&str>,
+) {
+    let p = path.to_str().unwrap();
+    let emu = Emulator::start(&[kind, "--side", "left", option, p, "--fault", fault]);
+    assert!(emu.line.contains(p), "{}", emu.line);
+    let (section, key) = key.split_once('.').expect("section.key");
+    let profile = one_hand_profile(
+        &format!("{kind}-{backend}-{}", fault.replace('=', "-")),
+        &format!("kind = \"{kind}\"\nside = \"left\"\nbackend = \"{backend}\"\n[devices.{section}]\n{key} = \"{p}\""),
+    );
+    watched(kind, 228, fault, &profile, want, joint);
 }
 
 /// The same faults as `[devices.emulator] fault` on the in-process emulators outside the
