@@ -531,6 +531,25 @@ mod tests {
         }
     }
 
+    /// On the actuator pair the stuck jaw is the one at its wire element (1: left); the other
+    /// follows.
+    #[test]
+    fn a_stuck_jaw_of_the_actuator_pair_stays_while_the_other_follows() {
+        let mut core = Dex1Core::new(&Dex1Config {
+            noise: Noise::OFF,
+            ..Dex1Config::new(Dex1Variant::Actuator, Side::Left)
+        })
+        .unwrap();
+        core.stick(crate::dex1::adapter::actuator_index(Side::Left)).unwrap();
+        assert!(core.stick(2).is_err(), "the pair has two jaws");
+        let t0 = Instant::now();
+        assert!(core.on_go(&go(&[2.0, 2.0], 5.0, 0.05), t0));
+        run(&mut core, t0, 0, 900);
+        let q = |side| core.grippers.iter().find(|g| g.side == side).unwrap().joint.q;
+        assert_eq!(q(Side::Left), DEX1_REST_Q, "stuck where it started");
+        assert!((q(Side::Right) - 2.0).abs() < 0.1, "{}", q(Side::Right));
+    }
+
     #[test]
     fn tracks_q_with_default_gains_then_brakes_and_resumes() {
         // Exact held values: no measurement noise.
