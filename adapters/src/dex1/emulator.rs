@@ -531,15 +531,19 @@ mod tests {
         }
     }
 
+    /// The `variant` service's configuration with exact values (no measurement noise).
+    fn exact(variant: Dex1Variant) -> Dex1Config {
+        Dex1Config {
+            noise: Noise::OFF,
+            ..Dex1Config::new(variant, Side::Left)
+        }
+    }
+
     /// On the actuator pair the stuck jaw is the one at its wire element (1: left); the other
     /// follows.
     #[test]
     fn a_stuck_jaw_of_the_actuator_pair_stays_while_the_other_follows() {
-        let mut core = Dex1Core::new(&Dex1Config {
-            noise: Noise::OFF,
-            ..Dex1Config::new(Dex1Variant::Actuator, Side::Left)
-        })
-        .unwrap();
+        let mut core = Dex1Core::new(&exact(Dex1Variant::Actuator)).unwrap();
         core.stick(crate::dex1::adapter::actuator_index(Side::Left)).unwrap();
         assert!(core.stick(2).is_err(), "the pair has two jaws");
         let t0 = Instant::now();
@@ -553,11 +557,7 @@ mod tests {
     #[test]
     fn tracks_q_with_default_gains_then_brakes_and_resumes() {
         // Exact held values: no measurement noise.
-        let mut core = Dex1Core::new(&Dex1Config {
-            noise: Noise::OFF,
-            ..Dex1Config::new(Dex1Variant::Go, Side::Left)
-        })
-        .unwrap();
+        let mut core = Dex1Core::new(&exact(Dex1Variant::Go)).unwrap();
         assert!(core.grippers[0].braked, "braked before any command");
         let t0 = Instant::now();
         assert!(core.on_go(&go(&[2.0], 0.0, 0.0), t0));
@@ -685,10 +685,7 @@ mod tests {
         crate::emu_common::isolated_test_domain(36);
         let emu_node = Node::new(36, None).unwrap();
         // Exact held values: no measurement noise.
-        let cfg = Dex1Config {
-            noise: Noise::OFF,
-            ..Dex1Config::new(Dex1Variant::Go, Side::Left)
-        };
+        let cfg = exact(Dex1Variant::Go);
         let emu = Dex1Emulator::start(&emu_node, cfg).unwrap();
         let node = Node::new(36, None).unwrap();
         let mut w = node
