@@ -114,6 +114,44 @@ pub enum Fault {
     IgnoreCommands,
 }
 
+/// The faults an emulator outside the service shell runs, added up (the Dex3 USB MCU, the
+/// EZGripper bus; a service core keeps its own stuck flags, [`crate::service_emulator`]): `N`
+/// wire entries that can be stuck.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Injected<const N: usize> {
+    /// Per wire entry: held where it is, whatever the command.
+    pub stuck: [bool; N],
+    /// The positions reported when the fault began are reported again.
+    pub frozen: bool,
+    /// Commands are received (and answered) but not applied.
+    pub ignore_commands: bool,
+}
+
+impl<const N: usize> Default for Injected<N> {
+    fn default() -> Self {
+        Self {
+            stuck: [false; N],
+            frozen: false,
+            ignore_commands: false,
+        }
+    }
+}
+
+impl<const N: usize> Injected<N> {
+    /// `fault` alone (`None`: none); a stuck entry `what` (e.g. "a Dex3-1") does not have is
+    /// refused.
+    pub fn of(fault: Option<Fault>, what: &str) -> Result<Self, EmulatorError> {
+        let mut out = Self::default();
+        match fault {
+            Some(Fault::Stuck(entry)) => crate::service_emulator::stick_entry(&mut out.stuck, entry, what)?,
+            Some(Fault::Frozen) => out.frozen = true,
+            Some(Fault::IgnoreCommands) => out.ignore_commands = true,
+            None => {}
+        }
+        Ok(out)
+    }
+}
+
 /// `Err(InvalidConfig)` unless every value is finite (an array, or the values set of an
 /// array of options: `objects.into_iter().flatten()`).
 pub(crate) fn ensure_finite(what: &str, values: impl IntoIterator<Item = f32>) -> Result<(), EmulatorError> {

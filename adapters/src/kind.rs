@@ -15,6 +15,7 @@ use std::hash::{Hash, Hasher};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::emu_common::Fault;
 use crate::mapping::{ClosureMap, DeviceTable, MappingError};
 use crate::model::{JointId, Side};
 use crate::open::{DeviceSpec, OpenEnv};
@@ -784,20 +785,42 @@ impl EmulateArgs {
         }
     }
 
-    /// Injects `--fault`, if given, into the emulated service `emu` of a `kind` hand on `side`
-    /// (a stuck joint named as that hand's table names it).
+    /// Injects `--fault`, if given, into the emulated service `emu` of the `kind` hands
+    /// `hands` ([`Self::fault_on`]).
     pub fn inject_fault<C: crate::service_emulator::ServiceCore>(
         &self,
         emu: &crate::service_emulator::ServiceEmulator<C>,
         kind: DeviceKind,
-        side: Side,
+        hands: &[(Side, usize)],
     ) -> Result<(), DeviceError> {
-        let Some(f) = &self.fault else {
-            return Ok(());
-        };
-        let table = kind.table(side, &Default::default())?;
-        emu.inject(f.resolve(&table)?)?;
+        if let Some(f) = self.fault_on(kind, hands)? {
+            emu.inject(f)?;
+        }
         Ok(())
+    }
+
+    /// `--fault`, if given, for an emulator that carries the `kind` hands `hands` (each a side
+    /// and the wire entry its joints start at; one hand: `[(side, 0)]`): a stuck joint is
+    /// looked up on each hand's table in turn, so a canonical name is on the first hand and a
+    /// URDF name (which names its side) on its own hand.
+    pub fn fault_on(&self, kind: DeviceKind, hands: &[(Side, usize)]) -> Result<Option<Fault>, DeviceError> {
+        let Some(f) = &self.fault else {
+            return Ok(None);
+        };
+        let mut first = None;
+        for &(side, start) in hands {
+            match f.resolve(&kind.table(side, &Default::default())?) {
+                Ok(Fault::Stuck(entry)) => return Ok(Some(Fault::Stuck(start + entry))),
+                Ok(other) => return Ok(Some(other)),
+                Err(e) => {
+                    first.get_or_insert(e);
+                }
+            }
+        }
+        Err(first.map_or_else(
+            || DeviceError::Config(format!("a {kind} emulator carries no hand")),
+            Into::into,
+        ))
     }
 
     /// The side, or an error naming the kind that needs it.
@@ -1081,5 +1104,35 @@ pub fn check_rate(r: f64, max: f64) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!("must be a rate above 0 and at most {max} Hz, got {r}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stuck joint on an emulator of two hands (DFX_inspire_service's pair, right at 0,
+    /// left at 6): a canonical name on the first hand given, a URDF name on its own hand.
+    #[test]
+    fn a_stuck_joint_is_found_on_the_hand_that_names_it() {
+        let hands = [(Side::Left, 6), (Side::Right, 0)];
+        let args = |f: &str| EmulateArgs {
+            fault: Some(f.parse().unwrap()),
+            ..Default::default()
+        };
+        let kind = DeviceKind::InspireDfx;
+        let index = 3; // the table's wire index of `index`
+        assert_eq!(
+            args("stuck=index").fault_on(kind, &hands).unwrap(),
+            Some(Fault::Stuck(6 + index))
+        );
+        assert_eq!(
+            args("stuck=R_index_proximal_joint").fault_on(kind, &hands).unwrap(),
+            Some(Fault::Stuck(index))
+        );
+        assert_eq!(args("frozen").fault_on(kind, &hands).unwrap(), Some(Fault::Frozen));
+        let e = args("stuck=wrist").fault_on(kind, &hands).unwrap_err().to_string();
+        assert!(e.contains("no such joint") && e.contains("pinky"), "{e}");
+        assert_eq!(EmulateArgs::default().fault_on(kind, &hands).unwrap(), None);
     }
 }

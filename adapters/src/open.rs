@@ -11,7 +11,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use crate::dds::Node;
-use crate::device::{Backend, DeviceInfo};
+use crate::device::{Backend, DeviceError, DeviceInfo};
 use crate::kind::{DeviceKind, KindConfig, Problem};
 use crate::mapping::DeviceTable;
 use crate::model::Side;
@@ -99,7 +99,7 @@ impl EmulatorSection {
             Err(e) => Some(Problem::new(&key, e)),
             Ok(_) if takes.is_empty() => Some(Problem::new(
                 &key,
-                format!("has no effect on a {kind}: its emulator injects no fault (handgate emulate's service emulators do), remove it"),
+                format!("has no effect on a {kind}: its emulator injects no fault, remove it"),
             )),
             Ok(f) if !takes.contains(&f.form()) => Some(Problem::new(
                 &key,
@@ -175,6 +175,15 @@ impl<C: ?Sized> Clone for DeviceSpec<'_, C> {
 impl<C: ?Sized> Copy for DeviceSpec<'_, C> {}
 
 impl<'a, C: ?Sized> DeviceSpec<'a, C> {
+    /// The `[devices.emulator] fault` its emulator injects, its stuck joint found in the
+    /// device's table (`None`: none set).
+    pub fn emulator_fault(&self) -> Result<Option<crate::emu_common::Fault>, DeviceError> {
+        match self.emulator.fault_arg() {
+            Some(f) => Ok(Some(f.map_err(DeviceError::Config)?.resolve(self.table)?)),
+            None => Ok(None),
+        }
+    }
+
     /// The same device with its configuration as `config` (the kind's typed view).
     pub fn typed<T>(&self, config: &'a T) -> DeviceSpec<'a, T> {
         DeviceSpec {

@@ -69,10 +69,7 @@ impl<S, P> ClientOpen<S, P> {
                 fault: None,
             });
         }
-        let fault = match spec.emulator.fault_arg() {
-            Some(f) => Some(f.map_err(DeviceError::Config)?.resolve(spec.table)?),
-            None => None,
-        };
+        let fault = spec.emulator_fault()?;
         let (cmd, state) = emulator_topics(spec.name);
         Ok(Self {
             config: spec.dds_client(cmd.clone(), state.clone()),
@@ -110,17 +107,17 @@ impl<S, P> ClientOpen<S, P> {
 }
 
 /// `handgate emulate <kind>` for a service hand: the service `start` starts on the command
-/// line's domain, with the command line's `--fault` (joints named as on a `kind` hand on
-/// `side`), running until the process stops.
+/// line's domain, with the command line's `--fault` (joints named as on the `kind` hands
+/// `hands`, [`EmulateArgs::fault_on`]), running until the process stops.
 pub fn emulate_service<C: ServiceCore>(
     args: &EmulateArgs,
     kind: crate::model::DeviceKind,
-    side: Side,
+    hands: &[(Side, usize)],
     start: impl FnOnce(&Node) -> Result<ServiceEmulator<C>, EmulatorError>,
 ) -> Result<Emulation, DeviceError> {
     let node = args.node()?;
     let emu = start(&node)?;
-    args.inject_fault(&emu, kind, side)?;
+    args.inject_fault(&emu, kind, hands)?;
     Ok(Emulation::Running(Box::new((emu, node))))
 }
 
@@ -140,7 +137,7 @@ pub trait ServiceHand: Sync + Send + fmt::Debug + 'static {
     /// The service, as `handgate emulate` names it.
     const SERVICE: &'static str;
     /// The faults its emulated service injects ([`Kind::EMULATOR_FAULTS`]).
-    const EMULATOR_FAULTS: &'static [&'static str] = &["frozen", "ignore-commands"];
+    const EMULATOR_FAULTS: &'static [&'static str] = &["stuck", "frozen", "ignore-commands"];
     /// The emulated service's measurement noise.
     const NOISE: Noise;
     /// The kind's profile keys.
@@ -341,7 +338,7 @@ impl<H: ServiceHand> Kind for H {
         );
         Ok((
             what,
-            emulate_service(args, registered(name)?, side, |node| {
+            emulate_service(args, registered(name)?, &[(side, 0)], |node| {
                 ServiceEmulator::<H::Core>::start(node, cfg)
             })?,
         ))

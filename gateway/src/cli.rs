@@ -309,8 +309,10 @@ pub struct EmulateCmd {
     pub seed: Option<u64>,
     /// Inject a fault (docs/adapters.md, "Motion"): `stuck=<joint>` (that joint stays where
     /// it is whatever the command; the kind's canonical joint name or its URDF name),
-    /// `frozen` (the service repeats its last state) or `ignore-commands` (the state evolves
-    /// as if no command came). Service emulators only.
+    /// `frozen` (the emulator repeats its last state) or `ignore-commands` (the state evolves
+    /// as if no command came). Every kind's emulator but hand_sdk's (it publishes no state);
+    /// inspire_dfx: a stuck joint on `--side`'s hand (default right); dex1 --variant actuator:
+    /// on `--side`'s gripper (default left); ezgripper: on every servo of the bus.
     #[arg(long, value_name = "FAULT")]
     pub fault: Option<handgate_adapters::emu_common::FaultArg>,
     /// The kind's own options (`--name value`; listed below, per kind; another is refused

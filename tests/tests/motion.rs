@@ -6,7 +6,8 @@
 //! should have moved the hand, naming the joint, and in `handgate status`; a normal run of
 //! every emulated kind (`sim-all`, noise on, every front driven) raises none.
 //!
-//! Domains 207 (Dex3), 208 (BrainCo) and 209 (sim-all): docs/development.md.
+//! Domains 207 (Dex3), 208 (BrainCo), 209 (sim-all), 227 (Dex5, Inspire DFX) and 228 (the
+//! Dex3 USB MCU, the EZGripper bus, in-process emulators): docs/development.md.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -289,6 +290,101 @@ fn an_in_process_emulated_brainco_with_a_stuck_finger_is_caught_within_a_second(
         hg::MOTION_JOINT_STUCK,
         Some("ring"),
     );
+}
+
+/// A stuck joint on the service cores that emulate one since #29's follow-up: a Dex5-1 finger
+/// joint (its own motor, not a coupled `Pitch_x4`) and a finger of the left hand of
+/// DFX_inspire_service's pair (entries 6-11 of its one message).
+#[test]
+fn a_stuck_dex5_joint_and_a_stuck_inspire_dfx_finger_are_caught_within_a_second() {
+    let _g = serial();
+    caught("dex5", 227, "stuck=index_1", hg::MOTION_JOINT_STUCK, Some("index_1"));
+    caught("inspire_dfx", 227, "stuck=index", hg::MOTION_JOINT_STUCK, Some("index"));
+}
+
+/// A gateway profile of one device `hand` (`device`: the rest of its table) with a canonical
+/// front and the status at 10 Hz.
+fn one_hand_profile(name: &str, device: &str) -> PathBuf {
+    write_profile(
+        name,
+        &format!(
+            "name = \"{name}\"\n[status]\nrate_hz = 10\n[[devices]]\nname = \"hand\"\n{device}\n\
+             [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n"
+        ),
+    )
+}
+
+/// The emulators outside the service shell: a stuck joint on the Dex3-1's USB MCU (`handgate
+/// emulate dex3 --socket`, a gateway on backend usb), and a frozen EZGripper bus (`handgate
+/// emulate ezgripper --pty`, a gateway on backend serial: its Present Position repeats).
+#[test]
+fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_a_second() {
+    let _g = serial();
+    let tmp = std::env::temp_dir();
+    let socket = tmp.join(format!("handgate-motion-{}-dex3.sock", std::process::id()));
+    let _ = std::fs::remove_file(&socket);
+    behind(
+        ("dex3", "--socket", "usb", "usb.socket"),
+        &socket,
+        "stuck=index_0",
+        hg::MOTION_JOINT_STUCK,
+        Some("index_0"),
+    );
+    let pty = tmp.join(format!("handgate-motion-{}-ezgripper", std::process::id()));
+    behind(
+        ("ezgripper", "--pty", "serial", "ezgripper.port"),
+        &pty,
+        "frozen",
+        hg::MOTION_FROZEN,
+        None,
+    );
+}
+
+/// `handgate emulate <kind> --side left <option> <path> --fault <fault>` (the emulator behind a
+/// socket or a pty), and [`watched`] a gateway whose left `kind` on `backend` reaches it by its
+/// `key` (`section.key` of `[devices.section]`) set to `path`.
+fn behind(
+    (kind, option, backend, key): (&str, &str, &str, &str),
+    path: &std::path::Path,
+    fault: &str,
+    want: u8,
+    joint: Option<&str>,
+) {
+    let p = path.to_str().unwrap();
+    let emu = Emulator::start(&[kind, "--side", "left", option, p, "--fault", fault]);
+    assert!(emu.line.contains(p), "{}", emu.line);
+    let (section, key) = key.split_once('.').expect("section.key");
+    let profile = one_hand_profile(
+        &format!("{kind}-{backend}-{}", fault.replace('=', "-")),
+        &format!("kind = \"{kind}\"\nside = \"left\"\nbackend = \"{backend}\"\n[devices.{section}]\n{key} = \"{p}\""),
+    );
+    watched(kind, 228, fault, &profile, want, joint);
+}
+
+/// The same faults as `[devices.emulator] fault` on the in-process emulators outside the
+/// service-client kinds: the Dex3's USB MCU, an Inspire DFX hand's entries in the pair's
+/// shared service, an EZGripper's servo on the in-process bus.
+#[test]
+fn in_process_emulated_dex3_inspire_dfx_and_ezgripper_faults_are_caught_within_a_second() {
+    let _g = serial();
+    for (kind, fault, want, joint) in [
+        ("dex3", "stuck=index_0", hg::MOTION_JOINT_STUCK, Some("index_0")),
+        (
+            "inspire_dfx",
+            "stuck=L_middle_proximal_joint",
+            hg::MOTION_JOINT_STUCK,
+            Some("middle"),
+        ),
+        ("ezgripper", "frozen", hg::MOTION_FROZEN, None),
+    ] {
+        let profile = one_hand_profile(
+            &format!("{kind}-emulated-{}", fault.replace('=', "-")),
+            &format!(
+                "kind = \"{kind}\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"{fault}\""
+            ),
+        );
+        watched(kind, 228, fault, &profile, want, joint);
+    }
 }
 
 /// `handgate emulate` refuses what it cannot emulate, naming what it can.

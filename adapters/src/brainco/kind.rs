@@ -28,7 +28,6 @@ impl ServiceHand for BraincoKind {
     const FACTS: KindFacts = KindFacts::hand_service("brainco", &JOINTS, BRAINCO_DEFAULT_HZ, &[FrontKind::Brainco]);
     const SERVICE: &'static str = "brainco_hand_service";
     const NOISE: Noise = BRAINCO_NOISE;
-    const EMULATOR_FAULTS: &'static [&'static str] = &["stuck", "frozen", "ignore-commands"];
     type Config = BraincoProfile;
     /// The finger speed sent in every entry's `dq`.
     type Wire = f32;

@@ -172,8 +172,6 @@ struct Gripper {
     target: MotorTarget,
     braked: bool,
     last_cmd_at: Option<Instant>,
-    /// Held where it is whatever the command (`--fault stuck=jaw`).
-    stuck: bool,
 }
 
 /// One element of a command, variant-independent: (q, kp, kd).
@@ -188,6 +186,8 @@ pub struct Dex1Core {
     last_command: Option<Dex1Command>,
     commands: u64,
     rejected: u64,
+    /// Per gripper (wire order), held where it is whatever the command (`--fault stuck=jaw`).
+    stuck: Vec<bool>,
 }
 
 impl Dex1Core {
@@ -221,7 +221,7 @@ impl Dex1Core {
             q_min: lo,
             q_max: hi,
         };
-        let grippers = config
+        let grippers: Vec<Gripper> = config
             .variant
             .layout(config.side)
             .into_iter()
@@ -237,12 +237,12 @@ impl Dex1Core {
                     joint,
                     braked: true,
                     last_cmd_at: None,
-                    stuck: false,
                 }
             })
             .collect();
         let mut core = Self {
             tuning: config.tuning.clone(),
+            stuck: vec![false; grippers.len()],
             grippers,
             sensor: Sensor::new(config.noise),
             last_command: None,
@@ -306,14 +306,14 @@ impl Dex1Core {
     /// Applies the brake where due and advances the jaws by `dt` seconds.
     pub fn step(&mut self, now: Instant, dt: f32) {
         let brake_after = self.tuning.brake_after;
-        for g in &mut self.grippers {
+        for (g, &stuck) in self.grippers.iter_mut().zip(&self.stuck) {
             if !g.braked
                 && g.last_cmd_at
                     .is_some_and(|t| now.saturating_duration_since(t) >= brake_after)
             {
                 g.braked = true;
             }
-            if g.braked || g.stuck {
+            if g.braked || stuck {
                 // The brake (or a stuck jaw) holds the jaw where it is; the motor applies
                 // nothing.
                 g.joint.dq = 0.0;
@@ -406,18 +406,9 @@ impl ServiceCore for Dex1Core {
         ServicePlan::one_hand("dex1", side, config.rate, topics, Some(config.variant.topics(side)))
     }
 
-    /// The service's one gripper (the actuator variant, carrying two, refuses: which one is
-    /// not said by the entry).
+    /// The gripper at wire element `entry` (the actuator pair: 0 right, 1 left).
     fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
-        match (entry, self.grippers.as_mut_slice()) {
-            (0, [g]) => {
-                g.stuck = true;
-                Ok(())
-            }
-            _ => Err(EmulatorError::InvalidConfig(
-                "a stuck jaw is emulated for one gripper (the go and hg variants), not the actuator pair".into(),
-            )),
-        }
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "this dex1_1_service")
     }
 
     fn report(&self, published: Published) -> Dex1Snapshot {
@@ -540,14 +531,33 @@ mod tests {
         }
     }
 
+    /// The `variant` service's configuration with exact values (no measurement noise).
+    fn exact(variant: Dex1Variant) -> Dex1Config {
+        Dex1Config {
+            noise: Noise::OFF,
+            ..Dex1Config::new(variant, Side::Left)
+        }
+    }
+
+    /// On the actuator pair the stuck jaw is the one at its wire element (1: left); the other
+    /// follows.
+    #[test]
+    fn a_stuck_jaw_of_the_actuator_pair_stays_while_the_other_follows() {
+        let mut core = Dex1Core::new(&exact(Dex1Variant::Actuator)).unwrap();
+        core.stick(crate::dex1::adapter::actuator_index(Side::Left)).unwrap();
+        assert!(core.stick(2).is_err(), "the pair has two jaws");
+        let t0 = Instant::now();
+        assert!(core.on_go(&go(&[2.0, 2.0], 5.0, 0.05), t0));
+        run(&mut core, t0, 0, 900);
+        let q = |side| core.grippers.iter().find(|g| g.side == side).unwrap().joint.q;
+        assert_eq!(q(Side::Left), DEX1_REST_Q, "stuck where it started");
+        assert!((q(Side::Right) - 2.0).abs() < 0.1, "{}", q(Side::Right));
+    }
+
     #[test]
     fn tracks_q_with_default_gains_then_brakes_and_resumes() {
         // Exact held values: no measurement noise.
-        let mut core = Dex1Core::new(&Dex1Config {
-            noise: Noise::OFF,
-            ..Dex1Config::new(Dex1Variant::Go, Side::Left)
-        })
-        .unwrap();
+        let mut core = Dex1Core::new(&exact(Dex1Variant::Go)).unwrap();
         assert!(core.grippers[0].braked, "braked before any command");
         let t0 = Instant::now();
         assert!(core.on_go(&go(&[2.0], 0.0, 0.0), t0));
@@ -675,10 +685,7 @@ mod tests {
         crate::emu_common::isolated_test_domain(36);
         let emu_node = Node::new(36, None).unwrap();
         // Exact held values: no measurement noise.
-        let cfg = Dex1Config {
-            noise: Noise::OFF,
-            ..Dex1Config::new(Dex1Variant::Go, Side::Left)
-        };
+        let cfg = exact(Dex1Variant::Go);
         let emu = Dex1Emulator::start(&emu_node, cfg).unwrap();
         let node = Node::new(36, None).unwrap();
         let mut w = node

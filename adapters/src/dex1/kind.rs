@@ -155,9 +155,18 @@ impl Kind for Dex1Kind {
             "emulating dex1_1_service ({variant}): {cmd}, {state} on DDS domain {}",
             args.domain
         );
+        // The actuator pair's stuck jaw: `--side`'s gripper (default left), or the one its
+        // URDF name names.
+        let mut hands = match variant {
+            Variant::Actuator => [Side::Right, Side::Left]
+                .map(|s| (s, super::adapter::actuator_index(s)))
+                .to_vec(),
+            _ => vec![(side, 0)],
+        };
+        hands.sort_by_key(|(s, _)| *s != side);
         Ok((
             what,
-            emulate_service(args, DeviceKind::Dex1, side, |node| Dex1Emulator::start(node, cfg))?,
+            emulate_service(args, DeviceKind::Dex1, &hands, |node| Dex1Emulator::start(node, cfg))?,
         ))
     }
 }

@@ -139,6 +139,7 @@ impl Kind for Dex3Kind {
     type Config = Dex3Profile;
     type Open = Dex3Open;
     type Emulate = Dex3Emulate;
+    const EMULATOR_FAULTS: &'static [&'static str] = &["stuck", "frozen", "ignore-commands"];
 
     fn table(&self, side: Side, _config: &Dex3Profile) -> DeviceTable {
         super::table::table(side)

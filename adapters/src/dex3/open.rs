@@ -11,6 +11,7 @@ use super::usb::adapter::{Dex3UsbDevice, UsbSource};
 use super::usb::{run_emulator_server, BusAddr, BusId, DeviceId, EmulatorClock, EmulatorConfig, LoopConfig, WiringMap};
 use crate::dds_device::{DdsDevice, DdsDeviceConfig};
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::emu_common::Injected;
 use crate::kind::{EmulateArgs, EmulateOption, EmulateOptions, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
@@ -105,7 +106,10 @@ pub fn configure(spec: &DeviceSpec<'_, Dex3Profile>) -> Result<Dex3Open, DeviceE
         return Ok(Dex3Open::Dds { config, timeout_bit });
     }
     let usb = profile.usb.clone().unwrap_or_default();
-    let source = usb_source(spec, profile);
+    let mut source = usb_source(spec, profile);
+    if let UsbSource::Emulator(cfg) = &mut source {
+        cfg.faults = Injected::of(spec.emulator_fault()?, "a Dex3-1")?;
+    }
     let config = LoopConfig {
         period: Duration::from_secs_f64(1.0 / spec.rate_hz.max(1.0)),
         timeout_bit,
@@ -182,16 +186,15 @@ impl EmulateOptions for Dex3Emulate {
 pub fn emulate(args: &EmulateArgs, options: Dex3Emulate) -> Result<(String, Emulation), DeviceError> {
     let side = args.side("dex3")?;
     let noise = args.noise(super::physical::HG_MOTOR_NOISE);
+    let hand = [(side, 0)];
     match (&options.socket, options.service) {
-        (Some(_), false) if args.fault.is_some() => Err(DeviceError::Config(
-            "--fault is emulated by the Dex3 hand service (--service), not the USB MCU (--socket)".into(),
-        )),
         (Some(socket), false) => {
             let socket = socket.clone();
             let what = format!("emulating a Dex3-1 {side} hand on {}", socket.display());
             let cfg = EmulatorConfig {
                 clock: EmulatorClock::Wall,
                 noise,
+                faults: Injected::of(args.fault_on(crate::model::DeviceKind::Dex3, &hand)?, "a Dex3-1")?,
                 ..Default::default()
             };
             let run = move || run_emulator_server(&socket, side, cfg).map_err(DeviceError::link);
@@ -202,7 +205,7 @@ pub fn emulate(args: &EmulateArgs, options: Dex3Emulate) -> Result<(String, Emul
             let mut cfg = Dex3ServiceConfig::new(side);
             cfg.noise = noise;
             let emu = Dex3ServiceEmulator::start(&node, cfg)?;
-            args.inject_fault(&emu, crate::model::DeviceKind::Dex3, side)?;
+            args.inject_fault(&emu, crate::model::DeviceKind::Dex3, &hand)?;
             let (cmd, state) = super::dds_client::topics(side, super::dds_client::StateSource::State);
             let what = format!(
                 "emulating the G1's Dex3-1 {side} hand service: {cmd}, {state} and its rt/lf copy on DDS domain {}",

@@ -169,6 +169,9 @@ pub struct Dex5Core {
     commands: u64,
     rejected: u64,
     timed_out: bool,
+    /// Wire entries held where they are whatever the command (`--fault stuck=<joint>`): a
+    /// stuck entry holds its motor (a coupled pair's both joints).
+    stuck: [bool; WIRE_LEN],
 }
 
 impl Dex5Core {
@@ -212,6 +215,7 @@ impl Dex5Core {
             commands: 0,
             rejected: 0,
             timed_out: false,
+            stuck: [false; WIRE_LEN],
         };
         for (i, at) in config.object_at.iter().enumerate() {
             let (Some(at), Some(dir)) = (at, table::closing_dir(side, i)) else {
@@ -277,7 +281,13 @@ impl Dex5Core {
             }
         }
         let dt = if dt.is_finite() { dt.max(0.0) } else { 0.0 };
-        for m in &mut self.motors {
+        let stuck = self.stuck;
+        for (n, m) in self.motors.iter_mut().enumerate() {
+            if SLOTS.iter().zip(stuck).any(|(s, st)| st && s.motor == n) {
+                // A stuck motor stays where it is, whatever the command.
+                (m.dq, m.tau, m.contact) = (0.0, 0.0, false);
+                continue;
+            }
             let c = m.command;
             if !(m.on && c.kp > 0.0) || dt == 0.0 {
                 (m.dq, m.tau, m.contact) = (0.0, 0.0, false);
@@ -379,6 +389,10 @@ impl ServiceCore for Dex5Core {
         ServicePlan::one_hand("dex5", side, config.rate, topics, super::topics(side))
     }
 
+    fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "a Dex5-1")
+    }
+
     fn report(&self, published: Published) -> Dex5Snapshot {
         Dex5Snapshot {
             states_published: published.state,
@@ -462,6 +476,27 @@ mod tests {
             core.step(now, DT);
         }
         now
+    }
+
+    #[test]
+    fn a_stuck_entry_holds_its_motor_while_the_others_close() {
+        let side = Side::Left;
+        let mut core = Dex5Core::new(&quiet(side)).unwrap();
+        // index_1 (its own motor) and index_3 (a coupled Pitch_x4: holds its Pitch_x3's motor).
+        core.stick(1).unwrap();
+        core.stick(7).unwrap();
+        assert!(core.stick(WIRE_LEN).is_err(), "an entry the hand does not have");
+        let before: Vec<f32> = (0..WIRE_LEN).map(|i| core.position(i)).collect();
+        let t0 = Instant::now();
+        assert!(core.on_command(&cmd(&closed_wire(side), &Gains::default()), t0));
+        run(&mut core, t0, 1.5);
+        for i in [1, 6, 7] {
+            assert_eq!(core.position(i), before[i], "entry {i} stays where it was");
+        }
+        assert!(
+            (core.position(5) - closed_wire(side)[5]).abs() < 1e-3,
+            "middle_1 closes"
+        );
     }
 
     #[test]

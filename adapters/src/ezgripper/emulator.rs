@@ -24,6 +24,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use crate::emu_common::Injected;
 use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
 
 use super::control_table::{
@@ -70,6 +71,11 @@ pub struct ServoSpec {
     pub object_at_ticks: Option<i32>,
     /// Temperature the servo reports, deg C.
     pub temperature_c: u8,
+    /// Faults of a jaw that reports but does not move (`--fault`, docs/adapters.md "Motion"):
+    /// stuck, the jaw stays where it is; frozen, Present Position and Present Velocity keep
+    /// their power-up reading (Present Current stays live); ignore-commands, Goal Position
+    /// writes are acknowledged but not applied.
+    pub faults: Injected<1>,
 }
 
 impl ServoSpec {
@@ -81,6 +87,7 @@ impl ServoSpec {
             start_ticks: 2200,
             object_at_ticks: None,
             temperature_c: 34,
+            faults: Injected::default(),
         }
     }
 }
@@ -149,6 +156,8 @@ struct ServoSim {
     sensor: Sensor,
     no_reply: u32,
     bad_crc: u32,
+    /// Frozen: the Present Position and Present Velocity it repeats.
+    frozen: Option<(i64, i64)>,
 }
 
 fn put(table: &mut [u8], r: Reg, v: i64) {
@@ -192,6 +201,7 @@ impl ServoSim {
             sensor: Sensor::new(noise.with_seed(seed)),
             no_reply: 0,
             bad_crc: 0,
+            frozen: None,
         };
         s.factory_defaults();
         s.ram_defaults();
@@ -279,19 +289,31 @@ impl ServoSim {
             MotorTarget::LIMP
         };
         self.joint.params.tau_max = current_cap * CURRENT_MA_PER_UNIT / 1000.0 * TORQUE_PER_AMP;
-        self.joint.step(&target, dt);
+        if self.spec.faults.stuck[0] {
+            // A stuck jaw stays where it is, whatever the command; the motor pushes on.
+            self.joint.dq = 0.0;
+            let q = self.joint.q;
+            self.joint.step(&target, dt);
+            self.joint.q = q;
+            self.joint.dq = 0.0;
+        } else {
+            self.joint.step(&target, dt);
+        }
         self.refresh_present();
     }
 
     fn refresh_present(&mut self) {
         let r = self.sensor.read(&self.joint);
-        let ticks = (r.q / RAD_PER_TICK).round() as i32;
-        let vel_units = (r.dq * 60.0 / std::f32::consts::TAU / VELOCITY_RPM_PER_UNIT).round() as i64;
+        let mut ticks = (r.q / RAD_PER_TICK).round() as i64;
+        let mut vel_units = (r.dq * 60.0 / std::f32::consts::TAU / VELOCITY_RPM_PER_UNIT).round() as i64;
+        if self.spec.faults.frozen {
+            (ticks, vel_units) = *self.frozen.get_or_insert((ticks, vel_units));
+        }
         let cur_units = (r.tau / TORQUE_PER_AMP * 1000.0 / CURRENT_MA_PER_UNIT).round() as i64;
         let moving = vel_units.abs() > get(&self.table, reg::MOVING_THRESHOLD);
         let temp = self.spec.temperature_c as i64;
         let t = &mut self.table;
-        put(t, reg::PRESENT_POSITION, ticks as i64);
+        put(t, reg::PRESENT_POSITION, ticks);
         put(t, reg::PRESENT_VELOCITY, vel_units);
         put(t, reg::PRESENT_CURRENT, cur_units);
         put(
@@ -372,6 +394,10 @@ impl ServoSim {
             if g < get(&t2, reg::MIN_POSITION_LIMIT) || g > get(&t2, reg::MAX_POSITION_LIMIT) {
                 return Err(ErrorNumber::DataLimitError);
             }
+        }
+        if in_range(reg::GOAL_POSITION) && self.spec.faults.ignore_commands {
+            // Ignore-commands: the write is acknowledged, the goal stays.
+            put(&mut t2, reg::GOAL_POSITION, get(&self.table, reg::GOAL_POSITION));
         }
         if in_range(reg::TORQUE_ENABLE) && !self.hw_error().is_empty() {
             // Torque cannot be enabled while a hardware error is latched; reboot clears it.
@@ -933,6 +959,41 @@ mod realism_tests {
                 ]
             })
             .collect()
+    }
+
+    /// A servo with `fault`, torque on, told to go 800 ticks down for 1 s: (its Present
+    /// Position readings, the jaw's final ticks, its Goal Position).
+    fn driven(fault: crate::emu_common::Fault) -> (Vec<i64>, i32, i64) {
+        let spec = ServoSpec {
+            faults: Injected::of(Some(fault), "an EZGripper").unwrap(),
+            ..ServoSpec::new(1)
+        };
+        let goal = (spec.start_ticks - 800) as i64;
+        let mut s = ServoSim::new(spec, MX64_NOISE);
+        s.write(reg::TORQUE_ENABLE.addr, &[1]).unwrap();
+        s.write(reg::GOAL_POSITION.addr, &(goal as i32).to_le_bytes()).unwrap();
+        let reads = (0..500)
+            .map(|_| {
+                s.step(0.002);
+                get(&s.table, reg::PRESENT_POSITION)
+            })
+            .collect();
+        (reads, s.present_ticks(), get(&s.table, reg::GOAL_POSITION))
+    }
+
+    #[test]
+    fn injected_faults_keep_the_jaw_or_its_reading_where_it_was() {
+        use crate::emu_common::Fault;
+        let start = ServoSpec::new(1).start_ticks;
+        let (reads, at, _) = driven(Fault::Stuck(0));
+        assert_eq!(at, start, "stuck");
+        assert!(reads.iter().all(|r| (r - start as i64).abs() <= 3), "stuck: noise only");
+        let (reads, at, _) = driven(Fault::Frozen);
+        assert!((at - (start - 800)).abs() <= 20, "frozen: the jaw moves ({at})");
+        assert!(reads.iter().all(|r| *r == reads[0]), "frozen: one reading repeated");
+        let (_, at, goal) = driven(Fault::IgnoreCommands);
+        assert_eq!(goal, start as i64, "ignore-commands: the goal stays");
+        assert!((at - start).abs() <= 3, "ignore-commands: the jaw stays ({at})");
     }
 
     #[test]

@@ -40,6 +40,7 @@ impl Kind for EzGripperKind {
     type Config = EzProfile;
     type Open = EzOpen;
     type Emulate = EzEmulate;
+    const EMULATOR_FAULTS: &'static [&'static str] = &["stuck", "frozen", "ignore-commands"];
 
     fn table(&self, side: Side, config: &EzProfile) -> DeviceTable {
         let pct = config.section().max_open_percent;

@@ -14,7 +14,8 @@ use super::driver::{BusConfig, EzGripperBus, GripperConfig};
 use super::emulator::{EmulatorConfig, ServoSpec, VirtualBus, MX64_NOISE};
 use super::protocol::ServoId;
 use crate::device::{Backend, DeviceError, HandDevice};
-use crate::kind::{EmulateArgs, EmulateOption, EmulateOptions, Emulation};
+use crate::emu_common::Injected;
+use crate::kind::{DeviceKind, EmulateArgs, EmulateOption, EmulateOptions, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// The pseudo-terminal an emulated bus keyed `key` is linked at.
@@ -87,6 +88,7 @@ pub fn emulator_config(devs: &[DeviceSpec<'_, EzProfile>], cfg: &BusConfig) -> R
         if let Some(servo) = emu.servos.iter_mut().find(|v| v.id == c.id.get()) {
             if let Some(e) = c.emulated {
                 servo.object_at_ticks = e.object_at_ticks;
+                servo.faults = e.faults;
                 if let Some(t) = e.start_ticks {
                     servo.start_ticks = servo.closed_stop_ticks + t;
                 }
@@ -144,6 +146,8 @@ pub struct EmulatedServo {
     /// `initial.jaw`: where the jaw is at power-up, ticks above the closed stop (same
     /// scaling); `None`: the emulator's default.
     pub start_ticks: Option<i32>,
+    /// `fault`: what the servo injects.
+    pub faults: Injected<1>,
 }
 
 /// What `spec` opens with.
@@ -151,15 +155,19 @@ pub fn configure(spec: &DeviceSpec<'_, EzProfile>) -> Result<EzOpen, DeviceError
     let s = section(spec);
     let bus = bus_config(std::slice::from_ref(spec))?;
     let ticks = |pct: f32| (pct.clamp(0.0, 100.0) / 100.0 * bus.ezgripper.grip_max_ticks as f32).round() as i32;
-    let emulated = (spec.backend == Backend::Emulator).then(|| EmulatedServo {
-        noise: spec.emulator.noise_for(spec.name, MX64_NOISE),
-        object_at_ticks: spec.object_wire("jaw").map(ticks),
-        start_ticks: spec
-            .emulator
-            .initial
-            .contains_key("jaw")
-            .then(|| ticks(spec.initial_wire("jaw", 0.0))),
-    });
+    let emulated = match spec.backend {
+        Backend::Emulator => Some(EmulatedServo {
+            noise: spec.emulator.noise_for(spec.name, MX64_NOISE),
+            object_at_ticks: spec.object_wire("jaw").map(ticks),
+            start_ticks: spec
+                .emulator
+                .initial
+                .contains_key("jaw")
+                .then(|| ticks(spec.initial_wire("jaw", 0.0))),
+            faults: Injected::of(spec.emulator_fault()?, "an EZGripper")?,
+        }),
+        _ => None,
+    };
     Ok(EzOpen {
         emulated,
         bus,
@@ -194,7 +202,7 @@ pub struct EzEmulate {
 }
 
 impl EmulateOptions for EzEmulate {
-    const COMMON: &'static [&'static str] = &["side", "no-noise", "seed"];
+    const COMMON: &'static [&'static str] = &["side", "no-noise", "seed", "fault"];
     const OPTIONS: &'static [EmulateOption] = &[
         EmulateOption {
             name: "ids",
@@ -245,6 +253,12 @@ pub fn emulate(args: &EmulateArgs, options: EzEmulate) -> Result<(String, Emulat
     });
     let mut cfg = EmulatorConfig::with_ids(&ids);
     cfg.noise = args.noise(MX64_NOISE);
+    // Every servo on the bus is one jaw: the fault acts on each.
+    let side = args.side.unwrap_or_default();
+    let faults = Injected::of(args.fault_on(DeviceKind::Ezgripper, &[(side, 0)])?, "an EZGripper")?;
+    for servo in &mut cfg.servos {
+        servo.faults = faults;
+    }
     let bus = VirtualBus::start(&link, cfg).map_err(DeviceError::link)?;
     let what = format!(
         "emulating EZGripper servo id(s) {} at 1000000 baud on {}",

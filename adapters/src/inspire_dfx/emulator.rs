@@ -171,6 +171,9 @@ pub struct DfxCore {
     angle_set_writes: u64,
     timed_out: bool,
     sensor: Sensor,
+    /// Entries held where they are whatever the command (`--fault stuck=<joint>`; 0–5 right,
+    /// 6–11 left).
+    stuck: [bool; ENTRIES],
 }
 
 /// What the service writes for a commanded q: `int16(q · 1000)` clamped to [0, 1000], in wire
@@ -222,6 +225,7 @@ impl DfxCore {
             angle_set_writes: 0,
             timed_out: true,
             sensor: Sensor::new(config.noise),
+            stuck: [false; ENTRIES],
         })
     }
 
@@ -265,8 +269,11 @@ impl DfxCore {
         }
         let (lo, hi) = HARD_STOPS;
         let t = &self.tuning;
-        for f in &mut self.fingers {
-            let Some(target) = f.target else { continue };
+        for (f, stuck) in self.fingers.iter_mut().zip(self.stuck) {
+            let Some(target) = f.target.filter(|_| !stuck) else {
+                // Not commanded yet, or stuck: it stays where it is.
+                continue;
+            };
             // Under a load the position loop settles short of its target.
             let target = f.sag.goal(target).clamp(lo, hi);
             // An object stops a closing finger (closing = decreasing q) where it meets it.
@@ -342,6 +349,10 @@ impl ServiceCore for DfxCore {
             cmd_topic,
             Some(state_topic),
         ))
+    }
+
+    fn stick(&mut self, entry: usize) -> Result<(), EmulatorError> {
+        crate::service_emulator::stick_entry(&mut self.stuck, entry, "DFX_inspire_service's two hands")
     }
 
     fn report(&self, published: Published) -> DfxSnapshot {
@@ -426,6 +437,19 @@ mod tests {
             core.step(t0 + Duration::from_millis(k), 0.01);
             k += 10;
         }
+    }
+
+    #[test]
+    fn a_stuck_entry_stays_where_it_is_while_the_others_follow() {
+        let mut core = DfxCore::new(&exact()).unwrap();
+        core.stick(9).unwrap(); // the left index
+        assert!(core.stick(ENTRIES).is_err(), "an entry the pair does not have");
+        let t0 = Instant::now();
+        assert!(core.on_cmd(&cmd([0.2; 12]), t0));
+        run(&mut core, t0, 0, 900);
+        let s = core.snapshot();
+        assert_eq!(s.fingers[9].q, DFX_REST_Q, "stuck where it rested");
+        assert!(s.fingers.iter().enumerate().all(|(i, f)| i == 9 || f.q == 0.2));
     }
 
     #[test]

@@ -13,7 +13,7 @@ use super::table::JOINTS;
 use super::{HAND_ENTRIES, SERVICE_RATE_HZ};
 use crate::dds_device::{emulator_topics, DdsDevice, DdsDeviceConfig, WithPeer};
 use crate::device::{Backend, DeviceError, HandDevice};
-use crate::emu_common::Hz;
+use crate::emu_common::{Fault, Hz};
 use crate::front::kind::FrontKind;
 use crate::kind::{
     DeviceCtx, DeviceKind, EmulateArgs, EmulateOption, EmulateOptions, Emulation, FleetMember, FleetProblem, Kind,
@@ -51,21 +51,34 @@ pub enum DfxOpen {
         config: DdsDeviceConfig,
         element: usize,
         service: Box<DfxConfig>,
+        /// The fault this hand's `[devices.emulator]` injects into the shared service (a stuck
+        /// joint at its entry in the 12).
+        fault: Option<Fault>,
     },
 }
 
-/// `handgate emulate inspire_dfx`: one service for both hands (no side).
+/// `handgate emulate inspire_dfx`: one service for both hands (`--side` only names the hand of
+/// a `--fault stuck=<joint>` given by its canonical name).
 #[derive(Debug, Default)]
 pub struct DfxEmulate;
 
 impl EmulateOptions for DfxEmulate {
-    const COMMON: &'static [&'static str] = &["domain", "interface", "no-noise", "seed", "fault"];
     const OPTIONS: &'static [EmulateOption] = &[];
 }
 
 fn element<C>(spec: &DeviceSpec<'_, C>) -> Result<usize, DeviceError> {
     super::element(spec.side)
         .ok_or_else(|| DeviceError::Config("an inspire_dfx hand is left or right, not center".into()))
+}
+
+/// The fault `spec`'s `[devices.emulator]` injects into the shared service: a stuck joint at
+/// the hand's entry in the 12.
+fn hand_fault<C>(spec: &DeviceSpec<'_, C>) -> Result<Option<Fault>, DeviceError> {
+    let start = element(spec)? * HAND_ENTRIES;
+    Ok(spec.emulator_fault()?.map(|f| match f {
+        Fault::Stuck(entry) => Fault::Stuck(start + entry),
+        other => other,
+    }))
 }
 
 /// The emulated service for the emulated hands `devs` (at most one per side): each hand's
@@ -114,6 +127,7 @@ impl Kind for InspireDfxKind {
     type Config = DfxProfile;
     type Open = DfxOpen;
     type Emulate = DfxEmulate;
+    const EMULATOR_FAULTS: &'static [&'static str] = &["stuck", "frozen", "ignore-commands"];
 
     fn table(&self, side: Side, _config: &DfxProfile) -> DeviceTable {
         super::table::table(side)
@@ -131,6 +145,7 @@ impl Kind for InspireDfxKind {
             config: spec.dds_client(cmd, state),
             element,
             service: Box::new(service_config(std::slice::from_ref(spec))?),
+            fault: hand_fault(spec)?,
         })
     }
 
@@ -178,7 +193,8 @@ impl Kind for InspireDfxKind {
         out
     }
 
-    /// Starts the one emulated service the profile's emulated DFX hands share.
+    /// Starts the one emulated service the profile's emulated DFX hands share, with each hand's
+    /// fault (frozen and ignore-commands act on both hands: they share one message).
     fn prepare(&self, devices: &[DeviceSpec<'_, DfxProfile>], env: &mut OpenEnv<'_>) -> Result<(), DeviceError> {
         let emulated: Vec<DeviceSpec<'_, DfxProfile>> = devices
             .iter()
@@ -189,6 +205,11 @@ impl Kind for InspireDfxKind {
             return Ok(());
         }
         let service = DfxEmulator::start(env.node, service_config(&emulated)?)?;
+        for d in &emulated {
+            if let Some(f) = hand_fault(d)? {
+                service.inject(f)?;
+            }
+        }
         env.shared.insert(EMULATED_SERVICE, Arc::new(service));
         Ok(())
     }
@@ -231,9 +252,15 @@ impl Kind for InspireDfxKind {
             ..DfxConfig::default()
         };
         let emu = DfxEmulator::start(&node, cfg)?;
-        // Both hands in one message: a stuck joint is not emulated (the core cannot), frozen
-        // and ignore-commands act on both.
-        args.inject_fault(&emu, DeviceKind::InspireDfx, Side::Right)?;
+        // Both hands in one message: frozen and ignore-commands act on both; a stuck joint is
+        // on `--side`'s hand (default right), or the one its URDF name names.
+        let side = args.side.unwrap_or(Side::Right);
+        let mut hands: Vec<(Side, usize)> = [Side::Right, Side::Left]
+            .into_iter()
+            .filter_map(|s| Some((s, super::element(s)? * HAND_ENTRIES)))
+            .collect();
+        hands.sort_by_key(|(s, _)| *s != side);
+        args.inject_fault(&emu, DeviceKind::InspireDfx, &hands)?;
         let (cmd, state) = emu.topics();
         let what = format!(
             "emulating DFX_inspire_service (both hands, entries 0-5 right, 6-11 left): {cmd}, {state} on DDS domain {}",

@@ -339,7 +339,9 @@ impl Kind for InspireFtpKind {
         };
         Ok((
             what,
-            emulate_service(args, DeviceKind::InspireFtp, side, |node| FtpEmulator::start(node, cfg))?,
+            emulate_service(args, DeviceKind::InspireFtp, &[(side, 0)], |node| {
+                FtpEmulator::start(node, cfg)
+            })?,
         ))
     }
 }

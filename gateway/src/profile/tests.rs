@@ -300,10 +300,10 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "no such joint",
     ),
     (
-        "a stuck joint on an emulator that cannot",
-        "[[devices]]\nname = \"g\"\nkind = \"dex5\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"stuck=index_1\"\n",
+        "a fault on an emulator that cannot inject it (every emulator that injects one takes all three forms)",
+        "[[devices]]\nname = \"g\"\nkind = \"hand_sdk\"\nside = \"center\"\nbackend = \"emulator\"\n[devices.emulator]\nfault = \"frozen\"\n",
         "devices[0].emulator.fault",
-        "cannot inject stuck",
+        "has no effect on a hand_sdk",
     ),
     (
         "motion tolerance of zero",
@@ -1423,11 +1423,8 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
                 "fault",
             ],
         ),
-        // DFX_inspire_service reports only q (docs/sources.md §7); the emulators that inject
-        // no fault in-process (the Dex3 USB MCU, the EZGripper bus, the DFX pair's service).
-        ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm", "fault"]),
-        ("dex3", &["fault"]),
-        ("ezgripper", &["fault"]),
+        // DFX_inspire_service reports only q (docs/sources.md §7).
+        ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm"]),
         // Inspire's driver reports no velocity and no torque in N·m.
         ("inspire_ftp", &["velocity_noise_rad_s", "torque_noise_nm"]),
     ];

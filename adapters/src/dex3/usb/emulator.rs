@@ -26,7 +26,8 @@ use super::scaling::Scalings;
 use super::transport::{Dex3Transport, TransportError};
 use super::wiring::{BusAddr, WiringMap};
 use crate::dex3::{Joint, MotorCommand, MotorStatus, Side, MOTOR_COUNT, PAD_COUNT, TAXELS_PER_PAD};
-use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Sensor};
+use crate::emu_common::Injected;
+use crate::sim::{Contact, JointModel, JointParams, MotorTarget, Noise, Reading, Sensor};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -63,6 +64,11 @@ pub struct EmulatorConfig {
     /// Pressure counts per N·m of contact torque on the pads of the contacting finger
     /// (an emulator figure, not a hardware one).
     pub pressure_counts_per_nm: f32,
+    /// Faults of a hand that reports but does not move (`--fault`, docs/adapters.md
+    /// "Motion"): a stuck motor stays where it is; frozen, each motor's feedback repeats its
+    /// first reading after power-up (the frame around it stays live, so discovery and status
+    /// work); ignore-commands, motor packets are answered but not applied.
+    pub faults: Injected<MOTOR_COUNT>,
 }
 
 impl Default for EmulatorConfig {
@@ -78,6 +84,7 @@ impl Default for EmulatorConfig {
             supply_v: 24.0,
             hand_model: 0,
             pressure_counts_per_nm: 20000.0,
+            faults: Injected::default(),
         }
     }
 }
@@ -137,6 +144,8 @@ pub struct Dex3Emulator {
     last_wall: Option<Instant>,
     faults: Faults,
     stats: EmulatorStats,
+    /// Frozen ([`EmulatorConfig::faults`]): the reading each motor repeats.
+    frozen: [Option<Reading>; MOTOR_COUNT],
 }
 
 const STEP: Duration = Duration::from_millis(1);
@@ -153,6 +162,7 @@ impl Dex3Emulator {
             last_wall: None,
             faults: Faults::default(),
             stats: EmulatorStats::default(),
+            frozen: [None; MOTOR_COUNT],
         }
     }
 
@@ -265,10 +275,15 @@ impl Dex3Emulator {
             let h = left.min(STEP);
             left -= h;
             self.now += h;
-            for m in &mut self.motors {
+            for (m, stuck) in self.motors.iter_mut().zip(self.cfg.faults.stuck) {
                 if m.timeout_enabled && !m.timed_out && self.now.saturating_sub(m.last_cmd_at) > self.cfg.motor_timeout
                 {
                     m.timed_out = true;
+                }
+                if stuck {
+                    // A stuck joint stays where it is, whatever the command.
+                    m.joint.dq = 0.0;
+                    continue;
                 }
                 let t = if m.timed_out || m.status != MotorStatus::Foc.raw() {
                     MotorTarget::LIMP
@@ -334,9 +349,10 @@ impl Dex3Emulator {
             }
         };
         self.stats.motor_packets_ok += 1;
+        let apply = !self.cfg.faults.ignore_commands;
         if f.mode.id == BROADCAST_ID {
             self.stats.broadcasts += 1;
-            for (_, j) in self.cfg.wiring.joints_on(bus) {
+            for (_, j) in self.cfg.wiring.joints_on(bus).into_iter().filter(|_| apply) {
                 self.apply(j.index(), &f);
             }
             return;
@@ -344,7 +360,9 @@ impl Dex3Emulator {
         let Ok(id) = DeviceId::new(f.mode.id) else { return };
         match self.cfg.wiring.joint_at(BusAddr { bus, id }) {
             Some(j) => {
-                self.apply(j.index(), &f);
+                if apply {
+                    self.apply(j.index(), &f);
+                }
                 answered.push(j.index());
             }
             None => self.stats.motor_packets_unknown_id += 1,
@@ -398,7 +416,16 @@ impl Dex3Emulator {
             for &i in &answered[bus.index()] {
                 let m = &self.motors[i];
                 total_tau += m.joint.tau.abs();
-                let r = self.sensor.read(&m.joint);
+                let r = match (self.cfg.faults.frozen, self.frozen[i]) {
+                    (true, Some(r)) => r,
+                    (frozen, _) => {
+                        let r = self.sensor.read(&m.joint);
+                        if frozen {
+                            self.frozen[i] = Some(r);
+                        }
+                        r
+                    }
+                };
                 let fb = MotorFeedbackFrame {
                     mode: RisMode::new(
                         self.cfg.wiring.motors[i].id.get(),
@@ -548,6 +575,47 @@ mod tests {
             ..Default::default()
         };
         c
+    }
+
+    /// The three faults of `EmulatorConfig::faults`: each keeps the commanded index_0 from
+    /// reaching 1.0 (stuck: at its start; frozen: its first reading repeated, bit for bit;
+    /// ignore-commands: nothing applied), while every motor still answers.
+    #[test]
+    fn injected_faults_keep_a_commanded_joint_from_moving_and_every_motor_answering() {
+        use crate::emu_common::Fault;
+        let c = target(Joint::Index0, 1.0);
+        for fault in [
+            Fault::Stuck(Joint::Index0.index()),
+            Fault::Frozen,
+            Fault::IgnoreCommands,
+        ] {
+            let cfg = EmulatorConfig {
+                faults: Injected::of(Some(fault), "a Dex3-1").unwrap(),
+                ..Default::default()
+            };
+            let mut emu = Dex3Emulator::new(Side::Right, cfg);
+            let start = emu.joint_q(Joint::Index0);
+            let first = exchange(&mut emu, &c, true);
+            let mut m = first.clone();
+            for _ in 0..2000 {
+                m = exchange(&mut emu, &c, true);
+            }
+            assert!(m.motors.iter().all(|m| m.present), "{fault:?}");
+            assert!(
+                (m.motor(Joint::Index0).q - 1.0).abs() > 0.2,
+                "{fault:?}: {:?}",
+                m.motor(Joint::Index0)
+            );
+            match fault {
+                Fault::Stuck(_) => assert_eq!(emu.joint_q(Joint::Index0), start),
+                Fault::Frozen => {
+                    assert_eq!(m.motor(Joint::Index0).q, first.motor(Joint::Index0).q);
+                    assert!((emu.joint_q(Joint::Index0) - 1.0).abs() < 0.02, "it moves unseen");
+                }
+                Fault::IgnoreCommands => assert!(emu.last_command(Joint::Index0).is_none()),
+            }
+        }
+        assert!(Injected::<MOTOR_COUNT>::of(Some(Fault::Stuck(MOTOR_COUNT)), "a Dex3-1").is_err());
     }
 
     #[test]
