@@ -1642,6 +1642,56 @@ pub fn temp_profile(tag: &str, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// A client of one hand service (`kind`, its left hand, as device `hand`) with a canonical
+/// front and the status at its highest rate, 10 Hz (so the status adds at most 100 ms to a
+/// report), written for `tag` ([`temp_profile`]).
+pub fn hand_client_profile(tag: &str, kind: &str) -> PathBuf {
+    temp_profile(
+        tag,
+        &format!("{kind}-client"),
+        &format!(
+            "name = \"{kind}-client\"\n[status]\nrate_hz = 10\n\
+             [[devices]]\nname = \"hand\"\nkind = \"{kind}\"\nside = \"left\"\nbackend = \"dds\"\n\
+             [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n"
+        ),
+    )
+}
+
+/// Writes `closure` on `device`'s canonical front (`rt/handgate/<device>/cmd`) every
+/// [`STREAM_PERIOD`] on a thread, from the moment the front matches until the flag is set.
+/// The thread returns when it wrote its first command (`None`: it was stopped before).
+pub fn stream_closure(
+    domain: u32,
+    device: &str,
+    closure: f32,
+) -> (
+    std::sync::Arc<std::sync::atomic::AtomicBool>,
+    std::thread::JoinHandle<Option<Instant>>,
+) {
+    use std::sync::atomic::Ordering;
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let s = stop.clone();
+    let topic = format!("rt/handgate/{device}/cmd");
+    let t = std::thread::spawn(move || {
+        let n = node(domain);
+        let mut w = n
+            .writer::<handgate::HandCmd_>(&topic, handgate_adapters::dds::Qos::Reliable { depth: 1 })
+            .expect("writer");
+        w.wait_matched(1, Duration::from_secs(60))
+            .expect("the canonical front matched");
+        let mut first = None;
+        let mut seq = 0;
+        while !s.load(Ordering::Relaxed) {
+            seq += 1;
+            w.write(closure_cmd(seq, closure)).expect("write");
+            first.get_or_insert_with(Instant::now);
+            std::thread::sleep(STREAM_PERIOD);
+        }
+        first
+    });
+    (stop, t)
+}
+
 /// The legacy actuator pair's command (`rt/unitree_actuator/cmd`): two elements, right then
 /// left, wire q (0 closed, 5.4 open), kp 5, kd 0.05, as old xr_teleoperate sends.
 pub fn actuator_cmd(right: f32, left: f32) -> unitree_go::MotorCmds_ {

@@ -23,7 +23,7 @@
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -31,8 +31,8 @@ use std::time::{Duration, Instant};
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_tests::{
-    canonical_q, closure_cmd, default_profile_edited, handgate_check, node, poll, repo_root, serial, status_device,
-    Emulation, Gateway, Latest, Signal, STREAM_PERIOD,
+    canonical_q, default_profile_edited, hand_client_profile, handgate_check, node, poll, repo_root, serial,
+    status_device, stream_closure, Emulation, Gateway, Latest, Signal,
 };
 use serde_json::{json, Value};
 
@@ -248,28 +248,6 @@ fn joint_index(hello: &Value, device: &str, joint: &str) -> usize {
         .as_array()
         .and_then(|j| j.iter().position(|j| j["name"] == joint))
         .unwrap_or_else(|| panic!("{device} has no joint {joint}: {d}"))
-}
-
-/// Writes `closure` on a canonical front's cmd topic every [`STREAM_PERIOD`] on a thread until
-/// the returned flag is set.
-fn stream_closure(domain: u32, device: &str, closure: f32) -> (Arc<AtomicBool>, std::thread::JoinHandle<()>) {
-    let stop = Arc::new(AtomicBool::new(false));
-    let s = stop.clone();
-    let topic = format!("rt/handgate/{device}/cmd");
-    let t = std::thread::spawn(move || {
-        let n = node(domain);
-        let mut w = n
-            .writer::<hg::HandCmd_>(&topic, Qos::Reliable { depth: 1 })
-            .expect("writer");
-        w.wait_matched(1, DEADLINE).expect("the canonical front matched");
-        let mut seq = 0;
-        while !s.load(Ordering::Relaxed) {
-            seq += 1;
-            w.write(closure_cmd(seq, closure)).expect("write");
-            std::thread::sleep(STREAM_PERIOD);
-        }
-    });
-    (stop, t)
 }
 
 /// The joint's position on the canonical state once it has not changed by more than 1e-3 rad
@@ -547,15 +525,7 @@ fn a_card_names_the_joint_of_a_hand_that_reports_but_does_not_move() {
         "--fault",
         "stuck=index_0",
     ]);
-    let dir = std::env::temp_dir().join(format!("handgate-dashboard-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let profile = dir.join("dex3-client.toml");
-    std::fs::write(
-        &profile,
-        "name = \"dex3-client\"\n[[devices]]\nname = \"hand\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n\
-         [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n",
-    )
-    .unwrap();
+    let profile = hand_client_profile("dashboard", "dex3");
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let url = gw.http_url().unwrap_or_else(|e| panic!("{e}"));
     b.call(json!({"op": "open", "url": url}), &gw);

@@ -10,7 +10,7 @@
 use std::time::Duration;
 
 use handgate_idl::ros2::{diagnostic_level as level, generic_state as gs};
-use handgate_tests::{serial, Emulation, Gateway, PyProcess};
+use handgate_tests::{hand_client_profile, serial, stream_closure, Emulation, Gateway, PyProcess};
 use serde_json::Value;
 
 const DEADLINE: Duration = Duration::from_secs(30);
@@ -56,6 +56,18 @@ fn wait_for(
     (diag.unwrap(), hw.unwrap())
 }
 
+/// tests/python/health_peer.py on `domain`, once its readers exist.
+fn peer(domain: u32) -> PyProcess {
+    let py = PyProcess::spawn(
+        "health_peer.py",
+        &["--domain".into(), domain.to_string(), "--timeout".into(), "120".into()],
+    )
+    .unwrap();
+    py.wait_line("READY", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    py
+}
+
 fn diag_of<'a>(d: &'a Value, device: &str) -> Option<&'a Value> {
     d["status"]
         .as_array()?
@@ -74,13 +86,7 @@ fn a_stopped_service_turns_its_hand_from_ok_to_error_in_both_messages() {
     let left = Emulation::start(&["dex3", "--service", "--side", "left", "--domain", &d]);
     let _right = Emulation::start(&["dex3", "--service", "--side", "right", "--domain", &d]);
     let gw = Gateway::start(DOMAIN, &["--profile", "g1-dex3"]);
-    let py = PyProcess::spawn(
-        "health_peer.py",
-        &["--domain".into(), d.clone(), "--timeout".into(), "120".into()],
-    )
-    .unwrap();
-    py.wait_line("READY", DEADLINE)
-        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    let py = peer(DOMAIN);
 
     let ok = |name: &str| {
         let name = name.to_string();
@@ -179,24 +185,9 @@ fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
         "--fault",
         "stuck=index_0",
     ]);
-    let dir = std::env::temp_dir().join(format!("handgate-health-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let profile = dir.join("stuck.toml");
-    std::fs::write(
-        &profile,
-        "name = \"stuck\"\n[status]\nrate_hz = 10\n\
-         [[devices]]\nname = \"hand\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"dds\"\n\
-         [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n",
-    )
-    .unwrap();
+    let profile = hand_client_profile("health", "dex3");
     let gw = Gateway::start(DOMAIN, &["--profile", profile.to_str().unwrap()]);
-    let py = PyProcess::spawn(
-        "health_peer.py",
-        &["--domain".into(), d.clone(), "--timeout".into(), "120".into()],
-    )
-    .unwrap();
-    py.wait_line("READY", DEADLINE)
-        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    let py = peer(DOMAIN);
     let (diag, _) = wait_for(
         &py,
         &gw,
@@ -208,39 +199,16 @@ fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
 
     // Close the hand at 50 Hz (the canonical front's watchdog holds it after 200 ms of
     // silence) until the reports are in.
-    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let (first_tx, first) = std::sync::mpsc::channel::<std::time::Instant>();
-    let streaming = {
-        let stop = stop.clone();
-        std::thread::spawn(move || {
-            let n = handgate_tests::node(DOMAIN);
-            let mut w = n
-                .writer::<handgate_idl::handgate::HandCmd_>(
-                    "rt/handgate/hand/cmd",
-                    handgate_adapters::dds::Qos::Reliable { depth: 1 },
-                )
-                .unwrap();
-            w.wait_matched(1, DEADLINE)
-                .expect("the canonical front reads its command topic");
-            let mut seq = 1;
-            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
-                seq += 1;
-                w.write(handgate_tests::closure_cmd(seq, 0.8)).unwrap();
-                if seq == 2 {
-                    let _ = first_tx.send(std::time::Instant::now());
-                }
-                std::thread::sleep(Duration::from_millis(20));
-            }
-        })
-    };
+    let (stop, streaming) = stream_closure(DOMAIN, "hand", 0.8);
     let warn = |v: &Value| diag_of(v, "hand").is_some_and(|s| s["level"] == level::WARN);
     let warning = |v: &Value| hw_of(v, "hand").is_some_and(|s| s["health"] == gs::HEALTH_WARNING);
     let (diag, hw) = wait_for(&py, &gw, "the stuck joint reported", warn, warning);
+    let reported = std::time::Instant::now();
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
     // Both samples read by the peer: an upper bound on the time from the first command that
     // should have moved the hand to the report (the issue's bound: a second).
-    let took = first.recv().unwrap().elapsed();
-    stop.store(true, std::sync::atomic::Ordering::Relaxed);
-    streaming.join().unwrap();
+    let first = streaming.join().unwrap().expect("a command was written");
+    let took = reported.duration_since(first);
     println!(
         "stuck joint in /diagnostics and hardware_status {} ms after the first command",
         took.as_millis()

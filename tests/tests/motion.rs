@@ -16,8 +16,8 @@ use std::time::{Duration, Instant};
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_tests::{
-    closure_cmd, handgate_bin, http_get, interop_interface, node, poll, repo_root, serial, status_device,
-    Emulation as Emulator, Gateway, Latest, PyProcess,
+    closure_cmd, hand_client_profile, handgate_bin, http_get, interop_interface, node, poll, repo_root, serial,
+    status_device, Emulation as Emulator, Gateway, Latest, PyProcess,
 };
 
 /// Bound on an emulator's start, a gateway's first fresh state and a match.
@@ -31,19 +31,6 @@ fn write_profile(name: &str, text: &str) -> PathBuf {
     let p = dir.join(format!("{name}.toml"));
     std::fs::write(&p, text).unwrap();
     p
-}
-
-/// A client of one hand service (`kind` on the left) with a canonical front and the status at
-/// its highest rate, 10 Hz (so the status adds at most 100 ms to the report).
-fn client_profile(kind: &str) -> PathBuf {
-    write_profile(
-        &format!("{kind}-client"),
-        &format!(
-            "name = \"{kind}-client\"\n[status]\nrate_hz = 10\n\
-             [[devices]]\nname = \"hand\"\nkind = \"{kind}\"\nside = \"left\"\nbackend = \"dds\"\n\
-             [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n"
-        ),
-    )
 }
 
 /// `handgate <args> --domain <domain> [--interface ...]`: its stdout.
@@ -81,7 +68,7 @@ fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -
         ]
         .concat(),
     );
-    watched(kind, domain, fault, &client_profile(kind), want, joint)
+    watched(kind, domain, fault, &hand_client_profile("motion", kind), want, joint)
 }
 
 /// Runs a gateway with `profile` (its device `hand`, a `kind`, has `fault`), waits for a fresh
