@@ -299,6 +299,21 @@ pub mod faults {
     pub const HARDWARE: u32 = 1 << 4;
     /// The device is in its safe state (watchdog or shutdown).
     pub const SAFE_STATE: u32 = 1 << 5;
+
+    /// Each bit's name, as the dashboard and the health messages show it.
+    pub const NAMES: [(u32, &str); 6] = [
+        (MOTOR_ERROR, "motor_error"),
+        (MOTOR_TIMEOUT, "motor_timeout"),
+        (LINK_DOWN, "link_down"),
+        (CRC, "crc"),
+        (HARDWARE, "hardware"),
+        (SAFE_STATE, "safe_state"),
+    ];
+
+    /// The names of the bits set in `bits`, in [`NAMES`] order.
+    pub fn names(bits: u32) -> Vec<&'static str> {
+        NAMES.iter().filter(|(b, _)| bits & b != 0).map(|(_, n)| *n).collect()
+    }
 }
 
 /// Canonical state of one device.

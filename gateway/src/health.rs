@@ -89,6 +89,8 @@ struct Finding {
 /// | stale after a state was seen | ERROR | ERROR | DOWN | HW |
 /// | stale, no state ever | STALE | UNKNOWN | DOWN | UNKNOWN |
 /// | `safe` (a silence action or the device's safe state holds it) | at least WARN | at least WARNING | (as above) | + PROTECTIVE_STOP_SW |
+/// | the device reports a motor error, a hardware fault or its link down (`faults`) | ERROR | ERROR | (as above) | + HW |
+/// | the device reports a motor's command timeout or CRC failures (`faults`) | at least WARN | at least WARNING | (as above) | + HW |
 /// | motion `joint_stuck` (one joint does not follow while the others do) | at least WARN | at least WARNING | (as above) | + HW |
 /// | motion `frozen` or `not_following` (the hand reports but does not move) | ERROR | ERROR | (as above) | + HW |
 ///
@@ -138,6 +140,19 @@ pub fn judge(d: &hg::DeviceStatus_, stale_after: Duration) -> Verdict {
             text: "safe state".into(),
         });
     }
+    // The device's own fault bits (the safe state is `safe`, above): a motor error, a hardware
+    // fault or a link down is an error; a motor's command timeout or CRC failures a warning.
+    use handgate_adapters::model::faults as f;
+    let bits = d.faults & !f::SAFE_STATE;
+    if bits != 0 {
+        let error = bits & (f::MOTOR_ERROR | f::HARDWARE | f::LINK_DOWN) != 0;
+        findings.push(Finding {
+            level: if error { level::ERROR } else { level::WARN },
+            health: if error { gs::HEALTH_ERROR } else { gs::HEALTH_WARNING },
+            error: gs::ERROR_HW,
+            text: format!("fault: {}", f::names(bits).join(", ")),
+        });
+    }
     // The motion verdict (docs/adapters.md, "Motion"): one joint that does not follow while
     // the others do leaves a working hand (WARN); a hand whose state repeats or that follows
     // no command does not work (ERROR).
@@ -163,6 +178,7 @@ pub fn judge(d: &hg::DeviceStatus_, stale_after: Duration) -> Verdict {
         .map(|f| f.error)
         .filter(|e| *e != gs::ERROR_NONE)
         .collect();
+    errors.sort_unstable();
     errors.dedup();
     if errors.is_empty() {
         errors.push(gs::ERROR_NONE);
@@ -216,6 +232,7 @@ pub fn values(d: &hg::DeviceStatus_) -> Vec<KeyValue_> {
         kv("reordered_cmd", d.reordered_cmd.to_string()),
         kv("late_cmd", d.late_cmd.to_string()),
         kv("not_allowed_cmd", d.not_allowed_cmd.to_string()),
+        kv("faults", handgate_adapters::model::faults::names(d.faults).join(",")),
         kv("motion", handgate_adapters::motion::Verdict::word(d.motion).to_string()),
         kv("motion_joint", d.motion_joint.clone()),
         kv(
@@ -369,6 +386,42 @@ mod tests {
             judge(&dev(hg::FRESH, 0.0, 3.0, false), WINDOW).connectivity,
             gs::CONNECT_UP
         );
+    }
+
+    #[test]
+    fn the_devices_own_faults_are_errors_or_warnings_and_named() {
+        use handgate_adapters::model::faults as f;
+        let faulty = |faults: u32| hg::DeviceStatus_ {
+            faults,
+            ..dev(hg::FRESH, 100.0, 3.0, false)
+        };
+        for bits in [f::MOTOR_ERROR, f::HARDWARE, f::LINK_DOWN] {
+            let v = judge(&faulty(bits), WINDOW);
+            assert_eq!(
+                (v.level, v.health, v.errors),
+                (level::ERROR, gs::HEALTH_ERROR, vec![gs::ERROR_HW])
+            );
+        }
+        let v = judge(&faulty(f::MOTOR_TIMEOUT | f::CRC), WINDOW);
+        assert_eq!((v.level, v.health), (level::WARN, gs::HEALTH_WARNING));
+        assert_eq!(v.message, "fault: motor_timeout, crc");
+        // The safe state bit is `safe`'s: no second finding.
+        assert_eq!(judge(&faulty(f::SAFE_STATE), WINDOW).level, level::OK);
+        let kv = values(&faulty(f::HARDWARE | f::SAFE_STATE));
+        assert_eq!(
+            kv.iter().find(|x| x.key == "faults").map(|x| x.value.as_str()),
+            Some("hardware,safe_state")
+        );
+        // A stale device with a hardware fault: one error, both domains once.
+        let v = judge(
+            &hg::DeviceStatus_ {
+                faults: f::HARDWARE,
+                ..dev(hg::STALE, 0.0, 900.0, true)
+            },
+            WINDOW,
+        );
+        assert_eq!(v.level, level::ERROR);
+        assert_eq!(v.errors, vec![gs::ERROR_HW, gs::PROTECTIVE_STOP_SW]);
     }
 
     #[test]

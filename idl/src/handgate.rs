@@ -116,6 +116,9 @@ pub struct DeviceStatus_ {
     /// The largest |target in force - measured position| over the joints, canonical rad
     /// (NaN while nothing is commanded, or the state is not fresh).
     pub tracking_error: f32,
+    /// The device's fault bits, as [`HandState_::faults`] carries them (motor error, motor
+    /// timeout, link down, CRC, hardware, safe state: `handgate_adapters::model::faults`).
+    pub faults: u32,
 }
 keyless_topic_type!(DeviceStatus_, "handgate::msg::dds_::DeviceStatus_");
 

@@ -113,7 +113,7 @@ macro_rules! handgate_device_status {
         "string device\nstring kind\nstring backend\nuint8 freshness\nbool safe\nfloat32 cmd_rate_hz\n\
 float32 state_rate_hz\nuint64 crc_errors\nuint64 bad_input\nuint64 watchdog_trips\nuint64 reconnects\n\
 uint64 missed_cycles\nfloat32 age_ms\nuint64 foreign_cmd\nuint64 duplicate_cmd\nuint64 reordered_cmd\n\
-uint64 late_cmd\nstring owner\nuint64 not_allowed_cmd\nuint8 motion\nstring motion_joint\nfloat32 tracking_error\n"
+uint64 late_cmd\nstring owner\nuint64 not_allowed_cmd\nuint8 motion\nstring motion_joint\nfloat32 tracking_error\nuint32 faults\n"
     };
 }
 const HANDGATE_HAND_CMD: &str = concat!(

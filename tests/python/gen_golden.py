@@ -161,7 +161,7 @@ def hg_device_status_typical(i):
         age_ms=f32(1.5 + 4.0 * i), foreign_cmd=7 * i, duplicate_cmd=5 * i, reordered_cmd=2 * i,
         late_cmd=i, owner=["front dex3_left: process xr_teleoperate (pid 4242) on op-laptop at 10.0.0.5", "", "front canonical"][i % 3],
         not_allowed_cmd=4 * i, motion=[0, 2, 1][i % 3], motion_joint=["", "jaw", "jaw"][i % 3],
-        tracking_error=f32([0.012, 0.8, 1.25][i % 3]),
+        tracking_error=f32([0.012, 0.8, 1.25][i % 3]), faults=[0, 1 << 4, (1 << 0) | (1 << 5)][i % 3],
     )
 
 

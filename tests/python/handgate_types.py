@@ -93,6 +93,7 @@ class DeviceStatus_(idl.IdlStruct, typename="handgate.msg.dds_.DeviceStatus_"):
     motion: types.uint8
     motion_joint: str
     tracking_error: types.float32
+    faults: types.uint32
 
 
 @dataclass

@@ -121,6 +121,7 @@ SCHEMA.update({
         ("missed_cycles", "u64"), ("age_ms", "f32"), ("foreign_cmd", "u64"),
         ("duplicate_cmd", "u64"), ("reordered_cmd", "u64"), ("late_cmd", "u64"), ("owner", "string"),
         ("not_allowed_cmd", "u64"), ("motion", "u8"), ("motion_joint", "string"), ("tracking_error", "f32"),
+        ("faults", "u32"),
     ],
     "handgate/EndpointStatus_": [
         ("owner", "string"), ("topic", "string"), ("role", "string"), ("matched", "u32"),

@@ -1213,7 +1213,8 @@ plain_struct!(handgate::DeviceStatus_ {
     not_allowed_cmd,
     motion,
     motion_joint,
-    tracking_error
+    tracking_error,
+    faults
 });
 plain_struct!(handgate::EndpointStatus_ {
     owner,

@@ -18,22 +18,9 @@ pub const PROTOCOL: u32 = 1;
 /// Pads frames per second.
 const PADS_HZ: f64 = 10.0;
 
-/// Fault bit names, as the page shows them.
-const FAULT_NAMES: [(u32, &str); 6] = [
-    (faults::MOTOR_ERROR, "motor_error"),
-    (faults::MOTOR_TIMEOUT, "motor_timeout"),
-    (faults::LINK_DOWN, "link_down"),
-    (faults::CRC, "crc"),
-    (faults::HARDWARE, "hardware"),
-    (faults::SAFE_STATE, "safe_state"),
-];
-
+/// Fault bit names, as the page shows them (`model::faults::NAMES`).
 pub fn fault_names(bits: u32) -> Vec<&'static str> {
-    FAULT_NAMES
-        .iter()
-        .filter(|(b, _)| bits & b != 0)
-        .map(|(_, n)| *n)
-        .collect()
+    faults::names(bits)
 }
 
 /// A float for the page: 5 significant decimals are plenty on a plot; NaN/inf as null.

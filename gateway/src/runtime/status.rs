@@ -129,6 +129,7 @@ pub(super) fn spawn_status(
                         .map(|n| n.to_string())
                         .unwrap_or_default(),
                     tracking_error: st.motion.tracking_error(),
+                    faults: st.faults,
                 });
             }
             published_motion.clear();
