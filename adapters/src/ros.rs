@@ -14,6 +14,16 @@ use crate::discovery::{Guid, Role};
 /// The ROS node name handgate announces.
 pub const NODE_NAME: &str = "handgate";
 
+/// Wall-clock time `t` as a ROS `builtin_interfaces/Time` (a time before the epoch is 0; the
+/// seconds saturate at `i32::MAX`).
+pub fn time(t: std::time::SystemTime) -> handgate_idl::ros2::Time_ {
+    let d = t.duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+    handgate_idl::ros2::Time_ {
+        sec: d.as_secs().min(i32::MAX as u64) as i32,
+        nanosec: d.subsec_nanos(),
+    }
+}
+
 /// The prefix rmw puts before a ROS topic name to make its DDS topic name.
 pub const TOPIC_PREFIX: &str = "rt/";
 

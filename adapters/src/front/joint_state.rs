@@ -5,7 +5,7 @@
 
 use crate::mapping::{DeviceTable, JointMap, UrdfFrame};
 use crate::model::HandState;
-use handgate_idl::ros2::{Header_, JointState_, Time_};
+use handgate_idl::ros2::{Header_, JointState_};
 
 /// The name joint `m` of device `device` carries in a JointState: its URDF name, or
 /// `<device>/<canonical name>` with `urdf_names` off.
@@ -35,13 +35,9 @@ pub fn append(out: &mut JointState_, device: &DeviceTable, st: &HandState, urdf_
 
 /// An empty message stamped `now`.
 pub fn header(now: std::time::SystemTime, frame_id: &str) -> JointState_ {
-    let d = now.duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
     JointState_ {
         header: Header_ {
-            stamp: Time_ {
-                sec: d.as_secs().min(i32::MAX as u64) as i32,
-                nanosec: d.subsec_nanos(),
-            },
+            stamp: crate::ros::time(now),
             frame_id: frame_id.to_string(),
         },
         ..Default::default()
