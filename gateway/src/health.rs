@@ -8,7 +8,7 @@
 //! it. It is pure: the runtime's health task only moves its results onto DDS.
 
 use std::collections::HashMap;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::Duration;
 
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
@@ -279,57 +279,47 @@ impl HealthMessages {
         )
     }
 
-    /// `/diagnostics`: one status per device, named `<hardware_id>: <device>`.
-    pub fn diagnostics(&self, s: &hg::GatewayStatus_, stamp: Time_) -> DiagnosticArray_ {
-        DiagnosticArray_ {
+    /// Both messages of one status snapshot, each device judged once: `/diagnostics` (one
+    /// status per device, named `<hardware_id>: <device>`) and `<namespace>/hardware_status`
+    /// (the gateway as one hardware component, one device status per device).
+    pub fn messages(&self, s: &hg::GatewayStatus_, stamp: Time_) -> (DiagnosticArray_, HardwareStatus_) {
+        let mut diagnostics = DiagnosticArray_ {
             header: header(stamp),
-            status: s
-                .devices
-                .iter()
-                .map(|d| {
-                    let v = self.verdict(d);
-                    DiagnosticStatus_ {
-                        level: v.level,
-                        name: format!("{}: {}", self.hardware_id, d.device),
-                        message: v.message,
-                        hardware_id: d.device.clone(),
-                        values: values(d),
-                    }
-                })
-                .collect(),
-        }
-    }
-
-    /// `<namespace>/hardware_status`: the gateway as one hardware component, one device
-    /// status per device.
-    pub fn hardware_status(&self, s: &hg::GatewayStatus_, stamp: Time_) -> HardwareStatus_ {
-        HardwareStatus_ {
+            status: Vec::with_capacity(s.devices.len()),
+        };
+        let mut hardware = HardwareStatus_ {
             header: header(stamp),
             hardware_id: self.hardware_id.clone(),
-            hardware_device_states: s
-                .devices
-                .iter()
-                .map(|d| {
-                    let v = self.verdict(d);
-                    HardwareDeviceStatus_ {
-                        header: header(stamp),
-                        device_id: d.device.clone(),
-                        hardware_status: vec![GenericHardwareState_ {
-                            health_status: v.health,
-                            error_domain: v.errors,
-                            operational_mode: v.mode,
-                            power_state: gs::POWER_UNKNOWN,
-                            connectivity_status: v.connectivity,
-                            manufacturer: String::new(),
-                            model: d.kind.clone(),
-                            firmware_version: String::new(),
-                            state_details: values(d),
-                        }],
-                        ..Default::default()
-                    }
-                })
-                .collect(),
+            hardware_device_states: Vec::with_capacity(s.devices.len()),
+        };
+        for d in &s.devices {
+            let v = self.verdict(d);
+            let values = values(d);
+            hardware.hardware_device_states.push(HardwareDeviceStatus_ {
+                header: header(stamp),
+                device_id: d.device.clone(),
+                hardware_status: vec![GenericHardwareState_ {
+                    health_status: v.health,
+                    error_domain: v.errors,
+                    operational_mode: v.mode,
+                    power_state: gs::POWER_UNKNOWN,
+                    connectivity_status: v.connectivity,
+                    manufacturer: String::new(),
+                    model: d.kind.clone(),
+                    firmware_version: String::new(),
+                    state_details: values.clone(),
+                }],
+                ..Default::default()
+            });
+            diagnostics.status.push(DiagnosticStatus_ {
+                level: v.level,
+                name: format!("{}: {}", self.hardware_id, d.device),
+                message: v.message,
+                hardware_id: d.device.clone(),
+                values,
+            });
         }
+        (diagnostics, hardware)
     }
 }
 
@@ -337,15 +327,6 @@ fn header(stamp: Time_) -> Header_ {
     Header_ {
         stamp,
         frame_id: String::new(),
-    }
-}
-
-/// The wall clock as a ROS time.
-pub fn now() -> Time_ {
-    let t = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
-    Time_ {
-        sec: t.as_secs().min(i32::MAX as u64) as i32,
-        nanosec: t.subsec_nanos(),
     }
 }
 
@@ -555,7 +536,7 @@ mod tests {
             ..Default::default()
         };
         let t = Time_ { sec: 5, nanosec: 6 };
-        let d = h.diagnostics(&s, t);
+        let (d, hw) = h.messages(&s, t);
         assert_eq!(d.header.stamp, t);
         let names: Vec<_> = d.status.iter().map(|x| (x.name.as_str(), x.level)).collect();
         assert_eq!(
@@ -572,7 +553,6 @@ mod tests {
             .map(|k| (k.key.as_str(), k.value.as_str()))
             .collect();
         assert_eq!((kv["freshness"], kv["crc_errors"], kv["age_ms"]), ("stale", "4", "700"));
-        let hw = h.hardware_status(&s, t);
         assert_eq!(hw.hardware_id, "robot1/handgate");
         let states: Vec<_> = hw
             .hardware_device_states

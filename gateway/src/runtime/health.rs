@@ -36,11 +36,11 @@ pub(super) fn spawn_health(
                         break;
                     }
                     let s = status.borrow_and_update().clone();
-                    let stamp = crate::health::now();
-                    if let Err(e) = diagnostics.write(health.diagnostics(&s, stamp)) {
+                    let (diag, hw) = health.messages(&s, handgate_adapters::ros::time(std::time::SystemTime::now()));
+                    if let Err(e) = diagnostics.write(diag) {
                         warn!("/diagnostics: {e}");
                     }
-                    if let Err(e) = hardware.write(health.hardware_status(&s, stamp)) {
+                    if let Err(e) = hardware.write(hw) {
                         warn!("hardware_status: {e}");
                     }
                 }
