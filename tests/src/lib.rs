@@ -1658,6 +1658,21 @@ pub fn hand_client_profile(tag: &str, kind: &str) -> PathBuf {
     )
 }
 
+/// `handgate emulate <kind>`'s left hand service on `domain` with `fault` injected (the Dex3's
+/// service, not its USB MCU): what [`hand_client_profile`]'s device `hand` is a client of.
+pub fn faulty_hand_service(kind: &str, domain: u32, fault: &str) -> Emulation {
+    let d = domain.to_string();
+    let service: &[&str] = if kind == "dex3" { &["--service"] } else { &[] };
+    Emulation::start(
+        &[
+            &[kind][..],
+            service,
+            &["--side", "left", "--domain", &d, "--fault", fault],
+        ]
+        .concat(),
+    )
+}
+
 /// Writes `closure` on `device`'s canonical front (`rt/handgate/<device>/cmd`) every
 /// [`STREAM_PERIOD`] on a thread, from the moment the front matches until the flag is set.
 /// The thread returns when it wrote its first command (`None`: it was stopped before).

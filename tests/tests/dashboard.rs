@@ -31,8 +31,8 @@ use std::time::{Duration, Instant};
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_tests::{
-    canonical_q, default_profile_edited, hand_client_profile, handgate_check, node, poll, repo_root, serial,
-    status_device, stream_closure, Emulation, Gateway, Latest, Signal,
+    canonical_q, default_profile_edited, faulty_hand_service, hand_client_profile, handgate_check, node, poll,
+    repo_root, serial, status_device, stream_closure, Gateway, Latest, Signal,
 };
 use serde_json::{json, Value};
 
@@ -514,17 +514,7 @@ fn a_card_names_the_joint_of_a_hand_that_reports_but_does_not_move() {
         return;
     };
     let domain = 199;
-    let d = domain.to_string();
-    let _emu = Emulation::start(&[
-        "dex3",
-        "--service",
-        "--side",
-        "left",
-        "--domain",
-        &d,
-        "--fault",
-        "stuck=index_0",
-    ]);
+    let _emu = faulty_hand_service("dex3", domain, "stuck=index_0");
     let profile = hand_client_profile("dashboard", "dex3");
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let url = gw.http_url().unwrap_or_else(|e| panic!("{e}"));

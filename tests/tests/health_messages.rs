@@ -10,7 +10,7 @@
 use std::time::Duration;
 
 use handgate_idl::ros2::{diagnostic_level as level, generic_state as gs};
-use handgate_tests::{hand_client_profile, serial, stream_closure, Emulation, Gateway, PyProcess};
+use handgate_tests::{faulty_hand_service, hand_client_profile, serial, stream_closure, Emulation, Gateway, PyProcess};
 use serde_json::Value;
 
 const DEADLINE: Duration = Duration::from_secs(30);
@@ -174,17 +174,7 @@ fn a_stopped_service_turns_its_hand_from_ok_to_error_in_both_messages() {
 #[test]
 fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
     let _g = serial();
-    let d = DOMAIN.to_string();
-    let _left = Emulation::start(&[
-        "dex3",
-        "--service",
-        "--side",
-        "left",
-        "--domain",
-        &d,
-        "--fault",
-        "stuck=index_0",
-    ]);
+    let _left = faulty_hand_service("dex3", DOMAIN, "stuck=index_0");
     let profile = hand_client_profile("health", "dex3");
     let gw = Gateway::start(DOMAIN, &["--profile", profile.to_str().unwrap()]);
     let py = peer(DOMAIN);

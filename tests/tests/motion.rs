@@ -16,8 +16,8 @@ use std::time::{Duration, Instant};
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_tests::{
-    closure_cmd, hand_client_profile, handgate_bin, http_get, interop_interface, node, poll, repo_root, serial,
-    status_device, Emulation as Emulator, Gateway, Latest, PyProcess,
+    closure_cmd, faulty_hand_service, hand_client_profile, handgate_bin, http_get, interop_interface, node, poll,
+    repo_root, serial, status_device, Emulation as Emulator, Gateway, Latest, PyProcess,
 };
 
 /// Bound on an emulator's start, a gateway's first fresh state and a match.
@@ -57,17 +57,7 @@ struct Shown {
 /// Emulates `kind`'s left hand service (`handgate emulate`) with `fault` on `domain` and runs
 /// a gateway for it: [`watched`].
 fn caught(kind: &str, domain: u32, fault: &str, want: u8, joint: Option<&str>) -> (hg::DeviceStatus_, Shown) {
-    let d = domain.to_string();
-    // The Dex3 emulates its USB MCU or its service; the others only their service.
-    let service: &[&str] = if kind == "dex3" { &["--service"] } else { &[] };
-    let _emu = Emulator::start(
-        &[
-            &[kind][..],
-            service,
-            &["--side", "left", "--domain", &d, "--fault", fault],
-        ]
-        .concat(),
-    );
+    let _emu = faulty_hand_service(kind, domain, fault);
     watched(kind, domain, fault, &hand_client_profile("motion", kind), want, joint)
 }
 
