@@ -383,6 +383,8 @@ struct DdsLoop<C: DdsCodec> {
     config: DdsDeviceConfig,
     cmd: CommandState,
     state_tx: watch::Sender<HandState>,
+    /// Told of each state published, on this loop's thread.
+    taps: Arc<crate::device::StateTaps>,
     cycle_tx: watch::Sender<u64>,
     period: Duration,
     start: Instant,
@@ -517,6 +519,7 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
                     (out.cmd_seq, out.cmd_tag) = reflected;
                 }
             });
+            self.taps.run(&self.state_tx.borrow());
         }
         if tick {
             self.k += 1;
@@ -541,6 +544,7 @@ pub struct DdsDevice {
     info: DeviceInfo,
     cmd: CommandState,
     state_rx: watch::Receiver<HandState>,
+    taps: Arc<crate::device::StateTaps>,
     cycles: watch::Receiver<u64>,
     /// The device loop (crate::loops: on a shared thread, or its own with `loop_threads = 0`).
     handle: crate::loops::Handle,
@@ -593,6 +597,7 @@ impl DdsDevice {
             codec.commanded_state(&table, &mut initial);
         }
         let (state_tx, state_rx) = watch::channel(initial);
+        let taps = Arc::new(crate::device::StateTaps::default());
         let (cycle_tx, cycles) = watch::channel(0u64);
         let name = info.name.clone();
         let span = tracing::info_span!("device", name = %info.name, kind = %info.kind, backend = info.backend.as_str());
@@ -612,6 +617,7 @@ impl DdsDevice {
             config,
             cmd: cmd.clone(),
             state_tx,
+            taps: taps.clone(),
             cycle_tx,
             period,
             start,
@@ -636,6 +642,7 @@ impl DdsDevice {
             info,
             cmd,
             state_rx,
+            taps,
             cycles,
             handle,
             wake,
@@ -697,6 +704,10 @@ impl HandDevice for DdsDevice {
         self.state_rx.clone()
     }
 
+    fn state_taps(&self) -> Option<&crate::device::StateTaps> {
+        Some(&self.taps)
+    }
+
     fn commanded(&self) -> Option<Vec<f32>> {
         self.cmd.targets()
     }
@@ -749,6 +760,9 @@ impl HandDevice for WithPeer {
     }
     fn state(&self) -> watch::Receiver<HandState> {
         self.device.state()
+    }
+    fn state_taps(&self) -> Option<&crate::device::StateTaps> {
+        self.device.state_taps()
     }
     fn commanded(&self) -> Option<Vec<f32>> {
         self.device.commanded()

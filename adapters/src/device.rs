@@ -167,6 +167,12 @@ pub trait HandDevice: Send + Sync {
     /// The latest canonical state.
     fn state(&self) -> watch::Receiver<HandState>;
 
+    /// Who is told of each state as the device loop publishes it, on the loop's own thread
+    /// ([`StateTaps`]); `None`: the device offers none, and readers wait on [`Self::state`].
+    fn state_taps(&self) -> Option<&StateTaps> {
+        None
+    }
+
     /// The joint positions in force (canonical, the table's joint order): what the device is
     /// commanded to, after clamps and per-step limits; `None` while nothing was commanded.
     fn commanded(&self) -> Option<Vec<f32>> {
@@ -194,6 +200,47 @@ pub trait HandDevice: Send + Sync {
     /// Safe state, then release the transport. Called once at gateway shutdown.
     async fn shutdown(&self, action: SafeAction) -> Result<(), DeviceError> {
         self.safe_state(action).await
+    }
+}
+
+/// A function told of every state a device publishes ([`StateTaps`]).
+pub type StateTap = Box<dyn Fn(&HandState) + Send + Sync>;
+
+/// What a device loop tells of each state it publishes, on its own thread, right after the
+/// state went into the device's watch channel: a front publishes the state reflecting a
+/// command from where it was measured, with no thread hand-off (docs/fronts.md, "Latency").
+/// A tap must not block, must not command the device it is told of while it runs, and must
+/// not borrow that device's state channel (the state it is given is that channel's, borrowed
+/// for the call).
+#[derive(Default)]
+pub struct StateTaps {
+    taps: std::sync::RwLock<Vec<StateTap>>,
+    any: std::sync::atomic::AtomicBool,
+}
+
+impl StateTaps {
+    /// Tells `tap` of every state from now on (taps live as long as the device).
+    pub fn add(&self, tap: StateTap) {
+        self.taps.write().unwrap_or_else(|p| p.into_inner()).push(tap);
+        self.any.store(true, std::sync::atomic::Ordering::Release);
+    }
+
+    /// Tells every tap of `st` (the device loop calls it on each state it published; with no
+    /// tap it costs one atomic load).
+    pub fn run(&self, st: &HandState) {
+        if !self.any.load(std::sync::atomic::Ordering::Acquire) {
+            return;
+        }
+        for tap in self.taps.read().unwrap_or_else(|p| p.into_inner()).iter() {
+            tap(st);
+        }
+    }
+}
+
+impl std::fmt::Debug for StateTaps {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.taps.read().map(|t| t.len()).unwrap_or(0);
+        f.debug_struct("StateTaps").field("taps", &n).finish()
     }
 }
 

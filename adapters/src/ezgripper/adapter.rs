@@ -64,6 +64,8 @@ pub struct EzGripperDevice {
     force_pct: f32,
     cmd: CommandState,
     state_rx: watch::Receiver<HandState>,
+    /// Told of each state on the bridge thread.
+    taps: Arc<crate::device::StateTaps>,
     stop: Arc<AtomicBool>,
     bridge: Mutex<Option<JoinHandle<()>>>,
 }
@@ -77,7 +79,8 @@ impl EzGripperDevice {
         let cmd = CommandState::new(table.clone());
         let (tx, state_rx) = watch::channel(HandState::empty(table.joint_count()));
         let stop = Arc::new(AtomicBool::new(false));
-        let (b_cmd, b_stop) = (cmd.clone(), stop.clone());
+        let taps: Arc<crate::device::StateTaps> = Arc::default();
+        let (b_cmd, b_stop, b_taps) = (cmd.clone(), stop.clone(), taps.clone());
         let span = tracing::info_span!("device", name = %info.name, kind = %info.kind, backend = info.backend.as_str());
         let bridge = std::thread::Builder::new()
             .name(format!("ezgripper-{}", info.name))
@@ -130,6 +133,7 @@ impl EzGripperDevice {
                         }
                         crate::link::stamp(&mut st, &b_cmd, b_cmd.is_safe(), true);
                         tx.send_modify(|out| out.clone_from(&st));
+                        b_taps.run(&st);
                     }
                 });
             })
@@ -141,6 +145,7 @@ impl EzGripperDevice {
             force_pct,
             cmd,
             state_rx,
+            taps,
             stop,
             bridge: Mutex::new(Some(bridge)),
         })
@@ -194,6 +199,10 @@ impl HandDevice for EzGripperDevice {
 
     fn state(&self) -> watch::Receiver<HandState> {
         self.state_rx.clone()
+    }
+
+    fn state_taps(&self) -> Option<&crate::device::StateTaps> {
+        Some(&self.taps)
     }
 
     fn commanded(&self) -> Option<Vec<f32>> {

@@ -449,6 +449,110 @@ impl RateLimit {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The periodic state publish
+
+/// A state publish late by more than this many periods re-anchors the grid (the missed
+/// publishes are dropped, never burst out).
+const GRID_STALL_PERIODS: u32 = 5;
+
+/// How long a front whose devices' states drive its periodic publish waits for the next
+/// device state before it publishes on its own timer (a device loop that stopped: a USB hand
+/// reconnecting); it also bounds how often that timer wakes while the devices drive.
+pub const DEVICE_DRIVEN_GRACE: Duration = Duration::from_millis(50);
+
+/// When a front publishes its periodic state (`state_hz`), on absolute deadlines: the k-th
+/// publish is due at `start + k·period`, so a late one delays one sample, not the rate.
+///
+/// With `by_device` (decided once at bind time: every bound device tells its states on its
+/// loop thread and measures at least `state_hz`), each device state is a chance to publish
+/// ([`Self::at_state`]): the periodic state goes out from the device's thread, with no timer
+/// woken for it, within a quarter period of its deadline. The front's own timer
+/// ([`Self::deadline`], [`Self::due`]) then only stands in when no device state came for
+/// [`DEVICE_DRIVEN_GRACE`] (and wakes at most that often while they come). Without it, the
+/// timer publishes on every deadline, as a front always did.
+///
+/// A publish off the grid (the prompt state of a command, [`Self::restart`]) stands in for
+/// the one due: the next comes a full period after it.
+#[derive(Debug, Clone)]
+pub struct StateGrid {
+    period: Duration,
+    next: Instant,
+    by_device: bool,
+    /// The last device state told ([`Self::at_state`]).
+    last_state: Option<Instant>,
+    /// Publishes dropped by re-anchoring after stalls.
+    pub dropped: u64,
+}
+
+impl StateGrid {
+    /// A grid of `period` starting at `now` (the first publish one period later).
+    pub fn new(period: Duration, by_device: bool, now: Instant) -> Self {
+        let period = period.max(Duration::from_micros(100));
+        Self {
+            period,
+            next: now + period,
+            by_device,
+            last_state: None,
+            dropped: 0,
+        }
+    }
+
+    /// Whether device states drive the periodic publish.
+    pub fn by_device(&self) -> bool {
+        self.by_device
+    }
+
+    /// A device state came at `now`: whether the periodic publish is due with it (always
+    /// `false` unless `by_device`). When it is, the grid advanced.
+    pub fn at_state(&mut self, now: Instant) -> bool {
+        if !self.by_device {
+            return false;
+        }
+        self.last_state = Some(now);
+        if now + self.period / 4 >= self.next {
+            self.advance(now);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// When the front's timer must wake to publish: the next deadline, or with `by_device`
+    /// while device states come, [`DEVICE_DRIVEN_GRACE`] after the last one.
+    pub fn deadline(&self) -> Instant {
+        match self.last_state.filter(|_| self.by_device) {
+            Some(t) => self.next.max(t + DEVICE_DRIVEN_GRACE),
+            None => self.next,
+        }
+    }
+
+    /// The timer woke at `now`: whether it publishes (the grid advanced when it does).
+    pub fn due(&mut self, now: Instant) -> bool {
+        if now >= self.deadline() {
+            self.advance(now);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// A state went out off the grid at `now`: the next periodic one is a full period later.
+    pub fn restart(&mut self, now: Instant) {
+        self.next = now + self.period;
+    }
+
+    fn advance(&mut self, now: Instant) {
+        let late = now.saturating_duration_since(self.next);
+        if late > self.period * GRID_STALL_PERIODS {
+            self.dropped += (late.as_nanos() / self.period.as_nanos().max(1)) as u64;
+            self.next = now + self.period;
+        } else {
+            self.next += self.period;
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // The prompt publish
 
 /// The prompt publish of one bound device: the state reflecting an accepted command goes out
@@ -1087,6 +1191,60 @@ mod tests {
     use crate::model::{CommandBody, DeviceKind, JointCommand, JointId, Side};
 
     const HOLD: Duration = Duration::from_millis(200);
+
+    #[test]
+    fn a_timer_grid_publishes_on_every_deadline_and_keeps_its_rate_when_late() {
+        let t0 = Instant::now();
+        let p = Duration::from_millis(2);
+        let mut g = StateGrid::new(p, false, t0);
+        assert!(!g.at_state(t0 + p), "device states never publish on a timer grid");
+        assert_eq!(g.deadline(), t0 + p);
+        assert!(!g.due(t0 + p / 2));
+        assert!(g.due(t0 + p + p / 2), "late by half a period");
+        assert_eq!(g.deadline(), t0 + 2 * p, "the grid holds");
+        g.restart(t0 + 2 * p + p / 4);
+        assert_eq!(
+            g.deadline(),
+            t0 + 3 * p + p / 4,
+            "a prompt publish stands in for the one due"
+        );
+        assert!(g.due(t0 + 20 * p), "a stall");
+        assert_eq!(g.deadline(), t0 + 21 * p, "re-anchored, no burst");
+        assert!(g.dropped > 0);
+    }
+
+    #[test]
+    fn device_states_drive_the_grid_and_the_timer_stands_in_only_when_they_stop() {
+        let t0 = Instant::now();
+        let p = Duration::from_millis(2);
+        let ms = Duration::from_millis(1);
+        let mut g = StateGrid::new(p, true, t0);
+        // A 1 kHz device with some jitter: one publish per 2 ms period.
+        let states = [1.0, 1.9, 3.1, 3.9, 5.0, 6.05, 7.0, 7.95, 9.1, 10.0];
+        let published: Vec<f64> = states
+            .iter()
+            .copied()
+            .filter(|&ms_at| g.at_state(t0 + Duration::from_secs_f64(ms_at / 1e3)))
+            .collect();
+        assert_eq!(
+            published,
+            vec![1.9, 3.9, 6.05, 7.95, 10.0],
+            "one per period, on the grid"
+        );
+        // While states come, the timer waits for the grace after the last one.
+        assert_eq!(g.deadline(), t0 + 10 * ms + DEVICE_DRIVEN_GRACE);
+        assert!(!g.due(t0 + 12 * ms), "the device drives: the timer does not publish");
+        // The device stops: the timer publishes once the grace has passed, then every period.
+        let stop = t0 + 10 * ms + DEVICE_DRIVEN_GRACE;
+        assert!(g.due(stop));
+        assert!(g.deadline() <= stop + p);
+        let next = g.deadline();
+        assert!(g.due(next));
+        assert_eq!(g.deadline(), next + p);
+        // It comes back: its states drive again.
+        assert!(g.at_state(next + p));
+        assert_eq!(g.deadline(), next + p + DEVICE_DRIVEN_GRACE);
+    }
     const A: WriterHandle = 0xa;
     const B: WriterHandle = 0xb;
     const C: WriterHandle = 0xc;

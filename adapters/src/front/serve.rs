@@ -31,7 +31,8 @@ pub struct Bound<'a> {
     pub device: &'a str,
     /// The device's safe action (a canonical `safe` command).
     pub safe_action: SafeAction,
-    pub state: HandState,
+    /// Its latest state (borrowed from the device for one decode or publish).
+    pub state: &'a HandState,
 }
 
 impl Bound<'_> {
@@ -86,8 +87,47 @@ pub fn wall_ns() -> i64 {
     }
 }
 
-/// The queue a front's readers feed.
-pub type Queue = mpsc::Sender<Incoming>;
+/// Where a front's readers hand each command sample: to the front itself, on the reader's
+/// DDS listener thread, once the runtime has set a [`Direct`] handler (the command path:
+/// decode, check, ownership and the hand-off to the device run in the listener), or else to
+/// the front task's queue.
+#[derive(Clone)]
+pub struct Queue {
+    tx: mpsc::Sender<Incoming>,
+    direct: Arc<std::sync::OnceLock<std::sync::Weak<dyn Direct>>>,
+}
+
+/// A running front taking its samples in its readers' listeners ([`Queue::set_direct`]). It
+/// must never block on a device: it decides and hands off, or queues the sample for the
+/// front's task (in order), and counts what it drops.
+pub trait Direct: Send + Sync {
+    /// Takes one sample; `false`: it was dropped (the front's queue was full).
+    fn take(&self, sample: Incoming) -> bool;
+}
+
+impl Queue {
+    /// A queue feeding `tx` until a [`Direct`] handler is set.
+    pub fn new(tx: mpsc::Sender<Incoming>) -> Self {
+        Self {
+            tx,
+            direct: Arc::default(),
+        }
+    }
+
+    /// From now on, samples go to `front` (set once; held weakly, so a front that stopped
+    /// is not kept alive by its readers: its samples go to the closed queue).
+    pub fn set_direct(&self, front: std::sync::Weak<dyn Direct>) {
+        let _ = self.direct.set(front);
+    }
+
+    /// Hands `sample` on; `false`: it was dropped.
+    pub fn deliver(&self, sample: Incoming) -> bool {
+        match self.direct.get().and_then(std::sync::Weak::upgrade) {
+            Some(front) => front.take(sample),
+            None => self.tx.try_send(sample).is_ok(),
+        }
+    }
+}
 
 /// The USER_DATA of a writer that takes a front over from its owner (`handgate send
 /// --force`; docs/fronts.md, "One commanding client per front"). handgate's own marker, set
@@ -205,7 +245,8 @@ impl<M> Clone for Inbox<M> {
 impl<M: Send + 'static> Inbox<M> {
     /// A command reader on `topic` handing every sample, as `wrap` makes it an `M`, to the
     /// front's task as an [`Incoming`] (the message and its writer, read from CycloneDDS once
-    /// per new writer); a sample that finds the queue full is dropped and counted.
+    /// per new writer), in the reader's listener ([`Queue::deliver`]); a sample that finds the
+    /// queue full is dropped and counted.
     pub fn reader<T: Clone + handgate_idl::TopicType + Send + 'static>(
         &self,
         node: &Node,
@@ -226,12 +267,13 @@ impl<M: Send + 'static> Inbox<M> {
     ) -> Result<Reader<T>, DdsError> {
         let (tx, dropped) = (self.tx.clone(), self.dropped.clone());
         let mut writers: std::collections::HashMap<WriterHandle, Arc<WriterInfo>> = std::collections::HashMap::new();
+        // The samples of one call, the buffer reused.
+        let mut v = Vec::new();
         node.reader_with_callback_opts::<T, _>(topic, COMMAND_QOS, opts, move |h| {
-            let mut v = Vec::new();
             h.take_with_writers(&mut v);
             let taken = std::time::Instant::now();
             let taken_ns = wall_ns();
-            for (s, w, written) in v {
+            for (s, w, written) in v.drain(..) {
                 if writers.len() >= MAX_WRITERS && !writers.contains_key(&w) {
                     writers.clear();
                 }
@@ -241,15 +283,12 @@ impl<M: Send + 'static> Inbox<M> {
                     .clone();
                 let msg: Message = Box::new(wrap(s));
                 let stamp = written.map(|written_ns| Stamp { written_ns, taken_ns });
-                if tx
-                    .try_send(Incoming {
-                        writer,
-                        msg,
-                        taken,
-                        stamp,
-                    })
-                    .is_err()
-                {
+                if !tx.deliver(Incoming {
+                    writer,
+                    msg,
+                    taken,
+                    stamp,
+                }) {
                     dropped.fetch_add(1, Ordering::Relaxed);
                 }
             }
@@ -382,7 +421,7 @@ mod tests {
     #[test]
     fn the_erased_front_decodes_its_own_type_and_counts_another_as_a_rejection() {
         let (tx, _rx) = mpsc::channel(1);
-        let Endpoints::Commands(io) = commands(tx, Arc::default(), |_inbox: Inbox<u32>| {
+        let Endpoints::Commands(io) = commands(Queue::new(tx), Arc::default(), |_inbox: Inbox<u32>| {
             Ok(Counting(Default::default()))
         })
         .unwrap() else {

@@ -208,7 +208,7 @@ mod tests {
         Route::bind(front, dev)
     }
 
-    fn bound(route: &Route, state: HandState) -> Bound<'_> {
+    fn bound<'a>(route: &'a Route, state: &'a HandState) -> Bound<'a> {
         Bound {
             route,
             element: 0,
@@ -321,7 +321,8 @@ mod tests {
     #[test]
     fn decode_routes_angles_and_a_no_operation_commands_nothing() {
         let r = route(DeviceKind::InspireFtp, Side::Left);
-        let b = [bound(&r, HandState::empty(6))];
+        let empty = HandState::empty(6);
+        let b = [bound(&r, &empty)];
         // Every finger its own angle; 1000 = open = canonical 0, 0 = closed = the upper limit.
         let out = decode_bound(&b, &ctrl(MODE_ANGLE, vec![0, 250, 500, 750, 1000, 1000])).unwrap();
         assert_eq!(out.len(), 1);
@@ -362,11 +363,11 @@ mod tests {
             pads: vec![pad("index_tip")],
             ..HandState::empty(6)
         };
-        let t = touch_of(&bound(&ftp, with.clone())).expect("an FTP hand's pads");
+        let t = touch_of(&bound(&ftp, &with)).expect("an FTP hand's pads");
         assert_eq!(t.fingerfour_tip_touch, vec![7; 9]);
-        assert_eq!(touch_of(&bound(&ftp, HandState::empty(6))), None, "RS-485: no pads");
+        assert_eq!(touch_of(&bound(&ftp, &HandState::empty(6))), None, "RS-485: no pads");
         // Another kind, even with a pad of the same name: nothing on touch.
         let dfx = route(DeviceKind::InspireDfx, Side::Left);
-        assert_eq!(touch_of(&bound(&dfx, with)), None);
+        assert_eq!(touch_of(&bound(&dfx, &with)), None);
     }
 }

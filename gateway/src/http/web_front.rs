@@ -182,11 +182,12 @@ pub fn spawn(
         // The page's commands come through the HTTP server's own checks, not from DDS.
         allow: None,
         bindings,
+        publishes: false,
     };
-    let handle = run_front(
+    let (_, handle) = run_front(
         task,
         Box::new(PageIo),
-        rx,
+        (tx.clone(), rx),
         Arc::new(AtomicU64::new(0)),
         by_name,
         fleet.discovery.clone(),

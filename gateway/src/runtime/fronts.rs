@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use handgate_adapters::front::core::{
-    self as front_core, Action, Change, Counter, Driven, FrontCore, FrontId, Log, Sample,
+    self as front_core, Action, Change, Counter, Driven, FrontCore, FrontId, Log, Sample, StateGrid,
 };
 use handgate_adapters::model::HandState;
 use tokio::sync::{mpsc, watch};
@@ -81,8 +81,9 @@ pub(super) fn spawn_front(
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let (tx, rx) = mpsc::channel::<fronts::Incoming>(64);
     let dropped = Arc::new(AtomicU64::new(0));
+    let queue = fronts::Queue::new(tx.clone());
     // The front kind's endpoints (readers and writers).
-    let out = match fronts::open(env, f, tx, dropped.clone())? {
+    let out = match fronts::open(env, f, queue.clone(), dropped.clone())? {
         fronts::Endpoints::Commands(out) => out,
         fronts::Endpoints::StateOnly(out) => return spawn_state_only(out, f, devices, shutdown),
     };
@@ -99,8 +100,13 @@ pub(super) fn spawn_front(
             .iter()
             .map(|b| (b.device.clone(), b.element, b.silence, b.table.clone()))
             .collect(),
+        publishes: true,
     };
-    run_front(task, out, rx, dropped, devices, env.discovery.clone(), shutdown)
+    let (live, handle) = run_front(task, out, (tx, rx), dropped, devices, env.discovery.clone(), shutdown)?;
+    // From now on the readers' listeners hand their samples to the front itself.
+    let direct: Arc<dyn fronts::Direct> = live;
+    queue.set_direct(Arc::downgrade(&direct));
+    Ok(handle)
 }
 
 /// What the front task needs of a front: its name, who may command it, its state rate and
@@ -122,16 +128,30 @@ pub(crate) struct FrontTask {
         SilencePlan,
         Option<Arc<handgate_adapters::mapping::DeviceTable>>,
     )>,
+    /// The front publishes state (a DDS front); `false`: it publishes nothing (the
+    /// dashboard's page front), so its devices' states are not told to it.
+    pub publishes: bool,
 }
 
-/// One device a front task drives: what the core does not decide with (its slot, its
-/// element in the front's messages, its state channel) and its silence action in progress.
+/// One device a front drives: what the core does not decide with (its slot, its element in
+/// the front's messages, its state channel) and its silence action in progress.
 struct Device {
     slot: Arc<DeviceSlot>,
     element: usize,
     state_rx: watch::Receiver<HandState>,
-    /// The silence action, running in its own task.
-    pending_safe: Option<tokio::task::JoinHandle<()>>,
+    /// The device tells the front its states on its loop thread ([`StateTaps`]); otherwise
+    /// the front task waits on `state_rx` for the states it awaits.
+    ///
+    /// [`StateTaps`]: handgate_adapters::device::StateTaps
+    tapped: bool,
+    /// The silence action running on it (its own task): `true` once it is done.
+    pending_safe: Option<watch::Receiver<bool>>,
+}
+
+impl Device {
+    fn safe_running(&self) -> bool {
+        self.pending_safe.as_ref().is_some_and(|d| !*d.borrow())
+    }
 }
 
 /// The devices as the front's core sees them: the device itself, and the marks every front
@@ -173,7 +193,34 @@ impl front_core::Devices for Shared<'_> {
     }
 }
 
-/// A running front's task: its core (every decision), its devices, its wire side and its
+/// A running front: its state behind one lock, taken by whichever thread has something for
+/// it (docs/fronts.md, "Latency"):
+///
+/// - a reader's DDS listener, with a command sample ([`fronts::Direct`]): admit, decode,
+///   check, hand off to the device (`command_checked` never blocks: it replaces the pending
+///   command and wakes the device loop), all in the listener;
+/// - a device loop, with a state it just published ([`StateTaps`]): the prompt state of a
+///   command and the periodic state go out from there;
+/// - the front's task: deadlines (silence, the prompt wait), the periodic state when no
+///   device drives it, the low-frequency copy, samples that must wait for a silence action,
+///   the dashboard page's commands.
+///
+/// Nothing holds the lock across a wait, a device's I/O or an await.
+///
+/// [`StateTaps`]: handgate_adapters::device::StateTaps
+pub(crate) struct Live {
+    state: Mutex<Task>,
+    /// Wakes the task: a deadline moved earlier, a sample was queued for it.
+    wake: tokio::sync::Notify,
+    /// The task's queue, for samples that must wait (in order behind each other).
+    queue: mpsc::Sender<fronts::Incoming>,
+    dropped: Arc<AtomicU64>,
+    /// Where silence actions run (a listener's thread has no runtime of its own).
+    rt: tokio::runtime::Handle,
+    span: tracing::Span,
+}
+
+/// A running front's state: its core (every decision), its devices, its wire side and its
 /// publishing grid.
 struct Task {
     name: String,
@@ -181,23 +228,79 @@ struct Task {
     devices: Vec<Device>,
     out: Box<dyn fronts::FrontIo>,
     discovery: watch::Receiver<Arc<handgate_adapters::discovery::Snapshot>>,
-    state_tick: Ticker,
+    grid: StateGrid,
     /// The core's actions, carried out as they come (kept to reuse its allocation).
     acts: Vec<Action>,
     /// `export.allow_commands_from`, and each writer's verdict once discovery knew its
     /// participant (at most [`MAX_JUDGED`] writers, then all are judged again).
     allow: Option<(Sources, HashMap<WriterHandle, bool>)>,
+    /// Samples go to the task's queue, in order, until it is empty: a silence action runs on
+    /// a device (a command must not overtake it), or samples queued before the listeners
+    /// took over are still there.
+    deferring: bool,
 }
 
 /// Writers whose source verdict a front keeps.
 const MAX_JUDGED: usize = 64;
 
+impl Live {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Task> {
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Device `device` published `st` (on its loop thread): the prompt state of an awaited
+    /// command, and the periodic state when the devices drive it, go out now.
+    fn device_state(&self, device: usize, st: &HandState) {
+        let now = Instant::now();
+        let mut guard = self.lock();
+        let t = &mut *guard;
+        if t.core.awaiting(device) {
+            t.core.state(now, device, st.cmd_seq, &mut t.acts);
+        }
+        if t.acts.is_empty() {
+            if t.grid.at_state(now) {
+                t.publish_periodic(now, Some((device, st)), self.dropped.load(Ordering::Relaxed));
+            }
+        } else {
+            // A prompt publish stands in for the periodic one; tell the grid the device
+            // drives all the same.
+            let _ = t.grid.at_state(now);
+        }
+        t.carry_out(self, Some((device, st)));
+    }
+}
+
+impl fronts::Direct for Live {
+    /// A command sample, in the reader's listener: decided and handed off here, unless a
+    /// silence action runs on one of the front's devices (or samples wait in the queue), when
+    /// it goes to the task's queue behind them.
+    fn take(&self, msg: fronts::Incoming) -> bool {
+        let mut t = self.lock();
+        if t.deferring || t.devices.iter().any(Device::safe_running) {
+            t.deferring = true;
+            let queued = self.queue.try_send(msg).is_ok();
+            drop(t);
+            self.wake.notify_one();
+            return queued;
+        }
+        let before = t.core.next_deadline();
+        t.sample(self, msg);
+        let after = t.core.next_deadline();
+        drop(t);
+        // The task sleeps until the deadline it last saw: wake it when one came earlier.
+        if after.is_some_and(|a| before.map_or(true, |b| a < b)) {
+            self.wake.notify_one();
+        }
+        true
+    }
+}
+
 impl Task {
     /// A command sample: the core admits it, the front kind's codec decodes it, and the core
-    /// checks and routes its commands. A command for a device waits for the silence action
-    /// running on it (`pending_safe`), so the safe state never lands after a newer command.
-    async fn sample(&mut self, msg: fronts::Incoming) {
-        match self.source_allowed(&msg.writer) {
+    /// checks and routes its commands. The caller made sure no silence action runs on the
+    /// front's devices, so the safe state never lands after a newer command.
+    fn sample(&mut self, live: &Live, msg: fronts::Incoming) {
+        match self.source_allowed(&msg.writer, live) {
             Some(true) => {}
             Some(false) => {
                 for d in &self.devices {
@@ -211,21 +314,18 @@ impl Task {
         }
         let sample = Sample::of(&msg);
         let Some(admitted) = self.core.admit(&sample, &mut self.acts) else {
-            self.carry_out();
+            self.carry_out(live, None);
             return;
         };
-        let decoded = self.out.decode(&views(&self.core, &self.devices), &msg.msg);
-        if let Ok(cmds) = &decoded {
-            for (i, _) in cmds {
-                if let Some(h) = self.devices[*i].pending_safe.take() {
-                    let _ = h.await;
-                }
-            }
-        }
+        let decoded = {
+            let states: Vec<_> = self.devices.iter().map(|d| Some(d.state_rx.borrow())).collect();
+            self.out
+                .decode(&views_of(&self.core, &self.devices, &states, None), &msg.msg)
+        };
         let devices = &mut Shared(&self.devices);
         self.core
             .decoded(admitted, Instant::now(), &sample, decoded, devices, &mut self.acts);
-        self.carry_out();
+        self.carry_out(live, None);
     }
 
     /// Whether `writer`'s host may command this front (`export.allow_commands_from`): checked
@@ -233,7 +333,7 @@ impl Task {
     /// takes the front over. A writer's verdict is kept once discovery knows its participant;
     /// until then (`None`) its commands are refused (fail closed) and it is asked again.
     /// Logged once per writer.
-    fn source_allowed(&mut self, writer: &handgate_adapters::dds::WriterInfo) -> Option<bool> {
+    fn source_allowed(&mut self, writer: &handgate_adapters::dds::WriterInfo, live: &Live) -> Option<bool> {
         let Some((sources, judged)) = &mut self.allow else {
             return Some(true);
         };
@@ -249,6 +349,7 @@ impl Task {
             }
             judged.insert(writer.handle, false);
             let at: Vec<String> = ips.iter().map(|i| i.to_string()).collect();
+            let _span = live.span.enter();
             warn!(front = %self.name, "refused the commands of {}: its host ({}) is not in export.allow_commands_from \
                 (counted in not_allowed_cmd; its state still flows)", fronts::describe_writer(writer, &snap), at.join(", "));
         } else if ok {
@@ -260,8 +361,36 @@ impl Task {
         (verdict != Verdict::Unknown).then_some(ok)
     }
 
-    /// Carries out the core's actions, in order.
-    fn carry_out(&mut self) {
+    /// Publishes the bound devices' state (`given`: one device's state, as its loop is
+    /// telling it, instead of borrowing its channel; `lf`: the low-frequency copy).
+    fn publish(&mut self, given: Option<(usize, &HandState)>, lf: bool) {
+        let states: Vec<_> = self
+            .devices
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (given.map(|(g, _)| g) != Some(i)).then(|| d.state_rx.borrow()))
+            .collect();
+        let bound = views_of(&self.core, &self.devices, &states, given);
+        self.out.publish(&bound, lf);
+    }
+
+    /// The periodic publish at `now`, and what the core keeps of it (the state that went out
+    /// for each device, the queue's drops).
+    fn publish_periodic(&mut self, now: Instant, given: Option<(usize, &HandState)>, dropped: u64) {
+        self.publish(given, false);
+        for i in 0..self.devices.len() {
+            let seq = match given {
+                Some((g, st)) if g == i => st.cmd_seq,
+                _ => self.devices[i].state_rx.borrow().cmd_seq,
+            };
+            self.core.published(i, seq);
+        }
+        self.core.queue(now, dropped, &mut self.acts);
+    }
+
+    /// Carries out the core's actions, in order (`given`: the state a device loop is telling,
+    /// when it is the caller).
+    fn carry_out(&mut self, live: &Live, given: Option<(usize, &HandState)>) {
         let mut acts = std::mem::take(&mut self.acts);
         for a in acts.drain(..) {
             match a {
@@ -293,16 +422,19 @@ impl Task {
                     }
                 }
                 Action::Publish => {
-                    self.out.publish(&views(&self.core, &self.devices), false);
-                    self.state_tick.restart();
+                    self.publish(given, false);
+                    self.grid.restart(Instant::now());
                 }
                 Action::Safe { device, action } => {
                     // In a task of its own: the front keeps publishing on its deadlines while
-                    // the device confirms its safe state.
+                    // the device confirms its safe state. Commands wait for it.
                     let dev = self.devices[device].slot.device.clone();
-                    self.devices[device].pending_safe = Some(tokio::spawn(async move {
+                    let (done_tx, done) = watch::channel(false);
+                    self.devices[device].pending_safe = Some(done);
+                    live.rt.spawn(async move {
                         let _ = dev.safe_state(action).await;
-                    }));
+                        let _ = done_tx.send(true);
+                    });
                 }
                 Action::Owner { devices, writer } => {
                     // Who commands the device (status, dashboard): named on change only.
@@ -315,12 +447,14 @@ impl Task {
                         self.devices[i].slot.counters.set_owner(who.clone());
                     }
                 }
-                Action::Log(l) => self.log(l),
+                Action::Log(l) => {
+                    let _span = live.span.enter();
+                    self.log(l)
+                }
             }
         }
         self.acts = acts;
     }
-
     /// Writes a log line of the core.
     fn log(&self, l: Log) {
         let name = &self.name;
@@ -399,20 +533,22 @@ impl Task {
     }
 }
 
-/// Runs a front taking commands: samples from `rx` (a DDS front's readers, or the
+/// Runs a front taking commands: samples from its readers' listeners ([`Live`], once the
+/// caller set it as their [`fronts::Direct`] handler) or from `queue` (samples that wait, the
 /// dashboard's page), decoded by `out`; every decision (ownership, the check against each
 /// device's table, silence, prompt state) is the front's core's
-/// ([`handgate_adapters::front::core`]); this task moves messages: samples, deadlines and
-/// device states to the core, its actions to the devices, the log and `out`.
+/// ([`handgate_adapters::front::core`]). The task moves what no listener or device loop
+/// brings: deadlines, the periodic state when no device drives it, queued samples.
 pub(crate) fn run_front(
     f: FrontTask,
     out: Box<dyn fronts::FrontIo>,
-    mut rx: mpsc::Receiver<fronts::Incoming>,
+    queue: (mpsc::Sender<fronts::Incoming>, mpsc::Receiver<fronts::Incoming>),
     dropped: Arc<AtomicU64>,
     devices: &HashMap<String, Arc<DeviceSlot>>,
     discovery: watch::Receiver<Arc<handgate_adapters::discovery::Snapshot>>,
     mut shutdown: watch::Receiver<bool>,
-) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
+) -> Result<(Arc<Live>, tokio::task::JoinHandle<()>), RuntimeError> {
+    let (tx, mut rx) = queue;
     let mut driven = Vec::new();
     let mut bound = Vec::new();
     for (device, element, silence, table) in &f.bindings {
@@ -427,81 +563,165 @@ pub(crate) fn run_front(
         bound.push(Device {
             element: *element,
             state_rx: slot.device.state(),
+            tapped: f.publishes && slot.device.state_taps().is_some(),
             pending_safe: None,
             slot,
         });
     }
+    // Decided once: the devices' states drive the periodic publish when every one tells its
+    // states and measures at least as fast as the front publishes.
+    let by_device = !bound.is_empty()
+        && bound
+            .iter()
+            .all(|d| d.tapped && d.slot.plan.rate_hz >= f.state_hz * 0.99);
     let devices_list = f.bindings.iter().map(|b| b.0.as_str()).collect::<Vec<_>>().join(",");
     let span = tracing::info_span!("front", name = %f.name, devices = %devices_list);
     let lf_hz = out.lf_hz();
-    let mut task = Task {
-        core: FrontCore::new(f.id, f.control, f.hold, driven).with_max_command_age(f.max_command_age),
-        name: f.name,
-        devices: bound,
-        out,
-        discovery,
-        state_tick: Ticker::hz(f.state_hz),
-        acts: Vec::new(),
-        allow: f.allow.map(|s| (s, HashMap::new())),
+    let period = Duration::from_secs_f64(1.0 / f.state_hz.max(0.1));
+    let live = Arc::new(Live {
+        state: Mutex::new(Task {
+            core: FrontCore::new(f.id, f.control, f.hold, driven).with_max_command_age(f.max_command_age),
+            name: f.name,
+            devices: bound,
+            out,
+            discovery,
+            grid: StateGrid::new(period, by_device, Instant::now()),
+            acts: Vec::new(),
+            allow: f.allow.map(|s| (s, HashMap::new())),
+            // Until the task found its queue empty (samples queued before the listeners
+            // took over go first).
+            deferring: true,
+        }),
+        wake: tokio::sync::Notify::new(),
+        queue: tx,
+        dropped: dropped.clone(),
+        rt: tokio::runtime::Handle::current(),
+        span: span.clone(),
+    });
+    // Each tapped device tells the front its states (held weakly: a stopped front is not kept
+    // alive by its devices).
+    let untapped: Vec<(usize, watch::Receiver<HandState>)> = {
+        let t = live.lock();
+        for (i, d) in t.devices.iter().enumerate() {
+            if let (true, Some(taps)) = (d.tapped, d.slot.device.state_taps()) {
+                let weak = Arc::downgrade(&live);
+                taps.add(Box::new(move |st: &HandState| {
+                    if let Some(live) = weak.upgrade() {
+                        live.device_state(i, st);
+                    }
+                }));
+            }
+        }
+        t.devices
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| !d.tapped)
+            .map(|(i, d)| (i, d.state_rx.clone()))
+            .collect()
     };
-    Ok(tokio::spawn(tracing::Instrument::instrument(
+    let task_live = live.clone();
+    let handle = tokio::spawn(tracing::Instrument::instrument(
         async move {
+            let live = task_live;
+            let mut untapped = untapped;
             let mut lf_tick = Ticker::hz(lf_hz);
             loop {
-                let deadline = task.core.next_deadline();
-                let awaiting = task.core.awaits_state();
+                let (deadline, awaiting) = {
+                    let mut t = live.lock();
+                    if t.deferring && rx.is_empty() {
+                        t.deferring = false;
+                    }
+                    let d = t
+                        .core
+                        .next_deadline()
+                        .map_or(t.grid.deadline(), |c| c.min(t.grid.deadline()));
+                    let awaiting: Vec<bool> = untapped.iter().map(|(i, _)| t.core.awaiting(*i)).collect();
+                    (d, awaiting)
+                };
+                let any_awaited = awaiting.iter().any(|a| *a);
                 tokio::select! {
                     msg = rx.recv() => {
                         let Some(msg) = msg else { break };
-                        task.sample(msg).await;
+                        // A silence action still running: the command waits for it (outside
+                        // the lock), and so does every sample behind it.
+                        let running: Vec<watch::Receiver<bool>> = {
+                            let mut t = live.lock();
+                            t.deferring = true;
+                            t.devices.iter().filter(|d| d.safe_running()).filter_map(|d| d.pending_safe.clone()).collect()
+                        };
+                        for mut done in running {
+                            let _ = done.wait_for(|d| *d).await;
+                        }
+                        let mut t = live.lock();
+                        t.sample(&live, msg);
+                        if rx.is_empty() {
+                            t.deferring = false;
+                        }
                     }
-                    _ = sleep_until_opt(deadline), if deadline.is_some() => {
-                        task.core.deadline(Instant::now(), &mut Shared(&task.devices), &mut task.acts);
-                        task.carry_out();
+                    _ = tokio::time::sleep_until(deadline.into()) => {
+                        let now = Instant::now();
+                        let mut t = live.lock();
+                        let t = &mut *t;
+                        t.core.deadline(now, &mut Shared(&t.devices), &mut t.acts);
+                        if t.grid.due(now) {
+                            t.publish_periodic(now, None, dropped.load(Ordering::Relaxed));
+                        }
+                        t.carry_out(&live, None);
                     }
-                    changed = first_change(&mut task.devices, &task.core), if awaiting => {
+                    _ = live.wake.notified() => {}
+                    changed = first_change(&mut untapped, &awaiting), if any_awaited => {
+                        let mut guard = live.lock();
+                        let t = &mut *guard;
                         match changed {
                             Some(i) => {
-                                let cmd_seq = task.devices[i].state_rx.borrow_and_update().cmd_seq;
-                                task.core.state(Instant::now(), i, cmd_seq, &mut task.acts);
-                                task.carry_out();
+                                let cmd_seq = untapped[i].1.borrow_and_update().cmd_seq;
+                                let device = untapped[i].0;
+                                t.core.state(Instant::now(), device, cmd_seq, &mut t.acts);
+                                t.carry_out(&live, None);
                             }
-                            None => task.core.state_closed(),
+                            None => t.core.state_closed(),
                         }
-                    }
-                    _ = task.state_tick.tick() => {
-                        task.out.publish(&views(&task.core, &task.devices), false);
-                        for (i, d) in task.devices.iter().enumerate() {
-                            task.core.published(i, d.state_rx.borrow().cmd_seq);
-                        }
-                        task.core.queue(Instant::now(), dropped.load(Ordering::Relaxed), &mut task.acts);
-                        task.carry_out();
                     }
                     _ = lf_tick.tick(), if lf_hz > 0.0 => {
-                        task.out.publish(&views(&task.core, &task.devices), true);
+                        live.lock().publish(None, true);
                     }
                     _ = shutdown.changed() => break,
                 }
             }
+            // The front's readers are deleted here, on its task, outside the lock: never in one
+            // of their own listeners (which may hold the last reference to `live`), and never
+            // while a listener waits for the lock.
+            let endpoints = std::mem::replace(&mut live.lock().out, Box::new(Closed));
+            drop(endpoints);
         },
         span,
-    )))
+    ));
+    Ok((live, handle))
 }
 
-async fn sleep_until_opt(t: Option<Instant>) {
-    if let Some(t) = t {
-        tokio::time::sleep_until(t.into()).await;
+/// A stopped front's wire side: no reader, no writer.
+struct Closed;
+
+impl fronts::FrontIo for Closed {
+    fn decode(
+        &self,
+        _bound: &[fronts::Bound<'_>],
+        _msg: &fronts::Message,
+    ) -> Result<Vec<(usize, fronts::Routed)>, handgate_adapters::front::Rejection> {
+        Ok(Vec::new())
     }
+    fn publish(&mut self, _bound: &[fronts::Bound<'_>], _lf: bool) {}
 }
 
-/// Waits until one of the bound devices whose state the core awaits reports a new state;
-/// `None` when a device's state channel closed.
-async fn first_change(devices: &mut [Device], core: &FrontCore) -> Option<usize> {
+/// Waits until one of the untapped devices whose state the core awaits (`awaiting`, in
+/// `devices`' order) reports a new state: its index in `devices`; `None` when a device's
+/// state channel closed.
+async fn first_change(devices: &mut [(usize, watch::Receiver<HandState>)], awaiting: &[bool]) -> Option<usize> {
     let futs = devices
         .iter_mut()
         .enumerate()
-        .filter(|(i, _)| core.awaiting(*i))
-        .map(|(i, d)| Box::pin(async move { d.state_rx.changed().await.ok().map(|_| i) }));
+        .filter(|(i, _)| awaiting[*i])
+        .map(|(i, (_, rx))| Box::pin(async move { rx.changed().await.ok().map(|_| i) }));
     futures_select_first(futs.collect()).await
 }
 
@@ -520,8 +740,14 @@ async fn futures_select_first<F: std::future::Future<Output = Option<usize>> + U
     .await
 }
 
-/// What the front kind's codec sees of the bound devices: each route and latest state.
-fn views<'a>(core: &'a FrontCore, devices: &'a [Device]) -> Vec<fronts::Bound<'a>> {
+/// What the front kind's codec sees of the bound devices: each route and latest state
+/// (`states[i]`: device `i`'s borrowed channel, or `None` for the `given` device).
+fn views_of<'a>(
+    core: &'a FrontCore,
+    devices: &'a [Device],
+    states: &'a [Option<watch::Ref<'a, HandState>>],
+    given: Option<(usize, &'a HandState)>,
+) -> Vec<fronts::Bound<'a>> {
     devices
         .iter()
         .enumerate()
@@ -530,27 +756,11 @@ fn views<'a>(core: &'a FrontCore, devices: &'a [Device]) -> Vec<fronts::Bound<'a
             element: d.element,
             device: &d.slot.plan.name,
             safe_action: d.slot.plan.safe_action,
-            state: d.slot.device.state().borrow().clone(),
+            state: match (&states[i], given) {
+                (Some(r), _) => r,
+                (None, Some((_, st))) => st,
+                (None, None) => unreachable!("a device's state is borrowed or given"),
+            },
         })
         .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The deadline branch of the front task sleeps until the core's next deadline (it
-    /// would spin the task otherwise: the action itself is guarded per device).
-    #[test]
-    fn the_silence_wait_sleeps_until_the_deadline() {
-        let rt = tokio::runtime::Builder::new_current_thread()
-            .enable_time()
-            .build()
-            .unwrap();
-        rt.block_on(async {
-            let t0 = Instant::now();
-            sleep_until_opt(Some(t0 + Duration::from_millis(50))).await;
-            assert!(t0.elapsed() >= Duration::from_millis(50), "{:?}", t0.elapsed());
-        });
-    }
 }

@@ -98,6 +98,8 @@ pub struct Dex3UsbDevice {
     handle: Arc<Mutex<Option<Dex3UsbHandle>>>,
     state_tx: Arc<watch::Sender<HandState>>,
     state_rx: watch::Receiver<HandState>,
+    /// Told of each state on the loop thread, after every cycle.
+    taps: Arc<crate::device::StateTaps>,
     /// How the loop's transport is opened, and the loop's settings (to restart it after
     /// discovery, which needs the transport to itself).
     make: MakeFactory,
@@ -133,6 +135,7 @@ impl Dex3UsbDevice {
             handle: Arc::new(Mutex::new(None)),
             state_tx: Arc::new(tx),
             state_rx,
+            taps: Arc::default(),
             make,
             config,
             emulator,
@@ -144,11 +147,12 @@ impl Dex3UsbDevice {
     /// Starts the device loop, its measurements turned into canonical state on the loop thread
     /// after every cycle (no second thread woken per cycle and device).
     fn spawn_loop(&self) -> Result<(), LoopError> {
-        let (table, b_cmd, b_sent, tx) = (
+        let (table, b_cmd, b_sent, tx, taps) = (
             self.info.table.clone(),
             self.cmd.clone(),
             self.sent.clone(),
             self.state_tx.clone(),
+            self.taps.clone(),
         );
         let name = self.info.name.clone();
         let mut last_connects = 0;
@@ -183,6 +187,7 @@ impl Dex3UsbDevice {
             // The echo is the command this measurement's exchange sent, not the last applied.
             (st.cmd_seq, st.cmd_tag) = echo;
             tx.send_modify(|out| out.clone_from(&st));
+            taps.run(&st);
         });
         let handle = Dex3UsbLoop::spawn_observed((self.make)(), self.config.clone(), Some(observer))?;
         *self.handle.lock().unwrap_or_else(|p| p.into_inner()) = Some(handle);
@@ -270,6 +275,10 @@ impl HandDevice for Dex3UsbDevice {
 
     fn state(&self) -> watch::Receiver<HandState> {
         self.state_rx.clone()
+    }
+
+    fn state_taps(&self) -> Option<&crate::device::StateTaps> {
+        Some(&self.taps)
     }
 
     fn commanded(&self) -> Option<Vec<f32>> {
