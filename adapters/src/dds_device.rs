@@ -325,9 +325,32 @@ struct Wake {
     command: AtomicBool,
     /// A forwarded command awaits the first state sample after it: the reader wakes the loop.
     awaiting: AtomicBool,
+    /// The loop's state, for the work a command's or a sample's own thread does at once
+    /// ([`Inline`]; set once the loop is built, held weakly).
+    inline: OnceLock<std::sync::Weak<dyn Inline>>,
+}
+
+/// What a DDS-client device's loop does on the thread that brings the work, when the loop
+/// is not running (`try_lock`; otherwise the loop is woken, as before): a forwarded command is
+/// encoded and published from the caller's thread (a front's DDS listener), and the state
+/// sample a forwarded command awaits is decoded and published from the reader's listener.
+/// Neither ever waits for the loop.
+trait Inline: Send + Sync {
+    /// A command arrived: publish it now if the loop is free (`false`: wake the loop).
+    fn command(&self, now: Instant) -> bool;
+    /// The awaited sample arrived: take it now if the loop is free (`false`: wake the loop).
+    fn sample(&self, now: Instant) -> bool;
 }
 
 impl Wake {
+    /// Runs `f` on the loop's state when it is built and free; `false` otherwise.
+    fn inline(&self, f: impl FnOnce(&dyn Inline) -> bool) -> bool {
+        match self.inline.get().and_then(std::sync::Weak::upgrade) {
+            Some(l) => f(&*l),
+            None => false,
+        }
+    }
+
     fn unpark(&self) {
         if let Some(p) = self.poker.get() {
             p.poke();
@@ -375,7 +398,6 @@ impl SentLog {
 struct DdsLoop<C: DdsCodec> {
     span: tracing::Span,
     shared: Arc<Shared<C::State>>,
-    _reader: Option<crate::dds::Reader<C::State>>,
     writer: crate::dds::Writer<C::Cmd>,
     codec: C,
     table: Arc<DeviceTable>,
@@ -407,60 +429,44 @@ struct DdsLoop<C: DdsCodec> {
     started: bool,
 }
 
-impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
-    fn run(&mut self, now: Instant) -> Option<Instant> {
-        let _span = self.span.enter();
-        if !std::mem::replace(&mut self.started, true) {
-            tracing::debug!(rate_hz = self.config.rate_hz, cmd = %self.config.cmd_topic,
-                on_arrival = self.config.forward.on_arrival, max_send_hz = self.config.forward.max_send_hz,
-                "device loop started");
+impl<C: DdsCodec> DdsLoop<C> {
+    /// Takes the newest state sample, if any: the current state, stamped with the command it
+    /// reflects. Whether one was measured.
+    fn intake(&mut self, now: Instant) -> bool {
+        let sample = self.shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
+        let Some((s, taken)) = sample else {
+            return false;
+        };
+        let table = &self.table;
+        if !self.codec.decode_into(&s, table, &mut self.decoded) {
+            return false;
         }
+        let st = &mut self.current;
+        st.clone_from(&self.decoded);
+        st.measured_at = Some(taken);
+        st.measured_wall = Some(SystemTime::now() - now.saturating_duration_since(taken));
+        st.freshness = Freshness::Fresh;
+        st.closure = table.closure_of_state(&st.joints);
+        // The command this sample reflects: the newest one published before it came.
+        let reflected = self.sent.reflected_by(taken).unwrap_or_default();
+        (st.cmd_seq, st.cmd_tag) = (reflected.seq, reflected.tag);
+        if self.sent.last.at.is_some_and(|t| t <= taken) {
+            self.shared.wake.awaiting.store(false, Ordering::Release);
+        }
+        if self.link.observe(true, &self.current.joints, &self.cmd) {
+            self.codec.reconnected();
+            // The peer came back: never replay what was in force before.
+            tracing::info!("peer back: holding the measured position until the next command");
+        }
+        true
+    }
+
+    /// Publishes the targets in force when a send is wanted (`command`: one arrived; `tick`:
+    /// the keep-alive) and the budget has a token.
+    fn send(&mut self, now: Instant, tick: bool, command: bool) {
         let (table, config, loop_cmd) = (&self.table, &self.config, &self.cmd);
         let has_state = self.has_state;
         let period = self.period;
-        let tick = now >= self.next;
-        let command = self.shared.wake.command.swap(false, Ordering::AcqRel);
-        if tick {
-            self.clock.tick(&loop_cmd.counters, now);
-        }
-        let sample = self.shared.latest.lock().unwrap_or_else(|p| p.into_inner()).take();
-        let mut measured = false;
-        if let Some((s, taken)) = sample {
-            if self.codec.decode_into(&s, table, &mut self.decoded) {
-                let st = &mut self.current;
-                st.clone_from(&self.decoded);
-                st.measured_at = Some(taken);
-                st.measured_wall = Some(SystemTime::now() - now.saturating_duration_since(taken));
-                st.freshness = Freshness::Fresh;
-                st.closure = table.closure_of_state(&st.joints);
-                // The command this sample reflects: the newest one published before it came.
-                let reflected = self.sent.reflected_by(taken).unwrap_or_default();
-                (st.cmd_seq, st.cmd_tag) = (reflected.seq, reflected.tag);
-                if self.sent.last.at.is_some_and(|t| t <= taken) {
-                    self.shared.wake.awaiting.store(false, Ordering::Release);
-                }
-                measured = true;
-                if self.link.observe(true, &self.current.joints, loop_cmd) {
-                    self.codec.reconnected();
-                    // The peer came back: never replay what was in force before.
-                    tracing::info!("peer back: holding the measured position until the next command");
-                }
-            }
-        }
-        if tick && has_state {
-            let stale = self.current.age(now).map(|a| a > config.stale_after).unwrap_or(true);
-            if stale {
-                if self.link.is_up() {
-                    tracing::warn!(
-                        stale_after_ms = config.stale_after.as_millis() as u64,
-                        "peer state stale: link down"
-                    );
-                }
-                self.current.freshness = Freshness::Stale;
-                self.current.faults |= faults::LINK_DOWN;
-                self.link.observe(false, &self.current.joints, loop_cmd);
-            }
-        }
         // A tick is the keep-alive: redundant, and not worth a token of the budget, when a
         // forwarded command went out less than half a period ago (a 1 kHz client on a 500 Hz
         // device would otherwise share the budget with the ticks and wait for tokens).
@@ -496,46 +502,142 @@ impl<C: DdsCodec> crate::loops::Task for DdsLoop<C> {
                     Counters::inc(&loop_cmd.counters.sent);
                     let (seq, tag) = loop_cmd.applied();
                     // A command out for the first time (forwarded now, or after waiting for a
-                    // token, or on a tick): the first sample after it wakes the loop.
+                    // token, or on a tick): the first sample after it is taken at once.
                     if self.sent.push(seq, tag, Instant::now()) && has_state && config.forward.on_arrival {
                         self.shared.wake.awaiting.store(true, Ordering::Release);
                     }
                 }
             }
         }
-        if tick || measured || (command && !has_state) {
-            let (current, codec, safe) = (&self.current, &self.codec, matches!(self.active, Active::Safe(..)));
-            // In place: the published state's buffers are reused.
-            self.state_tx.send_modify(|out| {
-                out.clone_from(current);
-                if !has_state {
-                    codec.commanded_state(table, out);
-                }
-                let reflected = (out.cmd_seq, out.cmd_tag);
-                crate::link::stamp(out, loop_cmd, safe, false);
-                if has_state {
-                    // A state reflects the command published before it was measured, not one
-                    // applied since.
-                    (out.cmd_seq, out.cmd_tag) = reflected;
-                }
-            });
-            self.taps.run(&self.state_tx.borrow());
-        }
-        if tick {
-            self.k += 1;
-            let _ = self.cycle_tx.send(self.k);
-            self.next = self.start + Duration::from_nanos((period.as_nanos() as u64).saturating_mul(self.k));
-            if Instant::now() > self.next + period {
-                Counters::inc(&loop_cmd.counters.missed_cycles);
+    }
+
+    /// Publishes the current state (the device's watch channel, then its taps).
+    fn publish(&mut self) {
+        let has_state = self.has_state;
+        let (table, current, codec, safe) = (
+            &self.table,
+            &self.current,
+            &self.codec,
+            matches!(self.active, Active::Safe(..)),
+        );
+        let loop_cmd = &self.cmd;
+        // In place: the published state's buffers are reused.
+        self.state_tx.send_modify(|out| {
+            out.clone_from(current);
+            if !has_state {
+                codec.commanded_state(table, out);
             }
-        }
-        // Run again at the next tick, or when a token comes for waiting targets; a command
-        // or (while a forwarded command awaits it) a state sample pokes the loop earlier.
-        Some(if self.want_send {
+            let reflected = (out.cmd_seq, out.cmd_tag);
+            crate::link::stamp(out, loop_cmd, safe, false);
+            if has_state {
+                // A state reflects the command published before it was measured, not one
+                // applied since.
+                (out.cmd_seq, out.cmd_tag) = reflected;
+            }
+        });
+        self.taps.run(&self.state_tx.borrow());
+    }
+
+    /// When the loop must run next: the next tick, or sooner when targets wait for a token.
+    fn next_run(&mut self) -> Instant {
+        if self.want_send {
             self.next.min(self.budget.ready_at(Instant::now()))
         } else {
             self.next
-        })
+        }
+    }
+}
+
+impl<C: DdsCodec> crate::loops::Task for DdsTask<C> {
+    fn run(&mut self, now: Instant) -> Option<Instant> {
+        let mut l = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let l = &mut *l;
+        let span = l.span.clone();
+        let _span = span.enter();
+        if !std::mem::replace(&mut l.started, true) {
+            tracing::debug!(rate_hz = l.config.rate_hz, cmd = %l.config.cmd_topic,
+                on_arrival = l.config.forward.on_arrival, max_send_hz = l.config.forward.max_send_hz,
+                "device loop started");
+        }
+        let has_state = l.has_state;
+        let period = l.period;
+        let tick = now >= l.next;
+        let command = l.shared.wake.command.swap(false, Ordering::AcqRel);
+        if tick {
+            l.clock.tick(&l.cmd.counters, now);
+        }
+        let measured = l.intake(now);
+        if tick && has_state {
+            let stale = l.current.age(now).map(|a| a > l.config.stale_after).unwrap_or(true);
+            if stale {
+                if l.link.is_up() {
+                    tracing::warn!(
+                        stale_after_ms = l.config.stale_after.as_millis() as u64,
+                        "peer state stale: link down"
+                    );
+                }
+                l.current.freshness = Freshness::Stale;
+                l.current.faults |= faults::LINK_DOWN;
+                l.link.observe(false, &l.current.joints, &l.cmd);
+            }
+        }
+        l.send(now, tick, command);
+        if tick || measured || (command && !has_state) {
+            l.publish();
+        }
+        if tick {
+            l.k += 1;
+            let _ = l.cycle_tx.send(l.k);
+            l.next = l.start + Duration::from_nanos((period.as_nanos() as u64).saturating_mul(l.k));
+            if Instant::now() > l.next + period {
+                Counters::inc(&l.cmd.counters.missed_cycles);
+            }
+        }
+        // Run again at the next tick, or when a token comes for waiting targets; a command
+        // or (while a forwarded command awaits it) a state sample the loop could not take on
+        // its own thread pokes the loop earlier.
+        Some(l.next_run())
+    }
+}
+
+/// The device loop as its loop thread runs it; the same state, behind the same lock, takes a
+/// forwarded command or an awaited sample on the thread that brings it ([`Inline`]).
+struct DdsTask<C: DdsCodec>(Arc<Mutex<DdsLoop<C>>>);
+
+impl<C: DdsCodec> Inline for Mutex<DdsLoop<C>> {
+    fn command(&self, now: Instant) -> bool {
+        let Ok(mut l) = self.try_lock() else {
+            return false;
+        };
+        let l = &mut *l;
+        // A device without feedback publishes the commanded state on a command: that state
+        // goes to the device's taps, which a front's listener (the caller) must not be told
+        // of under its own lock; the loop does it.
+        if !l.has_state || !l.started {
+            return false;
+        }
+        let span = l.span.clone();
+        let _span = span.enter();
+        let command = l.shared.wake.command.swap(false, Ordering::AcqRel);
+        l.send(now, false, command);
+        // Targets waiting for a token: the loop runs when it comes.
+        !l.want_send
+    }
+
+    fn sample(&self, now: Instant) -> bool {
+        let Ok(mut l) = self.try_lock() else {
+            return false;
+        };
+        let l = &mut *l;
+        if !l.started {
+            return false;
+        }
+        let span = l.span.clone();
+        let _span = span.enter();
+        if l.intake(now) {
+            l.publish();
+        }
+        true
     }
 }
 
@@ -550,6 +652,9 @@ pub struct DdsDevice {
     handle: crate::loops::Handle,
     /// Wakes the loop for a command to forward.
     wake: Arc<Wake>,
+    /// The state reader (its listener takes the samples), deleted with the device: never by
+    /// its own listener.
+    _reader: Mutex<Option<Box<dyn Send>>>,
     /// Commands are forwarded on arrival ([`Forwarding::on_arrival`]).
     on_arrival: bool,
 }
@@ -576,13 +681,17 @@ impl DdsDevice {
             Some(t) => {
                 let sh = shared.clone();
                 let ctr = counters.clone();
+                // The samples of one call, the buffer reused.
+                let mut v = Vec::new();
                 Some(node.reader_with_callback::<C::State, _>(t, STATE_QOS, move |h| {
-                    let mut v = Vec::new();
                     if h.take_into(&mut v) > 0 {
                         ctr.state_samples.fetch_add(v.len() as u64, Ordering::Relaxed);
                         let taken = Instant::now();
                         *sh.latest.lock().unwrap_or_else(|p| p.into_inner()) = v.pop().map(|s| (s, taken));
-                        if sh.wake.awaiting.load(Ordering::Acquire) {
+                        v.clear();
+                        // The sample a forwarded command awaits: taken here, in the listener,
+                        // when the loop is free; else the loop is woken for it.
+                        if sh.wake.awaiting.load(Ordering::Acquire) && !sh.wake.inline(|l| l.sample(taken)) {
                             sh.wake.unpark();
                         }
                     }
@@ -609,7 +718,6 @@ impl DdsDevice {
         let task = DdsLoop {
             span,
             shared: shared.clone(),
-            _reader: reader,
             writer,
             codec,
             table: table.clone(),
@@ -635,10 +743,19 @@ impl DdsDevice {
             active: Active::Idle,
             started: false,
         };
-        let handle = crate::loops::spawn(crate::loops::Class::Devices, &format!("dev-{name}"), start, task)
-            .map_err(|e| DdsError::Thread(e.to_string()))?;
+        let task = Arc::new(Mutex::new(task));
+        let inline: Arc<dyn Inline> = task.clone();
+        let _ = wake.inline.set(Arc::downgrade(&inline));
+        let handle = crate::loops::spawn(
+            crate::loops::Class::Devices,
+            &format!("dev-{name}"),
+            start,
+            DdsTask(task),
+        )
+        .map_err(|e| DdsError::Thread(e.to_string()))?;
         let _ = wake.poker.set(handle.poker());
         Ok(Self {
+            _reader: Mutex::new(reader.map(|r| Box::new(r) as Box<dyn Send>)),
             info,
             cmd,
             state_rx,
@@ -650,11 +767,14 @@ impl DdsDevice {
         })
     }
 
-    /// Wakes the loop to publish the command just submitted (forwarding on arrival).
+    /// Publishes the command just submitted (forwarding on arrival): from the caller's thread
+    /// when the loop is free, else by waking the loop.
     fn forward(&self) {
         if self.on_arrival {
             self.wake.command.store(true, Ordering::Release);
-            self.wake.unpark();
+            if !self.wake.inline(|l| l.command(Instant::now())) {
+                self.wake.unpark();
+            }
         }
     }
 
