@@ -1071,16 +1071,22 @@ impl FrontCore {
     /// The earliest instant at which [`Self::deadline`] has something to do: a device's
     /// silence action, or the prompt publish giving up its wait. `None`: nothing is armed.
     pub fn next_deadline(&self) -> Option<Instant> {
-        let silence = self
-            .devices
-            .iter()
-            .filter_map(|d| d.silence_due().map(|(t, ..)| t))
-            .min();
+        let silence = self.next_silence();
         let prompt = self
             .prompt_since
             .filter(|_| self.awaits_state())
             .map(|t| t + PROMPT_STATE_WAIT);
         silence.into_iter().chain(prompt).min()
+    }
+
+    /// The earliest silence action due (a device whose client went silent), without the
+    /// prompt publish's wait: all a caller that feeds device states as they come (and so never
+    /// needs the wait's end to stop listening) must wake for. `None`: nothing is armed.
+    pub fn next_silence(&self) -> Option<Instant> {
+        self.devices
+            .iter()
+            .filter_map(|d| d.silence_due().map(|(t, ..)| t))
+            .min()
     }
 
     /// Runs what is due at `now`: each device whose client has been silent for its armed

@@ -283,9 +283,9 @@ impl fronts::Direct for Live {
             self.wake.notify_one();
             return queued;
         }
-        let before = t.core.next_deadline();
+        let before = t.wake_at();
         t.sample(self, msg);
-        let after = t.core.next_deadline();
+        let after = t.wake_at();
         drop(t);
         // The task sleeps until the deadline it last saw: wake it when one came earlier.
         if after.is_some_and(|a| before.map_or(true, |b| a < b)) {
@@ -296,6 +296,17 @@ impl fronts::Direct for Live {
 }
 
 impl Task {
+    /// When the task must wake for the core: its silence deadlines, and the end of the prompt
+    /// wait while a device that tells no states is awaited (the task listens to its channel
+    /// until then; a tapped device's state ends the wait itself, and any wake clears it).
+    fn wake_at(&self) -> Option<Instant> {
+        if self.devices.iter().all(|d| d.tapped) {
+            self.core.next_silence()
+        } else {
+            self.core.next_deadline()
+        }
+    }
+
     /// A command sample: the core admits it, the front kind's codec decodes it, and the core
     /// checks and routes its commands. The caller made sure no silence action runs on the
     /// front's devices, so the safe state never lands after a newer command.
@@ -631,10 +642,7 @@ pub(crate) fn run_front(
                     if t.deferring && rx.is_empty() {
                         t.deferring = false;
                     }
-                    let d = t
-                        .core
-                        .next_deadline()
-                        .map_or(t.grid.deadline(), |c| c.min(t.grid.deadline()));
+                    let d = t.wake_at().map_or(t.grid.deadline(), |c| c.min(t.grid.deadline()));
                     let awaiting: Vec<bool> = untapped.iter().map(|(i, _)| t.core.awaiting(*i)).collect();
                     (d, awaiting)
                 };
