@@ -108,6 +108,11 @@ impl Qos {
         }
     }
 
+    /// Best effort (no resend, nothing kept for a reader that was not there).
+    fn is_best_effort(self) -> bool {
+        matches!(self, Qos::BestEffort | Qos::BestEffortDepth { .. })
+    }
+
     fn to_dds_with(self, opts: &EndpointOptions) -> Result<DdsQos, DdsError> {
         let mut q = self.to_dds()?;
         if opts.durability == Durability::TransientLocal {
@@ -402,6 +407,7 @@ impl Node {
             node: self.clone(),
             topic: name.to_string(),
             guid,
+            skip_unmatched: qos.is_best_effort() && opts.durability == Durability::Volatile,
         })
     }
 
@@ -670,6 +676,10 @@ pub struct Writer<T: TopicType> {
     node: Node,
     topic: String,
     guid: Guid,
+    /// A best-effort, volatile writer skips a write while no reader is matched: no reader
+    /// could ever receive that sample (none keeps it for a late joiner), so it is neither
+    /// copied nor serialized (a front's state with no client attached).
+    skip_unmatched: bool,
 }
 
 impl<T: TopicType> Drop for Writer<T> {
@@ -682,8 +692,16 @@ unsafe impl<T: TopicType> Send for Writer<T> {}
 
 impl<T: TopicType> Writer<T> {
     pub fn write(&mut self, sample: T) -> Result<(), DdsError> {
+        if self.unread() {
+            return Ok(());
+        }
         let _within = Enter::new(Within::Write);
         self.writer.write(Arc::new(sample)).map_err(dds_err("write"))
+    }
+
+    /// Whether a write now would reach no reader and is skipped (`skip_unmatched`).
+    fn unread(&self) -> bool {
+        self.skip_unmatched && self.matched() == 0
     }
 
     /// Writes a copy of `sample`, which the caller keeps to fill again. cyclonedds-rs takes
@@ -695,6 +713,9 @@ impl<T: TopicType> Writer<T> {
     where
         T: Clone,
     {
+        if self.unread() {
+            return Ok(());
+        }
         let _within = Enter::new(Within::Write);
         self.writer.write(Arc::new(sample.clone())).map_err(dds_err("write"))
     }
@@ -703,6 +724,9 @@ impl<T: TopicType> Writer<T> {
     /// this host's clock at the write (CycloneDDS's `dds_write_ts`): a client replaying what
     /// a bridge delivers out of order, or a test of a front's ordering rule.
     pub fn write_ts(&mut self, sample: T, source_ns: i64) -> Result<(), DdsError> {
+        if self.unread() {
+            return Ok(());
+        }
         let _within = Enter::new(Within::Write);
         let sample = cyclonedds_rs::Sample::<T>::from(Arc::new(sample));
         // SAFETY: a live writer; `sample` is what cyclonedds-rs's own `write` hands
