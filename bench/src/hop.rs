@@ -265,7 +265,11 @@ impl Exchange {
 /// through one emulated Dex3 USB exchange ([`Exchange`]): the least a gateway in front of a
 /// USB hand must do. With `tick`, an ideal gateway in front of a device polled at that period
 /// instead: the newest tag is answered at the next tick of its own clock (no device, no work:
-/// only the wait for the next cycle). Runs until killed.
+/// only the wait for the next cycle). With `exchange` and `threaded`, the exchange and the
+/// answer run on a thread of their own, which the listener hands each command to (park /
+/// unpark): the least a gateway can do that keeps a USB hand's exchanges off the DDS
+/// listener (a real USB transfer blocks for its round trip), one thread hand-off more than
+/// `exchange`. Runs until killed.
 pub fn echo(
     domain: u32,
     iface: Option<&str>,
@@ -273,14 +277,42 @@ pub fn echo(
     state_topic: &str,
     tick: Option<Duration>,
     exchange: bool,
+    threaded: bool,
 ) -> anyhow::Result<()> {
     let node = Node::new(domain, iface)?;
-    let writer = node.writer::<HandState_>(state_topic, Qos::BestEffort)?;
+    let mut writer = node.writer::<HandState_>(state_topic, Qos::BestEffort)?;
     let answer = |w: &mut handgate_adapters::dds::Writer<HandState_>, tag: u32| {
         let mut s = HandState_::with_sizes(DEX3_MOTORS, DEX3_PRESS_SENSORS);
         s.reserve[0] = tag;
         let _ = w.write(s);
     };
+    if threaded {
+        let mut ex = Exchange::new()?;
+        let slot: Arc<Mutex<Option<HandCmd_>>> = Arc::default();
+        let s2 = slot.clone();
+        let worker = std::thread::Builder::new().name("echo-exchange".into()).spawn(move || loop {
+            std::thread::park();
+            while let Some(c) = s2.lock().unwrap_or_else(|e| e.into_inner()).take() {
+                if let Err(e) = ex.run(&c) {
+                    eprintln!("echo: exchange failed: {e}");
+                }
+                answer(&mut writer, c.reserve[0]);
+            }
+        })?;
+        let waker = worker.thread().clone();
+        let _reader = node.reader_with_callback::<HandCmd_, _>(cmd_topic, Qos::Reliable { depth: 16 }, move |h| {
+            let mut v = Vec::new();
+            h.take_into(&mut v);
+            if let Some(c) = v.pop() {
+                *slot.lock().unwrap_or_else(|e| e.into_inner()) = Some(c);
+                waker.unpark();
+            }
+        })?;
+        println!("READY");
+        loop {
+            std::thread::park();
+        }
+    }
     let mut ex = if exchange { Some(Exchange::new()?) } else { None };
     let pending: Arc<Mutex<Option<u32>>> = Arc::default();
     let p = pending.clone();

@@ -91,20 +91,22 @@ enum Cmd {
         #[arg(long, default_value_t = 200)]
         warmup: usize,
         /// Domains: base (handgate), base+1 (floor), base+2 (relay), base+3 (floor + tick),
-        /// base+12 (floor + one emulated exchange).
+        /// base+12 (floor + one emulated exchange), base+15 (the same exchange on a thread of its own).
         #[arg(long, default_value_t = 100)]
         domain_base: u32,
         #[arg(long)]
         interface: Option<String>,
-        /// Only these peers (floor, floor-exchange, floor-1khz, handgate, python).
+        /// Only these peers (floor, floor-exchange, floor-exchange-thread, floor-1khz, handgate,
+        /// python).
         #[arg(
             long,
             value_delimiter = ',',
-            default_value = "floor,floor-exchange,floor-1khz,handgate,python"
+            default_value = "floor,floor-exchange,floor-exchange-thread,floor-1khz,handgate,python"
         )]
         only: Vec<String>,
-        /// Run the `handgate` peer on these profiles instead of the default, one after the
-        /// other, each labelled `handgate LABEL` (repeatable: LABEL=PATH).
+        /// Run the `handgate` peer on these profiles too, after the default profile (labelled
+        /// `handgate`), one after the other, each labelled `handgate LABEL` (repeatable:
+        /// LABEL=PATH).
         #[arg(long)]
         handgate_profile: Vec<String>,
         #[arg(long)]
@@ -126,6 +128,10 @@ enum Cmd {
         /// One emulated Dex3 USB exchange per command before answering.
         #[arg(long)]
         exchange: bool,
+        /// With `--exchange`: the exchange and the answer on a thread of their own, handed
+        /// each command by the listener.
+        #[arg(long)]
+        threaded: bool,
     },
     /// The shim hop: a Dex1 client driving a Dex3 served by the G1-service emulator (its own
     /// process) through handgate, a raw Rust relay and a unitree_sdk2py shim (bench/src/shim.rs).
@@ -369,6 +375,9 @@ fn main() -> anyhow::Result<()> {
             let mut peers: Vec<(&str, Option<(String, PathBuf)>)> = Vec::new();
             for peer in &only {
                 if peer == "handgate" && !handgate_profile.is_empty() {
+                    // The default profile first, as `handgate` (what the ratios compare), then
+                    // each variant.
+                    peers.push((peer, None));
                     for p in &handgate_profile {
                         let (l, path) = p
                             .split_once('=')
@@ -414,6 +423,24 @@ fn main() -> anyhow::Result<()> {
                         (
                             "floor + exchange",
                             domain_base + 12,
+                            child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
+                        )
+                    }
+                    "floor-exchange-thread" => {
+                        let mut c = Command::new(std::env::current_exe()?);
+                        c.args([
+                            "echo",
+                            "--exchange",
+                            "--threaded",
+                            "--domain",
+                            &(domain_base + 15).to_string(),
+                        ]);
+                        if let Some(i) = iface {
+                            c.args(["--interface", i]);
+                        }
+                        (
+                            "floor + exchange on a thread",
+                            domain_base + 15,
                             child::Proc::start("echo", c, "READY", Duration::from_secs(30))?,
                         )
                     }
@@ -463,6 +490,7 @@ fn main() -> anyhow::Result<()> {
             state_topic,
             tick_us,
             exchange,
+            threaded,
         } => hop::echo(
             domain,
             interface.as_deref(),
@@ -470,6 +498,7 @@ fn main() -> anyhow::Result<()> {
             &state_topic,
             tick_us.map(Duration::from_micros),
             exchange,
+            threaded,
         )?,
         Cmd::Timers { loops, hz, secs, out } => {
             let r = timers::run(loops, hz, secs);

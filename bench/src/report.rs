@@ -314,13 +314,19 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
          - **floor + exchange**: the same echo, but each command first goes through one emulated Dex3 USB \
          exchange (the command frame built and encoded as the device loop does, exchanged with the MCU \
          emulator at the transport seam, the reply decoded): the least any gateway in front of a USB hand \
-         must do, and the baseline of issue #17's target (handgate ≤ 1.5× it, median and p99);\n\
+         must do, and the baseline of the target (issues #17 and #30: handgate ≤ 1.5× it, median and p99);\n\
+         - **floor + exchange on a thread**: the same exchange and answer, but on a thread of the echo's \
+         own that the DDS listener hands each command to (park / unpark): the least a gateway can do \
+         that keeps a USB hand's exchanges off the DDS listener (a real USB transfer blocks for its round \
+         trip, and the listener must never block on a device), one thread hand-off more than the line \
+         above;\n\
          - **floor + 1 kHz tick**: the same echo, but answering the newest command at the next tick of \
          its own 1 ms clock: an ideal gateway with zero overhead in front of a device polled at 1 kHz, \
          the best any gateway that waits for the next device cycle can do;\n\
          - **handgate**: the release `handgate run` on its default profile (emulated Dex3 pair behind \
          the USB protocol at 1 kHz, Dex1 pair) with its own `--domain`; the tag is echoed by the state \
-         measured after the exchange that sent the command (docs/fronts.md);\n\
+         measured after the exchange that sent the command (docs/fronts.md); **handgate LABEL**: the same \
+         on a variant of the default profile (below);\n\
          - **python relay**: `bench/python/relay.py`, the official unitree_sdk2py subscribing `HandCmd_` \
          and publishing a `HandState_` with the tag from its callback: what users write today.\n\n\
          The first 200 commands of each run are warm-up and not counted. `echoed` < `sent` means some \
@@ -337,8 +343,8 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
             }
             body.push_str("\nRatios (same run, same rate):\n\n");
             body.push_str(
-                "| command rate | handgate / (floor + exchange), median | handgate / (floor + exchange), p99 | handgate / floor, median | handgate / floor, p99 | handgate / (floor + 1 kHz tick), median | python relay / handgate, median | python relay / handgate, p99 |\n\
-                 |---|---|---|---|---|---|---|---|\n",
+                "| command rate | handgate / (floor + exchange), median | handgate / (floor + exchange), p99 | handgate / (floor + exchange on a thread), median | handgate / (floor + exchange on a thread), p99 | handgate / floor, median | handgate / floor, p99 | handgate / (floor + 1 kHz tick), median | python relay / handgate, median | python relay / handgate, p99 |\n\
+                 |---|---|---|---|---|---|---|---|---|---|\n",
             );
             let mut rates: Vec<f64> = v.iter().map(|r| r.rate_hz).collect();
             rates.sort_by(f64::total_cmp);
@@ -364,10 +370,38 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                 let (x50, x99) = ex
                     .map(|x| (format!("{:.2}×", h.median / x.median), format!("{:.2}×", h.p99 / x.p99)))
                     .unwrap_or_else(|| ("—".into(), "—".into()));
+                let th = get("floor + exchange on a thread");
+                let (h50, h99) = th
+                    .map(|x| (format!("{:.2}×", h.median / x.median), format!("{:.2}×", h.p99 / x.p99)))
+                    .unwrap_or_else(|| ("—".into(), "—".into()));
                 let _ = writeln!(
                     body,
-                    "| {rate:.0} Hz | {x50} | {x99} | {r50:.2}× | {r99:.2}× | {t50} | {p50} | {p99} |"
+                    "| {rate:.0} Hz | {x50} | {x99} | {h50} | {h99} | {r50:.2}× | {r99:.2}× | {t50} | {p50} | {p99} |"
                 );
+                // The default profile's variants (`--handgate-profile`), against the same baseline.
+                for var in v.iter().filter(|r| r.rate_hz == rate && r.target.starts_with("handgate ")) {
+                    if let (Some(vl), Some(x)) = (var.latency_us, ex) {
+                        let (a, b) = (vl.median / x.median, vl.p99 / x.p99);
+                        summary.push((
+                            format!(
+                                "hop (USB device), {} / (floor + one emulated exchange) at {rate:.0} Hz (median, p99)",
+                                var.target
+                            ),
+                            format!("{a:.2}×, {b:.2}× ({} / {} median)", us(vl.median), us(x.median)),
+                            "a variant of the default profile: what the target's miss rests on".into(),
+                            "measured",
+                        ));
+                    }
+                }
+                if let Some(t) = th {
+                    let (a, b) = (h.median / t.median, h.p99 / t.p99);
+                    summary.push((
+                        format!("hop handgate / (floor + exchange on a thread) at {rate:.0} Hz (median, p99): one thread hand-off in the baseline"),
+                        format!("{a:.2}×, {b:.2}×"),
+                        "no target of its own".into(),
+                        "measured",
+                    ));
+                }
                 if let Some(x) = ex {
                     let (a, b) = (h.median / x.median, h.p99 / x.p99);
                     summary.push((
