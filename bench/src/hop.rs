@@ -290,15 +290,17 @@ pub fn echo(
         let mut ex = Exchange::new()?;
         let slot: Arc<Mutex<Option<HandCmd_>>> = Arc::default();
         let s2 = slot.clone();
-        let worker = std::thread::Builder::new().name("echo-exchange".into()).spawn(move || loop {
-            std::thread::park();
-            while let Some(c) = s2.lock().unwrap_or_else(|e| e.into_inner()).take() {
-                if let Err(e) = ex.run(&c) {
-                    eprintln!("echo: exchange failed: {e}");
+        let worker = std::thread::Builder::new()
+            .name("echo-exchange".into())
+            .spawn(move || loop {
+                std::thread::park();
+                while let Some(c) = s2.lock().unwrap_or_else(|e| e.into_inner()).take() {
+                    if let Err(e) = ex.run(&c) {
+                        eprintln!("echo: exchange failed: {e}");
+                    }
+                    answer(&mut writer, c.reserve[0]);
                 }
-                answer(&mut writer, c.reserve[0]);
-            }
-        })?;
+            })?;
         let waker = worker.thread().clone();
         let _reader = node.reader_with_callback::<HandCmd_, _>(cmd_topic, Qos::Reliable { depth: 16 }, move |h| {
             let mut v = Vec::new();

@@ -379,7 +379,10 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                     "| {rate:.0} Hz | {x50} | {x99} | {h50} | {h99} | {r50:.2}× | {r99:.2}× | {t50} | {p50} | {p99} |"
                 );
                 // The default profile's variants (`--handgate-profile`), against the same baseline.
-                for var in v.iter().filter(|r| r.rate_hz == rate && r.target.starts_with("handgate ")) {
+                for var in v
+                    .iter()
+                    .filter(|r| r.rate_hz == rate && r.target.starts_with("handgate "))
+                {
                     if let (Some(vl), Some(x)) = (var.latency_us, ex) {
                         let (a, b) = (vl.median / x.median, vl.p99 / x.p99);
                         summary.push((
