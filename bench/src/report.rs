@@ -639,7 +639,8 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                  every front's state topic (a reader of the topic's own type). Every time is taken in the bench's \
                  DDS listener as the sample arrives, and the readers exist before the spawn, so DDS discovery of \
                  the new participant is part of the figure. Load average {:.2} at the start, {:.2} \
-                 at the end. Target: under 1 s.\n",
+                 at the end. Targets: every device fresh under 1 s; a state on every front under 100 ms \
+                 (issue #30), median and worst.\n",
                 r.profile, r.runs, r.load_start[0], r.load_end[0]
             );
             body.push_str("| figure | median | max over runs | target |\n|---|---|---|---|\n");
@@ -651,11 +652,12 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                 med(&r.serving_ms),
                 max(&r.serving_ms)
             );
-            for (what, v) in [
-                ("every device fresh", &r.all_fresh_ms),
-                ("a state on every front", &r.all_fronts_ms),
+            // Issue #30: a state on every front within 100 ms of the spawn (median and worst).
+            for (what, v, target_ms) in [
+                ("every device fresh", &r.all_fresh_ms, 1000.0),
+                ("a state on every front", &r.all_fronts_ms, 100.0),
             ] {
-                let ok = max(v) < 1000.0;
+                let ok = max(v) < target_ms;
                 let _ = writeln!(
                     body,
                     "| spawn → {what} | {:.0} ms | {:.0} ms | {} |",
@@ -669,7 +671,7 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                         r.profile, r.runs
                     ),
                     format!("{:.0} ms, {:.0} ms", med(v), max(v)),
-                    "< 1 s".into(),
+                    format!("< {target_ms:.0} ms"),
                     verdict(ok),
                 ));
             }
