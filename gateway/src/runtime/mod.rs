@@ -546,3 +546,36 @@ where
 
 /// How long shutdown waits for each device to confirm its safe state.
 const SHUTDOWN_CONFIRM: Duration = Duration::from_millis(500);
+
+#[cfg(test)]
+mod tests {
+    use handgate_adapters::discovery::Origin::{Remote, ThisParticipant, ThisProcess};
+    use handgate_adapters::discovery::Role;
+
+    use crate::diagnostics::tests::snapshots::snap;
+
+    #[test]
+    fn the_settle_sees_other_processes_only() {
+        // (`snap` keys an endpoint by its index: the remote reader comes first in each.)
+        let before = snap(&[
+            (3, Remote, Role::Reader, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/dex1/left/state", "t"),
+        ]);
+        // This process's devices open: its own endpoints and emulators' participants appear.
+        let devices_opened = snap(&[
+            (3, Remote, Role::Reader, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/handgate/emu/dex1_left/cmd", "t"),
+            (2, ThisProcess, Role::Reader, "rt/handgate/emu/dex1_left/cmd", "t"),
+        ]);
+        assert_eq!(super::others(&before), super::others(&devices_opened));
+        // Another process's writer is a change.
+        let foreign = snap(&[
+            (3, Remote, Role::Reader, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/dex1/left/state", "t"),
+            (3, Remote, Role::Writer, "rt/dex1/left/state", "t"),
+        ]);
+        assert_ne!(super::others(&before), super::others(&foreign));
+        assert_eq!(super::others(&foreign).len(), 3, "its participant and two endpoints");
+    }
+}
