@@ -20,7 +20,9 @@
 #   8. sites      not run here: make fleet measures it (root, Zenoh); the section is re-written
 #                 from its last figures, docs/benchmarks/sites.json
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop busy hop shim fleet simall startup timers record" to run a subset (the report keeps only what this run made).
+# BENCH_ONLY="codec loop busy hop shim fleet simall startup timers record dashboard" to run a subset:
+# the sections it does not run are carried from docs/benchmarks/raw/ (the last report's raw results),
+# marked in the report with the date and load of the run that measured them; raw/ then holds the union.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -127,6 +129,8 @@ if want dashboard; then
 fi
 
 "$bin/handgate-bench" machine --out "$results/machine_end.json"
+# The sections this run did not measure: their last results, with the run that measured them.
+"$bin/handgate-bench" carry --raw "$root/docs/benchmarks/raw" --results "$results" --measured "$only"
 "$bin/handgate-bench" report --results "$results" --repo "$root" --out "$root/docs/benchmarks.md"
 if [ -f "$results/dashboard.json" ]; then
   .venv/bin/python bench/dashboard_cost.py --report "$results/dashboard.json" --into "$root/docs/benchmarks.md"
@@ -135,7 +139,8 @@ fi
 if [ -f "$root/docs/benchmarks/sites.json" ]; then
   .venv/bin/python tests/python/sites_measure.py report "$root/docs/benchmarks/sites.json" --into "$root/docs/benchmarks.md"
 fi
-# Keep the raw results of this run next to the report, so every figure can be re-derived.
+# Keep the raw results of this run (with those it carried) next to the report, so every figure
+# can be re-derived.
 raw="$root/docs/benchmarks/raw"
 rm -rf "$raw"
 mkdir -p "$raw"

@@ -2,6 +2,7 @@
 //! and the report that turns them into docs/benchmarks.md. See docs/benchmarks.md.
 
 mod busy;
+mod carry;
 mod child;
 mod criterion;
 mod device_loop;
@@ -249,6 +250,19 @@ enum Cmd {
         since: u64,
         #[arg(long)]
         out: PathBuf,
+    },
+    /// Complete a subset run's results (`BENCH_ONLY`) with the sections it did not measure from
+    /// the last report's raw results, each with the run that measured it (`runs.json`).
+    Carry {
+        /// The last report's raw results (docs/benchmarks/raw).
+        #[arg(long)]
+        raw: PathBuf,
+        /// This run's results (with its machine.json).
+        #[arg(long)]
+        results: PathBuf,
+        /// The sections this run measured (scripts/bench.sh names, space-separated).
+        #[arg(long)]
+        measured: String,
     },
     /// Write docs/benchmarks.md from a results directory.
     Report {
@@ -592,6 +606,14 @@ fn main() -> anyhow::Result<()> {
             save(&out, &r)?;
         }
         Cmd::Criterion { dir, since, out } => save(&out, &criterion::collect(&dir, since)?)?,
+        Cmd::Carry { raw, results, measured } => {
+            let measured: Vec<String> = measured.split_whitespace().map(str::to_string).collect();
+            for (name, m) in carry::carry(&raw, &results, &measured)? {
+                if m.carried {
+                    eprintln!("bench: {name}: carried from the run of {}", m.date);
+                }
+            }
+        }
         Cmd::Report { results, repo, out } => report::write(&results, &repo, &out)?,
     }
     Ok(())

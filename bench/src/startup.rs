@@ -3,9 +3,10 @@
 //!
 //! The topics come from the profile as the gateway resolves it (`recording::live_topics`: each
 //! front's state topic, the canonical states, `rt/joint_states`). Every device's freshness is
-//! read from its canonical state (`rt/handgate/<device>/state`, typed readers: the time is
-//! taken in the DDS listener); the other topics through the recorder's tap (any known type),
-//! which polls every 20 ms, so their times are late by up to 20 ms.
+//! read from its canonical state (`rt/handgate/<device>/state`); every other front state topic
+//! through a reader of its own wire type. Every reader exists before the spawn, and each time
+//! is taken in the reader's DDS listener when the sample arrives, so the figures are the
+//! gateway's (and DDS discovery's), not a poll's.
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
@@ -13,6 +14,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::handgate::{HandState_, STALE};
+use handgate_idl::{handgate, inspire, ros2, unitree_go, unitree_hg, DdsTypeName, TopicType};
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -57,24 +59,20 @@ fn once(bin: &std::path::Path, profile: &str, domain: u32, timeout: Duration) ->
     let topics: Vec<_> = handgate_gateway::recording::live_topics(&plan, &[])
         .into_iter()
         .filter(|t| t.dds_topic != "rt/handgate/status" && !t.dds_topic.contains("/emu/"))
+        // The health messages (`rt/diagnostics`, `rt/hardware_status`) follow the status
+        // (1 Hz), not a front: they are no front's state.
+        .filter(|t| {
+            t.dds_type != <ros2::DiagnosticArray_ as DdsTypeName>::DDS_TYPE_NAME
+                && t.dds_type != <ros2::HardwareStatus_ as DdsTypeName>::DDS_TYPE_NAME
+        })
         .filter(|t| !devices.iter().any(|d| canonical(d) == t.dds_topic))
         .collect();
-    let tapped = handgate_record::tap::tappable(topics, "startup");
     let node = Node::new(domain, None)?;
     let first: Arc<Mutex<BTreeMap<usize, u64>>> = Arc::default();
-    let f = first.clone();
-    let tap = handgate_record::tap::Tap::start(
-        &node,
-        &tapped,
-        handgate_record::tap::Subscribe::All,
-        "startup-tap",
-        move |s| {
-            f.lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .entry(s.topic)
-                .or_insert(s.log_time);
-        },
-    )?;
+    let mut keep: Vec<Box<dyn std::any::Any>> = Vec::new();
+    for (i, t) in topics.iter().enumerate() {
+        keep.push(first_sample(&node, &t.dds_topic, &t.dds_type, i, first.clone())?);
+    }
     let fresh: Arc<Mutex<BTreeMap<String, u64>>> = Arc::default();
     let mut readers = Vec::new();
     for d in &devices {
@@ -101,19 +99,19 @@ fn once(bin: &std::path::Path, profile: &str, domain: u32, timeout: Duration) ->
     loop {
         let nf = fresh.lock().unwrap_or_else(|e| e.into_inner()).len();
         let nt = first.lock().unwrap_or_else(|e| e.into_inner()).len();
-        if nf == devices.len() && nt == tapped.len() {
+        if nf == devices.len() && nt == topics.len() {
             break;
         }
         anyhow::ensure!(
             Instant::now() < end,
             "start-up: {nf}/{} devices fresh, {nt}/{} front topics with a sample after {timeout:?}",
             devices.len(),
-            tapped.len()
+            topics.len()
         );
         std::thread::sleep(Duration::from_millis(5));
     }
     gw.stop();
-    tap.stop();
+    drop(keep);
     drop(readers);
     let ms = |t: u64| t.saturating_sub(t0) as f64 / 1e6;
     let per_device: BTreeMap<String, f64> = fresh
@@ -126,11 +124,59 @@ fn once(bin: &std::path::Path, profile: &str, domain: u32, timeout: Duration) ->
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .iter()
-        .map(|(i, t)| (tapped[*i].spec.dds_topic.clone(), ms(*t)))
+        .map(|(i, t)| (topics[*i].dds_topic.clone(), ms(*t)))
         .collect();
     let all_fresh = per_device.values().copied().fold(0.0, f64::max);
     let all_fronts = per_topic.values().copied().fold(0.0, f64::max);
     Ok((serving, all_fresh, all_fronts, per_topic, per_device))
+}
+
+/// A best-effort reader of `topic` (DDS type `dds_type`, one of the wire types the fronts
+/// write) whose listener puts the arrival time of its first sample at `index` in `first`.
+/// Returned boxed: it only has to live as long as the measurement.
+fn first_sample(
+    node: &Node,
+    topic: &str,
+    dds_type: &str,
+    index: usize,
+    first: Arc<Mutex<BTreeMap<usize, u64>>>,
+) -> anyhow::Result<Box<dyn std::any::Any>> {
+    fn typed<T: TopicType + Clone + 'static>(
+        node: &Node,
+        topic: &str,
+        index: usize,
+        first: Arc<Mutex<BTreeMap<usize, u64>>>,
+    ) -> anyhow::Result<Box<dyn std::any::Any>> {
+        let reader = node.reader_with_callback::<T, _>(topic, Qos::BestEffort, move |h| {
+            let now = epoch_ns();
+            let mut v = Vec::new();
+            h.take_into(&mut v);
+            if !v.is_empty() {
+                first
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .entry(index)
+                    .or_insert(now);
+            }
+        })?;
+        Ok(Box::new(reader))
+    }
+    macro_rules! by_type {
+        ($($ty:ty),* $(,)?) => {
+            $(if dds_type == <$ty as DdsTypeName>::DDS_TYPE_NAME {
+                return typed::<$ty>(node, topic, index, first);
+            })*
+        };
+    }
+    by_type!(
+        unitree_hg::HandState_,
+        unitree_go::MotorStates_,
+        handgate::HandState_,
+        ros2::JointState_,
+        inspire::InspireHandState,
+        inspire::InspireHandTouch,
+    );
+    anyhow::bail!("start-up: {topic}: no reader for type {dds_type}")
 }
 
 /// `runs` starts of `bin` on `profile`, one after the other.

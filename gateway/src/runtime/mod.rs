@@ -167,6 +167,7 @@ impl Runtime {
                 "device loops already run on {already} shared threads"
             );
         }
+        let started = Instant::now();
         let node = Node::new(plan.domain, plan.interface.as_deref())?;
         // Started first, so what is already on the domain is known by the time fronts open.
         let discovery = Discovery::start(&node, DiscoveryConfig::default())?;
@@ -196,9 +197,38 @@ impl Runtime {
         // Likewise the dashboard's port.
         let http_listener = plan.http.as_ref().map(crate::http::bind).transpose()?;
         let mut shared = Shared::default();
-        let opened = open_devices(&node, plan, &mut shared)?;
         let served = crate::diagnostics::served(plan);
-        check_foreign_state_writers(clients_discovery, plan, &served)?;
+        // The foreign-writer check's wait for discovery to settle runs on a thread of its own
+        // while the devices open: neither needs the other, and the wait is most of a start.
+        let (opened, settled) = std::thread::scope(|s| {
+            let settling = refuses_foreign_writers(plan, &served).then(|| {
+                std::thread::Builder::new()
+                    .name("discovery-settle".into())
+                    .spawn_scoped(s, || settle(clients_discovery, plan))
+            });
+            let opened = open_devices(&node, plan, &mut shared);
+            tracing::debug!(
+                since_start_ms = started.elapsed().as_millis() as u64,
+                "start-up: devices open"
+            );
+            let settled = settling.map(|h| match h {
+                Ok(h) => h.join().unwrap_or_else(|_| settle(clients_discovery, plan)),
+                // No thread: the same wait on this one, after the devices.
+                Err(_) => settle(clients_discovery, plan),
+            });
+            (opened, settled)
+        });
+        let opened = opened?;
+        if let Some((snapshot, waited)) = settled {
+            tracing::debug!(
+                since_start_ms = started.elapsed().as_millis() as u64,
+                waited_ms = waited.as_millis() as u64,
+                participants = snapshot.participants.len(),
+                endpoints = snapshot.endpoints.len(),
+                "discovery settled"
+            );
+            check_foreign_state_writers(&snapshot, &served)?;
+        }
         let mut devices = Vec::new();
         let mut by_name = HashMap::new();
         for (p, device) in plan.devices.iter().zip(opened) {
@@ -283,6 +313,10 @@ impl Runtime {
         if let Some(ns) = &plan.namespace {
             tasks.push(ros::spawn_presence(&clients, ns.clone(), shutdown_rx.clone())?);
         }
+        tracing::debug!(
+            since_start_ms = started.elapsed().as_millis() as u64,
+            "start-up: fronts open"
+        );
         Ok(Self {
             node,
             devices,
@@ -412,52 +446,67 @@ fn spawn_fleet_look(
 const FLEET_LOOK: Duration = Duration::from_secs(3);
 const FLEET_EVERY: Duration = Duration::from_secs(2);
 
-/// Waits until discovery has settled (no change for `plan.discovery_settle`, at most
-/// `plan.discovery_max_wait` in all); returns the snapshot and how long it took.
+/// What other processes show on a domain: their participants and endpoints. This process's
+/// own endpoints, which appear while its devices open, are not part of it.
+fn others(s: &handgate_adapters::discovery::Snapshot) -> Vec<handgate_adapters::discovery::Guid> {
+    s.participants
+        .iter()
+        .filter(|p| !p.origin.is_local())
+        .map(|p| p.key)
+        .chain(s.endpoints.iter().filter(|e| !e.origin.is_local()).map(|e| e.key))
+        .collect()
+}
+
+/// Waits until discovery has settled: what other processes show unchanged for
+/// `plan.discovery_settle`, at most `plan.discovery_max_wait` in all, both counted from the
+/// call. Returns the snapshot and how long it took.
 fn settle(discovery: &Discovery, plan: &Plan) -> (Arc<handgate_adapters::discovery::Snapshot>, Duration) {
     let start = Instant::now();
+    let mut seen = others(&discovery.snapshot());
+    let mut last_change = Duration::ZERO;
     loop {
-        let generation = discovery.snapshot().generation;
         let left = plan.discovery_max_wait.saturating_sub(start.elapsed());
         if left.is_zero() {
             break;
         }
         // Err: nothing changed within the settle time (or the cap came first).
-        if discovery
-            .wait_for(plan.discovery_settle.min(left), |s| s.generation != generation)
-            .is_err()
-        {
-            break;
+        match discovery.wait_for(plan.discovery_settle.min(left), |s| others(s) != seen) {
+            Ok(s) => {
+                seen = others(&s);
+                last_change = start.elapsed();
+            }
+            Err(_) => break,
         }
     }
+    tracing::debug!(
+        last_change_ms = last_change.as_secs_f64() * 1e3,
+        others = seen.len(),
+        "discovery: the last change from other processes"
+    );
     (discovery.snapshot(), start.elapsed())
 }
 
-/// Before the fronts open: another process already writing a state topic a front would
-/// write refuses the start (`dds.foreign_state_writers = "refuse"`, naming the topic and the
-/// process), or is logged (`"warn"`; the diagnostics task then flags it in status). Waits for
-/// discovery to settle first, only when refusing and some front writes a topic.
+/// Whether the start waits for discovery to settle and refuses foreign state writers:
+/// `dds.foreign_state_writers = "refuse"` and some front writes a topic.
+fn refuses_foreign_writers(plan: &Plan, served: &[crate::diagnostics::ServedBy]) -> bool {
+    use crate::profile::ForeignStateWriters;
+    plan.foreign_state_writers == ForeignStateWriters::Refuse
+        && served.iter().any(|s| {
+            matches!(s.owner, crate::diagnostics::Owner::Front(_))
+                && s.served.role == handgate_adapters::discovery::Role::Writer
+        })
+}
+
+/// Before the fronts open, on the settled `snapshot`: another process already writing a state
+/// topic a front would write refuses the start (`dds.foreign_state_writers = "refuse"`,
+/// naming the topic and the process). With `"warn"` there is no check: the diagnostics task
+/// flags such a writer in status.
 fn check_foreign_state_writers(
-    discovery: &Discovery,
-    plan: &Plan,
+    snapshot: &handgate_adapters::discovery::Snapshot,
     served: &[crate::diagnostics::ServedBy],
 ) -> Result<(), RuntimeError> {
     use crate::profile::ForeignStateWriters;
-    let writes = served.iter().any(|s| {
-        matches!(s.owner, crate::diagnostics::Owner::Front(_))
-            && s.served.role == handgate_adapters::discovery::Role::Writer
-    });
-    if plan.foreign_state_writers != ForeignStateWriters::Refuse || !writes {
-        return Ok(());
-    }
-    let (snapshot, waited) = settle(discovery, plan);
-    tracing::debug!(
-        waited_ms = waited.as_millis() as u64,
-        participants = snapshot.participants.len(),
-        endpoints = snapshot.endpoints.len(),
-        "discovery settled"
-    );
-    let found = crate::diagnostics::foreign_state_writers(&snapshot, served);
+    let found = crate::diagnostics::foreign_state_writers(snapshot, served);
     if found.is_empty() {
         return Ok(());
     }
@@ -497,3 +546,36 @@ where
 
 /// How long shutdown waits for each device to confirm its safe state.
 const SHUTDOWN_CONFIRM: Duration = Duration::from_millis(500);
+
+#[cfg(test)]
+mod tests {
+    use handgate_adapters::discovery::Origin::{Remote, ThisParticipant, ThisProcess};
+    use handgate_adapters::discovery::Role;
+
+    use crate::diagnostics::tests::snapshots::snap;
+
+    #[test]
+    fn the_settle_sees_other_processes_only() {
+        // (`snap` keys an endpoint by its index: the remote reader comes first in each.)
+        let before = snap(&[
+            (3, Remote, Role::Reader, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/dex1/left/state", "t"),
+        ]);
+        // This process's devices open: its own endpoints and emulators' participants appear.
+        let devices_opened = snap(&[
+            (3, Remote, Role::Reader, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/handgate/emu/dex1_left/cmd", "t"),
+            (2, ThisProcess, Role::Reader, "rt/handgate/emu/dex1_left/cmd", "t"),
+        ]);
+        assert_eq!(super::others(&before), super::others(&devices_opened));
+        // Another process's writer is a change.
+        let foreign = snap(&[
+            (3, Remote, Role::Reader, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/dex1/left/state", "t"),
+            (3, Remote, Role::Writer, "rt/dex1/left/state", "t"),
+        ]);
+        assert_ne!(super::others(&before), super::others(&foreign));
+        assert_eq!(super::others(&foreign).len(), 3, "its participant and two endpoints");
+    }
+}
