@@ -485,12 +485,13 @@ pub struct StateGrid {
 }
 
 impl StateGrid {
-    /// A grid of `period` starting at `now` (the first publish one period later).
+    /// A grid of `period` starting at `now`, with a publish due at once (a client that starts
+    /// with the front sees a state within a device cycle, not a period later).
     pub fn new(period: Duration, by_device: bool, now: Instant) -> Self {
         let period = period.max(Duration::from_micros(100));
         Self {
             period,
-            next: now + period,
+            next: now,
             by_device,
             last_state: None,
             dropped: 0,
@@ -1204,6 +1205,8 @@ mod tests {
         let p = Duration::from_millis(2);
         let mut g = StateGrid::new(p, false, t0);
         assert!(!g.at_state(t0 + p), "device states never publish on a timer grid");
+        assert_eq!(g.deadline(), t0, "the first publish is due at once");
+        assert!(g.due(t0));
         assert_eq!(g.deadline(), t0 + p);
         assert!(!g.due(t0 + p / 2));
         assert!(g.due(t0 + p + p / 2), "late by half a period");
@@ -1225,6 +1228,7 @@ mod tests {
         let p = Duration::from_millis(2);
         let ms = Duration::from_millis(1);
         let mut g = StateGrid::new(p, true, t0);
+        assert!(g.at_state(t0), "the first device state publishes at once");
         // A 1 kHz device with some jitter: one publish per 2 ms period.
         let states = [1.0, 1.9, 3.1, 3.9, 5.0, 6.05, 7.0, 7.95, 9.1, 10.0];
         let published: Vec<f64> = states
