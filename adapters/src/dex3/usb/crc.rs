@@ -24,7 +24,7 @@ pub fn crc32_mpeg2(bytes: &[u8]) -> u32 {
 ///
 /// The device loop and the emulator run it over a whole command and a whole state frame every
 /// cycle (about 2.5 kB each way): on x86-64 CPUs with carry-less multiplication, runs of at
-/// least [`FOLD_MIN`] bytes are folded 16 bytes at a time ([`fold`]), the rest goes through the
+/// least [`FOLD_MIN`] bytes are folded 64 and 16 bytes at a time ([`fold`]), the rest goes through the
 /// table, with the same result (tested against the manual's routine).
 pub fn crc32_words(words: &[u8]) -> u32 {
     let words = &words[..words.len() / 4 * 4];
@@ -92,10 +92,15 @@ mod fold {
         r
     }
 
-    /// Multiplies the high 64 bits of the running value (`x^192 mod P`) and the low ones
-    /// (`x^128 mod P`).
-    const K_HIGH: u64 = x_pow_mod(192);
-    const K_LOW: u64 = x_pow_mod(128);
+    /// The constants that move a 128-bit value `n` bits further down the stream: its high 64
+    /// bits are multiplied by `x^(n+64) mod P`, its low ones by `x^n mod P` (high lane, low lane).
+    const fn by(n: u32) -> (u64, u64) {
+        (x_pow_mod(n + 64), x_pow_mod(n))
+    }
+    const BY_128: (u64, u64) = by(128);
+    const BY_256: (u64, u64) = by(256);
+    const BY_384: (u64, u64) = by(384);
+    const BY_512: (u64, u64) = by(512);
 
     /// Whether this CPU has what [`crc32_words`] needs (checked once, then cached by std).
     pub(super) fn available() -> bool {
@@ -116,7 +121,31 @@ mod fold {
         unsafe { _mm_shuffle_epi32::<0x1B>(v) }
     }
 
-    /// The CRC of a whole number of words, at least 16 bytes.
+    /// `x` moved `n` bits down the stream (`k` = [`by`]`(n)` in a register), modulo `P`.
+    ///
+    /// # Safety
+    /// The CPU has PCLMULQDQ and SSE2.
+    #[target_feature(enable = "pclmulqdq,sse2")]
+    #[allow(unused_unsafe)] // the intrinsics are unsafe to call before Rust 1.87 (MSRV 1.80)
+    unsafe fn fold(x: __m128i, k: __m128i) -> __m128i {
+        // SAFETY: the caller's contract.
+        unsafe { _mm_xor_si128(_mm_clmulepi64_si128::<0x11>(x, k), _mm_clmulepi64_si128::<0x00>(x, k)) }
+    }
+
+    /// The constants of [`by`] in a register.
+    ///
+    /// # Safety
+    /// The CPU has SSE2.
+    #[target_feature(enable = "sse2")]
+    #[allow(unused_unsafe)] // the intrinsics are unsafe to call before Rust 1.87 (MSRV 1.80)
+    unsafe fn constants((high, low): (u64, u64)) -> __m128i {
+        // SAFETY: the caller's contract.
+        unsafe { _mm_set_epi64x(high as i64, low as i64) }
+    }
+
+    /// The CRC of a whole number of words, at least 16 bytes. Four running values fold 64
+    /// bytes at a time (four independent chains of multiplications keep the multiplier busy),
+    /// then join into one, which folds the whole 16-byte blocks left.
     ///
     /// # Safety
     /// The CPU has PCLMULQDQ and SSE2 ([`available`]); `words.len()` is a multiple of 4 and at
@@ -125,22 +154,39 @@ mod fold {
     #[allow(unused_unsafe)] // the intrinsics are unsafe to call before Rust 1.87 (MSRV 1.80)
     pub(super) unsafe fn crc32_words(words: &[u8]) -> u32 {
         debug_assert!(words.len() >= 16 && words.len() % 4 == 0);
-        let blocks = words.len() / 16;
         // SAFETY (every block below): SSE2 and PCLMULQDQ are present (the caller's contract);
         // each load reads 16 bytes inside `words`.
-        let (mut x, k) = unsafe {
-            let preset = _mm_set_epi32(-1, 0, 0, 0);
-            (
-                _mm_xor_si128(load(&words[..16]), preset),
-                _mm_set_epi64x(K_HIGH as i64, K_LOW as i64),
-            )
-        };
-        for block in words[16..blocks * 16].chunks_exact(16) {
-            x = unsafe {
-                let high = _mm_clmulepi64_si128::<0x11>(x, k);
-                let low = _mm_clmulepi64_si128::<0x00>(x, k);
-                _mm_xor_si128(_mm_xor_si128(high, low), load(block))
+        let preset = unsafe { _mm_set_epi32(-1, 0, 0, 0) };
+        let mut at;
+        let mut x = if words.len() >= 64 {
+            let k = unsafe { constants(BY_512) };
+            let mut v = unsafe {
+                [
+                    _mm_xor_si128(load(&words[..16]), preset),
+                    load(&words[16..32]),
+                    load(&words[32..48]),
+                    load(&words[48..64]),
+                ]
             };
+            at = 64;
+            while words.len() - at >= 64 {
+                for (i, x) in v.iter_mut().enumerate() {
+                    *x = unsafe { _mm_xor_si128(fold(*x, k), load(&words[at + 16 * i..])) };
+                }
+                at += 64;
+            }
+            unsafe {
+                let joined = _mm_xor_si128(fold(v[0], constants(BY_384)), fold(v[1], constants(BY_256)));
+                _mm_xor_si128(_mm_xor_si128(joined, fold(v[2], constants(BY_128))), v[3])
+            }
+        } else {
+            at = 16;
+            unsafe { _mm_xor_si128(load(&words[..16]), preset) }
+        };
+        let k = unsafe { constants(BY_128) };
+        while words.len() - at >= 16 {
+            x = unsafe { _mm_xor_si128(fold(x, k), load(&words[at..])) };
+            at += 16;
         }
         let mut lanes = [0u32; 4];
         unsafe { _mm_storeu_si128(lanes.as_mut_ptr().cast(), x) };
@@ -152,7 +198,7 @@ mod fold {
         // From a zero register: `bytes` and the tail are words (little-endian), as
         // `table_words` takes them.
         let digest = MPEG2.digest_with_initial(0);
-        let tail = &words[blocks * 16..];
+        let tail = &words[at..];
         let mut rest = [0u8; 32];
         rest[..16].copy_from_slice(&bytes);
         rest[16..16 + tail.len()].copy_from_slice(tail);
