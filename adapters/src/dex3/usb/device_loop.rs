@@ -655,6 +655,26 @@ mod tests {
     use super::*;
 
     #[test]
+    fn grid_origin_on_the_shared_grid_only_when_asked() {
+        let period = Duration::from_millis(1);
+        let now = Instant::now() + Duration::from_micros(1234);
+        let own = LoopConfig::default();
+        assert!(!own.shared_grid, "a real hand keeps the phase of its connect");
+        assert_eq!(grid_origin(&own, now), now);
+        let shared = LoopConfig {
+            shared_grid: true,
+            ..Default::default()
+        };
+        let t0 = grid_origin(&shared, now);
+        // The last grid instant at or before `now`: the first exchange is not delayed, the
+        // next deadline (t0 + period) is the grid's, the one every other loop of this
+        // period has.
+        assert!(t0 <= now && now - t0 < period, "{:?}", now - t0);
+        assert_eq!(crate::loops::grid_at_or_after(t0, period), t0);
+        assert_eq!(grid_origin(&shared, now + period), t0 + period);
+    }
+
+    #[test]
     fn histogram_quantiles() {
         let mut h = PeriodHistogram::new();
         assert_eq!(h.quantile(0.5), None);
