@@ -162,6 +162,11 @@ pub fn task_switches(pid: u32) -> std::collections::HashMap<u32, (String, u64, u
     out
 }
 
+/// [`task_cpu`]'s reading: (thread name, CPU seconds) by tid.
+pub type TaskCpu = std::collections::HashMap<u32, (String, f64)>;
+/// [`task_switches`]'s reading: (thread name, voluntary, involuntary) by tid.
+pub type TaskSwitches = std::collections::HashMap<u32, (String, u64, u64)>;
+
 /// One thread group over a window: CPU and context switches.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct GroupCost {
@@ -182,17 +187,7 @@ pub struct GroupCost {
 /// Per thread group between two readings `wall` seconds apart ([`task_cpu`] and
 /// [`task_switches`] before and after; threads that ended in between are not counted), CPU
 /// largest first.
-pub fn group_costs(
-    cpu: (
-        &std::collections::HashMap<u32, (String, f64)>,
-        &std::collections::HashMap<u32, (String, f64)>,
-    ),
-    switches: (
-        &std::collections::HashMap<u32, (String, u64, u64)>,
-        &std::collections::HashMap<u32, (String, u64, u64)>,
-    ),
-    wall: f64,
-) -> Vec<GroupCost> {
+pub fn group_costs(cpu: (&TaskCpu, &TaskCpu), switches: (&TaskSwitches, &TaskSwitches), wall: f64) -> Vec<GroupCost> {
     let wall = wall.max(1e-9);
     let mut g: std::collections::BTreeMap<String, GroupCost> = std::collections::BTreeMap::new();
     for (tid, (name, c1)) in cpu.1 {
