@@ -81,8 +81,9 @@ fn stat_cpu(s: &str) -> Option<(String, f64)> {
     Some((s[open + 1..close].to_string(), (utime + stime) / hz.max(1.0)))
 }
 
-/// CPU seconds of each thread of `pid`, by tid: (thread name, utime+stime).
-pub fn task_cpu(pid: u32) -> std::collections::HashMap<u32, (String, f64)> {
+/// `parse` of each thread's `/proc/<pid>/task/<tid>/<file>`, by tid (threads whose file cannot
+/// be read or parsed are left out).
+fn per_task<V>(pid: u32, file: &str, parse: impl Fn(&str) -> Option<V>) -> std::collections::HashMap<u32, V> {
     let mut out = std::collections::HashMap::new();
     let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
         return out;
@@ -91,15 +92,20 @@ pub fn task_cpu(pid: u32) -> std::collections::HashMap<u32, (String, f64)> {
         let Some(tid) = e.file_name().to_str().and_then(|t| t.parse::<u32>().ok()) else {
             continue;
         };
-        if let Some(c) = std::fs::read_to_string(e.path().join("stat"))
+        if let Some(v) = std::fs::read_to_string(e.path().join(file))
             .ok()
             .as_deref()
-            .and_then(stat_cpu)
+            .and_then(&parse)
         {
-            out.insert(tid, c);
+            out.insert(tid, v);
         }
     }
     out
+}
+
+/// CPU seconds of each thread of `pid`, by tid: (thread name, utime+stime).
+pub fn task_cpu(pid: u32) -> TaskCpu {
+    per_task(pid, "stat", stat_cpu)
 }
 
 /// A thread's group for per-thread CPU tables: DDS device loops (`dev-<device>`) as one,
@@ -132,34 +138,19 @@ pub fn group_cpu(
 /// from `/proc/<pid>/task/<tid>/status`. A voluntary switch is the thread blocking (a sleep to
 /// its next deadline, a wait for work), so over a window it counts the thread's wake-ups; an
 /// involuntary one is the thread preempted while it could still run.
-pub fn task_switches(pid: u32) -> std::collections::HashMap<u32, (String, u64, u64)> {
-    let mut out = std::collections::HashMap::new();
-    let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
-        return out;
-    };
-    for e in dir.flatten() {
-        let Some(tid) = e.file_name().to_str().and_then(|t| t.parse::<u32>().ok()) else {
-            continue;
-        };
-        let Ok(status) = std::fs::read_to_string(e.path().join("status")) else {
-            continue;
-        };
+pub fn task_switches(pid: u32) -> TaskSwitches {
+    per_task(pid, "status", |status| {
         let field = |key: &str| {
             status
                 .lines()
                 .find_map(|l| l.strip_prefix(key)?.strip_prefix(':').map(str::trim))
-                .map(str::to_string)
         };
-        let (Some(name), Some(v), Some(n)) = (
-            field("Name"),
-            field("voluntary_ctxt_switches").and_then(|v| v.parse().ok()),
-            field("nonvoluntary_ctxt_switches").and_then(|v| v.parse().ok()),
-        ) else {
-            continue;
-        };
-        out.insert(tid, (name, v, n));
-    }
-    out
+        Some((
+            field("Name")?.to_string(),
+            field("voluntary_ctxt_switches")?.parse().ok()?,
+            field("nonvoluntary_ctxt_switches")?.parse().ok()?,
+        ))
+    })
 }
 
 /// [`task_cpu`]'s reading: (thread name, CPU seconds) by tid.
