@@ -270,8 +270,17 @@ impl Pad {
     /// Makes this pad Dex3 pad `index` with these taxels, reusing its buffers.
     pub fn set_dex3(&mut self, index: usize, pressure: [f32; 12], temperature: [f32; 12]) {
         use std::fmt::Write;
-        self.name.clear();
-        let _ = write!(self.name, "pad_{index}");
+        // A device loop does this for every pad every cycle: rewrite the name only when it
+        // changes (never, after the first cycle).
+        let digits = index.checked_ilog10().unwrap_or(0) as usize + 1;
+        let same = self
+            .name
+            .strip_prefix("pad_")
+            .is_some_and(|n| n.len() == digits && n.parse::<usize>() == Ok(index));
+        if !same {
+            self.name.clear();
+            let _ = write!(self.name, "pad_{index}");
+        }
         (self.rows, self.cols) = (1, 12);
         self.pressure.clear();
         self.pressure.extend_from_slice(&pressure);

@@ -11,7 +11,7 @@ use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::handgate::GatewayStatus_;
 use serde::{Deserialize, Serialize};
 
-use crate::stats::{cpu_seconds, group_cpu, status_kb, task_cpu, Summary};
+use crate::stats::{cpu_seconds, group_costs, group_cpu, status_kb, task_cpu, task_switches, GroupCost, Summary};
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FleetResult {
@@ -39,7 +39,42 @@ pub struct FleetResult {
     /// in-process here), largest first.
     #[serde(default)]
     pub threads_cpu: Vec<(String, f64)>,
+    /// Per thread group: CPU, wake-ups (voluntary context switches) and preemptions per second,
+    /// CPU per wake-up; largest CPU first.
+    #[serde(default)]
+    pub groups: Vec<GroupCost>,
+    /// Per device kind, µs of CPU per device cycle of that kind spent on the threads that
+    /// serve only that kind (Dex3: the `dex3-usb-loop` threads, emulator included; Dex1: the
+    /// DDS-client device loops and the emulated peers' shared thread), and the rest (fronts,
+    /// status, CycloneDDS: every thread serving all devices) per cycle of any device.
+    #[serde(default)]
+    pub per_cycle: Vec<CycleCost>,
+    /// The 1-minute load average at the start and at the end of the window (the machine is
+    /// shared: a figure carries its load).
+    #[serde(default)]
+    pub load1: Option<[f64; 2]>,
 }
+
+/// CPU per device cycle on one set of threads.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CycleCost {
+    /// What the cycles are: "dex3", "dex1" or "all devices".
+    pub cycles_of: String,
+    /// The thread groups counted ([`crate::stats::thread_group`] names).
+    pub groups: Vec<String>,
+    /// Their % of one core.
+    pub cpu_pct: f64,
+    /// Device cycles per second (the state rates summed over the devices).
+    pub cycles_hz: f64,
+    /// µs of CPU per cycle.
+    pub us_per_cycle: f64,
+}
+
+/// Which thread groups serve only one kind of the fleet (the rest serve every device).
+const KIND_GROUPS: &[(&str, &[&str])] = &[
+    ("dex3", &["dex-usb-loop"]),
+    ("dex1", &["dev-* (DDS-client device loops)", "emu-shared-"]),
+];
 
 /// The profile: `n3` Dex3 + `n1` Dex1 on emulators with their fronts on `rt/bench/...`.
 pub fn profile(n3: usize, n1: usize) -> String {
@@ -97,6 +132,8 @@ struct Window {
     missed: HashMap<String, u64>,
     /// % of one core per thread group.
     threads_cpu: Vec<(String, f64)>,
+    groups: Vec<GroupCost>,
+    load1: [f64; 2],
 }
 
 impl Window {
@@ -108,6 +145,58 @@ impl Window {
 }
 
 impl Window {
+    /// Device cycles per second of `kind` (`None`: every device).
+    fn cycles_hz(&self, kind: Option<&str>) -> f64 {
+        self.last
+            .devices
+            .iter()
+            .filter(|d| kind.map_or(true, |k| d.kind == k))
+            .filter_map(|d| self.rate.get(&d.device))
+            .sum()
+    }
+
+    /// CPU per device cycle: each kind's own threads ([`KIND_GROUPS`]) per cycle of that kind,
+    /// every other thread per cycle of any device.
+    fn per_cycle(&self) -> Vec<CycleCost> {
+        let cost = |cycles_of: &str, groups: Vec<String>, cycles_hz: f64| {
+            let cpu_pct: f64 = self
+                .groups
+                .iter()
+                .filter(|g| groups.contains(&g.group))
+                .map(|g| g.cpu_pct)
+                .sum();
+            CycleCost {
+                cycles_of: cycles_of.into(),
+                us_per_cycle: if cycles_hz > 0.0 {
+                    cpu_pct / 100.0 * 1e6 / cycles_hz
+                } else {
+                    f64::NAN
+                },
+                groups,
+                cpu_pct,
+                cycles_hz,
+            }
+        };
+        let mut out: Vec<CycleCost> = KIND_GROUPS
+            .iter()
+            .map(|(kind, groups)| {
+                cost(
+                    kind,
+                    groups.iter().map(|g| g.to_string()).collect(),
+                    self.cycles_hz(Some(kind)),
+                )
+            })
+            .collect();
+        let rest = self
+            .groups
+            .iter()
+            .map(|g| g.group.clone())
+            .filter(|g| !KIND_GROUPS.iter().any(|(_, gs)| gs.contains(&g.as_str())))
+            .collect();
+        out.push(cost("all devices", rest, self.cycles_hz(None)));
+        out
+    }
+
     /// The state-rate summary over the devices of `kind` and their missed cycles, summed.
     fn kind(&self, kind: &str) -> (Option<Summary>, u64) {
         let devs: Vec<_> = self.last.devices.iter().filter(|d| d.kind == kind).collect();
@@ -142,8 +231,10 @@ fn window(
     std::thread::sleep(warm);
     let _ = reader.take();
     let first = reader.wait_take(Duration::from_secs(5))?.pop().expect("one sample");
+    let load0 = crate::stats::loadavg()[0];
     let c0 = cpu_seconds(pid).unwrap_or(f64::NAN);
     let tasks0 = task_cpu(pid);
+    let switches0 = task_switches(pid);
     let t0 = Instant::now();
     let mut rates: HashMap<String, Vec<f64>> = HashMap::new();
     let mut last = first.clone();
@@ -161,7 +252,11 @@ fn window(
     }
     let wall = t0.elapsed().as_secs_f64();
     let c1 = cpu_seconds(pid).unwrap_or(f64::NAN);
-    let threads_cpu = group_cpu(&tasks0, &task_cpu(pid), wall);
+    let tasks1 = task_cpu(pid);
+    let switches1 = task_switches(pid);
+    let threads_cpu = group_cpu(&tasks0, &tasks1, wall);
+    let groups = group_costs((&tasks0, &tasks1), (&switches0, &switches1), wall);
+    let load1 = [load0, crate::stats::loadavg()[0]];
     let missed0: HashMap<&str, u64> = first
         .devices
         .iter()
@@ -189,6 +284,8 @@ fn window(
         rate,
         missed,
         threads_cpu,
+        groups,
+        load1,
     })
 }
 
@@ -220,6 +317,9 @@ pub fn measure(node: &Node, pid: u32, n3: usize, n1: usize, secs: f64, warm: Dur
         devices_seen: w.last.devices.len(),
         cpu_us_per_cycle: w.cpu_us_per_cycle(),
         threads_cpu: w.threads_cpu.clone(),
+        per_cycle: w.per_cycle(),
+        groups: w.groups,
+        load1: Some(w.load1),
     })
 }
 

@@ -549,7 +549,53 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                     "| CPU per device cycle (CPU time / the state samples of every device in the window) | {c:.1} µs | |"
                 );
             }
-            if !f.threads_cpu.is_empty() {
+            if let Some([a, b]) = f.load1 {
+                let _ = writeln!(
+                    body,
+                    "| load average (1 min) at the start / end of the window | {a:.2} / {b:.2} | |"
+                );
+            }
+            if !f.groups.is_empty() {
+                body.push_str(
+                    "\nCPU per thread group over the same window (`/proc/<pid>/task/*/stat` and `status`; the \
+                     emulated hands run inside the gateway here: the Dex3 MCU emulator inside each \
+                     `dex3-usb-loop`'s exchange, the Dex1 peers on the emulators' shared thread `emu-shared-0`; the \
+                     DDS-client device loops on `dev-shared-*`, docs/deployment.md \"Loop threads\"). A wake-up is a \
+                     voluntary context switch (the thread blocked: a sleep to its deadline, a wait for work); \
+                     preempted, an involuntary one:\n\n\
+                     | threads | count | % of one core | wake-ups/s | preempted/s | CPU per wake-up |\n|---|---|---|---|---|---|\n",
+                );
+                for g in f.groups.iter().filter(|g| g.cpu_pct >= 0.5) {
+                    let _ = writeln!(
+                        body,
+                        "| `{}` | {} | {:.1} | {:.0} | {:.0} | {} |",
+                        g.group,
+                        g.threads,
+                        g.cpu_pct,
+                        g.wakeups_hz,
+                        g.preempted_hz,
+                        g.us_per_wakeup.map_or("—".into(), |u| format!("{u:.1} µs"))
+                    );
+                }
+                if !f.per_cycle.is_empty() {
+                    body.push_str(
+                        "\nCPU per device cycle by the threads that do it: each kind's own threads per cycle of that \
+                         kind, the threads serving every device (fronts, status, CycloneDDS) per cycle of any device:\n\n\
+                         | cycles of | threads | % of one core | cycles/s | CPU per cycle |\n|---|---|---|---|---|\n",
+                    );
+                    for c in &f.per_cycle {
+                        let _ = writeln!(
+                            body,
+                            "| {} | {} | {:.1} | {:.0} | {:.2} µs |",
+                            c.cycles_of,
+                            c.groups.iter().map(|g| format!("`{g}`")).collect::<Vec<_>>().join(", "),
+                            c.cpu_pct,
+                            c.cycles_hz,
+                            c.us_per_cycle
+                        );
+                    }
+                }
+            } else if !f.threads_cpu.is_empty() {
                 body.push_str(
                     "\nCPU per thread group over the same window, % of one core (`/proc/<pid>/task/*/stat`; the \
                      emulated hands run inside the gateway here: the Dex3 MCU emulator inside each \

@@ -81,8 +81,9 @@ fn stat_cpu(s: &str) -> Option<(String, f64)> {
     Some((s[open + 1..close].to_string(), (utime + stime) / hz.max(1.0)))
 }
 
-/// CPU seconds of each thread of `pid`, by tid: (thread name, utime+stime).
-pub fn task_cpu(pid: u32) -> std::collections::HashMap<u32, (String, f64)> {
+/// `parse` of each thread's `/proc/<pid>/task/<tid>/<file>`, by tid (threads whose file cannot
+/// be read or parsed are left out).
+fn per_task<V>(pid: u32, file: &str, parse: impl Fn(&str) -> Option<V>) -> std::collections::HashMap<u32, V> {
     let mut out = std::collections::HashMap::new();
     let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
         return out;
@@ -91,15 +92,20 @@ pub fn task_cpu(pid: u32) -> std::collections::HashMap<u32, (String, f64)> {
         let Some(tid) = e.file_name().to_str().and_then(|t| t.parse::<u32>().ok()) else {
             continue;
         };
-        if let Some(c) = std::fs::read_to_string(e.path().join("stat"))
+        if let Some(v) = std::fs::read_to_string(e.path().join(file))
             .ok()
             .as_deref()
-            .and_then(stat_cpu)
+            .and_then(&parse)
         {
-            out.insert(tid, c);
+            out.insert(tid, v);
         }
     }
     out
+}
+
+/// CPU seconds of each thread of `pid`, by tid: (thread name, utime+stime).
+pub fn task_cpu(pid: u32) -> TaskCpu {
+    per_task(pid, "stat", stat_cpu)
 }
 
 /// A thread's group for per-thread CPU tables: DDS device loops (`dev-<device>`) as one,
@@ -125,6 +131,77 @@ pub fn group_cpu(
     }
     let mut v: Vec<(String, f64)> = g.into_iter().collect();
     v.sort_by(|a, b| b.1.total_cmp(&a.1));
+    v
+}
+
+/// Context switches of each thread of `pid`, by tid: (thread name, voluntary, involuntary),
+/// from `/proc/<pid>/task/<tid>/status`. A voluntary switch is the thread blocking (a sleep to
+/// its next deadline, a wait for work), so over a window it counts the thread's wake-ups; an
+/// involuntary one is the thread preempted while it could still run.
+pub fn task_switches(pid: u32) -> TaskSwitches {
+    per_task(pid, "status", |status| {
+        let field = |key: &str| {
+            status
+                .lines()
+                .find_map(|l| l.strip_prefix(key)?.strip_prefix(':').map(str::trim))
+        };
+        Some((
+            field("Name")?.to_string(),
+            field("voluntary_ctxt_switches")?.parse().ok()?,
+            field("nonvoluntary_ctxt_switches")?.parse().ok()?,
+        ))
+    })
+}
+
+/// [`task_cpu`]'s reading: (thread name, CPU seconds) by tid.
+pub type TaskCpu = std::collections::HashMap<u32, (String, f64)>;
+/// [`task_switches`]'s reading: (thread name, voluntary, involuntary) by tid.
+pub type TaskSwitches = std::collections::HashMap<u32, (String, u64, u64)>;
+
+/// One thread group over a window: CPU and context switches.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GroupCost {
+    /// [`thread_group`]'s name.
+    pub group: String,
+    /// Threads of the group alive at the end of the window.
+    pub threads: usize,
+    /// % of one core.
+    pub cpu_pct: f64,
+    /// Voluntary context switches per second: the group's wake-ups.
+    pub wakeups_hz: f64,
+    /// Involuntary context switches per second (preempted while runnable).
+    pub preempted_hz: f64,
+    /// CPU per wake-up, µs (`None` without wake-ups).
+    pub us_per_wakeup: Option<f64>,
+}
+
+/// Per thread group between two readings `wall` seconds apart ([`task_cpu`] and
+/// [`task_switches`] before and after; threads that ended in between are not counted), CPU
+/// largest first.
+pub fn group_costs(cpu: (&TaskCpu, &TaskCpu), switches: (&TaskSwitches, &TaskSwitches), wall: f64) -> Vec<GroupCost> {
+    let wall = wall.max(1e-9);
+    let mut g: std::collections::BTreeMap<String, GroupCost> = std::collections::BTreeMap::new();
+    for (tid, (name, c1)) in cpu.1 {
+        let c0 = cpu.0.get(tid).map_or(0.0, |b| b.1);
+        let e = g.entry(thread_group(name)).or_default();
+        e.threads += 1;
+        e.cpu_pct += 100.0 * (c1 - c0) / wall;
+    }
+    for (tid, (name, v1, n1)) in switches.1 {
+        let (v0, n0) = switches.0.get(tid).map_or((0, 0), |b| (b.1, b.2));
+        let e = g.entry(thread_group(name)).or_default();
+        e.wakeups_hz += v1.saturating_sub(v0) as f64 / wall;
+        e.preempted_hz += n1.saturating_sub(n0) as f64 / wall;
+    }
+    let mut v: Vec<GroupCost> = g
+        .into_iter()
+        .map(|(group, mut c)| {
+            c.us_per_wakeup = (c.wakeups_hz > 0.0).then(|| c.cpu_pct / 100.0 * 1e6 / c.wakeups_hz);
+            c.group = group;
+            c
+        })
+        .collect();
+    v.sort_by(|a, b| b.cpu_pct.total_cmp(&a.cpu_pct));
     v
 }
 

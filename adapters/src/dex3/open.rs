@@ -125,6 +125,9 @@ pub fn configure(spec: &DeviceSpec<'_, Dex3Profile>) -> Result<Dex3Open, DeviceE
             UsbSource::Emulator(_) => Duration::ZERO,
             _ => LoopConfig::default().spin,
         },
+        // Emulated hands share one grid of deadlines: a fleet of them wakes together
+        // (docs/benchmarks.md, fleet scale); a real hand keeps its own phase.
+        shared_grid: matches!(source, UsbSource::Emulator(_)),
         ..Default::default()
     };
     Ok(Dex3Open::Usb { source, config })

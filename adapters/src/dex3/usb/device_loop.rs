@@ -45,6 +45,13 @@ pub struct LoopConfig {
     pub hold_kd: f32,
     /// Busy-wait this long before each deadline (0: sleep only).
     pub spin: Duration,
+    /// Put the deadlines on the process-wide grid of [`crate::loops`] (loops of one period
+    /// fall due at the same instants, so one timer interrupt wakes them all and the kernel
+    /// switches from one loop thread straight to the next instead of in and out of idle for
+    /// each) rather than on a grid started at the connect. For emulated hands, many to a
+    /// process; a real hand keeps its own phase, so that hands whose loops share a CPU do not
+    /// queue their exchanges behind each other (docs/benchmarks.md, "Fleet scale").
+    pub shared_grid: bool,
     /// Reopen the transport after this many consecutive failed exchanges.
     pub failures_before_reconnect: u32,
     pub backoff_min: Duration,
@@ -67,6 +74,7 @@ impl Default for LoopConfig {
             hold_kp: 0.5,
             hold_kd: 0.1,
             spin: Duration::from_micros(100),
+            shared_grid: false,
             failures_before_reconnect: 100,
             backoff_min: Duration::from_millis(20),
             backoff_max: Duration::from_secs(2),
@@ -401,6 +409,21 @@ fn wait_until(deadline: Instant, spin: Duration) {
     }
 }
 
+/// Where a new connection's grid starts: at `now` (the first exchange at once, the next a
+/// period later), or with [`LoopConfig::shared_grid`] at the last instant of the process-wide
+/// grid at or before `now` (the first exchange still at once, the next on that grid).
+fn grid_origin(cfg: &LoopConfig, now: Instant) -> Instant {
+    if !cfg.shared_grid {
+        return now;
+    }
+    let next = crate::loops::grid_at_or_after(now, cfg.period);
+    if next > now {
+        next.checked_sub(cfg.period).unwrap_or(now)
+    } else {
+        next
+    }
+}
+
 struct Session {
     /// Commands with a sequence number up to this one predate the connect: never sent.
     floor_seq: u64,
@@ -446,7 +469,7 @@ fn run(
                     session = Some(Session {
                         floor_seq: shared.cmd_seq.load(Ordering::SeqCst),
                         sent_seq: 0,
-                        sched: Schedule::new(cfg.period, cfg.align, Instant::now()),
+                        sched: Schedule::new(cfg.period, cfg.align, grid_origin(&cfg, Instant::now())),
                         hold: [None; MOTOR_COUNT],
                         first_exchange: true,
                         consecutive_failures: 0,
@@ -630,6 +653,26 @@ fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grid_origin_on_the_shared_grid_only_when_asked() {
+        let period = Duration::from_millis(1);
+        let now = Instant::now() + Duration::from_micros(1234);
+        let own = LoopConfig::default();
+        assert!(!own.shared_grid, "a real hand keeps the phase of its connect");
+        assert_eq!(grid_origin(&own, now), now);
+        let shared = LoopConfig {
+            shared_grid: true,
+            ..Default::default()
+        };
+        let t0 = grid_origin(&shared, now);
+        // The last grid instant at or before `now`: the first exchange is not delayed, the
+        // next deadline (t0 + period) is the grid's, the one every other loop of this
+        // period has.
+        assert!(t0 <= now && now - t0 < period, "{:?}", now - t0);
+        assert_eq!(crate::loops::grid_at_or_after(t0, period), t0);
+        assert_eq!(grid_origin(&shared, now + period), t0 + period);
+    }
 
     #[test]
     fn histogram_quantiles() {

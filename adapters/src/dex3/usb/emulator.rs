@@ -20,7 +20,7 @@
 
 use super::codec::{
     BusId, BusPayload, DeviceId, LinuxToMcuCmd, McuToLinuxState, MotorCmdFrame, MotorFeedbackFrame, RisMode,
-    SensorFrame, BROADCAST_ID, BUS_COUNT, MOTOR_CMD_LEN, STATE_FRAME_LEN,
+    SensorFrame, BROADCAST_ID, BUS_BUFFER_SIZE, BUS_COUNT, MOTOR_CMD_LEN, STATE_FRAME_LEN,
 };
 use super::scaling::Scalings;
 use super::transport::{Dex3Transport, TransportError};
@@ -312,14 +312,14 @@ impl Dex3Emulator {
     /// Handles one command frame and writes the reply into `out`.
     pub fn handle_frame(&mut self, cmd: &[u8], out: &mut [u8; STATE_FRAME_LEN]) -> Reply {
         self.tick_clock();
-        let mut answered: [Vec<usize>; BUS_COUNT] = Default::default();
+        let mut answered = Answered::default();
         match LinuxToMcuCmd::decode(cmd) {
             Ok(frame) => {
                 self.stats.frames_ok += 1;
                 for bus in BusId::ALL {
                     let payload = frame.buses[bus.index()].bytes();
                     for pkt in payload.chunks_exact(MOTOR_CMD_LEN) {
-                        self.handle_motor_packet(bus, pkt, &mut answered[bus.index()]);
+                        self.handle_motor_packet(bus, pkt, &mut answered);
                     }
                 }
             }
@@ -340,7 +340,7 @@ impl Dex3Emulator {
         Reply::Frame
     }
 
-    fn handle_motor_packet(&mut self, bus: BusId, pkt: &[u8], answered: &mut Vec<usize>) {
+    fn handle_motor_packet(&mut self, bus: BusId, pkt: &[u8], answered: &mut Answered) {
         let f = match MotorCmdFrame::decode(pkt) {
             Ok(f) => f,
             Err(_) => {
@@ -352,8 +352,12 @@ impl Dex3Emulator {
         let apply = !self.cfg.faults.ignore_commands;
         if f.mode.id == BROADCAST_ID {
             self.stats.broadcasts += 1;
-            for (_, j) in self.cfg.wiring.joints_on(bus).into_iter().filter(|_| apply) {
-                self.apply(j.index(), &f);
+            if apply {
+                // Every motor of this bus (the wiring map has no Vec-free lookup by bus; this is
+                // the rare path, so the emulator's cycle stays allocation-free otherwise).
+                for (_, j) in self.cfg.wiring.joints_on(bus) {
+                    self.apply(j.index(), &f);
+                }
             }
             return;
         }
@@ -363,7 +367,7 @@ impl Dex3Emulator {
                 if apply {
                     self.apply(j.index(), &f);
                 }
-                answered.push(j.index());
+                answered.push(bus, j.index());
             }
             None => self.stats.motor_packets_unknown_id += 1,
         }
@@ -403,7 +407,7 @@ impl Dex3Emulator {
         };
     }
 
-    fn write_state(&mut self, answered: &[Vec<usize>; BUS_COUNT], out: &mut [u8; STATE_FRAME_LEN]) {
+    fn write_state(&mut self, answered: &Answered, out: &mut [u8; STATE_FRAME_LEN]) {
         let s = self.cfg.scalings;
         let mut st = McuToLinuxState {
             mode: [self.cfg.hand_model, 0],
@@ -413,7 +417,7 @@ impl Dex3Emulator {
         let mut total_tau = 0.0f32;
         for bus in BusId::ALL {
             let mut payload = BusPayload::default();
-            for &i in &answered[bus.index()] {
+            for &i in answered.on(bus) {
                 let m = &self.motors[i];
                 total_tau += m.joint.tau.abs();
                 let r = match (self.cfg.faults.frozen, self.frozen[i]) {
@@ -449,7 +453,16 @@ impl Dex3Emulator {
                 // A validated wiring map always fits.
                 let _ = payload.push(&bytes, bus.index());
             }
-            for (id, pad) in self.cfg.wiring.pads_on(bus) {
+            // Sensors of this bus by id, as `WiringMap::pads_on` orders them (on the stack: this
+            // runs every exchange).
+            let mut pads = [(DeviceId::new(0).expect("id 0"), 0usize); PAD_COUNT];
+            let mut n = 0;
+            for (p, at) in self.cfg.wiring.pads.iter().enumerate().filter(|(_, at)| at.bus == bus) {
+                pads[n] = (at.id, p);
+                n += 1;
+            }
+            pads[..n].sort_unstable();
+            for &(id, pad) in &pads[..n] {
                 let frame = SensorFrame::new(id.get(), 0, self.pad_pressure(pad), [30; TAXELS_PER_PAD]);
                 let _ = payload.push(&frame.encode(), bus.index());
             }
@@ -477,6 +490,32 @@ impl Dex3Emulator {
             .clamp(0.0, u16::MAX as f32) as u16;
         debug_assert!(pad < PAD_COUNT);
         [v; TAXELS_PER_PAD]
+    }
+}
+
+/// The joints (IDL index) a command frame addressed, per bus in packet order (a joint
+/// addressed twice answers twice): the reply's motor packets. Fixed-size, on the stack: at most
+/// one per command packet a bus buffer holds.
+#[derive(Debug, Clone, Copy, Default)]
+struct Answered {
+    joints: [[usize; Answered::PER_BUS]; BUS_COUNT],
+    len: [usize; BUS_COUNT],
+}
+
+impl Answered {
+    const PER_BUS: usize = BUS_BUFFER_SIZE / MOTOR_CMD_LEN;
+
+    fn push(&mut self, bus: BusId, joint: usize) {
+        let b = bus.index();
+        // A bus buffer holds at most PER_BUS command packets, each answered at most once.
+        if let Some(slot) = self.joints[b].get_mut(self.len[b]) {
+            *slot = joint;
+            self.len[b] += 1;
+        }
+    }
+
+    fn on(&self, bus: BusId) -> &[usize] {
+        &self.joints[bus.index()][..self.len[bus.index()]]
     }
 }
 
