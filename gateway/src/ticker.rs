@@ -20,12 +20,13 @@ pub struct Ticker {
 }
 
 impl Ticker {
-    /// First tick one period from now.
+    /// First tick at once (a state-only front's first state, the status's first snapshot, go
+    /// out as soon as the task runs, not a period later), then every period.
     pub fn new(period: Duration) -> Self {
         let period = period.max(Duration::from_micros(100));
         Self {
             period,
-            next: Instant::now() + period,
+            next: Instant::now(),
             dropped: 0,
         }
     }
