@@ -56,7 +56,7 @@ impl FrontCodec for GoCodec {
     fn encode(&self, bound: &[Bound<'_>]) -> Option<unitree_go::MotorStates_> {
         let b0 = bound.first()?;
         let now = std::time::Instant::now();
-        Some(encode_go(&b0.route.front, &b0.routed_state()[0], &b0.state, now))
+        Some(encode_go(&b0.route.front, &b0.routed_state()[0], b0.state, now))
     }
 }
 
@@ -76,7 +76,7 @@ impl FrontCodec for HgCodec {
     fn encode(&self, bound: &[Bound<'_>]) -> Option<unitree_hg::HandState_> {
         let b0 = bound.first()?;
         let now = std::time::Instant::now();
-        Some(encode_hg(&b0.route.front, &b0.routed_state()[0], &b0.state, now))
+        Some(encode_hg(&b0.route.front, &b0.routed_state()[0], b0.state, now))
     }
 }
 
@@ -112,7 +112,7 @@ impl FrontCodec for ActuatorCodec {
             states: vec![unbound_state(&b0.route.front); self.elements],
         };
         for b in bound {
-            m.states[b.element] = go_state(&b.route.front, &b.routed_state()[0], &b.state, now);
+            m.states[b.element] = go_state(&b.route.front, &b.routed_state()[0], b.state, now);
         }
         Some(m)
     }
@@ -315,7 +315,7 @@ impl TypedIo for AutoIo {
         if let Some((pair, element)) = &self.pair {
             let now = std::time::Instant::now();
             pair.publish(*element, &b0.route.front, || {
-                go_state(&b0.route.front, &b0.routed_state()[0], &b0.state, now)
+                go_state(&b0.route.front, &b0.routed_state()[0], b0.state, now)
             });
         }
         if let Some(m) = GoCodec.encode(bound) {

@@ -41,7 +41,7 @@ impl FrontCodec for Dex3Codec {
 
     fn encode(&self, bound: &[Bound<'_>]) -> Option<HandState_> {
         let b0 = bound.first()?;
-        Some(encode_state(&b0.route.front, &b0.routed_state(), &b0.state))
+        Some(encode_state(&b0.route.front, &b0.routed_state(), b0.state))
     }
 
     /// Its endpoints, each with the other interfaces' types a client may use there.

@@ -44,7 +44,7 @@ impl FrontCodec for CanonicalCodec {
 
     fn encode(&self, bound: &[Bound<'_>]) -> Option<hg::HandState_> {
         let b0 = bound.first()?;
-        Some(encode_state(b0.device, &b0.route.device, &b0.state))
+        Some(encode_state(b0.device, &b0.route.device, b0.state))
     }
 
     /// Its endpoints; a Dex3 client's command type named with the front that serves it.

@@ -72,7 +72,7 @@ impl<S: HandService> FrontCodec for OneHandCodec<S> {
         let b = bound.first()?;
         Some(
             self.0
-                .encode(&b.route.front, &b.routed_state(), &b.state, Instant::now()),
+                .encode(&b.route.front, &b.routed_state(), b.state, Instant::now()),
         )
     }
 }

@@ -91,7 +91,7 @@ impl FrontCodec for FtpCodec {
 
     fn encode(&self, bound: &[Bound<'_>]) -> Option<InspireHandState> {
         let b0 = bound.first()?;
-        Some(encode_state(&b0.route.front, &b0.routed_state(), &b0.state))
+        Some(encode_state(&b0.route.front, &b0.routed_state(), b0.state))
     }
 
     fn beside(&mut self, bound: &[Bound<'_>]) {
