@@ -100,8 +100,15 @@ pub struct TaggedRun {
     pub cpu_pct: Vec<f64>,
 }
 
+/// Commands per phase of the client's grid ([`tagged_client`]).
+pub const REPHASE_EVERY: usize = 50;
+/// The span a new phase is drawn from: a multiple of every peer clock's period here (the
+/// emulated G1 hand service's 2 ms tick, the Dex3 loop's 1 ms).
+pub const REPHASE_SPAN: Duration = Duration::from_millis(4);
+
 /// The tagged client every hop benchmark runs: publishes `make(tag)` on `cmd_topic` at
-/// `rate_hz` (a unique tag per command, each at a uniformly random point of its period) and
+/// `rate_hz` (a unique tag per command, each at a uniformly random point of its period, the
+/// grid itself moved to a random phase every [`REPHASE_EVERY`] commands) and
 /// times the first sample on `state_topic` whose `tag_of` is that tag (timestamps taken in
 /// the client's DDS listener). Stops once `samples` commands after the `warmup` ones came
 /// back (or 4 × `samples` were sent); the CPU of `pids` is measured over the sending.
@@ -156,14 +163,21 @@ where
     // exact periods the two clocks lock and every command waits the same fixed fraction of
     // a cycle.
     let mut rng: u64 = 0x9E37_79B9_7F4A_7C15 ^ u64::from(base);
-    let mut dither = || {
+    let mut uniform = || {
         rng ^= rng << 13;
         rng ^= rng >> 7;
         rng ^= rng << 17;
-        period.mul_f64((rng >> 11) as f64 / (1u64 << 53) as f64)
+        (rng >> 11) as f64 / (1u64 << 53) as f64
     };
     while i < max_sent {
-        let deadline = anchor + period * i as u32 + dither();
+        if i > 0 && i % REPHASE_EVERY == 0 {
+            // A new phase against the peer's own clock (a service's 2 ms tick, a device's
+            // 1 ms loop): the grid moves by a uniformly random part of REPHASE_SPAN, so over
+            // a run the echoed commands' waits integrate over every phase and the medians of
+            // different runs compare (issue #30); a fixed grid keeps one phase a whole run.
+            anchor += REPHASE_SPAN.mul_f64(uniform());
+        }
+        let deadline = anchor + period * i as u32 + period.mul_f64(uniform());
         let now = Instant::now();
         if deadline > now {
             std::thread::sleep(deadline - now);
