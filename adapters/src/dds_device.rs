@@ -9,7 +9,7 @@
 //! tick; the first state sample that arrives after that publish wakes the loop again and is
 //! published as the state reflecting the command. The periodic tick stays: keep-alive, ramps,
 //! watchdogs and stale detection run on it. Every publish spends a token of a
-//! [`SendBudget`] (`max_send_hz`, default twice the loop rate), so a client flooding a front
+//! [`SendBudget`] (`max_send_hz`, default four times the loop rate), so a client flooding a front
 //! at 10 kHz cannot flood the service.
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -95,8 +95,12 @@ pub struct Forwarding {
 }
 
 impl Forwarding {
-    /// The default bound: twice the loop rate.
-    pub const DEFAULT_FACTOR: f64 = 2.0;
+    /// The default bound: four times the loop rate. A client streaming at twice the loop rate
+    /// (a 1 kHz client on a 500 Hz service), whose commands come with their own jitter, then
+    /// never waits for a token: at twice the loop rate, commands that came closer together
+    /// than their average waited for one, and their latency grew by 0.2 ms at the median
+    /// (docs/benchmarks.md §3b). A flood still reaches the service at this bound.
+    pub const DEFAULT_FACTOR: f64 = 4.0;
 
     /// On arrival, bounded at [`Self::DEFAULT_FACTOR`] × `rate_hz`.
     pub fn default_for(rate_hz: f64) -> Self {

@@ -450,7 +450,7 @@ pub fn report_section(
          shim can do;\n\
          - **handgate**: the release `handgate run` on the generated profile below (a Dex3 on backend `dds`, \
          a Dex1 front `go` bound to it through closure; defaults otherwise: device loop 500 Hz, forwarding \
-         on arrival, `max_send_hz` 1000, front state 500 Hz);\n\
+         on arrival, `max_send_hz` 2000, front state 500 Hz);\n\
          - **python shim**: `bench/python/shim.py`, the same two callbacks with the official unitree_sdk2py \
          (what integrators write today).\n\n\
          The client publishes each command with a unique tag in `cmds[0].reserve[0]` at a uniformly random \

@@ -26,7 +26,7 @@ pub struct DevicePlan {
     pub rate_hz: f64,
     /// A client of a DDS service publishes commands on arrival (`[[devices]] forward_on_arrival`).
     pub forward_on_arrival: bool,
-    /// `[[devices]] max_send_hz` (`None`: twice the loop rate).
+    /// `[[devices]] max_send_hz` (`None`: four times the loop rate).
     pub max_send_hz: Option<f64>,
     pub stale_after: Duration,
     pub safe_action: SafeAction,

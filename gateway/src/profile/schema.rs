@@ -546,7 +546,7 @@ pub struct DeviceConfig {
     /// its loop's next tick (`false`).
     pub forward_on_arrival: Option<bool>,
     /// The most samples a second such a device publishes to its service, ticks included;
-    /// `None` = twice the loop rate.
+    /// `None` = four times the loop rate.
     pub max_send_hz: Option<RateHz>,
     pub limits: LimitsConfig,
     pub watchdog: WatchdogConfig,
