@@ -1,33 +1,28 @@
 //! Periodic publishing on absolute deadlines: the k-th tick is due at `start + k·period`, so
 //! a late wake-up (a loaded machine, tokio's 1 ms timer) delays one sample but never the
-//! ones after it and the average rate holds. A stall longer than [`STALL_PERIODS`] periods
-//! re-anchors the grid at the present instead of bursting out every missed sample.
+//! ones after it and the average rate holds. A stall of more than a few periods re-anchors the
+//! grid at the present instead of bursting out every missed sample. The rule is the front
+//! core's [`StateGrid`] (the one home of it, unit-tested there); this is its timer for the
+//! async tasks.
 
 use std::time::Duration;
 
+use handgate_adapters::front::core::StateGrid;
 use tokio::time::Instant;
 
-/// A tick later than this many periods re-anchors the grid (the missed ticks are dropped).
-pub const STALL_PERIODS: u32 = 5;
-
-/// Absolute-deadline ticker (cancel-safe: state only changes after the wait completed).
+/// Absolute-deadline ticker (cancel-safe: state only changes after the wait completed): a
+/// [`StateGrid`] that no device drives, slept on.
 #[derive(Debug)]
 pub struct Ticker {
-    period: Duration,
-    next: Instant,
-    /// Ticks dropped by re-anchoring after stalls.
-    pub dropped: u64,
+    grid: StateGrid,
 }
 
 impl Ticker {
     /// First tick at once (a state-only front's first state, the status's first snapshot, go
     /// out as soon as the task runs, not a period later), then every period.
     pub fn new(period: Duration) -> Self {
-        let period = period.max(Duration::from_micros(100));
         Self {
-            period,
-            next: Instant::now(),
-            dropped: 0,
+            grid: StateGrid::new(period, false, std::time::Instant::now()),
         }
     }
 
@@ -38,29 +33,28 @@ impl Ticker {
 
     /// When the next tick is due.
     pub fn deadline(&self) -> Instant {
-        self.next
+        Instant::from_std(self.grid.deadline())
+    }
+
+    /// Ticks dropped by re-anchoring after stalls.
+    pub fn dropped(&self) -> u64 {
+        self.grid.dropped
     }
 
     /// Restarts the grid one period from now (a sample published off the grid stands in for
     /// the tick that was due: the next one comes a full period after it).
     pub fn restart(&mut self) {
-        self.next = Instant::now() + self.period;
+        self.grid.restart(std::time::Instant::now());
     }
 
     /// Waits for the next deadline (at once when it has passed) and advances the grid.
     pub async fn tick(&mut self) {
-        tokio::time::sleep_until(self.next).await;
+        tokio::time::sleep_until(self.deadline()).await;
         self.advance(Instant::now());
     }
 
     fn advance(&mut self, now: Instant) {
-        let late = now.saturating_duration_since(self.next);
-        if late > self.period * STALL_PERIODS {
-            self.dropped += (late.as_nanos() / self.period.as_nanos().max(1)) as u64;
-            self.next = now + self.period;
-        } else {
-            self.next += self.period;
-        }
+        self.grid.due(now.into_std());
     }
 }
 
@@ -82,7 +76,7 @@ mod tests {
         let now = d0 + 22 * p;
         t.advance(now);
         assert_eq!(t.deadline(), now + p);
-        assert!(t.dropped >= 19, "{}", t.dropped);
+        assert!(t.dropped() >= 19, "{}", t.dropped());
     }
 
     #[test]
