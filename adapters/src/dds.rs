@@ -644,6 +644,10 @@ pub enum Within {
     /// reader of the same process on the writing thread: an in-process reader's callback runs
     /// inside the write, on the writer's thread.
     Callback,
+    /// Inside a DDS-client device's own work (`dds_device`), on whichever thread runs it: its
+    /// loop's, or the thread that brings a command or a sample and takes it at once. A write
+    /// or a callback inside it is [`Within::Write`] / [`Within::Callback`] until it returns.
+    Device,
 }
 
 thread_local! {
@@ -656,10 +660,10 @@ pub fn within() -> Within {
 }
 
 /// This thread is `Within` something until dropped (then back where it was).
-struct Enter(Within);
+pub(crate) struct Enter(Within);
 
 impl Enter {
-    fn new(w: Within) -> Self {
+    pub(crate) fn new(w: Within) -> Self {
         Enter(WITHIN.with(|c| c.replace(w)))
     }
 }

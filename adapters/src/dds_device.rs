@@ -556,6 +556,7 @@ impl<C: DdsCodec> crate::loops::Task for DdsTask<C> {
     fn run(&mut self, now: Instant) -> Option<Instant> {
         let mut l = self.0.lock().unwrap_or_else(|p| p.into_inner());
         let l = &mut *l;
+        let _within = crate::dds::Enter::new(crate::dds::Within::Device);
         let span = l.span.clone();
         let _span = span.enter();
         if !std::mem::replace(&mut l.started, true) {
@@ -620,6 +621,7 @@ impl<C: DdsCodec> Inline for Mutex<DdsLoop<C>> {
         if !l.has_state || !l.started {
             return false;
         }
+        let _within = crate::dds::Enter::new(crate::dds::Within::Device);
         let span = l.span.clone();
         let _span = span.enter();
         let command = l.shared.wake.command.swap(false, Ordering::AcqRel);
@@ -636,6 +638,7 @@ impl<C: DdsCodec> Inline for Mutex<DdsLoop<C>> {
         if !l.started {
             return false;
         }
+        let _within = crate::dds::Enter::new(crate::dds::Within::Device);
         let span = l.span.clone();
         let _span = span.enter();
         if l.intake(now) {

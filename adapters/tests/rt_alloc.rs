@@ -15,6 +15,9 @@
 //! A DDS-client device's writes go through cyclonedds-rs, which allocates per sample; those
 //! allocations ([`handgate_adapters::dds::within`] tells them) are counted apart,
 //! reported, and bounded per write; handgate's own part of the cycle must allocate nothing.
+//! A DDS-client device does part of its work on the thread that brings it (a forwarded command
+//! on the caller's, an awaited state sample in the reader's listener): that work is counted by
+//! scope (`Within::Device`) on every thread, not by its loop thread alone.
 //!
 //! Counts are per cycle, never per second: a busy machine makes the window take longer, not
 //! the counts differ. The timeouts below are generous so that a starved peer never sends a
@@ -51,6 +54,10 @@ struct Slot {
     /// reader, run by CycloneDDS inside a write on the writing thread.
     callback_allocs: AtomicU64,
     callback_bytes: AtomicU64,
+    /// The part made inside a DDS-client device's own work (`dds::Within::Device`), outside
+    /// any write or callback in it.
+    device_allocs: AtomicU64,
+    device_bytes: AtomicU64,
 }
 
 impl Slot {
@@ -64,6 +71,8 @@ impl Slot {
             write_bytes: AtomicU64::new(0),
             callback_allocs: AtomicU64::new(0),
             callback_bytes: AtomicU64::new(0),
+            device_allocs: AtomicU64::new(0),
+            device_bytes: AtomicU64::new(0),
         }
     }
 }
@@ -106,6 +115,7 @@ fn count_alloc(size: usize) {
             Within::Caller => return,
             Within::Write => (&s.write_allocs, &s.write_bytes),
             Within::Callback => (&s.callback_allocs, &s.callback_bytes),
+            Within::Device => (&s.device_allocs, &s.device_bytes),
         };
         n.fetch_add(1, Relaxed);
         b.fetch_add(size as u64, Relaxed);
@@ -154,26 +164,83 @@ struct Counts {
     write_bytes: u64,
     callback_allocs: u64,
     callback_bytes: u64,
+    device_allocs: u64,
+    device_bytes: u64,
 }
 
 impl Counts {
+    fn load(s: &Slot) -> Self {
+        Counts {
+            allocs: s.allocs.load(Relaxed),
+            bytes: s.bytes.load(Relaxed),
+            frees: s.frees.load(Relaxed),
+            write_allocs: s.write_allocs.load(Relaxed),
+            write_bytes: s.write_bytes.load(Relaxed),
+            callback_allocs: s.callback_allocs.load(Relaxed),
+            callback_bytes: s.callback_bytes.load(Relaxed),
+            device_allocs: s.device_allocs.load(Relaxed),
+            device_bytes: s.device_bytes.load(Relaxed),
+        }
+    }
+
+    /// The slots in use.
+    fn slots() -> &'static [Slot] {
+        &TABLE[..NEXT_SLOT.load(Relaxed).min(SLOTS)]
+    }
+
     /// Thread `tid`'s counters (its newest slot: a kernel thread id can be reused).
     fn of(tid: i32) -> Self {
-        let n = NEXT_SLOT.load(Relaxed).min(SLOTS);
-        TABLE[..n]
+        Self::slots()
             .iter()
             .rev()
             .find(|s| s.tid.load(Relaxed) == tid)
-            .map(|s| Counts {
-                allocs: s.allocs.load(Relaxed),
-                bytes: s.bytes.load(Relaxed),
-                frees: s.frees.load(Relaxed),
-                write_allocs: s.write_allocs.load(Relaxed),
-                write_bytes: s.write_bytes.load(Relaxed),
-                callback_allocs: s.callback_allocs.load(Relaxed),
-                callback_bytes: s.callback_bytes.load(Relaxed),
-            })
+            .map(Counts::load)
             .unwrap_or_default()
+    }
+
+    /// What a DDS-client device's task made, on every thread: all of `loop_tids`' (the threads
+    /// that run device loops; outside the task's scope, the loop's scheduler), and the task's
+    /// scope (`Within::Device`, and the writes made in it: `caller`, the one other thread that
+    /// forwards commands) on every other thread.
+    fn of_dds_task(loop_tids: &[i32], caller: i32) -> Self {
+        let mut sum = Counts::default();
+        for s in Self::slots() {
+            let tid = s.tid.load(Relaxed);
+            let c = Counts::load(s);
+            if loop_tids.contains(&tid) {
+                sum = sum.plus(c);
+            } else {
+                let (writes, write_bytes) = if tid == caller {
+                    (c.write_allocs, c.write_bytes)
+                } else {
+                    (0, 0)
+                };
+                sum = sum.plus(Counts {
+                    allocs: c.device_allocs + writes,
+                    bytes: c.device_bytes + write_bytes,
+                    write_allocs: writes,
+                    write_bytes,
+                    device_allocs: c.device_allocs,
+                    device_bytes: c.device_bytes,
+                    ..Counts::default()
+                });
+            }
+        }
+        sum
+    }
+
+    fn plus(self, o: Counts) -> Counts {
+        Counts {
+            allocs: self.allocs + o.allocs,
+            bytes: self.bytes + o.bytes,
+            frees: self.frees + o.frees,
+            write_allocs: self.write_allocs + o.write_allocs,
+            write_bytes: self.write_bytes + o.write_bytes,
+            callback_allocs: self.callback_allocs + o.callback_allocs,
+            callback_bytes: self.callback_bytes + o.callback_bytes,
+            device_allocs: self.device_allocs + o.device_allocs,
+            device_bytes: self.device_bytes + o.device_bytes,
+        }
     }
 
     fn since(self, before: Counts) -> Counts {
@@ -185,6 +252,8 @@ impl Counts {
             write_bytes: self.write_bytes - before.write_bytes,
             callback_allocs: self.callback_allocs - before.callback_allocs,
             callback_bytes: self.callback_bytes - before.callback_bytes,
+            device_allocs: self.device_allocs - before.device_allocs,
+            device_bytes: self.device_bytes - before.device_bytes,
         }
     }
 }
@@ -199,15 +268,28 @@ const MEASURED: u64 = 500;
 /// Bound on any wait for the loop (a starved machine only makes it slower).
 const DEADLINE: Duration = Duration::from_secs(60);
 
+/// The kernel thread ids of this process's threads whose name (`comm`) `matches`.
+fn threads_where(matches: impl Fn(&str) -> bool) -> Vec<i32> {
+    std::fs::read_dir("/proc/self/task")
+        .unwrap()
+        .flatten()
+        .filter(|e| {
+            matches(
+                std::fs::read_to_string(e.path().join("comm"))
+                    .unwrap_or_default()
+                    .trim_end(),
+            )
+        })
+        .map(|e| e.file_name().to_string_lossy().parse().unwrap())
+        .collect()
+}
+
 /// The kernel thread id of this process's thread named `name` (its `comm`).
 fn thread_named(name: &str) -> i32 {
     let end = Instant::now() + DEADLINE;
     loop {
-        for e in std::fs::read_dir("/proc/self/task").unwrap().flatten() {
-            let comm = std::fs::read_to_string(e.path().join("comm")).unwrap_or_default();
-            if comm.trim_end() == name {
-                return e.file_name().to_string_lossy().parse().unwrap();
-            }
+        if let Some(&tid) = threads_where(|comm| comm == name).first() {
+            return tid;
         }
         assert!(Instant::now() < end, "no thread named {name}");
         std::thread::sleep(Duration::from_millis(1));
@@ -308,19 +390,19 @@ impl<'a> Client<'a> {
     }
 }
 
-/// Streams commands from `client` and counts what thread `tid` allocates over [`MEASURED`]
-/// cycles after [`WARM_UP`]; `progress` reads the loop's (cycles, DDS writes).
-fn measure(tid: i32, progress: impl Fn() -> (u64, u64), client: &mut Client) -> Window {
+/// Streams commands from `client` and counts what `counts` reads (one loop's threads) over
+/// [`MEASURED`] cycles after [`WARM_UP`]; `progress` reads the loop's (cycles, DDS writes).
+fn measure(counts: impl Fn() -> Counts, progress: impl Fn() -> (u64, u64), client: &mut Client) -> Window {
     let (c, _) = progress();
     while progress().0 < c + WARM_UP {
         client.step();
     }
     let (c0, w0) = progress();
-    let a0 = Counts::of(tid);
+    let a0 = counts();
     while progress().0 < c0 + MEASURED {
         client.step();
     }
-    let a1 = Counts::of(tid);
+    let a1 = counts();
     let (c1, w1) = progress();
     Window {
         cycles: c1 - c0,
@@ -401,7 +483,7 @@ fn the_dex3_usb_loop_allocates_nothing_per_cycle() {
     let tid = thread_named("dex3-usb-loop");
     let joint = dev.info().table.joint_by_name("index_0").unwrap();
     let w = measure(
-        tid,
+        || Counts::of(tid),
         || (dev.stats().cycles, 0),
         &mut Client::new(&dev, joint, [0.2, 0.6]),
     );
@@ -409,10 +491,12 @@ fn the_dex3_usb_loop_allocates_nothing_per_cycle() {
     assert_no_own_allocations("dex3-usb-loop", &w);
 }
 
-/// Records the kernel thread id of the thread that runs it (the device loop's).
+/// Counts the commands encoded on thread `caller` (the client's: forwarded at once, not by
+/// the loop).
 struct Probe<C> {
     codec: C,
-    tid: Arc<AtomicI32>,
+    caller: i32,
+    inline: Arc<AtomicU64>,
 }
 
 impl<C: DdsCodec> DdsCodec for Probe<C> {
@@ -421,7 +505,9 @@ impl<C: DdsCodec> DdsCodec for Probe<C> {
 
     fn encode_into(&mut self, active: &Active, table: &DeviceTable, dt: f32, msg: &mut Self::Cmd) -> bool {
         // SAFETY: gettid has no preconditions.
-        self.tid.store(unsafe { libc::gettid() }, Relaxed);
+        if unsafe { libc::gettid() } == self.caller {
+            self.inline.fetch_add(1, Relaxed);
+        }
         self.codec.encode_into(active, table, dt, msg)
     }
 
@@ -440,7 +526,9 @@ fn a_dds_client_device_task_allocates_nothing_of_its_own_per_cycle() {
     tracing_like_the_gateway();
     let node = Node::new(57, None).unwrap();
     let _emu = Dex1Emulator::start(&node, Dex1Config::new(Variant::Go, Side::Left)).unwrap();
-    let tid = Arc::new(AtomicI32::new(0));
+    // SAFETY: gettid has no preconditions.
+    let caller = unsafe { libc::gettid() };
+    let inline = Arc::new(AtomicU64::new(0));
     let rate = 500.0;
     let dev = DdsDevice::start(
         &node,
@@ -455,24 +543,34 @@ fn a_dds_client_device_task_allocates_nothing_of_its_own_per_cycle() {
         },
         Probe {
             codec: Dex1GoCodec::new(Variant::Go, Side::Left),
-            tid: tid.clone(),
+            caller,
+            inline: inline.clone(),
         },
     )
     .unwrap();
     let rx = dev.state();
     wait_for("the first measured state", || rx.borrow().measured_at.is_some());
     let mut client = Client::new(&dev, JointId(0), [1.0, 4.0]);
-    // The first command makes the loop encode: the probe learns the thread.
-    client.step();
-    let tid = tid.load(Relaxed);
-    assert_ne!(tid, 0);
+    // The device loops' threads (crate::loops's shared pool; no other loop of this binary
+    // runs there).
+    let loop_tids = threads_where(|comm| comm.starts_with("dev-shared-"));
+    assert!(!loop_tids.is_empty(), "no device-loop thread");
     let progress = || {
         let s = dev.stats();
         (s.cycles, s.sent)
     };
-    let w = measure(tid, progress, &mut client);
+    let inline0 = inline.load(Relaxed);
+    let w = measure(|| Counts::of_dds_task(&loop_tids, caller), progress, &mut client);
+    let inline = inline.load(Relaxed) - inline0;
     dev.stop();
+    println!("{inline} commands of the warm-up and the window were encoded and written on the client's thread");
     assert_no_own_allocations("dds-client task (dex1)", &w);
+    // The run took commands on their own thread, not only on the loop's.
+    assert!(
+        inline > 0,
+        "no command was forwarded on the client's thread: {}",
+        w.report("dds-client task (dex1)")
+    );
     // The binding's part, bounded by what was measured: per sample, the copy its owned
     // `Arc<T>` API needs (the sample's sequence and the Arc), cyclonedds-rs's SerData of the
     // sample and the untyped one CycloneDDS's key map asks for, and five for the delivery to
@@ -533,8 +631,8 @@ fn the_ezgripper_bus_round_and_bridge_allocate_nothing_per_cycle() {
     let (bus_tid, bridge_tid) = (thread_named("ezgripper-bus"), thread_named("ezgripper-g"));
     let mut client = Client::new(&dev, JointId(0), [1.0, 4.0]);
     // The bus round: its rounds are its cycles.
-    let w = measure(bus_tid, || (bus.stats().rounds, 0), &mut client);
-    let bridge = measure(bridge_tid, || (dev.stats().cycles, 0), &mut client);
+    let w = measure(|| Counts::of(bus_tid), || (bus.stats().rounds, 0), &mut client);
+    let bridge = measure(|| Counts::of(bridge_tid), || (dev.stats().cycles, 0), &mut client);
     dev.stop();
     assert_no_own_allocations("ezgripper-bus", &w);
     assert_no_own_allocations("ezgripper bridge", &bridge);
