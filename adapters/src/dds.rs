@@ -703,8 +703,9 @@ impl<T: TopicType> Writer<T> {
         self.writer.write(Arc::new(sample)).map_err(dds_err("write"))
     }
 
-    /// Whether a write now would reach no reader and is skipped (`skip_unmatched`).
-    fn unread(&self) -> bool {
+    /// Whether a write now would reach no reader and is skipped (a best-effort, volatile writer
+    /// with no matched reader): a caller can skip building the sample too.
+    pub fn unread(&self) -> bool {
         self.skip_unmatched && self.matched() == 0
     }
 

@@ -318,11 +318,16 @@ impl TypedIo for AutoIo {
                 go_state(&b0.route.front, &b0.routed_state()[0], b0.state, now)
             });
         }
-        if let Some(m) = GoCodec.encode(bound) {
-            let _ = self.go.write(m);
+        // A message no reader would receive is not built.
+        if !self.go.unread() {
+            if let Some(m) = GoCodec.encode(bound) {
+                let _ = self.go.write(m);
+            }
         }
-        if let (Some(w), Some(m)) = (self.hg.as_mut(), HgCodec.encode(bound)) {
-            let _ = w.write(m);
+        if let Some(w) = self.hg.as_mut().filter(|w| !w.unread()) {
+            if let Some(m) = HgCodec.encode(bound) {
+                let _ = w.write(m);
+            }
         }
     }
 }

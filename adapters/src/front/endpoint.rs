@@ -102,17 +102,22 @@ impl<C: FrontCodec> TypedIo for DdsFront<C> {
         self.codec.decode(bound, msg)
     }
 
+    /// A message no reader would receive (no client attached) is not built.
     fn publish(&mut self, bound: &[Bound<'_>], lf: bool) {
-        let Some(msg) = self.codec.encode(bound) else {
-            return;
-        };
         if lf {
-            if let Some((w, _)) = &mut self.lf {
-                let _ = w.write(msg);
+            if let Some((w, _)) = self.lf.as_mut().filter(|(w, _)| !w.unread()) {
+                if let Some(msg) = self.codec.encode(bound) {
+                    let _ = w.write(msg);
+                }
             }
             return;
         }
-        let _ = self.state.write(msg);
+        if !self.state.unread() {
+            let Some(msg) = self.codec.encode(bound) else {
+                return;
+            };
+            let _ = self.state.write(msg);
+        }
         self.codec.beside(bound);
     }
 

@@ -95,6 +95,9 @@ impl FrontCodec for FtpCodec {
     }
 
     fn beside(&mut self, bound: &[Bound<'_>]) {
+        if self.touch.unread() {
+            return;
+        }
         if let Some(t) = bound.first().and_then(touch_of) {
             let _ = self.touch.write(t);
         }
