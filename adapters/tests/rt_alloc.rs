@@ -23,179 +23,40 @@
 //! the counts differ. The timeouts below are generous so that a starved peer never sends a
 //! loop down an error path (an error's text allocates; that is not the steady state).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicI32, AtomicU64, AtomicUsize, Ordering::Relaxed};
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::control::Active;
-use handgate_adapters::dds::{Node, Within};
+use handgate_adapters::dds::Node;
 use handgate_adapters::dds_device::{DdsCodec, DdsDevice, DdsDeviceConfig, Forwarding};
 use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
 use handgate_adapters::mapping::{DeviceTable, TableOverrides};
 use handgate_adapters::model::{CommandBody, DeviceKind, HandCommand, HandState, JointCommand, JointId, Side};
 
-// ---------------------------------------------------------------------------------------
-// The counting allocator: one slot of counters per thread, found by the kernel thread id.
+#[path = "support/counting.rs"]
+mod counting;
+use counting::{thread_named as thread_named_within, threads_where, Counts};
 
-/// Counters of one thread.
-struct Slot {
-    tid: AtomicI32,
-    allocs: AtomicU64,
-    bytes: AtomicU64,
-    frees: AtomicU64,
-    /// The part of `allocs` / `bytes` made inside a DDS write, outside any reader callback
-    /// (`dds::Within::Write`): the binding's and CycloneDDS's.
-    write_allocs: AtomicU64,
-    write_bytes: AtomicU64,
-    /// The part made inside a reader callback (`dds::Within::Callback`): an in-process peer's
-    /// reader, run by CycloneDDS inside a write on the writing thread.
-    callback_allocs: AtomicU64,
-    callback_bytes: AtomicU64,
-    /// The part made inside a DDS-client device's own work (`dds::Within::Device`), outside
-    /// any write or callback in it.
-    device_allocs: AtomicU64,
-    device_bytes: AtomicU64,
-}
-
-impl Slot {
-    const fn new() -> Self {
-        Self {
-            tid: AtomicI32::new(0),
-            allocs: AtomicU64::new(0),
-            bytes: AtomicU64::new(0),
-            frees: AtomicU64::new(0),
-            write_allocs: AtomicU64::new(0),
-            write_bytes: AtomicU64::new(0),
-            callback_allocs: AtomicU64::new(0),
-            callback_bytes: AtomicU64::new(0),
-            device_allocs: AtomicU64::new(0),
-            device_bytes: AtomicU64::new(0),
-        }
-    }
-}
-
-/// More than the threads this binary ever starts (test threads, CycloneDDS's, the loops and
-/// emulators); a thread beyond the last slot is not counted.
-const SLOTS: usize = 4096;
-static TABLE: [Slot; SLOTS] = [const { Slot::new() }; SLOTS];
-static NEXT_SLOT: AtomicUsize = AtomicUsize::new(0);
-
-thread_local! {
-    /// This thread's slot (`usize::MAX`: none yet). Const-initialised and without a
-    /// destructor: reading it never allocates, also while the thread exits.
-    static MY_SLOT: Cell<usize> = const { Cell::new(usize::MAX) };
-}
-
-fn my_slot() -> Option<&'static Slot> {
-    MY_SLOT
-        .try_with(|s| {
-            if s.get() == usize::MAX {
-                let i = NEXT_SLOT.fetch_add(1, Relaxed);
-                if i >= SLOTS {
-                    return None;
-                }
-                // SAFETY: gettid has no preconditions.
-                TABLE[i].tid.store(unsafe { libc::gettid() }, Relaxed);
-                s.set(i);
-            }
-            TABLE.get(s.get())
-        })
-        .ok()
-        .flatten()
-}
-
-fn count_alloc(size: usize) {
-    if let Some(s) = my_slot() {
-        s.allocs.fetch_add(1, Relaxed);
-        s.bytes.fetch_add(size as u64, Relaxed);
-        let (n, b) = match handgate_adapters::dds::within() {
-            Within::Caller => return,
-            Within::Write => (&s.write_allocs, &s.write_bytes),
-            Within::Callback => (&s.callback_allocs, &s.callback_bytes),
-            Within::Device => (&s.device_allocs, &s.device_bytes),
-        };
-        n.fetch_add(1, Relaxed);
-        b.fetch_add(size as u64, Relaxed);
-    }
-}
-
-struct Counting;
-
-// SAFETY: every call is forwarded to System with the caller's arguments (the caller upholds
-// GlobalAlloc's contract for them); the counting beside it never allocates.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count_alloc(layout.size());
-        // SAFETY: forwarded as received.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count_alloc(layout.size());
-        // SAFETY: forwarded as received.
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count_alloc(new_size);
-        // SAFETY: forwarded as received.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        if let Some(s) = my_slot() {
-            s.frees.fetch_add(1, Relaxed);
-        }
-        // SAFETY: forwarded as received.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Counting = Counting;
-
-/// A snapshot of one thread's counters.
-#[derive(Debug, Clone, Copy, Default)]
-struct Counts {
-    allocs: u64,
-    bytes: u64,
-    frees: u64,
-    write_allocs: u64,
-    write_bytes: u64,
-    callback_allocs: u64,
-    callback_bytes: u64,
-    device_allocs: u64,
-    device_bytes: u64,
+/// The kernel thread id of this process's thread named `name` (its `comm`).
+fn thread_named(name: &str) -> i32 {
+    thread_named_within(name, DEADLINE)
 }
 
 impl Counts {
-    fn load(s: &Slot) -> Self {
+    fn plus(self, o: Counts) -> Counts {
         Counts {
-            allocs: s.allocs.load(Relaxed),
-            bytes: s.bytes.load(Relaxed),
-            frees: s.frees.load(Relaxed),
-            write_allocs: s.write_allocs.load(Relaxed),
-            write_bytes: s.write_bytes.load(Relaxed),
-            callback_allocs: s.callback_allocs.load(Relaxed),
-            callback_bytes: s.callback_bytes.load(Relaxed),
-            device_allocs: s.device_allocs.load(Relaxed),
-            device_bytes: s.device_bytes.load(Relaxed),
+            allocs: self.allocs + o.allocs,
+            bytes: self.bytes + o.bytes,
+            frees: self.frees + o.frees,
+            write_allocs: self.write_allocs + o.write_allocs,
+            write_bytes: self.write_bytes + o.write_bytes,
+            callback_allocs: self.callback_allocs + o.callback_allocs,
+            callback_bytes: self.callback_bytes + o.callback_bytes,
+            device_allocs: self.device_allocs + o.device_allocs,
+            device_bytes: self.device_bytes + o.device_bytes,
         }
-    }
-
-    /// The slots in use.
-    fn slots() -> &'static [Slot] {
-        &TABLE[..NEXT_SLOT.load(Relaxed).min(SLOTS)]
-    }
-
-    /// Thread `tid`'s counters (its newest slot: a kernel thread id can be reused).
-    fn of(tid: i32) -> Self {
-        Self::slots()
-            .iter()
-            .rev()
-            .find(|s| s.tid.load(Relaxed) == tid)
-            .map(Counts::load)
-            .unwrap_or_default()
     }
 
     /// What a DDS-client device's task made, on every thread: all of `loop_tids`' (the threads
@@ -228,34 +89,6 @@ impl Counts {
         }
         sum
     }
-
-    fn plus(self, o: Counts) -> Counts {
-        Counts {
-            allocs: self.allocs + o.allocs,
-            bytes: self.bytes + o.bytes,
-            frees: self.frees + o.frees,
-            write_allocs: self.write_allocs + o.write_allocs,
-            write_bytes: self.write_bytes + o.write_bytes,
-            callback_allocs: self.callback_allocs + o.callback_allocs,
-            callback_bytes: self.callback_bytes + o.callback_bytes,
-            device_allocs: self.device_allocs + o.device_allocs,
-            device_bytes: self.device_bytes + o.device_bytes,
-        }
-    }
-
-    fn since(self, before: Counts) -> Counts {
-        Counts {
-            allocs: self.allocs - before.allocs,
-            bytes: self.bytes - before.bytes,
-            frees: self.frees - before.frees,
-            write_allocs: self.write_allocs - before.write_allocs,
-            write_bytes: self.write_bytes - before.write_bytes,
-            callback_allocs: self.callback_allocs - before.callback_allocs,
-            callback_bytes: self.callback_bytes - before.callback_bytes,
-            device_allocs: self.device_allocs - before.device_allocs,
-            device_bytes: self.device_bytes - before.device_bytes,
-        }
-    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -267,34 +100,6 @@ const WARM_UP: u64 = 200;
 const MEASURED: u64 = 500;
 /// Bound on any wait for the loop (a starved machine only makes it slower).
 const DEADLINE: Duration = Duration::from_secs(60);
-
-/// The kernel thread ids of this process's threads whose name (`comm`) `matches`.
-fn threads_where(matches: impl Fn(&str) -> bool) -> Vec<i32> {
-    std::fs::read_dir("/proc/self/task")
-        .unwrap()
-        .flatten()
-        .filter(|e| {
-            matches(
-                std::fs::read_to_string(e.path().join("comm"))
-                    .unwrap_or_default()
-                    .trim_end(),
-            )
-        })
-        .map(|e| e.file_name().to_string_lossy().parse().unwrap())
-        .collect()
-}
-
-/// The kernel thread id of this process's thread named `name` (its `comm`).
-fn thread_named(name: &str) -> i32 {
-    let end = Instant::now() + DEADLINE;
-    loop {
-        if let Some(&tid) = threads_where(|comm| comm == name).first() {
-            return tid;
-        }
-        assert!(Instant::now() < end, "no thread named {name}");
-        std::thread::sleep(Duration::from_millis(1));
-    }
-}
 
 /// Waits (polling) until `f` holds.
 fn wait_for(what: &str, mut f: impl FnMut() -> bool) {

@@ -328,11 +328,8 @@ impl Task {
             self.carry_out(live, None);
             return;
         };
-        let decoded = {
-            let states: Vec<_> = self.devices.iter().map(|d| Some(d.state_rx.borrow())).collect();
-            self.out
-                .decode(&views_of(&self.core, &self.devices, &states, None), &msg.msg)
-        };
+        let out = &self.out;
+        let decoded = with_views(&self.core, &self.devices, None, |bound| out.decode(bound, &msg.msg));
         let devices = &mut Shared(&self.devices);
         self.core
             .decoded(admitted, Instant::now(), &sample, decoded, devices, &mut self.acts);
@@ -375,14 +372,8 @@ impl Task {
     /// Publishes the bound devices' state (`given`: one device's state, as its loop is
     /// telling it, instead of borrowing its channel; `lf`: the low-frequency copy).
     fn publish(&mut self, given: Option<(usize, &HandState)>, lf: bool) {
-        let states: Vec<_> = self
-            .devices
-            .iter()
-            .enumerate()
-            .map(|(i, d)| (given.map(|(g, _)| g) != Some(i)).then(|| d.state_rx.borrow()))
-            .collect();
-        let bound = views_of(&self.core, &self.devices, &states, given);
-        self.out.publish(&bound, lf);
+        let out = &mut self.out;
+        with_views(&self.core, &self.devices, given, |bound| out.publish(bound, lf));
     }
 
     /// The periodic publish at `now`, and what the core keeps of it (the state that went out
@@ -748,27 +739,69 @@ async fn futures_select_first<F: std::future::Future<Output = Option<usize>> + U
     .await
 }
 
-/// What the front kind's codec sees of the bound devices: each route and latest state
-/// (`states[i]`: device `i`'s borrowed channel, or `None` for the `given` device).
-fn views_of<'a>(
+/// Runs `f` over what the front kind's codec sees of the bound devices: each route and latest
+/// state (`given`: the state a device loop is telling, for that device; the others' borrowed
+/// from their channels for the call). Up to four devices, the views are on the stack: a
+/// publish from a device's loop thread, or a decode in a reader's listener, allocates nothing
+/// for them.
+fn with_views<R>(
+    core: &FrontCore,
+    devices: &[Device],
+    given: Option<(usize, &HandState)>,
+    f: impl FnOnce(&[fronts::Bound<'_>]) -> R,
+) -> R {
+    match devices.len() {
+        1 => with_views_n::<1, R>(core, devices, given, f),
+        2 => with_views_n::<2, R>(core, devices, given, f),
+        3 => with_views_n::<3, R>(core, devices, given, f),
+        4 => with_views_n::<4, R>(core, devices, given, f),
+        n => {
+            let states: Vec<_> = (0..n).map(|i| borrowed(devices, given, i)).collect();
+            let bound: Vec<_> = (0..n).map(|i| view(core, devices, &states, given, i)).collect();
+            f(&bound)
+        }
+    }
+}
+
+/// [`with_views`] for exactly `N` devices.
+fn with_views_n<const N: usize, R>(
+    core: &FrontCore,
+    devices: &[Device],
+    given: Option<(usize, &HandState)>,
+    f: impl FnOnce(&[fronts::Bound<'_>]) -> R,
+) -> R {
+    let states: [Option<watch::Ref<'_, HandState>>; N] = std::array::from_fn(|i| borrowed(devices, given, i));
+    let bound: [fronts::Bound<'_>; N] = std::array::from_fn(|i| view(core, devices, &states, given, i));
+    f(&bound)
+}
+
+/// Device `i`'s state, borrowed from its channel unless it is the `given` one.
+fn borrowed<'a>(
+    devices: &'a [Device],
+    given: Option<(usize, &HandState)>,
+    i: usize,
+) -> Option<watch::Ref<'a, HandState>> {
+    (given.map(|(g, _)| g) != Some(i)).then(|| devices[i].state_rx.borrow())
+}
+
+/// What the codec sees of device `i`.
+fn view<'a>(
     core: &'a FrontCore,
     devices: &'a [Device],
     states: &'a [Option<watch::Ref<'a, HandState>>],
     given: Option<(usize, &'a HandState)>,
-) -> Vec<fronts::Bound<'a>> {
-    devices
-        .iter()
-        .enumerate()
-        .map(|(i, d)| fronts::Bound {
-            route: core.route(i),
-            element: d.element,
-            device: &d.slot.plan.name,
-            safe_action: d.slot.plan.safe_action,
-            state: match (&states[i], given) {
-                (Some(r), _) => r,
-                (None, Some((_, st))) => st,
-                (None, None) => unreachable!("a device's state is borrowed or given"),
-            },
-        })
-        .collect()
+    i: usize,
+) -> fronts::Bound<'a> {
+    let d = &devices[i];
+    fronts::Bound {
+        route: core.route(i),
+        element: d.element,
+        device: &d.slot.plan.name,
+        safe_action: d.slot.plan.safe_action,
+        state: match (&states[i], given) {
+            (Some(r), _) => r,
+            (None, Some((_, st))) => st,
+            (None, None) => unreachable!("a device's state is borrowed or given"),
+        },
+    }
 }
