@@ -596,7 +596,7 @@ pub(crate) fn run_front(
         }),
         wake: tokio::sync::Notify::new(),
         queue: tx,
-        dropped: dropped.clone(),
+        dropped,
         rt: tokio::runtime::Handle::current(),
         span: span.clone(),
     });
@@ -627,15 +627,17 @@ pub(crate) fn run_front(
             let live = task_live;
             let mut untapped = untapped;
             let mut lf_tick = Ticker::hz(lf_hz);
+            // Which untapped devices the core awaits, refilled on each wake.
+            let mut awaiting: Vec<bool> = Vec::with_capacity(untapped.len());
             loop {
-                let (deadline, awaiting) = {
+                let deadline = {
                     let mut t = live.lock();
                     if t.deferring && rx.is_empty() {
                         t.deferring = false;
                     }
-                    let d = t.wake_at().map_or(t.grid.deadline(), |c| c.min(t.grid.deadline()));
-                    let awaiting: Vec<bool> = untapped.iter().map(|(i, _)| t.core.awaiting(*i)).collect();
-                    (d, awaiting)
+                    awaiting.clear();
+                    awaiting.extend(untapped.iter().map(|(i, _)| t.core.awaiting(*i)));
+                    t.wake_at().map_or(t.grid.deadline(), |c| c.min(t.grid.deadline()))
                 };
                 let any_awaited = awaiting.iter().any(|a| *a);
                 tokio::select! {
@@ -663,7 +665,7 @@ pub(crate) fn run_front(
                         let t = &mut *t;
                         t.core.deadline(now, &mut Shared(&t.devices), &mut t.acts);
                         if t.grid.due(now) {
-                            t.publish_periodic(now, None, dropped.load(Ordering::Relaxed));
+                            t.publish_periodic(now, None, live.dropped.load(Ordering::Relaxed));
                         }
                         t.carry_out(&live, None);
                     }
