@@ -222,6 +222,11 @@ pub struct Snapshot {
     pub participants: Vec<Participant>,
     pub endpoints: Vec<Endpoint>,
     pub counters: Counters,
+    /// When the newest change this snapshot includes was read (at the latest: a wake that
+    /// took samples while changes were pending). Snapshots are published at most every
+    /// `min_publish_interval`, so a change can be up to that old when its snapshot comes out:
+    /// a wait for discovery to be quiet counts from here, not from the publish.
+    pub changed_at: Option<Instant>,
 }
 
 impl Snapshot {
@@ -233,6 +238,7 @@ impl Snapshot {
             participants: Vec::new(),
             endpoints: Vec::new(),
             counters: Counters::default(),
+            changed_at: None,
         }
     }
 
@@ -447,6 +453,7 @@ impl Tracker {
             participants,
             endpoints,
             counters: self.counters,
+            changed_at: None,
         }
     }
 }
@@ -942,6 +949,8 @@ fn run(ents: Entities, mut tracker: Tracker, domain: u32, cell: &Cell, stop: &At
     let min_interval = tracker.config().min_publish_interval;
     let mut generation = 0u64;
     let mut last_publish: Option<Instant> = None;
+    // When a wake last took samples while changes were pending (the newest change read).
+    let mut changed_at: Option<Instant> = None;
     let mut pending = false;
     while !stop.load(Ordering::SeqCst) {
         let timeout = if pending {
@@ -959,9 +968,15 @@ fn run(ents: Entities, mut tracker: Tracker, domain: u32, cell: &Cell, stop: &At
             break;
         }
         pending = false;
+        let mut took = 0;
         for (reader, which) in ents.readers {
             let mut batches = 0;
-            while take_batch(reader, which, &mut tracker) == BATCH {
+            loop {
+                let n = take_batch(reader, which, &mut tracker);
+                took += n;
+                if n < BATCH {
+                    break;
+                }
                 batches += 1;
                 if batches >= BATCHES_PER_WAKE {
                     pending = true; // more left; the status was reset by the take
@@ -969,10 +984,15 @@ fn run(ents: Entities, mut tracker: Tracker, domain: u32, cell: &Cell, stop: &At
                 }
             }
         }
+        if took > 0 && tracker.is_dirty() {
+            changed_at = Some(Instant::now());
+        }
         let due = last_publish.map_or(true, |t| t.elapsed() >= min_interval);
         if tracker.is_dirty() && due {
             generation += 1;
-            cell.publish(Arc::new(tracker.snapshot(domain, generation)));
+            let mut snapshot = tracker.snapshot(domain, generation);
+            snapshot.changed_at = changed_at;
+            cell.publish(Arc::new(snapshot));
             last_publish = Some(Instant::now());
         }
     }

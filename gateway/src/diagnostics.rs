@@ -502,6 +502,7 @@ pub(crate) mod tests {
                 participants,
                 endpoints,
                 counters: Counters::default(),
+                changed_at: None,
             }
         }
     }

@@ -603,6 +603,7 @@ mod tests {
                     participants: Vec::new(),
                     endpoints: Vec::new(),
                     counters: Counters::default(),
+                    changed_at: None,
                 },
                 next: 1,
             }

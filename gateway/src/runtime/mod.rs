@@ -457,33 +457,75 @@ fn others(s: &handgate_adapters::discovery::Snapshot) -> Vec<handgate_adapters::
         .collect()
 }
 
-/// Waits until discovery has settled: what other processes show unchanged for
-/// `plan.discovery_settle`, at most `plan.discovery_max_wait` in all, both counted from the
-/// call. Returns the snapshot and how long it took.
+/// Waits until discovery has settled (see [`Settle`]). Returns the snapshot and how long it
+/// took.
 fn settle(discovery: &Discovery, plan: &Plan) -> (Arc<handgate_adapters::discovery::Snapshot>, Duration) {
     let start = Instant::now();
-    let mut seen = others(&discovery.snapshot());
-    let mut last_change = Duration::ZERO;
+    let mut s = Settle::new(
+        &discovery.snapshot(),
+        start,
+        plan.discovery_settle,
+        plan.discovery_max_wait,
+    );
     loop {
-        let left = plan.discovery_max_wait.saturating_sub(start.elapsed());
+        let left = s.deadline().saturating_duration_since(Instant::now());
         if left.is_zero() {
             break;
         }
-        // Err: nothing changed within the settle time (or the cap came first).
-        match discovery.wait_for(plan.discovery_settle.min(left), |s| others(s) != seen) {
-            Ok(s) => {
-                seen = others(&s);
-                last_change = start.elapsed();
-            }
+        // Err: nothing changed within what is left of the settle time (or the cap came first).
+        match discovery.wait_for(left, |snap| others(snap) != s.seen) {
+            Ok(snap) => s.changed(&snap, Instant::now()),
             Err(_) => break,
         }
     }
     tracing::debug!(
-        last_change_ms = last_change.as_secs_f64() * 1e3,
-        others = seen.len(),
+        last_change_ms = s.quiet_from.duration_since(start).as_secs_f64() * 1e3,
+        others = s.seen.len(),
         "discovery: the last change from other processes"
     );
     (discovery.snapshot(), start.elapsed())
+}
+
+/// Discovery has settled when what other processes show has been unchanged for `settle`, at
+/// most `max_wait` in all, both counted from `start`. The quiet is counted from when discovery
+/// read the last change (`Snapshot::changed_at`), not from when its snapshot came out (up to
+/// its `min_publish_interval` later).
+struct Settle {
+    start: Instant,
+    settle: Duration,
+    cap: Instant,
+    /// Other processes' participants and endpoints, as last seen.
+    seen: Vec<handgate_adapters::discovery::Guid>,
+    /// Quiet since: `start`, then each change of other processes' endpoints as it was read.
+    quiet_from: Instant,
+}
+
+impl Settle {
+    fn new(
+        current: &handgate_adapters::discovery::Snapshot,
+        start: Instant,
+        settle: Duration,
+        max_wait: Duration,
+    ) -> Self {
+        Self {
+            start,
+            settle,
+            cap: start + max_wait,
+            seen: others(current),
+            quiet_from: start,
+        }
+    }
+
+    /// Settled at this instant unless another change comes first.
+    fn deadline(&self) -> Instant {
+        (self.quiet_from + self.settle).min(self.cap)
+    }
+
+    /// A snapshot in which other processes' endpoints changed, taken at `now`.
+    fn changed(&mut self, snap: &handgate_adapters::discovery::Snapshot, now: Instant) {
+        self.seen = others(snap);
+        self.quiet_from = snap.changed_at.map_or(now, |t| t.clamp(self.start, now));
+    }
 }
 
 /// Whether the start waits for discovery to settle and refuses foreign state writers:
@@ -577,5 +619,42 @@ mod tests {
         ]);
         assert_ne!(super::others(&before), super::others(&foreign));
         assert_eq!(super::others(&foreign).len(), 3, "its participant and two endpoints");
+    }
+
+    #[test]
+    fn the_settle_counts_its_quiet_from_when_a_change_was_read() {
+        use std::time::{Duration, Instant};
+        let ms = Duration::from_millis;
+        let t0 = Instant::now();
+        let before = snap(&[(1, ThisParticipant, Role::Writer, "rt/dex1/left/state", "t")]);
+        let mut s = super::Settle::new(&before, t0, ms(50), ms(1000));
+        // Nothing changes: settled one settle time after the start.
+        assert_eq!(s.deadline(), t0 + ms(50));
+        // Another process's reader, read at 5 ms, in the snapshot published at 25 ms: quiet
+        // since 5 ms, not since 25 ms.
+        let mut seen = snap(&[
+            (3, Remote, Role::Reader, "rt/dex1/left/state", "t"),
+            (1, ThisParticipant, Role::Writer, "rt/dex1/left/state", "t"),
+        ]);
+        seen.changed_at = Some(t0 + ms(5));
+        s.changed(&seen, t0 + ms(25));
+        assert_eq!(s.deadline(), t0 + ms(55));
+        // A change read before the wait began counts from the start; a snapshot without the
+        // time (none read yet) from when it was seen; a stamp is never taken as later than
+        // when the snapshot was seen.
+        seen.changed_at = Some(t0.checked_sub(ms(3)).unwrap_or(t0));
+        s.changed(&seen, t0 + ms(30));
+        assert_eq!(s.deadline(), t0 + ms(50));
+        seen.changed_at = None;
+        s.changed(&seen, t0 + ms(40));
+        assert_eq!(s.deadline(), t0 + ms(90));
+        seen.changed_at = Some(t0 + ms(70));
+        s.changed(&seen, t0 + ms(60));
+        assert_eq!(s.deadline(), t0 + ms(110));
+        // Never past the cap.
+        let mut capped = super::Settle::new(&before, t0, ms(50), ms(60));
+        seen.changed_at = Some(t0 + ms(40));
+        capped.changed(&seen, t0 + ms(45));
+        assert_eq!(capped.deadline(), t0 + ms(60));
     }
 }
