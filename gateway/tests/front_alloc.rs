@@ -18,14 +18,12 @@
 
 #[path = "../../adapters/tests/support/counting.rs"]
 mod counting;
+mod support;
 
-use std::path::Path;
 use std::time::Duration;
 
 use counting::{thread_named, Counts};
 use handgate_adapters::dds::{Node, Qos};
-use handgate_gateway::profile::{load, CliOverrides, EnvLayer, LoadOptions};
-use handgate_gateway::resolve::plan;
 use handgate_gateway::runtime::Runtime;
 use handgate_idl::unitree_hg::HandState_;
 
@@ -37,19 +35,6 @@ const WARM_UP: u64 = 200;
 const STATES: u64 = 500;
 /// Bound on any wait (a starved machine only makes it slower).
 const DEADLINE: Duration = Duration::from_secs(60);
-
-fn plan_of(text: &str) -> handgate_gateway::plan::Plan {
-    let p = Path::new(env!("CARGO_TARGET_TMPDIR")).join("front-alloc.toml");
-    std::fs::write(&p, text).unwrap();
-    let loaded = load(&LoadOptions {
-        profile: Some(p.display().to_string()),
-        overrides: CliOverrides::default(),
-        env: EnvLayer::Ignore,
-        search_dirs: Some(vec![]),
-    })
-    .unwrap_or_else(|e| panic!("{e}"));
-    plan(&loaded.profile).unwrap_or_else(|e| panic!("{e:?}"))
-}
 
 /// What the loop thread `tid` allocated while the device published `n` states after `skip`.
 async fn window(
@@ -92,8 +77,10 @@ fn a_front_publishing_from_a_device_loop_allocates_nothing_there_without_a_clien
         .with_env_filter(tracing_subscriber::EnvFilter::new("info"))
         .with_writer(std::io::sink)
         .try_init();
-    let plan = plan_of(&format!(
-        r#"name = "front-alloc"
+    let plan = support::plan_of(
+        "front-alloc.toml",
+        &format!(
+            r#"name = "front-alloc"
 [dds]
 domain = {DOMAIN}
 [[devices]]
@@ -105,7 +92,8 @@ backend = "emulator"
 kind = "dex3"
 device = "hand"
 "#
-    ));
+        ),
+    );
     let state_topic = plan.fronts[0].state_topic().to_string();
     let rt = tokio::runtime::Runtime::new().unwrap();
     rt.block_on(async {

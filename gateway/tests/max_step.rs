@@ -1,24 +1,10 @@
 //! A profile's `limits.max_step` reaches the device: profile text → validated profile → plan →
 //! the device table the plan carries for the runtime (`plan.table`) → what a far command resolves to against a measured position.
 
-use std::path::Path;
+mod support;
 
 use handgate_adapters::model::{CommandBody, DeviceKind, JointCommand, JointState};
-use handgate_gateway::profile::{load, CliOverrides, EnvLayer, LoadOptions};
-use handgate_gateway::resolve::plan;
-
-fn plan_of(name: &str, text: &str) -> handgate_gateway::plan::Plan {
-    let p = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    std::fs::write(&p, text).unwrap();
-    let loaded = load(&LoadOptions {
-        profile: Some(p.display().to_string()),
-        overrides: CliOverrides::default(),
-        env: EnvLayer::Ignore,
-        search_dirs: Some(vec![]),
-    })
-    .unwrap_or_else(|e| panic!("{e}"));
-    plan(&loaded.profile).unwrap_or_else(|e| panic!("{e:?}"))
-}
+use support::plan_of;
 
 fn profile(max_step: Option<f64>) -> String {
     let limits = max_step
