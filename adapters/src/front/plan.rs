@@ -153,9 +153,15 @@ impl FrontPlan {
         self.first(TopicRole::Command)
     }
 
-    /// The state topic (every front has one).
+    /// The state topic (every front has one but a command-only front: empty there).
     pub fn state_topic(&self) -> &str {
         self.first(TopicRole::State).unwrap_or_default()
+    }
+
+    /// Whether the front publishes its devices' state: it has a state topic (a command-only
+    /// front, `joint_state_command`, has none; its client reads another front's topic).
+    pub fn publishes_state(&self) -> bool {
+        self.first(TopicRole::State).is_some()
     }
 
     /// The low-frequency state copy (topic, Hz), where the kind has one.

@@ -100,7 +100,8 @@ pub(super) fn spawn_front(
             .iter()
             .map(|b| (b.device.clone(), b.element, b.silence, b.table.clone()))
             .collect(),
-        publishes: true,
+        // A command-only front is not told its devices' states: it would publish nothing.
+        publishes: f.publishes_state(),
     };
     let (live, handle) = run_front(task, out, (tx, rx), dropped, devices, env.discovery.clone(), shutdown)?;
     // From now on the readers' listeners hand their samples to the front itself.
@@ -128,8 +129,9 @@ pub(crate) struct FrontTask {
         SilencePlan,
         Option<Arc<handgate_adapters::mapping::DeviceTable>>,
     )>,
-    /// The front publishes state (a DDS front); `false`: it publishes nothing (the
-    /// dashboard's page front), so its devices' states are not told to it.
+    /// The front publishes state (a DDS front with a state topic); `false`: it publishes
+    /// nothing (a command-only front, the dashboard's page front), so its devices' states are
+    /// not told to it.
     pub publishes: bool,
 }
 

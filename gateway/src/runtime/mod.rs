@@ -622,6 +622,26 @@ mod tests {
     }
 
     #[test]
+    fn only_a_command_only_front_is_not_told_its_devices_states() {
+        let l = crate::profile::load(&crate::profile::LoadOptions {
+            profile: Some(concat!(env!("CARGO_MANIFEST_DIR"), "/../profiles/sim-all.toml").into()),
+            env: crate::profile::EnvLayer::Ignore,
+            search_dirs: Some(vec![]),
+            ..crate::profile::LoadOptions::default()
+        })
+        .unwrap();
+        let plan = crate::resolve::plan(&l.profile).unwrap();
+        let quiet: Vec<&str> = plan
+            .fronts
+            .iter()
+            .filter(|f| !f.publishes_state())
+            .map(|f| f.kind().as_str())
+            .collect();
+        assert_eq!(quiet, ["joint_state_command"]);
+        assert!(plan.fronts.len() > 10, "sim-all serves every kind");
+    }
+
+    #[test]
     fn the_settle_counts_its_quiet_from_when_a_change_was_read() {
         use std::time::{Duration, Instant};
         let ms = Duration::from_millis;
