@@ -353,8 +353,6 @@ impl Dex3Emulator {
         if f.mode.id == BROADCAST_ID {
             self.stats.broadcasts += 1;
             if apply {
-                // Every motor of this bus (the wiring map has no Vec-free lookup by bus; this is
-                // the rare path, so the emulator's cycle stays allocation-free otherwise).
                 for (_, j) in self.cfg.wiring.joints_on(bus) {
                     self.apply(j.index(), &f);
                 }
@@ -453,16 +451,7 @@ impl Dex3Emulator {
                 // A validated wiring map always fits.
                 let _ = payload.push(&bytes, bus.index());
             }
-            // Sensors of this bus by id, as `WiringMap::pads_on` orders them (on the stack: this
-            // runs every exchange).
-            let mut pads = [(DeviceId::new(0).expect("id 0"), 0usize); PAD_COUNT];
-            let mut n = 0;
-            for (p, at) in self.cfg.wiring.pads.iter().enumerate().filter(|(_, at)| at.bus == bus) {
-                pads[n] = (at.id, p);
-                n += 1;
-            }
-            pads[..n].sort_unstable();
-            for &(id, pad) in &pads[..n] {
+            for (id, pad) in self.cfg.wiring.pads_on(bus) {
                 let frame = SensorFrame::new(id.get(), 0, self.pad_pressure(pad), [30; TAXELS_PER_PAD]);
                 let _ = payload.push(&frame.encode(), bus.index());
             }

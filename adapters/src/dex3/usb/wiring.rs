@@ -137,13 +137,12 @@ impl WiringMap {
         self.pads.iter().position(|p| *p == addr)
     }
 
-    /// Joints on `bus`, ordered by motor id.
-    pub fn joints_on(&self, bus: BusId) -> Vec<(DeviceId, Joint)> {
+    /// Joints on `bus`, ordered by motor id (on the stack).
+    pub fn joints_on(&self, bus: BusId) -> impl Iterator<Item = (DeviceId, Joint)> {
         self.motors_in_frame_order()
             .into_iter()
-            .filter(|(at, _)| at.bus == bus)
+            .filter(move |(at, _)| at.bus == bus)
             .map(|(at, j)| (at.id, j))
-            .collect()
     }
 
     /// Every joint with its address, in command-frame order: by bus, then by motor id (on
@@ -154,14 +153,14 @@ impl WiringMap {
         v
     }
 
-    /// Pads on `bus`, ordered by sensor id.
-    pub fn pads_on(&self, bus: BusId) -> Vec<(DeviceId, usize)> {
-        let mut v: Vec<_> = (0..PAD_COUNT)
-            .filter(|p| self.pads[*p].bus == bus)
-            .map(|p| (self.pads[p].id, p))
-            .collect();
-        v.sort();
-        v
+    /// Pads on `bus`, ordered by sensor id (on the stack: the emulator answers with them on
+    /// every exchange).
+    pub fn pads_on(&self, bus: BusId) -> impl Iterator<Item = (DeviceId, usize)> {
+        let mut v: [(BusAddr, usize); PAD_COUNT] = std::array::from_fn(|p| (self.pads[p], p));
+        v.sort_unstable();
+        v.into_iter()
+            .filter(move |(at, _)| at.bus == bus)
+            .map(|(at, p)| (at.id, p))
     }
 }
 
@@ -179,10 +178,7 @@ mod tests {
         assert_eq!(w.joint_at(BusAddr::of(1, 0)), Some(Joint::Index0));
         assert_eq!(w.pad_at(BusAddr::of(4, 0)), Some(8));
         assert_eq!(
-            w.joints_on(BusId::new(0).unwrap())
-                .iter()
-                .map(|x| x.1)
-                .collect::<Vec<_>>(),
+            w.joints_on(BusId::new(0).unwrap()).map(|x| x.1).collect::<Vec<_>>(),
             vec![Joint::Thumb0, Joint::Thumb1, Joint::Thumb2]
         );
     }
