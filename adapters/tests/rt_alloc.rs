@@ -122,11 +122,7 @@ impl Window {
     /// Allocations of the loop's own code (everything but the DDS writes and the reader
     /// callbacks run inside them).
     fn own(&self) -> (u64, u64) {
-        let c = &self.counts;
-        (
-            c.allocs - c.write_allocs - c.callback_allocs,
-            c.bytes - c.write_bytes - c.callback_bytes,
-        )
+        self.counts.own()
     }
 
     fn report(&self, name: &str) -> String {

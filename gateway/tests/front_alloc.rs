@@ -59,8 +59,7 @@ async fn window(
 }
 
 fn report(what: &str, c: &Counts) -> String {
-    let own = c.allocs - c.write_allocs - c.callback_allocs;
-    let own_bytes = c.bytes - c.write_bytes - c.callback_bytes;
+    let (own, own_bytes) = c.own();
     format!(
         "{what}: {STATES} states: {own} allocations ({own_bytes} B) of handgate's own = {:.2}/state; \
          inside the front's DDS writes {} allocations ({} B) = {:.2}/state",
@@ -128,7 +127,7 @@ device = "hand"
             "with a client, no front write ran on the device loop's thread: {}",
             report("a client", &client)
         );
-        let own = idle.allocs - idle.write_allocs - idle.callback_allocs;
+        let (own, _) = idle.own();
         assert_eq!(
             (own, idle.write_allocs),
             (0, 0),

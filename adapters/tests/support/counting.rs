@@ -172,6 +172,15 @@ impl Counts {
             .unwrap_or_default()
     }
 
+    /// Allocations and bytes of the code counted itself: everything but the DDS writes and the
+    /// reader callbacks run inside them.
+    pub fn own(&self) -> (u64, u64) {
+        (
+            self.allocs - self.write_allocs - self.callback_allocs,
+            self.bytes - self.write_bytes - self.callback_bytes,
+        )
+    }
+
     pub fn since(self, before: Counts) -> Counts {
         Counts {
             allocs: self.allocs - before.allocs,
