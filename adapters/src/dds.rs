@@ -699,14 +699,27 @@ impl<T: TopicType> Writer<T> {
         if self.unread() {
             return Ok(());
         }
-        let _within = Enter::new(Within::Write);
-        self.writer.write(Arc::new(sample)).map_err(dds_err("write"))
+        self.send(sample)
+    }
+
+    /// Builds a sample with `build` and writes it, unless a write now would reach no reader
+    /// (then nothing is built: a front's state with no client attached). `None` writes nothing.
+    pub fn write_with(&mut self, build: impl FnOnce() -> Option<T>) -> Result<(), DdsError> {
+        if self.unread() {
+            return Ok(());
+        }
+        build().map_or(Ok(()), |sample| self.send(sample))
     }
 
     /// Whether a write now would reach no reader and is skipped (a best-effort, volatile writer
-    /// with no matched reader): a caller can skip building the sample too.
-    pub fn unread(&self) -> bool {
+    /// with no matched reader).
+    fn unread(&self) -> bool {
         self.skip_unmatched && self.matched() == 0
+    }
+
+    fn send(&mut self, sample: T) -> Result<(), DdsError> {
+        let _within = Enter::new(Within::Write);
+        self.writer.write(Arc::new(sample)).map_err(dds_err("write"))
     }
 
     /// Writes a copy of `sample`, which the caller keeps to fill again. cyclonedds-rs takes

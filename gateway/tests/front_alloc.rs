@@ -7,7 +7,7 @@
 //! binary only).
 //!
 //! - With no client on the front's state topic, the front neither builds nor writes a message
-//!   (`Writer::unread`), and its views of the devices are on the stack: nothing at all.
+//!   (`Writer::write_with`), and its views of the devices are on the stack: nothing at all.
 //! - With a client, the front's kind builds each message (`FrontCodec::encode` returns an owned
 //!   message, which cyclonedds-rs takes as an `Arc`): those allocations are measured and
 //!   printed (docs/deployment.md, "Real-time"), not asserted away; the test asserts that the

@@ -319,15 +319,9 @@ impl TypedIo for AutoIo {
             });
         }
         // A message no reader would receive is not built.
-        if !self.go.unread() {
-            if let Some(m) = GoCodec.encode(bound) {
-                let _ = self.go.write(m);
-            }
-        }
-        if let Some(w) = self.hg.as_mut().filter(|w| !w.unread()) {
-            if let Some(m) = HgCodec.encode(bound) {
-                let _ = w.write(m);
-            }
+        let _ = self.go.write_with(|| GoCodec.encode(bound));
+        if let Some(w) = &mut self.hg {
+            let _ = w.write_with(|| HgCodec.encode(bound));
         }
     }
 }

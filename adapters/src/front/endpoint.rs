@@ -102,22 +102,16 @@ impl<C: FrontCodec> TypedIo for DdsFront<C> {
         self.codec.decode(bound, msg)
     }
 
-    /// A message no reader would receive (no client attached) is not built.
+    /// A message no reader would receive (no client attached) is not built (`write_with`).
     fn publish(&mut self, bound: &[Bound<'_>], lf: bool) {
+        let codec = &self.codec;
         if lf {
-            if let Some((w, _)) = self.lf.as_mut().filter(|(w, _)| !w.unread()) {
-                if let Some(msg) = self.codec.encode(bound) {
-                    let _ = w.write(msg);
-                }
+            if let Some((w, _)) = &mut self.lf {
+                let _ = w.write_with(|| codec.encode(bound));
             }
             return;
         }
-        if !self.state.unread() {
-            let Some(msg) = self.codec.encode(bound) else {
-                return;
-            };
-            let _ = self.state.write(msg);
-        }
+        let _ = self.state.write_with(|| codec.encode(bound));
         self.codec.beside(bound);
     }
 

@@ -95,12 +95,7 @@ impl FrontCodec for FtpCodec {
     }
 
     fn beside(&mut self, bound: &[Bound<'_>]) {
-        if self.touch.unread() {
-            return;
-        }
-        if let Some(t) = bound.first().and_then(touch_of) {
-            let _ = self.touch.write(t);
-        }
+        let _ = self.touch.write_with(|| bound.first().and_then(touch_of));
     }
 
     /// The command reader and state writer, then the touch writer.
