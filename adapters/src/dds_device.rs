@@ -542,6 +542,15 @@ impl<C: DdsCodec> DdsLoop<C> {
         self.taps.run(&self.state_tx.borrow());
     }
 
+    /// The loop's scope on the thread running it (its own, or one that brings a command or a
+    /// sample): its tracing span, and `Within::Device` for what it allocates.
+    fn enter(&self) -> (crate::dds::Enter, tracing::span::EnteredSpan) {
+        (
+            crate::dds::Enter::new(crate::dds::Within::Device),
+            self.span.clone().entered(),
+        )
+    }
+
     /// When the loop must run next: the next tick, or sooner when targets wait for a token.
     fn next_run(&mut self) -> Instant {
         if self.want_send {
@@ -556,9 +565,7 @@ impl<C: DdsCodec> crate::loops::Task for DdsTask<C> {
     fn run(&mut self, now: Instant) -> Option<Instant> {
         let mut l = self.0.lock().unwrap_or_else(|p| p.into_inner());
         let l = &mut *l;
-        let _within = crate::dds::Enter::new(crate::dds::Within::Device);
-        let span = l.span.clone();
-        let _span = span.enter();
+        let _scope = l.enter();
         if !std::mem::replace(&mut l.started, true) {
             tracing::debug!(rate_hz = l.config.rate_hz, cmd = %l.config.cmd_topic,
                 on_arrival = l.config.forward.on_arrival, max_send_hz = l.config.forward.max_send_hz,
@@ -621,9 +628,7 @@ impl<C: DdsCodec> Inline for Mutex<DdsLoop<C>> {
         if !l.has_state || !l.started {
             return false;
         }
-        let _within = crate::dds::Enter::new(crate::dds::Within::Device);
-        let span = l.span.clone();
-        let _span = span.enter();
+        let _scope = l.enter();
         let command = l.shared.wake.command.swap(false, Ordering::AcqRel);
         l.send(now, false, command);
         // Targets waiting for a token: the loop runs when it comes.
@@ -638,9 +643,7 @@ impl<C: DdsCodec> Inline for Mutex<DdsLoop<C>> {
         if !l.started {
             return false;
         }
-        let _within = crate::dds::Enter::new(crate::dds::Within::Device);
-        let span = l.span.clone();
-        let _span = span.enter();
+        let _scope = l.enter();
         if l.intake(now) {
             l.publish();
         }
