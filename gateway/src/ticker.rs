@@ -41,12 +41,6 @@ impl Ticker {
         self.grid.dropped
     }
 
-    /// Restarts the grid one period from now (a sample published off the grid stands in for
-    /// the tick that was due: the next one comes a full period after it).
-    pub fn restart(&mut self) {
-        self.grid.restart(std::time::Instant::now());
-    }
-
     /// Waits for the next deadline (at once when it has passed) and advances the grid.
     pub async fn tick(&mut self) {
         tokio::time::sleep_until(self.deadline()).await;
@@ -77,21 +71,5 @@ mod tests {
         t.advance(now);
         assert_eq!(t.deadline(), now + p);
         assert!(t.dropped() >= 19, "{}", t.dropped());
-    }
-
-    #[test]
-    fn a_restart_moves_the_next_tick_a_full_period_after_it() {
-        let p = Duration::from_secs(3600);
-        let mut t = Ticker::new(p);
-        let d0 = t.deadline();
-        t.advance(d0); // on time: the grid moves one period
-        assert_eq!(t.deadline(), d0 + p);
-        let before = Instant::now();
-        t.restart();
-        let after = Instant::now();
-        assert!(
-            t.deadline() >= before + p && t.deadline() <= after + p,
-            "one period after the restart, not on the old grid"
-        );
     }
 }

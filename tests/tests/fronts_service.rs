@@ -5,7 +5,9 @@
 //!   "watchdog"` still trips;
 //! - rates: every front's state and `rt/lf` copy with a busy process per core on the machine,
 //!   held to 5 % above nominal (and below it in `make reliability`, [`RateCheck`]);
-//! - the legacy `rt/unitree_actuator/*` pair as ONE front over two grippers.
+//! - the legacy `rt/unitree_actuator/*` pair as ONE front over two grippers;
+//! - state rates: a client commanding each of four hands at 100-200 Hz leaves every state
+//!   topic at its service's rate (domain 168).
 //!
 //! Domains 160-169 (docs/development.md). Tests take turns ([`serial`]); every wait is on
 //! readiness with a deadline. Needs the binary (`cargo build -p handgate`) and `.venv`.
@@ -383,5 +385,140 @@ fn legacy_xr_teleoperate_actuator_client_reaches_both_targets_through_the_sdk() 
     assert!(
         min_left > left - 0.5,
         "left element read {min_left} on its way to {left}: {done}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// State rates whatever the command traffic
+
+/// A client writing `make(k)` at `hz` on absolute deadlines, on its own thread, until `stop`.
+fn client_thread<T: TopicType + Clone + Send + 'static>(
+    domain: u32,
+    topic: &'static str,
+    hz: f64,
+    (stop, matched): (Arc<std::sync::atomic::AtomicBool>, Arc<AtomicU64>),
+    make: impl Fn(u64) -> T + Send + 'static,
+) -> std::thread::JoinHandle<u64> {
+    std::thread::spawn(move || {
+        let n = node(domain);
+        let mut w = n.writer::<T>(topic, Qos::Reliable { depth: 1 }).unwrap();
+        w.wait_matched(1, DEADLINE).unwrap();
+        matched.fetch_add(1, Ordering::Relaxed);
+        let period = Duration::from_secs_f64(1.0 / hz);
+        let mut next = Instant::now();
+        let mut k = 0u64;
+        while !stop.load(Ordering::Relaxed) {
+            w.write(make(k)).expect("write");
+            k += 1;
+            next += period;
+            let now = Instant::now();
+            if next > now {
+                std::thread::sleep(next - now);
+            } else {
+                next = now;
+            }
+        }
+        k
+    })
+}
+
+/// The services these fronts stand in for publish at a fixed rate; a client commanding at
+/// 100-200 Hz must not change it (issue #37: `rt/inspire/state` went from 100 to 196 Hz with a
+/// 200 Hz client, Dex3, Dex1 and BrainCo from 500 to 516-675 Hz, when every command's prompt
+/// state was published on top of the periodic ones). Held to +5 % here, to ±5 % in `make
+/// reliability` ([`RateCheck`]).
+#[test]
+fn a_front_state_rate_does_not_follow_the_command_rate() {
+    let _serial = serial();
+    const D: u32 = 168;
+    let gw = Gateway::start(D, &["--profile", "sim-all"]);
+    let n = node(D);
+    let counters = vec![
+        counter::<unitree_hg::HandState_>(&n, "rt/dex3/left/state", 500.0),
+        counter::<unitree_go::MotorStates_>(&n, "rt/dex1/left/state", 500.0),
+        counter::<unitree_go::MotorStates_>(&n, "rt/inspire/state", 100.0),
+        counter::<unitree_go::MotorStates_>(&n, "rt/brainco/left/state", 500.0),
+    ];
+    let first = poll(Duration::from_secs(60), || {
+        counters
+            .iter()
+            .all(|c| c.count.load(Ordering::Relaxed) > 0)
+            .then_some(())
+    });
+    assert!(first.is_some(), "no state on every topic\n{}", gw.transcript());
+    let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let matched = Arc::new(AtomicU64::new(0));
+    let ctl = || (stop.clone(), matched.clone());
+    // Moving targets (each command differs), at the rates of the issue's clients.
+    let wave = |k: u64, lo: f32, hi: f32| lo + (hi - lo) * (0.5 + 0.5 * ((k as f32) * 0.05).sin());
+    let clients = vec![
+        client_thread(D, "rt/dex3/left/cmd", 100.0, ctl(), move |k| {
+            let mut c = unitree_hg::HandCmd_::sdk_default();
+            for (i, m) in c.motor_cmd.iter_mut().enumerate() {
+                m.mode = 0x10 | i as u8;
+                m.kp = 1.5;
+                m.kd = 0.1;
+            }
+            c.motor_cmd[INDEX_0].q = -wave(k, 0.2, 1.0);
+            c
+        }),
+        client_thread(D, "rt/dex1/left/cmd", 200.0, ctl(), move |k| {
+            let mut c = unitree_go::MotorCmds_::with_len(1);
+            c.cmds[0].q = wave(k, 1.0, 4.0);
+            c.cmds[0].kp = 5.0;
+            c.cmds[0].kd = 0.05;
+            c
+        }),
+        client_thread(D, "rt/inspire/cmd", 200.0, ctl(), move |k| {
+            let mut c = unitree_go::MotorCmds_::with_len(12);
+            for m in &mut c.cmds {
+                m.q = wave(k, 0.3, 0.9);
+            }
+            c
+        }),
+        client_thread(D, "rt/brainco/left/cmd", 100.0, ctl(), move |k| {
+            let mut c = unitree_go::MotorCmds_::with_len(6);
+            for m in &mut c.cmds {
+                m.q = wave(k, 0.1, 0.7);
+            }
+            c
+        }),
+    ];
+    // Every client matched and streaming: then a window of known length.
+    let all = poll(DEADLINE, || (matched.load(Ordering::Relaxed) == 4).then_some(()));
+    assert!(all.is_some(), "a client did not match\n{}", gw.transcript());
+    let c = counters[0].count.load(Ordering::Relaxed);
+    poll(DEADLINE, || {
+        (counters[0].count.load(Ordering::Relaxed) > c + 100).then_some(())
+    });
+    let t0 = Instant::now();
+    let c0: Vec<u64> = counters.iter().map(|c| c.count.load(Ordering::Relaxed)).collect();
+    std::thread::sleep(Duration::from_secs(6));
+    let c1: Vec<u64> = counters.iter().map(|c| c.count.load(Ordering::Relaxed)).collect();
+    let dt = t0.elapsed().as_secs_f64();
+    stop.store(true, Ordering::Relaxed);
+    let sent: Vec<u64> = clients.into_iter().map(|c| c.join().expect("client")).collect();
+    let mut report = Vec::new();
+    let mut bad = Vec::new();
+    for (i, c) in counters.iter().enumerate() {
+        let r = RateCheck {
+            measured: (c1[i] - c0[i]) as f64 / dt,
+            nominal: c.nominal,
+            tol: 0.05,
+        };
+        report.push(format!("{} {}", c.topic, r.line()));
+        if r.fails() {
+            bad.push(c.topic);
+        }
+    }
+    println!(
+        "state rates with clients commanding (commands written: {sent:?}) over {dt:.2} s:\n{}",
+        report.join("\n")
+    );
+    assert!(
+        bad.is_empty(),
+        "state rates follow the commands: {bad:?}\n{}\n{}",
+        report.join("\n"),
+        gw.transcript()
     );
 }

@@ -471,15 +471,21 @@ pub const DEVICE_DRIVEN_GRACE: Duration = Duration::from_millis(50);
 /// [`DEVICE_DRIVEN_GRACE`] (and wakes at most that often while they come). Without it, the
 /// timer publishes on every deadline, as a front always did.
 ///
-/// A publish off the grid (the prompt state of a command, [`Self::restart`]) stands in for
-/// the one due: the next comes a full period after it.
+/// A publish off the grid (the prompt state of a command, [`Self::prompt`]) is the one due in
+/// its period, sent early: the grid does not move, so the topic keeps its rate whatever the
+/// command traffic (one publish per period, as the services these fronts stand in for
+/// publish at a fixed rate). It is refused when its period's publish already went out, or
+/// when the last publish is less than half a period old (no burst of two samples); the
+/// state then goes out at the period's deadline as usual.
 #[derive(Debug, Clone)]
 pub struct StateGrid {
     period: Duration,
     next: Instant,
     by_device: bool,
-    /// The last device state told ([`Self::at_state`]).
+    /// The last device state told ([`Self::at_state`], [`Self::prompt`]).
     last_state: Option<Instant>,
+    /// When the last publish went out (periodic or prompt).
+    last_publish: Option<Instant>,
     /// Publishes dropped by re-anchoring after stalls.
     pub dropped: u64,
 }
@@ -494,6 +500,7 @@ impl StateGrid {
             next: now,
             by_device,
             last_state: None,
+            last_publish: None,
             dropped: 0,
         }
     }
@@ -537,12 +544,30 @@ impl StateGrid {
         }
     }
 
-    /// A state went out off the grid at `now`: the next periodic one is a full period later.
-    pub fn restart(&mut self, now: Instant) {
-        self.next = now + self.period;
+    /// The prompt state of a command is ready at `now` (on a device's loop thread, the state of
+    /// a device this grid's devices drive, or on the front's task): whether it goes out now, as
+    /// the publish of the period in progress. When it does, the grid advanced as for a
+    /// periodic publish, so the next one is due at the next deadline of the same grid.
+    pub fn prompt(&mut self, now: Instant) -> bool {
+        if self.by_device {
+            self.last_state = Some(now);
+        }
+        // The period in progress ends at `next`; a publish already sent for it moved `next` a
+        // period further.
+        let unsent = self.next <= now + self.period;
+        let spaced = self
+            .last_publish
+            .map_or(true, |t| now.saturating_duration_since(t) >= self.period / 2);
+        if unsent && spaced {
+            self.advance(now);
+            true
+        } else {
+            false
+        }
     }
 
     fn advance(&mut self, now: Instant) {
+        self.last_publish = Some(now);
         let late = now.saturating_duration_since(self.next);
         if late > self.period * GRID_STALL_PERIODS {
             self.dropped += (late.as_nanos() / self.period.as_nanos().max(1)) as u64;
@@ -1211,12 +1236,19 @@ mod tests {
         assert!(!g.due(t0 + p / 2));
         assert!(g.due(t0 + p + p / 2), "late by half a period");
         assert_eq!(g.deadline(), t0 + 2 * p, "the grid holds");
-        g.restart(t0 + 2 * p + p / 4);
-        assert_eq!(
-            g.deadline(),
-            t0 + 3 * p + p / 4,
-            "a prompt publish stands in for the one due"
-        );
+        // A prompt publish a quarter period after the last one: too soon, the deadline
+        // publishes it.
+        assert!(!g.prompt(t0 + p + p / 2 + p / 4), "half a period between two publishes");
+        assert_eq!(g.deadline(), t0 + 2 * p);
+        // Half way through the period: it is that period's publish, sent early; the grid holds.
+        assert!(g.prompt(t0 + 2 * p + p / 4));
+        assert_eq!(g.deadline(), t0 + 3 * p, "a prompt publish stands in for the one due");
+        assert!(!g.prompt(t0 + 2 * p + p / 2), "half a period between two publishes");
+        // The publish due at 3p, a quarter period early: the 3p deadline then has nothing to do.
+        assert!(g.prompt(t0 + 2 * p + 3 * p / 4));
+        assert!(!g.prompt(t0 + 2 * p + 7 * p / 8), "one publish per deadline");
+        assert!(!g.due(t0 + 3 * p), "its publish went out early");
+        assert_eq!(g.deadline(), t0 + 4 * p, "the next deadline on the same grid");
         assert!(g.due(t0 + 20 * p), "a stall");
         assert_eq!(g.deadline(), t0 + 21 * p, "re-anchored, no burst");
         assert!(g.dropped > 0);
@@ -1255,6 +1287,60 @@ mod tests {
         assert!(g.at_state(next + p));
         assert_eq!(g.deadline(), next + p + DEVICE_DRIVEN_GRACE);
     }
+    /// Commands at any rate, each asking for a prompt publish when its state comes, never
+    /// change the number of publishes: one per period (issue #37: a 100 Hz client took a
+    /// 100 Hz topic to 196 Hz when each prompt publish re-anchored the grid).
+    #[test]
+    fn prompt_publishes_keep_the_rate_whatever_the_command_rate() {
+        for (by_device, device_hz) in [(false, 0.0), (true, 500.0), (true, 1000.0)] {
+            for (state_hz, cmd_hz) in [
+                (100.0, 100.0),
+                (100.0, 200.0),
+                (500.0, 100.0),
+                (500.0, 200.0),
+                (500.0, 1000.0),
+            ] {
+                let p = Duration::from_secs_f64(1.0 / state_hz);
+                let t0 = Instant::now();
+                let mut g = StateGrid::new(p, by_device, t0);
+                let mut published = 0u32;
+                let mut spacing = Duration::MAX;
+                let mut last: Option<Instant> = None;
+                let mut note = |at: Instant, published: &mut u32| {
+                    *published += 1;
+                    if let Some(l) = last {
+                        spacing = spacing.min(at - l);
+                    }
+                    last = Some(at);
+                };
+                // Events over 2 s in 10 us steps: device states, commands' prompt states (a
+                // command's state arrives 0.3 ms after it), the front's timer.
+                let step = Duration::from_micros(10);
+                let every = |hz: f64| if hz > 0.0 { (1e5 / hz).round() as u64 } else { u64::MAX };
+                let (dev_every, cmd_every) = (every(device_hz), every(cmd_hz));
+                for k in 0..200_000u64 {
+                    let now = t0 + step * k as u32;
+                    if k % cmd_every == 30 && g.prompt(now) {
+                        note(now, &mut published);
+                    } else if k % dev_every == 0 && g.at_state(now) {
+                        note(now, &mut published);
+                    } else if g.due(now) {
+                        note(now, &mut published);
+                    }
+                }
+                let want = (2.0 * state_hz) as u32;
+                assert!(
+                    published.abs_diff(want) <= 1,
+                    "state {state_hz} Hz, commands {cmd_hz} Hz, device {device_hz} Hz: {published} in 2 s"
+                );
+                assert!(
+                    spacing >= p / 2,
+                    "{state_hz}/{cmd_hz}/{device_hz}: {spacing:?} between two publishes"
+                );
+            }
+        }
+    }
+
     const A: WriterHandle = 0xa;
     const B: WriterHandle = 0xb;
     const C: WriterHandle = 0xc;

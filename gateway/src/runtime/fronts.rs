@@ -259,14 +259,11 @@ impl Live {
         if t.core.awaiting(device) {
             t.core.state(now, device, st.cmd_seq, &mut t.acts);
         }
-        if t.acts.is_empty() {
-            if t.grid.at_state(now) {
-                t.publish_periodic(now, Some((device, st)), self.dropped.load(Ordering::Relaxed));
-            }
-        } else {
-            // A prompt publish stands in for the periodic one; tell the grid the device
-            // drives all the same.
-            let _ = t.grid.at_state(now);
+        // A prompt publish (an `Action::Publish` the core asked for) is the period's publish
+        // sent early, when the grid allows it (`StateGrid::prompt`, in `carry_out`); without
+        // one, the device's state is a chance for the periodic publish.
+        if !t.acts.iter().any(|a| matches!(a, Action::Publish)) && t.grid.at_state(now) {
+            t.publish_periodic(now, Some((device, st)), self.dropped.load(Ordering::Relaxed));
         }
         t.carry_out(self, Some((device, st)));
     }
@@ -426,8 +423,11 @@ impl Task {
                     }
                 }
                 Action::Publish => {
-                    self.publish(given, false);
-                    self.grid.restart(Instant::now());
+                    // The period's publish, early; refused when that period's already went
+                    // out (the next periodic one then carries this state or a newer one).
+                    if self.grid.prompt(Instant::now()) {
+                        self.publish(given, false);
+                    }
                 }
                 Action::Safe { device, action } => {
                     // In a task of its own: the front keeps publishing on its deadlines while
