@@ -168,6 +168,7 @@ fn python_sdk_endpoints_show_up_with_type_and_qos_then_disappear() {
         related_topics: Vec::new(),
         also: Vec::new(),
         entries: None,
+        sample_check: None,
     };
     let report = diagnose(&s, std::slice::from_ref(&served));
     assert_eq!(report.topics[0].matched.len(), 1);

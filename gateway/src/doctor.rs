@@ -103,11 +103,22 @@ struct Probe {
     /// seen: entries -> samples.
     expected: Option<usize>,
     entries: BTreeMap<usize, usize>,
+    /// The front's check of a client's sample ([`Served::sample_check`]), and what it found:
+    /// (what is wrong, its fix) -> samples.
+    check: Option<handgate_adapters::discovery::diagnose::SampleCheck>,
+    mistakes: BTreeMap<(String, String), usize>,
 }
 
 impl Probe {
     fn poll(&mut self) {
         for bytes in self.reader.take_bytes() {
+            if let Some(r) = self.check.and_then(|check| (check.0)(&bytes)) {
+                let fix = r
+                    .fix()
+                    .unwrap_or("fix the client's message as the line says")
+                    .to_string();
+                *self.mistakes.entry((r.to_string(), fix)).or_default() += 1;
+            }
             let Some(c) = layout::check(&self.type_name, &bytes) else {
                 continue;
             };
@@ -365,6 +376,8 @@ impl Look {
                     total: 0,
                     expected: s.served.entries,
                     entries: BTreeMap::new(),
+                    check: s.served.sample_check,
+                    mistakes: BTreeMap::new(),
                 });
             }
         }
@@ -778,6 +791,7 @@ fn layout_section(out: &mut Outcome, seen: &Seen<'_>, probes: &[Probe], listen: 
             continue;
         }
         entries_problem(out, p);
+        mistakes_problem(out, p);
         let older: Vec<&str> = p.older.iter().copied().collect();
         if !older.is_empty() || p.unknown > 0 {
             let sizes: Vec<String> = p
@@ -826,6 +840,21 @@ fn layout_section(out: &mut Outcome, seen: &Seen<'_>, probes: &[Probe], listen: 
     {
         out.line(
             "layout: the HandState_ layout of client readers cannot be checked (a reader sends no samples); a client on an older SDK shows through the HandCmd_ it writes",
+        );
+    }
+}
+
+/// Samples a front refuses for a mistake their client repeats ([`Served::sample_check`]: a
+/// Dex3 client that never sets the mode byte), with the fix.
+fn mistakes_problem(out: &mut Outcome, p: &Probe) {
+    for ((what, fix), n) in &p.mistakes {
+        out.problem(
+            "",
+            format!(
+                "{n} of {} sample(s) on {} ({}) are refused: {what}",
+                p.total, p.topic, p.owner
+            ),
+            fix,
         );
     }
 }
@@ -1272,7 +1301,56 @@ mod tests {
             total: seen.iter().map(|(_, n)| n).sum(),
             expected: Some(expected),
             entries: seen.iter().copied().collect(),
+            check: None,
+            mistakes: BTreeMap::new(),
         }
+    }
+
+    /// A Dex3 client that leaves the mode byte 0 (issue #37: ipa-alb/unitree_g1_simulation's
+    /// hand controller) is told why its commands are refused (the lock status, not a wrong
+    /// motor id) and how to fix it; one that sets `id | 0x10` is not.
+    #[test]
+    fn a_dex3_client_leaving_the_mode_byte_0_is_told_the_lock_and_the_fix() {
+        struct Samples(Vec<Vec<u8>>);
+        impl RawTake for Samples {
+            fn take_bytes(&self) -> Vec<Vec<u8>> {
+                self.0.clone()
+            }
+        }
+        let body = |mode: fn(u8) -> u8| {
+            let mut c = handgate_idl::unitree_hg::HandCmd_::sdk_default();
+            for (i, m) in c.motor_cmd.iter_mut().enumerate() {
+                m.mode = mode(i as u8);
+            }
+            handgate_idl::cdr_codec::to_cdr_le(&c).unwrap()[4..].to_vec()
+        };
+        let probe = |samples: Vec<Vec<u8>>| {
+            // The default profile's Dex3 front, as the doctor sees it.
+            let served = crate::diagnostics::served(&crate::resolve::default_plan())
+                .into_iter()
+                .find(|s| s.served.topic == "rt/dex3/left/cmd" && s.served.role == Role::Reader)
+                .and_then(|s| s.served.sample_check);
+            assert!(served.is_some(), "the Dex3 front checks its clients' samples");
+            let mut p = entries_probe(Owner::Front("dex3_left".into()), "rt/dex3/left/cmd", 7, &[]);
+            p.type_name = handgate_adapters::dds::type_name::<handgate_idl::unitree_hg::HandCmd_>();
+            p.reader = Box::new(Samples(samples));
+            p.check = served;
+            p.poll();
+            let mut out = Outcome::default();
+            mistakes_problem(&mut out, &p);
+            out
+        };
+        let out = probe(vec![body(|_| 0); 3]);
+        assert_eq!(out.problems.len(), 1, "{}", out.text);
+        assert!(
+            out.text.contains("3 of 3 sample(s) on rt/dex3/left/cmd")
+                && out.text.contains("status 0 (lock)")
+                && out.text.contains("fix: set each entry's mode to id | 0x10"),
+            "{}",
+            out.text
+        );
+        let out = probe(vec![body(|i| 0x10 | i); 3]);
+        assert!(out.problems.is_empty(), "{}", out.text);
     }
 
     /// A hand of another kind on a device's topics is named by the kind whose hands carry

@@ -433,7 +433,7 @@ fn a_front_state_rate_does_not_follow_the_command_rate() {
     const D: u32 = 168;
     let gw = Gateway::start(D, &["--profile", "sim-all"]);
     let n = node(D);
-    let counters = vec![
+    let counters = [
         counter::<unitree_hg::HandState_>(&n, "rt/dex3/left/state", 500.0),
         counter::<unitree_go::MotorStates_>(&n, "rt/dex1/left/state", 500.0),
         counter::<unitree_go::MotorStates_>(&n, "rt/inspire/state", 100.0),

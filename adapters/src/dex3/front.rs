@@ -4,7 +4,9 @@
 //!
 //! Command rules: exactly 7 entries (IDL order); every value finite; RIS mode byte per entry:
 //! id must equal the entry index, status 1 (FOC) follows q/dq/tau/kp/kd, status 0 (lock)
-//! holds the joint where it is measured, any other status rejects the message; bit 7
+//! holds the joint where it is measured, any other status rejects the message; a mode byte
+//! of 0 past the first entry (the SDK's default, left unset) rejects it as `mode_unset`, whose
+//! fix (`mode = id | 0x10`) the log gives once per client; bit 7
 //! (timeout protection) is honoured by the front's watchdog (at most 1 s).
 //! State extras (handgate's use of reserved fields): `reserve[0]` echoes the tag a client put
 //! in `HandCmd_.reserve[0]` of the last applied command; `reserve[1]` is the freshness
@@ -26,6 +28,9 @@ pub fn decode_cmd(msg: &HandCmd_, front: &DeviceTable, measured: &[JointState]) 
             got: msg.motor_cmd.len(),
             want,
         });
+    }
+    if let Some(r) = mode_unset(msg) {
+        return Err(r);
     }
     let mut timeout_bit = false;
     for (i, m) in msg.motor_cmd.iter().enumerate() {
@@ -64,6 +69,33 @@ pub fn decode_cmd(msg: &HandCmd_, front: &DeviceTable, measured: &[JointState]) 
         timeout_bit,
         tag: msg.reserve[0],
     })
+}
+
+/// A client's HandCmd_ sample (its bytes after the encapsulation header, either byte order)
+/// that this front rejects for a mistake the client repeats on every message: the rejection,
+/// whose `fix` says what to change (`handgate doctor` runs it on what clients write). Only the mode
+/// byte is checked: a sample in another layout is the layout check's business.
+pub fn sample_mistake(body: &[u8]) -> Option<Rejection> {
+    for header in [[0u8, 1, 0, 0], [0, 0, 0, 0]] {
+        let mut buf = Vec::with_capacity(body.len() + 4);
+        buf.extend_from_slice(&header);
+        buf.extend_from_slice(body);
+        if let Ok(msg) = handgate_idl::cdr_codec::from_cdr::<HandCmd_>(&buf) {
+            return mode_unset(&msg);
+        }
+    }
+    None
+}
+
+/// The first entry past the first whose mode byte is 0 (the SDK's default, never set): the
+/// rejection [`decode_cmd`] gives for it.
+fn mode_unset(msg: &HandCmd_) -> Option<Rejection> {
+    msg.motor_cmd
+        .iter()
+        .enumerate()
+        .skip(1)
+        .find(|(_, m)| m.mode == 0)
+        .map(|(index, _)| Rejection::ModeUnset { index })
 }
 
 fn freshness_code(f: Freshness) -> u32 {
@@ -193,6 +225,26 @@ mod tests {
         let mut id = cmd();
         id.motor_cmd[3].mode = 0x10 | 4;
         assert_eq!(decode_cmd(&id, &t, &[]), Err(Rejection::WrongId { index: 3, id: 4 }));
+        // The SDK's default mode byte, never set (issue #37): the lock status is the reason,
+        // not the motor id, and the fix is said.
+        let mut unset = cmd();
+        for m in &mut unset.motor_cmd {
+            m.mode = 0;
+        }
+        let r = decode_cmd(&unset, &t, &[]).unwrap_err();
+        assert_eq!(r, Rejection::ModeUnset { index: 1 });
+        assert!(r.to_string().contains("status 0 (lock)") && r.once_per_client(), "{r}");
+        assert!(r.fix().unwrap().contains("id | 0x10"));
+        let body = handgate_idl::cdr_codec::to_cdr_be(&unset).unwrap();
+        assert_eq!(sample_mistake(&body[4..]), Some(Rejection::ModeUnset { index: 1 }));
+        assert_eq!(
+            sample_mistake(&handgate_idl::cdr_codec::to_cdr_le(&cmd()).unwrap()[4..]),
+            None
+        );
+        // A lock on motor 0 alone is a valid command.
+        let mut lock0 = cmd();
+        lock0.motor_cmd[0].mode = 0;
+        assert!(decode_cmd(&lock0, &t, &[]).is_ok());
         let mut st = cmd();
         st.motor_cmd[1].mode = 0x60 | 1;
         assert_eq!(

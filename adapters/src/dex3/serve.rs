@@ -53,6 +53,7 @@ impl FrontCodec for Dex3Codec {
             .into_iter()
             .map(|s| match s.role {
                 Role::Reader => s
+                    .with_sample_check(super::front::sample_mistake)
                     .alternative(
                         type_name::<unitree_go::MotorCmds_>(),
                         format!("the client speaks the Dex1 / hand-service interface (unitree_go MotorCmds_), not the Dex3 service's unitree_hg HandCmd_: point it at a dex1 front, or send HandCmd_ to front {}", f.name),

@@ -55,7 +55,26 @@ pub struct Served {
     /// doctor reads the counterpart's samples and says which kind answers. `None`: not
     /// checked.
     pub entries: Option<usize>,
+    /// A check of a counterpart's sample (its bytes after the encapsulation header) for a
+    /// mistake the front would reject it for, in words with its fix: the doctor reads what
+    /// clients write and runs it (the Dex3 front: a mode byte left 0). `None`: not checked.
+    pub sample_check: Option<SampleCheck>,
 }
+
+/// See [`Served::sample_check`]: the rejection of a sample the front refuses for a mistake its
+/// client repeats ([`crate::front::Rejection::fix`] says the fix). Two checks compare equal
+/// (an endpoint is described by its topic, type, role and QoS; a function's address is not
+/// a meaningful identity).
+#[derive(Debug, Clone, Copy)]
+pub struct SampleCheck(pub fn(&[u8]) -> Option<crate::front::Rejection>);
+
+impl PartialEq for SampleCheck {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl Eq for SampleCheck {}
 
 impl Served {
     /// `role` on `topic` with `type_name` and `qos`, no alternatives or related topics.
@@ -69,12 +88,19 @@ impl Served {
             related_topics: Vec::new(),
             also: Vec::new(),
             entries: None,
+            sample_check: None,
         }
     }
 
     /// Expecting `n` entries in each sample (see [`Served::entries`]).
     pub fn with_entries(mut self, n: usize) -> Self {
         self.entries = Some(n);
+        self
+    }
+
+    /// Checking the counterpart's samples with `check` (see [`Served::sample_check`]).
+    pub fn with_sample_check(mut self, check: fn(&[u8]) -> Option<crate::front::Rejection>) -> Self {
+        self.sample_check = Some(SampleCheck(check));
         self
     }
 
@@ -671,6 +697,7 @@ mod tests {
             related_topics: Vec::new(),
             also: Vec::new(),
             entries: None,
+            sample_check: None,
         }
     }
 

@@ -781,6 +781,9 @@ pub enum Log {
     /// A command was rejected; `suppressed` more of the same reason were not logged since the
     /// last line (at most one line per reason per second).
     Rejected { why: Rejected, suppressed: u64 },
+    /// `writer`'s commands are rejected for a field it never sets
+    /// ([`Rejection::once_per_client`]): said once per writer, with the fix.
+    Advice { writer: Arc<WriterInfo>, why: Rejection },
     /// The front's silence moves `device` to its safe action: `after` without an accepted
     /// command, under silence `mode`.
     Silence {
@@ -861,6 +864,10 @@ impl Device {
     }
 }
 
+/// The most writers a front remembers having told of a mistake they repeat
+/// ([`Log::Advice`]).
+pub const MAX_ADVISED: usize = 64;
+
 /// The decisions of one front that takes commands (the module's doc says how to run it).
 #[derive(Debug)]
 pub struct FrontCore {
@@ -877,6 +884,9 @@ pub struct FrontCore {
     prompt_since: Option<Instant>,
     /// The rejection log's rate limit.
     rejections: RateLimit,
+    /// Writers already told of a rejection [`Rejection::once_per_client`] (at most
+    /// [`MAX_ADVISED`]; past that, such rejections fall back to the rate-limited log).
+    advised: Vec<WriterHandle>,
     /// Samples the queue dropped as last reported, and when (`None`: never reported).
     dropped_reported: (u64, Option<Instant>),
 }
@@ -905,6 +915,7 @@ impl FrontCore {
                 .collect(),
             prompt_since: None,
             rejections: RateLimit::default(),
+            advised: Vec::new(),
             dropped_reported: (0, None),
         }
     }
@@ -1018,6 +1029,16 @@ impl FrontCore {
                     device,
                     counter: Counter::Rejected,
                 }));
+                if r.once_per_client() && self.advised.len() < MAX_ADVISED {
+                    if !self.advised.contains(&sample.writer.handle) {
+                        self.advised.push(sample.writer.handle);
+                        out.push(Action::Log(Log::Advice {
+                            writer: sample.writer.clone(),
+                            why: r,
+                        }));
+                    }
+                    return;
+                }
                 Self::reject(&mut self.rejections, now, Rejected::Decode(r), out);
                 return;
             }
@@ -1320,11 +1341,14 @@ mod tests {
                 let (dev_every, cmd_every) = (every(device_hz), every(cmd_hz));
                 for k in 0..200_000u64 {
                     let now = t0 + step * k as u32;
-                    if k % cmd_every == 30 && g.prompt(now) {
-                        note(now, &mut published);
-                    } else if k % dev_every == 0 && g.at_state(now) {
-                        note(now, &mut published);
-                    } else if g.due(now) {
+                    let went = if k % cmd_every == 30 {
+                        g.prompt(now)
+                    } else if k % dev_every == 0 {
+                        g.at_state(now)
+                    } else {
+                        false
+                    };
+                    if went || g.due(now) {
                         note(now, &mut published);
                     }
                 }
@@ -2041,6 +2065,36 @@ mod tests {
     /// those suppressed, moves nothing and takes no ownership. A body the device's table
     /// refuses, or a device that refuses its command, is counted on that device and logged
     /// as `device_rejected`; the command's seq is used up.
+    #[test]
+    fn a_mistake_a_client_repeats_is_said_once_per_client_and_every_sample_counted() {
+        let (mut core, mut devs) = front(Control::Exclusive, &[keeps_last_target()]);
+        let (a, b) = (writer(A), writer(B));
+        let t0 = Instant::now();
+        let advised = |acts: &[Action]| -> Vec<WriterHandle> {
+            logs(acts)
+                .iter()
+                .filter_map(|l| match l {
+                    Log::Advice { writer, why } => {
+                        assert_eq!(why.reason(), "mode_unset");
+                        Some(writer.handle)
+                    }
+                    Log::Rejected { .. } => panic!("a repeated mistake is not in the per-second log"),
+                    _ => None,
+                })
+                .collect()
+        };
+        let unset = || Err(Rejection::ModeUnset { index: 1 });
+        let mut told = Vec::new();
+        for k in 0..5000u64 {
+            let w = if k % 2 == 0 { &a } else { &b };
+            let acts = sample(&mut core, &mut devs, at(t0, k), w, false, unset());
+            assert_eq!(counted(&acts, Counter::Rejected), vec![0], "every sample counted");
+            told.extend(advised(&acts));
+        }
+        assert_eq!(told, vec![A, B], "once per client over 5 s");
+        assert!(devs.sent.is_empty());
+    }
+
     #[test]
     fn rejected_commands_are_counted_logged_once_a_second_per_reason_and_take_nothing() {
         let (mut core, mut devs) = front(Control::Exclusive, &[keeps_last_target(), keeps_last_target()]);

@@ -37,6 +37,14 @@ pub enum Rejection {
     NonFinite(usize),
     #[error("entry {index} carries motor id {id}")]
     WrongId { index: usize, id: u8 },
+    /// A Dex3 command whose mode byte is 0 on an entry other than the first: the SDK's
+    /// default, never set by the client. Motor id 0, status 0 (lock): a G1's hand service
+    /// would not move that motor either.
+    #[error(
+        "entry {index} has mode byte 0: motor id 0 and status 0 (lock), so a G1's hand would not \
+         move either"
+    )]
+    ModeUnset { index: usize },
     #[error("entry {index} has unknown motor status {status}")]
     UnknownStatus { index: usize, status: u8 },
     #[error("unknown command mode {0}")]
@@ -58,12 +66,31 @@ pub enum Rejection {
 }
 
 impl Rejection {
+    /// Whether the rejection is a client's mistake it repeats on every message (a field it
+    /// never sets): logged once per client with its fix ([`core::Log::Advice`]), not once a
+    /// second.
+    pub fn once_per_client(&self) -> bool {
+        matches!(self, Rejection::ModeUnset { .. })
+    }
+
+    /// The fix of a client's mistake, where it is a known one (said with the rejection).
+    pub fn fix(&self) -> Option<&'static str> {
+        match self {
+            Rejection::ModeUnset { .. } => Some(
+                "set each entry's mode to id | 0x10 (motor id = the entry's index, status 1 = FOC), \
+                 as unitree_sdk2's Dex3 example does",
+            ),
+            _ => None,
+        }
+    }
+
     /// A short stable reason key for counters and logs.
     pub fn reason(&self) -> &'static str {
         match self {
             Rejection::WrongCount { .. } => "wrong_count",
             Rejection::NonFinite(_) => "non_finite",
             Rejection::WrongId { .. } => "wrong_id",
+            Rejection::ModeUnset { .. } => "mode_unset",
             Rejection::UnknownStatus { .. } => "unknown_status",
             Rejection::UnknownMode(_) => "unknown_mode",
             Rejection::UnknownJoint(_) => "unknown_joint",

@@ -495,6 +495,15 @@ impl Task {
                     "rejected command: {why}"
                 );
             }
+            Log::Advice { writer, why } => {
+                warn!(
+                    front = %name,
+                    reason = why.reason(),
+                    "rejects the commands of {}: {why}; fix: {} (said once per client; each one counted in bad_input)",
+                    describe(&writer),
+                    why.fix().unwrap_or("see docs/fronts.md, Bad input")
+                );
+            }
             Log::Silence {
                 device,
                 mode,
