@@ -15,12 +15,13 @@ What it does:
   (`get_publishers_info_by_topic`, `get_subscriptions_info_by_topic`), and the hashes of
   rclpy's own message classes (its own endpoints on those topics, and the type description
   files the message packages install);
-- with --commands: behaves as ros2_control's joint_state_topic_hardware_interface
-  (docs/sources.md §10): every 10 ms one sensor_msgs/JointState on the command topic with
-  every joint's name and position command (QoS `rclcpp::QoS(1)`: reliable, volatile,
-  keep-last 1; stamped now; velocity and effort empty), its state read from the JointState
-  topic with the sensor-data QoS, until a default-QoS sample shows every joint within
-  --tolerance of its target (or the deadline).
+- with --commands and --targets: behaves as ros2_control's joint_state_topic_hardware_interface
+  (docs/sources.md §10) while its joints are farther than its threshold from the command:
+  every 10 ms one sensor_msgs/JointState on the command topic with every joint's name and
+  position command (QoS `rclcpp::QoS(1)`: reliable, volatile, keep-last 1; stamped now;
+  velocity and effort empty), once its state has been read from the JointState topic with the
+  sensor-data QoS; until a default-QoS sample shows every joint within --tolerance of its
+  target (or the deadline).
 
 stdout protocol (one JSON document per line after the tag):
     READY <pid>
@@ -29,7 +30,7 @@ stdout protocol (one JSON document per line after the tag):
     SUBSCRIBERS [[topic, [types]], ...]
     ENDPOINTS {topic: [{kind, node, namespace, type, hash, reliability, durability}]}
     OWN_HASHES {type: hash}                  rclpy's own endpoints of each type
-    GENERATED_HASHES {type: hash}            share/<pkg>/msg/<Type>.json, as installed
+    GENERATED_HASHES {type: hash}            share/<pkg>/msg/<Type>.json, as installed, of GENERATED
     JOINT_STATES_DEFAULT {"name": [...], "position": [...]}
     JOINT_STATES_SENSOR_DATA {"name": [...], "position": [...]}
     DIAGNOSTICS [{"name", "hardware_id", "level", "message"}]
@@ -56,6 +57,19 @@ from sensor_msgs.msg import JointState
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
+# The types whose generated hashes are reported: the messages handgate publishes and takes,
+# the types they reference, and the graph message's (ros_discovery_info).
+GENERATED = (
+    JOINT_STATE,
+    "std_msgs/msg/Header",
+    "builtin_interfaces/msg/Time",
+    DIAGNOSTIC_ARRAY,
+    "diagnostic_msgs/msg/DiagnosticStatus",
+    "diagnostic_msgs/msg/KeyValue",
+    "rmw_dds_common/msg/ParticipantEntitiesInfo",
+    "rmw_dds_common/msg/NodeEntitiesInfo",
+    "rmw_dds_common/msg/Gid",
+)
 
 
 def emit(tag, value):
@@ -162,7 +176,7 @@ def main():
                 own.setdefault(e["type"], set()).add(e["hash"])
     emit("ENDPOINTS", eps)
     emit("OWN_HASHES", {t: sorted(h)[0] if len(h) == 1 else sorted(h) for t, h in own.items()})
-    emit("GENERATED_HASHES", {t: generated_hash(t) for t in (JOINT_STATE, DIAGNOSTIC_ARRAY)})
+    emit("GENERATED_HASHES", {t: generated_hash(t) for t in GENERATED})
     for tag, key in (("JOINT_STATES_DEFAULT", "default"), ("JOINT_STATES_SENSOR_DATA", "sensor_data")):
         m = latest[key]
         emit(tag, {"name": list(m.name), "position": list(m.position)})

@@ -220,18 +220,35 @@ fn check_diagnostics(r: &Report, hardware_id: &str) {
     }
 }
 
-/// The hashes of rclpy's own message classes (its endpoints' hashes, and the description files
-/// rosidl generated) are handgate's (`idl/src/type_hash.rs`).
+/// The hashes of rclpy's own message classes (its endpoints' hashes) and of the description
+/// files rosidl generated for Jazzy's packages are handgate's (`idl/src/type_hash.rs`): the
+/// types handgate publishes and takes, those they reference, and the graph message's.
 fn check_own_hashes(r: &Report) {
     for (ty, hash) in [
         (JOINT_STATE, ros2::JointState_::DESCRIPTION.type_hash()),
         (DIAGNOSTIC_ARRAY, ros2::DiagnosticArray_::DESCRIPTION.type_hash()),
     ] {
         assert_eq!(r.get("OWN_HASHES")[ty], hash.as_str(), "{ty}: rclpy's own endpoints");
+    }
+    let generated = r.get("GENERATED_HASHES").as_object().unwrap();
+    let ours = [
+        ros2::JointState_::DESCRIPTION,
+        ros2::Header_::DESCRIPTION,
+        ros2::Time_::DESCRIPTION,
+        ros2::DiagnosticArray_::DESCRIPTION,
+        ros2::DiagnosticStatus_::DESCRIPTION,
+        ros2::KeyValue_::DESCRIPTION,
+        ros2::ParticipantEntitiesInfo_::DESCRIPTION,
+        ros2::NodeEntitiesInfo_::DESCRIPTION,
+        ros2::Gid_::DESCRIPTION,
+    ];
+    assert_eq!(generated.len(), ours.len(), "{generated:#?}");
+    for d in ours {
         assert_eq!(
-            r.get("GENERATED_HASHES")[ty],
-            hash.as_str(),
-            "{ty}: rosidl's description file"
+            generated[d.type_name],
+            d.type_hash().as_str(),
+            "{}: rosidl's description file",
+            d.type_name
         );
     }
 }
