@@ -10,7 +10,8 @@
 #     package-lock.json (npm ci), which drives Debian's chromium in the dashboard's test.
 #   - .venv/ (git-ignored): cyclonedds==0.10.2 built against that library, and the official
 #     unitree-sdk2 (unitree_sdk2py) for the interop tests; mcap readers and websockets for the
-#     recording and Foxglove tests.
+#     recording and Foxglove tests; ROS 2 Jazzy's rclpy over Fast DDS from PyPI wheels
+#     (scripts/ros2-wheels.txt) for the real-ROS 2 test.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -101,6 +102,31 @@ if [ "$("$vpy" -m pip show prometheus-client 2>/dev/null | sed -n 's/^Version: /
   echo "setup: installing prometheus-client==0.26.0 and websockets==17.4"
   "$vpy" -m pip install -q "prometheus-client==0.26.0" "websockets==17.4"
 fi
+# A real ROS 2 for tests/tests/ros2_real.rs: Jazzy's rclpy over rmw_fastrtps_cpp (Fast DDS) with
+# sensor_msgs and diagnostic_msgs, from PyPI's ros-jazzy-* wheels (no ROS installation, no apt
+# repository), every package of the closure pinned in scripts/ros2-wheels.txt. The wheels add
+# ros_wheels_bootstrapper.pth, which re-executes the venv's interpreter once with LD_LIBRARY_PATH
+# set to their libraries; the tests set the rest (handgate_tests::ros2_env).
+ros2_reqs="$root/scripts/ros2-wheels.txt"
+if ! "$vpy" -c '
+import sys
+from importlib.metadata import version, PackageNotFoundError
+missing = []
+for line in open(sys.argv[1]):
+    line = line.split("#")[0].strip()
+    if not line:
+        continue
+    name, want = line.split("==")
+    try:
+        have = version(name)
+    except PackageNotFoundError:
+        have = None
+    if have != want:
+        missing.append(f"{name} {have} != {want}")
+sys.exit(1 if missing else 0)' "$ros2_reqs"; then
+  echo "setup: installing ROS 2 Jazzy wheels (rclpy, rmw_fastrtps_cpp, sensor_msgs, diagnostic_msgs) from $ros2_reqs"
+  "$vpy" -m pip install -q -r "$ros2_reqs"
+fi
 # unitree-sdk2 1.0.1's __init__ imports a subpackage `b2` that the wheel does not ship
 # (docs/sources.md §8). Give it an empty one inside our venv so `import unitree_sdk2py` works.
 site=$("$vpy" -c "import sysconfig; print(sysconfig.get_paths()['purelib'])")
@@ -111,4 +137,6 @@ if [ ! -e "$site/unitree_sdk2py/b2/__init__.py" ]; then
 fi
 "$vpy" -c "import unitree_sdk2py.core.channel, unitree_sdk2py.idl.unitree_hg.msg.dds_" \
   || { echo "setup: unitree_sdk2py does not import" >&2; exit 1; }
-echo "setup: ok (cyclonedds-dev $ver, $("$vpy" --version), unitree_sdk2py ready in .venv)"
+"$vpy" -c "import rclpy, sensor_msgs.msg, diagnostic_msgs.msg" \
+  || { echo "setup: rclpy (the ROS 2 wheels) does not import" >&2; exit 1; }
+echo "setup: ok (cyclonedds-dev $ver, $("$vpy" --version), unitree_sdk2py and rclpy (ROS 2 Jazzy) ready in .venv)"

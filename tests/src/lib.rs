@@ -438,13 +438,26 @@ impl PyProcess {
 
     /// [`PyProcess::spawn`] inside network namespace `netns` (`ip netns exec`; see [`NetNs`]).
     pub fn spawn_in(netns: Option<&str>, script: &str, args: &[String]) -> Result<Self, PyError> {
-        let mut child = in_netns(netns, &venv_python())
-            .arg("-u")
+        Self::spawn_with(netns, script, args, |_| {})
+    }
+
+    /// [`PyProcess::spawn_in`] with `configure` applied to the command before it starts (its
+    /// environment: [`ros2_env`]).
+    pub fn spawn_with(
+        netns: Option<&str>,
+        script: &str,
+        args: &[String],
+        configure: impl FnOnce(&mut Command),
+    ) -> Result<Self, PyError> {
+        let mut cmd = in_netns(netns, &venv_python());
+        cmd.arg("-u")
             .arg(python_script(script))
             .args(args)
             .current_dir(repo_root())
             .env("PYTHONUNBUFFERED", "1")
-            .env("PYTHONDONTWRITEBYTECODE", "1")
+            .env("PYTHONDONTWRITEBYTECODE", "1");
+        configure(&mut cmd);
+        let mut child = cmd
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -543,6 +556,47 @@ impl Drop for PyProcess {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
+}
+
+/// The environment of a ROS 2 (Jazzy) process run from the venv's PyPI wheels (`ros-jazzy-rclpy`
+/// and the packages scripts/setup.sh installs; docs/development.md "The Python environment"),
+/// set on `cmd` for DDS domain `domain`, with its log files under `log_dir`:
+///
+/// - `ROS_DOMAIN_ID`: the domain; `RMW_IMPLEMENTATION=rmw_fastrtps_cpp` (the only rmw the venv
+///   holds, named so a developer's ROS setup cannot pick another);
+/// - `AMENT_PREFIX_PATH`: the venv, where the wheels install their `share/` (the ament index,
+///   the message packages' type description files); nothing of a ROS installation;
+/// - `LD_LIBRARY_PATH` is not set here: the wheels' `ros_wheels_bootstrapper.pth` sets it to
+///   the venv's `lib/` and `ros_*.libs/` and re-executes the interpreter once (guarded by
+///   `_ROS_WHEELS_BOOTSTRAP_COMPLETE`, removed here so an inherited one cannot skip it);
+///   inherited ROS variables (a sourced `/opt/ros/*/setup.bash`: `LD_LIBRARY_PATH`,
+///   `PYTHONPATH`, `ROS_LOCALHOST_ONLY`, ...) are removed so they cannot mix another ROS in;
+/// - `FASTDDS_BUILTIN_TRANSPORTS=UDPv4`: Fast DDS without its shared-memory transport, whose
+///   segments in `/dev/shm` outlive a killed process and are shared across the network
+///   namespaces the tests run in; handgate (CycloneDDS) speaks UDP anyway;
+/// - `ROS_LOG_DIR`: `log_dir` (rcl writes a log file per process, `~/.ros/log` by default).
+pub fn ros2_env(cmd: &mut Command, domain: u32, log_dir: &Path) {
+    for k in [
+        "LD_LIBRARY_PATH",
+        "PYTHONPATH",
+        "_ROS_WHEELS_BOOTSTRAP_COMPLETE",
+        "ROS_DISTRO",
+        "ROS_VERSION",
+        "ROS_LOCALHOST_ONLY",
+        "ROS_AUTOMATIC_DISCOVERY_RANGE",
+        "ROS_STATIC_PEERS",
+        "ROS_DISCOVERY_SERVER",
+        "ROS_SECURITY_ENABLE",
+        "FASTRTPS_DEFAULT_PROFILES_FILE",
+        "FASTDDS_DEFAULT_PROFILES_FILE",
+    ] {
+        cmd.env_remove(k);
+    }
+    cmd.env("ROS_DOMAIN_ID", domain.to_string())
+        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+        .env("AMENT_PREFIX_PATH", repo_root().join(".venv"))
+        .env("FASTDDS_BUILTIN_TRANSPORTS", "UDPv4")
+        .env("ROS_LOG_DIR", log_dir);
 }
 
 // ---------------------------------------------------------------------------------------------
