@@ -53,11 +53,21 @@ impl From<WireTarget> for handgate_idl::unitree_hg::MotorCmd_ {
 pub struct Limits {
     pub min: f32,
     pub max: f32,
+    /// The limits are the hardware's own hard stops (the kind's table says so; a profile's
+    /// `[devices.limits.joints]` never does): a target past one is the stop pushed into, as
+    /// the hand's own service does ([`DeviceTable::sanitize`], docs/model.md "Limits").
+    pub stops: bool,
 }
 
 impl Limits {
+    /// Soft limits: a target past one is clamped to it.
     pub fn new(min: f32, max: f32) -> Self {
-        Self { min, max }
+        Self { min, max, stops: false }
+    }
+
+    /// Limits at the hardware's hard stops (see [`Limits::stops`]).
+    pub fn at_stops(min: f32, max: f32) -> Self {
+        Self { min, max, stops: true }
     }
     pub fn clamp(&self, v: f32) -> f32 {
         v.clamp(self.min, self.max)
@@ -321,23 +331,40 @@ impl DeviceTable {
     /// Makes a canonical joint command safe for the device: non-finite → error, position
     /// clamped to limits and (when `measured` is known and the table has a per-step limit)
     /// to `measured ± max_step`, gains to [0, max], torque to ±max_tau.
+    ///
+    /// A target past a limit that is a hard stop ([`Limits::stops`]) becomes the stop as
+    /// position and, as feed-forward torque, the pull its stiffness had past it
+    /// (`kp · (target − stop)`, within ±max_tau with the command's own torque): the motor law
+    /// `kp·(stop − q) + kp·(target − stop)` is `kp·(target − q)`, so the joint approaches the
+    /// stop as fast as with the unclamped target and pushes into it with the torque the
+    /// hand's service would give it (issue #37: a calibration that pushes a thumb past its
+    /// range and reads where it stops; docs/model.md "Limits").
     pub fn sanitize(&self, id: JointId, c: &JointCommand, measured: Option<f32>) -> Result<JointCommand, MappingError> {
         let j = self.joint(id)?;
         if !c.is_finite() {
             return Err(MappingError::NonFinite(j.name));
         }
-        let mut q = j.limits.clamp(c.q);
+        let at_limit = j.limits.clamp(c.q);
+        let mut q = at_limit;
         if let (Some(step), Some(m)) = (self.max_step, measured) {
             if m.is_finite() {
                 q = q.clamp(m - step, m + step);
                 q = j.limits.clamp(q);
             }
         }
+        let kp = c.kp.clamp(0.0, self.max_kp);
+        // Only where the position target is the stop itself (a per-step limit that holds the
+        // target short of it keeps its meaning).
+        let push = if j.limits.stops && q == at_limit {
+            kp * (c.q - at_limit)
+        } else {
+            0.0
+        };
         Ok(JointCommand {
             q,
             dq: c.dq.clamp(-100.0, 100.0),
-            tau: c.tau.clamp(-self.max_tau, self.max_tau),
-            kp: c.kp.clamp(0.0, self.max_kp),
+            tau: (c.tau + push).clamp(-self.max_tau, self.max_tau),
+            kp,
             kd: c.kd.clamp(0.0, self.max_kd),
         })
     }

@@ -8,8 +8,8 @@
 //!   last target; `limp` zero gains; `open` the open posture.
 
 use handgate_adapters::control::{Active, CommandState};
-use handgate_adapters::mapping::DeviceTable;
 use handgate_adapters::mapping::TableOverrides;
+use handgate_adapters::mapping::{DeviceTable, Limits};
 use handgate_adapters::model::{
     CommandBody, DeviceKind, HandCommand, JointCommand, JointId, JointState, SafeAction, Side,
 };
@@ -200,6 +200,46 @@ fn dex3_commands_far_outside_are_clamped_to_the_urdf_limits_on_the_wire() {
     }
 }
 
+/// A Dex3 target past the hand's range (its limits are the hard stops of the manual) is the
+/// stop as position and the stiffness's pull past it as feed-forward torque, in the wire's
+/// sign: the motor law then gives what the unclamped target would, up to max_tau (issue #37: a
+/// calibration that pushes thumb_0 towards 2.09 rad and reads where it stops). A soft limit
+/// a profile sets stays a plain clamp.
+#[test]
+fn a_dex3_target_past_a_hard_stop_pushes_into_it_and_a_profile_limit_clamps() {
+    for side in [Side::Left, Side::Right] {
+        let t = dex3(side);
+        let id = t.joint_by_name("thumb_0").unwrap();
+        let stop = t.joints[id.index()].limits.max;
+        let cmd = |q: f32| JointCommand::hold(q, 1.5, 0.1);
+        let c = t.sanitize(id, &cmd(stop + 0.5), None).unwrap();
+        assert_eq!(c.q, stop, "{side:?}");
+        assert!((c.tau - 0.75).abs() < 1e-5, "{side:?}: 1.5 * 0.5 past the stop: {c:?}");
+        let w = t.joints[id.index()].to_wire(&c);
+        assert!(
+            w.tau * w.q > 0.0,
+            "{side:?}: the push is towards the stop on the wire: {w:?}"
+        );
+        let c = t.sanitize(id, &cmd(stop + 10.0), None).unwrap();
+        assert_eq!((c.q, c.tau), (stop, t.max_tau), "{side:?}: within max_tau");
+        let c = t.sanitize(id, &cmd(-stop - 0.2), None).unwrap();
+        assert!(
+            (c.q + stop).abs() < 1e-6 && (c.tau + 0.3).abs() < 1e-5,
+            "{side:?}: {c:?}"
+        );
+        let c = t.sanitize(id, &cmd(stop - 0.1), None).unwrap();
+        assert_eq!(c.tau, 0.0, "inside the range nothing is added");
+        // A profile's narrower limit is a soft limit: clamped, no push.
+        let o = TableOverrides {
+            limits: [("thumb_0".to_string(), Limits::new(-0.5, 0.5))].into_iter().collect(),
+            ..Default::default()
+        };
+        let t = DeviceKind::Dex3.table(side, &o).unwrap();
+        let c = t.sanitize(id, &cmd(2.0), None).unwrap();
+        assert_eq!((c.q, c.tau), (0.5, 0.0), "{side:?}");
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // The per-step and joint limits on every accepted command.
 
@@ -313,7 +353,13 @@ proptest! {
             prop_assert!(c.dq.abs() <= 100.0, "{:?}", c);
             if (0.0..=t.max_kp).contains(&req.kp) { prop_assert_eq!(c.kp, req.kp); }
             if (0.0..=t.max_kd).contains(&req.kd) { prop_assert_eq!(c.kd, req.kd); }
-            if req.tau.abs() <= t.max_tau { prop_assert_eq!(c.tau, req.tau); }
+            // Past a hard stop, the pull beyond it is feed-forward torque into the stop.
+            let push = if l.stops && c.q == l.clamp(req.q) { c.kp * (req.q - c.q) } else { 0.0 };
+            if push == 0.0 {
+                if req.tau.abs() <= t.max_tau { prop_assert_eq!(c.tau, req.tau); }
+            } else {
+                prop_assert_eq!(c.tau, (req.tau + push).clamp(-t.max_tau, t.max_tau));
+            }
             if req.dq.abs() <= 100.0 { prop_assert_eq!(c.dq, req.dq); }
         }
         for w in t.to_wire(&out) {

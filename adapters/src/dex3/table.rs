@@ -77,7 +77,9 @@ pub fn table(side: Side) -> DeviceTable {
                 sign,
                 scale: 1.0,
                 offset: 0.0,
-                limits: Limits::new(a.min(b), a.max(b)),
+                // The manual's range, the hand's hard stops (`physical::hard_stops`, tested
+                // to contain these): a target past one pushes into it.
+                limits: Limits::at_stops(a.min(b), a.max(b)),
             }
         })
         .collect();
