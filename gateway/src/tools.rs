@@ -59,13 +59,15 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
     }
     let _ = writeln!(
         out,
-        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9}  motion",
+        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>10} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9}  motion",
         "device",
         "kind",
         "backend",
         "state",
         "safe",
-        "cmd Hz",
+        // The commands handgate sends the device per second; the clients' command rates are
+        // the fronts' ([`render_fronts`]).
+        "dev cmd Hz",
         "state Hz",
         "age ms",
         "crc",
@@ -80,7 +82,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         let fresh = freshness_word(d.freshness);
         let _ = writeln!(
             out,
-            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9.3}  {}",
+            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>10.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9.3}  {}",
             d.device,
             d.kind,
             d.backend,
@@ -172,11 +174,76 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
     out
 }
 
+/// The fronts' table, from the status extension (`None`: the gateway publishes none, an
+/// older handgate): per front, the command samples its clients sent per second beside the
+/// state samples it published per second.
+pub fn render_fronts(ext: Option<&hg::GatewayStatusExt_>) -> String {
+    let mut out = String::new();
+    let Some(x) = ext else {
+        let _ = writeln!(
+            out,
+            "\nfronts: no status extension (the gateway is a handgate older than fronts' rates)"
+        );
+        return out;
+    };
+    if x.fronts.is_empty() {
+        return out;
+    }
+    let _ = writeln!(
+        out,
+        "\nfronts\n  {:<20} {:<18} {:>13} {:>13}",
+        "front", "kind", "client cmd Hz", "state pub Hz"
+    );
+    for f in &x.fronts {
+        let _ = writeln!(
+            out,
+            "  {:<20} {:<18} {:>13.1} {:>13.1}",
+            f.name, f.kind, f.cmd_rate_hz, f.state_rate_hz
+        );
+    }
+    out
+}
+
 /// Waits for one status sample.
 pub fn status_once(node: &Node, topic: &str, timeout: Duration) -> Result<hg::GatewayStatus_, DdsError> {
     let r = node.reader::<hg::GatewayStatus_>(topic, Qos::Reliable { depth: 1 })?;
     let mut v = r.wait_take(timeout)?;
     Ok(v.pop().expect("wait_take returns at least one sample"))
+}
+
+/// A gateway's status and its extension, read together (`handgate status`).
+pub struct StatusReader {
+    status: handgate_adapters::dds::Reader<hg::GatewayStatus_>,
+    ext: handgate_adapters::dds::Reader<hg::GatewayStatusExt_>,
+    last_ext: Option<hg::GatewayStatusExt_>,
+}
+
+impl StatusReader {
+    /// Readers of `topic` and of its extension ([`hg::status_ext_topic`]).
+    pub fn new(node: &Node, topic: &str) -> Result<Self, DdsError> {
+        Ok(Self {
+            status: node.reader(topic, Qos::Reliable { depth: 1 })?,
+            ext: node.reader(&hg::status_ext_topic(topic), Qos::Reliable { depth: 1 })?,
+            last_ext: None,
+        })
+    }
+
+    /// The next status sample (an error after `timeout` without one) and the latest extension
+    /// (`None` while the gateway publishes none: when its extension writer is matched, the
+    /// first extension sample is waited for, up to `timeout`).
+    pub fn next(&mut self, timeout: Duration) -> Result<(hg::GatewayStatus_, Option<hg::GatewayStatusExt_>), DdsError> {
+        let s = self
+            .status
+            .wait_take(timeout)?
+            .pop()
+            .expect("wait_take returns at least one sample");
+        if let Some(x) = self.ext.take().pop() {
+            self.last_ext = Some(x);
+        } else if self.last_ext.is_none() && self.ext.matched() > 0 {
+            self.last_ext = self.ext.wait_take(timeout).ok().and_then(|mut v| v.pop());
+        }
+        Ok((s, self.last_ext.clone()))
+    }
 }
 
 /// How `handgate send` sends: how long to wait for the gateway, how long to repeat the
