@@ -202,10 +202,12 @@ pub fn render(f: &Fleet) -> String {
         }
         match &g.ext {
             Some(x) => {
+                let nw = x.fronts.iter().map(|f| f.name.len()).max().unwrap_or(0);
+                let kw = x.fronts.iter().map(|f| f.kind.len()).max().unwrap_or(0);
                 for f in &x.fronts {
                     let _ = writeln!(
                         out,
-                        "  front {:<16} {:<18} client commands {:>7.1} Hz  state published {:>7.1} Hz",
+                        "  front {:<nw$} {:<kw$}  client commands {:>7.1} Hz  state published {:>7.1} Hz",
                         f.name, f.kind, f.cmd_rate_hz, f.state_rate_hz
                     );
                 }
@@ -326,9 +328,7 @@ mod tests {
         assert!(t.contains("domain 13: not joined: no such interface"), "{t}");
         // The fronts' rates from the extension; a gateway without one says so.
         assert!(
-            t.contains(
-                "  front dex3_left        dex3               client commands   100.0 Hz  state published   500.0 Hz\n"
-            ),
+            t.contains("  front dex3_left dex3  client commands   100.0 Hz  state published   500.0 Hz\n"),
             "{t}"
         );
         assert!(

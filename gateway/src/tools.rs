@@ -189,15 +189,18 @@ pub fn render_fronts(ext: Option<&hg::GatewayStatusExt_>) -> String {
     if x.fronts.is_empty() {
         return out;
     }
+    // Columns as wide as the longest name and kind.
+    let nw = x.fronts.iter().map(|f| f.name.len()).max().unwrap_or(0).max(5);
+    let kw = x.fronts.iter().map(|f| f.kind.len()).max().unwrap_or(0).max(4);
     let _ = writeln!(
         out,
-        "\nfronts\n  {:<20} {:<18} {:>13} {:>13}",
+        "\nfronts\n  {:<nw$} {:<kw$} {:>13} {:>13}",
         "front", "kind", "client cmd Hz", "state pub Hz"
     );
     for f in &x.fronts {
         let _ = writeln!(
             out,
-            "  {:<20} {:<18} {:>13.1} {:>13.1}",
+            "  {:<nw$} {:<kw$} {:>13.1} {:>13.1}",
             f.name, f.kind, f.cmd_rate_hz, f.state_rate_hz
         );
     }
@@ -375,6 +378,45 @@ mod tests {
             ),
             "{two}"
         );
+    }
+
+    /// The fronts' table: each front's client command rate beside its state rate, columns as
+    /// wide as the longest name; a gateway without the extension says so.
+    #[test]
+    fn renders_the_fronts_rates_from_the_extension() {
+        let x = hg::GatewayStatusExt_ {
+            version: hg::STATUS_EXT_VERSION,
+            fronts: vec![
+                hg::FrontStatus_ {
+                    name: "dex3_left".into(),
+                    kind: "dex3".into(),
+                    cmd_rate_hz: 99.96,
+                    state_rate_hz: 500.04,
+                },
+                hg::FrontStatus_ {
+                    name: "canonical_inspire_dfx_right".into(),
+                    kind: "canonical".into(),
+                    cmd_rate_hz: 0.0,
+                    state_rate_hz: 100.0,
+                },
+            ],
+        };
+        let t = render_fronts(Some(&x));
+        assert!(
+            t.contains("\nfronts\n  front                       kind      client cmd Hz  state pub Hz\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("\n  dex3_left                   dex3              100.0         500.0\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("\n  canonical_inspire_dfx_right canonical           0.0         100.0\n"),
+            "{t}"
+        );
+        assert!(render_fronts(None).contains("fronts: no status extension"));
+        // The devices' table says its command rate is what handgate sends the device.
+        assert!(render_status(&hg::GatewayStatus_::default()).contains(" dev cmd Hz "));
     }
 
     /// The commands dropped by their source timestamps get a table of their own, only for

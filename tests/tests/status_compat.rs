@@ -431,7 +431,13 @@ fn a_frozen_reader_reads_the_running_gateway_and_the_fronts_rates_are_measured()
     let (mut sent, mut received) = (0u64, 0u64);
     let mut exts: Vec<(Instant, hg::GatewayStatusExt_)> = Vec::new();
     let mut seq = 0;
+    let url = gw.http_url().unwrap();
+    let mut metrics: Option<String> = None;
     while start.elapsed() < Duration::from_millis(4500) {
+        // `/metrics` once while the stream runs (its status window inside the stream).
+        if metrics.is_none() && start.elapsed() > Duration::from_millis(3200) {
+            metrics = Some(http_get(&url, "/metrics").1);
+        }
         seq += 1;
         cmd.write(hg::HandCmd_ {
             seq,
@@ -497,6 +503,28 @@ fn a_frozen_reader_reads_the_running_gateway_and_the_fronts_rates_are_measured()
             f.state_rate_hz
         );
     }
+    // `/metrics`: the same two rates per front, as gauges.
+    let metrics = metrics.unwrap();
+    let gauge = |name: &str| -> f64 {
+        let key = format!("{name}{{front=\"canonical_dex3_left\",kind=\"canonical\"}} ");
+        metrics
+            .lines()
+            .find_map(|l| l.strip_prefix(&key))
+            .unwrap_or_else(|| panic!("no {key}in /metrics"))
+            .parse()
+            .unwrap()
+    };
+    let (cmd_g, state_g) = (
+        gauge("handgate_front_cmd_rate_hz"),
+        gauge("handgate_front_state_rate_hz"),
+    );
+    println!("/metrics: cmd {cmd_g:.1} Hz, state {state_g:.1} Hz");
+    assert!((cmd_g - sent_hz).abs() < 0.15 * sent_hz, "{cmd_g} vs {sent_hz}");
+    assert!(
+        (state_g - received_hz).abs() < 0.15 * received_hz,
+        "{state_g} vs {received_hz}"
+    );
+
     // A front nobody commands: no client command rate, its state published all the same.
     let last = &exts.last().unwrap().1;
     let other = last.fronts.iter().find(|f| f.name == "dex3_left").unwrap();
@@ -585,13 +613,13 @@ fn this_versions_fleet_reads_a_later_gateways_extension() {
     );
     assert!(
         text.contains(
-            "  front dex3_left        dex3               client commands    48.5 Hz  state published   500.0 Hz\n"
+            "  front dex3_left           dex3       client commands    48.5 Hz  state published   500.0 Hz\n"
         ),
         "{text}"
     );
     assert!(
         text.contains(
-            "  front canonical_dex3_left canonical          client commands    20.0 Hz  state published   100.0 Hz\n"
+            "  front canonical_dex3_left canonical  client commands    20.0 Hz  state published   100.0 Hz\n"
         ),
         "{text}"
     );
@@ -651,7 +679,7 @@ fn this_version_reads_a_gateway_of_todays_layout() {
         .find(|b| b.contains(&format!("domain {d}  /  host")))
         .unwrap_or_else(|| panic!("this version's gateway is not listed: {text}"));
     assert!(
-        new_block.contains("  front canonical_dex3_left canonical"),
+        new_block.contains("  front canonical_dex3_left  canonical    client commands "),
         "{new_block}"
     );
 
@@ -668,7 +696,7 @@ fn this_version_reads_a_gateway_of_todays_layout() {
     let url = gw.http_url().unwrap();
     let page = poll(DEADLINE, || {
         let (code, body) = http_get(&url, "/fleet");
-        (code == 200 && body.contains("/old_robot") && body.contains("front canonical_dex3_left")).then_some(body)
+        (code == 200 && body.contains("/old_robot") && body.contains("front canonical_dex3_left ")).then_some(body)
     })
     .unwrap_or_else(|| panic!("fleet page: {}", http_get(&url, "/fleet").1));
     assert!(
