@@ -106,17 +106,10 @@ pub(super) fn spawn_status(
         // motion verdict repeats them rather than measuring over a few milliseconds.
         let mut rates: HashMap<String, (f32, f32)> = HashMap::new();
         let mut published_motion: Vec<u8> = vec![hgmsg::MOTION_OK; devices.len()];
-        // Per front, as per device: the tallies at the last tick, and the rates then.
-        let mut front_prev: Vec<(u64, u64, Instant)> = fronts
-            .iter()
-            .map(|f| {
-                (
-                    f.commands.load(Ordering::Relaxed),
-                    f.states.load(Ordering::Relaxed),
-                    started,
-                )
-            })
-            .collect();
+        // Per front, as per device: the tallies at the last tick (none before the first:
+        // the first tick reports 0 rather than a rate over a few milliseconds), and the rates
+        // then.
+        let mut front_prev: Vec<Option<(u64, u64, Instant)>> = vec![None; fronts.len()];
         let mut front_rates: Vec<(f32, f32)> = vec![(0.0, 0.0); fronts.len()];
         loop {
             let on_tick = tokio::select! {
@@ -204,10 +197,11 @@ pub(super) fn spawn_status(
             if on_tick {
                 for ((f, prev), rate) in fronts.iter().zip(&mut front_prev).zip(&mut front_rates) {
                     let (c, s) = (f.commands.load(Ordering::Relaxed), f.states.load(Ordering::Relaxed));
-                    let dt = now.duration_since(prev.2).as_secs_f32();
+                    let (pc, ps, pt) = prev.unwrap_or((c, s, now));
+                    let dt = now.duration_since(pt).as_secs_f32();
                     let per_s = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
-                    *rate = (per_s(c, prev.0), per_s(s, prev.1));
-                    *prev = (c, s, now);
+                    *rate = (per_s(c, pc), per_s(s, ps));
+                    *prev = Some((c, s, now));
                 }
             }
             let ext = hgmsg::GatewayStatusExt_ {
