@@ -215,8 +215,8 @@ pub struct FrontStatus_ {
     pub kind: String,
     /// Command samples it received from clients per second (Hz), over the last status period.
     pub cmd_rate_hz: f32,
-    /// Samples of its state topic it published per second (Hz; its main state topic, not the
-    /// `rt/lf` copy; 0 for a front with no state topic).
+    /// Publishes of its state topic per second (Hz; its main state topic, not the `rt/lf`
+    /// copy; counted whether or not a reader is matched; 0 for a front with no state topic).
     pub state_rate_hz: f32,
 }
 
