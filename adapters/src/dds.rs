@@ -113,6 +113,29 @@ impl Qos {
         matches!(self, Qos::BestEffort | Qos::BestEffortDepth { .. })
     }
 
+    /// The QoS of an endpoint of `T`: [`Qos::to_dds_with`], and XCDR2 as the only data
+    /// representation for a type with its own (XCDR2) encoding, so that a CycloneDDS reader or
+    /// writer of the `@appendable` type it stands for matches it (docs/wire-types.md).
+    fn to_dds_for<T: TopicType>(self, opts: &EndpointOptions) -> Result<DdsQos, DdsError> {
+        let q = self.to_dds_with(opts)?;
+        if !T::own_encoding() {
+            return Ok(q);
+        }
+        extern "C" {
+            // CycloneDDS 0.10.2 dds_public_qos.h (not in cyclonedds-sys 0.2.1's bindings).
+            fn dds_qset_data_representation(qos: *mut cyclonedds_sys::dds_qos_t, n: u32, values: *const i16);
+        }
+        /// DDS_DATA_REPRESENTATION_XCDR2 (dds_public_impl.h).
+        const XCDR2: i16 = 2;
+        let raw = <*const cyclonedds_sys::dds_qos_t>::from(q) as *mut cyclonedds_sys::dds_qos_t;
+        // SAFETY: `raw` is the live QoS object `q` owned, now owned by nobody; CycloneDDS copies
+        // the one value.
+        unsafe {
+            dds_qset_data_representation(raw, 1, &XCDR2);
+            Ok(qos_from_raw(raw))
+        }
+    }
+
     fn to_dds_with(self, opts: &EndpointOptions) -> Result<DdsQos, DdsError> {
         let mut q = self.to_dds()?;
         if opts.durability == Durability::TransientLocal {
@@ -398,7 +421,7 @@ impl Node {
         opts: &EndpointOptions,
     ) -> Result<Writer<T>, DdsError> {
         let topic = self.topic::<T>(name)?;
-        let writer = DdsWriter::create(&self.inner.participant, topic, Some(qos.to_dds_with(opts)?), None)
+        let writer = DdsWriter::create(&self.inner.participant, topic, Some(qos.to_dds_for::<T>(opts)?), None)
             .map_err(dds_err("writer create"))?;
         // SAFETY: only reads the integer handle out of the wrapper.
         let guid = self.register(Role::Writer, unsafe { writer.entity().entity() })?;
@@ -424,7 +447,7 @@ impl Node {
         opts: &EndpointOptions,
     ) -> Result<Reader<T>, DdsError> {
         let topic = self.topic::<T>(name)?;
-        let reader = DdsReader::create(&self.inner.participant, topic, Some(qos.to_dds_with(opts)?), None)
+        let reader = DdsReader::create(&self.inner.participant, topic, Some(qos.to_dds_for::<T>(opts)?), None)
             .map_err(dds_err("reader create"))?;
         // SAFETY: only reads the integer handle out of the wrapper.
         let guid = self.register(Role::Reader, unsafe { reader.entity().entity() })?;
@@ -480,7 +503,7 @@ impl Node {
         let reader = DdsReader::create(
             &self.inner.participant,
             topic,
-            Some(qos.to_dds_with(opts)?),
+            Some(qos.to_dds_for::<T>(opts)?),
             Some(listener),
         )
         .map_err(dds_err("reader create"))?;

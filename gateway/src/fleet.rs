@@ -3,8 +3,13 @@
 //! writers of handgate's status type whatever their namespace, reads one sample of each and
 //! lists them: robot namespace, host, both DDS sides, devices with freshness and safe state,
 //! who commands each device. It reads; it never writes anything.
+//!
+//! The status topic is frozen (docs/wire-types.md, "Status: frozen, and its extension"): every
+//! gateway's is read, whatever its version. A gateway that also publishes the extension
+//! (`{status topic}_ext`, this version and later ones) has its fronts' rates read from there;
+//! one of an older version, which publishes only the status, is listed without them.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 use std::time::{Duration, Instant};
 
@@ -21,6 +26,9 @@ pub struct Seen {
     pub domain: u32,
     pub topic: String,
     pub status: hg::GatewayStatus_,
+    /// Its status extension (`None`: it publishes none, an older gateway, or none came during
+    /// the look).
+    pub ext: Option<hg::GatewayStatusExt_>,
 }
 
 /// What the look found: each gateway (by domain, then topic), and the domains it could not
@@ -70,24 +78,37 @@ pub fn look_on(sides: &[Side], listen: Duration) -> Fleet {
     let start = Instant::now();
     let mut fleet = Fleet::default();
     let status_type = handgate_adapters::dds::type_name::<hg::GatewayStatus_>();
+    let ext_type = handgate_adapters::dds::type_name::<hg::GatewayStatusExt_>();
     // Readers are made as status writers appear, so a gateway found late is still read.
     let mut readers: Vec<(u32, String, Reader<hg::GatewayStatus_>)> = Vec::new();
+    let mut ext_readers: Vec<(u32, String, Reader<hg::GatewayStatusExt_>)> = Vec::new();
     let mut made: BTreeSet<(u32, String)> = BTreeSet::new();
     let mut got: BTreeSet<(u32, String)> = BTreeSet::new();
+    let mut ext_made: BTreeSet<(u32, String)> = BTreeSet::new();
+    let mut exts: BTreeMap<(u32, String), hg::GatewayStatusExt_> = BTreeMap::new();
     while start.elapsed() < listen {
         for (d, node, disc) in sides {
             let snap = disc.borrow().clone();
-            let topics: BTreeSet<String> = snap
-                .endpoints
-                .iter()
-                // This process's own status writer too (the dashboard's own gateway).
-                .filter(|e| e.role == Role::Writer && *e.type_name == *status_type)
-                .map(|e| e.topic.to_string())
-                .collect();
-            for t in topics {
+            // This process's own writers too (the dashboard's own gateway).
+            let writers = |ty: &str| -> BTreeSet<String> {
+                snap.endpoints
+                    .iter()
+                    .filter(|e| e.role == Role::Writer && *e.type_name == *ty)
+                    .map(|e| e.topic.to_string())
+                    .collect()
+            };
+            for t in writers(&status_type) {
                 if made.insert((*d, t.clone())) {
                     match node.reader::<hg::GatewayStatus_>(&t, Qos::Reliable { depth: 1 }) {
                         Ok(r) => readers.push((*d, t, r)),
+                        Err(e) => fleet.errors.push((*d, format!("{t}: {e}"))),
+                    }
+                }
+            }
+            for t in writers(&ext_type) {
+                if ext_made.insert((*d, t.clone())) {
+                    match node.reader::<hg::GatewayStatusExt_>(&t, Qos::Reliable { depth: 1 }) {
+                        Ok(r) => ext_readers.push((*d, t, r)),
                         Err(e) => fleet.errors.push((*d, format!("{t}: {e}"))),
                     }
                 }
@@ -103,13 +124,28 @@ pub fn look_on(sides: &[Side], listen: Duration) -> Fleet {
                     domain: *d,
                     topic: t.clone(),
                     status: s,
+                    ext: None,
                 });
             }
         }
-        if !made.is_empty() && got.len() == made.len() && start.elapsed() > listen / 3 {
+        for (d, t, r) in &ext_readers {
+            if let Some(s) = r.take().pop() {
+                exts.insert((*d, t.clone()), s);
+            }
+        }
+        // Done early once every status writer gave a sample, and so did every extension
+        // writer of those gateways.
+        let exts_in = ext_made
+            .iter()
+            .filter(|k| made.iter().any(|(d, t)| (*d, hg::status_ext_topic(t)) == **k))
+            .all(|k| exts.contains_key(k));
+        if !made.is_empty() && got.len() == made.len() && exts_in && start.elapsed() > listen / 3 {
             break;
         }
         std::thread::sleep(Duration::from_millis(20));
+    }
+    for g in &mut fleet.gateways {
+        g.ext = exts.remove(&(g.domain, hg::status_ext_topic(&g.topic)));
     }
     fleet.silent = made.difference(&got).cloned().collect();
     fleet
@@ -163,6 +199,25 @@ pub fn render(f: &Fleet) -> String {
                 if d.safe { "SAFE" } else { "-" },
                 if d.owner.is_empty() { "no command yet" } else { &d.owner }
             );
+        }
+        match &g.ext {
+            Some(x) => {
+                let nw = x.fronts.iter().map(|f| f.name.len()).max().unwrap_or(0);
+                let kw = x.fronts.iter().map(|f| f.kind.len()).max().unwrap_or(0);
+                for f in &x.fronts {
+                    let _ = writeln!(
+                        out,
+                        "  front {:<nw$} {:<kw$}  client commands {:>7.1} Hz  state published {:>7.1} Hz",
+                        f.name, f.kind, f.cmd_rate_hz, f.state_rate_hz
+                    );
+                }
+            }
+            None => {
+                let _ = writeln!(
+                    out,
+                    "  (no status extension: a handgate older than fronts' rates, or none yet)"
+                );
+            }
         }
     }
     for (d, t) in &f.silent {
@@ -228,11 +283,21 @@ mod tests {
                     domain: 11,
                     topic: "rt/robot_a/handgate/status".into(),
                     status: status("/robot_a", 11, "front dex3_left: process xr (pid 7) on op at 10.0.0.5"),
+                    ext: Some(hg::GatewayStatusExt_ {
+                        version: hg::STATUS_EXT_VERSION,
+                        fronts: vec![hg::FrontStatus_ {
+                            name: "dex3_left".into(),
+                            kind: "dex3".into(),
+                            cmd_rate_hz: 100.0,
+                            state_rate_hz: 500.0,
+                        }],
+                    }),
                 },
                 Seen {
                     domain: 12,
                     topic: "rt/robot_b/handgate/status".into(),
                     status: status("/robot_b", 12, ""),
+                    ext: None,
                 },
             ],
             errors: vec![(13, "no such interface".into())],
@@ -261,6 +326,15 @@ mod tests {
             "{t}"
         );
         assert!(t.contains("domain 13: not joined: no such interface"), "{t}");
+        // The fronts' rates from the extension; a gateway without one says so.
+        assert!(
+            t.contains("  front dex3_left dex3  client commands   100.0 Hz  state published   500.0 Hz\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("  (no status extension: a handgate older than fronts' rates, or none yet)"),
+            "{t}"
+        );
     }
 
     #[test]
@@ -273,11 +347,19 @@ mod tests {
                     profile: "<script>alert(1)</script>".into(),
                     ..Default::default()
                 },
+                ext: Some(hg::GatewayStatusExt_ {
+                    version: 1,
+                    fronts: vec![hg::FrontStatus_ {
+                        name: "<b>x</b>".into(),
+                        ..Default::default()
+                    }],
+                }),
             }],
             ..Default::default()
         };
         let p = page(&f);
         assert!(p.contains("&lt;script&gt;alert(1)&lt;/script&gt;"), "{p}");
+        assert!(p.contains("&lt;b&gt;x&lt;/b&gt;"), "{p}");
         assert!(!p.contains("<script>"), "{p}");
         assert!(p.contains("<meta http-equiv=\"refresh\" content=\"3\">"), "{p}");
     }

@@ -59,13 +59,15 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
     }
     let _ = writeln!(
         out,
-        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9}  motion",
+        "{:<16} {:<10} {:<9} {:<9} {:>5} {:>10} {:>9} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9}  motion",
         "device",
         "kind",
         "backend",
         "state",
         "safe",
-        "cmd Hz",
+        // The commands handgate sends the device per second; the clients' command rates are
+        // the fronts' ([`render_fronts`]).
+        "dev cmd Hz",
         "state Hz",
         "age ms",
         "crc",
@@ -80,7 +82,7 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
         let fresh = freshness_word(d.freshness);
         let _ = writeln!(
             out,
-            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>9.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9.3}  {}",
+            "{:<16} {:<10} {:<9} {:<9} {:>5} {:>10.1} {:>9.1} {:>8.1} {:>6} {:>6} {:>6} {:>6} {:>9} {:>7} {:>9.3}  {}",
             d.device,
             d.kind,
             d.backend,
@@ -172,11 +174,79 @@ pub fn render_status(s: &hg::GatewayStatus_) -> String {
     out
 }
 
+/// The fronts' table, from the status extension (`None`: the gateway publishes none, an
+/// older handgate): per front, the command samples its clients sent per second beside the
+/// state samples it published per second.
+pub fn render_fronts(ext: Option<&hg::GatewayStatusExt_>) -> String {
+    let mut out = String::new();
+    let Some(x) = ext else {
+        let _ = writeln!(
+            out,
+            "\nfronts: no status extension (the gateway is a handgate older than fronts' rates)"
+        );
+        return out;
+    };
+    if x.fronts.is_empty() {
+        return out;
+    }
+    // Columns as wide as the longest name and kind.
+    let nw = x.fronts.iter().map(|f| f.name.len()).max().unwrap_or(0).max(5);
+    let kw = x.fronts.iter().map(|f| f.kind.len()).max().unwrap_or(0).max(4);
+    let _ = writeln!(
+        out,
+        "\nfronts\n  {:<nw$} {:<kw$} {:>13} {:>13}",
+        "front", "kind", "client cmd Hz", "state pub Hz"
+    );
+    for f in &x.fronts {
+        let _ = writeln!(
+            out,
+            "  {:<nw$} {:<kw$} {:>13.1} {:>13.1}",
+            f.name, f.kind, f.cmd_rate_hz, f.state_rate_hz
+        );
+    }
+    out
+}
+
 /// Waits for one status sample.
 pub fn status_once(node: &Node, topic: &str, timeout: Duration) -> Result<hg::GatewayStatus_, DdsError> {
     let r = node.reader::<hg::GatewayStatus_>(topic, Qos::Reliable { depth: 1 })?;
     let mut v = r.wait_take(timeout)?;
     Ok(v.pop().expect("wait_take returns at least one sample"))
+}
+
+/// A gateway's status and its extension, read together (`handgate status`).
+pub struct StatusReader {
+    status: handgate_adapters::dds::Reader<hg::GatewayStatus_>,
+    ext: handgate_adapters::dds::Reader<hg::GatewayStatusExt_>,
+    last_ext: Option<hg::GatewayStatusExt_>,
+}
+
+impl StatusReader {
+    /// Readers of `topic` and of its extension ([`hg::status_ext_topic`]).
+    pub fn new(node: &Node, topic: &str) -> Result<Self, DdsError> {
+        Ok(Self {
+            status: node.reader(topic, Qos::Reliable { depth: 1 })?,
+            ext: node.reader(&hg::status_ext_topic(topic), Qos::Reliable { depth: 1 })?,
+            last_ext: None,
+        })
+    }
+
+    /// The next status sample (an error after `timeout` without one) and the latest extension
+    /// (`None` while the gateway publishes none: when its extension writer is matched, the
+    /// first extension sample is waited for, up to `timeout`).
+    pub fn next(&mut self, timeout: Duration) -> Result<(hg::GatewayStatus_, Option<hg::GatewayStatusExt_>), DdsError> {
+        let s = self
+            .status
+            .wait_take(timeout)?
+            .pop()
+            .expect("wait_take returns at least one sample");
+        if let Some(x) = self.ext.take().pop() {
+            self.last_ext = Some(x);
+        } else if self.last_ext.is_none() && self.ext.matched() > 0 {
+            self.last_ext = self.ext.wait_take(timeout).ok().and_then(|mut v| v.pop());
+        }
+        Ok((s, self.last_ext.clone()))
+    }
 }
 
 /// How `handgate send` sends: how long to wait for the gateway, how long to repeat the
@@ -308,6 +378,45 @@ mod tests {
             ),
             "{two}"
         );
+    }
+
+    /// The fronts' table: each front's client command rate beside its state rate, columns as
+    /// wide as the longest name; a gateway without the extension says so.
+    #[test]
+    fn renders_the_fronts_rates_from_the_extension() {
+        let x = hg::GatewayStatusExt_ {
+            version: hg::STATUS_EXT_VERSION,
+            fronts: vec![
+                hg::FrontStatus_ {
+                    name: "dex3_left".into(),
+                    kind: "dex3".into(),
+                    cmd_rate_hz: 99.96,
+                    state_rate_hz: 500.04,
+                },
+                hg::FrontStatus_ {
+                    name: "canonical_inspire_dfx_right".into(),
+                    kind: "canonical".into(),
+                    cmd_rate_hz: 0.0,
+                    state_rate_hz: 100.0,
+                },
+            ],
+        };
+        let t = render_fronts(Some(&x));
+        assert!(
+            t.contains("\nfronts\n  front                       kind      client cmd Hz  state pub Hz\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("\n  dex3_left                   dex3              100.0         500.0\n"),
+            "{t}"
+        );
+        assert!(
+            t.contains("\n  canonical_inspire_dfx_right canonical           0.0         100.0\n"),
+            "{t}"
+        );
+        assert!(render_fronts(None).contains("fronts: no status extension"));
+        // The devices' table says its command rate is what handgate sends the device.
+        assert!(render_status(&hg::GatewayStatus_::default()).contains(" dev cmd Hz "));
     }
 
     /// The commands dropped by their source timestamps get a table of their own, only for

@@ -187,3 +187,122 @@ pub struct GatewayStatus_ {
     pub host: String,
 }
 keyless_topic_type!(GatewayStatus_, "handgate::msg::dds_::GatewayStatus_");
+
+// ---------------------------------------------------------------------------------------------
+// The status extension (`rt/handgate/status_ext`, docs/wire-types.md "Status: frozen, and its
+// extension"). `GatewayStatus_` and `DeviceStatus_` above are FROZEN: final XCDR1 types whose
+// layout never changes again (readers built against it keep reading every later gateway).
+// Everything new goes here: `@appendable` types in XCDR2, which later versions grow by appending
+// members at the end of a struct; a reader of an earlier layout skips what it does not know, a
+// reader of a later one gives what a sample lacks its default.
+// ---------------------------------------------------------------------------------------------
+
+/// The extension layout this build writes ([`GatewayStatusExt_::version`]).
+pub const STATUS_EXT_VERSION: u32 = 1;
+
+/// The extension's topic for status topic `status_topic` (`rt/handgate/status` →
+/// `rt/handgate/status_ext`).
+pub fn status_ext_topic(status_topic: &str) -> String {
+    format!("{status_topic}_ext")
+}
+
+/// One front, as the extension reports it (`@appendable`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct FrontStatus_ {
+    /// The front's name in the profile.
+    pub name: String,
+    /// Its kind (`dex3`, `handgate`, `ros2_joint_state`, ...).
+    pub kind: String,
+    /// Command samples it received from clients per second (Hz), over the last status period.
+    pub cmd_rate_hz: f32,
+    /// Publishes of its state topic per second (Hz; its main state topic, not the `rt/lf`
+    /// copy; counted whether or not a reader is matched; 0 for a front with no state topic).
+    pub state_rate_hz: f32,
+}
+
+impl FrontStatus_ {
+    fn write(&self, w: &mut crate::xcdr2::Writer) {
+        w.delimited(|w| {
+            w.string(&self.name);
+            w.string(&self.kind);
+            w.f32(self.cmd_rate_hz);
+            w.f32(self.state_rate_hz);
+        });
+    }
+
+    fn read(r: &mut crate::xcdr2::Reader<'_>) -> Result<Self, crate::xcdr2::Xcdr2Error> {
+        r.delimited(|r| {
+            Ok(Self {
+                name: r.string()?,
+                kind: r.string()?,
+                cmd_rate_hz: r.f32()?,
+                state_rate_hz: r.f32()?,
+            })
+        })
+    }
+}
+
+/// The status extension (`@appendable`, XCDR2), published beside [`GatewayStatus_`] on
+/// [`status_ext_topic`] at the same rate.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct GatewayStatusExt_ {
+    /// The extension layout the writer wrote ([`STATUS_EXT_VERSION`]): a reader of a later
+    /// layout knows from it which of its members the writer did not have (they read as 0).
+    pub version: u32,
+    /// Per front: its name, kind, client command rate and state rate.
+    pub fronts: Vec<FrontStatus_>,
+}
+
+impl GatewayStatusExt_ {
+    /// The sample's XCDR2 bytes, encapsulation header first.
+    pub fn to_xcdr2(&self) -> Vec<u8> {
+        let mut w = crate::xcdr2::Writer::new();
+        w.delimited(|w| {
+            w.u32(self.version);
+            w.sequence(&self.fronts, |w, f| f.write(w));
+        });
+        w.finish()
+    }
+
+    /// A sample from its XCDR2 bytes (header first), of this layout, an earlier or a later one.
+    pub fn from_xcdr2(bytes: &[u8]) -> Result<Self, crate::xcdr2::Xcdr2Error> {
+        crate::xcdr2::Reader::new(bytes)?.delimited(|r| {
+            Ok(Self {
+                version: r.u32()?,
+                fronts: r.sequence(FrontStatus_::read)?,
+            })
+        })
+    }
+}
+
+impl cyclonedds_rs::TopicType for GatewayStatusExt_ {
+    fn typename() -> std::ffi::CString {
+        std::ffi::CString::new(<Self as crate::DdsTypeName>::DDS_TYPE_NAME).expect("static type name has no NUL")
+    }
+    fn has_key() -> bool {
+        false
+    }
+    fn key_cdr(&self) -> Vec<u8> {
+        Vec::new()
+    }
+    fn force_md5_keyhash() -> bool {
+        false
+    }
+    fn own_encoding() -> bool {
+        true
+    }
+    fn encode_own(&self) -> Option<Vec<u8>> {
+        Some(self.to_xcdr2())
+    }
+    fn decode_own(bytes: &[u8]) -> Option<Self> {
+        Self::from_xcdr2(bytes).ok()
+    }
+}
+
+impl crate::DdsTypeName for GatewayStatusExt_ {
+    const DDS_TYPE_NAME: &'static str = "handgate::msg::dds_::GatewayStatusExt_";
+}
+
+impl crate::DdsTypeName for FrontStatus_ {
+    const DDS_TYPE_NAME: &'static str = "handgate::msg::dds_::FrontStatus_";
+}

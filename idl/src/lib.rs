@@ -20,6 +20,7 @@ pub mod ros2msg;
 pub mod type_hash;
 pub mod unitree_go;
 pub mod unitree_hg;
+pub mod xcdr2;
 
 pub use cdr_codec::{from_cdr, to_cdr_be, to_cdr_le, CdrError};
 pub use cyclonedds_rs::TopicType;

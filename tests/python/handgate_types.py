@@ -137,6 +137,29 @@ class GatewayStatus_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatus_")
     host: str
 
 
+# The status extension (idl/handgate.idl, docs/wire-types.md "Status: frozen, and its
+# extension"): @appendable, XCDR2. Not in CLASSES (the golden fixtures are XCDR1 final types);
+# tests/tests/status_compat.rs checks handgate's encoding of it against these classes.
+
+
+@dataclass
+@annotate.appendable
+@annotate.autoid("sequential")
+class FrontStatus_(idl.IdlStruct, typename="handgate.msg.dds_.FrontStatus_"):
+    name: str
+    kind: str
+    cmd_rate_hz: types.float32
+    state_rate_hz: types.float32
+
+
+@dataclass
+@annotate.appendable
+@annotate.autoid("sequential")
+class GatewayStatusExt_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatusExt_"):
+    version: types.uint32
+    fronts: types.sequence[FrontStatus_]
+
+
 @dataclass
 @annotate.final
 @annotate.autoid("sequential")

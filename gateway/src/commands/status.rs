@@ -1,4 +1,5 @@
-//! `handgate status`: a live table of a running gateway's devices, from its status topic.
+//! `handgate status`: a live table of a running gateway's devices, from its status topic, and
+//! of its fronts, from the status extension.
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -11,12 +12,13 @@ use handgate_gateway::tools;
 /// `timeout` seconds.
 pub fn status(dds: &DdsArgs, topic: &str, once: bool, timeout: f64) -> anyhow::Result<ExitCode> {
     let node = handgate_adapters::dds::Node::new(dds.domain, dds.interface.as_deref())?;
+    let mut reader = tools::StatusReader::new(&node, &dds.topic(topic))?;
     loop {
-        let s = tools::status_once(&node, &dds.topic(topic), Duration::from_secs_f64(timeout))?;
+        let (s, ext) = reader.next(Duration::from_secs_f64(timeout))?;
         if !once {
             print!("\x1b[2J\x1b[H");
         }
-        print!("{}", tools::render_status(&s));
+        print!("{}{}", tools::render_status(&s), tools::render_fronts(ext.as_ref()));
         if once {
             return Ok(ExitCode::SUCCESS);
         }

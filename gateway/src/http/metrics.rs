@@ -239,6 +239,26 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
             f.sample(name, l, row.as_ref().map(|r| get(r) as f64).unwrap_or(f64::NAN));
         }
     }
+    // Per front, from the status extension: what its clients send, what it publishes.
+    let ext = fleet.status_ext.borrow().clone();
+    for (name, help, get) in [
+        (
+            "handgate_front_cmd_rate_hz",
+            "Command samples the front received from its clients per second (status window).",
+            (|f: &handgate_idl::handgate::FrontStatus_| f.cmd_rate_hz) as fn(&_) -> f32,
+        ),
+        (
+            "handgate_front_state_rate_hz",
+            "Samples of the front's state topic it published per second, not the rt/lf copy (status window).",
+            |f| f.state_rate_hz,
+        ),
+    ] {
+        let mut fam = Family::new(&mut out, name, "gauge", help);
+        for f in &ext.fronts {
+            let labels = format!("front=\"{}\",kind=\"{}\"", esc(&f.name), esc(&f.kind));
+            fam.sample(name, &labels, f64::from(get(f)));
+        }
+    }
     type Counter = fn(&handgate_adapters::device::DeviceStats, &crate::runtime::FrontCounters) -> u64;
     let counters: [(&str, &str, Counter); 16] = [
         (

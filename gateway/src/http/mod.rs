@@ -61,6 +61,8 @@ pub struct Fleet {
     pub devices: Vec<Arc<DeviceSlot>>,
     pub fronts: Vec<FrontInfo>,
     pub status: watch::Receiver<Arc<GatewayStatus_>>,
+    /// The latest status extension (per front: command and state rates; `/metrics`).
+    pub status_ext: watch::Receiver<Arc<handgate_idl::handgate::GatewayStatusExt_>>,
     pub discovery: watch::Receiver<Arc<Snapshot>>,
     /// The runtime's clock origin (sample times are seconds since it).
     pub started: Instant,
@@ -99,6 +101,8 @@ impl Fleet {
             devices: devices.to_vec(),
             fronts,
             status,
+            // The runtime sets its own; until then (and in tests) an extension with no front.
+            status_ext: watch::channel(Arc::default()).1,
             discovery,
             started: crate::runtime::epoch(),
             clients: AtomicUsize::new(0),

@@ -183,6 +183,9 @@ pub fn spawn(
         allow: None,
         bindings,
         publishes: false,
+        // Counted like a profile's front, not reported in the status extension (not a front
+        // of the profile: the dashboard's own).
+        tally: Arc::new(crate::runtime::status::FrontTally::named(NAME, "dashboard", false)),
     };
     let (_, handle) = run_front(
         task,

@@ -1991,7 +1991,18 @@ fn namespaced_topics_are_checked_for_clashes() {
     assert_eq!(
         lines,
         [format!(
-            "{}: fronts[0].cmd_topic: command topic `rt/robot1/handgate/status` is the status topic",
+            "{}: fronts[0].cmd_topic: command topic `rt/robot1/handgate/status` is the status topic or its extension",
+            path.display()
+        )]
+    );
+    // And its extension's topic (docs/wire-types.md, "Status: frozen, and its extension").
+    let (path, r) = load_text(&format!(
+        "[dds]\nnamespace = \"robot1\"\n{DEX3}[[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\nstate_topic = \"rt/handgate/status_ext\"\n"
+    ));
+    assert_eq!(
+        r.unwrap_err().lines(),
+        [format!(
+            "{}: fronts[0].state_topic: state topic `rt/robot1/handgate/status_ext` is the status topic or its extension",
             path.display()
         )]
     );

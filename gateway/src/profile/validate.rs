@@ -326,6 +326,8 @@ impl Checker {
 
         // fronts
         let status_topic = p.status_topic();
+        // The status extension beside it (docs/wire-types.md, "Status: frozen, and its extension").
+        let status_ext_topic = Topic(handgate_idl::handgate::status_ext_topic(status_topic.as_str()));
         let mut cmd_topics: BTreeMap<Topic, usize> = BTreeMap::new();
         let mut state_topics: BTreeMap<Topic, usize> = BTreeMap::new();
         let mut names: BTreeMap<String, usize> = BTreeMap::new();
@@ -442,8 +444,11 @@ impl Checker {
             let mut cmd_clash = None;
             for t in topics.topics.iter().filter(|t| t.role == TopicRole::Command) {
                 let Some(topic) = &t.topic else { continue };
-                if topic == &status_topic {
-                    self.err(k.key(t.key), format!("command topic `{topic}` is the status topic"));
+                if topic == &status_topic || topic == &status_ext_topic {
+                    self.err(
+                        k.key(t.key),
+                        format!("command topic `{topic}` is the status topic or its extension"),
+                    );
                 }
                 match cmd_topics.get(topic) {
                     Some(&j) => {
@@ -462,8 +467,11 @@ impl Checker {
             // Two publishers of one state topic would interleave two views of the fleet.
             for t in topics.topics.iter().filter(|t| t.role.writes()) {
                 let Some(topic) = &t.topic else { continue };
-                if topic == &status_topic {
-                    self.err(k.key(t.key), format!("state topic `{topic}` is the status topic"));
+                if topic == &status_topic || topic == &status_ext_topic {
+                    self.err(
+                        k.key(t.key),
+                        format!("state topic `{topic}` is the status topic or its extension"),
+                    );
                 }
                 match state_topics.get(topic) {
                     // Same pair of fronts as the command clash: one error is enough.

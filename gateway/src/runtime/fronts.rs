@@ -16,6 +16,7 @@ use handgate_adapters::model::HandState;
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
+use super::status::FrontTally;
 use super::{DeviceSlot, RuntimeError};
 use crate::plan::{FrontPlan, SilencePlan};
 use crate::ticker::Ticker;
@@ -41,6 +42,7 @@ fn spawn_state_only(
     mut out: Box<dyn fronts::StateIo>,
     f: &FrontPlan,
     devices: &HashMap<String, Arc<DeviceSlot>>,
+    tally: Arc<FrontTally>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let slots: Vec<Arc<DeviceSlot>> = f
@@ -65,6 +67,7 @@ fn spawn_state_only(
                         .map(|(s, state)| fronts::Published { device: &s.plan.name, table: &s.table, state })
                         .collect();
                     out.publish(&published);
+                    tally.state();
                 }
                 _ = shutdown.changed() => break,
             }
@@ -77,6 +80,7 @@ pub(super) fn spawn_front(
     f: &FrontPlan,
     allow: Option<&Sources>,
     devices: &HashMap<String, Arc<DeviceSlot>>,
+    tally: Arc<FrontTally>,
     shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
     let (tx, rx) = mpsc::channel::<fronts::Incoming>(64);
@@ -85,7 +89,7 @@ pub(super) fn spawn_front(
     // The front kind's endpoints (readers and writers).
     let out = match fronts::open(env, f, queue.clone(), dropped.clone())? {
         fronts::Endpoints::Commands(out) => out,
-        fronts::Endpoints::StateOnly(out) => return spawn_state_only(out, f, devices, shutdown),
+        fronts::Endpoints::StateOnly(out) => return spawn_state_only(out, f, devices, tally, shutdown),
     };
     let task = FrontTask {
         id: FrontId::next(),
@@ -102,6 +106,7 @@ pub(super) fn spawn_front(
             .collect(),
         // A command-only front is not told its devices' states: it would publish nothing.
         publishes: f.publishes_state(),
+        tally,
     };
     let (live, handle) = run_front(task, out, (tx, rx), dropped, devices, env.discovery.clone(), shutdown)?;
     // From now on the readers' listeners hand their samples to the front itself.
@@ -133,6 +138,8 @@ pub(crate) struct FrontTask {
     /// nothing (a command-only front, the dashboard's page front), so its devices' states are
     /// not told to it.
     pub publishes: bool,
+    /// Its command samples and state publishes, counted for the status extension.
+    pub tally: Arc<FrontTally>,
 }
 
 /// One device a front drives: what the core does not decide with (its slot, its element in
@@ -240,6 +247,8 @@ struct Task {
     /// a device (a command must not overtake it), or samples queued before the listeners
     /// took over are still there.
     deferring: bool,
+    /// Command samples taken and state publishes (the status extension's rates).
+    tally: Arc<FrontTally>,
 }
 
 /// Writers whose source verdict a front keeps.
@@ -310,6 +319,7 @@ impl Task {
     /// checks and routes its commands. The caller made sure no silence action runs on the
     /// front's devices, so the safe state never lands after a newer command.
     fn sample(&mut self, live: &Live, msg: fronts::Incoming) {
+        self.tally.command();
         match self.source_allowed(&msg.writer, live) {
             Some(true) => {}
             Some(false) => {
@@ -373,6 +383,9 @@ impl Task {
     fn publish(&mut self, given: Option<(usize, &HandState)>, lf: bool) {
         let out = &mut self.out;
         with_views(&self.core, &self.devices, given, |bound| out.publish(bound, lf));
+        if !lf {
+            self.tally.state();
+        }
     }
 
     /// The periodic publish at `now`, and what the core keeps of it (the state that went out
@@ -604,6 +617,7 @@ pub(crate) fn run_front(
             // Until the task found its queue empty (samples queued before the listeners
             // took over go first).
             deferring: true,
+            tally: f.tally,
         }),
         wake: tokio::sync::Notify::new(),
         queue: tx,

@@ -7,7 +7,7 @@ mod devices;
 pub(crate) mod fronts;
 mod health;
 mod ros;
-mod status;
+pub(crate) mod status;
 
 use std::collections::HashMap;
 use std::sync::atomic::AtomicU64;
@@ -148,6 +148,8 @@ pub struct Runtime {
     recorder: Option<handgate_record::Recorder>,
     /// The latest status the status task computed (the dashboard, `/metrics`).
     pub status: watch::Receiver<Arc<handgate_idl::handgate::GatewayStatus_>>,
+    /// The latest status extension (per front: command and state rates).
+    pub status_ext: watch::Receiver<Arc<handgate_idl::handgate::GatewayStatusExt_>>,
     /// The `[foxglove]` live server (its own threads and runtime; never on a device path).
     #[cfg(feature = "foxglove")]
     live: Option<crate::live::Live>,
@@ -243,12 +245,16 @@ impl Runtime {
         }
         let (shutdown, shutdown_rx) = watch::channel(false);
         let mut tasks = Vec::new();
+        let mut tallies = Vec::new();
         for f in &plan.fronts {
+            let tally = Arc::new(status::FrontTally::new(f));
+            tallies.push(tally.clone());
             tasks.push(fronts::spawn_front(
                 &env,
                 f,
                 plan.allow_sources.as_ref(),
                 &by_name,
+                tally,
                 shutdown_rx.clone(),
             )?);
         }
@@ -278,17 +284,23 @@ impl Runtime {
         };
         let record_stats = recorder.as_ref().map(|r| r.stats());
         let (status_tx, status_rx) = watch::channel(Arc::new(handgate_idl::handgate::GatewayStatus_::default()));
+        let (ext_tx, ext_rx) = watch::channel(Arc::new(handgate_idl::handgate::GatewayStatusExt_::default()));
         tasks.push(status::spawn_status(
             &clients,
             plan,
             devices.clone(),
+            tallies,
             diagnosis,
             record_stats,
-            status_tx,
+            status::StatusOut {
+                latest: status_tx,
+                latest_ext: ext_tx,
+            },
             shutdown_rx.clone(),
         )?);
         if let (Some(h), Some(listener)) = (&plan.http, http_listener) {
             let mut fleet = crate::http::Fleet::new(plan, &devices, clients_discovery.subscribe(), status_rx.clone());
+            fleet.status_ext = ext_rx.clone();
             if !h.fleet_domains.is_empty() {
                 fleet.lab = Some(spawn_fleet_look(
                     plan,
@@ -328,6 +340,7 @@ impl Runtime {
             export,
             recorder,
             status: status_rx,
+            status_ext: ext_rx,
             #[cfg(feature = "foxglove")]
             live,
         })

@@ -2,7 +2,7 @@
 //! counters; per served endpoint, its matched counterparts; discovery's findings.
 
 use std::collections::HashMap;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -15,16 +15,71 @@ use super::{DeviceSlot, RuntimeError};
 use crate::plan::Plan;
 use crate::ticker::Ticker;
 
+/// One front's tallies for the status extension ([`hgmsg::FrontStatus_`]): the command samples
+/// it took from clients and its publishes of its state topic (not the `rt/lf` copy), counted
+/// by the front's task; the status task turns them into rates.
+#[derive(Debug)]
+pub(crate) struct FrontTally {
+    pub name: String,
+    pub kind: String,
+    /// The front has a state topic (a command-only front publishes nothing: its rate is 0).
+    pub publishes_state: bool,
+    /// Command samples taken (every sample a reader's listener or the queue handed the front,
+    /// before any check).
+    pub commands: AtomicU64,
+    /// Publishes of its state topic.
+    pub states: AtomicU64,
+}
+
+impl FrontTally {
+    pub fn new(f: &crate::plan::FrontPlan) -> Self {
+        Self::named(&f.name, f.kind().as_str(), f.publishes_state())
+    }
+
+    /// A tally of a front that is not in the profile (the dashboard page's own), which the
+    /// status does not report.
+    pub fn named(name: &str, kind: &str, publishes_state: bool) -> Self {
+        Self {
+            name: name.to_string(),
+            kind: kind.to_string(),
+            publishes_state,
+            commands: AtomicU64::new(0),
+            states: AtomicU64::new(0),
+        }
+    }
+
+    pub fn command(&self) {
+        self.commands.fetch_add(1, Ordering::Relaxed);
+    }
+
+    pub fn state(&self) {
+        self.states.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// What the status task publishes and tells the rest of the gateway: the frozen status and its
+/// extension (docs/wire-types.md, "Status: frozen, and its extension").
+pub(super) struct StatusOut {
+    pub latest: watch::Sender<Arc<hgmsg::GatewayStatus_>>,
+    pub latest_ext: watch::Sender<Arc<hgmsg::GatewayStatusExt_>>,
+}
+
+#[allow(clippy::too_many_arguments)]
 pub(super) fn spawn_status(
     node: &Node,
     plan: &Plan,
     devices: Vec<Arc<DeviceSlot>>,
+    fronts: Vec<Arc<FrontTally>>,
     diagnosis: watch::Receiver<Arc<crate::diagnostics::Diagnosis>>,
     record: Option<Arc<handgate_record::RecordStats>>,
-    latest: watch::Sender<Arc<hgmsg::GatewayStatus_>>,
+    out: StatusOut,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<tokio::task::JoinHandle<()>, RuntimeError> {
+    let StatusOut { latest, latest_ext } = out;
     let mut writer = node.writer::<hgmsg::GatewayStatus_>(&plan.status_topic, Qos::Reliable { depth: 1 })?;
+    // The extension beside it: XCDR2, appendable; the same QoS.
+    let mut ext_writer = node
+        .writer::<hgmsg::GatewayStatusExt_>(&hgmsg::status_ext_topic(&plan.status_topic), Qos::Reliable { depth: 1 })?;
     let profile = plan.profile.clone();
     // Both DDS sides and where the gateway runs, so `handgate status` and `handgate fleet`
     // show them (`[export]`: the clients' side is where this is published).
@@ -51,6 +106,11 @@ pub(super) fn spawn_status(
         // motion verdict repeats them rather than measuring over a few milliseconds.
         let mut rates: HashMap<String, (f32, f32)> = HashMap::new();
         let mut published_motion: Vec<u8> = vec![hgmsg::MOTION_OK; devices.len()];
+        // Per front, as per device: the tallies at the last tick (none before the first:
+        // the first tick reports 0 rather than a rate over a few milliseconds), and the rates
+        // then.
+        let mut front_prev: Vec<Option<(u64, u64, Instant)>> = vec![None; fronts.len()];
+        let mut front_rates: Vec<(f32, f32)> = vec![(0.0, 0.0); fronts.len()];
         loop {
             let on_tick = tokio::select! {
                 _ = tick.tick() => true,
@@ -134,8 +194,33 @@ pub(super) fn spawn_status(
             }
             published_motion.clear();
             published_motion.extend(msg.devices.iter().map(|d| d.motion));
+            if on_tick {
+                for ((f, prev), rate) in fronts.iter().zip(&mut front_prev).zip(&mut front_rates) {
+                    let (c, s) = (f.commands.load(Ordering::Relaxed), f.states.load(Ordering::Relaxed));
+                    let (pc, ps, pt) = prev.unwrap_or((c, s, now));
+                    let dt = now.duration_since(pt).as_secs_f32();
+                    let per_s = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
+                    *rate = (per_s(c, pc), per_s(s, ps));
+                    *prev = Some((c, s, now));
+                }
+            }
+            let ext = hgmsg::GatewayStatusExt_ {
+                version: hgmsg::STATUS_EXT_VERSION,
+                fronts: fronts
+                    .iter()
+                    .zip(&front_rates)
+                    .map(|(f, (cmd, state))| hgmsg::FrontStatus_ {
+                        name: f.name.clone(),
+                        kind: f.kind.clone(),
+                        cmd_rate_hz: *cmd,
+                        state_rate_hz: if f.publishes_state { *state } else { 0.0 },
+                    })
+                    .collect(),
+            };
             latest.send_replace(Arc::new(msg.clone()));
+            latest_ext.send_replace(Arc::new(ext.clone()));
             let _ = writer.write(msg);
+            let _ = ext_writer.write(ext);
         }
     }))
 }

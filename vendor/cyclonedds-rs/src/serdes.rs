@@ -48,7 +48,18 @@ pub(crate) fn ffi_guard<R>(fallback: R, body: impl FnOnce() -> R) -> R {
 // a multiple of 4, their number in the low two bits of the options, as CycloneDDS's own
 // serializer does (0.10.2 dds_ostream_add_to_serdata_default). get_size counts these bytes:
 // nn_xmsg_serdata asks to_ser_ref for align4(size) bytes and sends them.
-fn serialize_padded<T: Serialize>(sample: &T) -> Option<Vec<u8>> {
+fn serialize_padded<T: TopicType>(sample: &T) -> Option<Vec<u8>> {
+    // handgate: a type with its own encoding (XCDR2) gives its bytes, header first
+    if T::own_encoding() {
+        let mut buf = sample.encode_own()?;
+        if buf.len() < 4 {
+            return None;
+        }
+        let pad = (4 - buf.len() % 4) % 4;
+        buf[3] |= pad as u8;
+        buf.resize(buf.len() + pad, 0);
+        return Some(buf);
+    }
     // one allocation: the padded size up front
     let size = cdr::calc_serialized_size(sample) as usize;
     let mut buf = Vec::with_capacity((size + 3) & !3);
@@ -124,6 +135,42 @@ pub trait TopicType: Serialize + DeserializeOwned {
     // force the use of md5 even if the serialized size is less than 16
     // as per the standard, we need to check the potential field size and not the actual.
     fn force_md5_keyhash() -> bool;
+
+    // handgate: a type that encodes itself (e.g. XCDR2 with DHEADERs, which the `cdr` crate
+    // cannot write or read) returns true; its samples are then written with `encode_own` and
+    // read with `decode_own` instead of plain CDR through serde.
+    fn own_encoding() -> bool {
+        false
+    }
+
+    // handgate: the sample's bytes, encapsulation header first, without the padding to a
+    // multiple of 4 (added here as for every type); None: it cannot be encoded.
+    fn encode_own(&self) -> Option<Vec<u8>> {
+        None
+    }
+
+    // handgate: a sample from its bytes, encapsulation header first (padding included);
+    // None: not a valid sample.
+    fn decode_own(_bytes: &[u8]) -> Option<Self>
+    where
+        Self: Sized,
+    {
+        None
+    }
+}
+
+// handgate: a received sample from its pieces, by the type's own decoder or plain CDR through
+// serde (`size`: the bytes in all)
+fn decode_received<T: TopicType>(pieces: &[&[u8]], size: usize) -> Option<T> {
+    if T::own_encoding() {
+        let mut bytes = Vec::with_capacity(size);
+        for p in pieces {
+            bytes.extend_from_slice(p);
+        }
+        bytes.truncate(size);
+        return T::decode_own(&bytes);
+    }
+    cdr::deserialize_from::<_, T, _>(SGReader::new(pieces), Bounded(size as u64)).ok()
 }
 
 impl<'a, T> SerType<T> {
@@ -532,8 +579,8 @@ where
         fragchain = fragchain_ref.nextfrag;
     }
     // make a reader out of the sg_list
-    let reader = SGReader::new(&sg_list);
-    if let Ok(decoded) = cdr::deserialize_from::<_, T, _>(reader, Bounded(size as u64)) {
+    // handgate: through the type's own decoder when it has one
+    if let Some(decoded) = decode_received::<T>(&sg_list, size) {
         if T::has_key() {
             // compute the 16byte key hash
             let key_cdr = decoded.key_cdr();
@@ -692,9 +739,8 @@ where
         .collect();
 
     // make a reader out of the sg_list
-    let reader = SGReader::new(&iov_slices);
-
-    if let Ok(decoded) = cdr::deserialize_from::<_, T, _>(reader, Bounded(size as u64)) {
+    // handgate: through the type's own decoder when it has one
+    if let Some(decoded) = decode_received::<T>(&iov_slices, size) {
         if T::has_key() {
             // compute the 16byte key hash
             let key_cdr = decoded.key_cdr();
@@ -835,7 +881,11 @@ unsafe extern "C" fn serdata_to_ser_unref<T>(serdata: *mut ddsi_serdata, _iov: *
 
 fn deserialize_type<T>(data:&[u8]) -> Result<Arc<T>,()> 
     where
-    T: DeserializeOwned {
+    T: TopicType {
+        // handgate: through the type's own decoder when it has one
+        if T::own_encoding() {
+            return T::decode_own(data).map(Arc::new).ok_or(());
+        }
         cdr::deserialize::<Box<T>>(data).map(Arc::from).map_err(|_e|())
     }
 
@@ -1250,7 +1300,7 @@ impl<'a, T> SerData<T> {
     }
 }
 
-impl<T: Serialize> SerData<T> {
+impl<T: TopicType> SerData<T> {
     // handgate: what get_size, to_ser and to_ser_ref serve: the padded serialized sample, or the
     // key hash of a key-only serdata; None when there is nothing to serialize
     fn wire(&self) -> Option<&[u8]> {
