@@ -10,7 +10,9 @@
 #                 plus one emulated Dex3 USB exchange, and a unitree_sdk2py relay, at 200 Hz and 1 kHz
 #   3b. shim      a Dex1 client driving a Dex3 served by the G1-service emulator (its own process)
 #                 through handgate vs a raw Rust relay (two DDS hops) and a unitree_sdk2py shim
-#   4. fleet      32 Dex3 + 32 Dex1 emulated in one gateway, 30 s; again with loop_threads = 0
+#   4. fleet      32 Dex3 + 32 Dex1 emulated in one gateway, 30 s, between two 15 s windows of the
+#                 reference (the same emulated hands and DDS traffic without handgate, domain 105):
+#                 the verdict is the gateway's CPU over the reference's; again with loop_threads = 0
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
 #   4c. startup   handgate run on sim-all, 5 starts: spawn -> every device fresh, a state on every front
 #   4d. timers    64 empty loops at 1 kHz, a thread each vs handgate's shared loop threads, 30 s each
@@ -99,7 +101,7 @@ if want fleet; then
   echo "bench: 4. fleet scale (${fleet_secs} s)"
   "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --out "$results/fleet.json"
   echo "bench: 4. fleet scale, a thread per DDS-client device loop (loop_threads = 0, ${fleet_secs} s)"
-  "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --loop-threads 0 --out "$results/fleet_own.json"
+  "$bin/handgate-bench" fleet --handgate "$bin/handgate" --secs "$fleet_secs" --loop-threads 0 --reference-secs 0 --out "$results/fleet_own.json"
 fi
 
 if want simall; then

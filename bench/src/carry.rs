@@ -17,7 +17,7 @@ pub const SECTIONS: &[(&str, &[&str])] = &[
     ("codec", &["codec_dex3.json", "codec_ezgripper.json", "ezgripper.md"]),
     ("loop", &["loop.json"]),
     ("busy", &["busy.json"]),
-    ("hop", &["hop.json"]),
+    ("hop", &["hop.json", "hop_min_gap_100.toml"]),
     ("shim", &["shim.json", "shim.toml"]),
     (
         "fleet",

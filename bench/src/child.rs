@@ -50,6 +50,21 @@ impl Proc {
         self.child.id()
     }
 
+    /// The next stdout line starting with `prefix` printed after this call (earlier lines are
+    /// dropped), waiting up to `timeout`.
+    pub fn next_line(&self, prefix: &str, timeout: Duration) -> anyhow::Result<String> {
+        while self.lines.try_recv().is_ok() {}
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(l) if l.starts_with(prefix) => return Ok(l),
+                Ok(_) => {}
+                Err(_) => anyhow::bail!("{} printed no {prefix:?} line within {timeout:?}", self.name),
+            }
+        }
+    }
+
     /// SIGINT, up to 3 s, then SIGKILL.
     pub fn stop(mut self) {
         // SAFETY: signalling our own child by pid.

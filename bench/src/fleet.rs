@@ -53,6 +53,14 @@ pub struct FleetResult {
     /// shared: a figure carries its load).
     #[serde(default)]
     pub load1: Option<[f64; 2]>,
+    /// Commands the gateway sent each Dex1 device (its DDS writes on the device's command
+    /// topic), per device, Hz: what the reference must write too (none without a client).
+    #[serde(default)]
+    pub dex1_cmd_hz: Option<f64>,
+    /// The reference ([`crate::fleet_ref`]) measured in the same run: a window right before the
+    /// gateway's and one right after (empty: not measured).
+    #[serde(default)]
+    pub reference: Vec<crate::fleet_ref::ReferenceResult>,
 }
 
 /// CPU per device cycle on one set of threads.
@@ -75,6 +83,42 @@ const KIND_GROUPS: &[(&str, &[&str])] = &[
     ("dex3", &["dex-usb-loop"]),
     ("dex1", &["dev-* (DDS-client device loops)", "emu-shared-"]),
 ];
+
+/// CPU per device cycle over `groups`: each kind's own threads (`kinds`: kind and its thread
+/// groups) per cycle of that kind (`hz`: kind and its device cycles per second), every other
+/// thread per cycle of any device.
+pub fn per_cycle(groups: &[GroupCost], kinds: &[(&str, &[&str])], hz: &[(&str, f64)]) -> Vec<CycleCost> {
+    let cost = |cycles_of: &str, names: Vec<String>, cycles_hz: f64| {
+        let cpu_pct: f64 = groups
+            .iter()
+            .filter(|g| names.contains(&g.group))
+            .map(|g| g.cpu_pct)
+            .sum();
+        CycleCost {
+            cycles_of: cycles_of.into(),
+            us_per_cycle: if cycles_hz > 0.0 {
+                cpu_pct / 100.0 * 1e6 / cycles_hz
+            } else {
+                f64::NAN
+            },
+            groups: names,
+            cpu_pct,
+            cycles_hz,
+        }
+    };
+    let hz_of = |k: &str| hz.iter().find(|(n, _)| *n == k).map_or(0.0, |(_, h)| *h);
+    let mut out: Vec<CycleCost> = kinds
+        .iter()
+        .map(|(kind, gs)| cost(kind, gs.iter().map(|g| g.to_string()).collect(), hz_of(kind)))
+        .collect();
+    let rest = groups
+        .iter()
+        .map(|g| g.group.clone())
+        .filter(|g| !kinds.iter().any(|(_, gs)| gs.contains(&g.as_str())))
+        .collect();
+    out.push(cost("all devices", rest, hz.iter().map(|(_, h)| h).sum()));
+    out
+}
 
 /// The profile: `n3` Dex3 + `n1` Dex1 on emulators with their fronts on `rt/bench/...`.
 pub fn profile(n3: usize, n1: usize) -> String {
@@ -130,6 +174,8 @@ struct Window {
     rate: HashMap<String, f64>,
     /// Cycles missed during the window, per device.
     missed: HashMap<String, u64>,
+    /// Mean command rate over the window, per device (commands the gateway sent it).
+    cmd_rate: HashMap<String, f64>,
     /// % of one core per thread group.
     threads_cpu: Vec<(String, f64)>,
     groups: Vec<GroupCost>,
@@ -158,43 +204,26 @@ impl Window {
     /// CPU per device cycle: each kind's own threads ([`KIND_GROUPS`]) per cycle of that kind,
     /// every other thread per cycle of any device.
     fn per_cycle(&self) -> Vec<CycleCost> {
-        let cost = |cycles_of: &str, groups: Vec<String>, cycles_hz: f64| {
-            let cpu_pct: f64 = self
-                .groups
-                .iter()
-                .filter(|g| groups.contains(&g.group))
-                .map(|g| g.cpu_pct)
-                .sum();
-            CycleCost {
-                cycles_of: cycles_of.into(),
-                us_per_cycle: if cycles_hz > 0.0 {
-                    cpu_pct / 100.0 * 1e6 / cycles_hz
-                } else {
-                    f64::NAN
-                },
-                groups,
-                cpu_pct,
-                cycles_hz,
-            }
-        };
-        let mut out: Vec<CycleCost> = KIND_GROUPS
+        per_cycle(
+            &self.groups,
+            KIND_GROUPS,
+            &[
+                ("dex3", self.cycles_hz(Some("dex3"))),
+                ("dex1", self.cycles_hz(Some("dex1"))),
+            ],
+        )
+    }
+
+    /// The mean command rate over the window of the devices of `kind`, Hz.
+    fn cmd_hz(&self, kind: &str) -> Option<f64> {
+        let v: Vec<f64> = self
+            .last
+            .devices
             .iter()
-            .map(|(kind, groups)| {
-                cost(
-                    kind,
-                    groups.iter().map(|g| g.to_string()).collect(),
-                    self.cycles_hz(Some(kind)),
-                )
-            })
+            .filter(|d| d.kind == kind)
+            .filter_map(|d| self.cmd_rate.get(&d.device).copied())
             .collect();
-        let rest = self
-            .groups
-            .iter()
-            .map(|g| g.group.clone())
-            .filter(|g| !KIND_GROUPS.iter().any(|(_, gs)| gs.contains(&g.as_str())))
-            .collect();
-        out.push(cost("all devices", rest, self.cycles_hz(None)));
-        out
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
     }
 
     /// The state-rate summary over the devices of `kind` and their missed cycles, summed.
@@ -237,6 +266,7 @@ fn window(
     let switches0 = task_switches(pid);
     let t0 = Instant::now();
     let mut rates: HashMap<String, Vec<f64>> = HashMap::new();
+    let mut cmd_rates: HashMap<String, Vec<f64>> = HashMap::new();
     let mut last = first.clone();
     while t0.elapsed().as_secs_f64() < secs {
         for s in reader.take() {
@@ -245,6 +275,10 @@ fn window(
                     .entry(d.device.clone())
                     .or_default()
                     .push(f64::from(d.state_rate_hz));
+                cmd_rates
+                    .entry(d.device.clone())
+                    .or_default()
+                    .push(f64::from(d.cmd_rate_hz));
             }
             last = s;
         }
@@ -270,10 +304,12 @@ fn window(
             (d.device.clone(), d.missed_cycles.saturating_sub(before))
         })
         .collect();
-    let rate = rates
-        .into_iter()
-        .map(|(d, v)| (d, v.iter().sum::<f64>() / v.len().max(1) as f64))
-        .collect();
+    let mean = |m: HashMap<String, Vec<f64>>| {
+        m.into_iter()
+            .map(|(d, v)| (d, v.iter().sum::<f64>() / v.len().max(1) as f64))
+            .collect()
+    };
+    let (rate, cmd_rate) = (mean(rates), mean(cmd_rates));
     Ok(Window {
         wall,
         cpu_pct: 100.0 * (c1 - c0) / wall,
@@ -283,6 +319,7 @@ fn window(
         last,
         rate,
         missed,
+        cmd_rate,
         threads_cpu,
         groups,
         load1,
@@ -318,8 +355,10 @@ pub fn measure(node: &Node, pid: u32, n3: usize, n1: usize, secs: f64, warm: Dur
         cpu_us_per_cycle: w.cpu_us_per_cycle(),
         threads_cpu: w.threads_cpu.clone(),
         per_cycle: w.per_cycle(),
+        dex1_cmd_hz: w.cmd_hz("dex1"),
         groups: w.groups,
         load1: Some(w.load1),
+        reference: Vec::new(),
     })
 }
 

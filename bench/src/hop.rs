@@ -237,15 +237,25 @@ pub struct Exchange {
 }
 
 impl Exchange {
+    /// A left hand whose emulated time follows the wall clock (the hop's floor + exchange).
     pub fn new() -> anyhow::Result<Self> {
-        use handgate_adapters::dex3::usb::{Dex3Emulator, EmulatorClock, EmulatorConfig, EmulatorTransport};
-        let emu = Arc::new(Mutex::new(Dex3Emulator::new(
+        use handgate_adapters::dex3::usb::{EmulatorClock, EmulatorConfig};
+        Self::with(
             handgate_adapters::dex3::Side::Left,
             EmulatorConfig {
                 clock: EmulatorClock::Wall,
                 ..EmulatorConfig::default()
             },
-        )));
+        )
+    }
+
+    /// A `side` hand emulated with `config`.
+    pub fn with(
+        side: handgate_adapters::dex3::Side,
+        config: handgate_adapters::dex3::usb::EmulatorConfig,
+    ) -> anyhow::Result<Self> {
+        use handgate_adapters::dex3::usb::{Dex3Emulator, EmulatorTransport};
+        let emu = Arc::new(Mutex::new(Dex3Emulator::new(side, config)));
         Ok(Self {
             transport: EmulatorTransport::factory(emu)()?,
             cfg: handgate_adapters::dex3::usb::LoopConfig::default(),
@@ -257,20 +267,29 @@ impl Exchange {
 
     /// Sends `c` (positions and gains of its 7 motors) in one exchange.
     pub fn run(&mut self, c: &HandCmd_) -> anyhow::Result<()> {
-        use handgate_adapters::dex3::usb::codec::McuToLinuxState;
-        use handgate_adapters::dex3::usb::convert::{apply_state, build_command};
         let mut cmd = handgate_adapters::dex3::Dex3Command::default();
         for (m, w) in cmd.motors.iter_mut().zip(&c.motor_cmd) {
             m.q = w.q;
             m.kp = w.kp;
             m.kd = w.kd;
         }
-        build_command(&cmd, &self.cfg.wiring, &self.cfg.scalings, true).encode_into(&mut self.cmd_buf);
+        self.send(&cmd).map(|_| ())
+    }
+
+    /// Sends `cmd` in one exchange: the command frame built and encoded, exchanged with the
+    /// emulator, the reply decoded into the measurement returned.
+    pub fn send(
+        &mut self,
+        cmd: &handgate_adapters::dex3::Dex3Command,
+    ) -> anyhow::Result<&handgate_adapters::dex3::Dex3Measurement> {
+        use handgate_adapters::dex3::usb::codec::McuToLinuxState;
+        use handgate_adapters::dex3::usb::convert::{apply_state, build_command};
+        build_command(cmd, &self.cfg.wiring, &self.cfg.scalings, true).encode_into(&mut self.cmd_buf);
         self.transport
             .exchange(&self.cmd_buf, &mut self.st_buf, self.cfg.exchange_timeout)?;
         let st = McuToLinuxState::decode(&self.st_buf)?;
         apply_state(&mut self.meas, &st, &self.cfg.wiring, &self.cfg.scalings);
-        Ok(())
+        Ok(&self.meas)
     }
 }
 

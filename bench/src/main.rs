@@ -7,6 +7,7 @@ mod child;
 mod criterion;
 mod device_loop;
 mod fleet;
+mod fleet_ref;
 mod hop;
 mod record;
 mod report;
@@ -185,8 +186,25 @@ enum Cmd {
         /// thread per device loop).
         #[arg(long)]
         loop_threads: Option<usize>,
+        /// The reference (the same emulated hands and DDS traffic without handgate,
+        /// bench/src/fleet_ref.rs) for this long right before the gateway and again right
+        /// after (default: half of `secs` each); 0: no reference.
+        #[arg(long)]
+        reference_secs: Option<f64>,
+        /// The reference's DDS domain.
+        #[arg(long, default_value_t = 105)]
+        reference_domain: u32,
         #[arg(long)]
         out: PathBuf,
+    },
+    /// The fleet benchmark's reference process (internal to `fleet`).
+    FleetReference {
+        #[arg(long, default_value_t = 32)]
+        dex3: usize,
+        #[arg(long, default_value_t = 32)]
+        dex1: usize,
+        #[arg(long, default_value_t = 105)]
+        domain: u32,
     },
     /// What a loop's own thread costs: `n` empty loops on their own threads, then as tasks
     /// of the shared loop threads (handgate_adapters::loops), CPU and lateness of each.
@@ -564,18 +582,30 @@ fn main() -> anyhow::Result<()> {
             secs,
             domain,
             loop_threads,
+            reference_secs,
+            reference_domain,
             out,
         } => {
+            let warm = Duration::from_secs(3);
+            let ref_secs = reference_secs.unwrap_or(secs / 2.0);
+            let bench = std::env::current_exe()?;
+            let reference = || fleet_ref::run_and_measure(&bench, dex3, dex1, reference_domain, ref_secs, warm);
+            let before = if ref_secs > 0.0 { Some(reference()?) } else { None };
             let profile = out.with_extension("toml");
             fleet::write_profile(&profile, dex3, dex1, loop_threads)?;
             let gw = gateway(&handgate, domain, None, Some(&profile))?;
             let node = Node::new(domain, None)?;
-            let r = fleet::measure(&node, gw.pid(), dex3, dex1, secs, Duration::from_secs(3));
+            let r = fleet::measure(&node, gw.pid(), dex3, dex1, secs, warm);
             gw.stop();
-            let r = r?;
+            let mut r = r?;
             eprintln!("fleet: {r:?}");
+            r.reference.extend(before);
+            if ref_secs > 0.0 {
+                r.reference.push(reference()?);
+            }
             save(&out, &r)?;
         }
+        Cmd::FleetReference { dex3, dex1, domain } => fleet_ref::run(dex3, dex1, domain)?,
         Cmd::Profile {
             handgate,
             profile,

@@ -72,6 +72,13 @@ fn mark_carried(
     }
 }
 
+/// The fleet's target: gateway CPU over the reference's measured in the same run
+/// (bench/src/fleet_ref.rs). The old target, 50 % of one core on this machine, over the
+/// reference's cost here: 33.2 % of one core, the median of eight runs of 2026-11-29 (31 to
+/// 38 %, load averages 4 to 26), so 50 / 33.2 = 1.51, rounded (bench/notes/fleet.md, "A ratio,
+/// not a share of a core").
+pub(crate) const FLEET_RATIO_TARGET: f64 = 1.5;
+
 pub(crate) fn verdict(ok: bool) -> &'static str {
     if ok {
         "met"
@@ -517,20 +524,141 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                  (state published at 500 Hz, no client attached), on private DDS domain 110. Measured over \
                  {:.0} s after every device reported fresh: CPU from `/proc/<pid>/stat` (utime+stime delta), \
                  RSS from `/proc/<pid>/status`, state rate per device and missed cycles from the gateway's \
-                 status topic. Targets: ≤ 50 % of one core with every rate held (issue #30: every device's \
-                 state rate over the window at least 99 % of its nominal rate), < 40 MB RSS.\n",
+                 status topic.\n\n\
+                 **The reference** (`handgate-bench fleet-reference`, bench/src/fleet_ref.rs, DDS domain 105), \
+                 measured in the same run right before the gateway and again right after (half the gateway's \
+                 window each, after the same 3 s of warm-up): the same emulated hands and the same DDS traffic \
+                 without handgate's own path. Per Dex3 hand a thread waking at 1 kHz on the grid of deadlines the \
+                 gateway's emulated hands share, one emulated USB exchange per cycle (the hop's floor + exchange: \
+                 command frame built and encoded, the same MCU emulator at the same transport seam, the reply \
+                 decoded), then the front's publishes (state at 500 Hz, the low-frequency copy at 50 Hz: a \
+                 best-effort writer's `write_with`, which, as the gateway's, writes nothing without a matched \
+                 reader); per Dex1 the same emulated `dex1_1_service` on the emulators' shared thread and a state \
+                 reader whose listener takes each sample and makes the front's publish; the fronts' command \
+                 readers. Not in it: the Dex3 loop's bookkeeping and state conversion, the DDS-client device \
+                 loops, the fronts' cores, supervision, status, tokio. Its CPU is what the machine charges for \
+                 the emulated fleet itself in that run, so the gateway's CPU over it is the fleet's verdict on \
+                 any machine, in any load (bench/notes/fleet.md, \"A ratio, not a share of a core\").\n\n\
+                 Targets: gateway CPU / reference CPU ≤ {FLEET_RATIO_TARGET:.2} (the old ≤ 50 % of one core on \
+                 this machine over the reference's cost here, derived in the notes) with every rate held: every \
+                 device's state rate over the window at least 99 % of its nominal rate (issue #30), or, when the \
+                 machine's load keeps the reference's own hands below that, no lower than the reference's \
+                 slowest device of the kind; < 40 MB RSS.\n",
                 f.dex3, f.dex1, f.secs
             );
             body.push_str("| figure | value | target |\n|---|---|---|\n");
-            let held = |r: &Option<Summary>, nominal: f64| r.as_ref().is_some_and(|r| r.min >= 0.99 * nominal);
-            let rates_held = held(&f.dex3_state_hz, 1000.0) && held(&f.dex1_state_hz, 500.0);
-            let cpu_ok = f.cpu_pct <= 50.0 && rates_held;
+            // Held: every device at least 99 % of its rate, or no slower than the reference's
+            // slowest device of the kind in the same run (the machine's load, not the gateway,
+            // then sets the rate).
+            let ref_min = |of: fn(&crate::fleet_ref::ReferenceResult) -> Option<Summary>| {
+                f.reference
+                    .iter()
+                    .filter_map(|r| of(r).map(|s| s.min))
+                    .min_by(f64::total_cmp)
+            };
+            let (ref3, ref1) = (ref_min(|r| r.dex3_hz), ref_min(|r| r.dex1_hz));
+            let nominal_ok = |r: &Option<Summary>, nominal: f64| r.as_ref().is_some_and(|r| r.min >= 0.99 * nominal);
+            let held = |r: &Option<Summary>, nominal: f64, reference: Option<f64>| {
+                nominal_ok(r, nominal) || r.as_ref().zip(reference).is_some_and(|(r, m)| r.min >= m)
+            };
+            let rates_held = held(&f.dex3_state_hz, 1000.0, ref3) && held(&f.dex1_state_hz, 500.0, ref1);
+            let rates_nominal = nominal_ok(&f.dex3_state_hz, 1000.0) && nominal_ok(&f.dex1_state_hz, 500.0);
+            let pooled = crate::fleet_ref::pooled(&f.reference);
+            let ratio = pooled.map(|p| f.cpu_pct / p.cpu_pct);
+            let cpu_ok = ratio.is_some_and(|r| r <= FLEET_RATIO_TARGET) && rates_held;
             let rss_ok = f.rss_mb < 40.0;
-            let _ = writeln!(body, "| CPU | {:.0} % of one core | {} |", f.cpu_pct, verdict(cpu_ok));
+            if let (Some(p), Some(ratio)) = (pooled, ratio) {
+                let _ = writeln!(
+                    body,
+                    "| **CPU, gateway / reference** | **{ratio:.2}** | ≤ {FLEET_RATIO_TARGET:.2}, every rate held ({}): {} |",
+                    match (rates_nominal, rates_held) {
+                        (true, _) => "held",
+                        (false, true) => "held as well as the reference's",
+                        _ => "not held",
+                    },
+                    verdict(cpu_ok)
+                );
+                let _ = writeln!(
+                    body,
+                    "| CPU, gateway | {:.1} % of one core | (50 % here: the ratio's derivation) |",
+                    f.cpu_pct
+                );
+                let _ = writeln!(
+                    body,
+                    "| CPU, reference (before / after the gateway; pooled) | {} / {:.1} % of one core | |",
+                    f.reference
+                        .iter()
+                        .map(|r| format!("{:.1} %", r.cpu_pct))
+                        .collect::<Vec<_>>()
+                        .join(" / "),
+                    p.cpu_pct
+                );
+                if let Some(g) = f.cpu_us_per_cycle {
+                    let _ = writeln!(
+                        body,
+                        "| CPU per device cycle, gateway / reference | {g:.1} / {:.1} µs ({:.2}) | |",
+                        p.us_per_cycle,
+                        g / p.us_per_cycle
+                    );
+                }
+                let gw = |of: &str| f.per_cycle.iter().find(|c| c.cycles_of == of).map(|c| c.us_per_cycle);
+                for (label, of, r) in [
+                    ("per Dex3 cycle, its own threads", "dex3", p.dex3_us),
+                    ("per Dex1 cycle, its own threads", "dex1", p.dex1_us),
+                    ("per cycle of any device, the other threads", "all devices", p.rest_us),
+                ] {
+                    if let Some(g) = gw(of) {
+                        let _ = writeln!(body, "| CPU {label}, gateway / reference | {g:.2} / {r:.2} µs | |");
+                    }
+                }
+                let _ = writeln!(
+                    body,
+                    "| reference rates (slowest Dex3 / Dex1 device, each window) | {} | 990 / 495 Hz |",
+                    f.reference
+                        .iter()
+                        .map(|r| format!(
+                            "{} / {}",
+                            r.dex3_hz.as_ref().map_or("—".into(), |s| format!("{:.0}", s.min)),
+                            r.dex1_hz.as_ref().map_or("—".into(), |s| format!("{:.0} Hz", s.min))
+                        ))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                );
+                let _ = writeln!(
+                    body,
+                    "| reference Dex3 deadlines missed (each window) | {} | |",
+                    f.reference
+                        .iter()
+                        .map(|r| r.dex3_missed.to_string())
+                        .collect::<Vec<_>>()
+                        .join(" / ")
+                );
+                let _ = writeln!(
+                    body,
+                    "| load average (1 min), reference windows (start–end) | {} | |",
+                    f.reference
+                        .iter()
+                        .map(|r| format!("{:.2}–{:.2}", r.load1[0], r.load1[1]))
+                        .collect::<Vec<_>>()
+                        .join(" / ")
+                );
+            } else {
+                let _ = writeln!(
+                    body,
+                    "| CPU | {:.0} % of one core (no reference in this run: no verdict) | |",
+                    f.cpu_pct
+                );
+            }
             let _ = writeln!(body, "| RSS (end) | {:.1} MB | {} |", f.rss_mb, verdict(rss_ok));
             let _ = writeln!(body, "| peak RSS (VmHWM) | {:.1} MB | |", f.peak_rss_mb);
             let _ = writeln!(body, "| threads | {:.0} | |", f.threads);
             let _ = writeln!(body, "| devices in status | {} | {} |", f.devices_seen, f.dex3 + f.dex1);
+            if let Some(c) = f.dex1_cmd_hz {
+                let _ = writeln!(
+                    body,
+                    "| commands the gateway wrote per Dex1 device (DDS writes; the reference writes as many) | {c:.1} Hz | |"
+                );
+            }
             for (k, s, m, nominal) in [
                 ("Dex3", &f.dex3_state_hz, f.dex3_missed, 1000.0),
                 ("Dex1", &f.dex1_state_hz, f.dex1_missed, 500.0),
@@ -555,7 +683,7 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
             if let Some([a, b]) = f.load1 {
                 let _ = writeln!(
                     body,
-                    "| load average (1 min) at the start / end of the window | {a:.2} / {b:.2} | |"
+                    "| load average (1 min) at the start / end of the gateway's window | {a:.2} / {b:.2} | |"
                 );
             }
             if !f.groups.is_empty() {
@@ -610,26 +738,75 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                     let _ = writeln!(body, "| `{g}` | {pct:.1} |");
                 }
             }
+            if !f.reference.is_empty() {
+                body.push_str(
+                    "\nThe reference per thread group, each window (before the gateway | after): the hands' \
+                     threads `ref-hand-usb` (exchange, emulator and front publishes), the emulated Dex1 services \
+                     and their listeners on `emu-shared-0`, CycloneDDS's own threads:\n\n\
+                     | threads | count | % of one core | wake-ups/s | CPU per wake-up |\n|---|---|---|---|---|\n",
+                );
+                let mut names: Vec<&str> = Vec::new();
+                for r in &f.reference {
+                    for g in r.groups.iter().filter(|g| g.cpu_pct >= 0.5) {
+                        if !names.contains(&g.group.as_str()) {
+                            names.push(&g.group);
+                        }
+                    }
+                }
+                for n in names {
+                    let cells = |of: fn(&crate::stats::GroupCost) -> String| {
+                        f.reference
+                            .iter()
+                            .map(|r| r.groups.iter().find(|g| g.group == n).map_or("—".into(), of))
+                            .collect::<Vec<_>>()
+                            .join(" \\| ")
+                    };
+                    let _ = writeln!(
+                        body,
+                        "| `{n}` | {} | {} | {} | {} |",
+                        cells(|g| g.threads.to_string()),
+                        cells(|g| format!("{:.1}", g.cpu_pct)),
+                        cells(|g| format!("{:.0}", g.wakeups_hz)),
+                        cells(|g| g.us_per_wakeup.map_or("—".into(), |u| format!("{u:.1} µs")))
+                    );
+                }
+            }
             summary.push((
                 format!("fleet {} Dex3 + {} Dex1: CPU per device cycle", f.dex3, f.dex1),
                 f.cpu_us_per_cycle.map_or("—".into(), |c| format!("{c:.1} µs")),
                 "no target".into(),
                 "measured",
             ));
+            let slowest = format!(
+                "rates {} (slowest Dex3 {}, slowest Dex1 {})",
+                match (rates_nominal, rates_held) {
+                    (true, _) => "held",
+                    (false, true) => "held as well as the reference's",
+                    _ => "**not held**",
+                },
+                f.dex3_state_hz
+                    .as_ref()
+                    .map_or("—".into(), |r| format!("{:.0} Hz", r.min)),
+                f.dex1_state_hz
+                    .as_ref()
+                    .map_or("—".into(), |r| format!("{:.0} Hz", r.min)),
+            );
             summary.push((
-                format!("fleet {} Dex3 + {} Dex1: CPU, every rate held", f.dex3, f.dex1),
                 format!(
-                    "{:.1} % of one core; rates {} (slowest Dex3 {}, slowest Dex1 {})",
-                    f.cpu_pct,
-                    if rates_held { "held" } else { "**not held**" },
-                    f.dex3_state_hz
-                        .as_ref()
-                        .map_or("—".into(), |r| format!("{:.0} Hz", r.min)),
-                    f.dex1_state_hz
-                        .as_ref()
-                        .map_or("—".into(), |r| format!("{:.0} Hz", r.min)),
+                    "fleet {} Dex3 + {} Dex1: CPU / reference's, every rate held",
+                    f.dex3, f.dex1
                 ),
-                "≤ 50 %, every device ≥ 99 % of its rate".into(),
+                match (ratio, pooled) {
+                    (Some(r), Some(p)) => format!(
+                        "{r:.2} (gateway {:.1} %, reference {:.1} % of one core); {slowest}",
+                        f.cpu_pct, p.cpu_pct
+                    ),
+                    _ => format!(
+                        "no reference measured; gateway {:.1} % of one core; {slowest}",
+                        f.cpu_pct
+                    ),
+                },
+                format!("≤ {FLEET_RATIO_TARGET:.2}, every device ≥ 99 % of its rate or ≥ the reference's slowest"),
                 verdict(cpu_ok),
             ));
             summary.push((
@@ -937,7 +1114,7 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
          The harness: `scripts/bench.sh` builds the release binaries, runs each benchmark, writes JSON results \
          to `$CARGO_TARGET_DIR/bench-results/` (default `target/`), then `handgate-bench report` writes this file \
          and the script copies the results to `docs/benchmarks/raw/` (commit them with this file). \
-         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 104 (dashboard), 107 (shim), 110 (fleet), 111 (sim-all), 112 (floor + exchange), 113 (start-up), 115 (floor + exchange on a thread), 114 (busy domain), 158 (recording).\n",
+         DDS domains used: 100 (handgate), 101 (floor), 102 (Python relay), 103 (floor + 1 kHz tick), 104 (dashboard), 107 (shim), 105 (fleet reference), 110 (fleet), 111 (sim-all), 112 (floor + exchange), 113 (start-up), 115 (floor + exchange on a thread), 114 (busy domain), 158 (recording).\n",
     );
     std::fs::write(out_path, o)?;
     Ok(())
