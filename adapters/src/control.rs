@@ -398,7 +398,16 @@ impl CommandState {
         for (d, j) in q.iter_mut().zip(&st.joints) {
             *d = j.q;
         }
-        let report = g.motion.observe(at, targets, &q[..n]);
+        let th = g.motion.thresholds();
+        let (joints, reported) = (&st.joints, &st.contact);
+        let contact = |j: usize| {
+            let effort = joints.get(j).map_or(0.0, |s| s.tau);
+            th.in_contact(
+                if effort.is_finite() { effort } else { 0.0 },
+                reported.get(j).copied().unwrap_or(false),
+            )
+        };
+        let report = g.motion.observe_with_contact(at, targets, &q[..n], contact);
         st.motion.clone_from(report);
     }
 

@@ -351,6 +351,10 @@ pub struct HandState {
     /// Tracking error and the "reports but does not move" verdict for this state
     /// ([`crate::motion`]; set by `link::stamp` on every state a device loop publishes).
     pub motion: crate::motion::MotionReport,
+    /// Per joint (canonical order), whether the device itself reports contact (an Inspire FTP
+    /// actuator stopped at its force limit): the kinds whose table says
+    /// [`crate::motion::Contact::Reported`]; empty elsewhere.
+    pub contact: Vec<bool>,
 }
 
 clone_reusing_buffers!(HandState {
@@ -367,6 +371,7 @@ clone_reusing_buffers!(HandState {
     cmd_tag,
     mode,
     motion,
+    contact,
 });
 
 impl HandState {

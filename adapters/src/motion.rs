@@ -20,6 +20,15 @@
 //! - [`Verdict::NotFollowing`]: no joint moved: the state varies (noise) but the hand ignores
 //!   the command.
 //!
+//! A joint that stops short of a **closing** target while its effort shows contact is not a
+//! fault: it holds an object ([`Verdict::Holding`], like a Robotiq gripper's gOBJ "object
+//! detected while closing"). What counts as contact is the kind's ([`Contact`]): its measured
+//! effort in the closing direction (Dex3, Dex5 and Dex1 torque, BrainCo current, EZGripper
+//! effort), what the device reports per joint (Inspire FTP: stopped at its force limit), or,
+//! where a profile says so for a device that measures no effort (Inspire DFX through its
+//! service), any closing joint stopped short. A joint stopped with no effort is still a fault, and so is a hand whose state
+//! repeats ([`Verdict::Frozen`], checked first).
+//!
 //! A device with nothing commanded (or limp) is never judged; a sample that is not fresh
 //! resets the detector (staleness is reported on its own). The hold time keeps a hand that
 //! is moving normally, and noise (far below half the tolerance), from ever alarming; a fault
@@ -28,7 +37,7 @@
 use std::time::{Duration, Instant};
 
 /// The motion verdicts, as `DeviceStatus_::motion` carries them (idl/handgate.idl).
-pub use handgate_idl::handgate::{MOTION_FROZEN, MOTION_JOINT_STUCK, MOTION_NOT_FOLLOWING, MOTION_OK};
+pub use handgate_idl::handgate::{MOTION_FROZEN, MOTION_HOLDING, MOTION_JOINT_STUCK, MOTION_NOT_FOLLOWING, MOTION_OK};
 
 /// Two measurements of a joint closer than this (rad) are "the same": a repeated sample.
 /// Far below every kind's measurement noise and resolution (docs/adapters.md "Emulators").
@@ -50,6 +59,9 @@ pub enum Verdict {
     JointStuck,
     /// No joint follows, though the state still varies.
     NotFollowing,
+    /// Every joint that stopped short of its target stopped closing on contact: the hand holds
+    /// an object. Not a fault.
+    Holding,
 }
 
 impl Verdict {
@@ -60,6 +72,7 @@ impl Verdict {
             Verdict::Frozen => MOTION_FROZEN,
             Verdict::JointStuck => MOTION_JOINT_STUCK,
             Verdict::NotFollowing => MOTION_NOT_FOLLOWING,
+            Verdict::Holding => MOTION_HOLDING,
         }
     }
 
@@ -70,9 +83,27 @@ impl Verdict {
             MOTION_FROZEN => "frozen",
             MOTION_JOINT_STUCK => "joint_stuck",
             MOTION_NOT_FOLLOWING => "not_following",
+            MOTION_HOLDING => "holding",
             _ => "unknown",
         }
     }
+}
+
+/// What tells a joint stopped by an object from a stuck one, per kind (its table).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Contact {
+    /// The joint's measured effort (`JointState::tau`, canonical: positive = closing, in the
+    /// kind's own unit: N·m, A, the EZGripper's effort / 10) is at least this towards closing.
+    /// Profile `[devices.motion] contact_effort`.
+    Effort(f32),
+    /// The device says so per joint (`HandState::contact`: an Inspire FTP actuator stopped at
+    /// its force limit or reporting force).
+    Reported,
+    /// The device measures no effort (Inspire DFX through DFX_inspire_service, whose state
+    /// carries only positions) and the profile chose to take a closing joint stopped short as
+    /// holding (`[devices.motion] contact = "unmeasured"`): a stuck finger is then told only
+    /// while opening (docs/adapters.md, "Motion").
+    Unmeasured,
 }
 
 /// A kind's thresholds (its table: `DeviceTable::motion`; profile `[devices.motion]`). The
@@ -85,20 +116,46 @@ pub struct MotionThresholds {
     /// How long a demanded joint may make no progress (and the samples repeat) before it is
     /// reported.
     pub hold: Duration,
+    /// What shows contact ([`Verdict::Holding`]).
+    pub contact: Contact,
 }
 
 impl MotionThresholds {
-    /// Fingers (Dex3, Dex5, Inspire, BrainCo): 0.05 rad, 400 ms.
+    /// Fingers (Dex3, Dex5): 0.05 rad, 400 ms; contact at 0.05 N·m of closing torque (a Dex3
+    /// joint's torque noise is 0.004 N·m; xr_teleoperate's kp 1.5 gives 0.075 N·m at the
+    /// tolerance's error).
     pub const HAND: MotionThresholds = MotionThresholds {
         tolerance: 0.05,
         hold: Duration::from_millis(400),
+        contact: Contact::Effort(0.05),
     };
     /// Parallel grippers (Dex1, EZGripper): a jaw of several radians moves slower and settles
-    /// coarser: 0.15 rad, 500 ms.
+    /// coarser: 0.15 rad, 500 ms; contact at 0.1 of closing effort (N·m on a Dex1; 1 % of the
+    /// EZGripper's effort).
     pub const GRIPPER: MotionThresholds = MotionThresholds {
         tolerance: 0.15,
         hold: Duration::from_millis(500),
+        contact: Contact::Effort(0.1),
     };
+
+    /// These thresholds with contact told by `contact`.
+    pub const fn with_contact(self, contact: Contact) -> Self {
+        Self {
+            tolerance: self.tolerance,
+            hold: self.hold,
+            contact,
+        }
+    }
+
+    /// Whether joint effort `effort` (canonical, positive = closing) or the device's own word
+    /// `reported` shows contact while closing.
+    pub fn in_contact(&self, effort: f32, reported: bool) -> bool {
+        match self.contact {
+            Contact::Effort(min) => effort >= min,
+            Contact::Reported => reported,
+            Contact::Unmeasured => true,
+        }
+    }
     /// Bounds a profile may set (`[devices.motion]`): tolerance in (0, 1] rad, hold in
     /// [50, 900] ms (a fault must be reported within a second).
     pub const TOLERANCE_MAX: f32 = 1.0;
@@ -174,6 +231,8 @@ struct Track {
     reported: bool,
     /// The sign of the error the anchor is measured against.
     dir: f32,
+    /// Reported, and stopped closing in contact: holding an object.
+    holding: bool,
 }
 
 /// The per-device detector.
@@ -228,6 +287,19 @@ impl MotionDetector {
     /// (`None`: nothing commanded, or a limp device). A sample whose time is not newer than
     /// the last one (the same state republished) changes nothing.
     pub fn observe(&mut self, at: Instant, targets: Option<&[f32]>, measured: &[f32]) -> &MotionReport {
+        self.observe_with_contact(at, targets, measured, |_| false)
+    }
+
+    /// [`Self::observe`] with each joint's contact (`contact(j)`: its effort or the device's
+    /// word shows contact, [`MotionThresholds::in_contact`]): a joint that stopped short of a
+    /// closing target in contact holds an object, not a fault.
+    pub fn observe_with_contact(
+        &mut self,
+        at: Instant,
+        targets: Option<&[f32]>,
+        measured: &[f32],
+        contact: impl Fn(usize) -> bool,
+    ) -> &MotionReport {
         if self.last_t.is_some_and(|t| at <= t) {
             return &self.report;
         }
@@ -267,6 +339,7 @@ impl MotionDetector {
         report.max_error = 0.0;
         let mut stuck: Option<(usize, f32)> = None;
         let mut stuck_since: Option<Instant> = None;
+        let mut holding: Option<(usize, f32)> = None;
         for j in 0..n {
             let e = targets[j] - measured[j];
             report.errors.push(e);
@@ -291,6 +364,7 @@ impl MotionDetector {
                     samples: 0,
                     reported: false,
                     dir,
+                    holding: false,
                 }),
             };
             if gap && !t.reported {
@@ -304,21 +378,43 @@ impl MotionDetector {
                 t.anchor_t = at;
                 t.samples = 0;
                 t.reported = false;
+                t.holding = false;
                 self.progressed[j] = Some(at);
             } else if Self::no_progress(t, at, th) {
                 t.reported = true;
+                if dir > 0.0 && contact(j) {
+                    // Stopped closing on something that pushes back: holding it.
+                    t.holding = true;
+                    if holding.map_or(true, |(_, best)| e.abs() > best) {
+                        holding = Some((j, e.abs()));
+                    }
+                    continue;
+                }
+                t.holding = false;
                 if stuck.map_or(true, |(_, best)| e.abs() > best) {
                     stuck = Some((j, e.abs()));
                 }
                 stuck_since = Some(stuck_since.map_or(t.demand_since, |s: Instant| s.min(t.demand_since)));
             }
         }
+        // A hand whose samples repeat is frozen, whatever its joints' efforts say (the efforts
+        // repeat too).
+        let frozen = self
+            .last_change
+            .is_some_and(|c| at.saturating_duration_since(c) >= th.hold);
+        if let (None, Some((j, _))) = (stuck, holding) {
+            if !frozen {
+                report.joint = Some(j);
+                report.verdict = Verdict::Holding;
+                self.report = report;
+                return &self.report;
+            }
+            stuck = holding;
+            stuck_since = self.tracks[j].as_ref().map(|t| t.demand_since);
+        }
         report.joint = stuck.map(|(j, _)| j);
         report.verdict = match (stuck, stuck_since) {
             (Some((j, _)), Some(since)) => {
-                let frozen = self
-                    .last_change
-                    .is_some_and(|c| at.saturating_duration_since(c) >= th.hold);
                 let others_follow = self
                     .progressed
                     .iter()
@@ -342,7 +438,7 @@ impl MotionDetector {
     fn is_stuck(&self, k: usize, at: Instant) -> bool {
         self.tracks[k]
             .as_ref()
-            .is_some_and(|t| Self::no_progress(t, at, self.thresholds))
+            .is_some_and(|t| !t.holding && Self::no_progress(t, at, self.thresholds))
     }
 
     /// A demanded joint was reported, or has made no progress for the hold time over at least
@@ -531,6 +627,73 @@ mod tests {
         assert_eq!(r.verdict, Verdict::NotFollowing, "{r:?}");
         let r = d.observe(at(60 * 20 + 310), Some(&tg), &[0.9; N]);
         assert_eq!(r.verdict, Verdict::Ok, "moved: {r:?}");
+    }
+
+    /// A hand closing on an object: the blocked joints stop short with their effort showing
+    /// contact: `Holding`, never a fault, whatever the hold time. The same stop with no effort
+    /// (a stuck joint) is a fault; so is an opening joint that stops, and a frozen stream.
+    #[test]
+    fn a_grasp_is_holding_and_a_stop_without_effort_is_still_a_fault() {
+        let t0 = Instant::now();
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        let tg = [1.0f32, 1.0, 1.0];
+        // Joints 0 and 1 blocked at 0.6, joint 2 reaches its target; noise on the positions.
+        let run = |effort: f32, targets: [f32; 3], blocked: [f32; 3]| {
+            let mut d = MotionDetector::new(MotionThresholds::HAND);
+            let mut rng = Prng::new(3);
+            let mut seen = Vec::new();
+            for k in 0..1000u64 {
+                let m: [f32; 3] = std::array::from_fn(|j| blocked[j] + 0.001 * rng.normalish());
+                let th = d.thresholds();
+                let v = d
+                    .observe_with_contact(at(2 * k), Some(&targets), &m, |j| {
+                        let e = if blocked[j] != targets[j] { effort } else { 0.0 };
+                        th.in_contact(e, false)
+                    })
+                    .clone();
+                if !seen.contains(&v.verdict) {
+                    seen.push(v.verdict);
+                }
+            }
+            (seen, d.report().clone())
+        };
+        let (seen, r) = run(0.6, tg, [0.6, 0.6, 1.0]);
+        assert_eq!(seen, [Verdict::Ok, Verdict::Holding], "{r:?}");
+        assert!(r.joint.is_some_and(|j| j < 2), "{r:?}");
+        // No effort: the same stop is a fault.
+        let (seen, _) = run(0.0, tg, [0.6, 0.6, 1.0]);
+        let fault = |v: &Verdict| matches!(v, Verdict::JointStuck | Verdict::NotFollowing);
+        assert!(seen.iter().any(fault) && !seen.contains(&Verdict::Holding), "{seen:?}");
+        // Below the kind's contact effort: a fault too.
+        let (seen, _) = run(0.02, tg, [0.6, 0.6, 1.0]);
+        assert!(!seen.contains(&Verdict::Holding), "{seen:?}");
+        // An opening target (0) stopped at 0.6 with effort: not a grasp.
+        let (seen, _) = run(0.6, [0.0, 0.0, 1.0], [0.6, 0.6, 1.0]);
+        assert!(!seen.contains(&Verdict::Holding), "{seen:?}");
+        // One joint holding, another stuck without effort: the fault is reported.
+        let mut d = MotionDetector::new(MotionThresholds::HAND);
+        for k in 0..1000u64 {
+            d.observe_with_contact(at(2 * k), Some(&tg), &[0.6 + 0.001 * (k % 3) as f32, 0.2, 1.0], |j| {
+                j == 0
+            });
+        }
+        let r = d.report();
+        assert!(fault(&r.verdict) && r.joint == Some(1), "{r:?}");
+        // A frozen stream of a holding hand is frozen.
+        let mut d = MotionDetector::new(MotionThresholds::HAND);
+        for k in 0..1000u64 {
+            d.observe_with_contact(at(2 * k), Some(&tg), &[0.6, 0.6, 1.0], |_| true);
+        }
+        assert_eq!(d.report().verdict, Verdict::Frozen);
+        // A kind that measures no effort: a closing joint stopped short holds.
+        let th = MotionThresholds::HAND.with_contact(Contact::Unmeasured);
+        assert!(th.in_contact(0.0, false));
+        assert!(MotionThresholds::HAND
+            .with_contact(Contact::Reported)
+            .in_contact(0.0, true));
+        assert!(!MotionThresholds::HAND
+            .with_contact(Contact::Reported)
+            .in_contact(5.0, false));
     }
 
     #[test]

@@ -606,7 +606,8 @@
   const NUMERIC = new Set(['cmd', 'stateHz', 'age', 'crc', 'bad', 'wdog', 'recon', 'missed', 'foreign', 'dup',
     'reord', 'late', 'notallowed', 'closure', 'track']);
   /** The card's words for a motion verdict (`DeviceStatus_::motion`), and the joint it names. */
-  const MOTION_WORDS = { frozen: 'frozen', joint_stuck: 'joint stuck', not_following: 'not following' };
+  const MOTION_WORDS = { frozen: 'frozen', joint_stuck: 'joint stuck', not_following: 'not following',
+    holding: 'holding an object' };
 
   function motionText(dev) {
     const w = MOTION_WORDS[dev.motion];
@@ -669,7 +670,8 @@
       setText(c.track, fixed(dev.tracking_error, 3));
       const motion = motionText(dev);
       setText(c.motion, motion || 'ok');
-      c.motion.className = motion ? 'alert' : '';
+      const holding = dev.motion === 'holding';
+      c.motion.className = motion && !holding ? 'alert' : '';
 
       const d = devices.get(dev.device);
       if (d) {
@@ -678,10 +680,11 @@
         d.safeBadge.hidden = !dev.safe;
         d.motionBadge.hidden = !motion;
         d.motionBadge.dataset.motion = dev.motion || 'ok';
+        d.motionBadge.className = 'badge ' + (holding ? 'ok' : 'bad');
         setText(d.motionBadge, motion);
-        d.motionBadge.title = motion
-          ? `reports but does not move: tracking error ${fixed(dev.tracking_error, 3)} rad`
-          : '';
+        d.motionBadge.title = !motion ? ''
+          : holding ? `stopped closing in contact: tracking error ${fixed(dev.tracking_error, 3)} rad`
+            : `reports but does not move: tracking error ${fixed(dev.tracking_error, 3)} rad`;
         d.owner.title = dev.owner || '';
         setText(d.owner, `commanded by: ${shortOwner(dev.owner) || 'nobody yet'}` +
           (faults === 'none' ? '' : ` · faults: ${faults}`));

@@ -565,7 +565,19 @@ fn gateways_section(
 /// docs/adapters.md "Motion"): a device that reports but does not move is a problem.
 fn motion_section(out: &mut Outcome, statuses: &BTreeMap<(String, String), hgmsg::GatewayStatus_>) {
     for s in statuses.values() {
-        let moving: Vec<&hgmsg::DeviceStatus_> = s.devices.iter().filter(|d| d.motion != hgmsg::MOTION_OK).collect();
+        // Holding an object is what a hand is for: a line, not a problem.
+        for d in s.devices.iter().filter(|d| d.motion == hgmsg::MOTION_HOLDING) {
+            out.line(format!(
+                "motion: device {}: {}",
+                d.device,
+                crate::tools::motion_sentence(d)
+            ));
+        }
+        let moving: Vec<&hgmsg::DeviceStatus_> = s
+            .devices
+            .iter()
+            .filter(|d| d.motion != hgmsg::MOTION_OK && d.motion != hgmsg::MOTION_HOLDING)
+            .collect();
         if moving.is_empty() {
             out.line(format!(
                 "motion: every device of gateway {} on {} follows its command",

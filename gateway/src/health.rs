@@ -93,6 +93,7 @@ struct Finding {
 /// | the device reports a motor's command timeout or CRC failures (`faults`) | at least WARN | at least WARNING | (as above) | + HW |
 /// | motion `joint_stuck` (one joint does not follow while the others do) | at least WARN | at least WARNING | (as above) | + HW |
 /// | motion `frozen` or `not_following` (the hand reports but does not move) | ERROR | ERROR | (as above) | + HW |
+/// | motion `holding` (stopped closing in contact: an object) | OK | OK | (as above) | NONE |
 ///
 /// `safe` sets the mode to `MODE_SAFE` (else `MODE_AUTO`: the gateway drives the device). The
 /// levels of several findings combine by their maximum, the texts are joined. A new fact about
@@ -157,7 +158,9 @@ pub fn judge(d: &hg::DeviceStatus_, stale_after: Duration) -> Verdict {
     // the others do leaves a working hand (WARN); a hand whose state repeats or that follows
     // no command does not work (ERROR).
     match d.motion {
-        hg::MOTION_OK => {}
+        // Holding an object (stopped closing in contact) is what a hand is for: OK, said in
+        // the key/values (`motion: holding`).
+        hg::MOTION_OK | hg::MOTION_HOLDING => {}
         m => findings.push(Finding {
             level: if m == hg::MOTION_JOINT_STUCK {
                 level::WARN

@@ -319,6 +319,7 @@ pub fn motion_sentence(d: &hg::DeviceStatus_) -> String {
         hg::MOTION_NOT_FOLLOWING => format!(
             "does not follow its command: the state varies but no joint approaches its target (largest error at {j})"
         ),
+        hg::MOTION_HOLDING => format!("holding an object: stopped closing in contact (largest error at {j})"),
         other => format!("unknown motion verdict {other}"),
     }
 }

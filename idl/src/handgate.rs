@@ -20,6 +20,10 @@ pub const MOTION_FROZEN: u8 = 1;
 pub const MOTION_JOINT_STUCK: u8 = 2;
 /// No joint follows the command, though the state still varies.
 pub const MOTION_NOT_FOLLOWING: u8 = 3;
+/// `DeviceStatus_::motion`: joints stopped short of a closing target in contact: the hand holds
+/// an object (not a fault; a value the frozen layout's `octet` carries, an older reader shows it
+/// as unknown).
+pub const MOTION_HOLDING: u8 = 4;
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct JointCmd_ {
@@ -108,7 +112,7 @@ pub struct DeviceStatus_ {
     /// Commands refused whole: their host is not in `export.allow_commands_from`.
     pub not_allowed_cmd: u64,
     /// Whether the device follows its command: `MOTION_OK`, `MOTION_FROZEN`,
-    /// `MOTION_JOINT_STUCK`, `MOTION_NOT_FOLLOWING`.
+    /// `MOTION_JOINT_STUCK`, `MOTION_NOT_FOLLOWING`, `MOTION_HOLDING`.
     pub motion: u8,
     /// The canonical joint the verdict names ("" when `motion` is `MOTION_OK`).
     #[serde(deserialize_with = "crate::cdr_codec::cdr_string::deserialize")]

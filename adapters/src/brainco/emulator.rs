@@ -251,8 +251,10 @@ impl BraincoCore {
         let (lo, hi) = HARD_STOPS;
         for (((f, obj), sag), stuck) in self.fingers.iter_mut().zip(self.object).zip(self.sag).zip(self.stuck) {
             if stuck {
-                // A stuck finger stays where it is, whatever the command.
+                // A stuck finger stays where it is, whatever the command, drawing its idle
+                // current (a stuck finger is told from a grasp by its current).
                 f.dq = 0.0;
+                f.current = t.idle_current_a;
                 continue;
             }
             let vmax = t.full_speed * f.target_speed;

@@ -58,15 +58,22 @@ pub fn table(side: Side) -> DeviceTable {
             limits: Limits::new(0.0, max),
         })
         .collect();
-    DeviceTable::with_postures(
+    let mut t = DeviceTable::with_postures(
         DeviceKind::Brainco,
         side,
         joints,
         (vec![0.0; JOINTS.len()], URDF_MAX_RAD.to_vec()),
         (KP, KD),
         crate::mapping::UrdfFrame::Canonical,
-    )
+    );
+    t.motion = t.motion.with_contact(crate::motion::Contact::Effort(CONTACT_CURRENT_A));
+    t
 }
+
+/// The motor current (A, the state's `tau_est`) from which a finger that stopped closing counts
+/// as pressing on an object. Assumption: twice an idle finger's current (the emulator's 0.02 A,
+/// noise 5 mA) is contact; a finger closing freely is judged only once it stops.
+pub const CONTACT_CURRENT_A: f32 = 0.04;
 
 #[cfg(test)]
 mod tests {

@@ -411,8 +411,10 @@ impl Dex3Core {
         self.check_timeouts(now);
         for i in 0..MOTORS {
             if self.stuck[i] {
-                // A stuck joint: it stays where it is, whatever the command.
+                // A stuck joint: it stays where it is, whatever the command, with no torque
+                // (a stuck joint is told from a grasp by its torque).
                 self.joints[i].dq = 0.0;
+                self.joints[i].tau = 0.0;
                 self.ddq[i] = 0.0;
                 self.prev_dq[i] = 0.0;
                 continue;

@@ -290,12 +290,14 @@ impl ServoSim {
         };
         self.joint.params.tau_max = current_cap * CURRENT_MA_PER_UNIT / 1000.0 * TORQUE_PER_AMP;
         if self.spec.faults.stuck[0] {
-            // A stuck jaw stays where it is, whatever the command; the motor pushes on.
+            // A stuck jaw stays where it is, whatever the command, and no effort reaches it (a
+            // slipping coupling: a stuck jaw is told from a grasp by its effort).
             self.joint.dq = 0.0;
             let q = self.joint.q;
             self.joint.step(&target, dt);
             self.joint.q = q;
             self.joint.dq = 0.0;
+            self.joint.tau = 0.0;
         } else {
             self.joint.step(&target, dt);
         }

@@ -86,6 +86,10 @@ pub fn table(side: Side) -> DeviceTable {
         max_kd: 5.0,
         max_tau: 1.0,
         urdf_frame: crate::mapping::UrdfFrame::Canonical,
+        // DFX_inspire_service publishes positions only (no effort: tau is 0), so nothing tells
+        // an object from a stuck finger and a closing finger stopped short stays a fault by
+        // default; `[devices.motion] contact = "unmeasured"` takes it as holding instead
+        // (docs/adapters.md, "Motion").
         motion: crate::motion::MotionThresholds::HAND,
     }
 }

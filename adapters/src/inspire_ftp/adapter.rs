@@ -32,6 +32,13 @@ use crate::model::{faults, HandState, Pad, SafeAction};
 use super::front::{ERR_MOTOR_FAULT, STATUS_ACTUATOR_FAULT};
 use super::table::{ANGLE_CLOSED, ANGLE_OPEN};
 
+/// `status` 3: the actuator stopped because its force reached FORCE_SET (docs/wire-types.md).
+pub const STATUS_AT_FORCE: u8 = 3;
+/// `force_act` (the hand's force units) from which an actuator counts as pressing on something
+/// (the motion verdict's contact). Assumption: about 50 units is well above the register's
+/// noise and below any grasp's force (docs/adapters.md, the assumptions table).
+pub const CONTACT_FORCE: i16 = 50;
+
 /// `status` 255: error (docs/wire-types.md).
 pub const STATUS_ERROR: u8 = 255;
 
@@ -139,6 +146,13 @@ impl DdsCodec for FtpCodec {
         }
         st.faults = f;
         st.mode = s.status.iter().copied().filter(|st| *st <= 7).max().unwrap_or(0);
+        // Contact, as the hand reports it per actuator (the table's `Contact::Reported`): stopped
+        // at its force limit (status 3), or pressing with at least CONTACT_FORCE.
+        st.contact.clear();
+        st.contact.extend(table.joints.iter().map(|j| {
+            s.status.get(j.wire_index) == Some(&STATUS_AT_FORCE)
+                || s.force_act.get(j.wire_index).is_some_and(|f| *f >= CONTACT_FORCE)
+        }));
         true
     }
 }

@@ -380,7 +380,12 @@ impl FtpCore {
         let t = &self.tuning;
         for (a, stuck) in self.act.iter_mut().zip(self.stuck) {
             if stuck {
-                // A stuck actuator stays where it is, whatever the command.
+                // A stuck actuator stays where it is, whatever the command, and presses on
+                // nothing (a stuck finger is told from a grasp by its force).
+                a.force = 0.0;
+                if a.status == status::AT_FORCE {
+                    a.status = status::CLOSING;
+                }
                 continue;
             }
             let vmax = t.max_speed * f32::from(a.speed_set) / MAX;

@@ -68,7 +68,9 @@ pub fn table(side: Side) -> DeviceTable {
         max_kd: 1.0,
         max_tau: 1.0,
         urdf_frame: crate::mapping::UrdfFrame::Canonical,
-        motion: crate::motion::MotionThresholds::HAND,
+        // Contact is what the hand reports: an actuator stopped at its force limit or pressing
+        // (the adapter's `HandState::contact`).
+        motion: crate::motion::MotionThresholds::HAND.with_contact(crate::motion::Contact::Reported),
     }
 }
 

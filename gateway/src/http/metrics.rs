@@ -193,7 +193,7 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         "handgate_device_motion",
         "gauge",
         "Whether the device follows its command: 0 ok, 1 frozen (state samples repeat while commanded to move), \
-         2 joint_stuck (label joint), 3 not_following (docs/adapters.md, \"Motion\").",
+         2 joint_stuck (label joint), 3 not_following, 4 holding (an object: not a fault; docs/adapters.md, \"Motion\").",
     );
     for (d, l, st, _, _) in &devs {
         let joint = st

@@ -281,8 +281,10 @@ impl Dex3Emulator {
                     m.timed_out = true;
                 }
                 if stuck {
-                    // A stuck joint stays where it is, whatever the command.
+                    // A stuck joint stays where it is, whatever the command, with no torque
+                    // (a stuck joint is told from a grasp by its torque).
                     m.joint.dq = 0.0;
+                    m.joint.tau = 0.0;
                     continue;
                 }
                 let t = if m.timed_out || m.status != MotorStatus::Foc.raw() {
