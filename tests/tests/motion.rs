@@ -10,13 +10,12 @@
 //! Dex3 USB MCU, the EZGripper bus, in-process emulators): docs/development.md.
 
 use std::path::PathBuf;
-use std::process::Command;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_tests::{
-    closure_cmd, faulty_hand_service, hand_client_profile, handgate_bin, http_get, interop_interface, node, poll,
+    closure_cmd, faulty_hand_service, hand_client_profile, handgate_cmd, http_get, interop_interface, node, poll,
     repo_root, serial, status_device, Emulation as Emulator, Gateway, Latest, PyProcess,
 };
 
@@ -33,19 +32,20 @@ fn write_profile(name: &str, text: &str) -> PathBuf {
     p
 }
 
-/// `handgate <args> --domain <domain> [--interface ...]`: its stdout.
+/// `handgate <args> --domain <domain> [--interface ...]` (none of this process's `HANDGATE_*`
+/// variables: [`handgate_cmd`]): its stdout, then its stderr.
 fn handgate_out(domain: u32, args: &[&str]) -> String {
     let mut args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
     args.extend(["--domain".to_string(), domain.to_string()]);
     if let Some(i) = interop_interface() {
         args.extend(["--interface".to_string(), i]);
     }
-    let o = Command::new(handgate_bin())
-        .current_dir(repo_root())
-        .args(&args)
-        .output()
-        .expect("handgate runs");
-    String::from_utf8_lossy(&o.stdout).into_owned()
+    let o = handgate_cmd(None).args(&args).output().expect("handgate runs");
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
 }
 
 /// What `handgate status --once` and `handgate doctor` print while the hand is reported.
@@ -369,8 +369,7 @@ fn in_process_emulated_dex3_inspire_dfx_and_ezgripper_faults_are_caught_within_a
 fn faults_the_emulators_cannot_emulate_are_refused() {
     let _g = serial();
     let run = |args: &[&str]| {
-        let o = Command::new(handgate_bin())
-            .current_dir(repo_root())
+        let o = handgate_cmd(None)
             .arg("emulate")
             .args(args)
             .output()
@@ -423,7 +422,7 @@ fn no_false_alarm(seconds: u32) {
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let n = node(domain);
     let mut status: Latest<hg::GatewayStatus_> = Latest::new(&n, "rt/handgate/status", Qos::Reliable { depth: 1 });
-    let args: Vec<String> = [
+    let mut args: Vec<String> = [
         "--set",
         "sim-all",
         "--domain",
@@ -436,6 +435,9 @@ fn no_false_alarm(seconds: u32) {
     .iter()
     .map(|s| s.to_string())
     .collect();
+    if let Some(iface) = interop_interface() {
+        args.extend(["--interface".to_string(), iface]);
+    }
     let py = PyProcess::spawn("drive_fronts.py", &args).unwrap_or_else(|e| panic!("{e}"));
     py.wait_line("STREAMING", DEADLINE * 5)
         .unwrap_or_else(|e| panic!("{e}\n{}", gw.transcript()));
