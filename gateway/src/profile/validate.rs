@@ -393,6 +393,9 @@ impl Checker {
             if let (false, Some(t)) = (missing, topics.state().or(topics.cmd())) {
                 self.joint_names(&k, f, p, t);
             }
+            if !missing {
+                self.drivable(&k, f, p);
+            }
             self.front_topics(&k, p, i, f, &topics, &mut seen);
         }
     }
@@ -642,6 +645,35 @@ impl Checker {
             }
         }
         missing
+    }
+
+    /// Every device a front commands must be one it can move (`FrontConfig::cannot_drive`):
+    /// reported on the key that binds it (`devices[j]`, `device`, or the front itself when
+    /// it binds every device by default).
+    fn drivable(&mut self, k: &KeyPath, f: &FrontConfig, p: &Profile) {
+        for (_, name) in p.front_bindings(f) {
+            let Some(d) = p.devices.iter().find(|d| &d.name == name) else {
+                continue;
+            };
+            let Some(why) = f.cannot_drive(&d.kind.factory().table(d.side, &*d.config)) else {
+                continue;
+            };
+            let listed = f
+                .devices
+                .as_ref()
+                .and_then(|l| l.list())
+                .and_then(|l| l.iter().position(|n| n == name));
+            let (key, how) = match (listed, &f.device, &f.devices) {
+                (Some(j), _, _) => (k.key("devices").index(j), "leave it out of `devices`"),
+                (None, Some(_), _) => (k.key("device"), "bind another device"),
+                (None, None, None) => (
+                    k.clone(),
+                    "this front binds every device by default: list the others (`devices = [..]`)",
+                ),
+                (None, None, Some(_)) => (k.key("devices"), "bind another device"),
+            };
+            self.err(key, format!("`{name}`: {why}; {how}"));
+        }
     }
 
     /// A front whose messages are keyed by joint name (ROS 2 JointState): no two of its
