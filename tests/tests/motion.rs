@@ -6,8 +6,9 @@
 //! should have moved the hand, naming the joint, and in `handgate status`; a normal run of
 //! every emulated kind (`sim-all`, noise on, every front driven) raises none.
 //!
-//! Domains 207 (Dex3), 208 (BrainCo), 209 (sim-all), 227 (Dex5, Inspire DFX) and 228 (the
-//! Dex3 USB MCU, the EZGripper bus, in-process emulators): docs/development.md.
+//! Domains 207 (Dex3), 208 (BrainCo), 209 (sim-all), 227 (Dex5, Inspire DFX), 228 (the Dex3
+//! USB MCU, the EZGripper bus, in-process emulators) and 42 (an EZGripper bus ignoring
+//! commands): docs/development.md.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -301,7 +302,9 @@ fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_
     let socket = tmp.join(format!("handgate-motion-{}-dex3.sock", std::process::id()));
     let _ = std::fs::remove_file(&socket);
     behind(
+        228,
         ("dex3", "--socket", "usb", "usb.socket"),
+        "",
         &socket,
         "stuck=index_0",
         hg::MOTION_JOINT_STUCK,
@@ -309,7 +312,9 @@ fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_
     );
     let pty = tmp.join(format!("handgate-motion-{}-ezgripper", std::process::id()));
     behind(
+        228,
         ("ezgripper", "--pty", "serial", "ezgripper.port"),
+        &ezgripper_zero(),
         &pty,
         "frozen",
         hg::MOTION_FROZEN,
@@ -317,11 +322,42 @@ fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_
     );
 }
 
+/// An EZGripper bus whose servo ignores commands (`handgate emulate ezgripper --pty --fault
+/// ignore-commands`: every Goal Position write is acknowledged, the goal stays), a gateway on
+/// backend serial: the jaw reports but never follows the closure it is given.
+#[test]
+fn an_ezgripper_bus_ignoring_commands_is_caught_within_a_second() {
+    let _g = serial();
+    let pty = std::env::temp_dir().join(format!("handgate-motion-{}-ezgripper-ignore", std::process::id()));
+    behind(
+        42,
+        ("ezgripper", "--pty", "serial", "ezgripper.port"),
+        &ezgripper_zero(),
+        &pty,
+        "ignore-commands",
+        hg::MOTION_NOT_FOLLOWING,
+        Some("jaw"),
+    );
+}
+
+/// The calibration zero of the left EZGripper `handgate emulate ezgripper` emulates (its
+/// servo's closed stop), as `[devices.ezgripper]` takes it. A gripper on backend serial
+/// without a zero (and without `calibrate_on_start`) drops every target and reads 0 %: it
+/// would never move, fault or not, and its constant reading would look frozen.
+fn ezgripper_zero() -> String {
+    let id = handgate_adapters::ezgripper::driver::default_id(handgate_adapters::model::Side::Left).get();
+    let stop = handgate_adapters::ezgripper::emulator::ServoSpec::new(id).closed_stop_ticks;
+    format!("zero_ticks = {stop}")
+}
+
 /// `handgate emulate <kind> --side left <option> <path> --fault <fault>` (the emulator behind a
-/// socket or a pty), and [`watched`] a gateway whose left `kind` on `backend` reaches it by its
-/// `key` (`section.key` of `[devices.section]`) set to `path`.
+/// socket or a pty), and [`watched`] a gateway on `domain` whose left `kind` on `backend`
+/// reaches it by its `key` (`section.key` of `[devices.section]`) set to `path`, with the
+/// section's other keys `more` (lines).
 fn behind(
+    domain: u32,
     (kind, option, backend, key): (&str, &str, &str, &str),
+    more: &str,
     path: &std::path::Path,
     fault: &str,
     want: u8,
@@ -333,9 +369,11 @@ fn behind(
     let (section, key) = key.split_once('.').expect("section.key");
     let profile = one_hand_profile(
         &format!("{kind}-{backend}-{}", fault.replace('=', "-")),
-        &format!("kind = \"{kind}\"\nside = \"left\"\nbackend = \"{backend}\"\n[devices.{section}]\n{key} = \"{p}\""),
+        &format!(
+            "kind = \"{kind}\"\nside = \"left\"\nbackend = \"{backend}\"\n[devices.{section}]\n{key} = \"{p}\"\n{more}"
+        ),
     );
-    watched(kind, 228, fault, &profile, want, joint);
+    watched(kind, domain, fault, &profile, want, joint);
 }
 
 /// The same faults as `[devices.emulator] fault` on the in-process emulators outside the
