@@ -21,20 +21,17 @@ pub struct Cli {
 pub enum Command {
     /// Run the gateway.
     Run {
-        /// Profile: a shipped name (see `handgate check --list`), NAME for
-        /// profiles/NAME.toml or $HANDGATE_PROFILE_DIR/NAME.toml, or a path to a .toml
-        /// file. Without it: the embedded default (the simulated fleet on DDS domain 1).
-        #[arg(long)]
-        profile: Option<String>,
+        #[command(flatten)]
+        profile: ProfileArg,
         #[command(flatten)]
         overrides: OverrideArgs,
     },
     /// Validate a profile and print the resolved fleet (exit 0 valid, 2 invalid).
     Check {
-        /// Profile to check (as for `run --profile`); without it: the embedded default.
-        profile: Option<String>,
+        #[command(flatten)]
+        profile: ProfileArg,
         /// List the profiles that can be named instead of checking one.
-        #[arg(long, conflicts_with = "profile")]
+        #[arg(long, conflicts_with_all = ["profile", "profile_flag"])]
         list: bool,
         #[command(flatten)]
         overrides: OverrideArgs,
@@ -119,6 +116,32 @@ pub enum Command {
     Replay(ReplayCmd),
     /// Export a recording's hand streams.
     Export(ExportCmd),
+}
+
+/// The profile of `run` and `check`, given either way: `handgate check PROFILE` or
+/// `handgate check --profile PROFILE` (one of them).
+#[derive(Debug, Clone, Default, Args)]
+pub struct ProfileArg {
+    /// Profile: a shipped name (see `handgate check --list`), NAME for profiles/NAME.toml or
+    /// $HANDGATE_PROFILE_DIR/NAME.toml, or a path to a .toml file; also as `--profile
+    /// PROFILE`. Without it: the embedded default (the simulated fleet on DDS domain 1).
+    #[arg(id = "profile", value_name = "PROFILE")]
+    positional: Option<String>,
+    /// The profile, as the argument PROFILE.
+    #[arg(
+        id = "profile_flag",
+        long = "profile",
+        value_name = "PROFILE",
+        conflicts_with = "profile"
+    )]
+    flag: Option<String>,
+}
+
+impl ProfileArg {
+    /// The profile named, either way (`None`: the embedded default).
+    pub fn into_inner(self) -> Option<String> {
+        self.positional.or(self.flag)
+    }
 }
 
 /// `handgate doctor`.

@@ -10,12 +10,12 @@ mod commands;
 
 fn main() -> anyhow::Result<ExitCode> {
     match Cli::parse().command {
-        Command::Run { profile, overrides } => commands::run::run(profile, overrides),
+        Command::Run { profile, overrides } => commands::run::run(profile.into_inner(), overrides),
         Command::Check {
             profile,
             list,
             overrides,
-        } => commands::check::check(profile, list, overrides),
+        } => commands::check::check(profile.into_inner(), list, overrides),
         Command::Doctor(cmd) => commands::doctor::doctor(cmd),
         Command::Fleet {
             domains,

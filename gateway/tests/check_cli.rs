@@ -157,6 +157,41 @@ fn run_with_an_invalid_profile_exits_2_before_starting() {
     );
 }
 
+/// `check` and `run` take the profile either way, `PROFILE` or `--profile PROFILE`, and
+/// refuse both at once.
+#[test]
+fn check_and_run_take_the_profile_as_argument_or_flag() {
+    let p = write("bad-either-way.toml", "[dds]\ndomain = 1000\n");
+    let path = p.to_str().unwrap();
+    let first_line = format!("{}: dds.domain: must be between 0 and 232, got 1000", p.display());
+    for args in [
+        ["check", path, ""],
+        ["check", "--profile", path],
+        ["run", path, ""],
+        ["run", "--profile", path],
+    ] {
+        let args: Vec<&str> = args.into_iter().filter(|a| !a.is_empty()).collect();
+        let o = handgate(&args, &[]);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert_eq!(stderr(&o).lines().next(), Some(first_line.as_str()), "{args:?}");
+    }
+    // A valid one by name, either way.
+    for args in [["check", "default", ""], ["check", "--profile", "default"]] {
+        let args: Vec<&str> = args.into_iter().filter(|a| !a.is_empty()).collect();
+        let o = handgate(&args, &[]);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        assert!(stdout(&o).contains("dds: domain 1"), "{args:?}: {}", stdout(&o));
+    }
+    // Both at once: which one? Refused before loading anything.
+    for cmd in ["check", "run"] {
+        let o = handgate(&[cmd, "default", "--profile", path], &[]);
+        assert_eq!(o.status.code(), Some(2), "{cmd}");
+        assert!(stderr(&o).contains("cannot be used with"), "{cmd}: {}", stderr(&o));
+    }
+    let o = handgate(&["check", "--list", "--profile", "default"], &[]);
+    assert!(stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
+}
+
 #[test]
 fn check_shows_the_foxglove_section_or_how_to_build_it_in() {
     let o = handgate(&["check"], &[]);

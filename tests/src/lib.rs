@@ -134,6 +134,27 @@ pub fn in_netns(netns: Option<&str>, program: &Path) -> Command {
     }
 }
 
+/// The `handgate` binary under test ([`handgate_bin`]), inside network namespace `netns` when
+/// given, run from the repository root (where `profiles/` is) and with none of this process's
+/// `HANDGATE_*` variables: handgate reads every `HANDGATE_*` variable as a profile key and
+/// refuses an unknown one (docs/profiles.md), so the harness's own (`HANDGATE_INTEROP_IFACE`,
+/// `HANDGATE_RELIABILITY_FULL`, ...) would make every command loading a profile (`run`,
+/// `check`, `doctor`, `record`, ...) exit 2 with `environment (HANDGATE_INTEROP_IFACE):
+/// interop_iface: unknown key` on stderr and nothing on stdout.
+pub fn handgate_cmd(netns: Option<&str>) -> Command {
+    let mut cmd = in_netns(netns, &handgate_bin());
+    without_handgate_env(&mut cmd, std::env::vars().map(|(k, _)| k));
+    cmd.current_dir(repo_root());
+    cmd
+}
+
+/// Keeps `cmd` from inheriting the `HANDGATE_*` variables among `inherited`.
+fn without_handgate_env(cmd: &mut Command, inherited: impl Iterator<Item = String>) {
+    for k in inherited.filter(|k| k.starts_with("HANDGATE_")) {
+        cmd.env_remove(k);
+    }
+}
+
 /// Why two test hosts could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum NetNsError {
@@ -792,7 +813,7 @@ impl Gateway {
         interface: Option<&str>,
     ) -> Result<Gateway, GatewayError> {
         let bin = handgate_bin();
-        let mut cmd = in_netns(netns, &bin);
+        let mut cmd = handgate_cmd(netns);
         cmd.arg("run").arg("--domain").arg(domain.to_string());
         if let Some(iface) = interface {
             cmd.arg("--interface").arg(iface);
@@ -802,13 +823,7 @@ impl Gateway {
         if !args.contains(&"--http-port") {
             cmd.args(["--http-port", "0"]);
         }
-        for (k, _) in std::env::vars() {
-            if k.starts_with("HANDGATE_") {
-                cmd.env_remove(k);
-            }
-        }
         let mut child = cmd
-            .current_dir(repo_root())
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -1713,15 +1728,19 @@ pub fn hand_client_profile(tag: &str, kind: &str) -> PathBuf {
 }
 
 /// `handgate emulate <kind>`'s left hand service on `domain` with `fault` injected (the Dex3's
-/// service, not its USB MCU): what [`hand_client_profile`]'s device `hand` is a client of.
+/// service, not its USB MCU): what [`hand_client_profile`]'s device `hand` is a client of. On
+/// `HANDGATE_INTEROP_IFACE` when set, as the gateway [`Gateway::start`] runs is.
 pub fn faulty_hand_service(kind: &str, domain: u32, fault: &str) -> Emulation {
     let d = domain.to_string();
     let service: &[&str] = if kind == "dex3" { &["--service"] } else { &[] };
+    let iface = interop_interface();
+    let on: Vec<&str> = iface.iter().flat_map(|i| ["--interface", i.as_str()]).collect();
     Emulation::start(
         &[
             &[kind][..],
             service,
             &["--side", "left", "--domain", &d, "--fault", fault],
+            &on,
         ]
         .concat(),
     )
@@ -1780,15 +1799,9 @@ pub fn actuator_cmd(right: f32, left: f32) -> unitree_go::MotorCmds_ {
 /// `handgate doctor <args>` (in network namespace `netns`, if any) with no `HANDGATE_*`
 /// variables from this environment: its exit code and its stdout then stderr.
 pub fn run_doctor(netns: Option<&str>, args: &[&str]) -> (i32, String) {
-    let mut cmd = in_netns(netns, &handgate_bin());
-    cmd.arg("doctor").args(args);
-    for (k, _) in std::env::vars() {
-        if k.starts_with("HANDGATE_") {
-            cmd.env_remove(k);
-        }
-    }
-    let out = cmd
-        .current_dir(repo_root())
+    let out = handgate_cmd(netns)
+        .arg("doctor")
+        .args(args)
         .stdin(Stdio::null())
         .output()
         .expect("handgate doctor runs");
@@ -1847,13 +1860,7 @@ pub fn closure_cmd(seq: u64, closure: f32) -> handgate::HandCmd_ {
 /// `handgate check PROFILE` from the repository root, without the caller's `HANDGATE_*`
 /// environment.
 pub fn handgate_check(profile: &Path) -> std::process::Output {
-    let mut cmd = Command::new(handgate_bin());
-    for (k, _) in std::env::vars() {
-        if k.starts_with("HANDGATE_") {
-            cmd.env_remove(k);
-        }
-    }
-    cmd.current_dir(repo_root())
+    handgate_cmd(None)
         .arg("check")
         .arg(profile)
         .output()
@@ -1876,13 +1883,8 @@ impl Emulation {
 
     /// [`Emulation::start`] inside network namespace `netns`.
     pub fn start_in(netns: Option<&str>, args: &[&str]) -> Emulation {
-        let mut cmd = in_netns(netns, &handgate_bin());
+        let mut cmd = handgate_cmd(netns);
         cmd.arg("emulate").args(args);
-        for (k, _) in std::env::vars() {
-            if k.starts_with("HANDGATE_") {
-                cmd.env_remove(k);
-            }
-        }
         let mut child = cmd
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
@@ -1996,6 +1998,32 @@ pub fn vm_rss_kib(pid: u32) -> Option<u64> {
 mod unit {
     use super::*;
     use serde_json::json;
+
+    /// A harness variable in the test process (`HANDGATE_INTEROP_IFACE=lo`) is read by
+    /// handgate as a profile key and refused; [`handgate_cmd`] keeps it out, so `check` (and
+    /// `doctor`, `run`: anything loading a profile) works with it set.
+    #[test]
+    fn the_harness_variables_do_not_reach_handgate() {
+        let inherited = || {
+            let mut c = in_netns(None, &handgate_bin());
+            c.current_dir(repo_root())
+                .env("HANDGATE_INTEROP_IFACE", "lo")
+                .arg("check");
+            c
+        };
+        let o = inherited().output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "handgate refuses it as a profile key");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains("environment (HANDGATE_INTEROP_IFACE): interop_iface: unknown key"),
+            "{err}"
+        );
+        let mut c = inherited();
+        without_handgate_env(&mut c, ["HANDGATE_INTEROP_IFACE".to_string()].into_iter());
+        let o = c.output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("dds: domain 1"));
+    }
 
     #[test]
     fn hex_decodes_and_rejects_garbage() {

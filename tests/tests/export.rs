@@ -12,7 +12,7 @@
 
 use std::time::Duration;
 
-use handgate_tests::{handgate_bin, in_netns, Capture, Emulation, Gateway, Hosts, PyProcess};
+use handgate_tests::{handgate_bin, handgate_cmd, in_netns, Capture, Emulation, Gateway, Hosts, PyProcess};
 use serde_json::Value;
 
 const ROBOT_DOMAIN: u32 = 0;
@@ -99,7 +99,7 @@ fn the_clients_side_and_the_robots_side_stay_on_their_networks() {
 
     // `handgate doctor` on the robot PC looks at each side: the fronts' clients on the lab
     // network, the robot's hand service on the internal one.
-    let out = in_netns(ns(pc), &handgate_bin())
+    let out = handgate_cmd(ns(pc))
         .args([
             "doctor",
             "--profile",

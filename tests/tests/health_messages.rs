@@ -5,12 +5,18 @@
 //! `profiles/g1-dex3.toml` on two emulated Dex3 services. Stopping one service turns that hand
 //! from OK / up to ERROR / down in both messages while the other stays OK.
 //!
-//! Domain 128 (docs/development.md; 233 and above are not valid domain ids).
+//! Domains 128 and 43 (a device's own fault bit; docs/development.md; 233 and above are not
+//! valid domain ids).
 
 use std::time::Duration;
 
+use handgate_adapters::ezgripper::driver::default_id;
+use handgate_adapters::ezgripper::emulator::{EmulatorConfig, Fault, VirtualBus};
+use handgate_adapters::model::Side;
 use handgate_idl::ros2::{diagnostic_level as level, generic_state as gs};
-use handgate_tests::{faulty_hand_service, hand_client_profile, serial, stream_closure, Emulation, Gateway, PyProcess};
+use handgate_tests::{
+    faulty_hand_service, hand_client_profile, serial, stream_closure, temp_profile, Emulation, Gateway, PyProcess,
+};
 use serde_json::Value;
 
 const DEADLINE: Duration = Duration::from_secs(30);
@@ -220,4 +226,60 @@ fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
         "{hw:#}"
     );
     assert_eq!(h["details"]["motion_joint"], "index_0", "{hw:#}");
+}
+
+/// A device's own fault bit (`HandState.faults`, judged by the gateway's health mapping) in
+/// both messages: an EZGripper whose servo trips its overload protection. The MX-64 bus is
+/// emulated in this process behind a pty (`VirtualBus`), the gateway drives it on backend
+/// serial; `inject(Fault::Overload)` latches the servo's Hardware Error Status (torque off,
+/// the alert bit on every status until a reboot), the driver reads it and the device reports
+/// fault `hardware`. The gripper, still up and fresh, turns ERROR / HEALTH_ERROR with
+/// `ERROR_HW`, the fault named in the message and in the values.
+#[test]
+fn a_device_fault_bit_is_an_error_naming_the_fault_in_both_messages() {
+    let _g = serial();
+    let domain = 43;
+    let pty = std::env::temp_dir().join(format!("handgate-health-{}-ezgripper", std::process::id()));
+    let id = default_id(Side::Left).get();
+    let bus = VirtualBus::start(&pty, EmulatorConfig::with_ids(&[id])).expect("the emulated bus starts");
+    let profile = temp_profile(
+        "health",
+        "ezgripper-overload",
+        &format!(
+            "name = \"ezgripper-overload\"\n[status]\nrate_hz = 10\n\
+             [[devices]]\nname = \"gripper\"\nkind = \"ezgripper\"\nside = \"left\"\nbackend = \"serial\"\n\
+             [devices.ezgripper]\nport = \"{}\"\n\
+             [[fronts]]\nkind = \"canonical\"\ndevice = \"gripper\"\n",
+            pty.display()
+        ),
+    );
+    let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
+    let py = peer(domain);
+    let (diag, _) = wait_for(
+        &py,
+        &gw,
+        "the gripper OK and up before the fault",
+        |v| diag_of(v, "gripper").is_some_and(|s| s["level"] == level::OK),
+        |v| hw_of(v, "gripper").is_some_and(|s| s["connectivity"] == gs::CONNECT_UP),
+    );
+    assert_eq!(diag_of(&diag, "gripper").unwrap()["values"]["faults"], "", "{diag:#}");
+
+    bus.inject(Fault::Overload { id });
+    let err = |v: &Value| diag_of(v, "gripper").is_some_and(|s| s["level"] == level::ERROR);
+    let error = |v: &Value| hw_of(v, "gripper").is_some_and(|s| s["health"] == gs::HEALTH_ERROR);
+    let (diag, hw) = wait_for(&py, &gw, "the overload reported", err, error);
+    let s = diag_of(&diag, "gripper").unwrap();
+    assert!(s["message"].as_str().unwrap().contains("fault: hardware"), "{diag:#}");
+    assert_eq!(s["values"]["faults"], "hardware", "{diag:#}");
+    assert_eq!(
+        s["values"]["freshness"], "fresh",
+        "a fault, not a lost device: {diag:#}"
+    );
+    let h = hw_of(&hw, "gripper").unwrap();
+    assert_eq!(
+        (h["connectivity"].clone(), h["errors"].clone()),
+        (Value::from(gs::CONNECT_UP), Value::from(vec![gs::ERROR_HW])),
+        "{hw:#}"
+    );
+    assert_eq!(h["details"]["faults"], "hardware", "{hw:#}");
 }

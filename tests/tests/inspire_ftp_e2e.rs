@@ -21,7 +21,9 @@ use handgate_adapters::mapping::TableOverrides;
 use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, HandState, Side};
 use handgate_adapters::open::{DeviceSpec, EmulatorSection, OpenEnv, Shared};
 use handgate_idl::handgate as hg;
-use handgate_tests::{handgate_bin, node, serial, stream_until, temp_profile, Emulation, Gateway, Latest};
+use handgate_tests::{
+    handgate_bin, handgate_cmd, node, serial, stream_until, temp_profile, Emulation, Gateway, Latest,
+};
 
 const DEADLINE: Duration = Duration::from_secs(30);
 
@@ -162,10 +164,7 @@ fn rs485_driver_process_has_no_touch_and_unknown_transport_is_refused() {
 
 #[test]
 fn check_describes_the_shipped_profile_and_a_two_hand_emulated_fleet() {
-    let out = Command::new(handgate_bin())
-        .args(["check", "g1-inspire-ftp"])
-        .output()
-        .unwrap();
+    let out = handgate_cmd(None).args(["check", "g1-inspire-ftp"]).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}");
     assert!(
@@ -186,7 +185,7 @@ fn check_describes_the_shipped_profile_and_a_two_hand_emulated_fleet() {
          [[fronts]]\nkind = \"canonical\"\ndevice = \"l\"\n[[fronts]]\nkind = \"canonical\"\ndevice = \"r\"\n",
     )
     .unwrap();
-    let out = Command::new(handgate_bin())
+    let out = handgate_cmd(None)
         .args(["check", p.to_str().unwrap()])
         .output()
         .unwrap();

@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use handgate_adapters::dds::{Node, Qos};
 use handgate_idl::ros2;
-use handgate_tests::{handgate_bin, interop_interface, repo_root, temp_profile, Gateway, Latest};
+use handgate_tests::{handgate_cmd, interop_interface, repo_root, temp_profile, Gateway, Latest};
 
 const DOMAIN: u32 = 220;
 /// The devices' domain of a profile with `[export]` (its fronts on [`DOMAIN`]).
@@ -55,10 +55,9 @@ fn on_emulators(text: &str) -> String {
 
 /// The state topics of `profile`'s joint_state fronts, as `handgate check` resolves them.
 fn joint_state_topics(profile: &PathBuf) -> Vec<String> {
-    let out = std::process::Command::new(handgate_bin())
+    let out = handgate_cmd(None)
         .arg("check")
         .arg(profile)
-        .current_dir(repo_root())
         .output()
         .expect("handgate check");
     let text = String::from_utf8_lossy(&out.stdout);

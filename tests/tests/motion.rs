@@ -6,17 +6,17 @@
 //! should have moved the hand, naming the joint, and in `handgate status`; a normal run of
 //! every emulated kind (`sim-all`, noise on, every front driven) raises none.
 //!
-//! Domains 207 (Dex3), 208 (BrainCo), 209 (sim-all), 227 (Dex5, Inspire DFX) and 228 (the
-//! Dex3 USB MCU, the EZGripper bus, in-process emulators): docs/development.md.
+//! Domains 207 (Dex3), 208 (BrainCo), 209 (sim-all), 227 (Dex5, Inspire DFX), 228 (the Dex3
+//! USB MCU, the EZGripper bus, in-process emulators) and 42 (an EZGripper bus ignoring
+//! commands): docs/development.md.
 
 use std::path::PathBuf;
-use std::process::Command;
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_tests::{
-    closure_cmd, faulty_hand_service, hand_client_profile, handgate_bin, http_get, interop_interface, node, poll,
+    closure_cmd, faulty_hand_service, hand_client_profile, handgate_cmd, http_get, interop_interface, node, poll,
     repo_root, serial, status_device, Emulation as Emulator, Gateway, Latest, PyProcess,
 };
 
@@ -33,19 +33,20 @@ fn write_profile(name: &str, text: &str) -> PathBuf {
     p
 }
 
-/// `handgate <args> --domain <domain> [--interface ...]`: its stdout.
+/// `handgate <args> --domain <domain> [--interface ...]` (none of this process's `HANDGATE_*`
+/// variables: [`handgate_cmd`]): its stdout, then its stderr.
 fn handgate_out(domain: u32, args: &[&str]) -> String {
     let mut args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
     args.extend(["--domain".to_string(), domain.to_string()]);
     if let Some(i) = interop_interface() {
         args.extend(["--interface".to_string(), i]);
     }
-    let o = Command::new(handgate_bin())
-        .current_dir(repo_root())
-        .args(&args)
-        .output()
-        .expect("handgate runs");
-    String::from_utf8_lossy(&o.stdout).into_owned()
+    let o = handgate_cmd(None).args(&args).output().expect("handgate runs");
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
 }
 
 /// What `handgate status --once` and `handgate doctor` print while the hand is reported.
@@ -301,7 +302,9 @@ fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_
     let socket = tmp.join(format!("handgate-motion-{}-dex3.sock", std::process::id()));
     let _ = std::fs::remove_file(&socket);
     behind(
+        228,
         ("dex3", "--socket", "usb", "usb.socket"),
+        "",
         &socket,
         "stuck=index_0",
         hg::MOTION_JOINT_STUCK,
@@ -309,7 +312,9 @@ fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_
     );
     let pty = tmp.join(format!("handgate-motion-{}-ezgripper", std::process::id()));
     behind(
+        228,
         ("ezgripper", "--pty", "serial", "ezgripper.port"),
+        &ezgripper_zero(),
         &pty,
         "frozen",
         hg::MOTION_FROZEN,
@@ -317,11 +322,42 @@ fn a_stuck_joint_of_a_dex3_usb_mcu_and_a_frozen_ezgripper_bus_are_caught_within_
     );
 }
 
+/// An EZGripper bus whose servo ignores commands (`handgate emulate ezgripper --pty --fault
+/// ignore-commands`: every Goal Position write is acknowledged, the goal stays), a gateway on
+/// backend serial: the jaw reports but never follows the closure it is given.
+#[test]
+fn an_ezgripper_bus_ignoring_commands_is_caught_within_a_second() {
+    let _g = serial();
+    let pty = std::env::temp_dir().join(format!("handgate-motion-{}-ezgripper-ignore", std::process::id()));
+    behind(
+        42,
+        ("ezgripper", "--pty", "serial", "ezgripper.port"),
+        &ezgripper_zero(),
+        &pty,
+        "ignore-commands",
+        hg::MOTION_NOT_FOLLOWING,
+        Some("jaw"),
+    );
+}
+
+/// The calibration zero of the left EZGripper `handgate emulate ezgripper` emulates (its
+/// servo's closed stop), as `[devices.ezgripper]` takes it. A gripper on backend serial
+/// without a zero (and without `calibrate_on_start`) drops every target and reads 0 %: it
+/// would never move, fault or not, and its constant reading would look frozen.
+fn ezgripper_zero() -> String {
+    let id = handgate_adapters::ezgripper::driver::default_id(handgate_adapters::model::Side::Left).get();
+    let stop = handgate_adapters::ezgripper::emulator::ServoSpec::new(id).closed_stop_ticks;
+    format!("zero_ticks = {stop}")
+}
+
 /// `handgate emulate <kind> --side left <option> <path> --fault <fault>` (the emulator behind a
-/// socket or a pty), and [`watched`] a gateway whose left `kind` on `backend` reaches it by its
-/// `key` (`section.key` of `[devices.section]`) set to `path`.
+/// socket or a pty), and [`watched`] a gateway on `domain` whose left `kind` on `backend`
+/// reaches it by its `key` (`section.key` of `[devices.section]`) set to `path`, with the
+/// section's other keys `more` (lines).
 fn behind(
+    domain: u32,
     (kind, option, backend, key): (&str, &str, &str, &str),
+    more: &str,
     path: &std::path::Path,
     fault: &str,
     want: u8,
@@ -333,9 +369,11 @@ fn behind(
     let (section, key) = key.split_once('.').expect("section.key");
     let profile = one_hand_profile(
         &format!("{kind}-{backend}-{}", fault.replace('=', "-")),
-        &format!("kind = \"{kind}\"\nside = \"left\"\nbackend = \"{backend}\"\n[devices.{section}]\n{key} = \"{p}\""),
+        &format!(
+            "kind = \"{kind}\"\nside = \"left\"\nbackend = \"{backend}\"\n[devices.{section}]\n{key} = \"{p}\"\n{more}"
+        ),
     );
-    watched(kind, 228, fault, &profile, want, joint);
+    watched(kind, domain, fault, &profile, want, joint);
 }
 
 /// The same faults as `[devices.emulator] fault` on the in-process emulators outside the
@@ -369,8 +407,7 @@ fn in_process_emulated_dex3_inspire_dfx_and_ezgripper_faults_are_caught_within_a
 fn faults_the_emulators_cannot_emulate_are_refused() {
     let _g = serial();
     let run = |args: &[&str]| {
-        let o = Command::new(handgate_bin())
-            .current_dir(repo_root())
+        let o = handgate_cmd(None)
             .arg("emulate")
             .args(args)
             .output()
@@ -423,7 +460,7 @@ fn no_false_alarm(seconds: u32) {
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
     let n = node(domain);
     let mut status: Latest<hg::GatewayStatus_> = Latest::new(&n, "rt/handgate/status", Qos::Reliable { depth: 1 });
-    let args: Vec<String> = [
+    let mut args: Vec<String> = [
         "--set",
         "sim-all",
         "--domain",
@@ -436,6 +473,9 @@ fn no_false_alarm(seconds: u32) {
     .iter()
     .map(|s| s.to_string())
     .collect();
+    if let Some(iface) = interop_interface() {
+        args.extend(["--interface".to_string(), iface]);
+    }
     let py = PyProcess::spawn("drive_fronts.py", &args).unwrap_or_else(|e| panic!("{e}"));
     py.wait_line("STREAMING", DEADLINE * 5)
         .unwrap_or_else(|e| panic!("{e}\n{}", gw.transcript()));

@@ -11,7 +11,7 @@ use handgate_adapters::dds::Qos;
 use handgate_idl::handgate;
 use handgate_idl::unitree_hg as hg;
 use handgate_record::bag::Bag;
-use handgate_tests::{handgate_bin, node, poll, python_script, repo_root, venv_python, Gateway, Latest};
+use handgate_tests::{handgate_bin, handgate_cmd, node, poll, python_script, repo_root, venv_python, Gateway, Latest};
 
 /// A temporary directory for recordings (removed first).
 fn scratch(tag: &str) -> PathBuf {
@@ -23,12 +23,11 @@ fn scratch(tag: &str) -> PathBuf {
 
 /// `handgate record DIR --domain D [args]` as a child process.
 fn record(dir: &Path, domain: u32, args: &[&str]) -> Child {
-    Command::new(handgate_bin())
+    handgate_cmd(None)
         .arg("record")
         .arg(dir)
         .args(["--domain", &domain.to_string()])
         .args(args)
-        .current_dir(repo_root())
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

@@ -7,7 +7,7 @@ use std::os::unix::net::UnixDatagram;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use handgate_tests::{handgate_bin, repo_root};
+use handgate_tests::handgate_cmd;
 
 #[test]
 fn ready_then_watchdog_feeds_then_stopping() {
@@ -23,10 +23,9 @@ fn ready_then_watchdog_feeds_then_stopping() {
         "name = \"sd\"\n[[devices]]\nname = \"jaw\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n",
     )
     .unwrap();
-    let mut child = Command::new(handgate_bin())
+    let mut child = handgate_cmd(None)
         .args(["run", "--domain", "189", "--http-port", "0", "--profile"])
         .arg(&profile)
-        .current_dir(repo_root())
         .env("NOTIFY_SOCKET", &sock_path)
         .env("WATCHDOG_USEC", "400000")
         .env_remove("WATCHDOG_PID")

@@ -6,12 +6,13 @@ use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 use crate::front::config::{FrontConfig, Silence, TopicKey, TopicRole};
-use crate::front::joint_state_command::{decode, JointIndex, DEFAULT_TOPIC};
+use crate::front::joint_state_command::{decode, position_gains, JointIndex, DEFAULT_TOPIC};
 use crate::front::joint_state_serve::JointStateConfig;
 use crate::front::kind::{Front, FrontFacts, FrontKind, FrontWire};
 use crate::front::plan::{FrontPlan, SilencePlan};
 use crate::front::serve::{commands, routed, served_command, Bound, Endpoints, FrontEnv, Queue, Routed, TypedIo};
 use crate::front::Rejection;
+use crate::kind::a;
 use crate::mapping::DeviceTable;
 use crate::model::SafeAction;
 use crate::units::Topic;
@@ -54,6 +55,22 @@ impl Front for JointStateCommandFront {
     }
     fn joint_names(c: &JointStateConfig, device: &str, table: &DeviceTable) -> Vec<String> {
         c.joint_names(device, table)
+    }
+    /// It holds each named joint at its position with the device's position gains
+    /// ([`position_gains`]): a device holding positions with none (a torque-driven blend,
+    /// `rt/hand_sdk`: ai_sport blends the five fields, so a zero kp and kd with no torque take
+    /// the hand's drive away instead of moving it) would take every command and move nothing.
+    fn cannot_drive(_c: &JointStateConfig, table: &DeviceTable) -> Option<String> {
+        let (kp, kd) = position_gains(table);
+        (kp == 0.0 && kd == 0.0).then(|| {
+            format!(
+                "a joint_state_command front holds each joint it is given at that position with the device's \
+                 position gains, and {} has none (kp = kd = 0: its closure is a torque, N*m), so a position \
+                 would move nothing; command it through a canonical front (closure, or joint targets with \
+                 their own kp, kd and tau)",
+                a(table.kind.as_str())
+            )
+        })
     }
     fn validate(
         _c: &JointStateConfig,

@@ -132,6 +132,11 @@ pub trait Front: Sync + Send + fmt::Debug + 'static {
     fn joint_names(_c: &Self::Config, _device: &str, _table: &DeviceTable) -> Vec<String> {
         vec![]
     }
+    /// Why this front cannot move a device whose table is `table` (`None`: it can); the
+    /// profile check refuses a front commanding such a device.
+    fn cannot_drive(_c: &Self::Config, _table: &DeviceTable) -> Option<String> {
+        None
+    }
     /// Suffix of this front's `handgate check` line.
     fn describe(_c: &Self::Config) -> Option<String> {
         None
@@ -215,6 +220,7 @@ trait Section: Any + Send + Sync {
     fn element(&self, side: Side) -> usize;
     fn validate(&self, f: &FrontConfig, served: Option<Side>, dangling: bool) -> Vec<(&'static str, String)>;
     fn joint_names(&self, device: &str, table: &DeviceTable) -> Vec<String>;
+    fn cannot_drive(&self, table: &DeviceTable) -> Option<String>;
     fn describe(&self) -> Option<String>;
     fn describe_unbound(&self, bound: &[Side]) -> Vec<String>;
     fn clash_hint(&self, other: &FrontOwn) -> &'static str;
@@ -272,6 +278,9 @@ impl<F: Front> Section for Own<F> {
     }
     fn joint_names(&self, device: &str, table: &DeviceTable) -> Vec<String> {
         F::joint_names(&self.0, device, table)
+    }
+    fn cannot_drive(&self, table: &DeviceTable) -> Option<String> {
+        F::cannot_drive(&self.0, table)
     }
     fn describe(&self) -> Option<String> {
         F::describe(&self.0)
@@ -397,6 +406,10 @@ impl FrontConfig {
     /// The joint names this front's messages carry for `device`.
     pub fn joint_names(&self, device: &str, table: &DeviceTable) -> Vec<String> {
         self.own.0.joint_names(device, table)
+    }
+    /// Why this front cannot move a device whose table is `table` (`None`: it can).
+    pub fn cannot_drive(&self, table: &DeviceTable) -> Option<String> {
+        self.own.0.cannot_drive(table)
     }
     /// Suffix of this front's `handgate check` line.
     pub fn describe(&self) -> Option<String> {

@@ -432,6 +432,24 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "binds devices by element; use `device`, or list them",
     ),
     (
+        "a JointState command front listing a torque-driven device (hand_sdk)",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"sdk\"\nkind = \"hand_sdk\"\nside = \"center\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state_command\"\ndevices = [\"g\", \"sdk\"]\n",
+        "fronts[0].devices[1]",
+        "`sdk`: a joint_state_command front holds each joint it is given at that position with the device's position gains, and a hand_sdk has none (kp = kd = 0: its closure is a torque, N*m), so a position would move nothing; command it through a canonical front (closure, or joint targets with their own kp, kd and tau); leave it out of `devices`",
+    ),
+    (
+        "a JointState command front on a torque-driven device (hand_sdk)",
+        "[[devices]]\nname = \"sdk\"\nkind = \"hand_sdk\"\nside = \"center\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state_command\"\ndevice = \"sdk\"\n",
+        "fronts[0].device",
+        "`sdk`: a joint_state_command front holds each joint it is given at that position with the device's position gains, and a hand_sdk has none",
+    ),
+    (
+        "a JointState command front binding every device, a torque-driven one among them",
+        "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"sdk\"\nkind = \"hand_sdk\"\nside = \"center\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state_command\"\n",
+        "fronts[0]",
+        "so a position would move nothing; command it through a canonical front (closure, or joint targets with their own kp, kd and tau); this front binds every device by default: list the others (`devices = [..]`)",
+    ),
+    (
         "a JointState command front listing a missing device",
         "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"joint_state_command\"\ndevices = [\"g\", \"nope\"]\n",
         "fronts[0].devices[1]",

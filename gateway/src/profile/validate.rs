@@ -22,6 +22,15 @@ struct Checker {
     out: Vec<Problem>,
 }
 
+/// What the fronts checked so far hold, against which the next front is checked: each
+/// command topic, state topic and front name with the first front's index.
+#[derive(Default)]
+struct FrontsSeen {
+    cmd_topics: BTreeMap<Topic, usize>,
+    state_topics: BTreeMap<Topic, usize>,
+    names: BTreeMap<String, usize>,
+}
+
 fn root() -> KeyPath {
     KeyPath::root()
 }
@@ -175,135 +184,162 @@ impl Checker {
         }
     }
 
+    /// The whole profile, section by section (in this order: the errors come out in it).
     fn profile(&mut self, p: &Profile) {
-        // dds
-        if p.dds.domain.0 > MAX_DOMAIN_ID {
-            self.err(
-                root().key("dds").key("domain"),
-                format!("must be between 0 and {MAX_DOMAIN_ID}, got {}", p.dds.domain.0),
-            );
-        }
-        if let Some(n) = &p.dds.namespace {
-            if let Err(e) = handgate_adapters::ros::Namespace::parse(n) {
-                self.err(
-                    root().key("dds").key("namespace"),
-                    format!("`{n}` is not a ROS namespace: it {e}"),
-                );
-            }
-        }
-        if let Some(i) = &p.dds.interface {
-            if i.trim().is_empty() || i.chars().any(char::is_whitespace) {
-                self.err(
-                    root().key("dds").key("interface"),
-                    format!("`{i}` is not an interface name"),
-                );
-            }
-        }
+        self.dds(&p.dds);
         if let Some(e) = &p.export {
             self.export(p, e);
         }
-        let (settle, max_wait) = (p.dds.discovery_settle_ms.0, p.dds.discovery_max_wait_ms.0);
+        self.discovery(&p.dds);
+        self.log(&p.log);
+        if let Some(r) = &p.record {
+            self.record(r);
+        }
+        self.http(&p.http);
+        self.realtime(&p.realtime);
+        if let Some(f) = &p.foxglove {
+            self.foxglove(f);
+        }
+        self.status(&p.status);
+        let by_name = self.devices(p);
+        self.fleet(p);
+        self.fronts(p, &by_name);
+    }
+
+    /// `[dds]`: the domain, the namespace and the interface (discovery: [`Self::discovery`]).
+    fn dds(&mut self, d: &DdsConfig) {
+        let k = root().key("dds");
+        if d.domain.0 > MAX_DOMAIN_ID {
+            self.err(
+                k.key("domain"),
+                format!("must be between 0 and {MAX_DOMAIN_ID}, got {}", d.domain.0),
+            );
+        }
+        if let Some(n) = &d.namespace {
+            if let Err(e) = handgate_adapters::ros::Namespace::parse(n) {
+                self.err(k.key("namespace"), format!("`{n}` is not a ROS namespace: it {e}"));
+            }
+        }
+        if let Some(i) = &d.interface {
+            if i.trim().is_empty() || i.chars().any(char::is_whitespace) {
+                self.err(k.key("interface"), format!("`{i}` is not an interface name"));
+            }
+        }
+    }
+
+    /// `[dds]` discovery: the wait bounded, the settling time within it.
+    fn discovery(&mut self, d: &DdsConfig) {
+        let k = root().key("dds");
+        let (settle, max_wait) = (d.discovery_settle_ms.0, d.discovery_max_wait_ms.0);
         if max_wait > MAX_DISCOVERY_WAIT_MS {
             self.err(
-                root().key("dds").key("discovery_max_wait_ms"),
+                k.key("discovery_max_wait_ms"),
                 format!("must be at most {MAX_DISCOVERY_WAIT_MS} ms, got {max_wait}"),
             );
         }
         if settle > max_wait {
             self.err(
-                root().key("dds").key("discovery_settle_ms"),
+                k.key("discovery_settle_ms"),
                 format!("must be at most dds.discovery_max_wait_ms ({max_wait} ms), got {settle}"),
             );
         }
-        // log
-        if let Err(e) = tracing_subscriber::EnvFilter::try_new(&p.log.level) {
+    }
+
+    /// `[log]`: a filter tracing understands.
+    fn log(&mut self, l: &LogConfig) {
+        if let Err(e) = tracing_subscriber::EnvFilter::try_new(&l.level) {
             self.err(
                 root().key("log").key("level"),
-                format!("`{}` is not a log filter: {e}", p.log.level),
+                format!("`{}` is not a log filter: {e}", l.level),
             );
         }
-        // record
-        if let Some(r) = &p.record {
-            let k = root().key("record");
-            if r.dir.trim().is_empty() {
-                self.err(k.key("dir"), "is empty (a directory for the recordings)".to_string());
-            }
-            for (key, v) in [("max_mb", r.max_mb), ("max_seconds", r.max_seconds)] {
-                if let Some(v) = v {
-                    if !(v.is_finite() && v > 0.0) {
-                        self.err(k.key(key), format!("must be > 0, got {v}"));
-                    }
-                }
-            }
-            if r.zstd && !cfg!(feature = "zstd") {
-                self.err(
-                    k.key("zstd"),
-                    "needs handgate built with the `zstd` feature (cargo build --features zstd)".to_string(),
-                );
-            }
-        }
-        // http
-        {
-            let k = root().key("http");
-            if p.http.bind.parse::<std::net::IpAddr>().is_err() {
-                self.err(
-                    k.key("bind"),
-                    format!("`{}` is not an IP address (e.g. \"127.0.0.1\")", p.http.bind),
-                );
-            }
-            self.rate(k.key("sample_hz"), p.http.sample_hz, MAX_HTTP_SAMPLE_HZ);
-            let wd = p.http.command_watchdog_ms.0;
-            if !(MIN_PAGE_WATCHDOG_MS..=MAX_PAGE_WATCHDOG_MS).contains(&wd) {
-                self.err(
-                    k.key("command_watchdog_ms"),
-                    format!("must be {MIN_PAGE_WATCHDOG_MS}..={MAX_PAGE_WATCHDOG_MS} ms, got {wd}"),
-                );
-            }
-            if let Some(Err(why)) = p.http.fleet_domains.as_deref().map(crate::doctor::parse_scan) {
-                self.err(k.key("fleet_domains"), why);
-            }
-            for h in &p.http.allowed_hosts {
-                if let Err(e) = crate::http::host::Host::parse(h) {
-                    self.err(
-                        k.key("allowed_hosts"),
-                        format!("{e}: each entry is a host name or an IP address, without scheme or port"),
-                    );
-                }
-            }
-        }
-        self.realtime(&p.realtime);
-        // foxglove
-        if let Some(f) = &p.foxglove {
-            let k = root().key("foxglove");
-            if f.bind.parse::<std::net::IpAddr>().is_err() {
-                self.err(
-                    k.key("bind"),
-                    format!("`{}` is not an IP address (e.g. \"127.0.0.1\")", f.bind),
-                );
-            }
-            if f.topics.iter().any(|g| g.trim().is_empty()) {
-                self.err(k.key("topics"), "has an empty glob".to_string());
-            }
-            if !cfg!(feature = "foxglove") && f.enabled != Some(false) {
-                let key = if f.enabled.is_some() { k.key("enabled") } else { k };
-                self.err(
-                    key,
-                    "the Foxglove live server needs handgate built with the `foxglove` feature \
-                     (cargo build --release -p handgate --features foxglove, or make run); or set \
-                     [foxglove] enabled = false"
-                        .to_string(),
-                );
-            }
-        }
-        // status
-        self.topic(root().key("status").key("topic"), &p.status.topic);
-        self.rate(
-            root().key("status").key("rate_hz"),
-            p.status.rate_hz,
-            MAX_STATUS_RATE_HZ,
-        );
+    }
 
-        // devices
+    /// `[record]`: a directory, positive bounds, zstd only when built in.
+    fn record(&mut self, r: &RecordConfig) {
+        let k = root().key("record");
+        if r.dir.trim().is_empty() {
+            self.err(k.key("dir"), "is empty (a directory for the recordings)".to_string());
+        }
+        for (key, v) in [("max_mb", r.max_mb), ("max_seconds", r.max_seconds)] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0) {
+                    self.err(k.key(key), format!("must be > 0, got {v}"));
+                }
+            }
+        }
+        if r.zstd && !cfg!(feature = "zstd") {
+            self.err(
+                k.key("zstd"),
+                "needs handgate built with the `zstd` feature (cargo build --features zstd)".to_string(),
+            );
+        }
+    }
+
+    /// `[http]`: the bind address, the sampling rate, the page's watchdog, the fleet's
+    /// domains, the allowed hosts.
+    fn http(&mut self, h: &HttpConfig) {
+        let k = root().key("http");
+        if h.bind.parse::<std::net::IpAddr>().is_err() {
+            self.err(
+                k.key("bind"),
+                format!("`{}` is not an IP address (e.g. \"127.0.0.1\")", h.bind),
+            );
+        }
+        self.rate(k.key("sample_hz"), h.sample_hz, MAX_HTTP_SAMPLE_HZ);
+        let wd = h.command_watchdog_ms.0;
+        if !(MIN_PAGE_WATCHDOG_MS..=MAX_PAGE_WATCHDOG_MS).contains(&wd) {
+            self.err(
+                k.key("command_watchdog_ms"),
+                format!("must be {MIN_PAGE_WATCHDOG_MS}..={MAX_PAGE_WATCHDOG_MS} ms, got {wd}"),
+            );
+        }
+        if let Some(Err(why)) = h.fleet_domains.as_deref().map(crate::doctor::parse_scan) {
+            self.err(k.key("fleet_domains"), why);
+        }
+        for host in &h.allowed_hosts {
+            if let Err(e) = crate::http::host::Host::parse(host) {
+                self.err(
+                    k.key("allowed_hosts"),
+                    format!("{e}: each entry is a host name or an IP address, without scheme or port"),
+                );
+            }
+        }
+    }
+
+    /// `[foxglove]`: the bind address, the globs, the feature built in unless disabled.
+    fn foxglove(&mut self, f: &FoxgloveConfig) {
+        let k = root().key("foxglove");
+        if f.bind.parse::<std::net::IpAddr>().is_err() {
+            self.err(
+                k.key("bind"),
+                format!("`{}` is not an IP address (e.g. \"127.0.0.1\")", f.bind),
+            );
+        }
+        if f.topics.iter().any(|g| g.trim().is_empty()) {
+            self.err(k.key("topics"), "has an empty glob".to_string());
+        }
+        if !cfg!(feature = "foxglove") && f.enabled != Some(false) {
+            let key = if f.enabled.is_some() { k.key("enabled") } else { k };
+            self.err(
+                key,
+                "the Foxglove live server needs handgate built with the `foxglove` feature \
+                 (cargo build --release -p handgate --features foxglove, or make run); or set \
+                 [foxglove] enabled = false"
+                    .to_string(),
+            );
+        }
+    }
+
+    /// `[status]`: its topic and rate.
+    fn status(&mut self, s: &StatusConfig) {
+        self.topic(root().key("status").key("topic"), &s.topic);
+        self.rate(root().key("status").key("rate_hz"), s.rate_hz, MAX_STATUS_RATE_HZ);
+    }
+
+    /// `[[devices]]`: names valid and distinct, then each device's own rules. Returns each
+    /// name's (first) index.
+    fn devices<'p>(&mut self, p: &'p Profile) -> HashMap<&'p str, usize> {
         let mut by_name: HashMap<&str, usize> = HashMap::new();
         for (i, d) in p.devices.iter().enumerate() {
             let k = root().key("devices").index(i);
@@ -322,15 +358,13 @@ impl Checker {
             }
             self.device(&k, d);
         }
-        self.fleet(p);
+        by_name
+    }
 
-        // fronts
-        let status_topic = p.status_topic();
-        // The status extension beside it (docs/wire-types.md, "Status: frozen, and its extension").
-        let status_ext_topic = Topic(handgate_idl::handgate::status_ext_topic(status_topic.as_str()));
-        let mut cmd_topics: BTreeMap<Topic, usize> = BTreeMap::new();
-        let mut state_topics: BTreeMap<Topic, usize> = BTreeMap::new();
-        let mut names: BTreeMap<String, usize> = BTreeMap::new();
+    /// `[[fronts]]`: each front's binding, its own rules, its name, and its topics against
+    /// the other fronts', the status topic and the DDS devices'.
+    fn fronts(&mut self, p: &Profile, by_name: &HashMap<&str, usize>) {
+        let mut seen = FrontsSeen::default();
         let known = || {
             let v: Vec<&str> = p.devices.iter().map(|d| d.name.as_str()).collect();
             if v.is_empty() {
@@ -341,170 +375,230 @@ impl Checker {
         };
         for (i, f) in p.fronts.iter().enumerate() {
             let k = root().key("fronts").index(i);
-            let mut missing = false;
-            if let Some(FrontDevices::List(list)) = &f.devices {
-                missing = self.device_list(&k, f, list, &by_name, &known);
-            }
-            if let Some(FrontDevices::Elements(els)) = &f.devices {
-                if !f.by_element() {
-                    self.err(
-                        k.key("devices"),
-                        format!(
-                            "only {} binds devices by element; use `device`{}",
-                            FrontKind::binding_elements(),
-                            if f.kind().takes_commands() && !f.kind().factory().facts().binds_list {
-                                ""
-                            } else {
-                                ", or list them: `devices = [\"..\", \"..\"]`"
-                            }
-                        ),
-                    );
-                }
-                if f.device.is_some() {
-                    self.err(
-                        k.key("devices"),
-                        "give either `device` (one device, on the front's side) or `devices` (by element), not both",
-                    );
-                }
-                if f.side().is_some() {
-                    let what = f.kind().factory().facts().binds_elements.unwrap_or("this front");
-                    self.err(
-                        k.key("side"),
-                        format!("{what} bound with `devices` serves both elements (0 = right, 1 = left); drop `side`"),
-                    );
-                }
-                if els.bound().is_empty() {
-                    self.err(
-                        k.key("devices"),
-                        "bind at least one element: `devices = { right = \"..\", left = \"..\" }`",
-                    );
-                }
-                if let (Some(r), Some(l)) = (&els.right, &els.left) {
-                    if r == l {
-                        self.err(k.key("devices"), format!("`{r}` is bound to both elements"));
-                    }
-                }
-                for (side, n) in els.bound() {
-                    if !by_name.contains_key(n.as_str()) {
-                        missing = true;
-                        self.err(
-                            k.key("devices").key(side.as_str()),
-                            format!("no device named `{n}` (devices: {})", known()),
-                        );
-                    }
-                }
-            }
-            let dev = match &f.device {
-                Some(n) => match by_name.get(n.as_str()) {
-                    Some(&di) => Some(&p.devices[di]),
-                    None => {
-                        self.err(k.key("device"), format!("no device named `{n}` (devices: {})", known()));
-                        None
-                    }
-                },
-                None => {
-                    if one_device(f) && f.devices.is_none() {
-                        self.err(
-                            k.key("device"),
-                            format!("{} front must name its device", a(f.kind().as_str())),
-                        );
-                    }
-                    None
-                }
+            let missing = match &f.devices {
+                Some(FrontDevices::List(list)) => self.device_list(&k, f, list, by_name, &known),
+                Some(FrontDevices::Elements(els)) => self.device_elements(&k, f, els, by_name, &known),
+                None => false,
             };
+            let dev = self.front_device(&k, p, f, by_name, &known);
             let dangling = (f.device.is_some() && dev.is_none()) || missing;
             self.front(&k, f, dev, dangling);
             if dev.is_none() && one_device(f) && (f.devices.is_none() || missing) {
                 // Its topics depend on a device that is not there; already reported.
                 continue;
             }
-            let name = f.display_name(dev);
-            if f.name.is_some() && !is_name(&name) {
-                self.err(
-                    k.key("name"),
-                    format!("`{name}` is not a front name (use a-z, 0-9, `_`, `-`)"),
-                );
-            }
-            match names.get(&name) {
-                // Two derived names only coincide on fronts serving the same topic: reported below.
-                Some(&j) if f.name.is_some() || p.fronts[j].name.is_some() => self.err(
-                    k.key("name"),
-                    format!("front name `{name}` is also fronts[{j}]'s; give each front its own `name`"),
-                ),
-                Some(_) => {}
-                None => {
-                    names.insert(name, i);
-                }
-            }
+            self.front_name(&k, p, i, f, dev, &mut seen);
             let topics = p.front_topics(f, dev);
             // A front binding a list names its devices' joints in the messages it takes.
             if let (false, Some(t)) = (missing, topics.state().or(topics.cmd())) {
                 self.joint_names(&k, f, p, t);
             }
-            let mut cmd_clash = None;
-            for t in topics.topics.iter().filter(|t| t.role == TopicRole::Command) {
-                let Some(topic) = &t.topic else { continue };
-                if topic == &status_topic || topic == &status_ext_topic {
+            if !missing {
+                self.drivable(&k, f, p);
+            }
+            self.front_topics(&k, p, i, f, &topics, &mut seen);
+        }
+    }
+
+    /// A front's `devices = { right = "..", left = ".." }`: only on a front binding by
+    /// element, not beside `device` or `side`, at least one, distinct, known. Returns whether
+    /// a name is missing (reported).
+    fn device_elements(
+        &mut self,
+        k: &KeyPath,
+        f: &FrontConfig,
+        els: &ElementDevices,
+        by_name: &HashMap<&str, usize>,
+        known: &dyn Fn() -> String,
+    ) -> bool {
+        if !f.by_element() {
+            self.err(
+                k.key("devices"),
+                format!(
+                    "only {} binds devices by element; use `device`{}",
+                    FrontKind::binding_elements(),
+                    if f.kind().takes_commands() && !f.kind().factory().facts().binds_list {
+                        ""
+                    } else {
+                        ", or list them: `devices = [\"..\", \"..\"]`"
+                    }
+                ),
+            );
+        }
+        if f.device.is_some() {
+            self.err(
+                k.key("devices"),
+                "give either `device` (one device, on the front's side) or `devices` (by element), not both",
+            );
+        }
+        if f.side().is_some() {
+            let what = f.kind().factory().facts().binds_elements.unwrap_or("this front");
+            self.err(
+                k.key("side"),
+                format!("{what} bound with `devices` serves both elements (0 = right, 1 = left); drop `side`"),
+            );
+        }
+        if els.bound().is_empty() {
+            self.err(
+                k.key("devices"),
+                "bind at least one element: `devices = { right = \"..\", left = \"..\" }`",
+            );
+        }
+        if let (Some(r), Some(l)) = (&els.right, &els.left) {
+            if r == l {
+                self.err(k.key("devices"), format!("`{r}` is bound to both elements"));
+            }
+        }
+        let mut missing = false;
+        for (side, n) in els.bound() {
+            if !by_name.contains_key(n.as_str()) {
+                missing = true;
+                self.err(
+                    k.key("devices").key(side.as_str()),
+                    format!("no device named `{n}` (devices: {})", known()),
+                );
+            }
+        }
+        missing
+    }
+
+    /// The device a front's `device` names, if it is there (reported if not, or if a front
+    /// driving one device names none).
+    fn front_device<'p>(
+        &mut self,
+        k: &KeyPath,
+        p: &'p Profile,
+        f: &FrontConfig,
+        by_name: &HashMap<&str, usize>,
+        known: &dyn Fn() -> String,
+    ) -> Option<&'p DeviceConfig> {
+        match &f.device {
+            Some(n) => match by_name.get(n.as_str()) {
+                Some(&di) => Some(&p.devices[di]),
+                None => {
+                    self.err(k.key("device"), format!("no device named `{n}` (devices: {})", known()));
+                    None
+                }
+            },
+            None => {
+                if one_device(f) && f.devices.is_none() {
                     self.err(
-                        k.key(t.key),
-                        format!("command topic `{topic}` is the status topic or its extension"),
+                        k.key("device"),
+                        format!("{} front must name its device", a(f.kind().as_str())),
                     );
                 }
-                match cmd_topics.get(topic) {
-                    Some(&j) => {
-                        cmd_clash = Some(j);
-                        let why = f.clash_hint(&p.fronts[j]);
-                        self.err(
-                            k.key(t.key),
-                            format!("command topic `{topic}` is already served by fronts[{j}]{why}"),
-                        );
-                    }
-                    None => {
-                        cmd_topics.insert(topic.clone(), i);
-                    }
-                }
+                None
             }
-            // Two publishers of one state topic would interleave two views of the fleet.
-            for t in topics.topics.iter().filter(|t| t.role.writes()) {
-                let Some(topic) = &t.topic else { continue };
-                if topic == &status_topic || topic == &status_ext_topic {
+        }
+    }
+
+    /// A front's name (given or derived): valid, and not another front's.
+    fn front_name(
+        &mut self,
+        k: &KeyPath,
+        p: &Profile,
+        i: usize,
+        f: &FrontConfig,
+        dev: Option<&DeviceConfig>,
+        seen: &mut FrontsSeen,
+    ) {
+        let name = f.display_name(dev);
+        if f.name.is_some() && !is_name(&name) {
+            self.err(
+                k.key("name"),
+                format!("`{name}` is not a front name (use a-z, 0-9, `_`, `-`)"),
+            );
+        }
+        match seen.names.get(&name) {
+            // Two derived names only coincide on fronts serving the same topic: reported below.
+            Some(&j) if f.name.is_some() || p.fronts[j].name.is_some() => self.err(
+                k.key("name"),
+                format!("front name `{name}` is also fronts[{j}]'s; give each front its own `name`"),
+            ),
+            Some(_) => {}
+            None => {
+                seen.names.insert(name, i);
+            }
+        }
+    }
+
+    /// A front's topics: none the status topic, no command topic served twice, no state
+    /// topic published twice, none a DDS device's on the same domain.
+    fn front_topics(
+        &mut self,
+        k: &KeyPath,
+        p: &Profile,
+        i: usize,
+        f: &FrontConfig,
+        topics: &FrontTopics,
+        seen: &mut FrontsSeen,
+    ) {
+        let status_topic = p.status_topic();
+        // The status extension beside it (docs/wire-types.md, "Status: frozen, and its extension").
+        let status_ext_topic = Topic(handgate_idl::handgate::status_ext_topic(status_topic.as_str()));
+        let mut cmd_clash = None;
+        for t in topics.topics.iter().filter(|t| t.role == TopicRole::Command) {
+            let Some(topic) = &t.topic else { continue };
+            if topic == &status_topic || topic == &status_ext_topic {
+                self.err(
+                    k.key(t.key),
+                    format!("command topic `{topic}` is the status topic or its extension"),
+                );
+            }
+            match seen.cmd_topics.get(topic) {
+                Some(&j) => {
+                    cmd_clash = Some(j);
+                    let why = f.clash_hint(&p.fronts[j]);
                     self.err(
                         k.key(t.key),
-                        format!("state topic `{topic}` is the status topic or its extension"),
+                        format!("command topic `{topic}` is already served by fronts[{j}]{why}"),
                     );
                 }
-                match state_topics.get(topic) {
-                    // Same pair of fronts as the command clash: one error is enough.
-                    Some(&j) if cmd_clash == Some(j) => {}
-                    Some(&j) => self.err(
-                        k.key(t.key),
-                        format!("state topic `{topic}` is already published by fronts[{j}]: two fronts would interleave their state on it"),
-                    ),
-                    None => {
-                        state_topics.insert(topic.clone(), i);
-                    }
+                None => {
+                    seen.cmd_topics.insert(topic.clone(), i);
                 }
             }
-            // A front must not serve a topic handgate itself uses to reach a DDS device on
-            // the same domain: it would answer its own commands. With `[export]` on a domain
-            // of its own the fronts are on another domain: the robot's service names, served
-            // to the lab (the point of exporting).
-            let same_domain = p.export_side().is_none();
-            for (di, d) in p.devices.iter().enumerate().filter(|_| same_domain) {
-                if let Some((dcmd, dstate)) = d.dds_topics() {
-                    let clash = topics.topics.iter().find_map(|t| {
-                        let theirs = if t.role.writes() { &dstate } else { &dcmd };
-                        t.topic.as_ref().filter(|t| theirs.as_ref() == Some(*t))
-                    });
-                    if let Some(topic) = clash {
-                        self.err(
-                            k.clone(),
-                            format!(
-                                "serves `{topic}` which devices[{di}] (`{}`, backend dds) uses to reach the real device on the same domain",
-                                d.name
-                            ),
-                        );
-                    }
+        }
+        // Two publishers of one state topic would interleave two views of the fleet.
+        for t in topics.topics.iter().filter(|t| t.role.writes()) {
+            let Some(topic) = &t.topic else { continue };
+            if topic == &status_topic || topic == &status_ext_topic {
+                self.err(
+                    k.key(t.key),
+                    format!("state topic `{topic}` is the status topic or its extension"),
+                );
+            }
+            match seen.state_topics.get(topic) {
+                // Same pair of fronts as the command clash: one error is enough.
+                Some(&j) if cmd_clash == Some(j) => {}
+                Some(&j) => self.err(
+                    k.key(t.key),
+                    format!("state topic `{topic}` is already published by fronts[{j}]: two fronts would interleave their state on it"),
+                ),
+                None => {
+                    seen.state_topics.insert(topic.clone(), i);
+                }
+            }
+        }
+        // A front must not serve a topic handgate itself uses to reach a DDS device on
+        // the same domain: it would answer its own commands. With `[export]` on a domain
+        // of its own the fronts are on another domain: the robot's service names, served
+        // to the lab (the point of exporting).
+        let same_domain = p.export_side().is_none();
+        for (di, d) in p.devices.iter().enumerate().filter(|_| same_domain) {
+            if let Some((dcmd, dstate)) = d.dds_topics() {
+                let clash = topics.topics.iter().find_map(|t| {
+                    let theirs = if t.role.writes() { &dstate } else { &dcmd };
+                    t.topic.as_ref().filter(|t| theirs.as_ref() == Some(*t))
+                });
+                if let Some(topic) = clash {
+                    self.err(
+                        k.clone(),
+                        format!(
+                            "serves `{topic}` which devices[{di}] (`{}`, backend dds) uses to reach the real device on the same domain",
+                            d.name
+                        ),
+                    );
                 }
             }
         }
@@ -559,6 +653,35 @@ impl Checker {
             }
         }
         missing
+    }
+
+    /// Every device a front commands must be one it can move (`FrontConfig::cannot_drive`):
+    /// reported on the key that binds it (`devices[j]`, `device`, or the front itself when
+    /// it binds every device by default).
+    fn drivable(&mut self, k: &KeyPath, f: &FrontConfig, p: &Profile) {
+        for (_, name) in p.front_bindings(f) {
+            let Some(d) = p.devices.iter().find(|d| &d.name == name) else {
+                continue;
+            };
+            let Some(why) = f.cannot_drive(&d.kind.factory().table(d.side, &*d.config)) else {
+                continue;
+            };
+            let listed = f
+                .devices
+                .as_ref()
+                .and_then(|l| l.list())
+                .and_then(|l| l.iter().position(|n| n == name));
+            let (key, how) = match (listed, &f.device, &f.devices) {
+                (Some(j), _, _) => (k.key("devices").index(j), "leave it out of `devices`"),
+                (None, Some(_), _) => (k.key("device"), "bind another device"),
+                (None, None, None) => (
+                    k.clone(),
+                    "this front binds every device by default: list the others (`devices = [..]`)",
+                ),
+                (None, None, Some(_)) => (k.key("devices"), "bind another device"),
+            };
+            self.err(key, format!("`{name}`: {why}; {how}"));
+        }
     }
 
     /// A front whose messages are keyed by joint name (ROS 2 JointState): no two of its
