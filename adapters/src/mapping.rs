@@ -182,6 +182,8 @@ pub struct TableOverrides {
     /// The motion detector's tolerance (rad) and hold time replacing the kind's.
     pub motion_tolerance: Option<f32>,
     pub motion_hold: Option<std::time::Duration>,
+    /// What shows contact (a grasp: `motion::Verdict::Holding`) replacing the kind's rule.
+    pub motion_contact: Option<crate::motion::Contact>,
 }
 
 /// Errors mapping a command onto a device.
@@ -649,6 +651,9 @@ impl DeviceTable {
         self.max_step = o.max_step;
         if let Some(t) = o.motion_tolerance {
             self.motion.tolerance = t;
+        }
+        if let Some(c) = o.motion_contact {
+            self.motion.contact = c;
         }
         if let Some(h) = o.motion_hold {
             self.motion.hold = h;

@@ -70,6 +70,16 @@ fn overrides(d: &DeviceConfig) -> TableOverrides {
         tau_closed: d.closure.tau_closed.map(|v| v as f32),
         motion_tolerance: d.motion.tolerance.map(|r| r.0 as f32),
         motion_hold: d.motion.hold_ms.map(|m| m.as_duration()),
+        motion_contact: {
+            use crate::profile::ContactMode;
+            use handgate_adapters::motion::Contact;
+            match (d.motion.contact, d.motion.contact_effort) {
+                (Some(ContactMode::Reported), _) => Some(Contact::Reported),
+                (Some(ContactMode::Unmeasured), _) => Some(Contact::Unmeasured),
+                (_, Some(e)) => Some(Contact::Effort(e as f32)),
+                (Some(ContactMode::Effort), None) | (None, None) => None,
+            }
+        },
     }
 }
 

@@ -2,7 +2,9 @@
 //! torque, Dex1 torque, EZGripper effort, BrainCo current, Inspire FTP force and status),
 //! emulated with an object in a closing joint's path (`[devices.emulator] object_at`) and
 //! closed on it through its canonical front, reads `holding` in the status (motion 4, the joint
-//! named) and OK in `/diagnostics` (no WARN, no ERROR), through the real binary. The faults of
+//! named) and OK in `/diagnostics` (no WARN, no ERROR), through the real binary; so does an
+//! Inspire DFX, whose service publishes positions only, with `[devices.motion] contact =
+//! "unmeasured"`. The faults of
 //! #29 (a stuck joint with no effort, a frozen stream, commands ignored) are tests/tests/motion.rs's.
 //!
 //! Domain 118 (docs/development.md). Needs the binary (`cargo build -p handgate`) and `.venv`.
@@ -20,29 +22,37 @@ use serde_json::Value;
 const DOMAIN: u32 = 118;
 const DEADLINE: Duration = Duration::from_secs(60);
 
-/// (device, kind, the emulated object: joint = canonical rad on the way to the closed posture)
-const HANDS: &[(&str, &str, &str)] = &[
-    ("dex3", "dex3", "{ index_0 = 0.6, middle_0 = 0.6, thumb_2 = 0.5 }"),
-    ("dex1", "dex1", "{ jaw = 2.0 }"),
-    ("ezgripper", "ezgripper", "{ jaw = 2.0 }"),
-    ("brainco", "brainco", "{ index = 0.5, middle = 0.5 }"),
-    ("ftp", "inspire_ftp", "{ index = 1.0 }"),
-    ("dex5", "dex5", "{ index_2 = 0.5 }"),
+/// (device, kind, the emulated object: joint = canonical rad on the way to the closed posture,
+/// more of the device's table)
+const HANDS: &[(&str, &str, &str, &str)] = &[
+    ("dex3", "dex3", "{ index_0 = 0.6, middle_0 = 0.6, thumb_2 = 0.5 }", ""),
+    ("dex1", "dex1", "{ jaw = 2.0 }", ""),
+    ("ezgripper", "ezgripper", "{ jaw = 2.0 }", ""),
+    ("brainco", "brainco", "{ index = 0.5, middle = 0.5 }", ""),
+    ("ftp", "inspire_ftp", "{ index = 1.0 }", ""),
+    ("dex5", "dex5", "{ index_2 = 0.5 }", ""),
+    // Positions only through its service: a grasp only where the profile says so.
+    (
+        "dfx",
+        "inspire_dfx",
+        "{ index = 1.0 }",
+        "[devices.motion]\ncontact = \"unmeasured\"\n",
+    ),
 ];
 
 fn profile() -> std::path::PathBuf {
     let mut text =
         String::from("name = \"grasp\"\n[status]\nrate_hz = 10\n[log]\nformat = \"human\"\nlevel = \"info\"\n");
-    for (name, kind, object) in HANDS {
+    for (name, kind, object, extra) in HANDS {
         text.push_str(&format!(
             "[[devices]]\nname = \"{name}\"\nkind = \"{kind}\"\nside = \"left\"\nbackend = \"emulator\"\n"
         ));
         if *kind == "ezgripper" {
             text.push_str("[devices.ezgripper]\nport = \"grasp-bus\"\nservo_id = 1\nresponse_timeout_ms = 100\n");
         }
-        text.push_str(&format!("[devices.emulator]\nobject_at = {object}\n"));
+        text.push_str(&format!("[devices.emulator]\nobject_at = {object}\n{extra}"));
     }
-    for (name, _, _) in HANDS {
+    for (name, _, _, _) in HANDS {
         text.push_str(&format!("[[fronts]]\nkind = \"canonical\"\ndevice = \"{name}\"\n"));
     }
     temp_profile("grasp", "grasp", &text)
@@ -63,7 +73,7 @@ fn closing_on_an_object_reads_holding_and_ok_in_diagnostics_for_every_kind_with_
     let mut status = Latest::<hg::GatewayStatus_>::new(&n, "rt/handgate/status", Qos::Reliable { depth: 1 });
     let streams: Vec<_> = HANDS
         .iter()
-        .map(|(name, _, _)| stream_closure(DOMAIN, name, 1.0))
+        .map(|(name, _, _, _)| stream_closure(DOMAIN, name, 1.0))
         .collect();
 
     // Every hand holding (and nothing else reported on the way: a grasp never reads as a fault).
@@ -111,7 +121,7 @@ fn closing_on_an_object_reads_holding_and_ok_in_diagnostics_for_every_kind_with_
         if Instant::now() < after {
             continue; // published before every hand held
         }
-        for (name, _, _) in HANDS {
+        for (name, _, _, _) in HANDS {
             let s = d["status"]
                 .as_array()
                 .and_then(|a| a.iter().find(|s| s["name"] == format!("handgate: {name}")))

@@ -841,6 +841,26 @@ pub struct MotionConfig {
     /// How long a demanded joint may make no progress before it is reported, ms.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hold_ms: Option<Millis>,
+    /// What shows that a joint stopped short of a closing target holds an object (the kind's
+    /// rule when omitted; `effort` needs `contact_effort`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact: Option<ContactMode>,
+    /// The closing effort from which a joint counts as in contact, in the kind's own effort
+    /// unit (N·m; A on a BrainCo; effort % / 10 on an EZGripper).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact_effort: Option<f64>,
+}
+
+/// `[devices.motion] contact` (docs/adapters.md, "Motion").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactMode {
+    /// The joint's effort at least `contact_effort` towards closing.
+    Effort,
+    /// What the device reports per joint (the Inspire FTP's status and force).
+    Reported,
+    /// Nothing measured: a closing joint stopped short is taken as holding.
+    Unmeasured,
 }
 
 /// Device watchdog: what happens when no command arrives in time.

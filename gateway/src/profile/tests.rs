@@ -312,6 +312,24 @@ const BAD: &[(&str, &str, &str, &str)] = &[
         "above 0 and at most 1 rad",
     ),
     (
+        "contact by effort without the effort",
+        "[[devices]]\nname = \"g\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\ncontact = \"effort\"\n",
+        "devices[0].motion.contact",
+        "needs `contact_effort`",
+    ),
+    (
+        "a contact effort that is no effort",
+        "[[devices]]\nname = \"g\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\ncontact_effort = -1.0\n",
+        "devices[0].motion.contact_effort",
+        "must be above 0",
+    ),
+    (
+        "a contact effort with contact the device reports",
+        "[[devices]]\nname = \"g\"\nkind = \"inspire_ftp\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\ncontact = \"reported\"\ncontact_effort = 1.0\n",
+        "devices[0].motion.contact_effort",
+        "applies to contact = \"effort\"",
+    ),
+    (
         "motion hold too long to report within a second",
         "[[devices]]\nname = \"g\"\nkind = \"dex3\"\nside = \"left\"\nbackend = \"emulator\"\n[devices.motion]\nhold_ms = 2000\n",
         "devices[0].motion.hold_ms",
@@ -1591,6 +1609,16 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             "devices.motion.hold_ms",
             dex1("emulator", ""),
             dex1("emulator", "motion = { hold_ms = 300 }"),
+        ),
+        (
+            "devices.motion.contact",
+            dex3("emulator", ""),
+            dex3("emulator", "motion = { contact = \"unmeasured\" }"),
+        ),
+        (
+            "devices.motion.contact_effort",
+            dex3("emulator", ""),
+            dex3("emulator", "motion = { contact_effort = 0.2 }"),
         ),
         (
             "devices.watchdog.timeout_ms",

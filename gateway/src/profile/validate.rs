@@ -849,6 +849,20 @@ impl Checker {
                 );
             }
         }
+        match (d.motion.contact, d.motion.contact_effort) {
+            (_, Some(e)) if !(e.is_finite() && e > 0.0) => {
+                self.err(mk.key("contact_effort"), format!("must be above 0, got {e}"));
+            }
+            (Some(ContactMode::Effort), None) => self.err(
+                mk.key("contact"),
+                "\"effort\" needs `contact_effort` (the kind's own effort unit: N·m, A on a brainco, effort % / 10 on an ezgripper)",
+            ),
+            (Some(m @ (ContactMode::Reported | ContactMode::Unmeasured)), Some(_)) => self.err(
+                mk.key("contact_effort"),
+                format!("applies to contact = \"effort\", not {:?}: remove it", format!("{m:?}").to_lowercase()),
+            ),
+            _ => {}
+        }
         if let Some(h) = d.motion.hold_ms {
             let (lo, hi) = MotionThresholds::HOLD_MS_RANGE;
             if !(lo..=hi).contains(&u64::from(h.0)) {
