@@ -184,6 +184,25 @@ fn counter<T: TopicType + Clone + 'static>(n: &Node, topic: &'static str, nomina
     }
 }
 
+/// Each counter's rate between counts `c0` and `c1` taken `dt` seconds apart, checked against
+/// its nominal rate ([`RateCheck`], 5 %): a report line per topic, and the topics that fail.
+fn rates(counters: &[Counter], c0: &[u64], c1: &[u64], dt: f64) -> (Vec<String>, Vec<&'static str>) {
+    let mut report = Vec::new();
+    let mut bad = Vec::new();
+    for (i, c) in counters.iter().enumerate() {
+        let r = RateCheck {
+            measured: (c1[i] - c0[i]) as f64 / dt,
+            nominal: c.nominal,
+            tol: 0.05,
+        };
+        report.push(format!("{} {}", c.topic, r.line()));
+        if r.fails() {
+            bad.push(c.topic);
+        }
+    }
+    (report, bad)
+}
+
 #[test]
 fn every_front_state_rate_holds_under_cpu_load() {
     let _serial = serial();
@@ -239,19 +258,7 @@ fn every_front_state_rate_holds_under_cpu_load() {
     stream_until(&mut w, &cmd, Duration::from_secs(8), || false);
     let c1: Vec<u64> = counters.iter().map(|c| c.count.load(Ordering::Relaxed)).collect();
     let dt = t0.elapsed().as_secs_f64();
-    let mut report = Vec::new();
-    let mut bad = Vec::new();
-    for (i, c) in counters.iter().enumerate() {
-        let r = RateCheck {
-            measured: (c1[i] - c0[i]) as f64 / dt,
-            nominal: c.nominal,
-            tol: 0.05,
-        };
-        report.push(format!("{} {}", c.topic, r.line()));
-        if r.fails() {
-            bad.push(c.topic);
-        }
-    }
+    let (report, bad) = rates(&counters, &c0, &c1, dt);
     println!("rates under load over {dt:.2} s:\n{}", report.join("\n"));
     assert!(
         bad.is_empty(),
@@ -498,19 +505,7 @@ fn a_front_state_rate_does_not_follow_the_command_rate() {
     let dt = t0.elapsed().as_secs_f64();
     stop.store(true, Ordering::Relaxed);
     let sent: Vec<u64> = clients.into_iter().map(|c| c.join().expect("client")).collect();
-    let mut report = Vec::new();
-    let mut bad = Vec::new();
-    for (i, c) in counters.iter().enumerate() {
-        let r = RateCheck {
-            measured: (c1[i] - c0[i]) as f64 / dt,
-            nominal: c.nominal,
-            tol: 0.05,
-        };
-        report.push(format!("{} {}", c.topic, r.line()));
-        if r.fails() {
-            bad.push(c.topic);
-        }
-    }
+    let (report, bad) = rates(&counters, &c0, &c1, dt);
     println!(
         "state rates with clients commanding (commands written: {sent:?}) over {dt:.2} s:\n{}",
         report.join("\n")

@@ -460,6 +460,10 @@ const GRID_STALL_PERIODS: u32 = 5;
 /// reconnecting); it also bounds how often that timer wakes while the devices drive.
 pub const DEVICE_DRIVEN_GRACE: Duration = Duration::from_millis(50);
 
+/// The most a prompt publish waits after the last publish ([`StateGrid::prompt`]): two samples
+/// are never closer than this (or half a period on a grid faster than 500 Hz).
+pub const PROMPT_MIN_SPACING: Duration = Duration::from_millis(1);
+
 /// When a front publishes its periodic state (`state_hz`), on absolute deadlines: the k-th
 /// publish is due at `start + k·period`, so a late one delays one sample, not the rate.
 ///
@@ -475,8 +479,8 @@ pub const DEVICE_DRIVEN_GRACE: Duration = Duration::from_millis(50);
 /// its period, sent early: the grid does not move, so the topic keeps its rate whatever the
 /// command traffic (one publish per period, as the services these fronts stand in for
 /// publish at a fixed rate). It is refused when its period's publish already went out, or
-/// when the last publish is less than half a period old (no burst of two samples); the
-/// state then goes out at the period's deadline as usual.
+/// when the last publish is less than [`PROMPT_MIN_SPACING`] (half a period on a faster grid)
+/// old; the state then goes out at the period's deadline as usual.
 #[derive(Debug, Clone)]
 pub struct StateGrid {
     period: Duration,
@@ -557,13 +561,19 @@ impl StateGrid {
         let unsent = self.next <= now + self.period;
         let spaced = self
             .last_publish
-            .map_or(true, |t| now.saturating_duration_since(t) >= self.period / 2);
+            .map_or(true, |t| now.saturating_duration_since(t) >= self.prompt_spacing());
         if unsent && spaced {
             self.advance(now);
             true
         } else {
             false
         }
+    }
+
+    /// The least time between a publish and a prompt one: half a period, at most
+    /// [`PROMPT_MIN_SPACING`] (a slow grid's prompt state still goes out at once).
+    fn prompt_spacing(&self) -> Duration {
+        (self.period / 2).min(PROMPT_MIN_SPACING)
     }
 
     fn advance(&mut self, now: Instant) {
@@ -1308,6 +1318,25 @@ mod tests {
         assert!(g.at_state(next + p));
         assert_eq!(g.deadline(), next + p + DEVICE_DRIVEN_GRACE);
     }
+    /// On a slow grid (a front at 0.1 Hz) a command's state goes out at once, as that period's
+    /// sample: a client never waits seconds for its command's effect.
+    #[test]
+    fn a_slow_grids_prompt_publish_goes_out_at_once_in_place_of_its_periods() {
+        let t0 = Instant::now();
+        let p = Duration::from_secs(10);
+        let mut g = StateGrid::new(p, false, t0);
+        assert!(g.due(t0), "the first at once");
+        let s = Duration::from_secs(1);
+        assert!(g.prompt(t0 + 2 * s), "2 s after the last sample");
+        assert!(!g.prompt(t0 + 3 * s), "that period's sample went out");
+        assert!(!g.due(t0 + p), "its deadline has nothing to do");
+        assert!(g.prompt(t0 + p + s), "the next period's, early");
+        assert!(
+            !g.prompt(t0 + p + s + PROMPT_MIN_SPACING / 2),
+            "never two within the spacing"
+        );
+    }
+
     /// Commands at any rate, each asking for a prompt publish when its state comes, never
     /// change the number of publishes: one per period (issue #37: a 100 Hz client took a
     /// 100 Hz topic to 196 Hz when each prompt publish re-anchored the grid).
@@ -1358,7 +1387,7 @@ mod tests {
                     "state {state_hz} Hz, commands {cmd_hz} Hz, device {device_hz} Hz: {published} in 2 s"
                 );
                 assert!(
-                    spacing >= p / 2,
+                    spacing >= (p / 2).min(PROMPT_MIN_SPACING),
                     "{state_hz}/{cmd_hz}/{device_hz}: {spacing:?} between two publishes"
                 );
             }
