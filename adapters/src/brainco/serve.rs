@@ -80,7 +80,7 @@ mod tests {
     }
 
     #[test]
-    fn the_services_topics_per_side_and_its_100_hz_whatever_the_device() {
+    fn the_services_topics_per_side_and_its_500_hz_whatever_the_device() {
         let f = FrontKind::Brainco.factory();
         for (side, s) in [(Side::Left, "left"), (Side::Right, "right")] {
             assert_eq!(
