@@ -662,8 +662,8 @@ pub struct DdsDevice {
     handle: crate::loops::Handle,
     /// Wakes the loop for a command to forward.
     wake: Arc<Wake>,
-    /// The state reader (its listener takes the samples), deleted with the device: never by
-    /// its own listener.
+    /// The state reader (its listener takes the samples), deleted before the loop stops
+    /// ([`DdsDevice::stop`]): never by its own listener.
     _reader: Mutex<Option<Box<dyn Send>>>,
     /// Commands are forwarded on arrival ([`Forwarding::on_arrival`]).
     on_arrival: bool,
@@ -788,8 +788,17 @@ impl DdsDevice {
         }
     }
 
-    /// Stops the loop thread (after the caller put the device in a safe state).
+    /// Stops the loop thread (after the caller put the device in a safe state), the state
+    /// reader first. Its deletion waits for a listener call in progress, and after it no
+    /// listener can reach the loop ([`Wake::inline`] upgrades the loop's weak handle for the
+    /// call). Stopped the other way round, a listener call that upgraded it just before holds
+    /// the last reference, and the loop, its command writer with it, is dropped inside that
+    /// listener: deleting a writer from a listener CycloneDDS runs on a thread it counts as
+    /// awake (an in-process writer's, delivering locally) waits for its garbage collector,
+    /// which waits for that thread, and the reader's deletion then waits for the listener
+    /// forever (adapters/tests/teardown.rs).
     pub fn stop(&self) {
+        drop(self._reader.lock().unwrap_or_else(|p| p.into_inner()).take());
         self.handle.stop();
     }
 

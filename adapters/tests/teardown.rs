@@ -1,0 +1,115 @@
+//! A DDS-client device dropped while its state reader's listener runs (docs/reliability.md,
+//! "Teardown"). The listener takes the sample a forwarded command awaits through the device
+//! loop (`Wake::inline` upgrades the loop's weak handle for the call). If the device stops its
+//! loop meanwhile, that listener call holds the last reference to the loop, and the loop (its
+//! command writer with it) would be dropped inside the listener: deleting a writer from a
+//! listener that CycloneDDS runs on a thread it counts as awake (an in-process writer's own
+//! thread, delivering locally) waits for CycloneDDS's garbage collector, which waits for that
+//! same thread. The listener never returns, and the device's drop, deleting the reader, waits
+//! for it forever (seen as a hung `adapters/tests/forwarding.rs`). Domain 44.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::Arc;
+use std::time::Duration;
+
+use handgate_adapters::dds::{Node, Qos};
+use handgate_adapters::dds_device::{DdsDevice, DdsDeviceConfig, Forwarding};
+use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
+use handgate_adapters::dex1::adapter::{Dex1GoCodec, Variant};
+use handgate_adapters::mapping::TableOverrides;
+use handgate_adapters::model::{DeviceKind, HandCommand, Side};
+use handgate_idl::unitree_go::{MotorState_, MotorStates_};
+
+const DOMAIN: u32 = 44;
+/// The service thread's name: a state tap running on it runs inside the device's listener.
+const SERVICE: &str = "state-service";
+/// How long the listener is held once inside (a listener thread preempted there, or a slow
+/// tap): long enough for the drop to stop the loop meanwhile.
+const HELD: Duration = Duration::from_millis(200);
+/// Far above what a drop takes (the listener's hold, then the reader's deletion).
+const DROP_DEADLINE: Duration = Duration::from_secs(20);
+
+fn device(node: &Node) -> DdsDevice {
+    let info = DeviceInfo {
+        name: "g".into(),
+        kind: DeviceKind::Dex1,
+        side: Side::Right,
+        backend: Backend::Dds,
+        table: Arc::new(DeviceKind::Dex1.table(Side::Right, &TableOverrides::default()).unwrap()),
+    };
+    let cfg = DdsDeviceConfig {
+        cmd_topic: "rt/dex1/right/cmd".into(),
+        state_topic: Some("rt/dex1/right/state".into()),
+        rate_hz: 2.0,
+        stale_after: Duration::from_secs(2),
+        forward: Forwarding::default_for(2.0),
+    };
+    DdsDevice::start(node, info, cfg, Dex1GoCodec::new(Variant::Go, Side::Right)).unwrap()
+}
+
+/// A service in this process publishes state samples back to back from its own thread, so each
+/// is delivered locally, the device's listener running on that thread. The device forwards a
+/// command; the sample it awaits is taken in the listener through the loop, and a state tap
+/// holds the listener there while the device is dropped. The drop must return.
+#[test]
+fn a_device_dropped_while_its_listener_holds_the_loop_returns() {
+    let node = Node::new(DOMAIN, None).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let service = {
+        let (node, stop) = (node.clone(), stop.clone());
+        std::thread::Builder::new()
+            .name(SERVICE.into())
+            .spawn(move || {
+                let mut w = node
+                    .writer::<MotorStates_>("rt/dex1/right/state", Qos::BestEffort)
+                    .unwrap();
+                let mut q = 0.0f32;
+                while !stop.load(Ordering::Relaxed) {
+                    q = (q + 0.001) % 5.0;
+                    let s = MotorStates_ {
+                        states: vec![MotorState_ {
+                            q,
+                            ..Default::default()
+                        }],
+                    };
+                    w.write(s).unwrap();
+                    std::thread::yield_now();
+                }
+            })
+            .unwrap()
+    };
+
+    let dev = device(&node);
+    let (inside_tx, inside_rx) = mpsc::channel();
+    let held = Arc::new(AtomicBool::new(false));
+    let h = held.clone();
+    dev.state_taps()
+        .expect("a DDS device has state taps")
+        .add(Box::new(move |_| {
+            if std::thread::current().name() == Some(SERVICE) && !h.swap(true, Ordering::AcqRel) {
+                let _ = inside_tx.send(());
+                std::thread::sleep(HELD);
+            }
+        }));
+    // Forwarded on arrival: the next sample is awaited, and taken in the listener.
+    dev.command(HandCommand::closure(1, 0.5)).unwrap();
+    inside_rx
+        .recv_timeout(Duration::from_secs(10))
+        .expect("the awaited sample is taken in the listener, on the service's thread");
+
+    let (done_tx, done_rx) = mpsc::channel();
+    let dropper = std::thread::spawn(move || {
+        drop(dev);
+        let _ = done_tx.send(());
+    });
+    if done_rx.recv_timeout(DROP_DEADLINE).is_err() {
+        panic!(
+            "the device's drop did not return within {DROP_DEADLINE:?}: its loop was dropped inside the \
+             listener holding it, deleting its writer there (deadlock at teardown)"
+        );
+    }
+    dropper.join().unwrap();
+    stop.store(true, Ordering::Relaxed);
+    service.join().unwrap();
+}
