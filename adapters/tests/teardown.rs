@@ -92,11 +92,22 @@ fn a_device_dropped_while_its_listener_holds_the_loop_returns() {
                 std::thread::sleep(HELD);
             }
         }));
-    // Forwarded on arrival: the next sample is awaited, and taken in the listener.
-    dev.command(HandCommand::closure(1, 0.5)).unwrap();
-    inside_rx
-        .recv_timeout(Duration::from_secs(10))
-        .expect("the awaited sample is taken in the listener, on the service's thread");
+    // Forwarded on arrival: the next sample is awaited, and taken in the listener, unless the
+    // loop happened to be running then (the sample is then taken by the loop, on its own
+    // thread): a new command awaits a new sample, until one is taken in the listener.
+    let mut inside = false;
+    for seq in 1..=50u64 {
+        dev.command(HandCommand::closure(seq, 0.25 + 0.01 * seq as f32))
+            .unwrap();
+        if inside_rx.recv_timeout(Duration::from_millis(500)).is_ok() {
+            inside = true;
+            break;
+        }
+    }
+    assert!(
+        inside,
+        "no awaited sample was taken in the listener, on the service's thread, in 50 commands"
+    );
 
     let (done_tx, done_rx) = mpsc::channel();
     let dropper = std::thread::spawn(move || {
