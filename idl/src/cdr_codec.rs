@@ -35,6 +35,18 @@ pub fn from_cdr<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, CdrError> {
     cdr::deserialize_from::<_, T, _>(bytes, cdr::Bounded(bound)).map_err(|e| CdrError::Decode(e.to_string()))
 }
 
+/// `body`, a sample's bytes after its encapsulation header (a raw reader's, which does not keep
+/// the header), decoded as `T` in each byte order it decodes in: little-endian first (what the
+/// SDKs write), then big-endian.
+pub fn from_cdr_body<T: DeserializeOwned>(body: &[u8]) -> impl Iterator<Item = T> + '_ {
+    [[0u8, 1, 0, 0], [0, 0, 0, 0]].into_iter().filter_map(move |header| {
+        let mut buf = Vec::with_capacity(body.len() + 4);
+        buf.extend_from_slice(&header);
+        buf.extend_from_slice(body);
+        from_cdr::<T>(&buf).ok()
+    })
+}
+
 /// CDR strings decoded without trusting their length prefix.
 ///
 /// The `cdr` crate (0.2.4, also what cyclonedds-rs decodes every received sample with)

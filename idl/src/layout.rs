@@ -21,7 +21,7 @@ use serde::de::{DeserializeOwned, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::unitree_hg as hg;
-use crate::{from_cdr, to_cdr_le, DdsTypeName};
+use crate::{from_cdr_body, to_cdr_le, DdsTypeName};
 
 /// A sample of `T`'s DDS type, kept as the bytes after the 4-byte encapsulation header (the
 /// byte order is not kept; [`check`] tries both).
@@ -236,11 +236,7 @@ fn first_sequence_len(body: &[u8]) -> Option<usize> {
 /// Returns the re-encoded length when it decodes.
 fn fit<V: Serialize + DeserializeOwned>(body: &[u8]) -> (bool, Option<usize>) {
     let mut decoded_len = None;
-    for header in [[0u8, 1, 0, 0], [0, 0, 0, 0]] {
-        let mut buf = Vec::with_capacity(body.len() + 4);
-        buf.extend_from_slice(&header);
-        buf.extend_from_slice(body);
-        let Ok(v) = from_cdr::<V>(&buf) else { continue };
+    for v in from_cdr_body::<V>(body) {
         let Ok(enc) = to_cdr_le(&v) else { continue };
         let len = enc.len() - 4;
         if body.len() >= len && body.len() - len < 4 {
@@ -321,7 +317,7 @@ pub fn check(type_name: &str, body: &[u8]) -> Option<LayoutCheck> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::to_cdr_be;
+    use crate::{from_cdr, to_cdr_be};
 
     fn body(v: &impl Serialize) -> Vec<u8> {
         to_cdr_le(v).unwrap()[4..].to_vec()

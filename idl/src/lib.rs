@@ -22,7 +22,7 @@ pub mod unitree_go;
 pub mod unitree_hg;
 pub mod xcdr2;
 
-pub use cdr_codec::{from_cdr, to_cdr_be, to_cdr_le, CdrError};
+pub use cdr_codec::{from_cdr, from_cdr_body, to_cdr_be, to_cdr_le, CdrError};
 pub use cyclonedds_rs::TopicType;
 
 /// Implements [`TopicType`] for a keyless type with an explicit DDS type name.

@@ -76,15 +76,9 @@ pub fn decode_cmd(msg: &HandCmd_, front: &DeviceTable, measured: &[JointState]) 
 /// whose `fix` says what to change (`handgate doctor` runs it on what clients write). Only the mode
 /// byte is checked: a sample in another layout is the layout check's business.
 pub fn sample_mistake(body: &[u8]) -> Option<Rejection> {
-    for header in [[0u8, 1, 0, 0], [0, 0, 0, 0]] {
-        let mut buf = Vec::with_capacity(body.len() + 4);
-        buf.extend_from_slice(&header);
-        buf.extend_from_slice(body);
-        if let Ok(msg) = handgate_idl::cdr_codec::from_cdr::<HandCmd_>(&buf) {
-            return mode_unset(&msg);
-        }
-    }
-    None
+    handgate_idl::from_cdr_body::<HandCmd_>(body)
+        .next()
+        .and_then(|msg| mode_unset(&msg))
 }
 
 /// The first entry past the first whose mode byte is 0 (the SDK's default, never set): the
