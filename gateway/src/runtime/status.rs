@@ -1,7 +1,6 @@
 //! The gateway's status heartbeat (`rt/handgate/status`): per device, freshness, rates and
 //! counters; per served endpoint, its matched counterparts; discovery's findings.
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -57,6 +56,34 @@ impl FrontTally {
     }
 }
 
+/// Two counters' rates per second between status ticks (a device's commands sent and states,
+/// a front's commands taken and states published). The first reading is 0 (no interval yet);
+/// a status published between ticks (a changed motion verdict) repeats the last tick's rates
+/// rather than measuring over a few milliseconds.
+#[derive(Debug, Clone, Copy, Default)]
+struct TickRates {
+    /// The counts at the last tick, and when.
+    last: Option<(u64, u64, Instant)>,
+    /// The rates computed then.
+    rates: Option<(f32, f32)>,
+}
+
+impl TickRates {
+    /// The rates at `now` of `counts`, measured anew on a tick (or the first time).
+    fn at(&mut self, (a, b): (u64, u64), now: Instant, on_tick: bool) -> (f32, f32) {
+        if let Some(r) = self.rates.filter(|_| !on_tick) {
+            return r;
+        }
+        let (pa, pb, pt) = self.last.unwrap_or((a, b, now));
+        let dt = now.duration_since(pt).as_secs_f32();
+        let per_s = |x: u64, p: u64| if dt > 0.0 { x.saturating_sub(p) as f32 / dt } else { 0.0 };
+        let r = (per_s(a, pa), per_s(b, pb));
+        self.last = Some((a, b, now));
+        self.rates = Some(r);
+        r
+    }
+}
+
 /// What the status task publishes and tells the rest of the gateway: the frozen status and its
 /// extension (docs/wire-types.md, "Status: frozen, and its extension").
 pub(super) struct StatusOut {
@@ -101,16 +128,10 @@ pub(super) fn spawn_status(
         // default 1 Hz a fault would otherwise wait up to a second more (docs/adapters.md,
         // "Motion"). Checking costs a borrow of each device's state.
         let mut motion_tick = Ticker::new(MOTION_CHECK);
-        let mut prev: HashMap<String, (u64, u64, Instant)> = HashMap::new();
-        // The rates of the last tick, (cmd, state) per device: a sample published early for a
-        // motion verdict repeats them rather than measuring over a few milliseconds.
-        let mut rates: HashMap<String, (f32, f32)> = HashMap::new();
+        // Per device (commands sent, states) and per front (commands taken, states published).
+        let mut device_rates = vec![TickRates::default(); devices.len()];
+        let mut front_rates = vec![TickRates::default(); fronts.len()];
         let mut published_motion: Vec<u8> = vec![hgmsg::MOTION_OK; devices.len()];
-        // Per front, as per device: the tallies at the last tick (none before the first:
-        // the first tick reports 0 rather than a rate over a few milliseconds), and the rates
-        // then.
-        let mut front_prev: Vec<Option<(u64, u64, Instant)>> = vec![None; fronts.len()];
-        let mut front_rates: Vec<(f32, f32)> = vec![(0.0, 0.0); fronts.len()];
         loop {
             let on_tick = tokio::select! {
                 _ = tick.tick() => true,
@@ -138,24 +159,10 @@ pub(super) fn spawn_status(
                 msg.record_messages = r.written.load(Ordering::Relaxed);
                 msg.record_dropped = r.dropped.load(Ordering::Relaxed);
             }
-            for d in &devices {
+            for (d, rates) in devices.iter().zip(&mut device_rates) {
                 let s = d.device.stats();
                 let st = d.device.state().borrow().clone();
-                let (cmd_rate_hz, state_rate_hz) = match rates.get(&d.plan.name) {
-                    Some(r) if !on_tick => *r,
-                    _ => {
-                        let (pc, ps, pt) = prev
-                            .get(&d.plan.name)
-                            .cloned()
-                            .unwrap_or((s.sent, s.state_samples, now));
-                        let dt = now.duration_since(pt).as_secs_f32();
-                        let rate = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
-                        prev.insert(d.plan.name.clone(), (s.sent, s.state_samples, now));
-                        let r = (rate(s.sent, pc), rate(s.state_samples, ps));
-                        rates.insert(d.plan.name.clone(), r);
-                        r
-                    }
-                };
+                let (cmd_rate_hz, state_rate_hz) = rates.at((s.sent, s.state_samples), now, on_tick);
                 msg.devices.push(hgmsg::DeviceStatus_ {
                     device: d.plan.name.clone(),
                     kind: d.plan.kind.as_str().into(),
@@ -194,26 +201,20 @@ pub(super) fn spawn_status(
             }
             published_motion.clear();
             published_motion.extend(msg.devices.iter().map(|d| d.motion));
-            if on_tick {
-                for ((f, prev), rate) in fronts.iter().zip(&mut front_prev).zip(&mut front_rates) {
-                    let (c, s) = (f.commands.load(Ordering::Relaxed), f.states.load(Ordering::Relaxed));
-                    let (pc, ps, pt) = prev.unwrap_or((c, s, now));
-                    let dt = now.duration_since(pt).as_secs_f32();
-                    let per_s = |a: u64, b: u64| if dt > 0.0 { a.saturating_sub(b) as f32 / dt } else { 0.0 };
-                    *rate = (per_s(c, pc), per_s(s, ps));
-                    *prev = Some((c, s, now));
-                }
-            }
             let ext = hgmsg::GatewayStatusExt_ {
                 version: hgmsg::STATUS_EXT_VERSION,
                 fronts: fronts
                     .iter()
-                    .zip(&front_rates)
-                    .map(|(f, (cmd, state))| hgmsg::FrontStatus_ {
-                        name: f.name.clone(),
-                        kind: f.kind.clone(),
-                        cmd_rate_hz: *cmd,
-                        state_rate_hz: if f.publishes_state { *state } else { 0.0 },
+                    .zip(&mut front_rates)
+                    .map(|(f, rates)| {
+                        let counts = (f.commands.load(Ordering::Relaxed), f.states.load(Ordering::Relaxed));
+                        let (cmd, state) = rates.at(counts, now, on_tick);
+                        hgmsg::FrontStatus_ {
+                            name: f.name.clone(),
+                            kind: f.kind.clone(),
+                            cmd_rate_hz: cmd,
+                            state_rate_hz: if f.publishes_state { state } else { 0.0 },
+                        }
                     })
                     .collect(),
             };
