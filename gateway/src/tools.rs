@@ -207,13 +207,6 @@ pub fn render_fronts(ext: Option<&hg::GatewayStatusExt_>) -> String {
     out
 }
 
-/// Waits for one status sample.
-pub fn status_once(node: &Node, topic: &str, timeout: Duration) -> Result<hg::GatewayStatus_, DdsError> {
-    let r = node.reader::<hg::GatewayStatus_>(topic, Qos::Reliable { depth: 1 })?;
-    let mut v = r.wait_take(timeout)?;
-    Ok(v.pop().expect("wait_take returns at least one sample"))
-}
-
 /// A gateway's status and its extension, read together (`handgate status`).
 pub struct StatusReader {
     status: handgate_adapters::dds::Reader<hg::GatewayStatus_>,
