@@ -2,8 +2,9 @@
 //! measured positions, and a detector for a device whose state keeps arriving while it does
 //! not follow its command (docs/adapters.md, "Motion").
 //!
-//! A plain state machine: [`MotionDetector::observe`] takes one measured sample with its
-//! time and the targets in force, and returns the [`MotionReport`]. Every device loop feeds
+//! A plain state machine: [`MotionDetector::observe_with_contact`] takes one measured sample
+//! with its time, the targets in force and each joint's contact, and returns the
+//! [`MotionReport`]. Every device loop feeds
 //! it through `link::stamp` (the one place each loop passes every state it publishes, with
 //! the command state holding the targets), so the verdict is the same whatever the kind.
 //!
@@ -140,11 +141,7 @@ impl MotionThresholds {
 
     /// These thresholds with contact told by `contact`.
     pub const fn with_contact(self, contact: Contact) -> Self {
-        Self {
-            tolerance: self.tolerance,
-            hold: self.hold,
-            contact,
-        }
+        Self { contact, ..self }
     }
 
     /// Whether joint effort `effort` (canonical, positive = closing) or the device's own word
@@ -283,16 +280,19 @@ impl MotionDetector {
         self.report = MotionReport::idle();
     }
 
-    /// One measured sample taken at `at`: `measured` positions against `targets` in force
-    /// (`None`: nothing commanded, or a limp device). A sample whose time is not newer than
-    /// the last one (the same state republished) changes nothing.
+    /// [`Self::observe_with_contact`] with no joint in contact (the tests of the verdicts
+    /// that do not depend on it).
+    #[cfg(test)]
     pub fn observe(&mut self, at: Instant, targets: Option<&[f32]>, measured: &[f32]) -> &MotionReport {
         self.observe_with_contact(at, targets, measured, |_| false)
     }
 
-    /// [`Self::observe`] with each joint's contact (`contact(j)`: its effort or the device's
-    /// word shows contact, [`MotionThresholds::in_contact`]): a joint that stopped short of a
-    /// closing target in contact holds an object, not a fault.
+    /// One measured sample taken at `at`: `measured` positions against `targets` in force
+    /// (`None`: nothing commanded, or a limp device), with each joint's contact (`contact(j)`:
+    /// its effort or the device's word shows contact, [`MotionThresholds::in_contact`]): a
+    /// joint that stopped short of a closing target in contact holds an object, not a fault.
+    /// A sample whose time is not newer than the last one (the same state republished)
+    /// changes nothing.
     pub fn observe_with_contact(
         &mut self,
         at: Instant,

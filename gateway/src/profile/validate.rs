@@ -855,7 +855,7 @@ impl Checker {
             }
             (Some(ContactMode::Effort), None) => self.err(
                 mk.key("contact"),
-                "\"effort\" needs `contact_effort` (the kind's own effort unit: N·m, A on a brainco, effort % / 10 on an ezgripper)",
+                "\"effort\" needs `contact_effort`, in the kind's own effort unit (docs/profiles.md, `[devices.motion]`)",
             ),
             (Some(m @ (ContactMode::Reported | ContactMode::Unmeasured)), Some(_)) => self.err(
                 mk.key("contact_effort"),
