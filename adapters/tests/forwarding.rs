@@ -7,16 +7,17 @@
 //! cycle counter shows (the command reached the service while the counter stood still), not a
 //! duration.
 
-use std::sync::Arc;
+#[path = "support/dex1_client.rs"]
+mod dex1_client;
+
 use std::time::{Duration, Instant};
 
 use handgate_adapters::dds::Node;
-use handgate_adapters::dds_device::{DdsDevice, DdsDeviceConfig, Forwarding};
-use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
-use handgate_adapters::dex1::adapter::{Dex1GoCodec, Variant};
+use handgate_adapters::dds_device::{DdsDevice, Forwarding};
+use handgate_adapters::device::HandDevice;
+use handgate_adapters::dex1::adapter::Variant;
 use handgate_adapters::dex1::emulator::{Dex1Command, Dex1Config, Dex1Emulator};
-use handgate_adapters::mapping::TableOverrides;
-use handgate_adapters::model::{DeviceKind, Freshness, HandCommand, Side};
+use handgate_adapters::model::{Freshness, HandCommand, Side};
 
 fn wait_for(what: &str, mut cond: impl FnMut() -> bool) {
     let end = Instant::now() + Duration::from_secs(20);
@@ -31,22 +32,7 @@ fn start(domain: u32, rate: f64, forward: Forwarding) -> (Node, Dex1Emulator, Dd
     let mut c = Dex1Config::new(Variant::Go, Side::Right);
     c.initial_q = 5.4;
     let emu = Dex1Emulator::start(&node, c).unwrap();
-    let info = DeviceInfo {
-        name: "g".into(),
-        kind: DeviceKind::Dex1,
-        side: Side::Right,
-        backend: Backend::Dds,
-        table: Arc::new(DeviceKind::Dex1.table(Side::Right, &TableOverrides::default()).unwrap()),
-    };
-    let cfg = DdsDeviceConfig {
-        cmd_topic: "rt/dex1/right/cmd".into(),
-        state_topic: Some("rt/dex1/right/state".into()),
-        rate_hz: rate,
-        // A 2 Hz loop checks staleness twice a second: the emulator's 500 Hz state is fresh.
-        stale_after: Duration::from_secs(2),
-        forward,
-    };
-    let dev = DdsDevice::start(&node, info, cfg, Dex1GoCodec::new(Variant::Go, Side::Right)).unwrap();
+    let dev = dex1_client::dex1_client(&node, rate, forward);
     let mut rx = dev.state();
     wait_for("the first fresh state", || {
         rx.borrow_and_update().freshness == Freshness::Fresh

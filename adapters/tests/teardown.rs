@@ -8,17 +8,18 @@
 //! same thread. The listener never returns, and the device's drop, deleting the reader, waits
 //! for it forever (seen as a hung `adapters/tests/forwarding.rs`). Domain 44.
 
+#[path = "support/dex1_client.rs"]
+mod dex1_client;
+
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::time::Duration;
 
 use handgate_adapters::dds::{Node, Qos};
-use handgate_adapters::dds_device::{DdsDevice, DdsDeviceConfig, Forwarding};
-use handgate_adapters::device::{Backend, DeviceInfo, HandDevice};
-use handgate_adapters::dex1::adapter::{Dex1GoCodec, Variant};
-use handgate_adapters::mapping::TableOverrides;
-use handgate_adapters::model::{DeviceKind, HandCommand, Side};
+use handgate_adapters::dds_device::{DdsDevice, Forwarding};
+use handgate_adapters::device::HandDevice;
+use handgate_adapters::model::HandCommand;
 use handgate_idl::unitree_go::{MotorState_, MotorStates_};
 
 const DOMAIN: u32 = 44;
@@ -31,21 +32,7 @@ const HELD: Duration = Duration::from_millis(200);
 const DROP_DEADLINE: Duration = Duration::from_secs(20);
 
 fn device(node: &Node) -> DdsDevice {
-    let info = DeviceInfo {
-        name: "g".into(),
-        kind: DeviceKind::Dex1,
-        side: Side::Right,
-        backend: Backend::Dds,
-        table: Arc::new(DeviceKind::Dex1.table(Side::Right, &TableOverrides::default()).unwrap()),
-    };
-    let cfg = DdsDeviceConfig {
-        cmd_topic: "rt/dex1/right/cmd".into(),
-        state_topic: Some("rt/dex1/right/state".into()),
-        rate_hz: 2.0,
-        stale_after: Duration::from_secs(2),
-        forward: Forwarding::default_for(2.0),
-    };
-    DdsDevice::start(node, info, cfg, Dex1GoCodec::new(Variant::Go, Side::Right)).unwrap()
+    dex1_client::dex1_client(node, 2.0, Forwarding::default_for(2.0))
 }
 
 /// A service in this process publishes state samples back to back from its own thread, so each
