@@ -279,19 +279,7 @@ impl GatewayStatusExt_ {
     }
 }
 
-impl cyclonedds_rs::TopicType for GatewayStatusExt_ {
-    fn typename() -> std::ffi::CString {
-        std::ffi::CString::new(<Self as crate::DdsTypeName>::DDS_TYPE_NAME).expect("static type name has no NUL")
-    }
-    fn has_key() -> bool {
-        false
-    }
-    fn key_cdr(&self) -> Vec<u8> {
-        Vec::new()
-    }
-    fn force_md5_keyhash() -> bool {
-        false
-    }
+keyless_topic_type!(GatewayStatusExt_, "handgate::msg::dds_::GatewayStatusExt_", {
     fn own_encoding() -> bool {
         true
     }
@@ -301,11 +289,7 @@ impl cyclonedds_rs::TopicType for GatewayStatusExt_ {
     fn decode_own(bytes: &[u8]) -> Option<Self> {
         Self::from_xcdr2(bytes).ok()
     }
-}
-
-impl crate::DdsTypeName for GatewayStatusExt_ {
-    const DDS_TYPE_NAME: &'static str = "handgate::msg::dds_::GatewayStatusExt_";
-}
+});
 
 impl crate::DdsTypeName for FrontStatus_ {
     const DDS_TYPE_NAME: &'static str = "handgate::msg::dds_::FrontStatus_";

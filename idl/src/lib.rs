@@ -25,9 +25,13 @@ pub mod xcdr2;
 pub use cdr_codec::{from_cdr, from_cdr_body, to_cdr_be, to_cdr_le, CdrError};
 pub use cyclonedds_rs::TopicType;
 
-/// Implements [`TopicType`] for a keyless type with an explicit DDS type name.
+/// Implements [`TopicType`] for a keyless type with an explicit DDS type name (and, in braces,
+/// further `TopicType` methods: a type that encodes itself, `own_encoding`).
 macro_rules! keyless_topic_type {
     ($ty:ty, $name:literal) => {
+        $crate::keyless_topic_type!($ty, $name, {});
+    };
+    ($ty:ty, $name:literal, { $($extra:item)* }) => {
         impl cyclonedds_rs::TopicType for $ty {
             fn typename() -> std::ffi::CString {
                 std::ffi::CString::new($name).expect("static type name has no NUL")
@@ -41,6 +45,7 @@ macro_rules! keyless_topic_type {
             fn force_md5_keyhash() -> bool {
                 false
             }
+            $($extra)*
         }
         impl $crate::DdsTypeName for $ty {
             const DDS_TYPE_NAME: &'static str = $name;
