@@ -536,10 +536,11 @@ impl Checker {
         let status_topic = p.status_topic();
         // The status extension beside it (docs/wire-types.md, "Status: frozen, and its extension").
         let status_ext_topic = Topic(handgate_idl::handgate::status_ext_topic(status_topic.as_str()));
+        let is_status = |t: &Topic| *t == status_topic || *t == status_ext_topic;
         let mut cmd_clash = None;
         for t in topics.topics.iter().filter(|t| t.role == TopicRole::Command) {
             let Some(topic) = &t.topic else { continue };
-            if topic == &status_topic || topic == &status_ext_topic {
+            if is_status(topic) {
                 self.err(
                     k.key(t.key),
                     format!("command topic `{topic}` is the status topic or its extension"),
@@ -562,7 +563,7 @@ impl Checker {
         // Two publishers of one state topic would interleave two views of the fleet.
         for t in topics.topics.iter().filter(|t| t.role.writes()) {
             let Some(topic) = &t.topic else { continue };
-            if topic == &status_topic || topic == &status_ext_topic {
+            if is_status(topic) {
                 self.err(
                     k.key(t.key),
                     format!("state topic `{topic}` is the status topic or its extension"),
