@@ -1746,6 +1746,19 @@ pub fn faulty_hand_service(kind: &str, domain: u32, fault: &str) -> Emulation {
     )
 }
 
+/// tests/python/health_peer.py on `domain` (the ROS 2 health messages as JSON lines, `DIAG` and
+/// `HW`), once its readers exist.
+pub fn health_peer(domain: u32) -> PyProcess {
+    let py = PyProcess::spawn(
+        "health_peer.py",
+        &["--domain".into(), domain.to_string(), "--timeout".into(), "120".into()],
+    )
+    .unwrap();
+    py.wait_line("READY", Duration::from_secs(30))
+        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    py
+}
+
 /// Writes `closure` on `device`'s canonical front (`rt/handgate/<device>/cmd`) every
 /// [`STREAM_PERIOD`] on a thread, from the moment the front matches until the flag is set.
 /// The thread returns when it wrote its first command (`None`: it was stopped before).

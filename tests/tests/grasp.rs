@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use handgate_adapters::dds::Qos;
 use handgate_idl::handgate as hg;
 use handgate_idl::ros2::diagnostic_level as level;
-use handgate_tests::{node, serial, stream_closure, temp_profile, Gateway, Latest, PyProcess};
+use handgate_tests::{health_peer, node, serial, stream_closure, temp_profile, Gateway, Latest};
 use serde_json::Value;
 
 const DOMAIN: u32 = 118;
@@ -62,13 +62,7 @@ fn profile() -> std::path::PathBuf {
 fn closing_on_an_object_reads_holding_and_ok_in_diagnostics_for_every_kind_with_effort() {
     let _g = serial();
     let gw = Gateway::start(DOMAIN, &["--profile", profile().to_str().unwrap()]);
-    let py = PyProcess::spawn(
-        "health_peer.py",
-        &["--domain".into(), DOMAIN.to_string(), "--timeout".into(), "120".into()],
-    )
-    .unwrap();
-    py.wait_line("READY", DEADLINE)
-        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    let py = health_peer(DOMAIN);
     let n = node(DOMAIN);
     let mut status = Latest::<hg::GatewayStatus_>::new(&n, "rt/handgate/status", Qos::Reliable { depth: 1 });
     let streams: Vec<_> = HANDS

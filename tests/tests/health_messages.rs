@@ -15,7 +15,8 @@ use handgate_adapters::ezgripper::emulator::{EmulatorConfig, Fault, VirtualBus};
 use handgate_adapters::model::Side;
 use handgate_idl::ros2::{diagnostic_level as level, generic_state as gs};
 use handgate_tests::{
-    faulty_hand_service, hand_client_profile, serial, stream_closure, temp_profile, Emulation, Gateway, PyProcess,
+    faulty_hand_service, hand_client_profile, health_peer, serial, stream_closure, temp_profile, Emulation, Gateway,
+    PyProcess,
 };
 use serde_json::Value;
 
@@ -62,18 +63,6 @@ fn wait_for(
     (diag.unwrap(), hw.unwrap())
 }
 
-/// tests/python/health_peer.py on `domain`, once its readers exist.
-fn peer(domain: u32) -> PyProcess {
-    let py = PyProcess::spawn(
-        "health_peer.py",
-        &["--domain".into(), domain.to_string(), "--timeout".into(), "120".into()],
-    )
-    .unwrap();
-    py.wait_line("READY", DEADLINE)
-        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
-    py
-}
-
 fn diag_of<'a>(d: &'a Value, device: &str) -> Option<&'a Value> {
     d["status"]
         .as_array()?
@@ -92,7 +81,7 @@ fn a_stopped_service_turns_its_hand_from_ok_to_error_in_both_messages() {
     let left = Emulation::start(&["dex3", "--service", "--side", "left", "--domain", &d]);
     let _right = Emulation::start(&["dex3", "--service", "--side", "right", "--domain", &d]);
     let gw = Gateway::start(DOMAIN, &["--profile", "g1-dex3"]);
-    let py = peer(DOMAIN);
+    let py = health_peer(DOMAIN);
 
     let ok = |name: &str| {
         let name = name.to_string();
@@ -183,7 +172,7 @@ fn a_stuck_joint_is_a_warning_naming_the_joint_in_both_messages() {
     let _left = faulty_hand_service("dex3", DOMAIN, "stuck=index_0");
     let profile = hand_client_profile("health", "dex3");
     let gw = Gateway::start(DOMAIN, &["--profile", profile.to_str().unwrap()]);
-    let py = peer(DOMAIN);
+    let py = health_peer(DOMAIN);
     let (diag, _) = wait_for(
         &py,
         &gw,
@@ -254,7 +243,7 @@ fn a_device_fault_bit_is_an_error_naming_the_fault_in_both_messages() {
         ),
     );
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
-    let py = peer(domain);
+    let py = health_peer(domain);
     let (diag, _) = wait_for(
         &py,
         &gw,
