@@ -1,0 +1,640 @@
+//! One RS-485 line of RH56 hands: one thread per port serving every hand on it (the arbiter:
+//! only it talks on the line, one request at a time), on deadlines.
+//!
+//! Each round, for every hand in id order: a write of ANGLE_SET when its target changed since
+//! the last one written (the hand holds a target: a repeated one needs no bytes), a read of
+//! ANGLE_ACT (12 bytes), and every [`BusConfig::slow_every`]-th round (staggered between the
+//! hands) a read of FORCE_ACT..TEMP (force, current, error, status, temperature: 42 bytes). A
+//! hand that misses its reply is marked offline for that round and the others go on; a
+//! transport failure (an unplugged adapter) reconnects with backoff, as the EZGripper's bus.
+//! Nothing is allocated per round: every buffer is the thread's, reused.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use tokio::sync::watch;
+
+use super::proto::{self, Reply};
+use super::regs::{self, FINGERS};
+use crate::ezgripper::transport::{Connector, SerialConnector, Transport, TransportError};
+
+/// Wire time of `bytes` at `baud`, 8N1 (10 bits a byte).
+pub fn wire_time(bytes: usize, baud: u32) -> Duration {
+    Duration::from_secs_f64(bytes as f64 * 10.0 / f64::from(baud.max(1)))
+}
+
+/// The line's settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BusConfig {
+    pub baud: u32,
+    /// The hands' ids, in the order each round serves them.
+    pub ids: Vec<u8>,
+    /// Grace for a reply beyond its wire time (the hand's turnaround, a USB adapter's latency).
+    pub response_timeout: Duration,
+    /// The round period; `None`: as fast as the line answers.
+    pub period: Option<Duration>,
+    /// The slow feedback (force, status, error, temperature) every this many rounds per hand.
+    pub slow_every: u32,
+    /// FORCE_SET and SPEED_SET written once at start (0..1000; `None`: the hand's own).
+    pub force_set: Option<i16>,
+    pub speed_set: Option<i16>,
+    /// A reading older than this is stale.
+    pub stale_after: Duration,
+}
+
+impl Default for BusConfig {
+    fn default() -> Self {
+        BusConfig {
+            baud: 115_200,
+            ids: vec![1],
+            response_timeout: Duration::from_millis(20),
+            period: None,
+            slow_every: 10,
+            force_set: None,
+            speed_set: None,
+            stale_after: Duration::from_millis(500),
+        }
+    }
+}
+
+/// What the line last read from one hand.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HandReading {
+    pub id: u8,
+    /// The hand answered its last request.
+    pub online: bool,
+    /// Rounds with an ANGLE_ACT read so far.
+    pub round: u64,
+    pub measured_at: Instant,
+    pub angle: [i16; FINGERS],
+    pub force: [i16; FINGERS],
+    pub current: [i16; FINGERS],
+    pub error: [u8; FINGERS],
+    pub status: [u8; FINGERS],
+    pub temp: [u8; FINGERS],
+    /// The slow block was read at least once.
+    pub slow_read: bool,
+    pub last_error: Option<&'static str>,
+}
+
+impl HandReading {
+    fn initial(id: u8) -> Self {
+        HandReading {
+            id,
+            online: false,
+            round: 0,
+            measured_at: Instant::now(),
+            angle: [0; FINGERS],
+            force: [0; FINGERS],
+            current: [0; FINGERS],
+            error: [0; FINGERS],
+            status: [0; FINGERS],
+            temp: [0; FINGERS],
+            slow_read: false,
+            last_error: None,
+        }
+    }
+}
+
+/// The line's counters.
+#[derive(Debug, Default)]
+pub struct Counters {
+    pub rounds: AtomicU64,
+    pub requests: AtomicU64,
+    pub timeouts: AtomicU64,
+    pub bad_checksum: AtomicU64,
+    /// Replies from another id, for another address, or not a reply to the request.
+    pub mismatched: AtomicU64,
+    pub refused_writes: AtomicU64,
+    pub reconnects: AtomicU64,
+    pub writes: AtomicU64,
+}
+
+/// A snapshot of [`Counters`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BusStats {
+    pub rounds: u64,
+    pub requests: u64,
+    pub timeouts: u64,
+    pub bad_checksum: u64,
+    pub mismatched: u64,
+    pub refused_writes: u64,
+    pub reconnects: u64,
+    pub writes: u64,
+}
+
+impl Counters {
+    pub fn snapshot(&self) -> BusStats {
+        let g = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        BusStats {
+            rounds: g(&self.rounds),
+            requests: g(&self.requests),
+            timeouts: g(&self.timeouts),
+            bad_checksum: g(&self.bad_checksum),
+            mismatched: g(&self.mismatched),
+            refused_writes: g(&self.refused_writes),
+            reconnects: g(&self.reconnects),
+            writes: g(&self.writes),
+        }
+    }
+}
+
+/// Line failures.
+#[derive(Debug, thiserror::Error)]
+pub enum BusError {
+    #[error("no hand with id {0} on this line")]
+    UnknownId(u8),
+    #[error("hand ids must be distinct (id {0} twice)")]
+    DuplicateId(u8),
+    #[error("could not start the line's thread: {0}")]
+    Thread(#[from] std::io::Error),
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+}
+
+/// What the device asks of one hand (latest wins).
+#[derive(Debug, Clone, Copy, Default)]
+struct Pending {
+    angle: Option<[i16; FINGERS]>,
+    clear_error: bool,
+}
+
+struct Slot {
+    id: u8,
+    pending: Mutex<Pending>,
+    tx: watch::Sender<HandReading>,
+}
+
+/// One RS-485 line of RH56 hands (one thread).
+pub struct Rh56Bus {
+    slots: Arc<Vec<Slot>>,
+    counters: Arc<Counters>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+    describe: String,
+}
+
+impl std::fmt::Debug for Rh56Bus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Rh56Bus").field("line", &self.describe).finish()
+    }
+}
+
+impl Rh56Bus {
+    /// Opens the serial port at `path` and starts the line.
+    pub fn open(path: impl Into<std::path::PathBuf>, cfg: BusConfig) -> Result<Self, BusError> {
+        let c = SerialConnector {
+            path: path.into(),
+            baud: cfg.baud,
+        };
+        Self::with_connector(Box::new(c), cfg)
+    }
+
+    /// Starts the line over `connector` (a serial port, an in-process emulated line).
+    pub fn with_connector(connector: Box<dyn Connector>, cfg: BusConfig) -> Result<Self, BusError> {
+        let mut seen = Vec::new();
+        for id in &cfg.ids {
+            if seen.contains(id) {
+                return Err(BusError::DuplicateId(*id));
+            }
+            seen.push(*id);
+        }
+        let slots: Arc<Vec<Slot>> = Arc::new(
+            cfg.ids
+                .iter()
+                .map(|id| Slot {
+                    id: *id,
+                    pending: Mutex::new(Pending::default()),
+                    tx: watch::channel(HandReading::initial(*id)).0,
+                })
+                .collect(),
+        );
+        let counters = Arc::new(Counters::default());
+        let stop = Arc::new(AtomicBool::new(false));
+        let describe = connector.describe();
+        let worker = Worker {
+            slots: slots.clone(),
+            counters: counters.clone(),
+            stop: stop.clone(),
+            cfg,
+            connector,
+            req: Vec::with_capacity(64),
+            rx: Vec::with_capacity(2 * proto::MAX_READ),
+            written: Vec::new(),
+        };
+        let thread = std::thread::Builder::new()
+            .name("rh56-line".into())
+            .spawn(move || {
+                crate::realtime::enter_device_loop(); // [realtime]: this thread only
+                worker.run()
+            })?;
+        Ok(Rh56Bus {
+            slots,
+            counters,
+            stop,
+            thread: Some(thread),
+            describe,
+        })
+    }
+
+    fn slot(&self, id: u8) -> Result<&Slot, BusError> {
+        self.slots.iter().find(|s| s.id == id).ok_or(BusError::UnknownId(id))
+    }
+
+    /// Sets hand `id`'s angle targets (0..1000, -1 = keep), written at its next turn.
+    pub fn set_angles(&self, id: u8, angles: [i16; FINGERS]) -> Result<(), BusError> {
+        self.slot(id)?.pending.lock().unwrap_or_else(|p| p.into_inner()).angle = Some(angles);
+        Ok(())
+    }
+
+    /// Clears hand `id`'s error bits at its next turn.
+    pub fn clear_error(&self, id: u8) -> Result<(), BusError> {
+        self.slot(id)?.pending.lock().unwrap_or_else(|p| p.into_inner()).clear_error = true;
+        Ok(())
+    }
+
+    pub fn subscribe(&self, id: u8) -> Result<watch::Receiver<HandReading>, BusError> {
+        Ok(self.slot(id)?.tx.subscribe())
+    }
+
+    pub fn ids(&self) -> Vec<u8> {
+        self.slots.iter().map(|s| s.id).collect()
+    }
+
+    pub fn stats(&self) -> BusStats {
+        self.counters.snapshot()
+    }
+
+    pub fn describe(&self) -> &str {
+        &self.describe
+    }
+}
+
+impl Drop for Rh56Bus {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Why one exchange failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Miss {
+    Timeout,
+    BadChecksum,
+    Mismatched,
+    Refused,
+    /// The transport failed: reconnect.
+    Link,
+}
+
+impl Miss {
+    fn text(self) -> &'static str {
+        match self {
+            Miss::Timeout => "no reply in time",
+            Miss::BadChecksum => "reply with a bad checksum",
+            Miss::Mismatched => "reply not matching the request (id, command or address)",
+            Miss::Refused => "write refused by the hand (result 0)",
+            Miss::Link => "serial link failed",
+        }
+    }
+}
+
+struct Worker {
+    slots: Arc<Vec<Slot>>,
+    counters: Arc<Counters>,
+    stop: Arc<AtomicBool>,
+    cfg: BusConfig,
+    connector: Box<dyn Connector>,
+    req: Vec<u8>,
+    rx: Vec<u8>,
+    /// Per slot, the angles last written.
+    written: Vec<Option<[i16; FINGERS]>>,
+}
+
+impl Worker {
+    fn run(mut self) {
+        self.written = vec![None; self.slots.len()];
+        let mut link: Option<Box<dyn Transport>> = None;
+        let mut backoff = Duration::from_millis(50);
+        let mut round: u64 = 0;
+        let mut next = Instant::now();
+        let mut logged_down = false;
+        while !self.stop.load(Ordering::Relaxed) {
+            let Some(t) = link.as_mut() else {
+                match self.connector.connect() {
+                    Ok(t) => {
+                        if round > 0 {
+                            self.counters.reconnects.fetch_add(1, Ordering::Relaxed);
+                            tracing::info!(line = %self.connector.describe(), "RH56 line back");
+                        }
+                        link = Some(t);
+                        backoff = Duration::from_millis(50);
+                        logged_down = false;
+                        // Re-send targets and settings after a reconnect (the hands may have
+                        // been power-cycled with it).
+                        self.written.iter_mut().for_each(|w| *w = None);
+                        if let Some(t) = link.as_mut() {
+                            self.settings(t.as_mut());
+                        }
+                    }
+                    Err(e) => {
+                        if !logged_down {
+                            tracing::warn!(line = %self.connector.describe(), error = %e, "RH56 line unavailable; retrying");
+                            logged_down = true;
+                        }
+                        self.all_offline(Miss::Link);
+                        std::thread::sleep(backoff);
+                        backoff = (backoff * 2).min(Duration::from_secs(1));
+                        round += 1;
+                    }
+                }
+                continue;
+            };
+            let mut failed = false;
+            for i in 0..self.slots.len() {
+                if self.serve(t.as_mut(), i, round) == Err(Miss::Link) {
+                    failed = true;
+                    break;
+                }
+            }
+            self.counters.rounds.fetch_add(1, Ordering::Relaxed);
+            round += 1;
+            if failed {
+                self.all_offline(Miss::Link);
+                link = None;
+                continue;
+            }
+            if let Some(p) = self.cfg.period {
+                next += p;
+                let now = Instant::now();
+                if next > now {
+                    std::thread::sleep(next - now);
+                } else {
+                    next = now;
+                }
+            }
+        }
+    }
+
+    fn all_offline(&self, why: Miss) {
+        for s in self.slots.iter() {
+            s.tx.send_if_modified(|r| {
+                let was = r.online;
+                r.online = false;
+                r.last_error = Some(why.text());
+                was
+            });
+        }
+    }
+
+    /// FORCE_SET / SPEED_SET from the profile, to every hand.
+    fn settings(&mut self, t: &mut dyn Transport) {
+        for (reg, v) in [(regs::FORCE_SET, self.cfg.force_set), (regs::SPEED_SET, self.cfg.speed_set)] {
+            let Some(v) = v else { continue };
+            let mut data = [0u8; regs::BLOCK];
+            for k in 0..FINGERS {
+                data[2 * k..2 * k + 2].copy_from_slice(&v.to_le_bytes());
+            }
+            for i in 0..self.slots.len() {
+                let id = self.slots[i].id;
+                if let Err(m) = self.write(t, id, reg, &data) {
+                    tracing::warn!(id, register = reg, why = m.text(), "RH56 setting not written");
+                }
+            }
+        }
+    }
+
+    /// One hand's turn in round `round`.
+    fn serve(&mut self, t: &mut dyn Transport, i: usize, round: u64) -> Result<(), Miss> {
+        let id = self.slots[i].id;
+        let pending = std::mem::replace(
+            &mut self.slots[i].pending.lock().unwrap_or_else(|p| p.into_inner()).clear_error,
+            false,
+        );
+        let angle = self.slots[i].pending.lock().unwrap_or_else(|p| p.into_inner()).angle;
+        if pending {
+            self.write(t, id, regs::CLEAR_ERROR, &[1]).map_err(|m| self.miss(i, m))?;
+        }
+        if let Some(a) = angle {
+            if self.written[i] != Some(a) {
+                let mut data = [0u8; regs::BLOCK];
+                for k in 0..FINGERS {
+                    data[2 * k..2 * k + 2].copy_from_slice(&a[k].to_le_bytes());
+                }
+                self.write(t, id, regs::ANGLE_SET, &data).map_err(|m| self.miss(i, m))?;
+                self.written[i] = Some(a);
+            }
+        }
+        let mut angles = [0u8; regs::BLOCK];
+        self.read(t, id, regs::ANGLE_ACT, &mut angles).map_err(|m| self.miss(i, m))?;
+        let every = u64::from(self.cfg.slow_every.max(1));
+        let slow = !self.slots[i].tx.borrow().slow_read || (round + i as u64) % every == 0;
+        let mut block = [0u8; regs::SLOW_BLOCK.1];
+        if slow {
+            self.read(t, id, regs::SLOW_BLOCK.0, &mut block).map_err(|m| self.miss(i, m))?;
+        }
+        let now = Instant::now();
+        self.slots[i].tx.send_modify(|r| {
+            r.online = true;
+            r.round += 1;
+            r.measured_at = now;
+            r.last_error = None;
+            r.angle = shorts(&angles);
+            if slow {
+                let o = |reg: u16| (reg - regs::SLOW_BLOCK.0) as usize;
+                r.force = shorts(&block[o(regs::FORCE_ACT)..o(regs::FORCE_ACT) + regs::BLOCK]);
+                r.current = shorts(&block[o(regs::CURRENT)..o(regs::CURRENT) + regs::BLOCK]);
+                r.error.copy_from_slice(&block[o(regs::ERROR)..o(regs::ERROR) + FINGERS]);
+                r.status.copy_from_slice(&block[o(regs::STATUS)..o(regs::STATUS) + FINGERS]);
+                r.temp.copy_from_slice(&block[o(regs::TEMP)..o(regs::TEMP) + FINGERS]);
+                r.slow_read = true;
+            }
+        });
+        Ok(())
+    }
+
+    /// Counts `m` and marks slot `i` offline (a transport failure is the caller's).
+    fn miss(&self, i: usize, m: Miss) -> Miss {
+        let c = &self.counters;
+        match m {
+            Miss::Timeout => &c.timeouts,
+            Miss::BadChecksum => &c.bad_checksum,
+            Miss::Mismatched => &c.mismatched,
+            Miss::Refused => &c.refused_writes,
+            Miss::Link => return m,
+        }
+        .fetch_add(1, Ordering::Relaxed);
+        self.slots[i].tx.send_if_modified(|r| {
+            let was = r.online;
+            r.online = false;
+            r.last_error = Some(m.text());
+            was
+        });
+        m
+    }
+
+    fn write(&mut self, t: &mut dyn Transport, id: u8, addr: u16, data: &[u8]) -> Result<(), Miss> {
+        proto::encode_write(id, addr, data, &mut self.req).map_err(|_| Miss::Mismatched)?;
+        self.counters.writes.fetch_add(1, Ordering::Relaxed);
+        match self.exchange(t, proto::SHORT_FRAME)? {
+            Reply::WriteAck { id: rid, addr: a, ok } if rid == id && a == addr => {
+                if ok {
+                    Ok(())
+                } else {
+                    Err(Miss::Refused)
+                }
+            }
+            _ => Err(Miss::Mismatched),
+        }
+    }
+
+    fn read(&mut self, t: &mut dyn Transport, id: u8, addr: u16, out: &mut [u8]) -> Result<(), Miss> {
+        proto::encode_read(id, addr, out.len(), &mut self.req).map_err(|_| Miss::Mismatched)?;
+        let (rid, a, n) = match self.exchange(t, out.len() + 8)? {
+            Reply::Read { id, addr, data } => (id, addr, data.len()),
+            _ => return Err(Miss::Mismatched),
+        };
+        if rid != id || a != addr || n != out.len() {
+            return Err(Miss::Mismatched);
+        }
+        out.copy_from_slice(&self.rx[7..7 + n]);
+        Ok(())
+    }
+
+    /// Sends `self.req` and reads one reply of `expect` bytes into `self.rx`, by a deadline of
+    /// both frames' wire time plus the response timeout.
+    fn exchange(&mut self, t: &mut dyn Transport, expect: usize) -> Result<Reply<'_>, Miss> {
+        self.counters.requests.fetch_add(1, Ordering::Relaxed);
+        t.clear_input().map_err(|_| Miss::Link)?;
+        t.write_all(&self.req).map_err(|_| Miss::Link)?;
+        let deadline = Instant::now() + wire_time(self.req.len() + expect, self.cfg.baud) + self.cfg.response_timeout;
+        self.rx.clear();
+        let mut buf = [0u8; 2 * proto::MAX_READ];
+        loop {
+            // Skip anything before a reply header (an echo, line noise).
+            let start = self.rx.windows(2).position(|w| w == proto::REPLY_HEADER);
+            match start {
+                Some(s) if s > 0 => {
+                    self.rx.drain(..s);
+                }
+                None if self.rx.len() > 1 => {
+                    let keep = usize::from(self.rx.last() == Some(&proto::REPLY_HEADER[0]));
+                    let cut = self.rx.len() - keep;
+                    self.rx.drain(..cut);
+                }
+                _ => {}
+            }
+            match proto::decode_reply(&self.rx) {
+                Ok(_) => break,
+                Err(proto::FrameError::Incomplete { .. }) => {}
+                Err(proto::FrameError::BadChecksum { .. }) => return Err(Miss::BadChecksum),
+                Err(_) => return Err(Miss::Mismatched),
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return Err(Miss::Timeout);
+            }
+            let n = t.read(&mut buf, deadline - now).map_err(|_| Miss::Link)?;
+            self.rx.extend_from_slice(&buf[..n]);
+        }
+        proto::decode_reply(&self.rx).map(|(r, _)| r).map_err(|_| Miss::Mismatched)
+    }
+}
+
+fn shorts(b: &[u8]) -> [i16; FINGERS] {
+    std::array::from_fn(|k| i16::from_le_bytes([b[2 * k], b[2 * k + 1]]))
+}
+
+/// An emulated line in-process: the hands answer on the line's own thread, each reply handed
+/// over when its wire time at the line's baud has passed (request + reply), so the line runs at
+/// the rate a real one would and nothing else must be scheduled for a reply to be on time.
+pub struct EmulatedLine {
+    pub line: Arc<Mutex<super::emulator::Line>>,
+    pub baud: u32,
+}
+
+impl Connector for EmulatedLine {
+    fn connect(&mut self) -> Result<Box<dyn Transport>, TransportError> {
+        Ok(Box::new(EmulatedPort {
+            line: self.line.clone(),
+            baud: self.baud,
+            inbox: Vec::with_capacity(512),
+            reply: Vec::with_capacity(512),
+            sent: 0,
+            ready_at: Instant::now(),
+        }))
+    }
+
+    fn describe(&self) -> String {
+        format!("emulated RH56 line @ {} baud", self.baud)
+    }
+}
+
+struct EmulatedPort {
+    line: Arc<Mutex<super::emulator::Line>>,
+    baud: u32,
+    inbox: Vec<u8>,
+    reply: Vec<u8>,
+    sent: usize,
+    ready_at: Instant,
+}
+
+impl Transport for EmulatedPort {
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        let start = Instant::now();
+        self.inbox.extend_from_slice(bytes);
+        loop {
+            match proto::decode_request(&self.inbox) {
+                Ok((req, n)) => {
+                    let mut line = self.line.lock().unwrap_or_else(|p| p.into_inner());
+                    let mut out = std::mem::take(&mut self.reply);
+                    if line.answer(&req, start, &mut out) {
+                        self.ready_at = start + wire_time(n + out.len(), self.baud);
+                        self.sent = 0;
+                    } else {
+                        out.clear();
+                    }
+                    self.reply = out;
+                    self.inbox.drain(..n);
+                }
+                Err(proto::FrameError::Incomplete { .. }) => break,
+                Err(_) => {
+                    let skip = proto::resync(&self.inbox);
+                    self.inbox.drain(..skip);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, TransportError> {
+        if self.sent >= self.reply.len() {
+            std::thread::sleep(timeout);
+            return Ok(0);
+        }
+        let now = Instant::now();
+        if self.ready_at > now {
+            let wait = self.ready_at - now;
+            if wait > timeout {
+                std::thread::sleep(timeout);
+                return Ok(0);
+            }
+            std::thread::sleep(wait);
+        }
+        let n = (self.reply.len() - self.sent).min(buf.len());
+        buf[..n].copy_from_slice(&self.reply[self.sent..self.sent + n]);
+        self.sent += n;
+        Ok(n)
+    }
+
+    fn clear_input(&mut self) -> Result<(), TransportError> {
+        self.reply.clear();
+        self.sent = 0;
+        Ok(())
+    }
+}
