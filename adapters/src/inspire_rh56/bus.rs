@@ -638,3 +638,109 @@ impl Transport for EmulatedPort {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::inspire_rh56::emulator::{HandSpec, Line, Rh56Hand};
+
+    fn line(ids: &[u8]) -> Arc<Mutex<Line>> {
+        Arc::new(Mutex::new(Line::new(
+            ids.iter().map(|id| Rh56Hand::new(HandSpec::new(*id))).collect(),
+        )))
+    }
+
+    fn wait(rx: &mut watch::Receiver<HandReading>, ok: impl Fn(&HandReading) -> bool) -> HandReading {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            let r = rx.borrow_and_update().clone();
+            if ok(&r) {
+                return r;
+            }
+            assert!(Instant::now() < deadline, "never: {r:?}");
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+
+    #[test]
+    fn two_hands_on_one_line_each_follow_their_own_target() {
+        let l = line(&[1, 2]);
+        let cfg = BusConfig {
+            ids: vec![1, 2],
+            speed_set: Some(1000),
+            ..BusConfig::default()
+        };
+        let bus = Rh56Bus::with_connector(Box::new(EmulatedLine { line: l, baud: 115_200 }), cfg).unwrap();
+        bus.set_angles(1, [0, 0, 0, 0, 0, 0]).unwrap();
+        bus.set_angles(2, [500, -1, 500, -1, 500, -1]).unwrap();
+        let (mut a, mut b) = (bus.subscribe(1).unwrap(), bus.subscribe(2).unwrap());
+        let r1 = wait(&mut a, |r| r.online && r.angle == [0; 6]);
+        let r2 = wait(&mut b, |r| r.online && r.angle == [500, 1000, 500, 1000, 500, 1000]);
+        assert!(r1.slow_read && r1.temp == [35; 6], "{r1:?}");
+        assert!(r2.status.iter().all(|s| *s == regs::status::POSITION_REACHED || *s == 0));
+        assert_eq!(bus.stats().timeouts, 0);
+        assert!(matches!(bus.set_angles(3, [0; 6]), Err(BusError::UnknownId(3))));
+    }
+
+    /// A hand that never answers is offline (timeouts counted, its reading says why); the other
+    /// hand on the line goes on. Fails if a miss stopped the round or went uncounted.
+    #[test]
+    fn a_silent_hand_times_out_and_the_other_goes_on() {
+        let l = line(&[1]);
+        let cfg = BusConfig {
+            ids: vec![1, 3],
+            ..BusConfig::default()
+        };
+        let bus = Rh56Bus::with_connector(Box::new(EmulatedLine { line: l, baud: 115_200 }), cfg).unwrap();
+        let (mut a, mut c) = (bus.subscribe(1).unwrap(), bus.subscribe(3).unwrap());
+        let first = wait(&mut a, |r| r.online && r.round > 0).round;
+        wait(&mut a, |r| r.round >= first + 20);
+        let r3 = c.borrow_and_update().clone();
+        assert!(!r3.online && r3.round == 0, "{r3:?}");
+        assert_eq!(r3.last_error, Some("no reply in time"));
+        assert!(bus.stats().timeouts >= 20, "{:?}", bus.stats());
+    }
+
+    /// Two hands on one line at 115200 baud, as fast as the line answers: each hand's state
+    /// rate is at least 100 Hz (what Unitree's DFX service polls) while both hands are
+    /// commanded, and at least 80 % of the wire limit computed from the frames' lengths.
+    #[test]
+    fn two_hands_on_one_line_at_115200_each_read_at_100_hz_or_more() {
+        let l = line(&[1, 2]);
+        let cfg = BusConfig {
+            ids: vec![1, 2],
+            ..BusConfig::default()
+        };
+        let every = cfg.slow_every as f64;
+        let bus = Rh56Bus::with_connector(Box::new(EmulatedLine { line: l, baud: 115_200 }), cfg).unwrap();
+        let (mut a, mut b) = (bus.subscribe(1).unwrap(), bus.subscribe(2).unwrap());
+        wait(&mut a, |r| r.online);
+        wait(&mut b, |r| r.online);
+        // Targets changing every 20 ms (a 50 Hz teleoperation stream) on both hands.
+        let (r0a, r0b, t0) = (a.borrow().round, b.borrow().round, Instant::now());
+        let mut k = 0i16;
+        while t0.elapsed() < Duration::from_secs(2) {
+            k = (k + 37) % 1000;
+            bus.set_angles(1, [k; 6]).unwrap();
+            bus.set_angles(2, [1000 - k; 6]).unwrap();
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let dt = t0.elapsed().as_secs_f64();
+        let (ha, hb) = (
+            (a.borrow().round - r0a) as f64 / dt,
+            (b.borrow().round - r0b) as f64 / dt,
+        );
+        // The wire limit of this schedule: per hand per round a 9-byte read request and a
+        // 20-byte reply, a slow read (9 + 50 bytes) every `every` rounds, and a write (20 + 9
+        // bytes) per command, 50 a second.
+        let bytes_per_round = 2.0 * (29.0 + 59.0 / every);
+        let write_bytes_per_s = 2.0 * 50.0 * 29.0;
+        let limit = (11_520.0 - write_bytes_per_s) / bytes_per_round;
+        eprintln!("per hand: {ha:.1} Hz and {hb:.1} Hz; wire limit {limit:.1} Hz");
+        for hz in [ha, hb] {
+            assert!(hz >= 100.0, "{hz:.1} Hz < 100 Hz");
+            assert!(hz >= 0.8 * limit, "{hz:.1} Hz < 80 % of the wire limit {limit:.1} Hz");
+        }
+        assert_eq!(bus.stats().timeouts, 0, "{:?}", bus.stats());
+    }
+}
