@@ -18,7 +18,7 @@ use tokio::sync::watch;
 
 use super::proto::{self, Reply};
 use super::regs::{self, FINGERS};
-use crate::ezgripper::transport::{Connector, SerialConnector, Transport, TransportError};
+use crate::serial::{Connector, SerialConnector, Transport, TransportError};
 
 /// Wire time of `bytes` at `baud`, 8N1 (10 bits a byte).
 pub fn wire_time(bytes: usize, baud: u32) -> Duration {

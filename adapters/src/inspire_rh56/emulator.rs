@@ -19,6 +19,8 @@
 
 use std::time::Instant;
 
+use super::file::{touches, words_to_bytes, RegisterFile};
+pub use super::file::Refused;
 use super::proto::{self, Request};
 use super::regs::{self, FINGERS};
 
@@ -59,42 +61,28 @@ impl HandSpec {
     }
 }
 
-/// Why a register access was refused.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum Refused {
-    #[error("bytes {addr}..{} are outside the register file (1000..5124)", *.addr as usize + *.len)]
-    OutOfRange { addr: u16, len: usize },
-    #[error("bytes {addr}..{} are read-only", *.addr as usize + *.len)]
-    ReadOnly { addr: u16, len: usize },
-}
-
 /// One emulated RH56 hand.
 #[derive(Debug, Clone)]
 pub struct Rh56Hand {
     spec: HandSpec,
-    /// Bytes FILE_START..FILE_END.
-    file: Vec<u8>,
+    file: RegisterFile,
     angle: [f32; FINGERS],
     target: [f32; FINGERS],
     errors: [u8; FINGERS],
     last: Option<Instant>,
 }
 
-fn at(addr: u16) -> usize {
-    (addr - regs::FILE_START) as usize
-}
-
 impl Rh56Hand {
     pub fn new(spec: HandSpec) -> Self {
         let mut h = Rh56Hand {
-            file: vec![0; at(regs::FILE_END)],
+            file: RegisterFile::default(),
             angle: spec.start.map(|a| a.clamp(0.0, 1000.0)),
             target: spec.start.map(|a| a.clamp(0.0, 1000.0)),
             errors: [0; FINGERS],
             last: None,
             spec,
         };
-        h.file[at(regs::HAND_ID)] = h.spec.id;
+        h.file.put_byte(regs::HAND_ID, h.spec.id);
         for i in 0..FINGERS {
             h.put_short(regs::ANGLE_SET, i, h.target[i].round() as i16);
             h.put_short(regs::FORCE_SET, i, DEFAULT_FORCE);
@@ -126,13 +114,16 @@ impl Rh56Hand {
     }
 
     fn short(&self, block: u16, i: usize) -> i16 {
-        let o = at(block) + 2 * i;
-        i16::from_le_bytes([self.file[o], self.file[o + 1]])
+        self.file.short(block, i)
     }
 
     fn put_short(&mut self, block: u16, i: usize, v: i16) {
-        let o = at(block) + 2 * i;
-        self.file[o..o + 2].copy_from_slice(&v.to_le_bytes());
+        self.file.put_short(block, i, v)
+    }
+
+    /// The register file (what a read answers).
+    pub fn file(&self) -> &RegisterFile {
+        &self.file
     }
 
     /// Moves the fingers to `now` and refreshes the measured registers.
@@ -188,9 +179,9 @@ impl Rh56Hand {
             } else {
                 regs::status::RELEASING
             };
-            self.file[at(regs::ERROR) + i] = self.errors[i];
-            self.file[at(regs::STATUS) + i] = status;
-            self.file[at(regs::TEMP) + i] = TEMP_C;
+            self.file.put_byte(regs::ERROR + i as u16, self.errors[i]);
+            self.file.put_byte(regs::STATUS + i as u16, status);
+            self.file.put_byte(regs::TEMP + i as u16, TEMP_C);
         }
         if self.spec.tactile {
             self.touch();
@@ -212,36 +203,23 @@ impl Rh56Hand {
                 let force = self.short(regs::FORCE_ACT, f).clamp(0, 1000) as u32;
                 (force * u32::from(regs::TACTILE_MAX) / 1000) as u16
             });
-            for k in 0..(r * c) as usize {
-                let o = at(addr) + 2 * k;
-                self.file[o..o + 2].copy_from_slice(&v.to_le_bytes());
+            for k in 0..r * c {
+                self.file.put(addr + 2 * k, &v.to_le_bytes());
             }
         }
     }
 
     /// Reads `out.len()` bytes from `addr`.
     pub fn read(&self, addr: u16, out: &mut [u8]) -> Result<(), Refused> {
-        if !regs::readable(addr, out.len()) {
-            return Err(Refused::OutOfRange { addr, len: out.len() });
-        }
-        out.copy_from_slice(&self.file[at(addr)..at(addr) + out.len()]);
-        Ok(())
+        self.file.read(addr, out)
     }
 
     /// Writes `data` at `addr` (parameters and targets only), then applies it: an ANGLE_SET
     /// entry of -1 keeps that finger's target, others are clamped to 0..1000 as FORCE_SET and
     /// SPEED_SET are; CLEAR_ERROR 1 clears the error bits.
     pub fn write(&mut self, addr: u16, data: &[u8]) -> Result<(), Refused> {
-        if !regs::readable(addr, data.len()) {
-            return Err(Refused::OutOfRange { addr, len: data.len() });
-        }
-        if !regs::writable(addr, data.len()) {
-            return Err(Refused::ReadOnly { addr, len: data.len() });
-        }
-        self.file[at(addr)..at(addr) + data.len()].copy_from_slice(data);
-        let touches = |reg: u16, len: usize| {
-            addr as usize + data.len() > reg as usize && (addr as usize) < reg as usize + len
-        };
+        self.file.write(addr, data)?;
+        let touches = |reg: u16, len: usize| touches(addr, data.len(), reg, len);
         if touches(regs::ANGLE_SET, regs::BLOCK) {
             for i in 0..FINGERS {
                 let v = self.short(regs::ANGLE_SET, i);
@@ -262,9 +240,9 @@ impl Rh56Hand {
                 }
             }
         }
-        if touches(regs::CLEAR_ERROR, 1) && self.file[at(regs::CLEAR_ERROR)] == 1 {
+        if touches(regs::CLEAR_ERROR, 1) && self.file.byte(regs::CLEAR_ERROR) == 1 {
             self.errors = [0; FINGERS];
-            self.file[at(regs::CLEAR_ERROR)] = 0;
+            self.file.put_byte(regs::CLEAR_ERROR, 0);
         }
         self.publish();
         Ok(())
@@ -273,25 +251,14 @@ impl Rh56Hand {
     /// Modbus's view (docs at [`regs`]): register `addr + k` is the little-endian short at
     /// bytes `addr + 2k`.
     pub fn read_words(&self, addr: u16, out: &mut [u16]) -> Result<(), Refused> {
-        let len = 2 * out.len();
-        if !regs::readable(addr, len) {
-            return Err(Refused::OutOfRange { addr, len });
-        }
-        let base = at(addr);
-        for (k, w) in out.iter_mut().enumerate() {
-            *w = u16::from_le_bytes([self.file[base + 2 * k], self.file[base + 2 * k + 1]]);
-        }
-        Ok(())
+        self.file.read_words(addr, out)
     }
 
     /// Writes Modbus registers from `addr` (each the next two bytes, little-endian in the file).
-    pub fn write_words(&mut self, addr: u16, values: impl ExactSizeIterator<Item = u16>) -> Result<(), Refused> {
+    pub fn write_words(&mut self, addr: u16, values: impl Iterator<Item = u16>) -> Result<(), Refused> {
         let mut buf = [0u8; 2 * 123];
-        let n = values.len().min(123);
-        for (k, v) in values.take(n).enumerate() {
-            buf[2 * k..2 * k + 2].copy_from_slice(&v.to_le_bytes());
-        }
-        self.write(addr, &buf[..2 * n])
+        let n = words_to_bytes(values, &mut buf);
+        self.write(addr, &buf[..n])
     }
 
     /// Answers `req` at `now` into `out` (cleared). `false`: the request is for another id and
@@ -382,12 +349,12 @@ mod tests {
         let a = read_shorts(&h, regs::ANGLE_ACT);
         assert_eq!(a[0], 750, "{a:?}");
         assert_eq!(a[1], 1000, "-1 keeps the ring finger where it was told: open");
-        assert_eq!(h.file[at(regs::STATUS)], regs::status::GRASPING);
+        assert_eq!(h.file.byte(regs::STATUS), regs::status::GRASPING);
         assert_eq!(read_shorts(&h, regs::ANGLE_SET)[1], 1000, "-1 reads back as the kept target");
         h.step(t0 + Duration::from_secs(10));
         let a = read_shorts(&h, regs::ANGLE_ACT);
         assert_eq!(a, [0, 1000, 0, 0, 0, 0]);
-        assert_eq!(h.file[at(regs::STATUS)], regs::status::POSITION_REACHED);
+        assert_eq!(h.file.byte(regs::STATUS), regs::status::POSITION_REACHED);
         assert_eq!(read_shorts(&h, regs::POS_ACT)[0], 2000);
         // Out-of-range targets are clamped.
         h.write(regs::ANGLE_SET, &shorts(&[1500, -7, -1, -1, -1, -1])).unwrap();
@@ -408,7 +375,7 @@ mod tests {
         let a = read_shorts(&h, regs::ANGLE_ACT);
         assert_eq!(a, [0, 0, 0, 400, 0, 0]);
         assert_eq!(read_shorts(&h, regs::FORCE_ACT), [0, 0, 0, 300, 0, 0]);
-        assert_eq!(h.file[at(regs::STATUS) + 3], regs::status::FORCE_REACHED);
+        assert_eq!(h.file.byte(regs::STATUS + 3), regs::status::FORCE_REACHED);
         // The index's tactile cells read the force; the middle's do not.
         let mut w = [0u16; 2];
         h.read_words(4320, &mut w).unwrap();
@@ -430,10 +397,10 @@ mod tests {
         h.write(regs::ANGLE_SET, &shorts(&[0; 6])).unwrap();
         h.step(t0 + Duration::from_secs(5));
         assert_eq!(read_shorts(&h, regs::ANGLE_ACT)[..2], [1000, 0]);
-        assert_eq!(h.file[at(regs::ERROR)], regs::error_bits::STALL);
-        assert_eq!(h.file[at(regs::STATUS)], regs::status::ACTUATOR_FAULT);
+        assert_eq!(h.file.byte(regs::ERROR), regs::error_bits::STALL);
+        assert_eq!(h.file.byte(regs::STATUS), regs::status::ACTUATOR_FAULT);
         h.write(regs::CLEAR_ERROR, &[1]).unwrap();
-        assert_eq!(h.file[at(regs::ERROR)], 0);
+        assert_eq!(h.file.byte(regs::ERROR), 0);
         h.step(t0 + Duration::from_secs(10));
         assert_eq!(read_shorts(&h, regs::ANGLE_ACT)[0], 0);
     }

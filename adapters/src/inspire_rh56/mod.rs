@@ -13,6 +13,7 @@ pub mod adapter;
 pub mod bus;
 pub mod config;
 pub mod emulator;
+pub mod file;
 pub mod kind;
 pub mod proto;
 pub mod pty;

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use super::emulator::Line;
 use super::proto::{self, FrameError};
-use crate::ezgripper::pty::{replace_symlink, Pty};
+use crate::serial::{replace_symlink, Pty};
 
 /// What the pty line refused, by reason.
 #[derive(Debug, Default)]
