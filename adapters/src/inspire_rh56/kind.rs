@@ -39,6 +39,7 @@ pub const DEFAULT_RATE_HZ: f64 = crate::inspire_dfx::SERVICE_RATE_HZ;
 impl Kind for InspireRh56Kind {
     const FACTS: KindFacts = KindFacts {
         sides: Sides::LeftOrRight { note: ", not center" },
+        fronts: &[crate::front::kind::FrontKind::InspireRh56],
         sections: &[SectionSpec {
             key: "inspire_rh56",
             backends: &[Backend::Serial, Backend::Emulator],
