@@ -1,0 +1,211 @@
+//! The Inspire RH56 driven directly (docs/inspire-rh56.md): pyrh56 0.4.0 (PyPI, not written
+//! here) against `handgate emulate inspire-rh56` and against the RH56 front on a pty (two RH56
+//! hands on one emulated line, and an emulated Dex3 behind it); handgate's own device driving
+//! the standalone emulator; bad input on the emulator's pty. Domains 47 and 69.
+
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use handgate_adapters::dds::Qos;
+use handgate_idl::handgate as hg;
+use handgate_tests::{
+    node, poll, python_script, repo_root, serial, status_device, stream_closure, venv_python, Emulation as Emulator,
+    Gateway, Latest,
+};
+
+const DEADLINE: Duration = Duration::from_secs(30);
+
+/// A path under the temp dir unique to this process and `what`.
+fn tmp(what: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("handgate-rh56-test-{}-{what}", std::process::id()))
+}
+
+/// Runs tests/python/rh56_pyrh56.py with `args` (bounded): its stdout, asserting success.
+fn pyrh56(args: &[&str]) -> String {
+    let mut child = Command::new(venv_python())
+        .arg(python_script("rh56_pyrh56.py"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("python starts");
+    let done = poll(Duration::from_secs(60), || child.try_wait().ok().flatten());
+    if done.is_none() {
+        let _ = child.kill();
+    }
+    let out = child.wait_with_output().expect("python output");
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    );
+    assert!(done.is_some() && out.status.success(), "pyrh56 {args:?} failed:\n{o}\n{e}");
+    assert!(o.contains("DONE"), "{o}\n{e}");
+    o
+}
+
+/// A shipped profile with `(from, to)` replaced, written to a temp file.
+fn shipped_edited(name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let mut text = std::fs::read_to_string(repo_root().join("profiles").join(format!("{name}.toml"))).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "profiles/{name}.toml no longer contains {from:?}");
+        text = text.replace(from, to);
+    }
+    let p = tmp(&format!("{name}.toml"));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Waits until the gateway on `domain` reports every device of `names` fresh.
+fn wait_fresh(domain: u32, names: &[&str]) {
+    let node = node(domain);
+    let mut status: Latest<hg::GatewayStatus_> = Latest::new(&node, "rt/handgate/status", Qos::Reliable { depth: 1 });
+    let ok = poll(DEADLINE, || {
+        let s = status.update()?;
+        names
+            .iter()
+            .all(|n| status_device(s, n).freshness == hg::FRESH)
+            .then_some(())
+    });
+    assert!(ok.is_some(), "devices {names:?} never fresh: {:?}", status.update());
+}
+
+#[test]
+fn pyrh56_drives_two_hands_on_handgate_emulate_inspire_rh56() {
+    let pty = tmp("emulated-line");
+    let emu = Emulator::start(&["inspire-rh56", "--ids", "1,2", "--pty", pty.to_str().unwrap()]);
+    assert!(emu.line.contains("1, 2") && emu.line.contains(pty.to_str().unwrap()), "{}", emu.line);
+    let out = pyrh56(&[pty.to_str().unwrap(), "1,2"]);
+    assert!(out.contains("OK 1 ") && out.contains("OK 2 "), "{out}");
+}
+
+/// handgate's own device (the rh56-pair profile, backend serial) drives the standalone
+/// emulator's two hands on one line; a canonical closure command closes the left hand.
+#[test]
+fn the_rh56_pair_profile_drives_handgate_emulate_over_its_pty() {
+    let _g = serial();
+    let pty = tmp("pair-line");
+    let port = pty.to_str().unwrap();
+    let _emu = Emulator::start(&["inspire-rh56", "--ids", "1,2", "--pty", port]);
+    let p = shipped_edited(
+        "rh56-pair",
+        &[
+            ("domain = 1 ", "domain = 47 "),
+            (
+                "port = \"/dev/ttyUSB0\"         # better",
+                &format!("port = \"{port}\"         # better"),
+            ),
+            (
+                "port = \"/dev/ttyUSB0\"         # the same line",
+                &format!("port = \"{port}\"         # the same line"),
+            ),
+        ],
+    );
+    let _gw = Gateway::start(47, &["--profile", p.to_str().unwrap()]);
+    wait_fresh(47, &["rh56_left", "rh56_right"]);
+    let n = node(47);
+    let mut st: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/rh56_left/state", Qos::BestEffort);
+    let (stop, t) = stream_closure(47, "rh56_left", 1.0);
+    let closed = poll(DEADLINE, || st.update().filter(|s| s.closure > 0.9).cloned());
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let _ = t.join();
+    assert!(closed.is_some(), "the left hand never closed: {:?}", st.update());
+}
+
+/// pyrh56 on the RH56 front's ptys drives two emulated RH56 hands on one line
+/// (rh56-pair-sim), through the gateway.
+#[test]
+fn pyrh56_drives_the_pair_through_the_rh56_front() {
+    let _g = serial();
+    let (l, r) = (tmp("front-left"), tmp("front-right"));
+    let p = shipped_edited(
+        "rh56-pair-sim",
+        &[
+            ("domain = 1 ", "domain = 47 "),
+            ("pty = \"/tmp/handgate-rh56-left\"", &format!("pty = \"{}\"", l.display())),
+            ("pty = \"/tmp/handgate-rh56-right\"", &format!("pty = \"{}\"", r.display())),
+        ],
+    );
+    let _gw = Gateway::start(47, &["--profile", p.to_str().unwrap()]);
+    wait_fresh(47, &["rh56_left", "rh56_right"]);
+    assert!(pyrh56(&[l.to_str().unwrap(), "1"]).contains("OK 1 "));
+    assert!(pyrh56(&[r.to_str().unwrap(), "2"]).contains("OK 2 "));
+}
+
+/// pyrh56 on the RH56 front drives a hand of another kind: an emulated Dex3, through closure.
+#[test]
+fn pyrh56_drives_a_dex3_behind_the_rh56_front() {
+    let _g = serial();
+    let pty = tmp("front-dex3");
+    let p = shipped_edited(
+        "rh56-front-dex3-sim",
+        &[
+            ("domain = 1 ", "domain = 69 "),
+            ("pty = \"/tmp/handgate-rh56-dex3\"", &format!("pty = \"{}\"", pty.display())),
+        ],
+    );
+    let _gw = Gateway::start(69, &["--profile", p.to_str().unwrap()]);
+    wait_fresh(69, &["dex3_right"]);
+    let n = node(69);
+    let mut st: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/dex3_right/state", Qos::BestEffort);
+    let port = pty.to_str().unwrap().to_string();
+    let client = std::thread::spawn(move || pyrh56(&[&port, "1", "--closure"]));
+    // The Dex3 itself moved: its canonical state closes past 0.5 while pyrh56 makes a fist.
+    let mut most: f32 = 0.0;
+    while !client.is_finished() {
+        st.update_with(|s| most = most.max(s.closure));
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let out = client.join().expect("the pyrh56 run");
+    assert!(out.contains("OK 1 "), "{out}");
+    assert!(most > 0.5, "the Dex3 closed only to {most}");
+}
+
+/// Garbage, a bad checksum, a request for an absent id and half a frame on the emulator's
+/// pty: each skipped and counted, and the next good request answered.
+#[test]
+fn bad_input_on_the_emulated_line_is_counted_and_the_line_goes_on() {
+    use handgate_adapters::inspire_rh56::emulator::{HandSpec, Line, Rh56Hand};
+    use handgate_adapters::inspire_rh56::proto::{decode_reply, encode_read, Reply};
+    use handgate_adapters::inspire_rh56::pty::PtyLine;
+    use handgate_adapters::serial::{SerialPort, Transport};
+    use std::sync::atomic::Ordering;
+
+    let link = tmp("bad-input");
+    let line = PtyLine::start(&link, Line::new(vec![Rh56Hand::new(HandSpec::new(1))])).unwrap();
+    let mut port = SerialPort::open(&link, 115_200).unwrap();
+    let mut good = Vec::new();
+    encode_read(1, 1546, 12, &mut good).unwrap();
+    let mut bad_sum = good.clone();
+    bad_sum[8] ^= 0x55;
+    let mut absent = Vec::new();
+    encode_read(7, 1546, 12, &mut absent).unwrap();
+    let mut input = vec![0x00, 0x13, 0x37, 0x90];
+    input.extend_from_slice(&bad_sum);
+    input.extend_from_slice(&absent);
+    input.extend_from_slice(&good[..5]); // half a frame, then a whole one
+    input.extend_from_slice(&good);
+    port.write_all(&input).unwrap();
+    let mut rx = Vec::new();
+    let deadline = Instant::now() + DEADLINE;
+    let reply = loop {
+        let mut buf = [0u8; 64];
+        let n = port.read(&mut buf, Duration::from_millis(100)).unwrap();
+        rx.extend_from_slice(&buf[..n]);
+        if let Ok((r, _)) = decode_reply(&rx) {
+            break r;
+        }
+        assert!(Instant::now() < deadline, "no reply: {rx:02x?}");
+    };
+    assert!(matches!(reply, Reply::Read { id: 1, addr: 1546, data } if data.len() == 12), "{reply:?}");
+    let c = &line.counters;
+    assert_eq!(c.answered.load(Ordering::Relaxed), 1);
+    assert_eq!(c.unanswered.load(Ordering::Relaxed), 1, "the absent id");
+    assert!(c.bad_checksum.load(Ordering::Relaxed) >= 2, "the bad sum and the cut frame");
+    assert!(c.garbage.load(Ordering::Relaxed) >= 1);
+    // Only the one reply came back.
+    std::thread::sleep(Duration::from_millis(100));
+    let mut buf = [0u8; 64];
+    let n = port.read(&mut buf, Duration::from_millis(50)).unwrap();
+    assert_eq!(rx.len() + n, 20, "{rx:02x?}");
+}
