@@ -19,7 +19,7 @@ use super::control_table::{
 use super::protocol::{
     le_i16, le_i32, wire_time, CodecError, Decoder, FrameError, Instruction, Request, ServoId, Status, StatusRef,
 };
-use super::transport::{Connector, SerialConnector, Transport, TransportError};
+use crate::serial::transport::{Connector, SerialConnector, Transport, TransportError};
 
 pub use crate::model::Side;
 
