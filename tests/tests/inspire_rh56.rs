@@ -209,3 +209,95 @@ fn bad_input_on_the_emulated_line_is_counted_and_the_line_goes_on() {
     let n = port.read(&mut buf, Duration::from_millis(50)).unwrap();
     assert_eq!(rx.len() + n, 20, "{rx:02x?}");
 }
+
+/// Runs tests/python/rh56_dftp.py against `port` on loopback (bounded): its stdout.
+fn dftp(port: u16) -> String {
+    let out = Command::new(venv_python())
+        .arg(python_script("rh56_dftp.py"))
+        .args(["127.0.0.1", &port.to_string()])
+        .output()
+        .expect("python runs");
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    );
+    assert!(out.status.success() && o.contains("DONE"), "inspire-rh56dftp failed:\n{o}\n{e}");
+    o
+}
+
+/// The refusals of `front` by `reason` in the gateway's /metrics.
+fn refused(metrics: &str, front: &str, reason: &str) -> u64 {
+    metrics
+        .lines()
+        .find(|l| {
+            l.starts_with("handgate_stream_refused_total")
+                && l.contains(&format!("\"{front}\""))
+                && l.contains(&format!("reason=\"{reason}\""))
+        })
+        .and_then(|l| l.rsplit(' ').next()?.parse::<f64>().ok())
+        .map_or(0, |v| v as u64)
+}
+
+/// inspire-rh56dftp 0.1.0 drives an emulated RH56 through the Modbus TCP front (targets,
+/// angles, forces, all 1062 tactile cells in its own batches); then bad input on that front:
+/// garbage, half a frame, a client that never sends, 100 clients at once: each refused and
+/// counted, and the client after them still served.
+#[test]
+fn inspire_rh56dftp_drives_a_hand_through_the_modbus_tcp_front_and_bad_input_is_refused() {
+    use std::io::{Read, Write};
+    use std::net::TcpStream;
+    let _g = serial();
+    const PORT: u16 = 16_047;
+    let p = shipped_edited(
+        "rh56-pair-sim",
+        &[
+            ("domain = 1 ", "domain = 47 "),
+            ("pty = \"/tmp/handgate-rh56-left\"", &format!("pty = \"{}\"", tmp("l").display())),
+            ("pty = \"/tmp/handgate-rh56-right\"", &format!("pty = \"{}\"", tmp("r").display())),
+            (
+                "serve = \"modbus_tcp\"",
+                &format!("serve = \"modbus_tcp\"\nlisten = \"127.0.0.1:{PORT}\"\nidle_s = 1.0"),
+            ),
+        ],
+    );
+    let gw = Gateway::start(47, &["--profile", p.to_str().unwrap()]);
+    wait_fresh(47, &["rh56_left", "rh56_right"]);
+    let out = dftp(PORT);
+    assert!(out.contains("tactile_cells=1062"), "{out}");
+
+    let front = "inspire_rh56_tcp_rh56_right";
+    let at = ("127.0.0.1", PORT);
+    // Garbage (not Modbus: protocol id 0x1337), then a good request on the same connection.
+    let mut c = TcpStream::connect(at).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    c.write_all(&[0, 1, 0x13, 0x37, 0, 6, 1, 3, 0, 0, 0, 1]).unwrap();
+    let read_angles = [0u8, 2, 0, 0, 0, 6, 1, 0x03, 0x06, 0x0A, 0, 6];
+    std::thread::sleep(Duration::from_millis(200));
+    c.write_all(&read_angles).unwrap();
+    let mut reply = [0u8; 21];
+    c.read_exact(&mut reply).unwrap();
+    assert_eq!(&reply[..9], &[0, 2, 0, 0, 0, 15, 1, 3, 12], "{reply:?}");
+    // Half a frame, then silence: the client is closed as idle (idle_s = 1).
+    let mut half = TcpStream::connect(at).unwrap();
+    half.write_all(&read_angles[..5]).unwrap();
+    half.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let mut b = [0u8; 1];
+    let closed = half.read(&mut b);
+    assert!(matches!(closed, Ok(0)), "the idle client was not closed: {closed:?}");
+    // 100 clients at once: beyond the 16 served, each is closed at once and counted.
+    let many: Vec<TcpStream> = (0..100).filter_map(|_| TcpStream::connect(at).ok()).collect();
+    assert_eq!(many.len(), 100);
+    let url = gw.http_url().unwrap();
+    let m = poll(DEADLINE, || {
+        let (_, m) = handgate_tests::http_get(&url, "/metrics");
+        (refused(&m, front, "too_many_clients") >= 80).then_some(m)
+    })
+    .expect("the clients beyond 16 refused and counted");
+    assert!(refused(&m, front, "bad_protocol") >= 1, "{m}");
+    assert!(refused(&m, front, "idle") >= 1, "{m}");
+    drop(many);
+    // The front still serves the next client, and the device is still fresh.
+    let out = dftp(PORT);
+    assert!(out.contains("OK "), "{out}");
+    wait_fresh(47, &["rh56_left", "rh56_right"]);
+}

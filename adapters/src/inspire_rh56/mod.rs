@@ -16,6 +16,7 @@ pub mod emulator;
 pub mod file;
 pub mod front;
 pub mod kind;
+pub mod modbus;
 pub mod proto;
 pub mod pty;
 pub mod regs;

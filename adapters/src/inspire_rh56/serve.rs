@@ -1,7 +1,10 @@
-//! The RH56 front's registry entry (`kind = "inspire_rh56"`) and its servers: the hand's serial
-//! protocol on a pseudo-terminal, for any bound hand (docs/fronts.md, "Inspire RH56"). The
-//! pure codec is [`super::front`].
+//! The RH56 front's registry entry (`kind = "inspire_rh56"`) and its servers, for any bound
+//! hand (docs/fronts.md, "Inspire RH56"): the hand's serial protocol on a pseudo-terminal
+//! (`serve = "serial"`), or Modbus TCP as the RH56DFTP serves it (`serve = "modbus_tcp"`, on
+//! 127.0.0.1:6000 unless `listen` says otherwise). The pure codecs are [`super::front`] and
+//! [`super::modbus`].
 
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicU64;
 use std::sync::{Arc, Mutex};
@@ -10,31 +13,65 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use super::front::{decode, AngleWrite, Image, SerialSession, SharedImage};
+use super::modbus::TcpSession;
 use crate::dds::DdsError;
 use crate::discovery::diagnose::Served;
 use crate::front::config::{FrontConfig, ServedSide, Silence, TopicKey};
 use crate::front::kind::{Front, FrontFacts, FrontKind, FrontWire};
 use crate::front::plan::{FrontPlan, SilencePlan};
 use crate::front::serve::{commands, routed, Bound, Endpoints, FrontEnv, Queue, Routed, TypedIo};
-use crate::front::stream::{serve_pty, StreamServer};
+use crate::front::stream::{serve_pty, serve_tcp, StreamLimits, StreamServer};
 use crate::front::Rejection;
 use crate::model::{DeviceKind, SafeAction};
+
+/// What the front serves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Rh56Serve {
+    /// The hand's own serial protocol on a pty.
+    #[default]
+    Serial,
+    /// Modbus TCP (the DFTP's interface) on `listen`.
+    ModbusTcp,
+}
+
+/// The DFTP's Modbus TCP port (inspire-rh56dftp `DEFAULT_PORT`, the DFTP manual).
+pub const MODBUS_TCP_PORT: u16 = 6000;
 
 /// The front's own keys.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Rh56FrontConfig {
-    /// The hand id clients address (HAND_ID; requests for another id get no answer).
+    pub serve: Rh56Serve,
+    /// The hand id clients address on the serial protocol (HAND_ID; requests for another id
+    /// get no answer). Over Modbus TCP every unit id is this hand.
     pub id: u8,
-    /// Where the serial protocol's pseudo-terminal is linked (clients open it as a serial
-    /// port); default [`default_pty`].
+    /// `serial`: where the pseudo-terminal is linked (clients open it as a serial port);
+    /// default [`default_pty`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pty: Option<PathBuf>,
+    /// `modbus_tcp`: the address to listen on; default 127.0.0.1:6000 (loopback: another host
+    /// reaches it only where the profile says so).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub listen: Option<String>,
+    /// `modbus_tcp`: clients served at once (one more is refused and counted); default 16.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_clients: Option<usize>,
+    /// `modbus_tcp`: a client silent this long is closed, s; default 60.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub idle_s: Option<f64>,
 }
 
 impl Default for Rh56FrontConfig {
     fn default() -> Self {
-        Rh56FrontConfig { id: 1, pty: None }
+        Rh56FrontConfig {
+            serve: Rh56Serve::Serial,
+            id: 1,
+            pty: None,
+            listen: None,
+            max_clients: None,
+            idle_s: None,
+        }
     }
 }
 
@@ -48,6 +85,26 @@ pub fn default_pty(id: u8) -> PathBuf {
 impl Rh56FrontConfig {
     pub fn pty_path(&self) -> PathBuf {
         self.pty.clone().unwrap_or_else(|| default_pty(self.id))
+    }
+
+    /// The Modbus TCP address (`listen`, or 127.0.0.1:6000).
+    pub fn listen_addr(&self) -> Result<SocketAddr, String> {
+        match &self.listen {
+            None => Ok(SocketAddr::from(([127, 0, 0, 1], MODBUS_TCP_PORT))),
+            Some(a) => a
+                .parse()
+                .map_err(|_| format!("`{a}` is not an address and port, e.g. 127.0.0.1:6000")),
+        }
+    }
+
+    /// The TCP server's limits.
+    pub fn limits(&self) -> StreamLimits {
+        let d = StreamLimits::default();
+        StreamLimits {
+            max_clients: self.max_clients.unwrap_or(d.max_clients),
+            idle: self.idle_s.map_or(d.idle, Duration::from_secs_f64),
+            ..d
+        }
     }
 }
 
@@ -94,12 +151,29 @@ impl FrontWire<Rh56FrontConfig> for Rh56Wire {
         tx: Queue,
         dropped: Arc<AtomicU64>,
     ) -> Result<Endpoints, DdsError> {
-        let (id, link, name) = (c.id, c.pty_path(), plan.name.clone());
+        let (c, name) = (c.clone(), plan.name.clone());
         commands(tx, dropped, move |inbox| {
-            let image: SharedImage = Arc::new(Mutex::new(Image::new(id)));
+            let image: SharedImage = Arc::new(Mutex::new(Image::new(c.id)));
             let im = image.clone();
-            let server = serve_pty(&link, move || SerialSession::new(id, im.clone()), inbox, &name, "rh56 serial")
-                .map_err(|e| DdsError::Thread(format!("the RH56 serial front's pty at {}: {e}", link.display())))?;
+            let server = match c.serve {
+                Rh56Serve::Serial => {
+                    let (id, link) = (c.id, c.pty_path());
+                    serve_pty(&link, move || SerialSession::new(id, im.clone()), inbox, &name, "rh56 serial")
+                        .map_err(|e| DdsError::Thread(format!("the RH56 serial front's pty at {}: {e}", link.display())))?
+                }
+                Rh56Serve::ModbusTcp => {
+                    let at = c.listen_addr().map_err(DdsError::Thread)?;
+                    serve_tcp(
+                        at,
+                        c.limits(),
+                        move || TcpSession { image: im.clone() },
+                        inbox,
+                        &name,
+                        "rh56 modbus tcp",
+                    )
+                    .map_err(|e| DdsError::Thread(format!("the RH56 Modbus TCP front on {at}: {e}")))?
+                }
+            };
             Ok(Rh56Io { image, _server: server })
         })
     }
@@ -120,8 +194,12 @@ impl Front for Rh56Front {
     fn default_state_hz(device_hz: Option<f64>) -> f64 {
         device_hz.map_or(100.0, |d| d.min(100.0))
     }
-    fn default_name(_c: &Rh56FrontConfig, f: &FrontConfig, _side: &str) -> String {
-        format!("inspire_rh56_{}", f.device.as_ref().map_or("?", |d| d.as_str()))
+    fn default_name(c: &Rh56FrontConfig, f: &FrontConfig, _side: &str) -> String {
+        let d = f.device.as_ref().map_or("?", |d| d.as_str());
+        match c.serve {
+            Rh56Serve::Serial => format!("inspire_rh56_{d}"),
+            Rh56Serve::ModbusTcp => format!("inspire_rh56_tcp_{d}"),
+        }
     }
     /// The hand keeps its last target when its client falls silent; `watchdog` mode: the
     /// device's watchdog.
@@ -141,19 +219,48 @@ impl Front for Rh56Front {
         if c.pty.as_ref().is_some_and(|p| p.as_os_str().is_empty()) {
             out.push(("pty", "must be a path (or absent: a temporary one)".to_string()));
         }
+        if let Err(e) = c.listen_addr() {
+            out.push(("listen", e));
+        }
+        match c.serve {
+            Rh56Serve::Serial => {
+                for (key, set) in [
+                    ("listen", c.listen.is_some()),
+                    ("max_clients", c.max_clients.is_some()),
+                    ("idle_s", c.idle_s.is_some()),
+                ] {
+                    if set {
+                        out.push((key, "is for serve = \"modbus_tcp\"; a pty has one client".to_string()));
+                    }
+                }
+            }
+            Rh56Serve::ModbusTcp => {
+                if c.pty.is_some() {
+                    out.push(("pty", "is for serve = \"serial\"".to_string()));
+                }
+                if c.max_clients == Some(0) {
+                    out.push(("max_clients", "must be at least 1".to_string()));
+                }
+                if c.idle_s.is_some_and(|s| !(s.is_finite() && s > 0.0)) {
+                    out.push(("idle_s", "must be a positive number of seconds".to_string()));
+                }
+            }
+        }
         out
     }
     fn describe(c: &Rh56FrontConfig) -> Option<String> {
-        Some(format!(
-            "the RH56 serial protocol, hand id {}, on pty {}",
-            c.id,
-            c.pty_path().display()
-        ))
+        Some(match c.serve {
+            Rh56Serve::Serial => format!("the RH56 serial protocol, hand id {}, on pty {}", c.id, c.pty_path().display()),
+            Rh56Serve::ModbusTcp => format!(
+                "RH56 Modbus TCP on {}",
+                c.listen_addr().map_or_else(|e| e, |a| a.to_string())
+            ),
+        })
     }
 }
 
 impl FrontKind {
-    /// The Inspire RH56's own serial protocol on a pty.
+    /// The Inspire RH56's own interfaces: its serial protocol on a pty, Modbus TCP.
     #[allow(non_upper_case_globals)]
     pub const InspireRh56: FrontKind = Rh56Front::KIND;
 }
