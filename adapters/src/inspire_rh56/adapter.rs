@@ -58,10 +58,37 @@ pub fn to_hand_state(table: &DeviceTable, r: &HandReading, stale_after: Duration
         r.status.get(j.wire_index) == Some(&regs::status::FORCE_REACHED)
             || r.force.get(j.wire_index).is_some_and(|f| *f >= CONTACT_FORCE)
     }));
+    pads(r, st);
     st.closure = table.closure_of_state(&st.joints);
     let fresh = r.online && r.round > 0 && now.saturating_duration_since(r.measured_at) <= stale_after;
     st.freshness = if fresh { Freshness::Fresh } else { Freshness::Stale };
     st.measured_at = (r.round > 0).then_some(r.measured_at);
+}
+
+/// A DFTP's tactile cells as the state's 17 named pads (the Inspire FTP kind's names and
+/// shapes, raw 0..4095), buffers reused; none when the line reads no cells.
+fn pads(r: &HandReading, st: &mut HandState) {
+    if r.tactile.len() != regs::TACTILE_CELLS {
+        st.pads.clear();
+        return;
+    }
+    st.pads.truncate(regs::TACTILE_REGIONS.len());
+    for (k, (name, addr, rows, cols)) in regs::TACTILE_REGIONS.iter().enumerate() {
+        if st.pads.len() <= k {
+            st.pads.push(crate::model::Pad {
+                name: (*name).to_string(),
+                rows: *rows,
+                cols: *cols,
+                pressure: Vec::with_capacity((rows * cols) as usize),
+                temperature: Vec::new(),
+            });
+        }
+        let first = (addr - regs::TACTILE) as usize / 2;
+        let p = &mut st.pads[k];
+        p.pressure.clear();
+        p.pressure
+            .extend(r.tactile[first..first + (rows * cols) as usize].iter().map(|v| f32::from(*v)));
+    }
 }
 
 /// One RH56 hand on a (possibly shared) line.

@@ -1,10 +1,13 @@
 //! One RS-485 line of RH56 hands: one thread per port serving every hand on it (the arbiter:
-//! only it talks on the line, one request at a time), on deadlines.
+//! only it talks on the line, one request at a time), on deadlines. The line speaks the hand's
+//! serial protocol, Modbus RTU, or Modbus TCP to a DFTP's Ethernet port (the kit's codec,
+//! [`crate::modbus`]); what it reads and writes is the same byte ranges of the register file.
 //!
 //! Each round, for every hand in id order: a write of ANGLE_SET when its target changed since
 //! the last one written (the hand holds a target: a repeated one needs no bytes), a read of
 //! ANGLE_ACT (12 bytes), and every [`BusConfig::slow_every`]-th round (staggered between the
-//! hands) a read of FORCE_ACT..TEMP (force, current, error, status, temperature: 42 bytes). A
+//! hands) a read of FORCE_ACT..TEMP (force, current, error, status, temperature: 42 bytes); a
+//! DFTP's tactile cells one batch a round ([`regs::TACTILE_BATCHES`]). A
 //! hand that misses its reply is marked offline for that round and the others go on; a
 //! transport failure (an unplugged adapter) reconnects with backoff, as the EZGripper's bus.
 //! Nothing is allocated per round: every buffer is the thread's, reused.
@@ -16,8 +19,10 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::watch;
 
+use super::config::Protocol;
 use super::proto::{self, Reply};
 use super::regs::{self, FINGERS};
+use crate::modbus::{pdu, rtu, tcp, Regs, Response};
 use crate::serial::{Connector, SerialConnector, Transport, TransportError};
 
 /// Wire time of `bytes` at `baud`, 8N1 (10 bits a byte).
@@ -42,6 +47,9 @@ pub struct BusConfig {
     pub speed_set: Option<i16>,
     /// A reading older than this is stale.
     pub stale_after: Duration,
+    pub protocol: Protocol,
+    /// Read the DFTP's tactile cells (one batch a round per hand).
+    pub tactile: bool,
 }
 
 impl Default for BusConfig {
@@ -55,12 +63,14 @@ impl Default for BusConfig {
             force_set: None,
             speed_set: None,
             stale_after: Duration::from_millis(500),
+            protocol: Protocol::Serial,
+            tactile: false,
         }
     }
 }
 
 /// What the line last read from one hand.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct HandReading {
     pub id: u8,
     /// The hand answered its last request.
@@ -77,6 +87,41 @@ pub struct HandReading {
     /// The slow block was read at least once.
     pub slow_read: bool,
     pub last_error: Option<&'static str>,
+    /// A DFTP's tactile cells in address order ([`regs::TACTILE_REGIONS`]); empty when the line
+    /// does not read them.
+    pub tactile: Vec<u16>,
+}
+
+/// `clone_from` reuses the tactile buffer (the device loop copies a reading every round).
+impl Clone for HandReading {
+    fn clone(&self) -> Self {
+        let mut r = HandReading::initial(self.id);
+        r.clone_from(self);
+        r
+    }
+
+    fn clone_from(&mut self, s: &Self) {
+        let HandReading {
+            id,
+            online,
+            round,
+            measured_at,
+            angle,
+            force,
+            current,
+            error,
+            status,
+            temp,
+            slow_read,
+            last_error,
+            tactile,
+        } = s;
+        (self.id, self.online, self.round, self.measured_at) = (*id, *online, *round, *measured_at);
+        (self.angle, self.force, self.current) = (*angle, *force, *current);
+        (self.error, self.status, self.temp) = (*error, *status, *temp);
+        (self.slow_read, self.last_error) = (*slow_read, *last_error);
+        self.tactile.clone_from(tactile);
+    }
 }
 
 impl HandReading {
@@ -94,6 +139,7 @@ impl HandReading {
             temp: [0; FINGERS],
             slow_read: false,
             last_error: None,
+            tactile: Vec::new(),
         }
     }
 }
@@ -152,6 +198,25 @@ pub enum BusError {
     Thread(#[from] std::io::Error),
     #[error(transparent)]
     Transport(#[from] TransportError),
+    #[error("`{0}` is not a host:port for Modbus TCP")]
+    Address(String),
+}
+
+/// A DFTP's Ethernet port: a TCP connection per (re)connect.
+#[derive(Debug, Clone)]
+pub struct TcpConnector {
+    pub addr: std::net::SocketAddr,
+    pub timeout: Duration,
+}
+
+impl Connector for TcpConnector {
+    fn connect(&mut self) -> Result<Box<dyn Transport>, TransportError> {
+        Ok(Box::new(crate::modbus::master::TcpTransport::connect(self.addr, self.timeout)?))
+    }
+
+    fn describe(&self) -> String {
+        format!("Modbus TCP {}", self.addr)
+    }
 }
 
 /// What the device asks of one hand (latest wins).
@@ -183,13 +248,22 @@ impl std::fmt::Debug for Rh56Bus {
 }
 
 impl Rh56Bus {
-    /// Opens the serial port at `path` and starts the line.
-    pub fn open(path: impl Into<std::path::PathBuf>, cfg: BusConfig) -> Result<Self, BusError> {
-        let c = SerialConnector {
-            path: path.into(),
-            baud: cfg.baud,
+    /// Opens the serial port at `path` (over Modbus TCP: connects to the address `path`) and
+    /// starts the line.
+    pub fn open(path: &str, cfg: BusConfig) -> Result<Self, BusError> {
+        let c: Box<dyn Connector> = match cfg.protocol {
+            Protocol::ModbusTcp => Box::new(TcpConnector {
+                addr: path
+                    .parse()
+                    .map_err(|_| BusError::Address(path.to_string()))?,
+                timeout: Duration::from_secs(2),
+            }),
+            _ => Box::new(SerialConnector {
+                path: path.into(),
+                baud: cfg.baud,
+            }),
         };
-        Self::with_connector(Box::new(c), cfg)
+        Self::with_connector(c, cfg)
     }
 
     /// Starts the line over `connector` (a serial port, an in-process emulated line).
@@ -220,8 +294,11 @@ impl Rh56Bus {
             stop: stop.clone(),
             cfg,
             connector,
-            req: Vec::with_capacity(64),
+            req: Vec::with_capacity(512),
             rx: Vec::with_capacity(2 * proto::MAX_READ),
+            pdu: Vec::with_capacity(pdu::MAX_PDU),
+            words: Vec::with_capacity(pdu::MAX_WRITE as usize),
+            transaction: 0,
             written: Vec::new(),
         };
         let thread = std::thread::Builder::new()
@@ -312,6 +389,10 @@ struct Worker {
     connector: Box<dyn Connector>,
     req: Vec<u8>,
     rx: Vec<u8>,
+    /// Modbus: the request PDU, a write's words, the last MBAP transaction id.
+    pdu: Vec<u8>,
+    words: Vec<u16>,
+    transaction: u16,
     /// Per slot, the angles last written.
     written: Vec<Option<[i16; FINGERS]>>,
 }
@@ -438,8 +519,20 @@ impl Worker {
         if slow {
             self.read(t, id, regs::SLOW_BLOCK.0, &mut block).map_err(|m| self.miss(i, m))?;
         }
+        let mut cells = [0u8; 224];
+        let batch = self.cfg.tactile.then(|| regs::TACTILE_BATCHES[((round + i as u64) % 11) as usize]);
+        if let Some((addr, n)) = batch {
+            self.read(t, id, addr, &mut cells[..n]).map_err(|m| self.miss(i, m))?;
+        }
         let now = Instant::now();
         self.slots[i].tx.send_modify(|r| {
+            if let Some((addr, n)) = batch {
+                r.tactile.resize(regs::TACTILE_CELLS, 0);
+                let first = (addr - regs::TACTILE) as usize / 2;
+                for k in 0..n / 2 {
+                    r.tactile[first + k] = u16::from_le_bytes([cells[2 * k], cells[2 * k + 1]]);
+                }
+            }
             r.online = true;
             r.round += 1;
             r.measured_at = now;
@@ -479,6 +572,9 @@ impl Worker {
     }
 
     fn write(&mut self, t: &mut dyn Transport, id: u8, addr: u16, data: &[u8]) -> Result<(), Miss> {
+        if self.cfg.protocol != Protocol::Serial {
+            return self.modbus_write(t, id, addr, data);
+        }
         proto::encode_write(id, addr, data, &mut self.req).map_err(|_| Miss::Mismatched)?;
         self.counters.writes.fetch_add(1, Ordering::Relaxed);
         match self.exchange(t, proto::SHORT_FRAME)? {
@@ -494,6 +590,9 @@ impl Worker {
     }
 
     fn read(&mut self, t: &mut dyn Transport, id: u8, addr: u16, out: &mut [u8]) -> Result<(), Miss> {
+        if self.cfg.protocol != Protocol::Serial {
+            return self.modbus_read(t, id, addr, out);
+        }
         proto::encode_read(id, addr, out.len(), &mut self.req).map_err(|_| Miss::Mismatched)?;
         let (rid, a, n) = match self.exchange(t, out.len() + 8)? {
             Reply::Read { id, addr, data } => (id, addr, data.len()),
@@ -546,6 +645,120 @@ impl Worker {
     }
 }
 
+impl Worker {
+    /// `self.pdu` framed for the line into `self.req` (RTU: slave and CRC; TCP: MBAP with the
+    /// next transaction id); the reply's length for a response PDU of `reply_pdu` bytes.
+    fn frame_modbus(&mut self, id: u8, reply_pdu: usize) -> usize {
+        self.req.clear();
+        match self.cfg.protocol {
+            Protocol::ModbusTcp => {
+                self.transaction = self.transaction.wrapping_add(1);
+                tcp::encode(self.transaction, id, &self.pdu, &mut self.req);
+                tcp::MBAP_LEN + reply_pdu
+            }
+            _ => {
+                rtu::encode(id, &self.pdu, &mut self.req);
+                reply_pdu + 3
+            }
+        }
+    }
+
+    fn modbus_read(&mut self, t: &mut dyn Transport, id: u8, addr: u16, out: &mut [u8]) -> Result<(), Miss> {
+        let count = out.len().div_ceil(2) as u16;
+        self.pdu.clear();
+        pdu::Request::ReadHolding { addr, count }
+            .encode(&mut self.pdu)
+            .map_err(|_| Miss::Mismatched)?;
+        let expect = self.frame_modbus(id, 2 + 2 * count as usize);
+        match self.exchange_modbus(t, id, pdu::READ_HOLDING, expect)? {
+            Response::ReadHolding(regs) if regs.len() == count as usize => {
+                for (k, w) in regs.iter().enumerate() {
+                    let b = w.to_le_bytes();
+                    out[2 * k] = b[0];
+                    if let Some(o) = out.get_mut(2 * k + 1) {
+                        *o = b[1];
+                    }
+                }
+                Ok(())
+            }
+            Response::Exception { .. } => Err(Miss::Refused),
+            _ => Err(Miss::Mismatched),
+        }
+    }
+
+    fn modbus_write(&mut self, t: &mut dyn Transport, id: u8, addr: u16, data: &[u8]) -> Result<(), Miss> {
+        self.counters.writes.fetch_add(1, Ordering::Relaxed);
+        self.words.clear();
+        self.words
+            .extend(data.chunks(2).map(|c| u16::from_le_bytes([c[0], c.get(1).copied().unwrap_or(0)])));
+        self.pdu.clear();
+        let (req, function) = match self.words.as_slice() {
+            [value] => (pdu::Request::WriteSingle { addr, value: *value }, pdu::WRITE_SINGLE),
+            words => (
+                pdu::Request::WriteMultiple {
+                    addr,
+                    values: Regs::from_words(words),
+                },
+                pdu::WRITE_MULTIPLE,
+            ),
+        };
+        req.encode(&mut self.pdu).map_err(|_| Miss::Mismatched)?;
+        let expect = self.frame_modbus(id, 5);
+        match self.exchange_modbus(t, id, function, expect)? {
+            Response::WriteSingle { addr: a, .. } | Response::WriteMultiple { addr: a, .. } if a == addr => Ok(()),
+            Response::Exception { .. } => Err(Miss::Refused),
+            _ => Err(Miss::Mismatched),
+        }
+    }
+
+    /// Sends `self.req` and reads the Modbus reply of `expect` bytes by its deadline (RTU: both
+    /// frames' wire time plus the response timeout; TCP: the response timeout). Over TCP the
+    /// transaction id is not checked: the DFTP's server answers with the wrong one
+    /// (inspire-rh56dftp's notes); one request is in flight at a time, so nothing is mixed up.
+    fn exchange_modbus(&mut self, t: &mut dyn Transport, id: u8, function: u8, expect: usize) -> Result<Response<'_>, Miss> {
+        self.counters.requests.fetch_add(1, Ordering::Relaxed);
+        t.clear_input().map_err(|_| Miss::Link)?;
+        t.write_all(&self.req).map_err(|_| Miss::Link)?;
+        let tcp = self.cfg.protocol == Protocol::ModbusTcp;
+        let wire = if tcp {
+            Duration::ZERO
+        } else {
+            wire_time(self.req.len() + expect, self.cfg.baud)
+        };
+        let deadline = Instant::now() + wire + self.cfg.response_timeout;
+        self.rx.clear();
+        let mut buf = [0u8; 512];
+        let len = loop {
+            let cut = if tcp {
+                match tcp::decode(&self.rx) {
+                    Ok(adu) if adu.header.unit != id => return Err(Miss::Mismatched),
+                    Ok(adu) => Ok((tcp::MBAP_LEN, adu.len)),
+                    Err(crate::modbus::TcpError::Incomplete { .. }) => Err(true),
+                    Err(_) => return Err(Miss::Mismatched),
+                }
+            } else {
+                match rtu::decode_response(&self.rx, function) {
+                    Ok(f) if f.slave != id => return Err(Miss::Mismatched),
+                    Ok(f) => Ok((1, f.len - 2)),
+                    Err(crate::modbus::RtuError::Incomplete { .. }) => Err(true),
+                    Err(crate::modbus::RtuError::BadCrc { .. }) => return Err(Miss::BadChecksum),
+                    Err(_) => return Err(Miss::Mismatched),
+                }
+            };
+            if let Ok(range) = cut {
+                break range;
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return Err(Miss::Timeout);
+            }
+            let n = t.read(&mut buf, deadline - now).map_err(|_| Miss::Link)?;
+            self.rx.extend_from_slice(&buf[..n]);
+        };
+        Response::decode(&self.rx[len.0..len.1]).map_err(|_| Miss::Mismatched)
+    }
+}
+
 fn shorts(b: &[u8]) -> [i16; FINGERS] {
     std::array::from_fn(|k| i16::from_le_bytes([b[2 * k], b[2 * k + 1]]))
 }
@@ -556,6 +769,8 @@ fn shorts(b: &[u8]) -> [i16; FINGERS] {
 pub struct EmulatedLine {
     pub line: Arc<Mutex<super::emulator::Line>>,
     pub baud: u32,
+    /// What the hands answer: the serial protocol, Modbus RTU, or Modbus TCP (no wire time).
+    pub protocol: Protocol,
 }
 
 impl Connector for EmulatedLine {
@@ -563,6 +778,7 @@ impl Connector for EmulatedLine {
         Ok(Box::new(EmulatedPort {
             line: self.line.clone(),
             baud: self.baud,
+            protocol: self.protocol,
             inbox: Vec::with_capacity(512),
             reply: Vec::with_capacity(512),
             sent: 0,
@@ -578,16 +794,74 @@ impl Connector for EmulatedLine {
 struct EmulatedPort {
     line: Arc<Mutex<super::emulator::Line>>,
     baud: u32,
+    protocol: Protocol,
     inbox: Vec<u8>,
     reply: Vec<u8>,
     sent: usize,
     ready_at: Instant,
 }
 
+impl EmulatedPort {
+    /// Answers the Modbus requests in the inbox (the hand whose id is the slave / unit id).
+    fn answer_modbus(&mut self, start: Instant) {
+        use super::modbus::{answer_tcp, HandMap};
+        let mut line = self.line.lock().unwrap_or_else(|p| p.into_inner());
+        let mut out = std::mem::take(&mut self.reply);
+        out.clear();
+        let used = match self.protocol {
+            Protocol::ModbusTcp => {
+                let unit = self.inbox.get(6).copied().unwrap_or(0);
+                match line.hand_mut(unit) {
+                    Some(h) => {
+                        h.step(start);
+                        match answer_tcp(&mut HandMap(h), &self.inbox, &mut out) {
+                            Ok(n) => n,
+                            Err(e) => e.skip.unwrap_or(self.inbox.len()),
+                        }
+                    }
+                    None => match tcp::decode(&self.inbox) {
+                        Ok(adu) => adu.len,
+                        Err(crate::modbus::TcpError::Incomplete { .. }) => 0,
+                        Err(_) => self.inbox.len(),
+                    },
+                }
+            }
+            _ => match rtu::decode_request(&self.inbox) {
+                Ok(f) => {
+                    if let Some(h) = line.hand_mut(f.slave) {
+                        h.step(start);
+                        let begin = rtu::begin(&mut out, f.slave);
+                        let _ = crate::modbus::server::respond(&mut HandMap(h), f.pdu, true, &mut out, &mut |_| {});
+                        rtu::finish(&mut out, begin);
+                    }
+                    f.len
+                }
+                Err(crate::modbus::RtuError::Incomplete { .. }) => 0,
+                Err(_) => self.inbox.len(),
+            },
+        };
+        self.inbox.drain(..used.min(self.inbox.len()));
+        if !out.is_empty() {
+            let wire = if self.protocol == Protocol::ModbusTcp {
+                Duration::ZERO
+            } else {
+                wire_time(used + out.len(), self.baud)
+            };
+            self.ready_at = start + wire;
+            self.sent = 0;
+        }
+        self.reply = out;
+    }
+}
+
 impl Transport for EmulatedPort {
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
         let start = Instant::now();
         self.inbox.extend_from_slice(bytes);
+        if self.protocol != Protocol::Serial {
+            self.answer_modbus(start);
+            return Ok(());
+        }
         loop {
             match proto::decode_request(&self.inbox) {
                 Ok((req, n)) => {
@@ -670,7 +944,14 @@ mod tests {
             speed_set: Some(1000),
             ..BusConfig::default()
         };
-        let bus = Rh56Bus::with_connector(Box::new(EmulatedLine { line: l, baud: 115_200 }), cfg).unwrap();
+        let bus = Rh56Bus::with_connector(
+            Box::new(EmulatedLine {
+                line: l,
+                baud: 115_200,
+                protocol: Protocol::Serial,
+            }),
+            cfg,
+        ).unwrap();
         bus.set_angles(1, [0, 0, 0, 0, 0, 0]).unwrap();
         bus.set_angles(2, [500, -1, 500, -1, 500, -1]).unwrap();
         let (mut a, mut b) = (bus.subscribe(1).unwrap(), bus.subscribe(2).unwrap());
@@ -682,6 +963,69 @@ mod tests {
         assert!(matches!(bus.set_angles(3, [0; 6]), Err(BusError::UnknownId(3))));
     }
 
+    fn start(l: Arc<Mutex<Line>>, cfg: BusConfig) -> Rh56Bus {
+        let protocol = cfg.protocol;
+        Rh56Bus::with_connector(
+            Box::new(EmulatedLine {
+                line: l,
+                baud: cfg.baud,
+                protocol,
+            }),
+            cfg,
+        )
+        .unwrap()
+    }
+
+    /// The same line over Modbus RTU: both hands follow their targets, FC16 writes and FC03
+    /// reads of the same byte ranges.
+    #[test]
+    fn two_hands_over_modbus_rtu_follow_their_own_target() {
+        let bus = start(
+            line(&[1, 2]),
+            BusConfig {
+                ids: vec![1, 2],
+                protocol: Protocol::ModbusRtu,
+                ..BusConfig::default()
+            },
+        );
+        bus.set_angles(1, [100, 200, 300, 400, 500, 600]).unwrap();
+        bus.set_angles(2, [0, -1, 0, -1, 0, -1]).unwrap();
+        let (mut a, mut b) = (bus.subscribe(1).unwrap(), bus.subscribe(2).unwrap());
+        let r1 = wait(&mut a, |r| r.online && r.angle == [100, 200, 300, 400, 500, 600]);
+        wait(&mut b, |r| r.online && r.angle == [0, 1000, 0, 1000, 0, 1000]);
+        assert_eq!(r1.temp, [35; 6]);
+        let s = bus.stats();
+        assert_eq!((s.timeouts, s.bad_checksum, s.mismatched), (0, 0, 0), "{s:?}");
+    }
+
+    /// A DFTP over Modbus TCP: its tactile cells, one batch a round, show the finger pressing
+    /// on its object.
+    #[test]
+    fn a_dftp_over_modbus_tcp_reads_its_tactile_cells() {
+        let mut spec = HandSpec::new(1);
+        spec.tactile = true;
+        spec.object_at[3] = Some(500.0);
+        let l = Arc::new(Mutex::new(Line::new(vec![Rh56Hand::new(spec)])));
+        let bus = start(
+            l,
+            BusConfig {
+                protocol: Protocol::ModbusTcp,
+                tactile: true,
+                force_set: Some(1000),
+                ..BusConfig::default()
+            },
+        );
+        bus.set_angles(1, [1000, 1000, 1000, 0, 1000, 1000]).unwrap();
+        let mut a = bus.subscribe(1).unwrap();
+        // The index's pad (cells from byte 4320) at full force reads 4095; the pinky's 0.
+        let r = wait(&mut a, |r| {
+            r.tactile.len() == regs::TACTILE_CELLS && r.tactile[(4320 - 3000) / 2] == 4095 && r.angle[3] == 500
+        });
+        assert_eq!(r.tactile[0], 0);
+        assert_eq!(r.status[3], regs::status::FORCE_REACHED);
+        assert_eq!(r.force[3], 1000);
+    }
+
     /// A hand that never answers is offline (timeouts counted, its reading says why); the other
     /// hand on the line goes on. Fails if a miss stopped the round or went uncounted.
     #[test]
@@ -691,7 +1035,14 @@ mod tests {
             ids: vec![1, 3],
             ..BusConfig::default()
         };
-        let bus = Rh56Bus::with_connector(Box::new(EmulatedLine { line: l, baud: 115_200 }), cfg).unwrap();
+        let bus = Rh56Bus::with_connector(
+            Box::new(EmulatedLine {
+                line: l,
+                baud: 115_200,
+                protocol: Protocol::Serial,
+            }),
+            cfg,
+        ).unwrap();
         let (mut a, mut c) = (bus.subscribe(1).unwrap(), bus.subscribe(3).unwrap());
         let first = wait(&mut a, |r| r.online && r.round > 0).round;
         wait(&mut a, |r| r.round >= first + 20);
@@ -712,7 +1063,14 @@ mod tests {
             ..BusConfig::default()
         };
         let every = cfg.slow_every as f64;
-        let bus = Rh56Bus::with_connector(Box::new(EmulatedLine { line: l, baud: 115_200 }), cfg).unwrap();
+        let bus = Rh56Bus::with_connector(
+            Box::new(EmulatedLine {
+                line: l,
+                baud: 115_200,
+                protocol: Protocol::Serial,
+            }),
+            cfg,
+        ).unwrap();
         let (mut a, mut b) = (bus.subscribe(1).unwrap(), bus.subscribe(2).unwrap());
         wait(&mut a, |r| r.online);
         wait(&mut b, |r| r.online);

@@ -9,11 +9,26 @@ use crate::kind::{DeviceCtx, Problem, Settings};
 /// 921600), those the serial transport can set.
 pub const RH56_BAUDS: &[u32] = &[19_200, 57_600, 115_200];
 
-/// `[devices.inspire_rh56]`: an RH56 hand on an RS-485 line.
+/// How the hand is reached.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Protocol {
+    /// The hand's own serial protocol (`EB 90 ...`) on RS-485.
+    #[default]
+    Serial,
+    /// Modbus RTU on RS-485.
+    ModbusRtu,
+    /// Modbus TCP (the RH56DFTP's Ethernet port, 6000): `port` is `host:port`.
+    ModbusTcp,
+}
+
+/// `[devices.inspire_rh56]`: an RH56 hand on an RS-485 line (or the DFTP's Ethernet port).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Rh56Config {
-    /// The serial port of the line (an emulated line is keyed by it too).
+    pub protocol: Protocol,
+    /// The serial port of the line (an emulated line is keyed by it too); over Modbus TCP the
+    /// hand's `host:port` (e.g. 192.168.11.210:6000).
     pub port: String,
     pub baud: u32,
     /// The hand's id on the line (HAND_ID, 1..=254; 1 by default, the second hand 2).
@@ -28,6 +43,8 @@ pub struct Rh56Config {
     pub response_timeout_ms: u64,
     /// Force, status, error and temperature are read every this many rounds (angles every round).
     pub slow_every: u32,
+    /// A DFTP: read its 1062 tactile cells, one of 11 batches a round, into the state's pads.
+    pub tactile: bool,
 }
 
 impl Default for Rh56Config {
@@ -38,8 +55,10 @@ impl Default for Rh56Config {
             id: 1,
             force_set: None,
             speed_set: None,
+            protocol: Protocol::Serial,
             response_timeout_ms: 20,
             slow_every: 10,
+            tactile: false,
         }
     }
 }
@@ -66,6 +85,12 @@ impl Settings for Rh56Profile {
         let key = |k: &'static str| ["inspire_rh56", k];
         if c.port.trim().is_empty() {
             out.push(Problem::new(&key("port"), "must name a serial port, e.g. /dev/ttyUSB0"));
+        }
+        if c.protocol == Protocol::ModbusTcp && c.port.parse::<std::net::SocketAddr>().is_err() {
+            out.push(Problem::new(
+                &key("port"),
+                format!("`{}` is not the hand's host:port for protocol modbus_tcp, e.g. 192.168.11.210:6000", c.port),
+            ));
         }
         if !RH56_BAUDS.contains(&c.baud) {
             let v: Vec<String> = RH56_BAUDS.iter().map(|b| b.to_string()).collect();
@@ -98,7 +123,14 @@ impl Settings for Rh56Profile {
 
     fn summary(&self, _ctx: &DeviceCtx<'_>) -> String {
         match &self.inspire_rh56 {
-            Some(c) => format!(", {} @ {} baud id {}", c.port, c.baud, c.id),
+            Some(c) if c.protocol == Protocol::ModbusTcp => format!(", Modbus TCP {} unit {}", c.port, c.id),
+            Some(c) => format!(
+                ", {} @ {} baud id {}{}",
+                c.port,
+                c.baud,
+                c.id,
+                if c.protocol == Protocol::ModbusRtu { " (Modbus RTU)" } else { "" }
+            ),
             None => String::new(),
         }
     }

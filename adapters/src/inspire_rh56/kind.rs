@@ -130,9 +130,16 @@ impl Kind for InspireRh56Kind {
                 let hands = devs.iter().map(|d| Rh56Hand::new(hand_spec(d))).collect();
                 let line = Arc::new(Mutex::new(Line::new(hands)));
                 env.shared.insert(&format!("{port}#emulated"), line.clone());
-                Rh56Bus::with_connector(Box::new(EmulatedLine { line, baud: cfg.baud }), cfg)
+                Rh56Bus::with_connector(
+                    Box::new(EmulatedLine {
+                        line,
+                        baud: cfg.baud,
+                        protocol: cfg.protocol,
+                    }),
+                    cfg,
+                )
             } else {
-                Rh56Bus::open(PathBuf::from(&port), cfg)
+                Rh56Bus::open(&port, cfg)
             }
             .map_err(DeviceError::link)?;
             env.shared.insert(&port, Arc::new(bus));
@@ -211,13 +218,17 @@ pub fn bus_config(devices: &[DeviceSpec<'_, Rh56Profile>]) -> BusConfig {
         force_set: first.force_set,
         speed_set: first.speed_set,
         stale_after: devices.iter().map(|d| d.stale_after).min().unwrap_or_default(),
+        protocol: first.protocol,
+        tactile: first.tactile,
     }
 }
 
 /// The emulated hand of `spec`: its id, `[devices.emulator]`'s `initial` and `object_at`
 /// as angles (through the device's table).
 pub fn hand_spec(spec: &DeviceSpec<'_, Rh56Profile>) -> HandSpec {
-    let mut h = HandSpec::new(spec.config.section().id);
+    let c = spec.config.section();
+    let mut h = HandSpec::new(c.id);
+    h.tactile = c.tactile;
     for j in spec.table.joints.iter().filter(|j| j.wire_index < FINGERS) {
         h.start[j.wire_index] = spec.initial_wire(j.name, 1000.0).clamp(0.0, 1000.0);
         h.object_at[j.wire_index] = spec.object_wire(j.name).map(|a| a.clamp(0.0, 1000.0));

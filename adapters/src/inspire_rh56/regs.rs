@@ -119,6 +119,26 @@ pub const TACTILE_REGIONS: [(&str, u16, u16, u16); 17] = [
     ("palm", 4900, 14, 8),
 ];
 
+/// The tactile cells (1062, contiguous from [`TACTILE`]: two bytes a cell).
+pub const TACTILE_CELLS: usize = (FILE_END - TACTILE) as usize / 2;
+
+/// The tactile cells read in 11 requests of at most 224 bytes (112 Modbus registers), each
+/// whole regions: a finger's tip and nail, then its pad; the thumb's tip and nail, its middle
+/// and pad; the palm. (byte address, bytes). inspire-rh56dftp reads the same batches.
+pub const TACTILE_BATCHES: [(u16, usize); 11] = [
+    (3000, 210),
+    (3210, 160),
+    (3370, 210),
+    (3580, 160),
+    (3740, 210),
+    (3950, 160),
+    (4110, 210),
+    (4320, 160),
+    (4480, 210),
+    (4690, 210),
+    (4900, 224),
+];
+
 /// Largest tactile cell value (12-bit ADC).
 pub const TACTILE_MAX: u16 = 4095;
 
@@ -142,6 +162,15 @@ mod tests {
         // inspire-rh56dftp's batches: a finger's tip and nail are contiguous in Modbus
         // registers from the tip's address (2 bytes a register).
         assert_eq!(3000 + 2 * 9, 3018);
+        // The batches cover the cells once, in order.
+        let mut at = TACTILE as usize;
+        for (a, n) in TACTILE_BATCHES {
+            assert_eq!(a as usize, at);
+            assert!(n <= 224 && n % 2 == 0);
+            at += n;
+        }
+        assert_eq!(at, FILE_END as usize);
+        assert_eq!(TACTILE_CELLS, 1062);
     }
 
     #[test]
