@@ -301,3 +301,65 @@ fn inspire_rh56dftp_drives_a_hand_through_the_modbus_tcp_front_and_bad_input_is_
     assert!(out.contains("OK "), "{out}");
     wait_fresh(47, &["rh56_left", "rh56_right"]);
 }
+
+/// inspire-rh56dftp 0.1.0 against `handgate emulate inspire-rh56 --tcp --tactile` (the DFTP's
+/// Ethernet port emulated); then handgate's own device over Modbus TCP (rh56-dftp-tcp) drives
+/// the same emulator, its tactile cells coming back as the Inspire FTP front's touch.
+#[test]
+fn the_dftp_over_modbus_tcp_emulated_driven_by_inspire_rh56dftp_and_by_the_device() {
+    let _g = serial();
+    const PORT: u16 = 16_048;
+    let at = format!("127.0.0.1:{PORT}");
+    let emu = Emulator::start(&["inspire-rh56", "--tcp", &at, "--tactile"]);
+    assert!(emu.line.contains("Modbus TCP") && emu.line.contains(&at), "{}", emu.line);
+    let out = dftp(PORT);
+    assert!(out.contains("tactile_cells=1062"), "{out}");
+    let p = shipped_edited(
+        "rh56-dftp-tcp",
+        &[
+            ("domain = 1 ", "domain = 47 "),
+            ("port = \"192.168.11.210:6000\"", &format!("port = \"{at}\"")),
+        ],
+    );
+    let _gw = Gateway::start(47, &["--profile", p.to_str().unwrap()]);
+    wait_fresh(47, &["dftp_right"]);
+    let n = node(47);
+    let mut touch: Latest<handgate_idl::inspire::InspireHandTouch> =
+        Latest::new(&n, "rt/inspire_hand/touch/r", Qos::BestEffort);
+    let got = poll(DEADLINE, || touch.update().cloned());
+    let t = got.expect("the FTP front published touch from the DFTP's cells");
+    assert_eq!(t.palm_touch.len(), 112);
+}
+
+/// The rh56-pair profile over Modbus RTU against `handgate emulate inspire-rh56 --modbus`.
+#[test]
+fn the_rh56_pair_over_modbus_rtu_drives_handgate_emulate_modbus() {
+    let _g = serial();
+    let pty = tmp("rtu-line");
+    let port = pty.to_str().unwrap();
+    let emu = Emulator::start(&["inspire-rh56", "--ids", "1,2", "--modbus", "--pty", port]);
+    assert!(emu.line.contains("Modbus RTU"), "{}", emu.line);
+    let p = shipped_edited(
+        "rh56-pair",
+        &[
+            ("domain = 1 ", "domain = 47 "),
+            (
+                "port = \"/dev/ttyUSB0\"         # better",
+                &format!("protocol = \"modbus_rtu\"\nport = \"{port}\"         # better"),
+            ),
+            (
+                "port = \"/dev/ttyUSB0\"         # the same line",
+                &format!("protocol = \"modbus_rtu\"\nport = \"{port}\"         # the same line"),
+            ),
+        ],
+    );
+    let _gw = Gateway::start(47, &["--profile", p.to_str().unwrap()]);
+    wait_fresh(47, &["rh56_left", "rh56_right"]);
+    let n = node(47);
+    let mut st: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/rh56_right/state", Qos::BestEffort);
+    let (stop, t) = stream_closure(47, "rh56_right", 1.0);
+    let closed = poll(DEADLINE, || st.update().filter(|s| s.closure > 0.9).cloned());
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let _ = t.join();
+    assert!(closed.is_some(), "the right hand never closed: {:?}", st.update());
+}

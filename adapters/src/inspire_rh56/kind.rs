@@ -11,7 +11,8 @@ use super::adapter::Rh56Device;
 use super::bus::{BusConfig, EmulatedLine, Rh56Bus};
 use super::config::{Rh56Config, Rh56Profile};
 use super::emulator::{HandSpec, Line, Rh56Hand};
-use super::pty::PtyLine;
+use super::config::Protocol;
+use super::pty::{PtyLine, TcpLine};
 use super::regs::FINGERS;
 use crate::device::{Backend, DeviceError, HandDevice};
 use crate::kind::{
@@ -174,10 +175,17 @@ impl Kind for InspireRh56Kind {
                 Rh56Hand::new(s)
             })
             .collect();
-        let line = PtyLine::start(&link, Line::new(hands)).map_err(DeviceError::link)?;
+        let list = ids.iter().map(u8::to_string).collect::<Vec<_>>().join(", ");
+        if let Some(at) = options.tcp {
+            let line = TcpLine::start(at, Line::new(hands)).map_err(DeviceError::link)?;
+            let what = format!("emulating RH56 hand id(s) {list} (Modbus TCP, unit = id) on {}", line.addr);
+            return Ok((what, Emulation::Running(Box::new(line))));
+        }
+        let protocol = if options.modbus { Protocol::ModbusRtu } else { Protocol::Serial };
+        let line = PtyLine::start_with(&link, Line::new(hands), protocol).map_err(DeviceError::link)?;
         let what = format!(
-            "emulating RH56 hand id(s) {} (the serial protocol) on {}",
-            ids.iter().map(u8::to_string).collect::<Vec<_>>().join(", "),
+            "emulating RH56 hand id(s) {list} ({}) on {}",
+            if options.modbus { "Modbus RTU" } else { "the serial protocol" },
             line.path().display()
         );
         Ok((what, Emulation::Running(Box::new(line))))
@@ -256,6 +264,10 @@ pub struct Rh56Emulate {
     pub pty: Option<PathBuf>,
     /// The hands are DFTPs (tactile cells read contact).
     pub tactile: bool,
+    /// Modbus RTU on the pty instead of the serial protocol.
+    pub modbus: bool,
+    /// Modbus TCP on this address instead of a pty.
+    pub tcp: Option<std::net::SocketAddr>,
 }
 
 impl EmulateOptions for Rh56Emulate {
@@ -276,6 +288,16 @@ impl EmulateOptions for Rh56Emulate {
             value: None,
             help: "emulate DFTPs: their tactile cells read the fingers' contact",
         },
+        EmulateOption {
+            name: "modbus",
+            value: None,
+            help: "answer Modbus RTU on the pty instead of the hand's serial protocol",
+        },
+        EmulateOption {
+            name: "tcp",
+            value: Some("ADDR"),
+            help: "serve Modbus TCP on ADDR (e.g. 127.0.0.1:6000, the DFTP's port) instead of a pty",
+        },
     ];
 
     fn set(&mut self, name: &str, value: Option<&str>) -> Result<(), String> {
@@ -294,6 +316,13 @@ impl EmulateOptions for Rh56Emulate {
                 }
             }
             "tactile" => self.tactile = true,
+            "modbus" => self.modbus = true,
+            "tcp" => {
+                self.tcp = Some(
+                    v.parse()
+                        .map_err(|_| format!("`{v}` is not an address and port, e.g. 127.0.0.1:6000"))?,
+                )
+            }
             _ => self.pty = Some(v.into()),
         }
         Ok(())
