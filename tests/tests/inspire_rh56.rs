@@ -39,7 +39,10 @@ fn pyrh56(args: &[&str]) -> String {
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     );
-    assert!(done.is_some() && out.status.success(), "pyrh56 {args:?} failed:\n{o}\n{e}");
+    assert!(
+        done.is_some() && out.status.success(),
+        "pyrh56 {args:?} failed:\n{o}\n{e}"
+    );
     assert!(o.contains("DONE"), "{o}\n{e}");
     o
 }
@@ -74,7 +77,11 @@ fn wait_fresh(domain: u32, names: &[&str]) {
 fn pyrh56_drives_two_hands_on_handgate_emulate_inspire_rh56() {
     let pty = tmp("emulated-line");
     let emu = Emulator::start(&["inspire-rh56", "--ids", "1,2", "--pty", pty.to_str().unwrap()]);
-    assert!(emu.line.contains("1, 2") && emu.line.contains(pty.to_str().unwrap()), "{}", emu.line);
+    assert!(
+        emu.line.contains("1, 2") && emu.line.contains(pty.to_str().unwrap()),
+        "{}",
+        emu.line
+    );
     let out = pyrh56(&[pty.to_str().unwrap(), "1,2"]);
     assert!(out.contains("OK 1 ") && out.contains("OK 2 "), "{out}");
 }
@@ -122,8 +129,14 @@ fn pyrh56_drives_the_pair_through_the_rh56_front() {
         "rh56-pair-sim",
         &[
             ("domain = 1 ", "domain = 47 "),
-            ("pty = \"/tmp/handgate-rh56-left\"", &format!("pty = \"{}\"", l.display())),
-            ("pty = \"/tmp/handgate-rh56-right\"", &format!("pty = \"{}\"", r.display())),
+            (
+                "pty = \"/tmp/handgate-rh56-left\"",
+                &format!("pty = \"{}\"", l.display()),
+            ),
+            (
+                "pty = \"/tmp/handgate-rh56-right\"",
+                &format!("pty = \"{}\"", r.display()),
+            ),
         ],
     );
     let _gw = Gateway::start(47, &["--profile", p.to_str().unwrap()]);
@@ -141,7 +154,10 @@ fn pyrh56_drives_a_dex3_behind_the_rh56_front() {
         "rh56-front-dex3-sim",
         &[
             ("domain = 1 ", "domain = 69 "),
-            ("pty = \"/tmp/handgate-rh56-dex3\"", &format!("pty = \"{}\"", pty.display())),
+            (
+                "pty = \"/tmp/handgate-rh56-dex3\"",
+                &format!("pty = \"{}\"", pty.display()),
+            ),
         ],
     );
     let _gw = Gateway::start(69, &["--profile", p.to_str().unwrap()]);
@@ -197,11 +213,17 @@ fn bad_input_on_the_emulated_line_is_counted_and_the_line_goes_on() {
         }
         assert!(Instant::now() < deadline, "no reply: {rx:02x?}");
     };
-    assert!(matches!(reply, Reply::Read { id: 1, addr: 1546, data } if data.len() == 12), "{reply:?}");
+    assert!(
+        matches!(reply, Reply::Read { id: 1, addr: 1546, data } if data.len() == 12),
+        "{reply:?}"
+    );
     let c = &line.counters;
     assert_eq!(c.answered.load(Ordering::Relaxed), 1);
     assert_eq!(c.unanswered.load(Ordering::Relaxed), 1, "the absent id");
-    assert!(c.bad_checksum.load(Ordering::Relaxed) >= 2, "the bad sum and the cut frame");
+    assert!(
+        c.bad_checksum.load(Ordering::Relaxed) >= 2,
+        "the bad sum and the cut frame"
+    );
     assert!(c.garbage.load(Ordering::Relaxed) >= 1);
     // Only the one reply came back.
     std::thread::sleep(Duration::from_millis(100));
@@ -221,7 +243,10 @@ fn dftp(port: u16) -> String {
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     );
-    assert!(out.status.success() && o.contains("DONE"), "inspire-rh56dftp failed:\n{o}\n{e}");
+    assert!(
+        out.status.success() && o.contains("DONE"),
+        "inspire-rh56dftp failed:\n{o}\n{e}"
+    );
     o
 }
 
@@ -252,8 +277,14 @@ fn inspire_rh56dftp_drives_a_hand_through_the_modbus_tcp_front_and_bad_input_is_
         "rh56-pair-sim",
         &[
             ("domain = 1 ", "domain = 47 "),
-            ("pty = \"/tmp/handgate-rh56-left\"", &format!("pty = \"{}\"", tmp("l").display())),
-            ("pty = \"/tmp/handgate-rh56-right\"", &format!("pty = \"{}\"", tmp("r").display())),
+            (
+                "pty = \"/tmp/handgate-rh56-left\"",
+                &format!("pty = \"{}\"", tmp("l").display()),
+            ),
+            (
+                "pty = \"/tmp/handgate-rh56-right\"",
+                &format!("pty = \"{}\"", tmp("r").display()),
+            ),
             (
                 "serve = \"modbus_tcp\"",
                 &format!("serve = \"modbus_tcp\"\nlisten = \"127.0.0.1:{PORT}\"\nidle_s = 1.0"),
@@ -311,7 +342,11 @@ fn the_dftp_over_modbus_tcp_emulated_driven_by_inspire_rh56dftp_and_by_the_devic
     const PORT: u16 = 16_048;
     let at = format!("127.0.0.1:{PORT}");
     let emu = Emulator::start(&["inspire-rh56", "--tcp", &at, "--tactile"]);
-    assert!(emu.line.contains("Modbus TCP") && emu.line.contains(&at), "{}", emu.line);
+    assert!(
+        emu.line.contains("Modbus TCP") && emu.line.contains(&at),
+        "{}",
+        emu.line
+    );
     let out = dftp(PORT);
     assert!(out.contains("tactile_cells=1062"), "{out}");
     let p = shipped_edited(

@@ -164,7 +164,9 @@ impl Front for InspireFtpFront {
             (None, Some(s @ (Side::Left | Side::Right))) => topics(s).2,
             _ => format!("{}/{{l,r}} (the served side)", super::front::TOUCH_TOPIC_PREFIX),
         };
-        Some(format!(", touch {touch} from an inspire_ftp or inspire_rh56 device with tactile pads"))
+        Some(format!(
+            ", touch {touch} from an inspire_ftp or inspire_rh56 device with tactile pads"
+        ))
     }
 }
 

@@ -86,8 +86,11 @@ fn pads(r: &HandReading, st: &mut HandState) {
         let first = (addr - regs::TACTILE) as usize / 2;
         let p = &mut st.pads[k];
         p.pressure.clear();
-        p.pressure
-            .extend(r.tactile[first..first + (rows * cols) as usize].iter().map(|v| f32::from(*v)));
+        p.pressure.extend(
+            r.tactile[first..first + (rows * cols) as usize]
+                .iter()
+                .map(|v| f32::from(*v)),
+        );
     }
 }
 

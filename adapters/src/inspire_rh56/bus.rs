@@ -211,7 +211,10 @@ pub struct TcpConnector {
 
 impl Connector for TcpConnector {
     fn connect(&mut self) -> Result<Box<dyn Transport>, TransportError> {
-        Ok(Box::new(crate::modbus::master::TcpTransport::connect(self.addr, self.timeout)?))
+        Ok(Box::new(crate::modbus::master::TcpTransport::connect(
+            self.addr,
+            self.timeout,
+        )?))
     }
 
     fn describe(&self) -> String {
@@ -253,9 +256,7 @@ impl Rh56Bus {
     pub fn open(path: &str, cfg: BusConfig) -> Result<Self, BusError> {
         let c: Box<dyn Connector> = match cfg.protocol {
             Protocol::ModbusTcp => Box::new(TcpConnector {
-                addr: path
-                    .parse()
-                    .map_err(|_| BusError::Address(path.to_string()))?,
+                addr: path.parse().map_err(|_| BusError::Address(path.to_string()))?,
                 timeout: Duration::from_secs(2),
             }),
             _ => Box::new(SerialConnector {
@@ -301,12 +302,10 @@ impl Rh56Bus {
             transaction: 0,
             written: Vec::new(),
         };
-        let thread = std::thread::Builder::new()
-            .name("rh56-line".into())
-            .spawn(move || {
-                crate::realtime::enter_device_loop(); // [realtime]: this thread only
-                worker.run()
-            })?;
+        let thread = std::thread::Builder::new().name("rh56-line".into()).spawn(move || {
+            crate::realtime::enter_device_loop(); // [realtime]: this thread only
+            worker.run()
+        })?;
         Ok(Rh56Bus {
             slots,
             counters,
@@ -328,7 +327,11 @@ impl Rh56Bus {
 
     /// Clears hand `id`'s error bits at its next turn.
     pub fn clear_error(&self, id: u8) -> Result<(), BusError> {
-        self.slot(id)?.pending.lock().unwrap_or_else(|p| p.into_inner()).clear_error = true;
+        self.slot(id)?
+            .pending
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clear_error = true;
         Ok(())
     }
 
@@ -475,7 +478,10 @@ impl Worker {
 
     /// FORCE_SET / SPEED_SET from the profile, to every hand.
     fn settings(&mut self, t: &mut dyn Transport) {
-        for (reg, v) in [(regs::FORCE_SET, self.cfg.force_set), (regs::SPEED_SET, self.cfg.speed_set)] {
+        for (reg, v) in [
+            (regs::FORCE_SET, self.cfg.force_set),
+            (regs::SPEED_SET, self.cfg.speed_set),
+        ] {
             let Some(v) = v else { continue };
             let mut data = [0u8; regs::BLOCK];
             for k in 0..FINGERS {
@@ -494,12 +500,17 @@ impl Worker {
     fn serve(&mut self, t: &mut dyn Transport, i: usize, round: u64) -> Result<(), Miss> {
         let id = self.slots[i].id;
         let pending = std::mem::replace(
-            &mut self.slots[i].pending.lock().unwrap_or_else(|p| p.into_inner()).clear_error,
+            &mut self.slots[i]
+                .pending
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .clear_error,
             false,
         );
         let angle = self.slots[i].pending.lock().unwrap_or_else(|p| p.into_inner()).angle;
         if pending {
-            self.write(t, id, regs::CLEAR_ERROR, &[1]).map_err(|m| self.miss(i, m))?;
+            self.write(t, id, regs::CLEAR_ERROR, &[1])
+                .map_err(|m| self.miss(i, m))?;
         }
         if let Some(a) = angle {
             if self.written[i] != Some(a) {
@@ -512,15 +523,20 @@ impl Worker {
             }
         }
         let mut angles = [0u8; regs::BLOCK];
-        self.read(t, id, regs::ANGLE_ACT, &mut angles).map_err(|m| self.miss(i, m))?;
+        self.read(t, id, regs::ANGLE_ACT, &mut angles)
+            .map_err(|m| self.miss(i, m))?;
         let every = u64::from(self.cfg.slow_every.max(1));
         let slow = !self.slots[i].tx.borrow().slow_read || (round + i as u64) % every == 0;
         let mut block = [0u8; regs::SLOW_BLOCK.1];
         if slow {
-            self.read(t, id, regs::SLOW_BLOCK.0, &mut block).map_err(|m| self.miss(i, m))?;
+            self.read(t, id, regs::SLOW_BLOCK.0, &mut block)
+                .map_err(|m| self.miss(i, m))?;
         }
         let mut cells = [0u8; 224];
-        let batch = self.cfg.tactile.then(|| regs::TACTILE_BATCHES[((round + i as u64) % 11) as usize]);
+        let batch = self
+            .cfg
+            .tactile
+            .then(|| regs::TACTILE_BATCHES[((round + i as u64) % 11) as usize]);
         if let Some((addr, n)) = batch {
             self.read(t, id, addr, &mut cells[..n]).map_err(|m| self.miss(i, m))?;
         }
@@ -542,8 +558,10 @@ impl Worker {
                 let o = |reg: u16| (reg - regs::SLOW_BLOCK.0) as usize;
                 r.force = shorts(&block[o(regs::FORCE_ACT)..o(regs::FORCE_ACT) + regs::BLOCK]);
                 r.current = shorts(&block[o(regs::CURRENT)..o(regs::CURRENT) + regs::BLOCK]);
-                r.error.copy_from_slice(&block[o(regs::ERROR)..o(regs::ERROR) + FINGERS]);
-                r.status.copy_from_slice(&block[o(regs::STATUS)..o(regs::STATUS) + FINGERS]);
+                r.error
+                    .copy_from_slice(&block[o(regs::ERROR)..o(regs::ERROR) + FINGERS]);
+                r.status
+                    .copy_from_slice(&block[o(regs::STATUS)..o(regs::STATUS) + FINGERS]);
                 r.temp.copy_from_slice(&block[o(regs::TEMP)..o(regs::TEMP) + FINGERS]);
                 r.slow_read = true;
             }
@@ -641,7 +659,9 @@ impl Worker {
             let n = t.read(&mut buf, deadline - now).map_err(|_| Miss::Link)?;
             self.rx.extend_from_slice(&buf[..n]);
         }
-        proto::decode_reply(&self.rx).map(|(r, _)| r).map_err(|_| Miss::Mismatched)
+        proto::decode_reply(&self.rx)
+            .map(|(r, _)| r)
+            .map_err(|_| Miss::Mismatched)
     }
 }
 
@@ -689,8 +709,10 @@ impl Worker {
     fn modbus_write(&mut self, t: &mut dyn Transport, id: u8, addr: u16, data: &[u8]) -> Result<(), Miss> {
         self.counters.writes.fetch_add(1, Ordering::Relaxed);
         self.words.clear();
-        self.words
-            .extend(data.chunks(2).map(|c| u16::from_le_bytes([c[0], c.get(1).copied().unwrap_or(0)])));
+        self.words.extend(
+            data.chunks(2)
+                .map(|c| u16::from_le_bytes([c[0], c.get(1).copied().unwrap_or(0)])),
+        );
         self.pdu.clear();
         let (req, function) = match self.words.as_slice() {
             [value] => (pdu::Request::WriteSingle { addr, value: *value }, pdu::WRITE_SINGLE),
@@ -715,7 +737,13 @@ impl Worker {
     /// frames' wire time plus the response timeout; TCP: the response timeout). Over TCP the
     /// transaction id is not checked: the DFTP's server answers with the wrong one
     /// (inspire-rh56dftp's notes); one request is in flight at a time, so nothing is mixed up.
-    fn exchange_modbus(&mut self, t: &mut dyn Transport, id: u8, function: u8, expect: usize) -> Result<Response<'_>, Miss> {
+    fn exchange_modbus(
+        &mut self,
+        t: &mut dyn Transport,
+        id: u8,
+        function: u8,
+        expect: usize,
+    ) -> Result<Response<'_>, Miss> {
         self.counters.requests.fetch_add(1, Ordering::Relaxed);
         t.clear_input().map_err(|_| Miss::Link)?;
         t.write_all(&self.req).map_err(|_| Miss::Link)?;
@@ -951,14 +979,18 @@ mod tests {
                 protocol: Protocol::Serial,
             }),
             cfg,
-        ).unwrap();
+        )
+        .unwrap();
         bus.set_angles(1, [0, 0, 0, 0, 0, 0]).unwrap();
         bus.set_angles(2, [500, -1, 500, -1, 500, -1]).unwrap();
         let (mut a, mut b) = (bus.subscribe(1).unwrap(), bus.subscribe(2).unwrap());
         let r1 = wait(&mut a, |r| r.online && r.angle == [0; 6]);
         let r2 = wait(&mut b, |r| r.online && r.angle == [500, 1000, 500, 1000, 500, 1000]);
         assert!(r1.slow_read && r1.temp == [35; 6], "{r1:?}");
-        assert!(r2.status.iter().all(|s| *s == regs::status::POSITION_REACHED || *s == 0));
+        assert!(r2
+            .status
+            .iter()
+            .all(|s| *s == regs::status::POSITION_REACHED || *s == 0));
         assert_eq!(bus.stats().timeouts, 0);
         assert!(matches!(bus.set_angles(3, [0; 6]), Err(BusError::UnknownId(3))));
     }
@@ -1042,7 +1074,8 @@ mod tests {
                 protocol: Protocol::Serial,
             }),
             cfg,
-        ).unwrap();
+        )
+        .unwrap();
         let (mut a, mut c) = (bus.subscribe(1).unwrap(), bus.subscribe(3).unwrap());
         let first = wait(&mut a, |r| r.online && r.round > 0).round;
         wait(&mut a, |r| r.round >= first + 20);
@@ -1070,7 +1103,8 @@ mod tests {
                 protocol: Protocol::Serial,
             }),
             cfg,
-        ).unwrap();
+        )
+        .unwrap();
         let (mut a, mut b) = (bus.subscribe(1).unwrap(), bus.subscribe(2).unwrap());
         wait(&mut a, |r| r.online);
         wait(&mut b, |r| r.online);

@@ -89,18 +89,28 @@ impl Settings for Rh56Profile {
         if c.protocol == Protocol::ModbusTcp && c.port.parse::<std::net::SocketAddr>().is_err() {
             out.push(Problem::new(
                 &key("port"),
-                format!("`{}` is not the hand's host:port for protocol modbus_tcp, e.g. 192.168.11.210:6000", c.port),
+                format!(
+                    "`{}` is not the hand's host:port for protocol modbus_tcp, e.g. 192.168.11.210:6000",
+                    c.port
+                ),
             ));
         }
         if !RH56_BAUDS.contains(&c.baud) {
             let v: Vec<String> = RH56_BAUDS.iter().map(|b| b.to_string()).collect();
             out.push(Problem::new(
                 &key("baud"),
-                format!("{} is not an RH56 baud rate handgate can set ({})", c.baud, v.join(", ")),
+                format!(
+                    "{} is not an RH56 baud rate handgate can set ({})",
+                    c.baud,
+                    v.join(", ")
+                ),
             ));
         }
         if c.id == 0 || c.id == 255 {
-            out.push(Problem::new(&key("id"), format!("must be between 1 and 254, got {}", c.id)));
+            out.push(Problem::new(
+                &key("id"),
+                format!("must be between 1 and 254, got {}", c.id),
+            ));
         }
         for (k, v) in [("force_set", c.force_set), ("speed_set", c.speed_set)] {
             if let Some(v) = v {
@@ -129,7 +139,11 @@ impl Settings for Rh56Profile {
                 c.port,
                 c.baud,
                 c.id,
-                if c.protocol == Protocol::ModbusRtu { " (Modbus RTU)" } else { "" }
+                if c.protocol == Protocol::ModbusRtu {
+                    " (Modbus RTU)"
+                } else {
+                    ""
+                }
             ),
             None => String::new(),
         }

@@ -19,8 +19,8 @@
 
 use std::time::Instant;
 
-use super::file::{touches, words_to_bytes, RegisterFile};
 pub use super::file::Refused;
+use super::file::{touches, words_to_bytes, RegisterFile};
 use super::proto::{self, Request};
 use super::regs::{self, FINGERS};
 
@@ -350,7 +350,11 @@ mod tests {
         assert_eq!(a[0], 750, "{a:?}");
         assert_eq!(a[1], 1000, "-1 keeps the ring finger where it was told: open");
         assert_eq!(h.file.byte(regs::STATUS), regs::status::GRASPING);
-        assert_eq!(read_shorts(&h, regs::ANGLE_SET)[1], 1000, "-1 reads back as the kept target");
+        assert_eq!(
+            read_shorts(&h, regs::ANGLE_SET)[1],
+            1000,
+            "-1 reads back as the kept target"
+        );
         h.step(t0 + Duration::from_secs(10));
         let a = read_shorts(&h, regs::ANGLE_ACT);
         assert_eq!(a, [0, 1000, 0, 0, 0, 0]);

@@ -72,9 +72,12 @@ impl Image {
             // The actuator's 0..2000 stroke, as the emulated hand reads it (an assumption).
             self.file.put_short(regs::POS_ACT, i, 2 * (1000 - g(&s.angle_act)));
             self.file.put_short(regs::FORCE_ACT, i, 0);
-            self.file.put_byte(regs::ERROR + i as u16, s.err.get(i).copied().unwrap_or(0));
-            self.file.put_byte(regs::STATUS + i as u16, s.status.get(i).copied().unwrap_or(0));
-            self.file.put_byte(regs::TEMP + i as u16, s.temperature.get(i).copied().unwrap_or(0));
+            self.file
+                .put_byte(regs::ERROR + i as u16, s.err.get(i).copied().unwrap_or(0));
+            self.file
+                .put_byte(regs::STATUS + i as u16, s.status.get(i).copied().unwrap_or(0));
+            self.file
+                .put_byte(regs::TEMP + i as u16, s.temperature.get(i).copied().unwrap_or(0));
         }
         for (name, addr, r, c) in regs::TACTILE_REGIONS {
             let pad = st.pads.iter().find(|p| p.name == name);
@@ -151,13 +154,7 @@ impl Session for SerialSession {
         let (req, n) = match proto::decode_request(input) {
             Ok(r) => r,
             Err(FrameError::Incomplete { .. }) => return Ok(0),
-            Err(e) => {
-                return Err(StreamError::skipping(
-                    proto::resync(input),
-                    e.reason(),
-                    e.to_string(),
-                ))
-            }
+            Err(e) => return Err(StreamError::skipping(proto::resync(input), e.reason(), e.to_string())),
         };
         if req.id() != self.id {
             return Err(StreamError::skipping(
@@ -193,9 +190,9 @@ impl Session for SerialSession {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::inspire_rh56::proto::{decode_reply, encode_read, encode_write, Reply};
     use crate::mapping::TableOverrides;
     use crate::model::{DeviceKind, Side};
-    use crate::inspire_rh56::proto::{decode_reply, encode_read, encode_write, Reply};
 
     fn session() -> (SerialSession, SharedImage) {
         let image = Arc::new(Mutex::new(Image::new(1)));
@@ -212,7 +209,10 @@ mod tests {
     fn an_angle_write_is_acknowledged_and_handed_on_and_reads_answer_from_the_image() {
         let (mut s, image) = session();
         let mut req = Vec::new();
-        let data: Vec<u8> = [100i16, 200, 300, 400, 500, 600].iter().flat_map(|v| v.to_le_bytes()).collect();
+        let data: Vec<u8> = [100i16, 200, 300, 400, 500, 600]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
         encode_write(1, regs::ANGLE_SET, &data, &mut req).unwrap();
         let (r, out, got) = run(&mut s, &req);
         assert_eq!(r, Ok(req.len()));
@@ -259,14 +259,19 @@ mod tests {
         let (r, out, got) = run(&mut s, &req);
         assert_eq!(r, Ok(req.len()));
         assert!(got.is_empty());
-        assert!(matches!(decode_reply(&out).unwrap().0, Reply::WriteAck { ok: false, .. }));
+        assert!(matches!(
+            decode_reply(&out).unwrap().0,
+            Reply::WriteAck { ok: false, .. }
+        ));
         encode_read(1, 5120, 8, &mut req).unwrap();
         assert_eq!(run(&mut s, &req).0.unwrap_err().reason, "out_of_range");
     }
 
     #[test]
     fn angles_decode_through_the_inspire_table_and_minus_one_keeps() {
-        let t = DeviceKind::InspireRh56.table(Side::Left, &TableOverrides::default()).unwrap();
+        let t = DeviceKind::InspireRh56
+            .table(Side::Left, &TableOverrides::default())
+            .unwrap();
         let c = decode(&AngleWrite([0, -1, 1000, -1, -1, -1]), &t).unwrap().unwrap();
         assert!((c.joints[0].unwrap().q - 1.7).abs() < 1e-5);
         assert!(c.joints[1].is_none());
@@ -276,7 +281,9 @@ mod tests {
 
     #[test]
     fn the_image_reads_the_state_and_the_pads() {
-        let t = DeviceKind::InspireRh56.table(Side::Left, &TableOverrides::default()).unwrap();
+        let t = DeviceKind::InspireRh56
+            .table(Side::Left, &TableOverrides::default())
+            .unwrap();
         let mut st = HandState::empty(6);
         st.freshness = crate::model::Freshness::Fresh;
         for (j, q) in st.joints.iter_mut().zip([1.7, 0.0, 0.85, 0.0, 0.0, -0.1]) {

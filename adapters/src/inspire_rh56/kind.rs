@@ -9,9 +9,9 @@ use std::time::Duration;
 
 use super::adapter::Rh56Device;
 use super::bus::{BusConfig, EmulatedLine, Rh56Bus};
+use super::config::Protocol;
 use super::config::{Rh56Config, Rh56Profile};
 use super::emulator::{HandSpec, Line, Rh56Hand};
-use super::config::Protocol;
 use super::pty::{PtyLine, TcpLine};
 use super::regs::FINGERS;
 use crate::device::{Backend, DeviceError, HandDevice};
@@ -63,7 +63,11 @@ impl Kind for InspireRh56Kind {
         }
     }
 
-    fn validate_emulator(&self, _ctx: &crate::kind::DeviceCtx<'_>, section: &crate::open::EmulatorSection) -> Vec<Problem> {
+    fn validate_emulator(
+        &self,
+        _ctx: &crate::kind::DeviceCtx<'_>,
+        section: &crate::open::EmulatorSection,
+    ) -> Vec<Problem> {
         let mut out = Vec::new();
         for (key, set) in [
             ("velocity_noise_rad_s", section.velocity_noise_rad_s.is_some()),
@@ -99,7 +103,10 @@ impl Kind for InspireRh56Kind {
                     m.index,
                     Problem::new(
                         &["inspire_rh56", "baud"],
-                        format!("devices[{j}] uses {} at {baud} baud; one line has one baud rate", c.port),
+                        format!(
+                            "devices[{j}] uses {} at {baud} baud; one line has one baud rate",
+                            c.port
+                        ),
                     ),
                 )),
                 Some(_) => {}
@@ -178,14 +185,25 @@ impl Kind for InspireRh56Kind {
         let list = ids.iter().map(u8::to_string).collect::<Vec<_>>().join(", ");
         if let Some(at) = options.tcp {
             let line = TcpLine::start(at, Line::new(hands)).map_err(DeviceError::link)?;
-            let what = format!("emulating RH56 hand id(s) {list} (Modbus TCP, unit = id) on {}", line.addr);
+            let what = format!(
+                "emulating RH56 hand id(s) {list} (Modbus TCP, unit = id) on {}",
+                line.addr
+            );
             return Ok((what, Emulation::Running(Box::new(line))));
         }
-        let protocol = if options.modbus { Protocol::ModbusRtu } else { Protocol::Serial };
+        let protocol = if options.modbus {
+            Protocol::ModbusRtu
+        } else {
+            Protocol::Serial
+        };
         let line = PtyLine::start_with(&link, Line::new(hands), protocol).map_err(DeviceError::link)?;
         let what = format!(
             "emulating RH56 hand id(s) {list} ({}) on {}",
-            if options.modbus { "Modbus RTU" } else { "the serial protocol" },
+            if options.modbus {
+                "Modbus RTU"
+            } else {
+                "the serial protocol"
+            },
             line.path().display()
         );
         Ok((what, Emulation::Running(Box::new(line))))

@@ -70,7 +70,11 @@ pub fn answer_tcp(map: &mut dyn RegisterMap, input: &[u8], out: &mut Vec<u8>) ->
         // Nothing to answer (an empty PDU): no frame.
         out.truncate(start);
         let why = outcome.reason().unwrap_or("empty_pdu");
-        return Err(StreamError::skipping(adu.len, why, "a Modbus TCP frame with an empty PDU"));
+        return Err(StreamError::skipping(
+            adu.len,
+            why,
+            "a Modbus TCP frame with an empty PDU",
+        ));
     }
     tcp::finish(out, start);
     Ok(adu.len)
@@ -142,7 +146,10 @@ mod tests {
         let mut s = TcpSession { image: image.clone() };
         let (mut out, mut got) = (Vec::new(), Vec::new());
         let req = fc16(7, regs::ANGLE_SET, &[1000, 1000, 1000, 1000, 1000, 0]);
-        assert_eq!(s.on_bytes(&req, Instant::now(), &mut out, &mut |a| got.push(a)), Ok(req.len()));
+        assert_eq!(
+            s.on_bytes(&req, Instant::now(), &mut out, &mut |a| got.push(a)),
+            Ok(req.len())
+        );
         // The 12-byte acknowledgement the client drains: MBAP (tx 7, length 6, unit 1), FC16,
         // address, count.
         assert_eq!(out, [0, 7, 0, 0, 0, 6, 1, 0x10, 0x05, 0xCE, 0, 6]);
@@ -157,13 +164,19 @@ mod tests {
         out.clear();
         got.clear();
         let req = fc16(9, regs::ANGLE_ACT, &[0; 6]);
-        s.on_bytes(&req, Instant::now(), &mut out, &mut |a| got.push(a)).unwrap();
+        s.on_bytes(&req, Instant::now(), &mut out, &mut |a| got.push(a))
+            .unwrap();
         assert_eq!(&out[7..], &[0x90, 0x02]);
         assert!(got.is_empty());
         // Garbage (protocol id 0x1337) is refused whole; half a frame waits.
         out.clear();
         let e = s
-            .on_bytes(&[0, 1, 0x13, 0x37, 0, 6, 1, 3, 0, 0, 0, 1], Instant::now(), &mut out, &mut |_| {})
+            .on_bytes(
+                &[0, 1, 0x13, 0x37, 0, 6, 1, 3, 0, 0, 0, 1],
+                Instant::now(),
+                &mut out,
+                &mut |_| {},
+            )
             .unwrap_err();
         assert_eq!((e.reason, e.skip), ("bad_protocol", None));
         assert_eq!(s.on_bytes(&req[..5], Instant::now(), &mut out, &mut |_| {}), Ok(0));

@@ -147,7 +147,9 @@ fn decode(header: [u8; 2], buf: &[u8]) -> Result<(Frame<'_>, usize), FrameError>
         if len < 3 {
             return Err(FrameError::Malformed("length field below 3 (command and address)"));
         }
-        return Err(FrameError::Incomplete { need: total - buf.len() });
+        return Err(FrameError::Incomplete {
+            need: total - buf.len(),
+        });
     }
     if len < 3 {
         return Err(FrameError::Malformed("length field below 3 (command and address)"));
@@ -286,7 +288,11 @@ mod tests {
         let (r, n) = decode_request(&WRITE_OPEN).unwrap();
         assert_eq!(n, 20);
         match r {
-            Request::Write { id: 1, addr: 1486, data } => assert_eq!(&data[10..], &[0x84, 0x03]),
+            Request::Write {
+                id: 1,
+                addr: 1486,
+                data,
+            } => assert_eq!(&data[10..], &[0x84, 0x03]),
             other => panic!("{other:?}"),
         }
     }
@@ -338,7 +344,10 @@ mod tests {
                 received: 0x33
             })
         );
-        assert_eq!(decode_request(&READ_ANGLE_ACT[..5]), Err(FrameError::Incomplete { need: 4 }));
+        assert_eq!(
+            decode_request(&READ_ANGLE_ACT[..5]),
+            Err(FrameError::Incomplete { need: 4 })
+        );
         assert_eq!(decode_request(&[0xEB]), Err(FrameError::Incomplete { need: 3 }));
         assert_eq!(decode_request(&[0x00, 0x90]), Err(FrameError::BadHeader));
         assert_eq!(decode_request(&[0xEB, 0x91]), Err(FrameError::BadHeader));

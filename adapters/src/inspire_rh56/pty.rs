@@ -112,10 +112,10 @@ fn serve(pty: Pty, line: Arc<Mutex<Line>>, c: Arc<PtyCounters>, stop: Arc<Atomic
             match proto::decode_request(&inbox) {
                 Ok((req, used)) => {
                     c.requests.fetch_add(1, Ordering::Relaxed);
-                    let answered = line
-                        .lock()
-                        .unwrap_or_else(|p| p.into_inner())
-                        .answer(&req, Instant::now(), &mut out);
+                    let answered =
+                        line.lock()
+                            .unwrap_or_else(|p| p.into_inner())
+                            .answer(&req, Instant::now(), &mut out);
                     if answered {
                         c.answered.fetch_add(1, Ordering::Relaxed);
                         let _ = pty.write_all(&out);

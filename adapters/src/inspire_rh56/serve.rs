@@ -158,8 +158,14 @@ impl FrontWire<Rh56FrontConfig> for Rh56Wire {
             let server = match c.serve {
                 Rh56Serve::Serial => {
                     let (id, link) = (c.id, c.pty_path());
-                    serve_pty(&link, move || SerialSession::new(id, im.clone()), inbox, &name, "rh56 serial")
-                        .map_err(|e| DdsError::Thread(format!("the RH56 serial front's pty at {}: {e}", link.display())))?
+                    serve_pty(
+                        &link,
+                        move || SerialSession::new(id, im.clone()),
+                        inbox,
+                        &name,
+                        "rh56 serial",
+                    )
+                    .map_err(|e| DdsError::Thread(format!("the RH56 serial front's pty at {}: {e}", link.display())))?
                 }
                 Rh56Serve::ModbusTcp => {
                     let at = c.listen_addr().map_err(DdsError::Thread)?;
@@ -250,7 +256,11 @@ impl Front for Rh56Front {
     }
     fn describe(c: &Rh56FrontConfig) -> Option<String> {
         Some(match c.serve {
-            Rh56Serve::Serial => format!("the RH56 serial protocol, hand id {}, on pty {}", c.id, c.pty_path().display()),
+            Rh56Serve::Serial => format!(
+                "the RH56 serial protocol, hand id {}, on pty {}",
+                c.id,
+                c.pty_path().display()
+            ),
             Rh56Serve::ModbusTcp => format!(
                 "RH56 Modbus TCP on {}",
                 c.listen_addr().map_or_else(|e| e, |a| a.to_string())
