@@ -34,6 +34,12 @@ pub trait ServedMap: RegisterMap + Send + 'static {
     fn performed(&mut self, _req: &Request<'_>, _sink: &mut dyn FnMut(Self::Msg)) {}
 }
 
+/// A plain bank serves reads and writes and makes no commands (tests, fuzzing, a device
+/// image nobody commands through).
+impl ServedMap for super::server::Bank {
+    type Msg = ();
+}
+
 /// The least silence after which a partial RTU frame is dropped on a pty or over TCP. A pty
 /// has no line timing: the gap is measured between the server thread's reads, which a loaded
 /// machine delays by milliseconds, so the spec's 1.75 ms would drop frames a client wrote in
