@@ -652,11 +652,13 @@ impl Worker {
                 Err(proto::FrameError::BadChecksum { .. }) => return Err(Miss::BadChecksum),
                 Err(_) => return Err(Miss::Mismatched),
             }
-            let now = Instant::now();
-            if now >= deadline {
+            // Past the deadline, one last look without waiting: a reply that arrived in time
+            // while this thread was not scheduled (a loaded host) is not a missed reply.
+            let left = deadline.saturating_duration_since(Instant::now());
+            let n = t.read(&mut buf, left).map_err(|_| Miss::Link)?;
+            if n == 0 && left.is_zero() {
                 return Err(Miss::Timeout);
             }
-            let n = t.read(&mut buf, deadline - now).map_err(|_| Miss::Link)?;
             self.rx.extend_from_slice(&buf[..n]);
         }
         proto::decode_reply(&self.rx)
@@ -776,11 +778,13 @@ impl Worker {
             if let Ok(range) = cut {
                 break range;
             }
-            let now = Instant::now();
-            if now >= deadline {
+            // Past the deadline, one last look without waiting: a reply that arrived in time
+            // while this thread was not scheduled (a loaded host) is not a missed reply.
+            let left = deadline.saturating_duration_since(Instant::now());
+            let n = t.read(&mut buf, left).map_err(|_| Miss::Link)?;
+            if n == 0 && left.is_zero() {
                 return Err(Miss::Timeout);
             }
-            let n = t.read(&mut buf, deadline - now).map_err(|_| Miss::Link)?;
             self.rx.extend_from_slice(&buf[..n]);
         };
         Response::decode(&self.rx[len.0..len.1]).map_err(|_| Miss::Mismatched)

@@ -1,20 +1,20 @@
 //! The RH56 over Modbus (RTU on RS-485, TCP on the DFTP's port 6000), on the kit
 //! ([`crate::modbus`]): the register file as a [`RegisterMap`] (a request's address is the
 //! file's byte address, each register the next two bytes: [`super::regs`]), for the emulated
-//! hand and for the front's image, and the Modbus TCP session of the front.
+//! hand ([`HandMap`], [`answer_tcp`]) and for the front's image ([`FrontMap`], served by the
+//! kit's `RtuSession` / `TcpSession`).
 //!
 //! Both tables (FC03 holding, FC04 input) read the same file. A read outside the file or a
 //! write where the hand takes none is exception 2 (illegal data address); the hand's own
 //! answer is not documented (an assumption, docs/inspire-rh56.md).
 
-use std::time::Instant;
-
 use super::emulator::Rh56Hand;
 use super::file::{words_to_bytes, Refused};
-use super::front::{AngleWrite, Image, SharedImage};
-use crate::front::stream::{Session, StreamError};
+use super::front::{AngleWrite, SharedImage};
+use crate::front::stream::StreamError;
 use crate::modbus::server::{respond, RegisterMap};
-use crate::modbus::{tcp, Exception, Regs, Table, TcpError};
+use crate::modbus::session::ServedMap;
+use crate::modbus::{tcp, Exception, Regs, Request, Table, TcpError};
 
 fn exception(_: Refused) -> Exception {
     Exception::IllegalDataAddress
@@ -33,25 +33,43 @@ impl RegisterMap for HandMap<'_> {
     }
 }
 
-/// A front's image as a Modbus register map; an ANGLE_SET write is kept in `angles` for the
-/// front.
-pub struct ImageMap<'a> {
-    pub image: &'a mut Image,
-    pub angles: Option<AngleWrite>,
+/// A front's image as a Modbus register map; an ANGLE_SET write becomes the front's command
+/// once performed.
+pub struct FrontMap {
+    pub image: SharedImage,
+    angles: Option<AngleWrite>,
 }
 
-impl RegisterMap for ImageMap<'_> {
+impl FrontMap {
+    pub fn new(image: SharedImage) -> Self {
+        FrontMap { image, angles: None }
+    }
+}
+
+impl RegisterMap for FrontMap {
     fn read(&mut self, _table: Table, addr: u16, out: &mut [u16]) -> Result<(), Exception> {
-        self.image.file.read_words(addr, out).map_err(exception)
+        let image = self.image.lock().unwrap_or_else(|p| p.into_inner());
+        image.file.read_words(addr, out).map_err(exception)
     }
 
     fn write(&mut self, addr: u16, values: Regs<'_>) -> Result<(), Exception> {
         let mut buf = [0u8; 2 * 123];
         let n = words_to_bytes(values.iter(), &mut buf);
-        if let Some(a) = self.image.write(addr, &buf[..n]).map_err(exception)? {
+        let mut image = self.image.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(a) = image.write(addr, &buf[..n]).map_err(exception)? {
             self.angles = Some(a);
         }
         Ok(())
+    }
+}
+
+impl ServedMap for FrontMap {
+    type Msg = AngleWrite;
+
+    fn performed(&mut self, _req: &Request<'_>, sink: &mut dyn FnMut(AngleWrite)) {
+        if let Some(a) = self.angles.take() {
+            sink(a);
+        }
     }
 }
 
@@ -80,41 +98,16 @@ pub fn answer_tcp(map: &mut dyn RegisterMap, input: &[u8], out: &mut Vec<u8>) ->
     Ok(adu.len)
 }
 
-/// One Modbus TCP client of the front (inspire-rh56dftp's raw socket, pymodbus): every unit
-/// id is this hand (a Modbus TCP server is one device; the DFTP's clients send unit 1).
-pub struct TcpSession {
-    pub image: SharedImage,
-}
-
-impl Session for TcpSession {
-    type Msg = AngleWrite;
-
-    fn on_bytes(
-        &mut self,
-        input: &[u8],
-        _now: Instant,
-        out: &mut Vec<u8>,
-        sink: &mut dyn FnMut(AngleWrite),
-    ) -> Result<usize, StreamError> {
-        let mut image = self.image.lock().unwrap_or_else(|p| p.into_inner());
-        let mut map = ImageMap {
-            image: &mut image,
-            angles: None,
-        };
-        let n = answer_tcp(&mut map, input, out)?;
-        if let Some(a) = map.angles {
-            sink(a);
-        }
-        Ok(n)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::front::stream::Session;
     use crate::inspire_rh56::emulator::HandSpec;
+    use crate::inspire_rh56::front::Image;
     use crate::inspire_rh56::regs;
+    use crate::modbus::session::TcpSession;
     use std::sync::{Arc, Mutex};
+    use std::time::Instant;
 
     /// inspire-rh56dftp 0.1.0's frames: FC16 of six angles at ANGLE_SET (unit 1), FC03 of six
     /// registers at ANGLE_ACT.
@@ -143,7 +136,7 @@ mod tests {
     #[test]
     fn the_dftp_clients_write_and_read_as_the_hand_answers() {
         let image = Arc::new(Mutex::new(Image::new(1)));
-        let mut s = TcpSession { image: image.clone() };
+        let mut s = TcpSession::any_unit(FrontMap::new(image.clone()));
         let (mut out, mut got) = (Vec::new(), Vec::new());
         let req = fc16(7, regs::ANGLE_SET, &[1000, 1000, 1000, 1000, 1000, 0]);
         assert_eq!(
@@ -164,8 +157,10 @@ mod tests {
         out.clear();
         got.clear();
         let req = fc16(9, regs::ANGLE_ACT, &[0; 6]);
-        s.on_bytes(&req, Instant::now(), &mut out, &mut |a| got.push(a))
-            .unwrap();
+        let e = s
+            .on_bytes(&req, Instant::now(), &mut out, &mut |a| got.push(a))
+            .unwrap_err();
+        assert_eq!(e.reason, "illegal_address");
         assert_eq!(&out[7..], &[0x90, 0x02]);
         assert!(got.is_empty());
         // Garbage (protocol id 0x1337) is refused whole; half a frame waits.
@@ -178,7 +173,7 @@ mod tests {
                 &mut |_| {},
             )
             .unwrap_err();
-        assert_eq!((e.reason, e.skip), ("bad_protocol", None));
+        assert_eq!((e.reason, e.skip), ("garbage", None));
         assert_eq!(s.on_bytes(&req[..5], Instant::now(), &mut out, &mut |_| {}), Ok(0));
     }
 

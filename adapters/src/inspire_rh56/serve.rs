@@ -1,7 +1,8 @@
 //! The RH56 front's registry entry (`kind = "inspire_rh56"`) and its servers, for any bound
 //! hand (docs/fronts.md, "Inspire RH56"): the hand's serial protocol on a pseudo-terminal
-//! (`serve = "serial"`), or Modbus TCP as the RH56DFTP serves it (`serve = "modbus_tcp"`, on
-//! 127.0.0.1:6000 unless `listen` says otherwise). The pure codecs are [`super::front`] and
+//! (`serve = "serial"`), Modbus RTU on a pty (`serve = "modbus_rtu"`), or Modbus TCP as the
+//! RH56DFTP serves it (`serve = "modbus_tcp"`, on 127.0.0.1:6000 unless `listen` says
+//! otherwise); the Modbus sessions are the kit's. The pure codecs are [`super::front`] and
 //! [`super::modbus`].
 
 use std::net::SocketAddr;
@@ -13,7 +14,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use super::front::{decode, AngleWrite, Image, SerialSession, SharedImage};
-use super::modbus::TcpSession;
+use super::modbus::FrontMap;
 use crate::dds::DdsError;
 use crate::discovery::diagnose::Served;
 use crate::front::config::{FrontConfig, ServedSide, Silence, TopicKey};
@@ -22,6 +23,7 @@ use crate::front::plan::{FrontPlan, SilencePlan};
 use crate::front::serve::{commands, routed, Bound, Endpoints, FrontEnv, Queue, Routed, TypedIo};
 use crate::front::stream::{serve_pty, serve_tcp, StreamLimits, StreamServer};
 use crate::front::Rejection;
+use crate::modbus::session::{RtuSession, TcpSession};
 use crate::model::{DeviceKind, SafeAction};
 
 /// What the front serves.
@@ -33,6 +35,8 @@ pub enum Rh56Serve {
     Serial,
     /// Modbus TCP (the DFTP's interface) on `listen`.
     ModbusTcp,
+    /// Modbus RTU (slave `id`) on a pty.
+    ModbusRtu,
 }
 
 /// The DFTP's Modbus TCP port (inspire-rh56dftp `DEFAULT_PORT`, the DFTP manual).
@@ -46,7 +50,7 @@ pub struct Rh56FrontConfig {
     /// The hand id clients address on the serial protocol (HAND_ID; requests for another id
     /// get no answer). Over Modbus TCP every unit id is this hand.
     pub id: u8,
-    /// `serial`: where the pseudo-terminal is linked (clients open it as a serial port);
+    /// `serial`, `modbus_rtu`: where the pseudo-terminal is linked (clients open it as a serial port);
     /// default [`default_pty`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pty: Option<PathBuf>,
@@ -167,12 +171,25 @@ impl FrontWire<Rh56FrontConfig> for Rh56Wire {
                     )
                     .map_err(|e| DdsError::Thread(format!("the RH56 serial front's pty at {}: {e}", link.display())))?
                 }
+                Rh56Serve::ModbusRtu => {
+                    let (id, link) = (c.id, c.pty_path());
+                    serve_pty(
+                        &link,
+                        move || RtuSession::new(id, FrontMap::new(im.clone()), 115_200),
+                        inbox,
+                        &name,
+                        "rh56 modbus rtu",
+                    )
+                    .map_err(|e| {
+                        DdsError::Thread(format!("the RH56 Modbus RTU front's pty at {}: {e}", link.display()))
+                    })?
+                }
                 Rh56Serve::ModbusTcp => {
                     let at = c.listen_addr().map_err(DdsError::Thread)?;
                     serve_tcp(
                         at,
                         c.limits(),
-                        move || TcpSession { image: im.clone() },
+                        move || TcpSession::any_unit(FrontMap::new(im.clone())),
                         inbox,
                         &name,
                         "rh56 modbus tcp",
@@ -205,6 +222,7 @@ impl Front for Rh56Front {
         match c.serve {
             Rh56Serve::Serial => format!("inspire_rh56_{d}"),
             Rh56Serve::ModbusTcp => format!("inspire_rh56_tcp_{d}"),
+            Rh56Serve::ModbusRtu => format!("inspire_rh56_rtu_{d}"),
         }
     }
     /// The hand keeps its last target when its client falls silent; `watchdog` mode: the
@@ -229,7 +247,7 @@ impl Front for Rh56Front {
             out.push(("listen", e));
         }
         match c.serve {
-            Rh56Serve::Serial => {
+            Rh56Serve::Serial | Rh56Serve::ModbusRtu => {
                 for (key, set) in [
                     ("listen", c.listen.is_some()),
                     ("max_clients", c.max_clients.is_some()),
@@ -242,7 +260,7 @@ impl Front for Rh56Front {
             }
             Rh56Serve::ModbusTcp => {
                 if c.pty.is_some() {
-                    out.push(("pty", "is for serve = \"serial\"".to_string()));
+                    out.push(("pty", "is for serve = \"serial\" or \"modbus_rtu\"".to_string()));
                 }
                 if c.max_clients == Some(0) {
                     out.push(("max_clients", "must be at least 1".to_string()));
@@ -261,6 +279,7 @@ impl Front for Rh56Front {
                 c.id,
                 c.pty_path().display()
             ),
+            Rh56Serve::ModbusRtu => format!("RH56 Modbus RTU, slave {}, on pty {}", c.id, c.pty_path().display()),
             Rh56Serve::ModbusTcp => format!(
                 "RH56 Modbus TCP on {}",
                 c.listen_addr().map_or_else(|e| e, |a| a.to_string())
