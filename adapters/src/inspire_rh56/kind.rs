@@ -70,6 +70,8 @@ impl Kind for InspireRh56Kind {
     ) -> Vec<Problem> {
         let mut out = Vec::new();
         for (key, set) in [
+            ("noise", section.noise.is_some()),
+            ("seed", section.seed.is_some()),
             ("velocity_noise_rad_s", section.velocity_noise_rad_s.is_some()),
             ("torque_noise_nm", section.torque_noise_nm.is_some()),
             ("position_noise_rad", section.position_noise_rad.is_some()),
