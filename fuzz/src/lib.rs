@@ -643,7 +643,11 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
         .iter()
         .enumerate()
         {
-            out.push(("modbus_rtu_frame", format!("answer_{k}"), prefixed(*sel | 0x1F, &modbus_hex(r))));
+            out.push((
+                "modbus_rtu_frame",
+                format!("answer_{k}"),
+                prefixed(*sel | 0x1F, &modbus_hex(r)),
+            ));
         }
         let pdus = [
             "03 00 6B 00 03",
