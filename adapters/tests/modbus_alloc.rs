@@ -90,7 +90,7 @@ impl Transport for InMemoryLine {
 }
 
 #[test]
-fn an_rtu_transaction_allocates_nothing() {
+fn modbus_rtu_transaction_allocates_nothing() {
     let line = InMemoryLine {
         session: RtuSession::new(9, robotiq_bank(), 115_200).exceptions(false),
         pending: Vec::with_capacity(512),
@@ -121,7 +121,7 @@ fn an_rtu_transaction_allocates_nothing() {
 }
 
 #[test]
-fn a_tcp_session_answers_without_allocating() {
+fn modbus_tcp_session_answers_without_allocating() {
     let mut s = TcpSession::new(1, robotiq_bank());
     let mut requests = Vec::new();
     for (k, pdu) in [
