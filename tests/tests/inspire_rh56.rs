@@ -120,11 +120,18 @@ fn the_rh56_pair_profile_drives_handgate_emulate_over_its_pty() {
 }
 
 /// pyrh56 on the RH56 front's ptys drives two emulated RH56 hands on one line
-/// (rh56-pair-sim), through the gateway.
+/// (rh56-pair-sim), through the gateway; pymodbus drives the left one through a Modbus RTU
+/// front on a pty of its own.
 #[test]
 fn pyrh56_drives_the_pair_through_the_rh56_front() {
     let _g = serial();
-    let (l, r) = (tmp("front-left"), tmp("front-right"));
+    let (l, r, rtu) = (tmp("front-left"), tmp("front-right"), tmp("front-rtu"));
+    // The shipped Modbus TCP front gives way to a Modbus RTU front (the TCP one has its test).
+    let tcp_front = "[[fronts]]\nkind = \"inspire_rh56\"\ndevice = \"rh56_right\"\nserve = \"modbus_tcp\"";
+    let rtu_front = format!(
+        "[[fronts]]\nkind = \"inspire_rh56\"\ndevice = \"rh56_left\"\nserve = \"modbus_rtu\"\nid = 1\npty = \"{}\"",
+        rtu.display()
+    );
     let p = shipped_edited(
         "rh56-pair-sim",
         &[
@@ -137,12 +144,26 @@ fn pyrh56_drives_the_pair_through_the_rh56_front() {
                 "pty = \"/tmp/handgate-rh56-right\"",
                 &format!("pty = \"{}\"", r.display()),
             ),
+            (tcp_front, &rtu_front),
         ],
     );
     let _gw = Gateway::start(47, &["--profile", p.to_str().unwrap()]);
     wait_fresh(47, &["rh56_left", "rh56_right"]);
     assert!(pyrh56(&[l.to_str().unwrap(), "1"]).contains("OK 1 "));
     assert!(pyrh56(&[r.to_str().unwrap(), "2"]).contains("OK 2 "));
+    let out = Command::new(venv_python())
+        .arg(python_script("rh56_modbus_rtu.py"))
+        .args([rtu.to_str().unwrap(), "1"])
+        .output()
+        .expect("python runs");
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(
+        out.status.success() && o.contains("DONE"),
+        "pymodbus on the RTU front failed:\n{o}\n{e}"
+    );
 }
 
 /// pyrh56 on the RH56 front drives a hand of another kind: an emulated Dex3, through closure.
