@@ -12,6 +12,7 @@ pub mod dex1;
 pub mod dex3;
 pub mod dex5;
 pub mod discovery;
+pub mod dynamixel;
 pub mod emu_common;
 pub mod ezgripper;
 pub mod front;
