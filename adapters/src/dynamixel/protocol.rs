@@ -231,36 +231,56 @@ impl<'a> From<&'a Packet> for PacketRef<'a> {
 /// as they come, then length and CRC ([`Self::finish`]).
 struct PacketWriter<'a> {
     out: &'a mut Vec<u8>,
+    /// Where this packet starts in `out` (0 unless appended after others).
+    base: usize,
 }
 
 impl<'a> PacketWriter<'a> {
     /// Starts a packet in `out` (cleared; its buffer reused).
     fn start(out: &'a mut Vec<u8>, id: u8, instruction: u8) -> Self {
         out.clear();
+        Self::append(out, id, instruction)
+    }
+
+    /// Starts a packet after what `out` holds.
+    fn append(out: &'a mut Vec<u8>, id: u8, instruction: u8) -> Self {
+        let base = out.len();
         out.extend_from_slice(&HEADER);
         out.push(id);
         out.extend_from_slice(&[0, 0]); // the length, set by finish
-        push_stuffed(out, PREFIX_LEN, instruction);
-        Self { out }
+        push_stuffed(out, base + PREFIX_LEN, instruction);
+        Self { out, base }
     }
 
     fn extend(&mut self, params: &[u8]) {
         for &b in params {
-            push_stuffed(self.out, PREFIX_LEN, b);
+            push_stuffed(self.out, self.base + PREFIX_LEN, b);
         }
     }
 
     /// The length field (stuffed body + CRC) and the CRC.
     fn finish(self) -> Result<(), CodecError> {
-        let len = self.out.len() - PREFIX_LEN + 2;
+        let b = self.base;
+        let len = self.out.len() - b - PREFIX_LEN + 2;
         if len > MAX_LENGTH_FIELD {
+            self.out.truncate(b);
             return Err(CodecError::TooLong(len));
         }
-        self.out[5..PREFIX_LEN].copy_from_slice(&(len as u16).to_le_bytes());
-        let crc = crc16(self.out);
+        self.out[b + 5..b + PREFIX_LEN].copy_from_slice(&(len as u16).to_le_bytes());
+        let crc = crc16(&self.out[b..]);
         self.out.extend_from_slice(&crc.to_le_bytes());
         Ok(())
     }
+}
+
+/// Appends one status packet (`error`, then `params`) to `out`, after what it holds: a
+/// servo's reply built without allocating once `out` has grown (the emulators and the
+/// virtual bus front answer every cycle).
+pub fn append_status(out: &mut Vec<u8>, id: u8, error: StatusError, params: &[u8]) -> Result<(), CodecError> {
+    let mut w = PacketWriter::append(out, id, Instruction::Status as u8);
+    w.extend(&[error.to_byte()]);
+    w.extend(params);
+    w.finish()
 }
 
 /// Encodes one packet: stuffing, length and CRC.

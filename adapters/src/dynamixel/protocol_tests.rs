@@ -498,3 +498,20 @@ fn dynamixel_fast_sync_reply_layout_and_round_trip() {
     assert!(fast_sync_entries(&pk.params, 5).is_err());
     assert!(fast_sync_entries(&[], 0).is_err());
 }
+
+/// `append_status` builds the same bytes as `Status::encode`, after whatever the buffer holds.
+#[test]
+fn dynamixel_append_status_is_status_encode_appended() {
+    let mut out = vec![1, 2, 3];
+    append_status(&mut out, 2, StatusError::OK, &[0x1F, 0x08, 0, 0]).unwrap();
+    assert_eq!(out[..3], [1, 2, 3]);
+    assert_eq!(out[3..], hex(SYNC_READ_STATUS_ID2));
+    let st = Status {
+        id: 7,
+        error: StatusError::from_byte(0x87),
+        params: vec![0xFF, 0xFF, 0xFD, 0x00],
+    };
+    let at = out.len();
+    append_status(&mut out, 7, st.error, &st.params).unwrap();
+    assert_eq!(out[at..], st.encode().unwrap());
+}
