@@ -32,6 +32,7 @@ pub mod open;
 pub mod realtime;
 pub mod ros;
 pub mod route;
+pub mod serial;
 pub mod service_client;
 pub mod service_emulator;
 pub mod sim;

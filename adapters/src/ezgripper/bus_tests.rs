@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 use super::control_table::{reg, HardwareError, OperatingMode};
 use super::driver::{BusConfig, Calibration, EzError, EzGripperBus, GraspState, GripperConfig, GripperState};
 use super::emulator::{EmulatorConfig, Fault, ServoSpec, VirtualBus};
-use super::transport::{SerialPort, Transport, TransportError};
 use crate::dynamixel::protocol::{Request, ServoId, Status, StatusError};
+use crate::serial::transport::{SerialPort, Transport, TransportError};
 
 const DEADLINE: Duration = Duration::from_secs(20);
 

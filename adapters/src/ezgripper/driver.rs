@@ -16,10 +16,10 @@ use super::control_table::{
     reg, EzGripperParams, HardwareError, OperatingMode, Reg, CURRENT_MA_PER_UNIT, GOAL_BLOCK, PRESENT_BLOCK,
     VOLTAGE_V_PER_UNIT,
 };
-use super::transport::{Connector, SerialConnector, Transport, TransportError};
 use crate::dynamixel::protocol::{
     le_i16, le_i32, wire_time, CodecError, Decoder, FrameError, Instruction, Request, ServoId, Status, StatusRef,
 };
+use crate::serial::transport::{Connector, SerialConnector, Transport, TransportError};
 
 pub use crate::model::Side;
 

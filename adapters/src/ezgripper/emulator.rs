@@ -31,9 +31,9 @@ use super::control_table::{
     reg, Access, HardwareError, OperatingMode, Reg, BAUD_RATE_1M, CURRENT_MA_PER_UNIT, MX64_2_MODEL_NUMBER,
     MX64_CURRENT_LIMIT_MAX, RETURN_DELAY_US_PER_UNIT, TICKS_PER_REV, VELOCITY_RPM_PER_UNIT,
 };
-use super::pty::{replace_symlink, Pty};
-use super::transport::{Connector, Transport, TransportError};
 use crate::dynamixel::protocol::{wire_time, Decoder, ErrorNumber, Request, Status, StatusError, BROADCAST_ID};
+use crate::serial::pty::{replace_symlink, Pty};
+use crate::serial::transport::{Connector, Transport, TransportError};
 
 const RAD_PER_TICK: f32 = std::f32::consts::TAU / TICKS_PER_REV;
 /// MX-64 torque constant at the output, N*m/A: 6.0 N*m stall at 4.1 A (12 V) [MX64 spec].
@@ -797,7 +797,8 @@ impl Worker {
                 self.step_physics(&mut last_step);
                 continue;
             };
-            let readable = super::transport::poll_readable(p.master_fd(), Duration::from_millis(1)).unwrap_or(false);
+            let readable =
+                crate::serial::transport::poll_readable(p.master_fd(), Duration::from_millis(1)).unwrap_or(false);
             let n = if readable { p.read(&mut buf).unwrap_or(0) } else { 0 };
             self.step_physics(&mut last_step);
             if n == 0 {

@@ -2,9 +2,9 @@
 //!
 //! * [`crate::dynamixel`]: the Protocol 2.0 codec (pure, fuzzed), shared with the LEAP Hand.
 //! * [`control_table`]: MX-64(2.0) addresses, units and every EZGripper constant, with sources.
-//! * [`transport`]: the byte-pipe seam ([`transport::Transport`]) and the raw-termios serial port.
+//! * [`crate::serial`]: the byte-pipe seam ([`crate::serial::Transport`]), the raw-termios serial port and the pty.
 //! * [`driver`]: [`driver::EzGripperBus`], one thread per bus serving all its grippers.
-//! * [`emulator`] / [`pty`]: a virtual MX-64 bus on a pseudo-terminal, with wire timing and faults.
+//! * [`emulator`]: a virtual MX-64 bus on a pseudo-terminal, with wire timing and faults.
 //!
 //! See docs/ezgripper.md.
 
@@ -15,9 +15,7 @@ pub mod driver;
 pub mod emulator;
 pub mod kind;
 pub mod open;
-pub mod pty;
 pub mod table;
-pub mod transport;
 
 #[cfg(test)]
 mod bus_tests;

@@ -1,7 +1,10 @@
-//! The byte-pipe seam between the bus driver and hardware: a [`Transport`] writes bytes and
+//! The byte-pipe seam between a bus driver and hardware: a [`Transport`] writes bytes and
 //! reads bytes with a timeout; a [`Connector`] (re)opens one. [`SerialPort`] is the real
-//! implementation (raw termios on a tty via `libc`, 8N1, no flow control); the emulator's
-//! pseudo-terminal is opened through the very same code path.
+//! implementation (raw termios on a tty via `libc`, 8N1, no flow control), owning its device:
+//! `TIOCEXCL` keeps other unprivileged openers out and an advisory `flock` (what pyserial's
+//! `exclusive=True` and another handgate take) keeps out everyone who asks, root included; a
+//! second opener gets [`TransportError::Busy`] naming the holder. The emulators'
+//! pseudo-terminals are opened through the very same code path.
 
 use std::ffi::CString;
 use std::io;
@@ -25,6 +28,12 @@ pub enum TransportError {
         fix: String,
         #[source]
         source: io::Error,
+    },
+    /// Another process owns the port (its lock, or `TIOCEXCL` for an unprivileged opener).
+    #[error("serial port {path} is in use, {}: one program owns a serial bus; stop it, or let handgate own the port and connect that program to one of handgate's fronts (docs/fronts.md)", super::owner::describe(.holders))]
+    Busy {
+        path: PathBuf,
+        holders: Vec<super::owner::PortHolder>,
     },
     #[error("cannot open serial port {path}: {source}")]
     Open { path: PathBuf, source: io::Error },
@@ -184,6 +193,11 @@ impl SerialPort {
                 TransportError::NotFound {
                     path: path.to_path_buf(),
                 }
+            } else if e.raw_os_error() == Some(libc::EBUSY) {
+                TransportError::Busy {
+                    path: path.to_path_buf(),
+                    holders: super::owner::holders(path),
+                }
             } else if matches!(e.raw_os_error(), Some(libc::EACCES) | Some(libc::EPERM)) {
                 permission_error(path, e)
             } else {
@@ -199,8 +213,21 @@ impl SerialPort {
             path: path.to_path_buf(),
             source,
         };
+        // The lock first: a port someone else owns is not reconfigured under them.
+        // SAFETY: valid fd; flock has no memory preconditions.
+        if unsafe { libc::flock(fd.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } != 0 {
+            let e = io::Error::last_os_error();
+            if e.raw_os_error() == Some(libc::EWOULDBLOCK) {
+                return Err(TransportError::Busy {
+                    path: path.to_path_buf(),
+                    holders: super::owner::holders(path),
+                });
+            }
+            return Err(cfg_err(e));
+        }
         set_raw(fd.as_raw_fd(), Some(speed)).map_err(cfg_err)?;
-        // SAFETY: valid fd; TIOCEXCL takes no argument. Keeps a second process off the bus.
+        // SAFETY: valid fd; TIOCEXCL takes no argument. Keeps a second unprivileged process
+        // off the bus (root is let through: the lock above stops it).
         unsafe { libc::ioctl(fd.as_raw_fd(), libc::TIOCEXCL) };
         let port = SerialPort { fd };
         port.flush_both();
@@ -395,6 +422,61 @@ mod tests {
         let msg = permission_error(&link, io::Error::from_raw_os_error(libc::EACCES)).to_string();
         std::fs::remove_dir_all(&dir).unwrap();
         assert!(msg.contains(&format!("{} (-> /dev/null)", link.display())), "{msg}");
+    }
+
+    #[test]
+    fn a_second_opener_is_told_the_port_is_busy_and_by_whom() {
+        let pty = super::super::Pty::open().unwrap();
+        let first = SerialPort::open(pty.slave_path(), 115_200).unwrap();
+        // Another process takes the lock the way pyserial's exclusive=True does (flock).
+        let e = SerialPort::open(pty.slave_path(), 115_200).unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, TransportError::Busy { .. }), "{msg}");
+        assert!(
+            msg.contains(&format!("serial port {} is in use", pty.slave_path().display())),
+            "{msg}"
+        );
+        drop(first);
+        // Closed: the port is free again (the lock goes with the descriptor).
+        SerialPort::open(pty.slave_path(), 115_200).unwrap();
+    }
+
+    #[test]
+    fn a_port_locked_by_another_process_names_that_process() {
+        let pty = super::super::Pty::open().unwrap();
+        let path = pty.slave_path().to_path_buf();
+        // flock(1) from util-linux holds the lock on the port while `sleep` runs.
+        let mut child = match std::process::Command::new("flock")
+            .arg("--exclusive")
+            .arg(&path)
+            .args(["sleep", "30"])
+            .spawn()
+        {
+            Ok(c) => c,
+            Err(e) => panic!("flock(1) (util-linux) is needed: {e}"),
+        };
+        let deadline = std::time::Instant::now() + Duration::from_secs(10);
+        let e = loop {
+            match SerialPort::open(&path, 115_200) {
+                Err(e @ TransportError::Busy { .. }) => break e,
+                Ok(p) if std::time::Instant::now() < deadline => {
+                    drop(p);
+                    std::thread::yield_now();
+                }
+                other => panic!("the lock never showed: {other:?}"),
+            }
+        };
+        child.kill().unwrap();
+        child.wait().unwrap();
+        let TransportError::Busy { holders, .. } = &e else {
+            unreachable!()
+        };
+        assert!(holders.iter().any(|h| h.locked && h.pid == child.id()), "{e}");
+        assert!(
+            e.to_string()
+                .contains(&format!("held by pid {} (flock --exclusive", child.id())),
+            "{e}"
+        );
     }
 
     #[test]
