@@ -22,6 +22,7 @@ pub mod inspire_dfx;
 pub mod inspire_ftp;
 pub mod kind;
 pub mod kinds;
+pub mod leap;
 pub mod link;
 pub mod loops;
 pub mod mapping;
