@@ -65,8 +65,11 @@ def make_reader(port, ph):
     return r
 
 
-def read_all(reader, ph, fast):
-    rc = reader.fastSyncRead() if fast else reader.txRxPacket()
+def read_all(reader, ph, fast, tries=3):
+    for _ in range(tries):
+        rc = reader.fastSyncRead() if fast else reader.txRxPacket()
+        if rc == dxl.COMM_SUCCESS:
+            break
     if rc != dxl.COMM_SUCCESS:
         return None, ph.getTxRxResult(rc)
     pos, vel, cur = [], [], []
@@ -79,6 +82,16 @@ def read_all(reader, ph, fast):
     return (pos, vel, cur), None
 
 
+def ping(port, ph, i, tries=3):
+    """A ping, retried: the SDK waits about 35 ms for an answer, which a loaded test machine
+    can miss (LEAP_Hand_API's reads retry the same way)."""
+    for _ in range(tries):
+        _, rc, err = ph.ping(port, i)
+        if rc == dxl.COMM_SUCCESS:
+            return rc, err
+    return rc, err
+
+
 def bad_input(port, ph):
     # Garbage, a ping with a broken CRC, and half a read: none is a request, none is answered.
     port.writePort([0x00, 0x13, 0x37, 0xFF, 0x42])
@@ -86,7 +99,7 @@ def bad_input(port, ph):
     port.writePort([0xFF, 0xFF, 0xFD, 0x00, 0x02, 0x07, 0x00, 0x02, 0x84])
     time.sleep(0.1)  # let the half frame go stale on the bus side (its gap rule)
     port.clearPort()
-    _, rc, _ = ph.ping(port, 3)
+    rc, _ = ping(port, ph, 3)
     if rc != dxl.COMM_SUCCESS:
         fail(f"no ping answer after bad input: {ph.getTxRxResult(rc)}")
     print("bad-input survived", flush=True)
@@ -113,7 +126,7 @@ def main():
         bad_input(port, ph)
     seen = []
     for i in IDS:
-        model, rc, err = ph.ping(port, i)
+        rc, err = ping(port, ph, i)
         if rc == dxl.COMM_SUCCESS and err == 0:
             seen.append(i)
     print(f"pinged {json.dumps(seen)}", flush=True)
@@ -139,15 +152,17 @@ def main():
         ticks = [round(t / POS_SCALE) for t in target]
         t0 = time.monotonic()
         err = float("inf")
+        retried = 0
         for n in range(1, a.cycles + 1):
             sync_write(port, ph, 116, 4, ticks)
             got, why = read_all(reader, ph, fast)
             if got is None:
-                fail(f"read in cycle {n}: {why}")
+                retried += 1
+                continue
             err = max(abs(p - t) for p, t in zip(got[0], target))
             if err <= a.tol:
                 dt = time.monotonic() - t0
-                print("reached " + json.dumps({"cycles": n, "max_err": err, "hz": n / dt, "pos": got[0]}), flush=True)
+                print("reached " + json.dumps({"cycles": n, "retried": retried, "max_err": err, "hz": n / dt, "pos": got[0]}), flush=True)
                 break
         else:
             print("timeout " + json.dumps({"max_err": err}), flush=True)
