@@ -65,7 +65,7 @@ def make_reader(port, ph):
     return r
 
 
-def read_all(reader, ph, fast, tries=3):
+def read_all(reader, ph, fast, tries=10):
     for _ in range(tries):
         rc = reader.fastSyncRead() if fast else reader.txRxPacket()
         if rc == dxl.COMM_SUCCESS:
@@ -82,7 +82,7 @@ def read_all(reader, ph, fast, tries=3):
     return (pos, vel, cur), None
 
 
-def ping(port, ph, i, tries=3):
+def ping(port, ph, i, tries=10):
     """A ping, retried: the SDK waits about 35 ms for an answer, which a loaded test machine
     can miss (LEAP_Hand_API's reads retry the same way)."""
     for _ in range(tries):

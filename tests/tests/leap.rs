@@ -90,3 +90,112 @@ fn leap_lite_profile_drives_the_emulated_hand_on_a_pty() {
     });
     assert!(ok.is_some(), "the LEAP never reported fresh: {:?}", status.update());
 }
+
+/// The virtual Dynamixel bus front (docs/fronts.md, "leap_bus"), domain 46: an emulated LEAP
+/// Hand and an emulated Dex3 (as in sim-all), each behind a `leap_bus` front on its own pty.
+fn bus_profile(dir: &std::path::Path) -> PathBuf {
+    let text = format!(
+        r#"name = "leap-bus-test"
+description = "leap_bus fronts on an emulated LEAP Hand and an emulated Dex3"
+[dds]
+domain = 46
+[[devices]]
+name = "leap"
+kind = "leap"
+side = "right"
+backend = "emulator"
+[[devices]]
+name = "dex3_right"
+kind = "dex3"
+side = "right"
+backend = "emulator"
+[[fronts]]
+kind = "leap_bus"
+device = "leap"
+pty = "{leap}"
+[[fronts]]
+kind = "leap_bus"
+device = "dex3_right"
+pty = "{dex3}"
+"#,
+        leap = dir.join("leap-bus").display(),
+        dex3 = dir.join("dex3-bus").display()
+    );
+    let p = dir.join("leap-bus-test.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn bus_gateway(tag: &str) -> (Gateway, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("handgate-leap-bus-{}-{tag}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = bus_profile(&dir);
+    let gw = Gateway::start(46, &["--profile", profile.to_str().unwrap()]);
+    for link in ["leap-bus", "dex3-bus"] {
+        gw.wait_stdout(
+            &format!("serving leap_bus on pty {}", dir.join(link).display()),
+            DEADLINE,
+        )
+        .unwrap_or_else(|e| panic!("{e}\n{}", gw.transcript()));
+    }
+    (gw, dir)
+}
+
+/// A LEAP_Hand_API-style client, the LEAP init included, moves the emulated LEAP through the
+/// virtual bus while handgate owns the (emulated) hand: 16 goals in, 16 positions back.
+#[test]
+fn leap_sdk_client_moves_the_emulated_leap_through_the_virtual_bus() {
+    let _g = serial();
+    let (gw, dir) = bus_gateway("leap");
+    let port = dir.join("leap-bus");
+    let c = client(&["--port", port.to_str().unwrap(), "--target", "3.9"]);
+    let reached = json_line(&c, "reached ");
+    assert!(
+        reached["max_err"].as_f64().unwrap() <= 0.05,
+        "{reached}\n{}",
+        gw.transcript()
+    );
+    c.wait_line("done", DEADLINE).unwrap();
+}
+
+/// The same client closes a Dex3 (through closure: the LEAP's closed posture is closure 1),
+/// after garbage, a bad CRC and half a packet on the pty, each refused, logged and counted.
+#[test]
+fn leap_sdk_client_closes_a_dex3_through_the_virtual_bus_and_bad_input_is_refused() {
+    let _g = serial();
+    let (gw, dir) = bus_gateway("dex3");
+    let port = dir.join("dex3-bus");
+    // handgate's LEAP closed posture (leap/table.rs CLOSED) in LEAP radians.
+    let closed = [
+        0.0, 1.6, 1.4, 1.5, 0.0, 1.6, 1.4, 1.5, 0.0, 1.6, 1.4, 1.5, 1.4, 0.6, 0.6, 1.2f64,
+    ];
+    let mut args = vec![
+        "--port".to_string(),
+        port.display().to_string(),
+        "--read".into(),
+        "fast".into(),
+        "--bad-input".into(),
+        "--tol".into(),
+        "0.15".into(),
+        "--target".into(),
+    ];
+    args.extend(closed.iter().map(|q| (std::f64::consts::PI + q).to_string()));
+    let c = PyProcess::spawn("leap_client.py", &args).unwrap();
+    c.wait_line("bad-input survived", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}\n{}", c.transcript()));
+    let first = json_line(&c, "read ");
+    let flat = first["pos"].as_array().unwrap()[1].as_f64().unwrap();
+    let reached = json_line(&c, "reached ");
+    let closed_now = reached["pos"].as_array().unwrap()[1].as_f64().unwrap();
+    assert!(
+        closed_now - flat > 0.5,
+        "index MCP moved from {flat} to {closed_now}: {reached}"
+    );
+    for reason in ["garbage", "bad_crc", "partial_frame"] {
+        assert!(
+            gw.transcript().contains(&format!("reason=\"{reason}\"")),
+            "{reason} not logged\n{}",
+            gw.transcript()
+        );
+    }
+}

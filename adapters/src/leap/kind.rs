@@ -38,6 +38,7 @@ impl Kind for LeapKind {
             backends: &[Backend::Serial, Backend::Emulator],
         }],
         sides: Sides::LeftOrRight { note: "" },
+        fronts: &[crate::front::kind::FrontKind::LeapBus],
         ..KindFacts::new(
             "leap",
             &JOINTS,

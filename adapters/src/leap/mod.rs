@@ -14,6 +14,7 @@ pub mod config;
 pub mod control_table;
 pub mod device;
 pub mod emulator;
+pub mod front;
 pub mod kind;
 pub mod servos;
 pub mod table;
