@@ -83,6 +83,16 @@ pub struct BusSession {
     body: Vec<u8>,
 }
 
+impl BusSession {
+    /// A session answering from `image`.
+    pub fn new(image: Arc<Mutex<ServoBus>>) -> Self {
+        Self {
+            image,
+            body: Vec::with_capacity(256),
+        }
+    }
+}
+
 impl Session for BusSession {
     type Msg = GoalWrite;
 
@@ -240,10 +250,7 @@ impl FrontWire<LeapBusConfig> for BusWire {
             let for_sessions = image.clone();
             let server = serve_pty(
                 &link,
-                move || BusSession {
-                    image: for_sessions.clone(),
-                    body: Vec::with_capacity(256),
-                },
+                move || BusSession::new(for_sessions.clone()),
                 inbox,
                 &name,
                 "leap_bus",
