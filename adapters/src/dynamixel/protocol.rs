@@ -640,6 +640,16 @@ impl Decoder {
         Self::default()
     }
 
+    /// A decoder whose buffers hold `bytes` before they grow: a device loop sizes them for
+    /// its largest read (plus one read's worth), so no cycle allocates.
+    pub fn with_capacity(bytes: usize) -> Self {
+        Self {
+            buf: Vec::with_capacity(bytes),
+            body: Vec::with_capacity(bytes),
+            stats: DecoderStats::default(),
+        }
+    }
+
     pub fn stats(&self) -> DecoderStats {
         self.stats
     }

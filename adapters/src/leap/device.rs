@@ -318,7 +318,8 @@ impl Loop {
         let t = self.connector.connect().map_err(|e| e.to_string())?;
         self.link = Some(Link {
             t,
-            dec: Decoder::new(),
+            // Replies of a cycle (at most 16 x 21 bytes) plus a read buffer's worth.
+            dec: Decoder::with_capacity(8192),
             tx: Vec::with_capacity(512),
             rx: Box::new([0u8; 4096]),
         });

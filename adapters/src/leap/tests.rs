@@ -299,8 +299,8 @@ fn leap_status_ref_of_a_sync_read_reply_is_the_block() {
 /// refused with their reason, and a half packet waits for the rest.
 #[test]
 fn leap_bus_session_turns_goal_writes_into_commands_and_refuses_bad_input() {
-    use crate::front::stream::Session;
     use super::front::{BusSession, GoalWrite};
+    use crate::front::stream::Session;
     let image = Arc::new(std::sync::Mutex::new(super::servos::ServoBus::new(&DEFAULT_IDS)));
     let mut s = BusSession::new(image.clone());
     let now = Instant::now();
@@ -309,14 +309,22 @@ fn leap_bus_session_turns_goal_writes_into_commands_and_refuses_bad_input() {
     let goals = Request::SyncWrite {
         addr: 116,
         len: 4,
-        entries: vec![(1, 2500i32.to_le_bytes().to_vec()), (13, 1900i32.to_le_bytes().to_vec())],
+        entries: vec![
+            (1, 2500i32.to_le_bytes().to_vec()),
+            (13, 1900i32.to_le_bytes().to_vec()),
+        ],
     }
     .encode()
     .unwrap();
     assert_eq!(s.on_bytes(&goals, now, &mut out, &mut |m| got.push(m)), Ok(goals.len()));
     assert!(out.is_empty(), "a sync write is not answered");
     assert_eq!(got.len(), 1);
-    let want: Vec<(usize, i32)> = got[0].goals.iter().enumerate().filter_map(|(i, g)| g.map(|g| (i, g))).collect();
+    let want: Vec<(usize, i32)> = got[0]
+        .goals
+        .iter()
+        .enumerate()
+        .filter_map(|(i, g)| g.map(|g| (i, g)))
+        .collect();
     assert_eq!(want, vec![(1, 2500), (13, 1900)]);
     // Another item written is no command.
     let gains = Request::Write {
@@ -332,7 +340,13 @@ fn leap_bus_session_turns_goal_writes_into_commands_and_refuses_bad_input() {
     let st = decode_all(&out);
     assert_eq!(st.len(), 1, "the write's status");
     // Half a packet: nothing consumed yet.
-    let read = Request::Read { id: 4, addr: 132, len: 4 }.encode().unwrap();
+    let read = Request::Read {
+        id: 4,
+        addr: 132,
+        len: 4,
+    }
+    .encode()
+    .unwrap();
     assert_eq!(s.on_bytes(&read[..6], now, &mut out, &mut |_| {}), Ok(0));
     // Garbage before a header: skipped up to it.
     let mut junk = vec![0x00, 0x13, 0x37];
@@ -342,8 +356,14 @@ fn leap_bus_session_turns_goal_writes_into_commands_and_refuses_bad_input() {
     let mut bad = read.clone();
     let n = bad.len();
     bad[n - 1] ^= 0x55;
-    assert_eq!(s.on_bytes(&bad, now, &mut out, &mut |_| {}).unwrap_err().reason, "bad_crc");
+    assert_eq!(
+        s.on_bytes(&bad, now, &mut out, &mut |_| {}).unwrap_err().reason,
+        "bad_crc"
+    );
     let huge = [0xFF, 0xFF, 0xFD, 0x00, 0x01, 0xFF, 0xFF, 0x02];
-    assert_eq!(s.on_bytes(&huge, now, &mut out, &mut |_| {}).unwrap_err().reason, "bad_length");
+    assert_eq!(
+        s.on_bytes(&huge, now, &mut out, &mut |_| {}).unwrap_err().reason,
+        "bad_length"
+    );
     assert_eq!(got.len(), 1, "no bad input became a command");
 }
