@@ -275,6 +275,7 @@ impl Connector for InProcessConnector {
             pending: Vec::with_capacity(1024),
             read_at: 0,
             due: Instant::now(),
+            free: Instant::now(),
         }))
     }
 
@@ -289,6 +290,8 @@ struct InProcessLink {
     usb_latency: Duration,
     /// Replies not read yet (from `read_at`), all in at `due`.
     pending: Vec<u8>,
+    /// When the line is next free.
+    free: Instant,
     read_at: usize,
     due: Instant,
 }
@@ -303,8 +306,11 @@ impl Transport for InProcessLink {
         let before = self.pending.len();
         lock(&self.emu).feed(bytes, now, &mut self.pending);
         let replies = self.pending.len() - before;
+        // The half-duplex line: the request from when it is free, then the replies (Return
+        // Delay Time 0, the LEAP's).
+        self.free = self.free.max(now) + wire_time(bytes.len() + replies, self.baud);
         if replies > 0 {
-            self.due = now + wire_time(bytes.len() + replies, self.baud) + self.usb_latency;
+            self.due = self.free + self.usb_latency;
         }
         Ok(())
     }
