@@ -26,6 +26,7 @@ pub mod leap;
 pub mod link;
 pub mod loops;
 pub mod mapping;
+pub mod modbus;
 pub mod model;
 pub mod motion;
 pub mod netif;
