@@ -505,11 +505,12 @@ impl Loop {
 
     /// Builds the canonical state from the last present blocks and publishes it.
     fn publish(&mut self, now: Instant) {
+        // Fresh while a complete read (every servo) is younger than `stale_after`: one missed
+        // reply is not a link loss (which would re-seed the targets in force as a hold).
         let fresh = self.link.is_some()
             && self
                 .measured_at
-                .is_some_and(|t| now.saturating_duration_since(t) <= self.cfg.stale_after)
-            && self.got.iter().all(|g| *g);
+                .is_some_and(|t| now.saturating_duration_since(t) <= self.cfg.stale_after);
         let table = &self.table;
         let st = &mut self.st;
         if st.joints.len() != MOTORS {
