@@ -66,6 +66,8 @@ if want codec; then
   echo "bench: 5. EZGripper measured-state rate over the pty emulator (5 s per case)"
   # The bench prints a markdown table (round periods and rates per gripper); keep it as is.
   $cargo bench -p handgate-adapters --bench ezgripper -- 5 | grep '^|' > "$results/ezgripper.md"
+  echo "bench: 5b. LEAP Hand cycle rate at 4 Mbaud against the wire limit (5 s per case)"
+  $cargo bench -p handgate-adapters --bench leap -- 5 | grep '^|' > "$results/leap.md"
 fi
 
 if want loop; then

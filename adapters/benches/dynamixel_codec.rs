@@ -3,7 +3,7 @@
 //! block for two grippers, then decode the two status replies from one byte stream.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use handgate_adapters::ezgripper::protocol::{Decoder, Request, Status, StatusError};
+use handgate_adapters::dynamixel::protocol::{Decoder, Request, Status, StatusError};
 
 /// Block sizes of a round as the driver uses them (goal 18 B, present 25 B per servo minus
 /// framing: see docs/ezgripper.md); the values are arbitrary.

@@ -8,9 +8,9 @@
 
 use std::time::{Duration, Instant};
 
+use handgate_adapters::dynamixel::protocol::{wire_time, Request};
 use handgate_adapters::ezgripper::control_table::{GOAL_BLOCK, PRESENT_BLOCK};
 use handgate_adapters::ezgripper::emulator::{EmulatorConfig, VirtualBus};
-use handgate_adapters::ezgripper::protocol::{wire_time, Request};
 use handgate_adapters::ezgripper::{BusConfig, EzGripperBus, GripperConfig, ServoId};
 
 fn pct(sorted: &[Duration], p: f64) -> Duration {

@@ -488,6 +488,42 @@ fn the_inspire_rh56_line_round_and_bridge_allocate_nothing_per_cycle() {
     assert_no_own_allocations("rh56 bridge", &bridge);
 }
 
+/// The LEAP Hand's device loop (`leap-<device>`: sync write of 16 goals, sync read of 16
+/// present blocks, the canonical state published) over the real serial transport, to the
+/// emulated hand behind a pty (its own thread).
+#[test]
+fn the_leap_device_loop_allocates_nothing_per_cycle() {
+    use handgate_adapters::leap::device::{LeapBusConfig, LeapDevice};
+    use handgate_adapters::leap::emulator::{EmulatorConfig, VirtualLeap};
+    use handgate_adapters::serial::SerialConnector;
+
+    tracing_like_the_gateway();
+    let path = socket_path("leap");
+    let _emu = VirtualLeap::start(
+        &path,
+        EmulatorConfig::with_ids(&handgate_adapters::leap::control_table::DEFAULT_IDS),
+    )
+    .unwrap();
+    let cfg = LeapBusConfig {
+        // A starved emulator thread must not make a reply miss its deadline.
+        response_grace: Duration::from_secs(5),
+        stale_after: Duration::from_secs(5),
+        ..Default::default()
+    };
+    let connector = SerialConnector {
+        path: path.clone(),
+        baud: cfg.baud,
+    };
+    let dev = LeapDevice::start(info("l", DeviceKind::Leap, Backend::Serial), Box::new(connector), cfg).unwrap();
+    let rx = dev.state();
+    wait_for("the first measured state", || rx.borrow().measured_at.is_some());
+    let tid = thread_named("leap-l");
+    let mut client = Client::new(&dev, JointId(1), [0.3, 1.2]);
+    let w = measure(|| Counts::of(tid), || (dev.stats().cycles, 0), &mut client);
+    dev.stop();
+    assert_no_own_allocations("leap", &w);
+}
+
 /// Every DDS-client kind's codec as the task calls it each cycle (`encode_into`,
 /// `decode_into`, `commanded_state`, on the buffers the task keeps), on this thread: nothing
 /// allocates once the buffers have grown. The task around them is measured above with the

@@ -338,7 +338,7 @@ pub fn front_decode(data: &[u8]) {
 /// packet it yields re-encodes (`encode_packet`) to bytes that decode to the same packet, and
 /// the status/request views never panic.
 pub fn dynamixel_packet(data: &[u8]) {
-    use handgate_adapters::ezgripper::protocol::{encode_packet, Decoder, Request, Status};
+    use handgate_adapters::dynamixel::protocol::{encode_packet, is_fast_reply, Decoder, Request, Status};
     let Some((&step, body)) = data.split_first() else {
         return;
     };
@@ -349,6 +349,10 @@ pub fn dynamixel_packet(data: &[u8]) {
             let Ok(p) = frame else { continue };
             let _ = Status::from_packet(&p);
             let _ = Request::from_packet(&p);
+            if is_fast_reply(p.id, p.instruction) {
+                // Sent unstuffed: `dynamixel_fast_sync_reply`'s property, not this one.
+                continue;
+            }
             let bytes = encode_packet(p.id, p.instruction, &p.params).expect("a decoded packet re-encodes");
             let mut again = Decoder::new();
             again.push(&bytes);
@@ -407,6 +411,46 @@ pub fn rh56_proto(data: &[u8]) {
             Err(FrameError::Incomplete { .. }) => break,
             Err(_) => rest = &rest[1..],
         }
+    }
+}
+
+/// Dynamixel Fast Sync Read replies (a status from the broadcast id, unstuffed): byte 0 is
+/// each device's data length (% 32), the rest a byte stream fed whole. Every reply the
+/// decoder yields whose entries parse re-encodes (`encode_fast_sync_reply`) to a frame that
+/// decodes to the same entries.
+pub fn dynamixel_fast_sync_reply(data: &[u8]) {
+    use handgate_adapters::dynamixel::protocol::{
+        encode_fast_sync_reply, fast_sync_entries, is_fast_reply, Decoder, FastEntry,
+    };
+    let Some((&len, body)) = data.split_first() else {
+        return;
+    };
+    let len = len as usize % 32;
+    let mut d = Decoder::new();
+    d.push(body);
+    let mut out = Vec::new();
+    while let Some(frame) = d.next_frame() {
+        let Ok(p) = frame else { continue };
+        if !is_fast_reply(p.id, p.instruction) {
+            continue;
+        }
+        let Ok(entries) = fast_sync_entries(&p.params, len) else {
+            continue;
+        };
+        let entries: Vec<FastEntry<'_>> = entries.collect();
+        if entries.iter().any(|e| e.id > 252) {
+            continue;
+        }
+        encode_fast_sync_reply(entries.len(), len, &mut out, |i, data| {
+            data.copy_from_slice(entries[i].data);
+            (entries[i].id, entries[i].error)
+        })
+        .expect("parsed entries re-encode");
+        let mut again = Decoder::new();
+        again.push(&out);
+        let q = again.next_frame().and_then(Result::ok).expect("a re-encoded reply decodes");
+        let back: Vec<FastEntry<'_>> = fast_sync_entries(&q.params, len).expect("and parses").collect();
+        assert_eq!(back, entries);
     }
 }
 
@@ -653,7 +697,7 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
     out.push(("dex3_emulator_frame", "structured".into(), structured));
     // Dynamixel packets: ping, a read, a sync read and a status with stuffed bytes.
     {
-        use handgate_adapters::ezgripper::protocol::encode_packet;
+        use handgate_adapters::dynamixel::protocol::encode_packet;
         let packets: [(u8, u8, &[u8]); 4] = [
             (1, 0x01, &[]),
             (1, 0x02, &[0x84, 0x00, 0x04, 0x00]),
@@ -670,6 +714,17 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
             }
         }
         out.push(("dynamixel_packet", "stream".to_string(), stream));
+        // A LEAP Hand's fast sync read reply: 16 servos, present current..position (10 bytes).
+        let mut reply = Vec::new();
+        let ok = handgate_adapters::dynamixel::protocol::encode_fast_sync_reply(16, 10, &mut reply, |i, d| {
+            d.copy_from_slice(&[0xFF, 0xFF, 0xFD, 0, 0, 0, (i * 16) as u8, 8, 0, 0]);
+            (i as u8, handgate_adapters::dynamixel::protocol::StatusError::OK)
+        });
+        if ok.is_ok() {
+            let mut v = vec![10u8];
+            v.extend_from_slice(&reply);
+            out.push(("dynamixel_fast_sync_reply", "leap_16".to_string(), v));
+        }
     }
     // RH56 serial protocol: pyrh56's read of ANGLE_ACT, write of ANGLE_SET and CLEAR_ERROR,
     // a reply and an acknowledgement, then all of them in one stream after garbage.

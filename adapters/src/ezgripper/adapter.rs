@@ -13,9 +13,9 @@ use async_trait::async_trait;
 use tokio::sync::watch;
 
 use super::driver::{Calibration, EzGripperBus, GripperState};
-use super::protocol::ServoId;
 use crate::control::{Active, CommandState, Counters};
 use crate::device::{Calibrate, DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::dynamixel::protocol::ServoId;
 use crate::mapping::DeviceTable;
 use crate::model::{faults, Freshness, HandCommand, HandState, JointState, SafeAction};
 

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use super::control_table::{reg, HardwareError, OperatingMode};
 use super::driver::{BusConfig, Calibration, EzError, EzGripperBus, GraspState, GripperConfig, GripperState};
 use super::emulator::{EmulatorConfig, Fault, ServoSpec, VirtualBus};
-use super::protocol::{Request, ServoId, Status, StatusError};
+use crate::dynamixel::protocol::{Request, ServoId, Status, StatusError};
 use crate::serial::transport::{SerialPort, Transport, TransportError};
 
 const DEADLINE: Duration = Duration::from_secs(20);
@@ -84,7 +84,7 @@ fn ezgripper_emulator_answers_raw_ping_and_enforces_access_rules() {
     let mut port = SerialPort::open(emu.path(), 1_000_000).unwrap();
     let mut ask = |req: Request| -> Status {
         port.write_all(&req.encode().unwrap()).unwrap();
-        let mut d = super::protocol::Decoder::new();
+        let mut d = crate::dynamixel::protocol::Decoder::new();
         let mut buf = [0u8; 256];
         wait_for("status", || {
             let n = port.read(&mut buf, Duration::from_millis(5)).unwrap();
@@ -94,7 +94,7 @@ fn ezgripper_emulator_answers_raw_ping_and_enforces_access_rules() {
     };
     let ping = ask(Request::Ping { id: 1 });
     assert_eq!(
-        super::protocol::le_u16(&ping.params),
+        crate::dynamixel::protocol::le_u16(&ping.params),
         Some(311),
         "MX-64(2.0) model number"
     );
@@ -104,14 +104,17 @@ fn ezgripper_emulator_answers_raw_ping_and_enforces_access_rules() {
         addr: reg::PRESENT_POSITION.addr,
         data: vec![0; 4],
     });
-    assert_eq!(st.error.number, super::protocol::ErrorNumber::AccessError);
+    assert_eq!(st.error.number, crate::dynamixel::protocol::ErrorNumber::AccessError);
     // Half an item.
     let st = ask(Request::Write {
         id: 1,
         addr: reg::GOAL_POSITION.addr,
         data: vec![0; 2],
     });
-    assert_eq!(st.error.number, super::protocol::ErrorNumber::DataLengthError);
+    assert_eq!(
+        st.error.number,
+        crate::dynamixel::protocol::ErrorNumber::DataLengthError
+    );
     // EEPROM with torque on.
     assert_eq!(
         ask(Request::Write {
@@ -127,7 +130,7 @@ fn ezgripper_emulator_answers_raw_ping_and_enforces_access_rules() {
         addr: reg::OPERATING_MODE.addr,
         data: vec![5],
     });
-    assert_eq!(st.error.number, super::protocol::ErrorNumber::AccessError);
+    assert_eq!(st.error.number, crate::dynamixel::protocol::ErrorNumber::AccessError);
 }
 
 #[test]
@@ -495,7 +498,7 @@ fn in_process_bus_tracks_faults_and_reconnects() {
         super::control_table::GOAL_BLOCK.len as usize,
         super::control_table::PRESENT_BLOCK.len as usize,
     );
-    let wire = super::protocol::wire_time(12 + 2 * (1 + goal) + 14 + 2 + 2 * (11 + present), 1_000_000);
+    let wire = crate::dynamixel::protocol::wire_time(12 + 2 * (1 + goal) + 14 + 2 + 2 * (11 + present), 1_000_000);
     assert!(
         hz < 1.0 / wire.as_secs_f64(),
         "{hz:.0} rounds/s is faster than the line allows"

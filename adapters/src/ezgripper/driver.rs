@@ -16,7 +16,7 @@ use super::control_table::{
     reg, EzGripperParams, HardwareError, OperatingMode, Reg, CURRENT_MA_PER_UNIT, GOAL_BLOCK, PRESENT_BLOCK,
     VOLTAGE_V_PER_UNIT,
 };
-use super::protocol::{
+use crate::dynamixel::protocol::{
     le_i16, le_i32, wire_time, CodecError, Decoder, FrameError, Instruction, Request, ServoId, Status, StatusRef,
 };
 use crate::serial::transport::{Connector, SerialConnector, Transport, TransportError};
@@ -698,7 +698,7 @@ impl Link {
         let data = v.to_le_bytes()[..r.len as usize].to_vec();
         let rep = self.ask(&Request::Write { id, addr: r.addr, data }, id)?;
         Ok(match rep.as_ref() {
-            Some(st) if st.error.number == super::protocol::ErrorNumber::None => Ok(()),
+            Some(st) if st.error.number == crate::dynamixel::protocol::ErrorNumber::None => Ok(()),
             Some(st) => Err(format!("write {} -> {:?}", r.addr, st.error.number)),
             None => Err(format!("no answer writing address {}", r.addr)),
         })
@@ -1126,7 +1126,7 @@ impl Worker {
                 let c = st.per_gripper.entry(id).or_default();
                 c.polls += 1;
                 if let Some(s) = rep.get(id) {
-                    if s.error.number != super::protocol::ErrorNumber::None {
+                    if s.error.number != crate::dynamixel::protocol::ErrorNumber::None {
                         c.status_errors += 1;
                     } else {
                         c.samples += 1;
@@ -1159,7 +1159,7 @@ impl Worker {
             let id = self.rt[i].id;
             match rep.get(id) {
                 Some(s)
-                    if s.error.number == super::protocol::ErrorNumber::None
+                    if s.error.number == crate::dynamixel::protocol::ErrorNumber::None
                         && s.params.len() == PRESENT_BLOCK.len as usize =>
                 {
                     self.apply_present(i, &s.params, measured_at, round);
@@ -1331,14 +1331,15 @@ impl Worker {
 /// Whether `st` has the shape of a reply to `req`: a read returns its length of data (or an
 /// error without data), a write or reboot returns no data, a ping returns model + firmware.
 fn answers(req: &Request, st: &StatusRef<'_>) -> bool {
-    let failed = st.error.number != super::protocol::ErrorNumber::None;
+    let failed = st.error.number != crate::dynamixel::protocol::ErrorNumber::None;
     match req {
         Request::Read { len, .. } | Request::SyncRead { len, .. } => {
             st.params.len() == *len as usize || (failed && st.params.is_empty())
         }
         Request::Write { .. } | Request::Reboot { .. } => st.params.is_empty(),
         Request::Ping { .. } => st.params.len() == 3,
-        Request::SyncWrite { .. } => false,
+        // The MX-64 driver never sends these.
+        Request::SyncWrite { .. } | Request::FastSyncRead { .. } => false,
     }
 }
 
@@ -1428,9 +1429,9 @@ mod tests {
     /// an emulated gripper stale).
     #[test]
     fn a_reply_read_after_the_deadline_is_not_a_timeout() {
-        let pong = super::super::protocol::Status {
+        let pong = crate::dynamixel::protocol::Status {
             id: 1,
-            error: super::super::protocol::StatusError::OK,
+            error: crate::dynamixel::protocol::StatusError::OK,
             params: vec![0x24, 0x01, 0x30],
         }
         .encode()

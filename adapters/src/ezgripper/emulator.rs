@@ -31,7 +31,7 @@ use super::control_table::{
     reg, Access, HardwareError, OperatingMode, Reg, BAUD_RATE_1M, CURRENT_MA_PER_UNIT, MX64_2_MODEL_NUMBER,
     MX64_CURRENT_LIMIT_MAX, RETURN_DELAY_US_PER_UNIT, TICKS_PER_REV, VELOCITY_RPM_PER_UNIT,
 };
-use super::protocol::{wire_time, Decoder, ErrorNumber, Request, Status, StatusError, BROADCAST_ID};
+use crate::dynamixel::protocol::{wire_time, Decoder, ErrorNumber, Request, Status, StatusError, BROADCAST_ID};
 use crate::serial::pty::{replace_symlink, Pty};
 use crate::serial::transport::{Connector, Transport, TransportError};
 
@@ -455,6 +455,9 @@ impl ServoSim {
                 }
                 None
             }
+            // The emulated MX-64 does not model Fast Sync Read (the EZGripper driver does not
+            // send it): silence, as from a firmware without it.
+            Request::FastSyncRead { .. } => None,
         }
     }
 }
@@ -484,7 +487,7 @@ impl Shared {
     /// line order; a frame that is not a request is counted and answered by nothing.
     fn answer(
         &mut self,
-        frame: Result<super::protocol::Packet, super::protocol::FrameError>,
+        frame: Result<crate::dynamixel::protocol::Packet, crate::dynamixel::protocol::FrameError>,
     ) -> Vec<(Vec<u8>, Duration)> {
         match frame.ok().and_then(|pk| Request::from_packet(&pk).ok()) {
             Some(req) => self.dispatch(&req),
@@ -510,6 +513,7 @@ impl Shared {
                 *st.sync_reads_by_ids.entry(ids.clone()).or_default() += 1;
             }
             Request::SyncWrite { .. } => st.sync_writes += 1,
+            Request::FastSyncRead { .. } => {}
         }
         let target = req.packet_id();
         // Reply order: sync read in the listed order, broadcast ping by id, else the one id.

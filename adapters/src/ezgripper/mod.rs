@@ -1,6 +1,6 @@
 //! SAKE EZGripper over DYNAMIXEL Protocol 2.0 (MX-64 servos on a 1 Mbaud serial bus).
 //!
-//! * [`protocol`]: the Protocol 2.0 codec (pure, fuzzed).
+//! * [`crate::dynamixel`]: the Protocol 2.0 codec (pure, fuzzed), shared with the LEAP Hand.
 //! * [`control_table`]: MX-64(2.0) addresses, units and every EZGripper constant, with sources.
 //! * [`crate::serial`]: the byte-pipe seam ([`crate::serial::Transport`]), the raw-termios serial port and the pty.
 //! * [`driver`]: [`driver::EzGripperBus`], one thread per bus serving all its grippers.
@@ -15,17 +15,14 @@ pub mod driver;
 pub mod emulator;
 pub mod kind;
 pub mod open;
-pub mod protocol;
 pub mod table;
 
 #[cfg(test)]
 mod bus_tests;
-#[cfg(test)]
-mod protocol_tests;
 
+pub use crate::dynamixel::protocol::ServoId;
 pub use control_table::{EzGripperParams, HardwareError};
 pub use driver::{
     BusConfig, BusStats, Calibration, EzError, EzGripperBus, GraspState, Gripper, GripperConfig, GripperCounters,
     GripperState, Side, Target,
 };
-pub use protocol::ServoId;

@@ -1475,6 +1475,8 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
                 "fault",
             ],
         ),
+        // The emulated LEAP Hand injects no fault (docs/leap.md, "What is emulated").
+        ("leap", &["fault"]),
     ];
     for kind in DeviceKind::all() {
         let f = kind.factory();

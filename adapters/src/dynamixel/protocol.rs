@@ -15,6 +15,12 @@
 //!   `tests` prove it against the e-Manual's worked examples.
 //! * A status packet carries instruction 0x55 and an error byte before its parameters:
 //!   bit 7 = alert (read Hardware Error Status for the cause), bits 0..6 = error number.
+//! * Fast Sync Read (0x8A, e-Manual "Fast Sync Read"; DynamixelSDK 4.1.0's
+//!   `fastSyncReadRx`): the addressed devices answer with ONE status packet from the broadcast
+//!   id, `FF FF FD 00 FE LEN 55 | ERR1 ID1 DATA1 CRC1 | ERR2 ID2 DATA2 CRC2 | ... | ERRn IDn
+//!   DATAn CRC`, each device appending its part; the last CRC is the packet's. The reply is
+//!   not byte-stuffed (the SDK unstuffs every status but the fast ones), so the decoder takes
+//!   a status from the broadcast id as it is ([`fast_sync_entries`], [`encode_fast_sync_reply`]).
 
 use std::fmt;
 
@@ -54,6 +60,7 @@ pub enum Instruction {
     Status = 0x55,
     SyncRead = 0x82,
     SyncWrite = 0x83,
+    FastSyncRead = 0x8A,
     BulkRead = 0x92,
     BulkWrite = 0x93,
 }
@@ -73,6 +80,7 @@ impl Instruction {
             0x55 => Status,
             0x82 => SyncRead,
             0x83 => SyncWrite,
+            0x8A => FastSyncRead,
             0x92 => BulkRead,
             0x93 => BulkWrite,
             _ => return None,
@@ -223,36 +231,56 @@ impl<'a> From<&'a Packet> for PacketRef<'a> {
 /// as they come, then length and CRC ([`Self::finish`]).
 struct PacketWriter<'a> {
     out: &'a mut Vec<u8>,
+    /// Where this packet starts in `out` (0 unless appended after others).
+    base: usize,
 }
 
 impl<'a> PacketWriter<'a> {
     /// Starts a packet in `out` (cleared; its buffer reused).
     fn start(out: &'a mut Vec<u8>, id: u8, instruction: u8) -> Self {
         out.clear();
+        Self::append(out, id, instruction)
+    }
+
+    /// Starts a packet after what `out` holds.
+    fn append(out: &'a mut Vec<u8>, id: u8, instruction: u8) -> Self {
+        let base = out.len();
         out.extend_from_slice(&HEADER);
         out.push(id);
         out.extend_from_slice(&[0, 0]); // the length, set by finish
-        push_stuffed(out, PREFIX_LEN, instruction);
-        Self { out }
+        push_stuffed(out, base + PREFIX_LEN, instruction);
+        Self { out, base }
     }
 
     fn extend(&mut self, params: &[u8]) {
         for &b in params {
-            push_stuffed(self.out, PREFIX_LEN, b);
+            push_stuffed(self.out, self.base + PREFIX_LEN, b);
         }
     }
 
     /// The length field (stuffed body + CRC) and the CRC.
     fn finish(self) -> Result<(), CodecError> {
-        let len = self.out.len() - PREFIX_LEN + 2;
+        let b = self.base;
+        let len = self.out.len() - b - PREFIX_LEN + 2;
         if len > MAX_LENGTH_FIELD {
+            self.out.truncate(b);
             return Err(CodecError::TooLong(len));
         }
-        self.out[5..PREFIX_LEN].copy_from_slice(&(len as u16).to_le_bytes());
-        let crc = crc16(self.out);
+        self.out[b + 5..b + PREFIX_LEN].copy_from_slice(&(len as u16).to_le_bytes());
+        let crc = crc16(&self.out[b..]);
         self.out.extend_from_slice(&crc.to_le_bytes());
         Ok(())
     }
+}
+
+/// Appends one status packet (`error`, then `params`) to `out`, after what it holds: a
+/// servo's reply built without allocating once `out` has grown (the emulators and the
+/// virtual bus front answer every cycle).
+pub fn append_status(out: &mut Vec<u8>, id: u8, error: StatusError, params: &[u8]) -> Result<(), CodecError> {
+    let mut w = PacketWriter::append(out, id, Instruction::Status as u8);
+    w.extend(&[error.to_byte()]);
+    w.extend(params);
+    w.finish()
 }
 
 /// Encodes one packet: stuffing, length and CRC.
@@ -413,6 +441,13 @@ pub enum Request {
         len: u16,
         ids: Vec<u8>,
     },
+    /// As [`Request::SyncRead`], answered by one status packet for all `ids` (in their
+    /// order): see [`fast_sync_entries`].
+    FastSyncRead {
+        addr: u16,
+        len: u16,
+        ids: Vec<u8>,
+    },
     /// Same address and length to several devices; no status is returned.
     SyncWrite {
         addr: u16,
@@ -426,7 +461,7 @@ impl Request {
     pub fn packet_id(&self) -> u8 {
         match self {
             Request::Ping { id } | Request::Read { id, .. } | Request::Write { id, .. } | Request::Reboot { id } => *id,
-            Request::SyncRead { .. } | Request::SyncWrite { .. } => BROADCAST_ID,
+            Request::SyncRead { .. } | Request::FastSyncRead { .. } | Request::SyncWrite { .. } => BROADCAST_ID,
         }
     }
 
@@ -437,6 +472,7 @@ impl Request {
             Request::Write { .. } => Instruction::Write,
             Request::Reboot { .. } => Instruction::Reboot,
             Request::SyncRead { .. } => Instruction::SyncRead,
+            Request::FastSyncRead { .. } => Instruction::FastSyncRead,
             Request::SyncWrite { .. } => Instruction::SyncWrite,
         }
     }
@@ -466,7 +502,7 @@ impl Request {
                 p.extend(&addr.to_le_bytes());
                 p.extend(data);
             }
-            Request::SyncRead { addr, len, ids } => {
+            Request::SyncRead { addr, len, ids } | Request::FastSyncRead { addr, len, ids } => {
                 p.extend(&addr.to_le_bytes());
                 p.extend(&len.to_le_bytes());
                 for &id in ids {
@@ -521,6 +557,11 @@ impl Request {
                 len: u16_at(2),
                 ids: p[4..].to_vec(),
             },
+            Instruction::FastSyncRead if p.len() >= 4 => Request::FastSyncRead {
+                addr: u16_at(0),
+                len: u16_at(2),
+                ids: p[4..].to_vec(),
+            },
             Instruction::SyncWrite if p.len() >= 4 => {
                 let len = u16_at(2);
                 let chunk = len as usize + 1;
@@ -539,6 +580,7 @@ impl Request {
             | Instruction::Read
             | Instruction::Write
             | Instruction::SyncRead
+            | Instruction::FastSyncRead
             | Instruction::SyncWrite => return Err(bad()),
             other => {
                 return Err(CodecError::BadParams {
@@ -596,6 +638,16 @@ pub struct Decoder {
 impl Decoder {
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// A decoder whose buffers hold `bytes` before they grow: a device loop sizes them for
+    /// its largest read (plus one read's worth), so no cycle allocates.
+    pub fn with_capacity(bytes: usize) -> Self {
+        Self {
+            buf: Vec::with_capacity(bytes),
+            body: Vec::with_capacity(bytes),
+            stats: DecoderStats::default(),
+        }
     }
 
     pub fn stats(&self) -> DecoderStats {
@@ -684,7 +736,12 @@ impl Decoder {
                 self.buf.drain(..1);
                 return Some(Err(FrameError::BadCrc { id, expected, got }));
             }
-            if !unstuff_into(&self.buf[PREFIX_LEN..total - 2], &mut self.body) {
+            let body = &self.buf[PREFIX_LEN..total - 2];
+            if is_fast_reply(id, body[0]) {
+                // A Fast Sync Read reply: sent unstuffed (module docs).
+                self.body.clear();
+                self.body.extend_from_slice(body);
+            } else if !unstuff_into(body, &mut self.body) {
                 self.stats.unstuffed += 1;
                 // As for a bad CRC: a real packet may start inside it (at that FF FF FD).
                 self.buf.drain(..1);
@@ -735,4 +792,104 @@ pub fn le_i32(b: &[u8]) -> Option<i32> {
 /// Wire time of `bytes` bytes at `baud` with 8N1 framing (10 bits per byte).
 pub fn wire_time(bytes: usize, baud: u32) -> std::time::Duration {
     std::time::Duration::from_nanos(bytes as u64 * 10 * 1_000_000_000 / baud.max(1) as u64)
+}
+
+/// Whether a packet with this id and instruction is a Fast Sync Read reply (a status from the
+/// broadcast id), which travels unstuffed.
+pub fn is_fast_reply(id: u8, instruction: u8) -> bool {
+    id == BROADCAST_ID && instruction == Instruction::Status as u8
+}
+
+/// One device's part of a Fast Sync Read reply.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FastEntry<'a> {
+    pub id: u8,
+    pub error: StatusError,
+    pub data: &'a [u8],
+}
+
+/// The entries of a Fast Sync Read reply, in line order (see [`fast_sync_entries`]).
+#[derive(Debug, Clone)]
+pub struct FastEntries<'a> {
+    params: &'a [u8],
+    len: usize,
+    at: usize,
+}
+
+impl<'a> Iterator for FastEntries<'a> {
+    type Item = FastEntry<'a>;
+    fn next(&mut self) -> Option<FastEntry<'a>> {
+        let rest = self.params.get(self.at..)?;
+        if rest.len() < self.len + 2 {
+            return None;
+        }
+        let e = FastEntry {
+            error: StatusError::from_byte(rest[0]),
+            id: rest[1],
+            data: &rest[2..2 + self.len],
+        };
+        // The next entry starts after this one's CRC.
+        self.at += self.len + 4;
+        Some(e)
+    }
+}
+
+/// The entries of a Fast Sync Read reply whose devices each returned `len` bytes: `params`
+/// are the parameters of the status packet from [`BROADCAST_ID`] (a [`PacketRef`]'s, the first
+/// device's error byte first). Its length must be `n * (len + 4) - 2` for some `n >= 1`
+/// (each entry is error, id, data, CRC; the last entry's CRC is the packet's).
+pub fn fast_sync_entries(params: &[u8], len: usize) -> Result<FastEntries<'_>, CodecError> {
+    let chunk = len + 4;
+    if params.len() < chunk - 2 || (params.len() + 2) % chunk != 0 {
+        return Err(CodecError::BadParams {
+            instruction: Instruction::FastSyncRead,
+            got: params.len(),
+        });
+    }
+    Ok(FastEntries { params, len, at: 0 })
+}
+
+/// How many devices a Fast Sync Read reply with `params` carries for `len` bytes each
+/// (`None`: not a well-formed reply).
+pub fn fast_sync_count(params: &[u8], len: usize) -> Option<usize> {
+    fast_sync_entries(params, len)
+        .ok()
+        .map(|_| (params.len() + 2) / (len + 4))
+}
+
+/// Encodes a Fast Sync Read reply into `out` (cleared; its buffer reused): `n` entries of
+/// `len` data bytes each, produced by `entry(i, data)` which fills `data` (exactly `len`
+/// bytes) and returns the device's id and error. Each inner CRC is the CRC of the packet
+/// up to it, as a device computes it when it appends its part to the stream (the e-Manual's
+/// layout; DynamixelSDK checks only the last). Not byte-stuffed (module docs).
+pub fn encode_fast_sync_reply(
+    n: usize,
+    len: usize,
+    out: &mut Vec<u8>,
+    mut entry: impl FnMut(usize, &mut [u8]) -> (u8, StatusError),
+) -> Result<(), CodecError> {
+    let length = 1 + n * (len + 4);
+    if n == 0 || length > MAX_LENGTH_FIELD {
+        return Err(CodecError::TooLong(length));
+    }
+    out.clear();
+    out.extend_from_slice(&HEADER);
+    out.push(BROADCAST_ID);
+    out.extend_from_slice(&(length as u16).to_le_bytes());
+    out.push(Instruction::Status as u8);
+    for i in 0..n {
+        if i > 0 {
+            let crc = crc16(out);
+            out.extend_from_slice(&crc.to_le_bytes());
+        }
+        let at = out.len();
+        out.resize(at + 2 + len, 0);
+        let (id, error) = entry(i, &mut out[at + 2..]);
+        check_id(id)?;
+        out[at] = error.to_byte();
+        out[at + 1] = id;
+    }
+    let crc = crc16(out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    Ok(())
 }

@@ -47,7 +47,7 @@ const SYNC_WRITE_1_2: &str = "FF FF FD 00 FE 11 00 83 74 00 04 00 01 96 00 00 00
 const BULK_READ_STATUS_ID2: &str = "FF FF FD 00 02 05 00 55 00 24 8B A9";
 
 #[test]
-fn ezgripper_crc_is_crc16_umts_with_the_emanual_values() {
+fn dynamixel_crc_is_crc16_umts_with_the_emanual_values() {
     // Catalogue check value of CRC-16/UMTS (= BUYPASS): crc("123456789") = 0xFEE8.
     assert_eq!(crc16(b"123456789"), 0xFEE8);
     for f in [
@@ -73,7 +73,7 @@ fn ezgripper_crc_is_crc16_umts_with_the_emanual_values() {
 }
 
 #[test]
-fn ezgripper_requests_encode_to_the_emanual_bytes() {
+fn dynamixel_requests_encode_to_the_emanual_bytes() {
     let cases: Vec<(Request, &str)> = vec![
         (Request::Ping { id: 1 }, PING_ID1),
         (
@@ -127,7 +127,7 @@ fn ezgripper_requests_encode_to_the_emanual_bytes() {
 }
 
 #[test]
-fn ezgripper_statuses_decode_from_the_emanual_bytes() {
+fn dynamixel_statuses_decode_from_the_emanual_bytes() {
     let st = |f: &str| Status::from_packet(&decode_all(&hex(f)).pop().unwrap().unwrap()).unwrap();
     let ping = st(PING_STATUS_ID1);
     assert_eq!(
@@ -150,7 +150,7 @@ fn ezgripper_statuses_decode_from_the_emanual_bytes() {
 }
 
 #[test]
-fn ezgripper_status_error_field() {
+fn dynamixel_status_error_field() {
     let e = StatusError::from_byte(0x80 | 0x07);
     assert!(e.alert);
     assert_eq!(e.number, ErrorNumber::AccessError);
@@ -165,7 +165,7 @@ fn ezgripper_status_error_field() {
 /// FF FF FD to address 0x0010 of ID 1 must put FF FF FD FD on the wire, count the extra
 /// byte in LEN, compute the CRC over the stuffed bytes, and decode back to FF FF FD.
 #[test]
-fn ezgripper_byte_stuffing() {
+fn dynamixel_byte_stuffing() {
     let req = Request::Write {
         id: 1,
         addr: 0x10,
@@ -201,7 +201,7 @@ fn raw_frame(id: u8, body: &[u8]) -> Vec<u8> {
 }
 
 #[test]
-fn ezgripper_decoder_refuses_an_unstuffed_body_and_resynchronises() {
+fn dynamixel_decoder_refuses_an_unstuffed_body_and_resynchronises() {
     // A status packet whose parameters hold FF FF FD without the stuffing FD (found by the
     // dynamixel_packet fuzz target: decoded, it did not re-encode within the length limit).
     let bad = raw_frame(1, &[0x55, 0x00, 0xFF, 0xFF, 0xFD, 0x01]);
@@ -227,7 +227,7 @@ fn ezgripper_decoder_refuses_an_unstuffed_body_and_resynchronises() {
 /// held unstuffed `FF FF FD`s decoded, and re-encoding it exceeded the length limit. The
 /// target's property on that input: every packet decoded re-encodes and decodes the same.
 #[test]
-fn ezgripper_fuzz_crash_84185e6d_every_decoded_packet_re_encodes() {
+fn dynamixel_fuzz_crash_84185e6d_every_decoded_packet_re_encodes() {
     let data = include_bytes!("../../../tests/fixtures/fuzz/dynamixel_packet-84185e6d.bin");
     let (&step, body) = data.split_first().unwrap();
     let mut d = Decoder::new();
@@ -235,6 +235,9 @@ fn ezgripper_fuzz_crash_84185e6d_every_decoded_packet_re_encodes() {
         d.push(chunk);
         while let Some(frame) = d.next_frame() {
             let Ok(p) = frame else { continue };
+            if is_fast_reply(p.id, p.instruction) {
+                continue;
+            }
             let bytes = encode_packet(p.id, p.instruction, &p.params).expect("a decoded packet re-encodes");
             let mut again = Decoder::new();
             again.push(&bytes);
@@ -249,7 +252,7 @@ fn ezgripper_fuzz_crash_84185e6d_every_decoded_packet_re_encodes() {
 }
 
 #[test]
-fn ezgripper_decoder_skips_garbage_and_counts_bad_crc_and_truncation() {
+fn dynamixel_decoder_skips_garbage_and_counts_bad_crc_and_truncation() {
     let mut d = Decoder::new();
     let mut bad = hex(READ_STATUS_ID1);
     let n = bad.len();
@@ -282,7 +285,7 @@ fn ezgripper_decoder_skips_garbage_and_counts_bad_crc_and_truncation() {
 }
 
 #[test]
-fn ezgripper_bad_inputs_are_errors() {
+fn dynamixel_bad_inputs_are_errors() {
     assert!(matches!(ServoId::new(253), Err(CodecError::BadId(253))));
     assert!(Request::Ping { id: 0xFD }.encode().is_err());
     let e = Request::SyncWrite {
@@ -335,6 +338,8 @@ fn arb_request() -> impl Strategy<Value = Request> {
             .prop_map(|(id, addr, data)| Request::Write { id, addr, data }),
         (any::<u16>(), any::<u16>(), proptest::collection::vec(id.clone(), 0..8))
             .prop_map(|(addr, len, ids)| Request::SyncRead { addr, len, ids }),
+        (any::<u16>(), any::<u16>(), proptest::collection::vec(id.clone(), 0..8))
+            .prop_map(|(addr, len, ids)| Request::FastSyncRead { addr, len, ids }),
         (any::<u16>(), 1u16..8, proptest::collection::vec(id, 0..6)).prop_flat_map(|(addr, len, ids)| {
             let n = ids.len();
             proptest::collection::vec(proptest::collection::vec(any::<u8>(), len as usize), n).prop_map(move |datas| {
@@ -350,7 +355,7 @@ fn arb_request() -> impl Strategy<Value = Request> {
 
 proptest! {
     #[test]
-    fn ezgripper_decoder_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..2048), cuts in proptest::collection::vec(0usize..2048, 0..8)) {
+    fn dynamixel_decoder_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..2048), cuts in proptest::collection::vec(0usize..2048, 0..8)) {
         let mut d = Decoder::new();
         let mut at = 0;
         let mut cuts = cuts;
@@ -373,7 +378,7 @@ proptest! {
     }
 
     #[test]
-    fn ezgripper_requests_round_trip_through_garbage(req in arb_request(), pre in proptest::collection::vec(any::<u8>(), 0..32), post in proptest::collection::vec(any::<u8>(), 0..32)) {
+    fn dynamixel_requests_round_trip_through_garbage(req in arb_request(), pre in proptest::collection::vec(any::<u8>(), 0..32), post in proptest::collection::vec(any::<u8>(), 0..32)) {
         let enc = req.encode().unwrap();
         // No header inside the stuffed body: the decoder cannot lock onto a false start.
         prop_assert!(enc[4..enc.len() - 2].windows(4).all(|w| w != HEADER));
@@ -391,7 +396,7 @@ proptest! {
     }
 
     #[test]
-    fn ezgripper_stuffing_round_trips(data in proptest::collection::vec(prop_oneof![Just(0xFFu8), Just(0xFD), Just(0x00), any::<u8>()], 0..256)) {
+    fn dynamixel_stuffing_round_trips(data in proptest::collection::vec(prop_oneof![Just(0xFFu8), Just(0xFD), Just(0x00), any::<u8>()], 0..256)) {
         let s = stuff(&data);
         prop_assert_eq!(unstuff(&s), Some(data));
         // After stuffing, FF FF FD is always followed by FD.
@@ -403,7 +408,7 @@ proptest! {
     }
 
     #[test]
-    fn ezgripper_corrupted_crc_is_detected(req in arb_request(), flip in 1u8..=255) {
+    fn dynamixel_corrupted_crc_is_detected(req in arb_request(), flip in 1u8..=255) {
         let mut enc = req.encode().unwrap();
         let n = enc.len();
         enc[n - 2] ^= flip;
@@ -411,5 +416,122 @@ proptest! {
         let bad_crc = matches!(frames.first(), Some(Err(FrameError::BadCrc { .. })));
         prop_assert!(bad_crc);
         prop_assert!(frames.iter().filter_map(|f| f.as_ref().ok()).all(|pk| Request::from_packet(pk).as_ref() != Ok(&req)));
+    }
+}
+
+/// A LEAP Hand's read: Fast Sync Read of present current..position (126, 10 bytes) of ids
+/// 0..15. The request is the Sync Read's layout with instruction 0x8A (DynamixelSDK 4.1.0
+/// `syncReadTx(..., fast_option=True)`).
+#[test]
+fn dynamixel_fast_sync_read_request_is_sync_read_with_0x8a() {
+    let ids: Vec<u8> = (0..16).collect();
+    let fast = Request::FastSyncRead {
+        addr: 126,
+        len: 10,
+        ids: ids.clone(),
+    }
+    .encode()
+    .unwrap();
+    let slow = Request::SyncRead {
+        addr: 126,
+        len: 10,
+        ids,
+    }
+    .encode()
+    .unwrap();
+    assert_eq!(fast[7], 0x8A);
+    assert_eq!(fast[..7], slow[..7]);
+    assert_eq!(fast[8..fast.len() - 2], slow[8..slow.len() - 2]);
+    let pk = decode_all(&fast).pop().unwrap().unwrap();
+    assert!(matches!(
+        Request::from_packet(&pk),
+        Ok(Request::FastSyncRead { addr: 126, len: 10, .. })
+    ));
+}
+
+/// The reply: one status from 0xFE, `ERR ID DATA CRC` per device with the last CRC the
+/// packet's, length `1 + n * (len + 4)`; unstuffed even when the data holds `FF FF FD`
+/// (DynamixelSDK 4.1.0's `rxPacket` unstuffs every status but these).
+#[test]
+fn dynamixel_fast_sync_reply_layout_and_round_trip() {
+    let mut out = Vec::new();
+    encode_fast_sync_reply(3, 4, &mut out, |i, d| {
+        d.copy_from_slice(&[0xFF, 0xFF, 0xFD, i as u8]);
+        (
+            10 + i as u8,
+            if i == 1 {
+                StatusError::from_byte(0x80)
+            } else {
+                StatusError::OK
+            },
+        )
+    })
+    .unwrap();
+    assert_eq!(out[..8], [0xFF, 0xFF, 0xFD, 0x00, 0xFE, 25, 0, 0x55]);
+    assert_eq!(out.len(), 7 + 25);
+    // First entry: error, id, data, then the CRC of everything before it.
+    assert_eq!(out[8..14], [0x00, 10, 0xFF, 0xFF, 0xFD, 0]);
+    assert_eq!(out[14..16], crc16(&out[..14]).to_le_bytes());
+    assert_eq!(out[16..18], [0x80, 11]);
+    let n = out.len();
+    assert_eq!(out[n - 2..], crc16(&out[..n - 2]).to_le_bytes());
+    let mut d = Decoder::new();
+    d.push(&out);
+    let pk = d.next_frame().unwrap().unwrap();
+    assert!(is_fast_reply(pk.id, pk.instruction));
+    assert_eq!(fast_sync_count(&pk.params, 4), Some(3));
+    let got: Vec<(u8, u8, Vec<u8>)> = fast_sync_entries(&pk.params, 4)
+        .unwrap()
+        .map(|e| (e.id, e.error.to_byte(), e.data.to_vec()))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            (10, 0, vec![0xFF, 0xFF, 0xFD, 0]),
+            (11, 0x80, vec![0xFF, 0xFF, 0xFD, 1]),
+            (12, 0, vec![0xFF, 0xFF, 0xFD, 2]),
+        ]
+    );
+    assert_eq!(d.stats().unstuffed, 0);
+    // A length that is no whole number of entries is refused.
+    assert!(fast_sync_entries(&pk.params[..pk.params.len() - 1], 4).is_err());
+    assert!(fast_sync_entries(&pk.params, 5).is_err());
+    assert!(fast_sync_entries(&[], 0).is_err());
+}
+
+/// `append_status` builds the same bytes as `Status::encode`, after whatever the buffer holds.
+#[test]
+fn dynamixel_append_status_is_status_encode_appended() {
+    let mut out = vec![1, 2, 3];
+    append_status(&mut out, 2, StatusError::OK, &[0x1F, 0x08, 0, 0]).unwrap();
+    assert_eq!(out[..3], [1, 2, 3]);
+    assert_eq!(out[3..], hex(SYNC_READ_STATUS_ID2));
+    let st = Status {
+        id: 7,
+        error: StatusError::from_byte(0x87),
+        params: vec![0xFF, 0xFF, 0xFD, 0x00],
+    };
+    let at = out.len();
+    append_status(&mut out, 7, st.error, &st.params).unwrap();
+    assert_eq!(out[at..], st.encode().unwrap());
+}
+
+proptest! {
+    /// The `dynamixel_fast_sync_reply` fuzz target's property on arbitrary entries: a reply
+    /// encoded from them decodes (unstuffed, whatever the data) to the same entries.
+    #[test]
+    fn dynamixel_fast_sync_replies_round_trip(len in 0usize..16, entries in proptest::collection::vec((0u8..=252, any::<u8>(), proptest::collection::vec(prop_oneof![Just(0xFFu8), Just(0xFD), any::<u8>()], 16)), 1..20)) {
+        let mut out = Vec::new();
+        encode_fast_sync_reply(entries.len(), len, &mut out, |i, d| {
+            d.copy_from_slice(&entries[i].2[..len]);
+            (entries[i].0, StatusError::from_byte(entries[i].1))
+        }).unwrap();
+        let mut d = Decoder::new();
+        d.push(&out);
+        let pk = d.next_frame().unwrap().unwrap();
+        prop_assert!(is_fast_reply(pk.id, pk.instruction));
+        let back: Vec<(u8, u8, Vec<u8>)> = fast_sync_entries(&pk.params, len).unwrap().map(|e| (e.id, e.error.to_byte(), e.data.to_vec())).collect();
+        let want: Vec<(u8, u8, Vec<u8>)> = entries.iter().map(|(id, err, data)| (*id, StatusError::from_byte(*err).to_byte(), data[..len].to_vec())).collect();
+        prop_assert_eq!(back, want);
     }
 }
