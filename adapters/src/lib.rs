@@ -25,6 +25,7 @@ pub mod link;
 pub mod loops;
 pub mod mapping;
 pub mod modbus;
+pub mod rohand;
 pub mod model;
 pub mod motion;
 pub mod netif;
