@@ -12,7 +12,7 @@ use crate::model::{faults, HandState, Side};
 
 pub mod emulator;
 #[cfg(test)]
-mod tests;
+mod codec_tests;
 
 impl DeviceKind {
     /// OYMotion ROHand on an RS-485 line.

@@ -205,6 +205,26 @@ impl<H: RegisterHand> Kind for HandKind<H> {
         H::table(side)
     }
 
+    /// The emulated registers carry no noise: the noise keys are refused, not ignored.
+    fn validate_emulator(&self, _ctx: &DeviceCtx<'_>, section: &crate::open::EmulatorSection) -> Vec<Problem> {
+        [
+            ("noise", section.noise.is_some()),
+            ("seed", section.seed.is_some()),
+            ("position_noise_rad", section.position_noise_rad.is_some()),
+            ("velocity_noise_rad_s", section.velocity_noise_rad_s.is_some()),
+            ("torque_noise_nm", section.torque_noise_nm.is_some()),
+        ]
+        .into_iter()
+        .filter(|(_, set)| *set)
+        .map(|(key, _)| {
+            Problem::new(
+                &["emulator", key],
+                format!("has no effect on a {}: its emulated registers carry no noise, remove it", H::FACTS.name),
+            )
+        })
+        .collect()
+    }
+
     /// Hands on one port share one baud and need distinct slave ids.
     fn validate_fleet(&self, members: &[FleetMember<'_, HandProfile<H>>]) -> Vec<FleetProblem> {
         let mut out = Vec::new();

@@ -29,7 +29,7 @@ pub mod kind;
 pub mod line;
 
 #[cfg(test)]
-mod tests;
+mod hand_tests;
 
 /// The largest block a round reads or writes (FC03 reads at most 125 registers).
 pub const MAX_BLOCK: usize = super::pdu::MAX_READ as usize;
