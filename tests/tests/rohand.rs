@@ -63,7 +63,9 @@ fn the_gateway_closes_an_emulated_rohand_over_a_pty() {
     // The fist: every register at 65535, the index's travel 78.15 deg = 1.364 rad.
     let closed = stream_until(&mut w, &close, DEADLINE, || {
         s.update().is_some_and(|s| {
-            s.freshness == hg::FRESH && (q(s, "index") - 1.364).abs() < 0.002 && (q(s, "thumb_rotate") - 1.5708).abs() < 0.002
+            s.freshness == hg::FRESH
+                && (q(s, "index") - 1.364).abs() < 0.002
+                && (q(s, "thumb_rotate") - 1.5708).abs() < 0.002
         })
     });
     assert!(closed, "the hand closed: last {:?}", s.last);
@@ -83,10 +85,16 @@ fn pymodbus_drives_the_emulated_rohand_on_its_pty() {
     let py = handgate_tests::PyProcess::spawn("rohand_pymodbus.py", &[link.display().to_string()])
         .unwrap_or_else(|e| panic!("{e}"));
     let t = Duration::from_secs(20);
-    let pos = py.wait_line("pos ", t).unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    let pos = py
+        .wait_line("pos ", t)
+        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
     assert_eq!(pos, "0 0 0 0 0 0");
-    let closed = py.wait_line("closed ", t).unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    let closed = py
+        .wait_line("closed ", t)
+        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
     assert_eq!(closed, "65535 65535 65535 65535 65535 65535");
-    let code = py.wait_line("exception ", t).unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
+    let code = py
+        .wait_line("exception ", t)
+        .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
     assert_eq!(code, "2");
 }

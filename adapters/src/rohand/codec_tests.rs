@@ -10,7 +10,9 @@ use crate::modbus::server::{respond, RegisterMap};
 use crate::modbus::{rtu, Regs, Request, Response, Table};
 
 fn hex(s: &str) -> Vec<u8> {
-    s.split_whitespace().map(|b| u8::from_str_radix(b, 16).unwrap()).collect()
+    s.split_whitespace()
+        .map(|b| u8::from_str_radix(b, 16).unwrap())
+        .collect()
 }
 
 fn core() -> RohandCore {
@@ -36,13 +38,25 @@ fn the_docs_frame_examples_decode_as_the_doc_reads_them() {
     let b1 = hex("11 03 00 6b 00 02 b7 47");
     let f = rtu::decode_request(&b1).unwrap();
     assert_eq!(f.slave, 0x11);
-    assert_eq!(Request::decode(f.pdu).unwrap(), Request::ReadHolding { addr: 0x6B, count: 2 });
+    assert_eq!(
+        Request::decode(f.pdu).unwrap(),
+        Request::ReadHolding { addr: 0x6B, count: 2 }
+    );
     let b2 = hex("11 03 04 00 01 00 02 3b f3");
     let f = rtu::decode_response(&b2, 3).unwrap();
-    assert_eq!(Response::decode(f.pdu).unwrap(), Response::ReadHolding(Regs::from_words(&[1, 2])));
+    assert_eq!(
+        Response::decode(f.pdu).unwrap(),
+        Response::ReadHolding(Regs::from_words(&[1, 2]))
+    );
     let b3 = hex("11 06 00 6b 10 00 f7 46");
     let f = rtu::decode_request(&b3).unwrap();
-    assert_eq!(Request::decode(f.pdu).unwrap(), Request::WriteSingle { addr: 0x6B, value: 0x1000 });
+    assert_eq!(
+        Request::decode(f.pdu).unwrap(),
+        Request::WriteSingle {
+            addr: 0x6B,
+            value: 0x1000
+        }
+    );
     let b4 = hex("11 10 00 01 00 02 04 00 0a 01 02 c6 f0");
     let f = rtu::decode_request(&b4).unwrap();
     assert_eq!(
@@ -54,7 +68,10 @@ fn the_docs_frame_examples_decode_as_the_doc_reads_them() {
     );
     let b5 = hex("11 10 00 01 00 02 12 98");
     let f = rtu::decode_response(&b5, 0x10).unwrap();
-    assert_eq!(Response::decode(f.pdu).unwrap(), Response::WriteMultiple { addr: 1, count: 2 });
+    assert_eq!(
+        Response::decode(f.pdu).unwrap(),
+        Response::WriteMultiple { addr: 1, count: 2 }
+    );
 }
 
 #[test]
@@ -67,7 +84,10 @@ fn the_core_answers_the_frames_a_rohand_client_sends() {
     );
     // FC16 ROH_FINGER_POS_TARGET0..5 (1135) = 65535: echoed.
     assert_eq!(
-        answer(&mut c, &hex("02 10 04 6f 00 06 0c ff ff ff ff ff ff ff ff ff ff ff ff 34 0f")),
+        answer(
+            &mut c,
+            &hex("02 10 04 6f 00 06 0c ff ff ff ff ff ff ff ff ff ff ff ff 34 0f")
+        ),
         hex("02 10 04 6f 00 06 71 15")
     );
     // Outside the register file: EC02; a write to the read-only ROH_FINGER_POS: EC02.

@@ -103,11 +103,7 @@ impl RohandCore {
             self.regs[idx(reg::FINGER_STATUS) + i] = st;
             self.regs[idx(reg::CURRENT) + i] = if moving[i] { MOVING_CURRENT_MA } else { 0 };
             if i < 5 {
-                self.regs[idx(reg::FORCE) + i] = if held {
-                    self.regs[idx(reg::FORCE_LIMIT) + i]
-                } else {
-                    0
-                };
+                self.regs[idx(reg::FORCE) + i] = if held { self.regs[idx(reg::FORCE_LIMIT) + i] } else { 0 };
             }
             self.regs[idx(reg::POS) + i] = self.pos[i].round() as u16;
             self.regs[idx(reg::ANGLE) + i] = angle_of(i, self.pos[i]) as u16;
@@ -155,10 +151,7 @@ impl crate::modbus::server::RegisterMap for RohandCore {
 
     fn write(&mut self, addr: u16, values: Regs<'_>) -> Result<(), Exception> {
         let end = addr as usize + values.len();
-        if !WRITABLE
-            .iter()
-            .any(|(a, b)| addr >= *a && end <= *b as usize)
-        {
+        if !WRITABLE.iter().any(|(a, b)| addr >= *a && end <= *b as usize) {
             return Err(Exception::IllegalDataAddress);
         }
         for (k, v) in values.iter().enumerate() {

@@ -10,9 +10,9 @@ use crate::modbus::hand::kind::HandKind;
 use crate::modbus::hand::{EmuSpec, RegisterHand};
 use crate::model::{faults, HandState, Side};
 
-pub mod emulator;
 #[cfg(test)]
 mod codec_tests;
+pub mod emulator;
 
 impl DeviceKind {
     /// OYMotion ROHand on an RS-485 line.
@@ -97,7 +97,12 @@ impl RegisterHand for Rohand {
         }],
         // A round (FC16 of 6 targets when they change, FC03 of 66 words) is 145 bytes, 13.8 ms
         // at 115200 baud: 50 Hz leaves the line a margin (docs/rohand.md).
-        ..KindFacts::new("rohand", &JOINTS, &[Backend::Serial, Backend::Emulator], Rates::fixed(50.0))
+        ..KindFacts::new(
+            "rohand",
+            &JOINTS,
+            &[Backend::Serial, Backend::Emulator],
+            Rates::fixed(50.0),
+        )
     };
     const SLAVE: u8 = 2;
     const BAUD: u32 = 115_200;

@@ -91,7 +91,11 @@ impl<H: RegisterHand> ModbusHandDevice<H> {
                         to_hand_state::<H>(&table, &r, stale_after, now, &mut st);
                         let online = st.freshness == Freshness::Fresh;
                         if link.is_up() && !online {
-                            tracing::info!(online = r.online, last_error = r.last_error.unwrap_or(""), "{name} hand state stale");
+                            tracing::info!(
+                                online = r.online,
+                                last_error = r.last_error.unwrap_or(""),
+                                "{name} hand state stale"
+                            );
                         }
                         if link.observe(online, &st.joints, &b_cmd) {
                             tracing::info!("{name} hand back: holding the measured position until the next command");

@@ -50,14 +50,22 @@ fn wait(rx: &mut watch::Receiver<Reading>, what: &str, ok: impl Fn(&Reading) -> 
         if ok(&r) {
             return r;
         }
-        assert!(Instant::now() < deadline, "{what}: last {:?} {:?}", r.online, r.last_error);
+        assert!(
+            Instant::now() < deadline,
+            "{what}: last {:?} {:?}",
+            r.online,
+            r.last_error
+        );
         std::thread::sleep(Duration::from_millis(2));
     }
 }
 
 fn target_of(cores: &Cores<<Rohand as RegisterHand>::Core>, i: usize) -> [u16; FINGERS] {
     let mut t = [0u16; FINGERS];
-    cores.lock().unwrap()[i].1.read(Table::Holding, reg::POS_TARGET, &mut t).unwrap();
+    cores.lock().unwrap()[i]
+        .1
+        .read(Table::Holding, reg::POS_TARGET, &mut t)
+        .unwrap();
     t
 }
 
@@ -74,8 +82,12 @@ fn two_hands_go_on_while_a_third_slave_stays_silent() {
     );
     wait(&mut silent, "slave 4 missed", |r| r.last_error == Some("timeout"));
     line.set_target(2, &[65535; FINGERS]).unwrap();
-    let ra = wait(&mut a, "hand 2 closed", |r| r.online && r.regs()[POS..POS + FINGERS] == [65535; 6]);
-    let rb = wait(&mut b, "hand 3 read", |r| r.online && r.round >= ra.round.saturating_sub(1));
+    let ra = wait(&mut a, "hand 2 closed", |r| {
+        r.online && r.regs()[POS..POS + FINGERS] == [65535; 6]
+    });
+    let rb = wait(&mut b, "hand 3 read", |r| {
+        r.online && r.round >= ra.round.saturating_sub(1)
+    });
     assert_eq!(rb.regs()[POS..POS + FINGERS], [0; 6], "hand 3 was not commanded");
     let s = *silent.borrow();
     assert!(!s.online && s.round == 0, "{s:?}");

@@ -110,7 +110,10 @@ impl<H: RegisterHand> Settings for HandProfile<H> {
         let Some(s) = &self.section else { return out };
         let name = H::FACTS.name;
         if s.port.trim().is_empty() && s.tcp.is_none() {
-            out.push(Problem::new(&[name, "port"], "must name a serial port, e.g. /dev/ttyUSB0"));
+            out.push(Problem::new(
+                &[name, "port"],
+                "must name a serial port, e.g. /dev/ttyUSB0",
+            ));
         }
         if let Some(b) = s.baud.filter(|b| !H::BAUDS.contains(b)) {
             out.push(Problem::new(
@@ -119,7 +122,10 @@ impl<H: RegisterHand> Settings for HandProfile<H> {
             ));
         }
         if let Some(id) = s.slave.filter(|id| !(1..=247).contains(id)) {
-            out.push(Problem::new(&[name, "slave"], format!("must be between 1 and 247, got {id}")));
+            out.push(Problem::new(
+                &[name, "slave"],
+                format!("must be between 1 and 247, got {id}"),
+            ));
         }
         if !(1..=1000).contains(&s.response_timeout_ms) {
             out.push(Problem::new(
@@ -219,7 +225,10 @@ impl<H: RegisterHand> Kind for HandKind<H> {
         .map(|(key, _)| {
             Problem::new(
                 &["emulator", key],
-                format!("has no effect on a {}: its emulated registers carry no noise, remove it", H::FACTS.name),
+                format!(
+                    "has no effect on a {}: its emulated registers carry no noise, remove it",
+                    H::FACTS.name
+                ),
             )
         })
         .collect()
@@ -237,7 +246,11 @@ impl<H: RegisterHand> Kind for HandKind<H> {
                     m.index,
                     Problem::new(
                         &[H::FACTS.name, "baud"],
-                        format!("{} baud on {}, where devices[{j}] runs {b}: one line, one baud", r.baud, r.key()),
+                        format!(
+                            "{} baud on {}, where devices[{j}] runs {b}: one line, one baud",
+                            r.baud,
+                            r.key()
+                        ),
                     ),
                 )),
                 Some(_) => {}
@@ -336,9 +349,9 @@ impl<H: RegisterHand> Kind for HandKind<H> {
         };
         let baud = options.baud.unwrap_or(H::BAUD);
         let name = H::FACTS.name;
-        let link = options.pty.unwrap_or_else(|| {
-            std::env::temp_dir().join(format!("handgate-{}-{name}", std::process::id()))
-        });
+        let link = options
+            .pty
+            .unwrap_or_else(|| std::env::temp_dir().join(format!("handgate-{}-{name}", std::process::id())));
         let table = H::table(Side::Right);
         let cores: Cores<H::Core> = Arc::new(Mutex::new(
             slaves

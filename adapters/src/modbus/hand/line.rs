@@ -151,12 +151,10 @@ impl HandLine {
             cfg,
             connector,
         };
-        let thread = std::thread::Builder::new()
-            .name("modbus-hand-line".into())
-            .spawn(move || {
-                crate::realtime::enter_device_loop(); // [realtime]: this thread only
-                worker.run()
-            })?;
+        let thread = std::thread::Builder::new().name("mb-hand-line".into()).spawn(move || {
+            crate::realtime::enter_device_loop(); // [realtime]: this thread only
+            worker.run()
+        })?;
         Ok(HandLine {
             slots,
             counters,
