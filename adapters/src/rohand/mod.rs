@@ -10,8 +10,6 @@ use crate::modbus::hand::kind::HandKind;
 use crate::modbus::hand::{EmuSpec, RegisterHand};
 use crate::model::{faults, HandState, Side};
 
-#[cfg(test)]
-mod codec_tests;
 pub mod emulator;
 
 impl DeviceKind {
@@ -174,3 +172,6 @@ impl RegisterHand for Rohand {
         emulator::RohandCore::new(spec)
     }
 }
+
+#[cfg(test)]
+mod codec_tests;

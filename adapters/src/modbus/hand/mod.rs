@@ -28,9 +28,6 @@ pub mod emulated;
 pub mod kind;
 pub mod line;
 
-#[cfg(test)]
-mod hand_tests;
-
 /// The largest block a round reads or writes (FC03 reads at most 125 registers).
 pub const MAX_BLOCK: usize = super::pdu::MAX_READ as usize;
 
@@ -75,3 +72,6 @@ pub trait RegisterHand: Copy + Default + PartialEq + fmt::Debug + Send + Sync + 
     /// An emulated hand.
     fn core(spec: &EmuSpec) -> Self::Core;
 }
+
+#[cfg(test)]
+mod hand_tests;
