@@ -65,7 +65,7 @@ fn the_gateway_closes_an_emulated_rohand_over_a_pty() {
         s.update().is_some_and(|s| {
             s.freshness == hg::FRESH
                 && (q(s, "index") - 1.364).abs() < 0.002
-                && (q(s, "thumb_rotate") - 1.5708).abs() < 0.002
+                && (q(s, "thumb_rotate") - std::f32::consts::FRAC_PI_2).abs() < 0.002
         })
     });
     assert!(closed, "the hand closed: last {:?}", s.last);

@@ -88,12 +88,12 @@ impl RohandCore {
     }
 
     fn publish(&mut self, moving: &[bool; FINGERS]) {
-        for i in 0..FINGERS {
+        for (i, &moving) in moving.iter().enumerate() {
             let target = f32::from(self.regs[idx(reg::POS_TARGET) + i]);
             let held = self.object_at[i].is_some_and(|o| self.pos[i] >= o && target > self.pos[i]);
             let st = if held {
                 status::FORCE_REACHED
-            } else if !moving[i] {
+            } else if !moving {
                 status::POS_REACHED
             } else if target > self.pos[i] {
                 status::CLOSING
@@ -101,7 +101,7 @@ impl RohandCore {
                 status::OPENING
             };
             self.regs[idx(reg::FINGER_STATUS) + i] = st;
-            self.regs[idx(reg::CURRENT) + i] = if moving[i] { MOVING_CURRENT_MA } else { 0 };
+            self.regs[idx(reg::CURRENT) + i] = if moving { MOVING_CURRENT_MA } else { 0 };
             if i < 5 {
                 self.regs[idx(reg::FORCE) + i] = if held { self.regs[idx(reg::FORCE_LIMIT) + i] } else { 0 };
             }

@@ -173,35 +173,28 @@ pub fn serve_pty<C: EmulatorCore>(
     baud: u32,
     label: &'static str,
 ) -> std::io::Result<StreamServer> {
-    let n = cores.lock().unwrap_or_else(|p| p.into_inner()).len();
     let slaves: Vec<u8> = cores
         .lock()
         .unwrap_or_else(|p| p.into_inner())
         .iter()
         .map(|(s, _)| *s)
         .collect();
+    let Some(&first) = slaves.first() else {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "no slave to emulate",
+        ));
+    };
     let make = move || {
-        let mut session: Option<RtuSession<Shared<C>>> = None;
-        for index in 0..n {
-            let map = Shared {
-                cores: cores.clone(),
-                index,
-            };
-            session = Some(match session {
-                None => RtuSession::new(slaves[index], map, baud),
-                Some(s) => s.with_slave(slaves[index], map),
-            });
+        let map = |index| Shared {
+            cores: cores.clone(),
+            index,
+        };
+        let mut session = RtuSession::new(first, map(0), baud);
+        for (index, s) in slaves.iter().enumerate().skip(1) {
+            session = session.with_slave(*s, map(index));
         }
-        session.unwrap_or_else(|| {
-            RtuSession::new(
-                0,
-                Shared {
-                    cores: cores.clone(),
-                    index: usize::MAX,
-                },
-                baud,
-            )
-        })
+        session
     };
     // The cores make no commands: the inbox only satisfies the server's signature.
     let (tx, _rx) = tokio::sync::mpsc::channel(1);
