@@ -125,3 +125,47 @@ fn after_an_unplug_the_line_reconnects_and_never_replays_a_stale_target() {
     line.set_target(2, &[2000; FINGERS]).unwrap();
     wait(&mut rx, "new target reached", |r| r.regs()[POS] == 2000);
 }
+
+/// `tcp = "host:port"`: the same line over RTU frames on TCP (a serial-to-Ethernet gateway),
+/// here a kit RTU session serving slave 2's state block (with the target block inside it).
+#[test]
+fn the_line_runs_rtu_over_tcp() {
+    use super::kind::TcpConnector;
+    use crate::modbus::server::Bank;
+    use crate::modbus::session::RtuSession;
+
+    let make = || {
+        RtuSession::new(
+            2,
+            Bank {
+                holding_base: reg::FINGER_STATUS,
+                holding: vec![0; Rohand::STATE.1 as usize],
+                ..Default::default()
+            },
+            0,
+        )
+    };
+    let (tx, _rx) = tokio::sync::mpsc::channel(1);
+    let inbox = crate::front::serve::Inbox::for_tests(crate::front::serve::Queue::new(tx));
+    let server = crate::front::stream::serve_tcp(
+        "127.0.0.1:0".parse().unwrap(),
+        Default::default(),
+        make,
+        inbox,
+        "rohand-test",
+        "rohand-test",
+    )
+    .unwrap();
+    let addr = server.local_addr.unwrap();
+    let mut cfg = config(&[2]);
+    cfg.over_tcp = true;
+    cfg.response_timeout = Duration::from_millis(500);
+    let line = HandLine::start(Box::new(TcpConnector(addr)), cfg).unwrap();
+    let mut rx = line.subscribe(2).unwrap();
+    wait(&mut rx, "read over TCP", |r| r.online);
+    line.set_target(2, &[65535; FINGERS]).unwrap();
+    let target = (reg::POS_TARGET - reg::FINGER_STATUS) as usize;
+    wait(&mut rx, "target written over TCP", |r| {
+        r.regs()[target..target + FINGERS] == [65535; FINGERS]
+    });
+}
