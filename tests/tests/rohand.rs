@@ -98,3 +98,28 @@ fn pymodbus_drives_the_emulated_rohand_on_its_pty() {
         .unwrap_or_else(|e| panic!("{e}\n{}", py.transcript()));
     assert_eq!(code, "2");
 }
+
+/// The shipped `rohand-sim` profile (backend emulator: the kit's virtual RS-485 line in
+/// process, at 115200 baud's wire time): the canonical front half-closes the emulated hand.
+#[test]
+fn the_shipped_sim_profile_closes_the_emulated_hand() {
+    let _g = serial();
+    let _gw = Gateway::start(139, &["--profile", "rohand-sim"]);
+    let n = node(139);
+    let mut w = n
+        .writer::<hg::HandCmd_>("rt/handgate/rohand/cmd", Qos::Reliable { depth: 1 })
+        .unwrap();
+    let mut s: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/rohand/state", Qos::BestEffort);
+    w.wait_matched(1, DEADLINE).unwrap();
+    let half = hg::HandCmd_ {
+        seq: 1,
+        mode: hg::MODE_CLOSURE,
+        closure: 0.5,
+        ..Default::default()
+    };
+    let reached = stream_until(&mut w, &half, DEADLINE, || {
+        s.update()
+            .is_some_and(|s| s.freshness == hg::FRESH && (q(s, "middle") - 0.683).abs() < 0.002)
+    });
+    assert!(reached, "half closed: last {:?}", s.last);
+}
