@@ -357,6 +357,59 @@ pub fn dynamixel_packet(data: &[u8]) {
     }
 }
 
+/// The Inspire RH56 serial protocol (`inspire_rh56::proto`): the bytes as a stream of
+/// requests and of replies, resynchronised past garbage as the emulator and the front do.
+/// Every request that decodes re-encodes to its own bytes and is answered by an emulated line
+/// without panicking; every reply that decodes re-encodes to its own bytes.
+pub fn rh56_proto(data: &[u8]) {
+    use handgate_adapters::inspire_rh56::emulator::{HandSpec, Line, Rh56Hand};
+    use handgate_adapters::inspire_rh56::proto::{
+        decode_reply, decode_request, encode_read, encode_read_reply, encode_write, encode_write_ack, resync,
+        FrameError, Reply, Request,
+    };
+    let mut line = Line::new(vec![Rh56Hand::new(HandSpec::new(1)), Rh56Hand::new(HandSpec::new(2))]);
+    let now = std::time::Instant::now();
+    let (mut out, mut again) = (Vec::new(), Vec::new());
+    let mut rest = data;
+    while !rest.is_empty() {
+        match decode_request(rest) {
+            Ok((req, n)) => {
+                match req {
+                    Request::Read { id, addr, count } => encode_read(id, addr, count as usize, &mut again).unwrap(),
+                    Request::Write { id, addr, data } => encode_write(id, addr, data, &mut again).unwrap(),
+                }
+                assert_eq!(again, rest[..n], "a decoded request re-encodes to its bytes");
+                let _ = line.answer(&req, now, &mut out);
+                rest = &rest[n..];
+            }
+            Err(FrameError::Incomplete { .. }) => break,
+            Err(_) => rest = &rest[resync(rest).max(1)..],
+        }
+    }
+    let mut rest = data;
+    while !rest.is_empty() {
+        match decode_reply(rest) {
+            Ok((r, n)) => {
+                match r {
+                    Reply::Read { id, addr, data } => encode_read_reply(id, addr, data, &mut again).unwrap(),
+                    Reply::WriteAck { id, addr, ok } => {
+                        encode_write_ack(id, addr, ok, &mut again);
+                        // Any result byte but 1 reads as refused; only 0 and 1 re-encode.
+                        if rest[7] > 1 {
+                            again[7] = rest[7];
+                            again[8] = rest[8];
+                        }
+                    }
+                }
+                assert_eq!(again, rest[..n], "a decoded reply re-encodes to its bytes");
+                rest = &rest[n..];
+            }
+            Err(FrameError::Incomplete { .. }) => break,
+            Err(_) => rest = &rest[1..],
+        }
+    }
+}
+
 // ---------------------------------------------------------------- modbus_rtu_frame / modbus_mbap
 
 /// The register bank the Modbus targets serve: Robotiq-shaped (command registers at 0x03E8,
@@ -617,6 +670,33 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
             }
         }
         out.push(("dynamixel_packet", "stream".to_string(), stream));
+    }
+    // RH56 serial protocol: pyrh56's read of ANGLE_ACT, write of ANGLE_SET and CLEAR_ERROR,
+    // a reply and an acknowledgement, then all of them in one stream after garbage.
+    {
+        use handgate_adapters::inspire_rh56::proto::{encode_read, encode_read_reply, encode_write, encode_write_ack};
+        let mut frames: Vec<Vec<u8>> = Vec::new();
+        let mut b = Vec::new();
+        if encode_read(1, 1546, 12, &mut b).is_ok() {
+            frames.push(b.clone());
+        }
+        if encode_write(2, 1486, &[0xE8, 0x03, 0xFF, 0xFF, 0, 0, 0xF4, 0x01, 0, 0, 0x84, 0x03], &mut b).is_ok() {
+            frames.push(b.clone());
+        }
+        if encode_write(1, 1004, &[1], &mut b).is_ok() {
+            frames.push(b.clone());
+        }
+        if encode_read_reply(1, 1546, &[0xE8, 0x03, 0xE8, 0x03], &mut b).is_ok() {
+            frames.push(b.clone());
+        }
+        encode_write_ack(2, 1486, true, &mut b);
+        frames.push(b.clone());
+        let mut stream = vec![0x00, 0x13, 0x37, 0xEB];
+        for (k, f) in frames.iter().enumerate() {
+            out.push(("rh56_proto", format!("frame_{k}"), f.clone()));
+            stream.extend_from_slice(f);
+        }
+        out.push(("rh56_proto", "stream".to_string(), stream));
     }
     // Modbus: the Robotiq manual's RTU frames (requests, and answers for the master side), and
     // Modbus TCP frames built from the spec's PDUs.
