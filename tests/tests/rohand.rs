@@ -80,6 +80,7 @@ fn the_gateway_closes_an_emulated_rohand_over_a_pty() {
 /// outside the hand's file.
 #[test]
 fn pymodbus_drives_the_emulated_rohand_on_its_pty() {
+    let _g = serial();
     let link = std::env::temp_dir().join(format!("handgate-rohand-py-{}", std::process::id()));
     let _emu = Emulation::start(&["rohand", "--pty", link.to_str().unwrap()]);
     let py = handgate_tests::PyProcess::spawn("rohand_pymodbus.py", &[link.display().to_string()])
