@@ -16,6 +16,7 @@ pub const KINDS: &[DeviceKind] = &[
     DeviceKind::Dex5,
     DeviceKind::InspireRh56,
     DeviceKind::Leap,
+    DeviceKind::Rohand,
 ];
 
 #[cfg(test)]

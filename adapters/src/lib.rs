@@ -33,6 +33,7 @@ pub mod motion;
 pub mod netif;
 pub mod open;
 pub mod realtime;
+pub mod rohand;
 pub mod ros;
 pub mod route;
 pub mod serial;

@@ -524,6 +524,57 @@ fn the_leap_device_loop_allocates_nothing_per_cycle() {
     assert_no_own_allocations("leap", &w);
 }
 
+/// A register-mapped Modbus hand (the ROHand) over the kit's emulated RTU line: the line's
+/// round (an FC16 when the target changed, an FC03 of 66 words, the emulator core answering
+/// on the same thread at the wire's time) and the device's bridge allocate nothing.
+#[test]
+fn the_modbus_hand_line_round_and_bridge_allocate_nothing_per_cycle() {
+    use std::sync::Mutex;
+
+    use handgate_adapters::modbus::hand::device::ModbusHandDevice;
+    use handgate_adapters::modbus::hand::emulated::EmulatedLine;
+    use handgate_adapters::modbus::hand::line::{HandLine, LineConfig};
+    use handgate_adapters::modbus::hand::{EmuSpec, RegisterHand};
+    use handgate_adapters::rohand::{Rohand, FINGERS};
+
+    tracing_like_the_gateway();
+    let spec = EmuSpec {
+        slave: 2,
+        start: vec![0.0; FINGERS],
+        object_at: vec![None; FINGERS],
+    };
+    let cores = Arc::new(Mutex::new(vec![(2u8, Rohand::core(&spec))]));
+    let cfg = LineConfig {
+        baud: 115_200,
+        slaves: vec![2],
+        // A starved thread must not make a reply miss its deadline.
+        response_timeout: Duration::from_secs(5),
+        period: None,
+        state: Rohand::STATE,
+        target: Rohand::TARGET,
+        init: Rohand::INIT,
+        over_tcp: false,
+    };
+    let line = Arc::new(HandLine::start(Box::new(EmulatedLine::new(cores, 115_200)), cfg).unwrap());
+    let dev = ModbusHandDevice::<Rohand>::start(
+        info("g", DeviceKind::Rohand, Backend::Emulator),
+        line.clone(),
+        2,
+        Duration::from_secs(5),
+    )
+    .unwrap();
+    let rx = dev.state();
+    wait_for("the first measured state", || rx.borrow().measured_at.is_some());
+    let (line_tid, bridge_tid) = (thread_named("mb-hand-line"), thread_named("rohand-g"));
+    let mut client = Client::new(&dev, JointId(1), [0.3, 1.0]);
+    let rounds = || line.counters.rounds.load(Relaxed);
+    let w = measure(|| Counts::of(line_tid), || (rounds(), 0), &mut client);
+    let bridge = measure(|| Counts::of(bridge_tid), || (dev.stats().cycles, 0), &mut client);
+    dev.stop();
+    assert_no_own_allocations("modbus hand line", &w);
+    assert_no_own_allocations("modbus hand bridge", &bridge);
+}
+
 /// Every DDS-client kind's codec as the task calls it each cycle (`encode_into`,
 /// `decode_into`, `commanded_state`, on the buffers the task keeps), on this thread: nothing
 /// allocates once the buffers have grown. The task around them is measured above with the

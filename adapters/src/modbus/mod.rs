@@ -16,6 +16,7 @@
 //! encoders append to a caller-owned `Vec` that is reused. Why our own codec and not a crate:
 //! docs/sources.md "Modbus".
 
+pub mod hand;
 pub mod master;
 pub mod pdu;
 pub mod rtu;

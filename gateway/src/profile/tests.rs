@@ -1477,6 +1477,18 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
         ),
         // The emulated LEAP Hand injects no fault (docs/leap.md, "What is emulated").
         ("leap", &["fault"]),
+        // The ROHand's emulated registers carry no noise.
+        (
+            "rohand",
+            &[
+                "noise",
+                "seed",
+                "position_noise_rad",
+                "velocity_noise_rad_s",
+                "torque_noise_nm",
+                "fault",
+            ],
+        ),
     ];
     for kind in DeviceKind::all() {
         let f = kind.factory();
