@@ -29,6 +29,7 @@ pub mod motion;
 pub mod netif;
 pub mod open;
 pub mod realtime;
+pub mod robotiq;
 pub mod ros;
 pub mod route;
 pub mod serial;

@@ -1463,6 +1463,8 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
         ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm"]),
         // Inspire's driver reports no velocity and no torque in N·m.
         ("inspire_ftp", &["velocity_noise_rad_s", "torque_noise_nm"]),
+        // A Robotiq reports a position byte and a current byte; its emulator injects no fault.
+        ("robotiq", &["velocity_noise_rad_s", "torque_noise_nm", "fault"]),
     ];
     for kind in DeviceKind::all() {
         let f = kind.factory();
