@@ -58,6 +58,9 @@ pub struct Tuning {
     pub position_noise: f32,
     /// Seed of the jitter.
     pub seed: u64,
+    /// Writes closer than this to the last applied one wait for its end ([`MIN_COMMAND_GAP`]
+    /// on the emulated gripper; zero on the fronts, which drive another device).
+    pub min_gap: Duration,
 }
 
 impl Default for Tuning {
@@ -68,9 +71,34 @@ impl Default for Tuning {
             grip_current: (10, 60),
             position_noise: 0.4,
             seed: crate::sim::Noise::DEFAULT_SEED,
+            min_gap: MIN_COMMAND_GAP,
         }
     }
 }
+
+/// What the fingers do when they are another device's (a front serving the Robotiq
+/// interface for a bound hand): its measured position and whether it reports contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured {
+    /// Position, counts (0 open .. 255 closed): the hand's closure × 255.
+    pub position: f32,
+    /// The hand reports contact (its motion verdict "holding", or its own contact flag).
+    pub contact: bool,
+}
+
+/// What a client's request asks of the fingers, when it changes (a front turns it into a
+/// command for the bound hand).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Motion {
+    /// Go to rPR (0 open .. 255 closed) at rSP with rFR.
+    Go { position: u8, speed: u8, force: u8 },
+    /// rGTO fell (or a reset): stop where the fingers are.
+    Stop,
+}
+
+/// Position counts within which the fingers are "at the requested position" when they are
+/// another device's (its own tolerance: a hand rarely lands on the exact count).
+pub const AT_POSITION_COUNTS: f32 = 4.0;
 
 /// What the emulator counted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -110,6 +138,10 @@ pub struct Gripper {
     rng: Prng,
     jitter: i16,
     counters: Counters,
+    /// `Some`: the fingers are another device's ([`Self::external`]).
+    measured: Option<Measured>,
+    /// The last motion asked of the fingers, not yet taken ([`Self::take_motion`]).
+    motion: Option<Motion>,
 }
 
 impl Gripper {
@@ -137,7 +169,33 @@ impl Gripper {
             rng: Prng::new(tuning.seed),
             jitter: 0,
             counters: Counters::default(),
+            measured: None,
+            motion: None,
         }
+    }
+
+    /// A gripper whose fingers are another device's: the registers, activation and faults of
+    /// a Robotiq, the position and contact what [`Self::set_measured`] says, every change of
+    /// the motion asked for told by [`Self::take_motion`].
+    pub fn external(tuning: Tuning, now: Instant) -> Self {
+        let mut g = Self::new(super::table::Variant::TwoF85.spec(), tuning, 0.0, None, now);
+        g.measured = Some(Measured {
+            position: 0.0,
+            contact: false,
+        });
+        g
+    }
+
+    /// The other device's latest measurement (external grippers only).
+    pub fn set_measured(&mut self, m: Measured) {
+        if self.measured.is_some() {
+            self.measured = Some(m);
+        }
+    }
+
+    /// The motion asked for since the last call, if it changed.
+    pub fn take_motion(&mut self) -> Option<Motion> {
+        self.motion.take()
     }
 
     pub fn counters(&self) -> Counters {
@@ -194,9 +252,9 @@ impl Gripper {
         self.counters.writes += 1;
         self.written = image;
         match self.last_applied_at {
-            Some(t) if now.saturating_duration_since(t) < MIN_COMMAND_GAP => {
+            Some(t) if now.saturating_duration_since(t) < self.tuning.min_gap => {
                 self.counters.early_writes += 1;
-                self.pending_at.get_or_insert(t + MIN_COMMAND_GAP);
+                self.pending_at.get_or_insert(t + self.tuning.min_gap);
             }
             _ => self.apply(now),
         }
@@ -256,6 +314,9 @@ impl Gripper {
             // Reset: everything but the fingers' position.
             self.activation = Activation::Reset;
             self.activation_done_at = None;
+            if self.gto {
+                self.motion = Some(Motion::Stop);
+            }
             self.gto = false;
             self.current = 0;
             self.fault = if r.gto { fault::NOT_ACTIVATED } else { fault::NONE };
@@ -271,13 +332,23 @@ impl Gripper {
             _ if self.fault >= fault::MAJOR => self.fault,
             _ => fault::NONE,
         };
-        self.update_gto();
+        self.update_gto(was);
     }
 
-    fn update_gto(&mut self) {
+    fn update_gto(&mut self, was: Request) {
         let go = self.applied.act && self.applied.gto && self.activation == Activation::Completed;
         if go && !self.gto {
             self.object = Object::Moving;
+        }
+        let r = self.applied;
+        if go && (!self.gto || (r.position, r.speed, r.force) != (was.position, was.speed, was.force)) {
+            self.motion = Some(Motion::Go {
+                position: r.position,
+                speed: r.speed,
+                force: r.force,
+            });
+        } else if !go && self.gto {
+            self.motion = Some(Motion::Stop);
         }
         self.gto = go;
     }
@@ -296,8 +367,12 @@ impl Gripper {
                 if self.fault == fault::ACTION_DELAYED {
                     self.fault = fault::NONE;
                 }
-                self.update_gto();
+                self.update_gto(Request::default());
             }
+        }
+        if let Some(m) = self.measured {
+            self.follow(m);
+            return;
         }
         if !self.gto {
             self.current = 0;
@@ -342,6 +417,34 @@ impl Gripper {
             self.object = Object::Moving;
             self.current = self.tuning.moving_current;
             self.jitter = 0;
+        }
+    }
+
+    /// The fingers are another device's: gPO its position, gOBJ from its contact and the
+    /// distance to rPR, gCU as the emulated gripper's for the same situation.
+    fn follow(&mut self, m: Measured) {
+        self.position = m.position.clamp(0.0, 255.0);
+        self.jitter = 0;
+        if !self.gto {
+            self.current = 0;
+            return;
+        }
+        let target = f32::from(self.applied.position);
+        let (lo, hi) = self.tuning.grip_current;
+        if m.contact && (target - self.position).abs() > AT_POSITION_COUNTS {
+            self.object = if target > self.position {
+                Object::ContactClosing
+            } else {
+                Object::ContactOpening
+            };
+            let f = f32::from(self.applied.force) / 255.0;
+            self.current = (f32::from(lo) + f * f32::from(hi.saturating_sub(lo))).round() as u8;
+        } else if (target - self.position).abs() <= AT_POSITION_COUNTS {
+            self.object = Object::AtPosition;
+            self.current = 0;
+        } else {
+            self.object = Object::Moving;
+            self.current = self.tuning.moving_current;
         }
     }
 

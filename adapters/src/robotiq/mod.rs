@@ -14,5 +14,6 @@ pub mod kind;
 pub mod open;
 pub mod regs;
 pub mod table;
+pub mod urcap;
 
 pub use table::Variant;
