@@ -108,7 +108,8 @@ fi
 # ros_wheels_bootstrapper.pth, which re-executes the venv's interpreter once with LD_LIBRARY_PATH
 # set to their libraries; the tests set the rest (handgate_tests::ros2_env).
 ros2_reqs="$root/scripts/ros2-wheels.txt"
-if ! "$vpy" -c '
+# Exit 1 unless every `name==version` line of the file named by argv[1] is installed.
+pinned_check='
 import sys
 from importlib.metadata import version, PackageNotFoundError
 missing = []
@@ -123,9 +124,17 @@ for line in open(sys.argv[1]):
         have = None
     if have != want:
         missing.append(f"{name} {have} != {want}")
-sys.exit(1 if missing else 0)' "$ros2_reqs"; then
+sys.exit(1 if missing else 0)'
+if ! "$vpy" -c "$pinned_check" "$ros2_reqs"; then
   echo "setup: installing ROS 2 Jazzy wheels (rclpy, rmw_fastrtps_cpp, sensor_msgs, diagnostic_msgs) from $ros2_reqs"
   "$vpy" -m pip install -q -r "$ros2_reqs"
+fi
+# The bus hands' own clients (pyrobotiqgripper, dynamixel-sdk, pyrh56, inspire-rh56dftp) and
+# their dependency closure, pinned in scripts/peers-requirements.txt; checked the same way.
+peers_reqs="$root/scripts/peers-requirements.txt"
+if ! "$vpy" -c "$pinned_check" "$peers_reqs"; then
+  echo "setup: installing the bus hands' Python clients from $peers_reqs"
+  "$vpy" -m pip install -q -r "$peers_reqs"
 fi
 # unitree-sdk2 1.0.1's __init__ imports a subpackage `b2` that the wheel does not ship
 # (docs/sources.md §8). Give it an empty one inside our venv so `import unitree_sdk2py` works.
@@ -139,4 +148,6 @@ fi
   || { echo "setup: unitree_sdk2py does not import" >&2; exit 1; }
 "$vpy" -c "import rclpy, sensor_msgs.msg, diagnostic_msgs.msg" \
   || { echo "setup: rclpy (the ROS 2 wheels) does not import" >&2; exit 1; }
+"$vpy" -c "import pyrobotiqgripper, dynamixel_sdk, rh56_sdk, inspire_rh56dftp" \
+  || { echo "setup: the bus hands' clients do not import" >&2; exit 1; }
 echo "setup: ok (cyclonedds-dev $ver, $("$vpy" --version), unitree_sdk2py and rclpy (ROS 2 Jazzy) ready in .venv)"

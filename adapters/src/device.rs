@@ -19,7 +19,8 @@ pub enum Backend {
     Usb,
     /// DDS, as a client of a service that owns the device.
     Dds,
-    /// Dynamixel Protocol 2.0 over a serial port.
+    /// A serial bus in the kind's own protocol (Dynamixel, Modbus RTU, a vendor's frames), or
+    /// its forwarder over TCP.
     Serial,
     /// An emulated device at the transport seam.
     #[default]

@@ -477,6 +477,13 @@ pub trait Settings:
     fn summary(&self, _ctx: &DeviceCtx<'_>) -> String {
         String::new()
     }
+
+    /// The serial ports a device with these keys owns on the hardware backend (`handgate
+    /// doctor` reports another process holding one, and an FTDI adapter's latency timer);
+    /// empty for a kind on DDS, USB or TCP.
+    fn serial_ports(&self) -> Vec<std::path::PathBuf> {
+        Vec::new()
+    }
 }
 
 /// Options of `handgate emulate <kind>` that only that kind takes, parsed from
@@ -930,6 +937,8 @@ pub trait KindConfig: Any + fmt::Debug + Send + Sync {
     fn dds_command_element(&self, ctx: &DeviceCtx<'_>) -> Option<usize>;
     /// [`Settings::summary`].
     fn describe(&self, ctx: &DeviceCtx<'_>) -> String;
+    /// [`Settings::serial_ports`].
+    fn ports(&self) -> Vec<std::path::PathBuf>;
     fn as_any(&self) -> &dyn Any;
     fn clone_box(&self) -> Box<dyn KindConfig>;
     fn eq_dyn(&self, other: &dyn KindConfig) -> bool;
@@ -947,6 +956,9 @@ impl<T: Settings> KindConfig for T {
     }
     fn describe(&self, ctx: &DeviceCtx<'_>) -> String {
         self.summary(ctx)
+    }
+    fn ports(&self) -> Vec<std::path::PathBuf> {
+        self.serial_ports()
     }
     fn as_any(&self) -> &dyn Any {
         self

@@ -24,6 +24,7 @@ pub mod kinds;
 pub mod link;
 pub mod loops;
 pub mod mapping;
+pub mod modbus;
 pub mod model;
 pub mod motion;
 pub mod netif;

@@ -221,6 +221,90 @@ fn describe_if(i: &NetIf) -> String {
 /// overrides): joins the domains, listens, then writes its report one section after the
 /// other (each a function of what was seen).
 pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
+    let mut out = run_dds(plan, opts)?;
+    let ports = serial_ports(plan);
+    if !ports.is_empty() {
+        out.line("");
+        ports_section(&mut out, &ports, handgate_adapters::serial::holders, |p| {
+            handgate_adapters::serial::owner::latency_timer_ms(p)
+        });
+    }
+    Ok(out)
+}
+
+/// The serial ports the profile's devices on the serial backend own: (device, port).
+fn serial_ports(plan: &Plan) -> Vec<(String, std::path::PathBuf)> {
+    plan.devices
+        .iter()
+        .filter(|d| d.backend == Backend::Serial)
+        .flat_map(|d| d.config.ports().into_iter().map(|p| (d.name.clone(), p)))
+        .collect()
+}
+
+/// Whether a process holding a port is a handgate (the gateway owning it, as it should).
+fn is_handgate(h: &handgate_adapters::serial::PortHolder) -> bool {
+    h.command
+        .split_whitespace()
+        .next()
+        .and_then(|exe| std::path::Path::new(exe).file_name())
+        .is_some_and(|n| n == "handgate")
+}
+
+/// The profile's serial ports: who holds each (another program than handgate is a problem:
+/// the gateway could not open the port), and an FTDI adapter's latency timer above 1 ms.
+fn ports_section(
+    out: &mut Outcome,
+    ports: &[(String, std::path::PathBuf)],
+    holders: impl Fn(&std::path::Path) -> Vec<handgate_adapters::serial::PortHolder>,
+    latency_ms: impl Fn(&std::path::Path) -> Option<u32>,
+) {
+    out.line("serial ports:");
+    for (device, port) in ports {
+        let shown = port.display();
+        if !port.exists() {
+            out.line(format!(
+                "  {device}: {shown} is not present (adapter unplugged or another path)"
+            ));
+            continue;
+        }
+        let held = holders(port);
+        let (ours, others): (Vec<_>, Vec<_>) = held.iter().partition(|h| is_handgate(h));
+        for h in &ours {
+            out.line(format!("  {device}: {shown} owned by handgate, {h}"));
+        }
+        if !others.is_empty() {
+            let who: Vec<String> = others.iter().map(|h| h.to_string()).collect();
+            out.problem(
+                "  ",
+                format!("{device}: {shown} is held by {}", who.join(", ")),
+                "one program owns a serial bus: stop it (a vendor tool, a terminal, another driver) and \
+                 connect it to one of handgate's fronts instead (docs/fronts.md)",
+            );
+        } else if ours.is_empty() {
+            out.line(format!("  {device}: {shown} free"));
+        }
+        if let Some(ms) = latency_ms(port) {
+            if ms > 1 {
+                out.problem(
+                    "  ",
+                    format!("{device}: {shown}'s USB adapter has a latency timer of {ms} ms: every reply waits up to {ms} ms"),
+                    format!(
+                        "install {} (sets 1 ms on plug-in) or `echo 1 | sudo tee /sys/bus/usb-serial/devices/{}/latency_timer`",
+                        handgate_adapters::serial::owner::LATENCY_RULE,
+                        handgate_adapters::serial::owner::node(port)
+                            .file_name()
+                            .map(|n| n.to_string_lossy().into_owned())
+                            .unwrap_or_else(|| "ttyUSB0".into())
+                    ),
+                );
+            } else {
+                out.line(format!("  {device}: {shown} latency timer {ms} ms"));
+            }
+        }
+    }
+}
+
+fn run_dds(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     if plan.export.is_none() {
         return run_side(plan, served(plan), opts, "", &[], true);
     }
@@ -1292,6 +1376,83 @@ pub fn listen_time(seconds: f64) -> Result<Duration, String> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_port_held_by_another_program_is_a_problem_naming_it_and_a_slow_ftdi_timer_too() {
+        use handgate_adapters::serial::PortHolder;
+        let port = std::env::temp_dir().join(format!("handgate-doctor-port-{}", std::process::id()));
+        std::fs::write(&port, b"").unwrap();
+        let ports = vec![("gripper".to_string(), port.clone())];
+        let held = |_: &std::path::Path| {
+            vec![
+                PortHolder {
+                    pid: 7,
+                    command: "/usr/bin/handgate run --profile lab".into(),
+                    locked: true,
+                },
+                PortHolder {
+                    pid: 9,
+                    command: "minicom -D /dev/ttyUSB0".into(),
+                    locked: false,
+                },
+            ]
+        };
+        let mut out = Outcome::default();
+        ports_section(&mut out, &ports, held, |_| Some(16));
+        assert!(out.text.contains("owned by handgate, pid 7"), "{}", out.text);
+        assert_eq!(out.problems.len(), 2, "{}", out.text);
+        assert!(
+            out.problems[0].contains("is held by pid 9 (minicom -D /dev/ttyUSB0)"),
+            "{}",
+            out.text
+        );
+        assert!(out.problems[1].contains("latency timer of 16 ms"), "{}", out.text);
+        assert!(out.text.contains("99-handgate-ftdi-latency.rules"), "{}", out.text);
+        let mut out = Outcome::default();
+        ports_section(&mut out, &ports, |_| Vec::new(), |_| Some(1));
+        assert!(out.problems.is_empty(), "{}", out.text);
+        assert!(
+            out.text.contains("free") && out.text.contains("latency timer 1 ms"),
+            "{}",
+            out.text
+        );
+        std::fs::remove_file(&port).unwrap();
+        let mut out = Outcome::default();
+        ports_section(&mut out, &ports, held, |_| Some(16));
+        assert!(
+            out.problems.is_empty() && out.text.contains("is not present"),
+            "{}",
+            out.text
+        );
+    }
+
+    #[test]
+    fn the_real_holder_of_a_pty_is_found_and_reported() {
+        let pty = handgate_adapters::serial::Pty::open().unwrap();
+        let mut child = std::process::Command::new("flock")
+            .arg(pty.slave_path())
+            .args(["sleep", "30"])
+            .spawn()
+            .expect("flock(1) from util-linux");
+        let ports = vec![("hand".to_string(), pty.slave_path().to_path_buf())];
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let out = loop {
+            let mut out = Outcome::default();
+            ports_section(&mut out, &ports, handgate_adapters::serial::holders, |_| None);
+            if !out.problems.is_empty() || Instant::now() > deadline {
+                break out;
+            }
+            std::thread::yield_now();
+        };
+        child.kill().unwrap();
+        child.wait().unwrap();
+        assert_eq!(out.problems.len(), 1, "{}", out.text);
+        assert!(
+            out.problems[0].contains(&format!("pid {} (flock", child.id())),
+            "{}",
+            out.text
+        );
+    }
 
     /// A probe of `topic` owned by `owner`, expecting `expected` entries, that saw `seen`
     /// (entries, samples).

@@ -126,4 +126,8 @@ impl Settings for EzProfile {
             None => String::new(),
         }
     }
+
+    fn serial_ports(&self) -> Vec<std::path::PathBuf> {
+        vec![self.section().port.into()]
+    }
 }

@@ -24,6 +24,7 @@ pub mod one_hand;
 pub mod plan;
 pub mod serve;
 pub mod sources;
+pub mod stream;
 
 use crate::mapping::WireTarget;
 use crate::model::JointCommand;

@@ -243,6 +243,31 @@ impl<M> Clone for Inbox<M> {
 }
 
 impl<M: Send + 'static> Inbox<M> {
+    /// An inbox feeding `tx` (a front's own tests; a running front's comes from [`commands`]).
+    pub fn for_tests(tx: Queue) -> Self {
+        Inbox {
+            tx,
+            dropped: Arc::default(),
+            _msg: std::marker::PhantomData,
+        }
+    }
+
+    /// Hands `msg` from a client that is not a DDS endpoint (a stream front's connection,
+    /// `writer` its identity: [`super::stream`]) to the front, taken now, with no source
+    /// timestamp; `false`: the front's queue was full and it was dropped (counted).
+    pub fn deliver(&self, writer: &Arc<WriterInfo>, msg: M) -> bool {
+        let ok = self.tx.deliver(Incoming {
+            writer: writer.clone(),
+            msg: Box::new(msg),
+            taken: std::time::Instant::now(),
+            stamp: None,
+        });
+        if !ok {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        ok
+    }
+
     /// A command reader on `topic` handing every sample, as `wrap` makes it an `M`, to the
     /// front's task as an [`Incoming`] (the message and its writer, read from CycloneDDS once
     /// per new writer), in the reader's listener ([`Queue::deliver`]); a sample that finds the

@@ -392,7 +392,74 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         "Messages [record] dropped (disk slower than the stream).",
     );
     f.sample("handgate_record_dropped_total", "", status.record_dropped as f64);
+    stream_families(&mut out);
     out
+}
+
+/// The byte-stream fronts' families (a device's own interface over TCP or a pty:
+/// docs/fronts.md), one sample per running server.
+fn stream_families(out: &mut String) {
+    let streams = handgate_adapters::front::stream::running();
+    if streams.is_empty() {
+        return;
+    }
+    let label = |e: &handgate_adapters::front::stream::StreamEntry| {
+        format!("front=\"{}\",at=\"{}\"", esc(&e.front), esc(&e.at))
+    };
+    let mut f = Family::new(
+        out,
+        "handgate_stream_clients",
+        "gauge",
+        "Clients connected to a stream front now.",
+    );
+    for e in &streams {
+        f.sample(
+            "handgate_stream_clients",
+            &label(e),
+            e.counters.open.load(Ordering::Relaxed) as f64,
+        );
+    }
+    let mut f = Family::new(
+        out,
+        "handgate_stream_accepted_total",
+        "counter",
+        "Connections a stream front accepted.",
+    );
+    for e in &streams {
+        f.sample(
+            "handgate_stream_accepted_total",
+            &label(e),
+            e.counters.accepted.load(Ordering::Relaxed) as f64,
+        );
+    }
+    let mut f = Family::new(
+        out,
+        "handgate_stream_commands_total",
+        "counter",
+        "Commands a stream front's clients wrote (before the front's checks).",
+    );
+    for e in &streams {
+        f.sample(
+            "handgate_stream_commands_total",
+            &label(e),
+            e.counters.commands.load(Ordering::Relaxed) as f64,
+        );
+    }
+    let mut f = Family::new(
+        out,
+        "handgate_stream_refused_total",
+        "counter",
+        "Input or clients a stream front refused, by reason (garbage, bad_crc, partial_frame, overlong, idle, too_many_clients, ...).",
+    );
+    for e in &streams {
+        for (reason, n) in e.counters.refused() {
+            f.sample(
+                "handgate_stream_refused_total",
+                &format!("{},reason=\"{reason}\"", label(e)),
+                n as f64,
+            );
+        }
+    }
 }
 
 /// `/healthz`: healthy when every device is fresh (a device without feedback counts when it
