@@ -9,9 +9,9 @@ use super::table::Variant;
 use crate::device::Backend;
 use crate::kind::{DeviceCtx, Problem, Settings};
 
-/// Baud rates the gripper's controller can be set to (Robotiq User Interface, "Modbus RTU
-/// settings"); 115200 is the factory setting.
-pub const BAUDS: &[u32] = &[9_600, 19_200, 38_400, 57_600, 115_200];
+/// Baud rates handgate opens a Robotiq line at (those of the gripper's settings the serial kit
+/// supports); 115200 is the factory setting.
+pub const BAUDS: &[u32] = &[9_600, 57_600, 115_200];
 
 /// `[devices.robotiq]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -113,6 +113,10 @@ impl Settings for RobotiqProfile {
             ));
         }
         out
+    }
+
+    fn serial_ports(&self) -> Vec<std::path::PathBuf> {
+        self.section().port.into_iter().map(std::path::PathBuf::from).collect()
     }
 
     fn summary(&self, _ctx: &DeviceCtx<'_>) -> String {

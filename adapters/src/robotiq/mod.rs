@@ -13,6 +13,7 @@ pub mod emulator;
 pub mod kind;
 pub mod open;
 pub mod regs;
+pub mod rtu;
 pub mod table;
 pub mod urcap;
 
