@@ -19,7 +19,8 @@ use std::os::fd::AsRawFd;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use crate::serial::transport::{poll_readable, Transport, TransportError};
+use crate::serial::transport::poll_readable;
+use crate::serial::{Transport, TransportError};
 
 use super::pdu::{Exception, PduError, Regs, Request, Response};
 use super::{rtu, tcp};

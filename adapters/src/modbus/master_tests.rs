@@ -10,8 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use crate::serial::pty::Pty;
-use crate::serial::transport::{poll_readable, SerialPort, Transport, TransportError};
+use crate::serial::transport::poll_readable;
+use crate::serial::{Pty, SerialPort, Transport, TransportError};
 
 use super::master::{MasterError, RtuMaster, RtuTiming, TcpMaster, TcpTransport};
 use super::pdu::*;

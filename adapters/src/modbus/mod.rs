@@ -9,6 +9,8 @@
 //!   with or without exception responses.
 //! * [`master`]: blocking masters: RTU on a serial line (the line's arbiter, per-slave
 //!   counters), RTU over TCP, Modbus TCP.
+//! * [`session`]: RTU and Modbus TCP served over a byte stream ([`crate::front::stream`]):
+//!   the sessions a Modbus front or a pty emulator runs.
 //!
 //! Sans-IO and allocation-free on the hot path: decoders borrow from the caller's buffer,
 //! encoders append to a caller-owned `Vec` that is reused. Why our own codec and not a crate:
@@ -18,6 +20,7 @@ pub mod master;
 pub mod pdu;
 pub mod rtu;
 pub mod server;
+pub mod session;
 pub mod tcp;
 
 #[cfg(test)]
@@ -26,6 +29,8 @@ mod codec_tests;
 mod master_tests;
 #[cfg(test)]
 mod server_tests;
+#[cfg(test)]
+mod session_tests;
 
 pub use pdu::{Exception, PduError, Regs, Request, Response, Table};
 pub use rtu::{Frame, RtuError};
