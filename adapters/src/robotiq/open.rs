@@ -7,8 +7,13 @@ use std::time::{Duration, Instant};
 use super::config::RobotiqProfile;
 use super::device::{EmulatedLink, Link, LoopConfig, RobotiqDevice};
 use super::emulator::{Gripper, Tuning};
+use super::kind::RobotiqEmulate;
+use super::regs::{BAUD, SLAVE_ID};
 use super::table::Variant;
 use crate::device::{Backend, DeviceError, HandDevice};
+use crate::front::serve::{Inbox, Queue};
+use crate::front::stream::{serve_pty, serve_tcp, StreamLimits};
+use crate::kind::{EmulateArgs, Emulation};
 use crate::open::{DeviceSpec, OpenEnv};
 
 /// Where the gripper's Modbus RTU line is.
@@ -38,13 +43,14 @@ pub struct RobotiqOpen {
     pub variant: Variant,
     pub line: Line,
     pub slave: u8,
-    /// Grace for a reply beyond its wire time.
-    pub response_timeout: Duration,
+    /// Grace for a reply beyond its wire time (`None`: the line's default).
+    pub response_timeout: Option<Duration>,
     pub run: LoopConfig,
 }
 
-/// Default grace for a reply beyond its wire time: a USB adapter's latency (16 ms FTDI
-/// default) plus the gripper's own turnaround, with margin (assumed).
+/// Default grace for a reply beyond its wire time on a serial port: a USB adapter's latency
+/// (16 ms FTDI default) plus the gripper's own turnaround, with margin (assumed). Over TCP the
+/// Modbus kit's default (`RtuTiming::over_tcp`).
 pub const DEFAULT_RESPONSE_TIMEOUT: Duration = Duration::from_millis(50);
 
 /// `host:port` split (no name lookup: that is the connection's business).
@@ -100,10 +106,7 @@ pub fn configure(spec: &DeviceSpec<'_, RobotiqProfile>) -> Result<RobotiqOpen, D
         variant: r.variant,
         line,
         slave: r.slave,
-        response_timeout: r
-            .response_timeout_ms
-            .map(Duration::from_millis)
-            .unwrap_or(DEFAULT_RESPONSE_TIMEOUT),
+        response_timeout: r.response_timeout_ms.map(Duration::from_millis),
         run: LoopConfig {
             rate_hz: spec.rate_hz,
             stale_after: spec.stale_after,
@@ -127,13 +130,73 @@ pub fn open(
             e.object_at,
             Instant::now(),
         ))))),
-        Line::Serial { .. } | Line::Tcp { .. } => {
-            return Err(DeviceError::Unsupported(
-                "a Robotiq on a serial line or RTU over TCP (not yet)",
-            ))
-        }
+        Line::Serial { .. } | Line::Tcp { .. } => super::rtu::open_link(&c)?,
     };
     Ok(Box::new(RobotiqDevice::start(spec.info(), link, c.run)?))
+}
+
+/// The pseudo-terminal `handgate emulate robotiq` links when given no `--pty`.
+pub fn emulate_pty(slave: u8) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("handgate-{}-robotiq-slave{slave}", std::process::id()))
+}
+
+/// `handgate emulate robotiq`: an emulated gripper answering Modbus RTU (slave 9, no exception
+/// responses) on a pseudo-terminal, or RTU over TCP with `--tcp`.
+pub fn emulate(args: &EmulateArgs, o: RobotiqEmulate) -> Result<(String, Emulation), DeviceError> {
+    let variant = o.variant.unwrap_or_default();
+    let slave = o.slave.unwrap_or(SLAVE_ID);
+    let tuning = Tuning {
+        position_noise: if args.no_noise {
+            0.0
+        } else {
+            Tuning::default().position_noise
+        },
+        seed: args.seed.unwrap_or(Tuning::default().seed),
+        ..Tuning::default()
+    };
+    let g = Arc::new(Mutex::new(Gripper::new(
+        variant.spec(),
+        tuning,
+        0.0,
+        o.object_at.map(f32::from),
+        Instant::now(),
+    )));
+    // Nothing reads the commands of an emulator's sessions: its inbox's queue is closed.
+    let (tx, _) = tokio::sync::mpsc::channel(1);
+    let inbox = Inbox::for_tests(Queue::new(tx));
+    let what = format!(
+        "emulating a Robotiq {} (slave {slave}, Modbus RTU, no exception responses)",
+        variant.name()
+    );
+    let make = move || super::front::rtu_session_on(g.clone(), slave);
+    let (server, line) = match (o.tcp, o.pty) {
+        (Some(at), _) => {
+            let s = serve_tcp(
+                at,
+                StreamLimits::default(),
+                make,
+                inbox,
+                "robotiq emulator",
+                "robotiq emulator tcp",
+            )
+            .map_err(DeviceError::link)?;
+            let line = format!(
+                "{what} as RTU over TCP on {}: give it as robotiq.tcp",
+                s.local_addr.map_or_else(|| at.to_string(), |a| a.to_string())
+            );
+            (s, line)
+        }
+        (None, pty) => {
+            let link = pty.unwrap_or_else(|| emulate_pty(slave));
+            let s =
+                serve_pty(&link, make, inbox, "robotiq emulator", "robotiq emulator pty").map_err(DeviceError::link)?;
+            (
+                s,
+                format!("{what} at {} baud on {}: give it as robotiq.port", BAUD, link.display()),
+            )
+        }
+    };
+    Ok((line, Emulation::Running(Box::new(server))))
 }
 
 #[cfg(test)]

@@ -135,7 +135,7 @@ pub fn open_link(c: &RobotiqOpen) -> Result<Box<dyn Link>, DeviceError> {
                 baud: *baud,
             }),
             RtuTiming {
-                response_timeout: c.response_timeout,
+                response_timeout: c.response_timeout.unwrap_or(super::open::DEFAULT_RESPONSE_TIMEOUT),
                 ..RtuTiming::serial(*baud)
             },
         ),
@@ -146,7 +146,7 @@ pub fn open_link(c: &RobotiqOpen) -> Result<Box<dyn Link>, DeviceError> {
                 timeout: Duration::from_secs(2),
             }),
             RtuTiming {
-                response_timeout: c.response_timeout.max(RtuTiming::over_tcp().response_timeout),
+                response_timeout: c.response_timeout.unwrap_or(RtuTiming::over_tcp().response_timeout),
                 ..RtuTiming::over_tcp()
             },
         ),
