@@ -431,12 +431,11 @@ impl Gripper {
         }
         let target = f32::from(self.applied.position);
         let (lo, hi) = self.tuning.grip_current;
-        if m.contact && (target - self.position).abs() > AT_POSITION_COUNTS {
-            self.object = if target > self.position {
-                Object::ContactClosing
-            } else {
-                Object::ContactOpening
-            };
+        // Contact counts while closing onto it: a device that still reports the grasp it is
+        // asked to open from has not moved yet (its contact is a closing one: the motion
+        // verdict "holding"; gOBJ 1 is never reported for another device).
+        if m.contact && target - self.position > AT_POSITION_COUNTS {
+            self.object = Object::ContactClosing;
             let f = f32::from(self.applied.force) / 255.0;
             self.current = (f32::from(lo) + f * f32::from(hi.saturating_sub(lo))).round() as u8;
         } else if (target - self.position).abs() <= AT_POSITION_COUNTS {
@@ -578,6 +577,47 @@ mod tests {
         write(&mut g, Request::go(0, 255, 255), t);
         let s = status(&mut g, t + Duration::from_millis(500));
         assert_eq!((s.position, s.object), (100, Object::ContactOpening));
+    }
+
+    /// Fingers that are another device's: gOBJ 2 while it reports contact short of a closing
+    /// target; asked to open from that grasp, gOBJ 0 (moving) until it has opened, not an
+    /// "object while opening" from the grasp it still reports.
+    #[test]
+    fn another_devices_contact_is_an_object_only_while_closing_onto_it() {
+        let t = Instant::now();
+        let mut g = Gripper::external(
+            Tuning {
+                activation: Duration::ZERO,
+                min_gap: Duration::ZERO,
+                ..exact()
+            },
+            t,
+        );
+        write(
+            &mut g,
+            Request {
+                act: true,
+                ..Request::default()
+            },
+            t,
+        );
+        let t = t + Duration::from_millis(1);
+        write(&mut g, Request::go(255, 255, 255), t);
+        g.set_measured(Measured {
+            position: 150.0,
+            contact: true,
+        });
+        let s = status(&mut g, t + Duration::from_millis(2));
+        assert_eq!((s.position, s.object), (150, Object::ContactClosing));
+        write(&mut g, Request::go(0, 255, 255), t + Duration::from_millis(3));
+        let s = status(&mut g, t + Duration::from_millis(4));
+        assert_eq!((s.position, s.object), (150, Object::Moving));
+        g.set_measured(Measured {
+            position: 1.0,
+            contact: false,
+        });
+        let s = status(&mut g, t + Duration::from_millis(5));
+        assert_eq!((s.position, s.object), (1, Object::AtPosition));
     }
 
     /// A second without any request is gFLT 0x09; the next request clears it.

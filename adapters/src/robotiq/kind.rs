@@ -27,6 +27,7 @@ pub const DEFAULT_RATE_HZ: f64 = 200.0;
 
 impl Kind for RobotiqKind {
     const FACTS: KindFacts = KindFacts {
+        fronts: &[crate::front::kind::FrontKind::Robotiq],
         sections: &[SectionSpec {
             key: "robotiq",
             backends: &[Backend::Serial, Backend::Emulator],
@@ -34,7 +35,7 @@ impl Kind for RobotiqKind {
         ..KindFacts::new(
             "robotiq",
             &GRIPPER_JOINTS,
-            &[Backend::Emulator],
+            &[Backend::Serial, Backend::Emulator],
             Rates::fixed(DEFAULT_RATE_HZ),
         )
     };
@@ -76,8 +77,8 @@ impl Kind for RobotiqKind {
         out
     }
 
-    fn emulate(&self, _args: &EmulateArgs, _options: RobotiqEmulate) -> Result<(String, Emulation), DeviceError> {
-        Err(DeviceError::Unsupported("handgate emulate robotiq (not yet)"))
+    fn emulate(&self, args: &EmulateArgs, options: RobotiqEmulate) -> Result<(String, Emulation), DeviceError> {
+        super::open::emulate(args, options)
     }
 }
 

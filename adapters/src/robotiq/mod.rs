@@ -10,6 +10,9 @@ pub mod config;
 pub mod device;
 pub mod driver;
 pub mod emulator;
+pub mod front;
+#[cfg(test)]
+mod front_tests;
 pub mod kind;
 pub mod open;
 pub mod regs;
