@@ -9,7 +9,10 @@
 //! - the whole chain: pyRobotiqGripper → the front → handgate's own Robotiq device over RTU
 //!   on a pty → `handgate emulate robotiq`;
 //! - a Robotiq client closing a Dex3 (an emulated Dex3 hand behind the Robotiq front, an
-//!   object under its index): the client sees the hand's closure as gPO and gOBJ 2.
+//!   object under its index): the client sees the hand's closure as gPO and gOBJ 2;
+//! - the shipped profiles against the emulator: robotiq-usb (its port the emulator's pty,
+//!   pyRobotiqGripper on the front's RTU pty) and ur-robotiq-2f85 (the arm's forwarder the
+//!   emulator's RTU over TCP, a URCap text-socket client on the front).
 //!
 //! Domain 38 (docs/development.md). Tests take turns ([`serial`]); every wait is on readiness
 //! with a deadline. Needs the binary (`cargo build -p handgate`) and `.venv` with
@@ -182,4 +185,121 @@ fn a_robotiq_client_closes_a_dex3() {
     let opened = event(&py, "opened");
     assert!(int(&opened, "position") <= 10, "the hand opened: {opened}");
     event(&py, "done");
+}
+
+/// A shipped profile with `(from, to)` replaced, written to a temp file.
+fn shipped_edited(name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let mut text = std::fs::read_to_string(
+        handgate_tests::repo_root()
+            .join("profiles")
+            .join(format!("{name}.toml")),
+    )
+    .unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{name}.toml has no `{from}`");
+        text = text.replacen(from, to, 1);
+    }
+    temp_profile("robotiq-peer", &format!("{name}-edited"), &text)
+}
+
+/// The shipped robotiq-usb profile, its adapter replaced by `handgate emulate robotiq`'s pty
+/// (an object at 90 counts): handgate's device activates the gripper, and pyRobotiqGripper,
+/// pointed at the front's RTU pty as it would be at /dev/ttyUSB0, closes it onto the object.
+#[test]
+fn the_robotiq_usb_profile_drives_the_emulator_and_serves_its_pty() {
+    let _serial = serial();
+    let link = tmp("usb-emulate-pty");
+    let front_pty = tmp("usb-front-pty");
+    let _emu = Emulation::start(&["robotiq", "--pty", link.to_str().unwrap(), "--object-at", "90"]);
+    let front_keys = format!(
+        "device = \"gripper\"\nrtu_tcp = \"127.0.0.1:0\"\nurcap_tcp = \"127.0.0.1:0\"\npty = \"{}\"\n",
+        front_pty.display()
+    );
+    let profile = shipped_edited(
+        "robotiq-usb",
+        &[
+            ("port = \"/dev/ttyUSB0\"", &format!("port = \"{}\"", link.display())),
+            (
+                "kind = \"robotiq\"\ndevice = \"gripper\"\n",
+                &format!("kind = \"robotiq\"\n{front_keys}"),
+            ),
+        ],
+    );
+    let gw = Gateway::start(DOMAIN, &[profile.to_str().unwrap()]);
+    gw.wait_stdout("robotiq: activated", DEADLINE)
+        .unwrap_or_else(|e| panic!("the device activates the emulated gripper: {e}"));
+    activate_close_open(&["--port".into(), front_pty.display().to_string()], 90);
+}
+
+/// A URCap text-socket client (the protocol UR programs speak on port 63352) over the shipped
+/// ur-robotiq-2f85 profile, the arm's forwarder replaced by `handgate emulate robotiq --tcp`
+/// (an object at 90 counts): reset, activate (STA 3), a move on one line, OBJ 2 at the object.
+#[test]
+fn a_urcap_client_closes_the_ur_profiles_gripper_over_rtu_over_tcp() {
+    use std::io::{Read, Write};
+    let _serial = serial();
+    let emu = Emulation::start(&["robotiq", "--tcp", "127.0.0.1:0", "--object-at", "90"]);
+    let arm = emu
+        .line
+        .split_whitespace()
+        .find(|w| w.starts_with("127.0.0.1:"))
+        .unwrap_or_else(|| panic!("no address in {}", emu.line))
+        .trim_end_matches(':')
+        .to_string();
+    let profile = shipped_edited(
+        "ur-robotiq-2f85",
+        &[
+            ("tcp = \"192.168.1.10:54321\"", &format!("tcp = \"{arm}\"")),
+            (
+                "kind = \"robotiq\"\ndevice = \"gripper\"",
+                &format!(
+                    "kind = \"robotiq\"\ndevice = \"gripper\"\nrtu_tcp = \"127.0.0.1:0\"\nurcap_tcp = \"127.0.0.1:0\"\npty = \"{}\"",
+                    tmp("ur-front-pty").display()
+                ),
+            ),
+        ],
+    );
+    let gw = Gateway::start(DOMAIN, &[profile.to_str().unwrap()]);
+    gw.wait_stdout("robotiq: activated", DEADLINE)
+        .unwrap_or_else(|e| panic!("the device activates the emulated gripper over TCP: {e}"));
+    let line = gw
+        .wait_stdout("robotiq front: URCap socket at tcp ", DEADLINE)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let addr = line
+        .rsplit("at tcp ")
+        .next()
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .to_string();
+    let mut s = std::net::TcpStream::connect(&addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let mut say = |line: &str| -> String {
+        s.write_all(format!("{line}\n").as_bytes()).unwrap();
+        let mut b = [0u8; 128];
+        let n = s.read(&mut b).unwrap_or_else(|e| panic!("`{line}`: no answer: {e}"));
+        String::from_utf8_lossy(&b[..n]).into_owned()
+    };
+    assert_eq!(say("SET ACT 0"), "ack");
+    assert_eq!(say("GET STA"), "STA 0");
+    assert_eq!(say("SET ACT 1"), "ack");
+    let deadline = std::time::Instant::now() + DEADLINE;
+    while say("GET STA") != "STA 3" {
+        assert!(std::time::Instant::now() < deadline, "never activated");
+    }
+    assert_eq!(say("SET POS 255 SPE 255 FOR 100 GTO 1"), "ack");
+    loop {
+        let obj = say("GET OBJ");
+        if obj == "OBJ 2" {
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "never stopped on the object: {obj}"
+        );
+    }
+    let pos: i64 = say("GET POS").trim_start_matches("POS ").parse().unwrap();
+    assert!((pos - 90).abs() <= 3, "at the object (90), not {pos}");
+    assert_eq!(say("GET PRE"), "PRE 255");
 }

@@ -432,7 +432,7 @@ impl Front for RobotiqFront {
             out.push(("urcap_tcp", e));
         }
         if let (Ok(Some(a)), Ok(Some(b))) = (c.rtu_tcp_addr(), c.urcap_addr()) {
-            if a == b {
+            if a == b && a.port() != 0 {
                 out.push((
                     "urcap_tcp",
                     format!("is rtu_tcp's address too ({a}): one port, one protocol"),
