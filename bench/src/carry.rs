@@ -14,7 +14,10 @@ use crate::report::{read, Machine};
 /// Each section of `scripts/bench.sh` (its `BENCH_ONLY` name) and the files it writes into the
 /// results directory. One home for this list: the report and the carry both read it.
 pub const SECTIONS: &[(&str, &[&str])] = &[
-    ("codec", &["codec_dex3.json", "codec_ezgripper.json", "ezgripper.md"]),
+    (
+        "codec",
+        &["codec_dex3.json", "codec_ezgripper.json", "ezgripper.md", "robotiq.md"],
+    ),
     ("loop", &["loop.json"]),
     ("busy", &["busy.json"]),
     ("hop", &["hop.json", "hop_min_gap_100.toml"]),
