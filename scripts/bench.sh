@@ -17,13 +17,15 @@
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
 #   4c. startup   handgate run on sim-all, 5 starts: spawn -> every device fresh, a state on every front
 #   4d. timers    64 empty loops at 1 kHz, a thread each vs handgate's shared loop threads, 30 s each
+#   5b. rh56      two Inspire RH56 hands on one emulated RS-485 line at 115200 baud, commanded at
+#                 50 Hz then 100 Hz, 30 s each: readings per hand against the wire limit
 #   6. record     handgate record of every topic of the default fleet beside a gateway, 600 s
 #   7. dashboard  the default fleet idle vs watched (3 dashboard tabs in headless Chromium and a
 #                 Foxglove client), 30 s per phase, twice (bench/dashboard_cost.py)
 #   8. sites      not run here: make fleet measures it (root, Zenoh); the section is re-written
 #                 from its last figures, docs/benchmarks/sites.json
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop busy hop shim fleet simall startup timers record dashboard" to run a subset:
+# BENCH_ONLY="codec loop busy hop shim fleet simall startup timers rh56 record dashboard" to run a subset:
 # the sections it does not run are carried from docs/benchmarks/raw/ (the last report's raw results),
 # marked in the report with the date and load of the run that measured them; raw/ then holds the union.
 set -euo pipefail
@@ -32,7 +34,7 @@ root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop busy hop shim fleet simall startup timers record dashboard"}
+only=${BENCH_ONLY:-"codec loop busy hop shim fleet simall startup timers rh56 record dashboard"}
 quick=${BENCH_QUICK:-0}
 
 loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600; dash_secs=30
@@ -120,6 +122,11 @@ fi
 if want timers; then
   echo "bench: 4d. loop threads: 64 loops at 1 kHz, a thread each vs shared (${busy_secs} s each)"
   "$bin/handgate-bench" timers --loops 64 --hz 1000 --secs "$busy_secs" --out "$results/timers.json"
+fi
+
+if want rh56; then
+  echo "bench: 5b. Inspire RH56: two hands on one line at 115200 baud (${busy_secs} s per schedule)"
+  "$bin/handgate-bench" rh56 --secs "$busy_secs" --out "$results/rh56.json"
 fi
 
 if want record; then

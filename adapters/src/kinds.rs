@@ -15,6 +15,7 @@ pub const KINDS: &[DeviceKind] = &[
     DeviceKind::InspireFtp,
     DeviceKind::Dex5,
     DeviceKind::Robotiq,
+    DeviceKind::InspireRh56,
 ];
 
 #[cfg(test)]

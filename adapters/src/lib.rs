@@ -19,6 +19,7 @@ pub mod fronts;
 pub mod hand_sdk;
 pub mod inspire_dfx;
 pub mod inspire_ftp;
+pub mod inspire_rh56;
 pub mod kind;
 pub mod kinds;
 pub mod link;

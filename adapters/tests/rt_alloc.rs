@@ -505,6 +505,55 @@ fn the_robotiq_device_loop_allocates_nothing_per_cycle() {
     assert_no_own_allocations("robotiq device loop", &w);
 }
 
+/// The Inspire RH56 line's round (`rh56-line`: an ANGLE_SET write when the target changed,
+/// the ANGLE_ACT read, the slow block, one tactile batch; the serial protocol over the real
+/// serial transport to two emulated DFTPs behind a pty) and a hand's bridge (`rh56-<device>`)
+/// turning each reading (its 1062 tactile cells included) into canonical state and pads.
+#[test]
+fn the_inspire_rh56_line_round_and_bridge_allocate_nothing_per_cycle() {
+    use handgate_adapters::inspire_rh56::adapter::Rh56Device;
+    use handgate_adapters::inspire_rh56::bus::{BusConfig, Rh56Bus};
+    use handgate_adapters::inspire_rh56::emulator::{HandSpec, Line, Rh56Hand};
+    use handgate_adapters::inspire_rh56::pty::PtyLine;
+
+    tracing_like_the_gateway();
+    let path = socket_path("rh56");
+    let dftp = |id| {
+        let mut s = HandSpec::new(id);
+        s.tactile = true;
+        Rh56Hand::new(s)
+    };
+    let _emu = PtyLine::start(&path, Line::new(vec![dftp(1), dftp(2)])).unwrap();
+    let cfg = BusConfig {
+        ids: vec![1, 2],
+        tactile: true,
+        // A starved emulator thread must not make a reply miss its deadline.
+        response_timeout: Duration::from_secs(5),
+        stale_after: Duration::from_secs(5),
+        ..Default::default()
+    };
+    let bus = Arc::new(Rh56Bus::open(path.to_str().unwrap(), cfg).unwrap());
+    let dev = Rh56Device::start(
+        info("g", DeviceKind::InspireRh56, Backend::Serial),
+        bus.clone(),
+        1,
+        Duration::from_secs(5),
+    )
+    .unwrap();
+    let rx = dev.state();
+    wait_for("the first measured state with pads", || {
+        let st = rx.borrow();
+        st.measured_at.is_some() && st.pads.len() == 17
+    });
+    let (line_tid, bridge_tid) = (thread_named("rh56-line"), thread_named("rh56-g"));
+    let mut client = Client::new(&dev, JointId(0), [0.3, 1.2]);
+    let w = measure(|| Counts::of(line_tid), || (bus.stats().rounds, 0), &mut client);
+    let bridge = measure(|| Counts::of(bridge_tid), || (dev.stats().cycles, 0), &mut client);
+    dev.stop();
+    assert_no_own_allocations("rh56-line", &w);
+    assert_no_own_allocations("rh56 bridge", &bridge);
+}
+
 /// Every DDS-client kind's codec as the task calls it each cycle (`encode_into`,
 /// `decode_into`, `commanded_state`, on the buffers the task keeps), on this thread: nothing
 /// allocates once the buffers have grown. The task around them is measured above with the

@@ -29,6 +29,7 @@ pub const SECTIONS: &[(&str, &[&str])] = &[
     ("simall", &["simall.json"]),
     ("startup", &["startup.json"]),
     ("timers", &["timers.json"]),
+    ("rh56", &["rh56.json"]),
     ("record", &["record.json"]),
     ("dashboard", &["dashboard.json"]),
 ];

@@ -11,6 +11,7 @@ mod fleet_ref;
 mod hop;
 mod record;
 mod report;
+mod rh56;
 mod shim;
 mod startup;
 mod stats;
@@ -213,6 +214,14 @@ enum Cmd {
         loops: usize,
         #[arg(long, default_value_t = 1000.0)]
         hz: f64,
+        #[arg(long, default_value_t = 10.0)]
+        secs: f64,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Two Inspire RH56 hands on one emulated RS-485 line at 115200 baud: readings a second per
+    /// hand against the line's wire limit.
+    Rh56 {
         #[arg(long, default_value_t = 10.0)]
         secs: f64,
         #[arg(long)]
@@ -535,6 +544,11 @@ fn main() -> anyhow::Result<()> {
         Cmd::Timers { loops, hz, secs, out } => {
             let r = timers::run(loops, hz, secs);
             eprintln!("timers: {r:?}");
+            save(&out, &r)?;
+        }
+        Cmd::Rh56 { secs, out } => {
+            let r = rh56::run(secs);
+            eprintln!("rh56: {r:?}");
             save(&out, &r)?;
         }
         Cmd::Startup {

@@ -1090,6 +1090,53 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
 
     mark_carried(&runs, "codec", &mut summary[rows..], &mut body, at);
     // 6. Recording
+    // 5b. Inspire RH56: two hands on one RS-485 line
+    let (rows, at) = (summary.len(), body.len());
+    body.push_str("\n## 5b. Inspire RH56: two hands on one RS-485 line\n\n");
+    match read::<crate::rh56::Result>(results, "rh56.json").filter(|r| !r.runs.is_empty()) {
+        Some(r) => {
+            let _ = writeln!(
+                body,
+                "`handgate-bench rh56`: the project's RH56 line (`inspire_rh56::bus`, the hand's serial \
+                 protocol, as fast as the line answers) serving hands 1 and 2 on one line emulated in-process \
+                 at {} baud (every reply handed over when its bytes would have crossed the wire), both hands \
+                 commanded with targets changing at the rate below (each change one ANGLE_SET write). Per hand \
+                 and round: a 9-byte ANGLE_ACT request and its 20-byte reply, the 59-byte slow exchange every \
+                 {} rounds; the wire limit is what the baud leaves for that after the writes \
+                 (docs/inspire-rh56.md, \"Speed\").\n\n\
+                 | commands per hand | hand 1 | hand 2 | wire limit | ratio | timeouts | load (1 min) |\n\
+                 |---|---|---|---|---|---|---|",
+                r.baud, r.slow_every
+            );
+            for run in &r.runs {
+                let worst = run.per_hand_hz[0].min(run.per_hand_hz[1]);
+                let _ = writeln!(
+                    body,
+                    "| {:.0} Hz | {:.1} Hz | {:.1} Hz | {:.1} Hz | {:.0} % | {} | {:.2} |",
+                    run.command_hz,
+                    run.per_hand_hz[0],
+                    run.per_hand_hz[1],
+                    run.wire_limit_hz,
+                    100.0 * worst / run.wire_limit_hz.max(1e-9),
+                    run.timeouts,
+                    run.load1
+                );
+            }
+            let v = &r.runs[0];
+            let worst = v.per_hand_hz[0].min(v.per_hand_hz[1]);
+            summary.push((
+                format!(
+                    "Inspire RH56: two hands on one line at {} baud, commanded at {:.0} Hz: readings per hand (worse hand)",
+                    r.baud, v.command_hz
+                ),
+                format!("{worst:.1} Hz ({:.0} % of the wire limit)", 100.0 * worst / v.wire_limit_hz.max(1e-9)),
+                ">= 100 Hz and >= 80 % of the wire limit".into(),
+                verdict(worst >= 100.0 && worst >= 0.8 * v.wire_limit_hz),
+            ));
+        }
+        None => body.push_str("Not measured in this run.\n"),
+    }
+    mark_carried(&runs, "rh56", &mut summary[rows..], &mut body, at);
     let (rows, at) = (summary.len(), body.len());
     body.push_str("\n## 6. Recording (`handgate record`)\n\n");
     match read::<crate::record::RecordResult>(results, "record.json") {

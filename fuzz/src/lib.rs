@@ -357,6 +357,198 @@ pub fn dynamixel_packet(data: &[u8]) {
     }
 }
 
+/// The Inspire RH56 serial protocol (`inspire_rh56::proto`): the bytes as a stream of
+/// requests and of replies, resynchronised past garbage as the emulator and the front do.
+/// Every request that decodes re-encodes to its own bytes and is answered by an emulated line
+/// without panicking; every reply that decodes re-encodes to its own bytes.
+pub fn rh56_proto(data: &[u8]) {
+    use handgate_adapters::inspire_rh56::emulator::{HandSpec, Line, Rh56Hand};
+    use handgate_adapters::inspire_rh56::proto::{
+        decode_reply, decode_request, encode_read, encode_read_reply, encode_write, encode_write_ack, resync,
+        FrameError, Reply, Request,
+    };
+    let mut line = Line::new(vec![Rh56Hand::new(HandSpec::new(1)), Rh56Hand::new(HandSpec::new(2))]);
+    let now = std::time::Instant::now();
+    let (mut out, mut again) = (Vec::new(), Vec::new());
+    let mut rest = data;
+    while !rest.is_empty() {
+        match decode_request(rest) {
+            Ok((req, n)) => {
+                match req {
+                    Request::Read { id, addr, count } => encode_read(id, addr, count as usize, &mut again).unwrap(),
+                    Request::Write { id, addr, data } => encode_write(id, addr, data, &mut again).unwrap(),
+                }
+                assert_eq!(again, rest[..n], "a decoded request re-encodes to its bytes");
+                let _ = line.answer(&req, now, &mut out);
+                rest = &rest[n..];
+            }
+            Err(FrameError::Incomplete { .. }) => break,
+            Err(_) => rest = &rest[resync(rest).max(1)..],
+        }
+    }
+    let mut rest = data;
+    while !rest.is_empty() {
+        match decode_reply(rest) {
+            Ok((r, n)) => {
+                match r {
+                    Reply::Read { id, addr, data } => encode_read_reply(id, addr, data, &mut again).unwrap(),
+                    Reply::WriteAck { id, addr, ok } => {
+                        encode_write_ack(id, addr, ok, &mut again);
+                        // Any result byte but 1 reads as refused; only 0 and 1 re-encode.
+                        if rest[7] > 1 {
+                            again[7] = rest[7];
+                            again[8] = rest[8];
+                        }
+                    }
+                }
+                assert_eq!(again, rest[..n], "a decoded reply re-encodes to its bytes");
+                rest = &rest[n..];
+            }
+            Err(FrameError::Incomplete { .. }) => break,
+            Err(_) => rest = &rest[1..],
+        }
+    }
+}
+
+// ---------------------------------------------------------------- modbus_rtu_frame / modbus_mbap
+
+/// The register bank the Modbus targets serve: Robotiq-shaped (command registers at 0x03E8,
+/// status at 0x07D0).
+fn modbus_bank() -> handgate_adapters::modbus::server::Bank {
+    handgate_adapters::modbus::server::Bank {
+        holding_base: 0x03E8,
+        holding: vec![0; 6],
+        input_base: 0x07D0,
+        input: vec![0x3100, 0x00FF, 0xBD00],
+    }
+}
+
+/// Feeds `body` in chunks of `step` bytes to a stream session as front::stream's server does
+/// (consumed bytes dropped, refusals skip what they say or clear the buffer) and hands every
+/// reply to `check`.
+fn modbus_feed<S: handgate_adapters::front::stream::Session>(
+    session: &mut S,
+    body: &[u8],
+    step: usize,
+    mut check: impl FnMut(&[u8]),
+) {
+    let now = Instant::now();
+    let (mut buf, mut out) = (Vec::new(), Vec::new());
+    for chunk in body.chunks(step) {
+        buf.extend_from_slice(chunk);
+        loop {
+            out.clear();
+            let r = session.on_bytes(&buf, now, &mut out, &mut |_| {});
+            check(&out);
+            match r {
+                Ok(0) => break,
+                Ok(n) => {
+                    assert!(n <= buf.len(), "a session consumed more than it was given");
+                    buf.drain(..n);
+                }
+                Err(e) => match e.skip {
+                    Some(n) if n > 0 && n < buf.len() => {
+                        buf.drain(..n);
+                    }
+                    _ => buf.clear(),
+                },
+            }
+            if buf.is_empty() {
+                break;
+            }
+        }
+    }
+}
+
+/// Modbus RTU, both sides. Byte 0: bits 0-4 the chunk size - 1, bit 5 exceptions off, bits
+/// 6-7 the function the master side expects (FC03, FC04, FC16, FC23). A request frame the
+/// decoder cuts re-encodes to its bytes, a request PDU that decodes re-encodes to its bytes,
+/// every reply the RTU session writes is a whole frame of the same slave whose PDU decodes;
+/// the body read as an answer re-encodes the same way.
+pub fn modbus_rtu_frame(data: &[u8]) {
+    use handgate_adapters::modbus::pdu::{Request, Response};
+    use handgate_adapters::modbus::rtu;
+    use handgate_adapters::modbus::session::RtuSession;
+    let Some((&sel, body)) = data.split_first() else {
+        return;
+    };
+    let mut re = Vec::new();
+    // The decoder on its own, from every offset a stream could resynchronise at.
+    for at in 0..body.len().min(16) {
+        let b = &body[at..];
+        if let Ok(f) = rtu::decode_request(b) {
+            re.clear();
+            rtu::encode(f.slave, f.pdu, &mut re);
+            assert_eq!(re[..], b[..f.len], "a cut frame re-encodes to its bytes");
+            if let Ok(req) = Request::decode(f.pdu) {
+                re.clear();
+                req.encode(&mut re).expect("a decoded request re-encodes");
+                assert_eq!(re[..], f.pdu[..], "a decoded request re-encodes to its PDU");
+            }
+        }
+    }
+    // The server side: a session for slaves 9 and 1 fed in chunks.
+    let mut session = RtuSession::new(9, modbus_bank(), 115_200)
+        .with_slave(1, modbus_bank())
+        .exceptions(sel & 0x20 == 0);
+    modbus_feed(&mut session, body, (sel & 0x1F) as usize + 1, |out| {
+        let mut rest = out;
+        while !rest.is_empty() {
+            let f = rtu::decode_response(rest, rest.get(1).map_or(0, |f| f & 0x7F))
+                .expect("every reply is a whole RTU frame");
+            assert!(f.slave == 9 || f.slave == 1, "a reply from slave {}", f.slave);
+            Response::decode(f.pdu).expect("every reply's PDU decodes");
+            rest = &rest[f.len..];
+        }
+    });
+    // The master side: the body as the answer to a request.
+    let function = [0x03, 0x04, 0x10, 0x17][(sel >> 6) as usize];
+    if let Ok(f) = rtu::decode_response(body, function) {
+        re.clear();
+        rtu::encode(f.slave, f.pdu, &mut re);
+        assert_eq!(re[..], body[..f.len]);
+        if let Ok(resp) = Response::decode(f.pdu) {
+            assert_eq!(resp.function() & 0x7F, function, "an answer of another function");
+            re.clear();
+            resp.encode(&mut re).expect("a decoded response re-encodes");
+            assert_eq!(re[..], f.pdu[..], "a decoded response re-encodes to its PDU");
+        }
+    }
+}
+
+/// Modbus TCP (MBAP). Byte 0: bits 0-4 the chunk size - 1, bit 5 exceptions off, bit 6 any
+/// unit. A frame the decoder cuts re-encodes to its bytes with a header that is Modbus and
+/// within its length; every reply the TCP session writes is a whole frame whose PDU decodes.
+pub fn modbus_mbap(data: &[u8]) {
+    use handgate_adapters::modbus::pdu::Response;
+    use handgate_adapters::modbus::session::TcpSession;
+    use handgate_adapters::modbus::tcp;
+    let Some((&sel, body)) = data.split_first() else {
+        return;
+    };
+    if let Ok(adu) = tcp::decode(body) {
+        assert_eq!(adu.header.protocol, 0);
+        assert!(!adu.pdu.is_empty() && adu.len <= tcp::MAX_ADU);
+        let mut re = Vec::new();
+        tcp::encode(adu.header.transaction, adu.header.unit, adu.pdu, &mut re);
+        assert_eq!(re[..], body[..adu.len], "a cut frame re-encodes to its bytes");
+    }
+    let session = if sel & 0x40 == 0 {
+        TcpSession::new(1, modbus_bank())
+    } else {
+        TcpSession::any_unit(modbus_bank())
+    };
+    let mut session = session.exceptions(sel & 0x20 == 0);
+    modbus_feed(&mut session, body, (sel & 0x1F) as usize + 1, |out| {
+        let mut rest = out;
+        while !rest.is_empty() {
+            let adu = tcp::decode(rest).expect("every reply is a whole MBAP frame");
+            Response::decode(adu.pdu).expect("every reply's PDU decodes");
+            rest = &rest[adu.len..];
+        }
+    });
+}
+
 pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>)> {
     let mut out = Vec::new();
     // Golden CDR fixtures.
@@ -479,7 +671,87 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
         }
         out.push(("dynamixel_packet", "stream".to_string(), stream));
     }
+    // RH56 serial protocol: pyrh56's read of ANGLE_ACT, write of ANGLE_SET and CLEAR_ERROR,
+    // a reply and an acknowledgement, then all of them in one stream after garbage.
+    {
+        use handgate_adapters::inspire_rh56::proto::{encode_read, encode_read_reply, encode_write, encode_write_ack};
+        let mut frames: Vec<Vec<u8>> = Vec::new();
+        let mut b = Vec::new();
+        if encode_read(1, 1546, 12, &mut b).is_ok() {
+            frames.push(b.clone());
+        }
+        if encode_write(2, 1486, &[0xE8, 0x03, 0xFF, 0xFF, 0, 0, 0xF4, 0x01, 0, 0, 0x84, 0x03], &mut b).is_ok() {
+            frames.push(b.clone());
+        }
+        if encode_write(1, 1004, &[1], &mut b).is_ok() {
+            frames.push(b.clone());
+        }
+        if encode_read_reply(1, 1546, &[0xE8, 0x03, 0xE8, 0x03], &mut b).is_ok() {
+            frames.push(b.clone());
+        }
+        encode_write_ack(2, 1486, true, &mut b);
+        frames.push(b.clone());
+        let mut stream = vec![0x00, 0x13, 0x37, 0xEB];
+        for (k, f) in frames.iter().enumerate() {
+            out.push(("rh56_proto", format!("frame_{k}"), f.clone()));
+            stream.extend_from_slice(f);
+        }
+        out.push(("rh56_proto", "stream".to_string(), stream));
+    }
+    // Modbus: the Robotiq manual's RTU frames (requests, and answers for the master side), and
+    // Modbus TCP frames built from the spec's PDUs.
+    {
+        use handgate_adapters::modbus::tcp;
+        let requests = [
+            "09 10 03 E8 00 03 06 00 00 00 00 00 00 73 30",
+            "09 03 07 D0 00 01 85 CF",
+            "09 10 03 E8 00 03 06 09 00 00 FF FF FF 42 29",
+            "09 03 07 D0 00 03 04 0E",
+            "01 03 00 00 00 0A C5 CD",
+        ];
+        let mut stream = vec![0x07u8];
+        for (k, r) in requests.iter().enumerate() {
+            let b = modbus_hex(r);
+            out.push(("modbus_rtu_frame", format!("request_{k}"), prefixed(0x1F, &b)));
+            stream.extend_from_slice(&b);
+        }
+        out.push(("modbus_rtu_frame", "stream".to_string(), stream));
+        for (k, (r, sel)) in [
+            ("09 10 03 E8 00 03 01 30", 0x80u8),
+            ("09 03 06 B9 00 00 FF BD 00 1D 7C", 0x00),
+        ]
+        .iter()
+        .enumerate()
+        {
+            out.push((
+                "modbus_rtu_frame",
+                format!("answer_{k}"),
+                prefixed(*sel | 0x1F, &modbus_hex(r)),
+            ));
+        }
+        let pdus = [
+            "03 00 6B 00 03",
+            "04 07 D0 00 03",
+            "06 03 E8 00 01",
+            "10 03 E8 00 03 06 09 00 00 FF FF FF",
+            "17 07 D0 00 03 03 E8 00 03 06 09 00 00 FF FF FF",
+        ];
+        let mut stream = vec![0x05u8];
+        for (k, p) in pdus.iter().enumerate() {
+            let mut f = Vec::new();
+            tcp::encode(k as u16, 1, &modbus_hex(p), &mut f);
+            out.push(("modbus_mbap", format!("request_{k}"), prefixed(0x1F, &f)));
+            stream.extend_from_slice(&f);
+        }
+        out.push(("modbus_mbap", "stream".to_string(), stream));
+    }
     out
+}
+
+fn modbus_hex(s: &str) -> Vec<u8> {
+    s.split_whitespace()
+        .filter_map(|b| u8::from_str_radix(b, 16).ok())
+        .collect()
 }
 
 fn prefixed(b: u8, bytes: &[u8]) -> Vec<u8> {

@@ -51,9 +51,10 @@ pub struct FtpCodec {
     touch: crate::dds::Writer<InspireHandTouch>,
 }
 
-/// The touch message of a bound device: only an Inspire FTP hand's own tactile pads.
+/// The touch message of a bound device: only an Inspire tactile hand's own pads (an Inspire
+/// FTP through its driver, an RH56DFTP driven directly: the same 17 named pads).
 fn touch_of(b: &Bound<'_>) -> Option<InspireHandTouch> {
-    if b.route.device.kind != DeviceKind::InspireFtp {
+    if b.route.device.kind != DeviceKind::InspireFtp && b.route.device.kind != DeviceKind::InspireRh56 {
         return None;
     }
     encode_touch(&b.state.pads)
@@ -163,7 +164,9 @@ impl Front for InspireFtpFront {
             (None, Some(s @ (Side::Left | Side::Right))) => topics(s).2,
             _ => format!("{}/{{l,r}} (the served side)", super::front::TOUCH_TOPIC_PREFIX),
         };
-        Some(format!(", touch {touch} from an inspire_ftp device with tactile pads"))
+        Some(format!(
+            ", touch {touch} from an inspire_ftp or inspire_rh56 device with tactile pads"
+        ))
     }
 }
 
@@ -268,7 +271,7 @@ mod tests {
         assert_eq!(topics_at(&moved, Some(Side::Left))[2], ("touch_topic", t("rt/x/touch")));
         assert_eq!(
             moved.describe().unwrap(),
-            ", touch rt/x/touch from an inspire_ftp device with tactile pads"
+            ", touch rt/x/touch from an inspire_ftp or inspire_rh56 device with tactile pads"
         );
         assert_eq!(cfg(None).lf_state_hz(), None);
         // The driver publishes once per loop (assumed 50 Hz), whatever the bound device's rate.
@@ -279,7 +282,7 @@ mod tests {
         let d = cfg(Some(Side::Left)).describe().unwrap();
         assert_eq!(
             d,
-            ", touch rt/inspire_hand/touch/l from an inspire_ftp device with tactile pads"
+            ", touch rt/inspire_hand/touch/l from an inspire_ftp or inspire_rh56 device with tactile pads"
         );
         let d = cfg(None).describe().unwrap();
         assert!(d.contains("rt/inspire_hand/touch/{l,r} (the served side)"), "{d}");

@@ -11,7 +11,8 @@ use super::{wait_for_signal, LOG_TARGET};
 /// Starts `cmd.kind`'s emulator with the command's options, prints what it stands for and
 /// runs until it ends (a blocking emulator) or until SIGINT / SIGTERM.
 pub fn emulate(cmd: EmulateCmd) -> anyhow::Result<ExitCode> {
-    let Some(kind) = DeviceKind::by_name(&cmd.kind) else {
+    // `inspire-rh56` names `inspire_rh56`: the and the shell's spelling.
+    let Some(kind) = DeviceKind::by_name(&cmd.kind).or_else(|| DeviceKind::by_name(&cmd.kind.replace('-', "_"))) else {
         anyhow::bail!(
             "unknown kind {:?} (kinds: {})",
             cmd.kind,

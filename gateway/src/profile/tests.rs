@@ -1465,6 +1465,18 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
         ("inspire_ftp", &["velocity_noise_rad_s", "torque_noise_nm"]),
         // A Robotiq reports a position byte and a current byte; its emulator injects no fault.
         ("robotiq", &["velocity_noise_rad_s", "torque_noise_nm", "fault"]),
+        // The emulated RH56's registers carry no noise, and it injects no fault.
+        (
+            "inspire_rh56",
+            &[
+                "noise",
+                "seed",
+                "position_noise_rad",
+                "velocity_noise_rad_s",
+                "torque_noise_nm",
+                "fault",
+            ],
+        ),
     ];
     for kind in DeviceKind::all() {
         let f = kind.factory();
@@ -1577,6 +1589,14 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             dex3("emulator", extra)
         )
     };
+    let rh56 = |extra: &str| one_device("inspire_rh56", "left", "serial", extra);
+    let rh56_front = |extra: &str| {
+        format!(
+            "{}[[fronts]]\nkind = \"inspire_rh56\"\ndevice = \"d\"\n{extra}\n",
+            dex3("emulator", "")
+        )
+    };
+    let rh56_tcp = |extra: &str| rh56_front(&format!("serve = \"modbus_tcp\"\n{extra}"));
     // (documented key, a profile without it, the same profile setting it)
     let cases: Vec<(&str, String, String)> = vec![
         (
@@ -1997,6 +2017,57 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
         ("fronts.pty", rq_front(""), rq_front("pty = \"/tmp/robotiq-x\"")),
         ("fronts.max_clients", rq_front(""), rq_front("max_clients = 4")),
         ("fronts.idle_ms", rq_front(""), rq_front("idle_ms = 1000")),
+        (
+            "devices.inspire_rh56.protocol",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\nprotocol = \"modbus_rtu\""),
+        ),
+        (
+            "devices.inspire_rh56.port",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\nport = \"/dev/ttyUSB1\""),
+        ),
+        (
+            "devices.inspire_rh56.baud",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\nbaud = 57600"),
+        ),
+        (
+            "devices.inspire_rh56.id",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\nid = 2"),
+        ),
+        (
+            "devices.inspire_rh56.force_set",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\nforce_set = 300"),
+        ),
+        (
+            "devices.inspire_rh56.speed_set",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\nspeed_set = 500"),
+        ),
+        (
+            "devices.inspire_rh56.response_timeout_ms",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\nresponse_timeout_ms = 40"),
+        ),
+        (
+            "devices.inspire_rh56.slow_every",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\nslow_every = 5"),
+        ),
+        (
+            "devices.inspire_rh56.tactile",
+            rh56(""),
+            rh56("[devices.inspire_rh56]\ntactile = true"),
+        ),
+        ("fronts.serve", rh56_front(""), rh56_front("serve = \"modbus_tcp\"")),
+        ("fronts.id", rh56_front(""), rh56_front("id = 2")),
+        ("fronts.pty", rh56_front(""), rh56_front("pty = \"/tmp/x\"")),
+        ("fronts.listen", rh56_tcp(""), rh56_tcp("listen = \"127.0.0.1:16000\"")),
+        ("fronts.max_clients", rh56_tcp(""), rh56_tcp("max_clients = 4")),
+        ("fronts.idle_s", rh56_tcp(""), rh56_tcp("idle_s = 5.0")),
     ];
     let documented = documented_device_and_front_keys();
     assert!(
