@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # make bench: runs every benchmark (release builds) and rewrites docs/benchmarks.md.
 #   1. codec      cargo bench -p handgate-adapters --bench dex3_usb (criterion), and --bench
-#                 ezgripper when adapters/benches/ezgripper.rs exists; 5b. the Robotiq exchange rate
+#                 ezgripper when adapters/benches/ezgripper.rs exists; 5a. the Robotiq exchange rate
 #                 (--bench robotiq)
 #   2. loop       the Dex3 USB device loop at 1 kHz on the emulator, 60 s (default, SCHED_FIFO),
 #                 beside a reference loop that only sleeps to absolute deadlines
@@ -67,7 +67,7 @@ if want codec; then
   echo "bench: 5. EZGripper measured-state rate over the pty emulator (5 s per case)"
   # The bench prints a markdown table (round periods and rates per gripper); keep it as is.
   $cargo bench -p handgate-adapters --bench ezgripper -- 5 | grep '^|' > "$results/ezgripper.md"
-  echo "bench: 5b. Robotiq status+command exchanges at 115200 baud on a simulated line (5 s per case)"
+  echo "bench: 5a. Robotiq status+command exchanges at 115200 baud on a simulated line (5 s per case)"
   $cargo bench -p handgate-adapters --bench robotiq -- 5 | grep '^|' > "$results/robotiq.md"
 fi
 

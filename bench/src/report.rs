@@ -1050,8 +1050,8 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
         None => body.push_str("\nEZGripper rate: not measured in this run.\n"),
     }
     notes(repo, "ezgripper", &mut body);
-    // 5b. Robotiq
-    body.push_str("\n### 5b. Robotiq (Modbus RTU)\n\n");
+    // 5a. Robotiq
+    body.push_str("\n## 5a. Robotiq (Modbus RTU)\n\n");
     match std::fs::read_to_string(results.join("robotiq.md"))
         .ok()
         .filter(|t| t.lines().count() > 2)
