@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # make bench: runs every benchmark (release builds) and rewrites docs/benchmarks.md.
 #   1. codec      cargo bench -p handgate-adapters --bench dex3_usb (criterion), and --bench
-#                 ezgripper when adapters/benches/ezgripper.rs exists
+#                 ezgripper when adapters/benches/ezgripper.rs exists; 5a. the Robotiq exchange rate
+#                 (--bench robotiq)
 #   2. loop       the Dex3 USB device loop at 1 kHz on the emulator, 60 s (default, SCHED_FIFO),
 #                 beside a reference loop that only sleeps to absolute deadlines
 #   2b. busy      the same loop while discovery runs on a domain with 500 remote endpoints
@@ -68,6 +69,8 @@ if want codec; then
   $cargo bench -p handgate-adapters --bench ezgripper -- 5 | grep '^|' > "$results/ezgripper.md"
   echo "bench: 5b. LEAP Hand cycle rate at 4 Mbaud against the wire limit (5 s per case)"
   $cargo bench -p handgate-adapters --bench leap -- 5 | grep '^|' > "$results/leap.md"
+  echo "bench: 5a. Robotiq status+command exchanges at 115200 baud on a simulated line (5 s per case)"
+  $cargo bench -p handgate-adapters --bench robotiq -- 5 | grep '^|' > "$results/robotiq.md"
 fi
 
 if want loop; then

@@ -24,7 +24,7 @@ fuzz_target_dir=${FUZZ_TARGET_DIR:-${CARGO_TARGET_DIR:+$CARGO_TARGET_DIR/fuzz}}
 fuzz_target_dir=${fuzz_target_dir:-$root/fuzz/target}
 CARGO_FUZZ_VERSION=0.13.2
 
-TARGETS=(dex3_state_frame dex3_emulator_frame cdr_decode front_decode dynamixel_packet dynamixel_fast_sync_reply modbus_rtu_frame modbus_mbap rh56_proto)
+TARGETS=(dex3_state_frame dex3_emulator_frame cdr_decode front_decode dynamixel_packet dynamixel_fast_sync_reply modbus_rtu_frame modbus_mbap rh56_proto robotiq_front)
 BUILD_FLAGS=(-O -a -s none --target-dir "$fuzz_target_dir")
 triple=$(rustc -vV | sed -n 's/^host: //p')
 bindir="$fuzz_target_dir/$triple/release"

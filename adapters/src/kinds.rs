@@ -14,6 +14,7 @@ pub const KINDS: &[DeviceKind] = &[
     DeviceKind::Brainco,
     DeviceKind::InspireFtp,
     DeviceKind::Dex5,
+    DeviceKind::Robotiq,
     DeviceKind::InspireRh56,
     DeviceKind::Leap,
     DeviceKind::Rohand,

@@ -34,6 +34,7 @@ pub mod netif;
 pub mod open;
 pub mod realtime;
 pub mod rohand;
+pub mod robotiq;
 pub mod ros;
 pub mod route;
 pub mod serial;

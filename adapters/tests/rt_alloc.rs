@@ -439,6 +439,72 @@ fn the_ezgripper_bus_round_and_bridge_allocate_nothing_per_cycle() {
     assert_no_own_allocations("ezgripper bridge", &bridge);
 }
 
+/// The Robotiq device loop (`robotiq-<device>`): one FC23 exchange a cycle through the Modbus
+/// kit's RTU master on a pseudo-terminal, to an emulated gripper served by the stream server
+/// (its own thread, as the gripper's controller would be), then the status made canonical.
+#[test]
+fn the_robotiq_device_loop_allocates_nothing_per_cycle() {
+    use std::sync::Mutex;
+
+    use handgate_adapters::front::serve::{Inbox, Queue};
+    use handgate_adapters::front::stream::serve_pty;
+    use handgate_adapters::modbus::master::RtuTiming;
+    use handgate_adapters::robotiq::device::{LoopConfig, RobotiqDevice};
+    use handgate_adapters::robotiq::emulator::{Gripper, Tuning};
+    use handgate_adapters::robotiq::front::rtu_session_on;
+    use handgate_adapters::robotiq::rtu::RtuLink;
+    use handgate_adapters::robotiq::Variant;
+    use handgate_adapters::serial::transport::SerialConnector;
+
+    tracing_like_the_gateway();
+    let path = socket_path("robotiq");
+    let tuning = Tuning {
+        activation: Duration::from_millis(100),
+        ..Tuning::default()
+    };
+    let g = Arc::new(Mutex::new(Gripper::new(
+        Variant::TwoF85.spec(),
+        tuning,
+        0.0,
+        None,
+        Instant::now(),
+    )));
+    let (tx, _rx) = tokio::sync::mpsc::channel(1);
+    let _emu = serve_pty(
+        &path,
+        move || rtu_session_on(g.clone(), 9),
+        Inbox::for_tests(Queue::new(tx)),
+        "rt-alloc",
+        "robotiq emulator",
+    )
+    .unwrap();
+    let timing = RtuTiming {
+        // A starved emulator thread must not make an answer miss its deadline.
+        response_timeout: Duration::from_secs(5),
+        ..RtuTiming::serial(115_200)
+    };
+    let connector = SerialConnector {
+        path: path.clone(),
+        baud: 115_200,
+    };
+    let link = RtuLink::open(Box::new(connector), timing, 9).unwrap();
+    let cfg = LoopConfig {
+        rate_hz: 200.0,
+        stale_after: Duration::from_secs(5),
+        speed: 255,
+        force: 100,
+    };
+    let dev = RobotiqDevice::start(info("g", DeviceKind::Robotiq, Backend::Serial), Box::new(link), cfg).unwrap();
+    let rx = dev.state();
+    // gSTA 3 in the status byte the state carries as its mode.
+    wait_for("the gripper activated", || (rx.borrow().mode >> 4) & 3 == 3);
+    let tid = thread_named("robotiq-g");
+    let mut client = Client::new(&dev, JointId(0), [0.2, 0.6]);
+    let w = measure(|| Counts::of(tid), || (dev.stats().cycles, 0), &mut client);
+    dev.stop();
+    assert_no_own_allocations("robotiq device loop", &w);
+}
+
 /// The Inspire RH56 line's round (`rh56-line`: an ANGLE_SET write when the target changed,
 /// the ANGLE_ACT read, the slow block, one tactile batch; the serial protocol over the real
 /// serial transport to two emulated DFTPs behind a pty) and a hand's bridge (`rh56-<device>`)

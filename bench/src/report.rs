@@ -1079,6 +1079,43 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
         }
         None => body.push_str("\nLEAP Hand rate: not measured in this run.\n"),
     }
+    // 5a. Robotiq
+    body.push_str("\n## 5a. Robotiq (Modbus RTU)\n\n");
+    match std::fs::read_to_string(results.join("robotiq.md"))
+        .ok()
+        .filter(|t| t.lines().count() > 2)
+    {
+        Some(table) => {
+            body.push_str(
+                "Status+command exchanges of handgate's Robotiq device (one FC23 a cycle through the Modbus kit's RTU \
+                 master) with an emulated gripper on a simulated RS-485 line at 115200 8N1 (`cargo bench -p \
+                 handgate-adapters --bench robotiq -- 5`: 5 s per case; docs/robotiq.md \"Speed\"). Wire limit: 1 / \
+                 (wire time of the 19-byte request and the 11-byte answer + a 3.5-character turnaround + the master's \
+                 1.75 ms frame gap). Targets: at least 200 Hz (the manual's rate) and 80 % of the wire limit.\n\n",
+            );
+            body.push_str(&table);
+            for line in table.lines() {
+                let cols: Vec<&str> = line.split('|').map(str::trim).collect();
+                if cols.len() > 7 && cols[2] == "200 Hz" {
+                    if let (Ok(hz), Ok(limit)) = (cols[6].parse::<f64>(), cols[5].parse::<f64>()) {
+                        summary.push((
+                            "Robotiq at 115200 baud: status+command exchanges".into(),
+                            format!("{hz:.1} Hz"),
+                            ">= 200 Hz".into(),
+                            verdict(hz >= 200.0),
+                        ));
+                        summary.push((
+                            "Robotiq at 115200 baud: of the wire limit".into(),
+                            format!("{:.0} % of {limit:.1} Hz", 100.0 * hz / limit),
+                            ">= 80 %".into(),
+                            verdict(hz >= 0.8 * limit),
+                        ));
+                    }
+                }
+            }
+        }
+        None => body.push_str("Robotiq rate: not measured in this run.\n"),
+    }
 
     mark_carried(&runs, "codec", &mut summary[rows..], &mut body, at);
     // 6. Recording

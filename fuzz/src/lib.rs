@@ -21,8 +21,8 @@ use handgate_adapters::dex3::usb::scaling::Scalings;
 use handgate_adapters::dex3::usb::wiring::WiringMap;
 use handgate_adapters::dex3::{Dex3Measurement, Joint};
 use handgate_adapters::mapping::DeviceTable;
-use handgate_adapters::model::{DeviceKind, JointState, SafeAction, Side};
 use handgate_adapters::mapping::TableOverrides;
+use handgate_adapters::model::{DeviceKind, JointState, SafeAction, Side};
 use handgate_adapters::route as router;
 use handgate_idl::{from_cdr, handgate as hg, ros2, to_cdr_be, to_cdr_le, unitree_go, unitree_hg};
 use serde::{de::DeserializeOwned, Serialize};
@@ -593,6 +593,116 @@ pub fn modbus_mbap(data: &[u8]) {
     });
 }
 
+// ---------------------------------------------------------------- robotiq_front
+
+/// A Robotiq's register image served as the Robotiq front and `handgate emulate robotiq` serve
+/// it. Byte 0: bit 0 the URCap text socket (else Modbus RTU, slave 9, no exceptions), bit 1 the
+/// image a front's (the fingers another device's, its measured position taken from the body)
+/// or the emulated gripper's, bits 2-6 the chunk size - 1; the clock advances 3 ms a chunk.
+/// Every RTU reply is a whole frame of slave 9 whose PDU decodes (never an exception); every
+/// URCap answer is `ack` or `VAR n` lines with n a byte; the status decodes to a defined gSTA
+/// (0, 1 or 3), the fingers stay between 0 and 255 counts.
+pub fn robotiq_front(data: &[u8]) {
+    use std::sync::{Arc, Mutex};
+
+    use handgate_adapters::front::stream::Session;
+    use handgate_adapters::modbus::pdu::Response;
+    use handgate_adapters::modbus::rtu;
+    use handgate_adapters::robotiq::emulator::{Gripper, Measured, Tuning};
+    use handgate_adapters::robotiq::front::{rtu_session_on, UrcapSession};
+    use handgate_adapters::robotiq::regs::Activation;
+    use handgate_adapters::robotiq::Variant;
+    let Some((&sel, body)) = data.split_first() else {
+        return;
+    };
+    let t0 = Instant::now();
+    let tuning = Tuning {
+        activation: Duration::from_millis(10),
+        ..Tuning::default()
+    };
+    let external = sel & 2 != 0;
+    let g = if external {
+        Gripper::external(tuning, t0)
+    } else {
+        Gripper::new(
+            Variant::TwoF85.spec(),
+            tuning,
+            0.0,
+            body.first().map(|b| f32::from(*b)),
+            t0,
+        )
+    };
+    let image = Arc::new(Mutex::new(g));
+    let urcap = sel & 1 != 0;
+    let mut rtu_s = rtu_session_on(image.clone(), 9);
+    let mut text_s = UrcapSession::new(image.clone());
+    let step = ((sel >> 2) & 0x1F) as usize + 1;
+    let (mut buf, mut out) = (Vec::new(), Vec::new());
+    for (k, chunk) in body.chunks(step).enumerate() {
+        let now = t0 + Duration::from_millis(3 * k as u64);
+        if external {
+            let b = chunk[0];
+            image.lock().unwrap().set_measured(Measured {
+                position: f32::from(b),
+                contact: b & 1 == 1,
+            });
+        }
+        buf.extend_from_slice(chunk);
+        loop {
+            out.clear();
+            let r = if urcap {
+                text_s.on_bytes(&buf, now, &mut out, &mut |_| {})
+            } else {
+                rtu_s.on_bytes(&buf, now, &mut out, &mut |_| {})
+            };
+            if urcap {
+                let text = std::str::from_utf8(&out).expect("URCap answers are text");
+                for line in text.split('\n').filter(|l| !l.is_empty()) {
+                    if line != "ack" {
+                        let (var, n) = line.split_once(' ').expect("`VAR n`");
+                        assert!(var.len() == 3 && var.bytes().all(|c| c.is_ascii_uppercase()), "{line}");
+                        n.parse::<u8>().expect("a byte");
+                    }
+                }
+            } else {
+                let mut rest = &out[..];
+                while !rest.is_empty() {
+                    let f = rtu::decode_response(rest, rest[1] & 0x7F).expect("every reply is a whole RTU frame");
+                    assert_eq!(f.slave, 9);
+                    let resp = Response::decode(f.pdu).expect("every reply's PDU decodes");
+                    assert!(
+                        !matches!(resp, Response::Exception { .. }),
+                        "the gripper sends no exceptions"
+                    );
+                    rest = &rest[f.len..];
+                }
+            }
+            match r {
+                Ok(0) => break,
+                Ok(n) => {
+                    assert!(n <= buf.len());
+                    buf.drain(..n);
+                }
+                Err(e) => match e.skip {
+                    Some(n) if n > 0 && n < buf.len() => {
+                        buf.drain(..n);
+                    }
+                    _ => buf.clear(),
+                },
+            }
+            if buf.is_empty() {
+                break;
+            }
+        }
+        let mut g = image.lock().unwrap();
+        g.step(now);
+        let s = g.status();
+        assert_ne!(s.activation, Activation::Unused, "gSTA 2 is never reported");
+        let p = g.position();
+        assert!(p.is_finite() && (0.0..=255.0).contains(&p), "fingers at {p}");
+    }
+}
+
 pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>)> {
     let mut out = Vec::new();
     // Golden CDR fixtures.
@@ -735,7 +845,14 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
         if encode_read(1, 1546, 12, &mut b).is_ok() {
             frames.push(b.clone());
         }
-        if encode_write(2, 1486, &[0xE8, 0x03, 0xFF, 0xFF, 0, 0, 0xF4, 0x01, 0, 0, 0x84, 0x03], &mut b).is_ok() {
+        if encode_write(
+            2,
+            1486,
+            &[0xE8, 0x03, 0xFF, 0xFF, 0, 0, 0xF4, 0x01, 0, 0, 0x84, 0x03],
+            &mut b,
+        )
+        .is_ok()
+        {
             frames.push(b.clone());
         }
         if encode_write(1, 1004, &[1], &mut b).is_ok() {
@@ -752,6 +869,25 @@ pub fn seeds(golden_dir: &std::path::Path) -> Vec<(&'static str, String, Vec<u8>
             stream.extend_from_slice(f);
         }
         out.push(("rh56_proto", "stream".to_string(), stream));
+    }
+    // The Robotiq front: the manual's activation and move frames on RTU (chunk 32), a URCap
+    // session's lines.
+    {
+        let rtu = [
+            "09 10 03 E8 00 03 06 00 00 00 00 00 00 73 30",
+            "09 10 03 E8 00 03 06 09 00 00 FF FF FF 42 29",
+            "09 03 07 D0 00 03 04 0E",
+        ];
+        let mut stream = vec![0x7Cu8];
+        for r in rtu {
+            stream.extend_from_slice(&modbus_hex(r));
+        }
+        out.push(("robotiq_front", "rtu_activate_close".to_string(), stream.clone()));
+        stream[0] = 0x7E;
+        out.push(("robotiq_front", "rtu_front_image".to_string(), stream));
+        let lines = b"SET ACT 0\nSET ACT 1\nGET STA\nSET POS 255 SPE 255 FOR 100 GTO 1\nGET ACT GET OBJ GET POS\n";
+        out.push(("robotiq_front", "urcap".to_string(), prefixed(0x7D, lines)));
+        out.push(("robotiq_front", "urcap_front".to_string(), prefixed(0x0F, lines)));
     }
     // Modbus: the Robotiq manual's RTU frames (requests, and answers for the master side), and
     // Modbus TCP frames built from the spec's PDUs.

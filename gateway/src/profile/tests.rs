@@ -1463,6 +1463,8 @@ fn every_emulator_key_changes_each_kind_or_is_refused() {
         ("inspire_dfx", &["velocity_noise_rad_s", "torque_noise_nm"]),
         // Inspire's driver reports no velocity and no torque in N·m.
         ("inspire_ftp", &["velocity_noise_rad_s", "torque_noise_nm"]),
+        // A Robotiq reports a position byte and a current byte; its emulator injects no fault.
+        ("robotiq", &["velocity_noise_rad_s", "torque_noise_nm", "fault"]),
         // The emulated RH56's registers carry no noise, and it injects no fault.
         (
             "inspire_rh56",
@@ -1575,6 +1577,20 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
     };
     let pair = "[[devices]]\nname = \"g\"\nkind = \"dex1\"\nside = \"left\"\nbackend = \"emulator\"\n[[devices]]\nname = \"h\"\nkind = \"dex1\"\nside = \"right\"\nbackend = \"emulator\"\n[[fronts]]\nkind = \"dex1\"\nvariant = \"actuator\"\n";
     let js = |extra: &str| format!("{}[[fronts]]\nkind = \"joint_state\"\n{extra}\n", dex3("emulator", ""));
+    let rq = |extra: &str| {
+        one_device(
+            "robotiq",
+            "center",
+            "serial",
+            &format!("[devices.robotiq]\nport = \"/dev/ttyUSB0\"\n{extra}"),
+        )
+    };
+    let rq_front = |extra: &str| {
+        format!(
+            "{}[[fronts]]\nkind = \"robotiq\"\ndevice = \"d\"\n{extra}\n",
+            dex3("emulator", "")
+        )
+    };
     let ftp_front = |extra: &str| {
         format!(
             "{}[[fronts]]\nkind = \"inspire_ftp\"\ndevice = \"d\"\n{extra}\n",
@@ -1989,6 +2005,32 @@ fn every_documented_device_and_front_key_changes_what_is_built() {
             ftp_front(""),
             ftp_front("touch_topic = \"rt/x/touch\""),
         ),
+        ("devices.robotiq.variant", rq(""), rq("variant = \"hand-e\"")),
+        (
+            "devices.robotiq.port",
+            rq(""),
+            rq("").replace("/dev/ttyUSB0", "/dev/ttyUSB1"),
+        ),
+        (
+            "devices.robotiq.tcp",
+            rq(""),
+            rq("").replace("port = \"/dev/ttyUSB0\"", "tcp = \"192.168.1.10:54321\""),
+        ),
+        ("devices.robotiq.baud", rq(""), rq("baud = 57600")),
+        ("devices.robotiq.slave", rq(""), rq("slave = 10")),
+        ("devices.robotiq.speed", rq(""), rq("speed = 100")),
+        ("devices.robotiq.force", rq(""), rq("force = 10")),
+        (
+            "devices.robotiq.response_timeout_ms",
+            rq(""),
+            rq("response_timeout_ms = 80"),
+        ),
+        ("fronts.slave", rq_front(""), rq_front("slave = 10")),
+        ("fronts.rtu_tcp", rq_front(""), rq_front("rtu_tcp = \"127.0.0.1:1502\"")),
+        ("fronts.urcap_tcp", rq_front(""), rq_front("urcap_tcp = \"\"")),
+        ("fronts.pty", rq_front(""), rq_front("pty = \"/tmp/robotiq-x\"")),
+        ("fronts.max_clients", rq_front(""), rq_front("max_clients = 4")),
+        ("fronts.idle_ms", rq_front(""), rq_front("idle_ms = 1000")),
         (
             "devices.inspire_rh56.protocol",
             rh56(""),
