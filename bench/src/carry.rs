@@ -16,7 +16,13 @@ use crate::report::{read, Machine};
 pub const SECTIONS: &[(&str, &[&str])] = &[
     (
         "codec",
-        &["codec_dex3.json", "codec_ezgripper.json", "ezgripper.md", "leap.md", "robotiq.md"],
+        &[
+            "codec_dex3.json",
+            "codec_ezgripper.json",
+            "ezgripper.md",
+            "leap.md",
+            "robotiq.md",
+        ],
     ),
     ("loop", &["loop.json"]),
     ("busy", &["busy.json"]),
