@@ -2,7 +2,7 @@
 """A LEAP_Hand_API-style client written against dynamixel-sdk 4.1.0 (PyPI), for the LEAP
 Hand tests (tests/tests/leap*.rs): what a LEAP Hand program does on its U2D2's port.
 
-    leap_client.py --port PATH [--read sync|fast] [--target RAD ...] [--cycles N] [--tol RAD]
+    leap_client.py --port PATH [--read sync|fast] [--target RAD ...] [--seconds S] [--tol RAD]
                    [--skip-init] [--bad-input]
 
 1. Opens the port at 4 000 000 baud, pings ids 0-15 (prints `pinged <ids>`).
@@ -13,8 +13,8 @@ Hand tests (tests/tests/leap*.rs): what a LEAP Hand program does on its U2D2's p
    bytes (or a Fast Sync Read with --read fast) and prints `read <json>` (LEAP radians,
    rad/s, mA).
 4. With --target: 16 LEAP radians (one value: the same for every motor); writes them with a
-   GroupSyncWrite at 116 and reads back every cycle until every motor is within --tol, at most
-   --cycles times; prints `reached {"cycles": n, "max_err": e, "hz": rate}` or `timeout ...`.
+   GroupSyncWrite at 116 and reads back every cycle until every motor is within --tol, for at most
+   --seconds; prints `reached {"cycles": n, "max_err": e, "hz": rate}` or `timeout ...`.
 5. With --bad-input: first writes garbage, a frame with a bad CRC and half a frame to the port
    (each then answered by nothing), and checks the bus still answers a ping after them.
 
@@ -110,7 +110,10 @@ def main():
     ap.add_argument("--port", required=True)
     ap.add_argument("--read", choices=["sync", "fast"], default="sync")
     ap.add_argument("--target", type=float, nargs="*")
-    ap.add_argument("--cycles", type=int, default=2000)
+    # How long the client keeps commanding before it gives up: a wall-clock budget, not a cycle
+    # count (an idle machine runs thousands of cycles before a slower device behind the bus,
+    # an Inspire hand at 100 Hz, has closed).
+    ap.add_argument("--seconds", type=float, default=30.0)
     ap.add_argument("--tol", type=float, default=0.05)
     ap.add_argument("--skip-init", action="store_true")
     ap.add_argument("--bad-input", action="store_true")
@@ -153,7 +156,9 @@ def main():
         t0 = time.monotonic()
         err = float("inf")
         retried = 0
-        for n in range(1, a.cycles + 1):
+        n = 0
+        while time.monotonic() - t0 < a.seconds:
+            n += 1
             sync_write(port, ph, 116, 4, ticks)
             got, why = read_all(reader, ph, fast)
             if got is None:
@@ -165,7 +170,7 @@ def main():
                 print("reached " + json.dumps({"cycles": n, "retried": retried, "max_err": err, "hz": n / dt, "pos": got[0]}), flush=True)
                 break
         else:
-            print("timeout " + json.dumps({"max_err": err}), flush=True)
+            print("timeout " + json.dumps({"max_err": err, "cycles": n}), flush=True)
             sys.exit(1)
     port.closePort()
     print("done", flush=True)
