@@ -128,11 +128,15 @@ impl Settings for LeapProfile {
         out
     }
 
-    fn summary(&self, _ctx: &DeviceCtx<'_>) -> String {
+    fn summary(&self, ctx: &DeviceCtx<'_>) -> String {
         match &self.leap {
             Some(c) => format!(
                 ", {} @ {} baud, goal current {} mA{}",
-                c.port,
+                if ctx.backend == crate::device::Backend::Emulator {
+                    "emulated bus"
+                } else {
+                    c.port.as_str()
+                },
                 c.baud,
                 c.goal_current_ma(),
                 if c.fast_sync_read { ", fast sync read" } else { "" }

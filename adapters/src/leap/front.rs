@@ -294,8 +294,8 @@ impl Front for LeapBusFront {
     }
     fn describe(c: &LeapBusConfig) -> Option<String> {
         Some(match &c.pty {
-            Some(p) => format!(", pty {}", p.display()),
-            None => ", pty <tmp>/handgate-<front name>".into(),
+            Some(p) => format!("the virtual Dynamixel bus (ids 0-15, 4 Mbaud) on pty {}", p.display()),
+            None => "the virtual Dynamixel bus (ids 0-15, 4 Mbaud) on pty <tmp>/handgate-<front name>".into(),
         })
     }
 }
