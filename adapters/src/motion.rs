@@ -398,10 +398,14 @@ impl MotionDetector {
             }
         }
         // A hand whose samples repeat is frozen, whatever its joints' efforts say (the efforts
-        // repeat too).
+        // repeat too). Not while the device itself reports the contact it stopped on
+        // (`Contact::Reported`: a Robotiq's gOBJ, an RH56's STATUS 3): a real gripper holding
+        // an object reports the same integer position every cycle, and its own word that it
+        // holds is a fresh fact each sample, not a replayed one.
         let frozen = self
             .last_change
-            .is_some_and(|c| at.saturating_duration_since(c) >= th.hold);
+            .is_some_and(|c| at.saturating_duration_since(c) >= th.hold)
+            && !(th.contact == Contact::Reported && holding.is_some());
         if let (None, Some((j, _))) = (stuck, holding) {
             if !frozen {
                 report.joint = Some(j);
@@ -679,10 +683,24 @@ mod tests {
         }
         let r = d.report();
         assert!(fault(&r.verdict) && r.joint == Some(1), "{r:?}");
-        // A frozen stream of a holding hand is frozen.
+        // A frozen stream of a holding hand is frozen where handgate infers the contact from
+        // an effort (the effort repeats too)...
         let mut d = MotionDetector::new(MotionThresholds::HAND);
         for k in 0..1000u64 {
             d.observe_with_contact(at(2 * k), Some(&tg), &[0.6, 0.6, 1.0], |_| true);
+        }
+        assert_eq!(d.report().verdict, Verdict::Frozen);
+        // ...but holds where the device reports it (a Robotiq's gOBJ 2 with gPO constant), and
+        // a frozen stream without the device's word is still frozen.
+        let reported = MotionThresholds::HAND.with_contact(Contact::Reported);
+        let mut d = MotionDetector::new(reported);
+        for k in 0..1000u64 {
+            d.observe_with_contact(at(2 * k), Some(&tg), &[0.6, 0.6, 1.0], |_| true);
+        }
+        assert_eq!(d.report().verdict, Verdict::Holding);
+        let mut d = MotionDetector::new(reported);
+        for k in 0..1000u64 {
+            d.observe_with_contact(at(2 * k), Some(&tg), &[0.6, 0.6, 1.0], |_| false);
         }
         assert_eq!(d.report().verdict, Verdict::Frozen);
         // A kind that measures no effort: a closing joint stopped short holds.
