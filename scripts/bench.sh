@@ -17,7 +17,7 @@
 #   4b. simall    the shipped sim-all profile (every kind emulated at its own rates), 30 s
 #   4c. startup   handgate run on sim-all, 5 starts: spawn -> every device fresh, a state on every front
 #   4d. timers    64 empty loops at 1 kHz, a thread each vs handgate's shared loop threads, 30 s each
-#   5b. rh56      two Inspire RH56 hands on one emulated RS-485 line at 115200 baud, commanded at
+#   5c. rh56      two Inspire RH56 hands on one emulated RS-485 line at 115200 baud, commanded at
 #                 50 Hz then 100 Hz, 30 s each: readings per hand against the wire limit
 #   6. record     handgate record of every topic of the default fleet beside a gateway, 600 s
 #   7. dashboard  the default fleet idle vs watched (3 dashboard tabs in headless Chromium and a
@@ -67,10 +67,10 @@ if want codec; then
   echo "bench: 5. EZGripper measured-state rate over the pty emulator (5 s per case)"
   # The bench prints a markdown table (round periods and rates per gripper); keep it as is.
   $cargo bench -p handgate-adapters --bench ezgripper -- 5 | grep '^|' > "$results/ezgripper.md"
-  echo "bench: 5b. LEAP Hand cycle rate at 4 Mbaud against the wire limit (5 s per case)"
-  $cargo bench -p handgate-adapters --bench leap -- 5 | grep '^|' > "$results/leap.md"
   echo "bench: 5a. Robotiq status+command exchanges at 115200 baud on a simulated line (5 s per case)"
   $cargo bench -p handgate-adapters --bench robotiq -- 5 | grep '^|' > "$results/robotiq.md"
+  echo "bench: 5b. LEAP Hand cycle rate at 4 Mbaud against the wire limit (5 s per case)"
+  $cargo bench -p handgate-adapters --bench leap -- 5 | grep '^|' > "$results/leap.md"
 fi
 
 if want loop; then
@@ -127,7 +127,7 @@ if want timers; then
 fi
 
 if want rh56; then
-  echo "bench: 5b. Inspire RH56: two hands on one line at 115200 baud (${busy_secs} s per schedule)"
+  echo "bench: 5c. Inspire RH56: two hands on one line at 115200 baud (${busy_secs} s per schedule)"
   "$bin/handgate-bench" rh56 --secs "$busy_secs" --out "$results/rh56.json"
 fi
 

@@ -1050,35 +1050,6 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
         None => body.push_str("\nEZGripper rate: not measured in this run.\n"),
     }
     notes(repo, "ezgripper", &mut body);
-    match std::fs::read_to_string(results.join("leap.md"))
-        .ok()
-        .filter(|t| t.lines().count() > 2)
-    {
-        Some(table) => {
-            body.push_str(
-                "\nLEAP Hand cycle rate at 4 Mbaud (`cargo bench -p handgate-adapters --bench leap -- 5`, docs/leap.md \
-                 \"Benchmark\"): the device loop back to back, a cycle = sync write of 16 goal positions + a sync read \
-                 (or fast sync read) of present current, velocity and position of the 16 servos, against the \
-                 in-process emulator booking the line at 4 Mbaud with Return Delay Time 0; the wire limit is the \
-                 cycle's bytes at 4 Mbaud. Target: >= 500 Hz and >= 80 % of the wire limit.\n\n",
-            );
-            body.push_str(&table);
-            for line in table.lines() {
-                let cols: Vec<&str> = line.split('|').map(str::trim).collect();
-                let hz = cols.get(4).and_then(|c| c.trim_end_matches(" Hz").parse::<f64>().ok());
-                let pct = cols.get(5).and_then(|c| c.trim_end_matches(" %").parse::<f64>().ok());
-                if let (Some(hz), Some(pct)) = (hz, pct) {
-                    summary.push((
-                        format!("LEAP Hand, {}: cycles (16 goals + 16 present blocks)", cols[1]),
-                        format!("{hz:.0} Hz, {pct:.0} % of the wire limit"),
-                        ">= 500 Hz, >= 80 %".into(),
-                        verdict(hz >= 500.0 && pct >= 80.0),
-                    ));
-                }
-            }
-        }
-        None => body.push_str("\nLEAP Hand rate: not measured in this run.\n"),
-    }
     // 5a. Robotiq
     body.push_str("\n## 5a. Robotiq (Modbus RTU)\n\n");
     match std::fs::read_to_string(results.join("robotiq.md"))
@@ -1116,12 +1087,43 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
         }
         None => body.push_str("Robotiq rate: not measured in this run.\n"),
     }
+    // 5b. LEAP Hand
+    body.push_str("\n## 5b. LEAP Hand (Dynamixel Protocol 2.0 at 4 Mbaud)\n\n");
+    match std::fs::read_to_string(results.join("leap.md"))
+        .ok()
+        .filter(|t| t.lines().count() > 2)
+    {
+        Some(table) => {
+            body.push_str(
+                "\nLEAP Hand cycle rate at 4 Mbaud (`cargo bench -p handgate-adapters --bench leap -- 5`, docs/leap.md \
+                 \"Benchmark\"): the device loop back to back, a cycle = sync write of 16 goal positions + a sync read \
+                 (or fast sync read) of present current, velocity and position of the 16 servos, against the \
+                 in-process emulator booking the line at 4 Mbaud with Return Delay Time 0; the wire limit is the \
+                 cycle's bytes at 4 Mbaud. Target: >= 500 Hz and >= 80 % of the wire limit.\n\n",
+            );
+            body.push_str(&table);
+            for line in table.lines() {
+                let cols: Vec<&str> = line.split('|').map(str::trim).collect();
+                let hz = cols.get(4).and_then(|c| c.trim_end_matches(" Hz").parse::<f64>().ok());
+                let pct = cols.get(5).and_then(|c| c.trim_end_matches(" %").parse::<f64>().ok());
+                if let (Some(hz), Some(pct)) = (hz, pct) {
+                    summary.push((
+                        format!("LEAP Hand, {}: cycles (16 goals + 16 present blocks)", cols[1]),
+                        format!("{hz:.0} Hz, {pct:.0} % of the wire limit"),
+                        ">= 500 Hz, >= 80 %".into(),
+                        verdict(hz >= 500.0 && pct >= 80.0),
+                    ));
+                }
+            }
+        }
+        None => body.push_str("\nLEAP Hand rate: not measured in this run.\n"),
+    }
 
     mark_carried(&runs, "codec", &mut summary[rows..], &mut body, at);
     // 6. Recording
-    // 5b. Inspire RH56: two hands on one RS-485 line
+    // 5c. Inspire RH56: two hands on one RS-485 line
     let (rows, at) = (summary.len(), body.len());
-    body.push_str("\n## 5b. Inspire RH56: two hands on one RS-485 line\n\n");
+    body.push_str("\n## 5c. Inspire RH56: two hands on one RS-485 line\n\n");
     match read::<crate::rh56::Result>(results, "rh56.json").filter(|r| !r.runs.is_empty()) {
         Some(r) => {
             let _ = writeln!(
