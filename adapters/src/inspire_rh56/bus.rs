@@ -419,9 +419,16 @@ impl Worker {
                         link = Some(t);
                         backoff = Duration::from_millis(50);
                         logged_down = false;
-                        // Re-send targets and settings after a reconnect (the hands may have
-                        // been power-cycled with it).
+                        // Settings again after a reconnect (the hands may have been
+                        // power-cycled with it), but never a target set before or during the
+                        // unplug: the devices hold where they measure the hands until the next
+                        // command (tests/tests/bus_replug.rs).
                         self.written.iter_mut().for_each(|w| *w = None);
+                        if round > 0 {
+                            for s in self.slots.iter() {
+                                s.pending.lock().unwrap_or_else(|p| p.into_inner()).angle = None;
+                            }
+                        }
                         if let Some(t) = link.as_mut() {
                             self.settings(t.as_mut());
                         }
