@@ -224,10 +224,13 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     let mut out = run_dds(plan, opts)?;
     let ports = serial_ports(plan);
     if !ports.is_empty() {
-        out.line("");
+        // Before the summary line, which then counts the ports' problems too.
+        let summary = out.text.trim_end().rfind('\n').map_or(0, |i| i + 1);
+        out.text.truncate(summary);
         ports_section(&mut out, &ports, handgate_adapters::serial::holders, |p| {
             handgate_adapters::serial::owner::latency_timer_ms(p)
         });
+        summary_section(&mut out);
     }
     Ok(out)
 }
@@ -270,7 +273,8 @@ fn ports_section(
         let held = holders(port);
         let (ours, others): (Vec<_>, Vec<_>) = held.iter().partition(|h| is_handgate(h));
         for h in &ours {
-            out.line(format!("  {device}: {shown} owned by handgate, {h}"));
+            let how = if h.locked { "owned by" } else { "also open in" };
+            out.line(format!("  {device}: {shown} {how} handgate, {h}"));
         }
         if !others.is_empty() {
             let who: Vec<String> = others.iter().map(|h| h.to_string()).collect();

@@ -123,3 +123,68 @@ fn an_inspire_rh56_recovers_from_an_unplug_without_replaying() {
 fn a_rohand_recovers_from_an_unplug_without_replaying() {
     replug("rohand", "", &["rohand"]);
 }
+
+/// One owner of a port (issue #38 part 6): while a gateway drives a hand on a port, a client
+/// that asks for the port exclusively the way pyserial does (`exclusive=True`, the lock
+/// `flock(2)` takes) is refused, and `handgate doctor` on a profile naming that port says who
+/// owns it (the gateway's pid and command line).
+#[test]
+fn an_owned_port_is_refused_to_a_second_opener_and_the_doctor_names_its_owner() {
+    let _g = serial();
+    let link = std::env::temp_dir().join(format!("handgate-owned-pty-{}", std::process::id()));
+    let link_s = link.to_str().unwrap().to_string();
+    let _emu = Emulation::start(&["rohand", "--pty", link_s.as_str()]);
+    let p = temp_profile(
+        "owned",
+        "owned",
+        &format!(
+            "name = \"owned\"\n\
+             [[devices]]\nname = \"hand\"\nkind = \"rohand\"\nside = \"right\"\nbackend = \"serial\"\n\
+             [devices.rohand]\nport = \"{link_s}\"\n\
+             [[fronts]]\nkind = \"canonical\"\ndevice = \"hand\"\n"
+        ),
+    );
+    let gw = Gateway::start(DOMAIN, &["--profile", p.to_str().unwrap()]);
+    let n = node(DOMAIN);
+    let mut s: Latest<hg::HandState_> = Latest::new(&n, "rt/handgate/hand/state", Qos::BestEffort);
+    poll(DEADLINE, || s.update().filter(|s| s.freshness == hg::FRESH).map(|_| ()))
+        .unwrap_or_else(|| panic!("the gateway drives the hand\n{}", gw.transcript()));
+
+    // pyserial, as LEAP_Hand_API's and the Robotiq tools' ports are opened, asking for the
+    // port exclusively.
+    let out = std::process::Command::new(handgate_tests::venv_python())
+        .args([
+            "-c",
+            "import sys, serial\n\
+             try:\n    serial.Serial(sys.argv[1], 115200, exclusive=True)\n    print('OPENED')\n\
+             except serial.SerialException as e:\n    print('REFUSED', e)\n",
+            &link_s,
+        ])
+        .output()
+        .expect("python runs");
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(said.starts_with("REFUSED"), "pyserial: {said}");
+
+    // The doctor names the owner.
+    let out = handgate_tests::handgate_cmd(None)
+        .args([
+            "doctor",
+            "--profile",
+            p.to_str().unwrap(),
+            "--domain",
+            &DOMAIN.to_string(),
+            "--seconds",
+            "1",
+            "--no-scan",
+            "--no-sweep",
+        ])
+        .output()
+        .expect("handgate doctor runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(&format!("{link_s} owned by handgate, pid {} (", gw.id())),
+        "{text}"
+    );
+    let last = text.trim_end().lines().last().unwrap_or("");
+    assert!(last.starts_with("doctor: "), "the summary comes last: {text}");
+}
