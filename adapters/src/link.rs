@@ -88,6 +88,86 @@ pub fn stamp(st: &mut HandState, cmd: &CommandState, safe: bool, wall: bool) {
     cmd.observe_motion(st);
 }
 
+/// A device whose loop runs on a thread of its own kind (a bus shared by several devices, a
+/// serial link): it keeps the command in force in a [`CommandState`], publishes its state on a
+/// watch channel with [`crate::device::StateTaps`], and hands each command to its loop in
+/// [`BusDevice::apply`]. The one [`crate::device::HandDevice`] implementation for them all
+/// (EZGripper, Robotiq, LEAP Hand, Inspire RH56, the kit's register-mapped hands).
+pub trait BusDevice: Send + Sync {
+    fn info(&self) -> &crate::device::DeviceInfo;
+    /// The command in force.
+    fn commands(&self) -> &CommandState;
+    fn state_rx(&self) -> &tokio::sync::watch::Receiver<HandState>;
+    fn taps(&self) -> &crate::device::StateTaps;
+    /// Hands the command in force to the device's loop; a loop that reads the command state
+    /// each cycle needs nothing (the default).
+    fn apply(&self) -> Result<(), crate::device::DeviceError> {
+        Ok(())
+    }
+    /// The link's counters on top of the command state's: (reconnects, CRC / checksum errors).
+    fn link_counters(&self) -> (u64, u64) {
+        (0, 0)
+    }
+    /// [`crate::device::HandDevice::calibration`].
+    fn calibration(&self) -> Option<&dyn crate::device::Calibrate> {
+        None
+    }
+}
+
+#[async_trait::async_trait]
+impl<T: BusDevice> crate::device::HandDevice for T {
+    fn info(&self) -> &crate::device::DeviceInfo {
+        BusDevice::info(self)
+    }
+
+    fn command(&self, cmd: crate::model::HandCommand) -> Result<(), crate::device::DeviceError> {
+        self.commands().submit(cmd)?;
+        self.apply()
+    }
+
+    fn command_checked(
+        &self,
+        seq: u64,
+        body: crate::mapping::CheckedBody,
+        tag: u32,
+    ) -> Result<(), crate::device::DeviceError> {
+        self.commands().submit_checked(seq, body, tag);
+        self.apply()
+    }
+
+    fn state(&self) -> tokio::sync::watch::Receiver<HandState> {
+        self.state_rx().clone()
+    }
+
+    fn state_taps(&self) -> Option<&crate::device::StateTaps> {
+        Some(self.taps())
+    }
+
+    fn commanded(&self) -> Option<Vec<f32>> {
+        self.commands().targets()
+    }
+
+    async fn safe_state(&self, action: SafeAction) -> Result<(), crate::device::DeviceError> {
+        if blind_hold_request(&self.state_rx().borrow(), action) {
+            return Ok(());
+        }
+        self.commands().request_safe(action);
+        self.apply()
+    }
+
+    fn stats(&self) -> crate::device::DeviceStats {
+        let mut s = self.commands().counters.snapshot();
+        let (reconnects, crc) = self.link_counters();
+        s.reconnects = s.reconnects.max(reconnects);
+        s.crc_errors = s.crc_errors.max(crc);
+        s
+    }
+
+    fn calibration(&self) -> Option<&dyn crate::device::Calibrate> {
+        BusDevice::calibration(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use std::sync::Arc;

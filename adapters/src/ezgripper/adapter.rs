@@ -14,10 +14,10 @@ use tokio::sync::watch;
 
 use super::driver::{Calibration, EzGripperBus, GripperState};
 use crate::control::{Active, CommandState, Counters};
-use crate::device::{Calibrate, DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::device::{Calibrate, DeviceError, DeviceInfo};
 use crate::dynamixel::protocol::ServoId;
 use crate::mapping::DeviceTable;
-use crate::model::{faults, Freshness, HandCommand, HandState, JointState, SafeAction};
+use crate::model::{faults, Freshness, HandState, JointState, SafeAction};
 
 /// SAKE's driver reports `tau_est = effort / 10` (docs/sources.md §5); handgate keeps that scale: the
 /// canonical joint torque is `effort_pct / 10` ("N·m-like", positive = squeezing).
@@ -181,48 +181,30 @@ impl Drop for EzGripperDevice {
     }
 }
 
-#[async_trait]
-impl HandDevice for EzGripperDevice {
+impl crate::link::BusDevice for EzGripperDevice {
     fn info(&self) -> &DeviceInfo {
         &self.info
     }
 
-    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
-        self.cmd.submit(cmd)?;
+    fn commands(&self) -> &CommandState {
+        &self.cmd
+    }
+
+    fn state_rx(&self) -> &watch::Receiver<HandState> {
+        &self.state_rx
+    }
+
+    fn taps(&self) -> &crate::device::StateTaps {
+        &self.taps
+    }
+
+    fn apply(&self) -> Result<(), DeviceError> {
         self.apply()
     }
 
-    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
-        self.cmd.submit_checked(seq, body, tag);
-        self.apply()
-    }
-
-    fn state(&self) -> watch::Receiver<HandState> {
-        self.state_rx.clone()
-    }
-
-    fn state_taps(&self) -> Option<&crate::device::StateTaps> {
-        Some(&self.taps)
-    }
-
-    fn commanded(&self) -> Option<Vec<f32>> {
-        self.cmd.targets()
-    }
-
-    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
-            return Ok(());
-        }
-        self.cmd.request_safe(action);
-        self.apply()
-    }
-
-    fn stats(&self) -> DeviceStats {
-        let mut s = self.cmd.counters.snapshot();
+    fn link_counters(&self) -> (u64, u64) {
         let b = self.bus.stats();
-        s.reconnects = s.reconnects.max(b.reconnects);
-        s.crc_errors = b.crc_errors;
-        s
+        (b.reconnects, b.crc_errors)
     }
 
     fn calibration(&self) -> Option<&dyn Calibrate> {

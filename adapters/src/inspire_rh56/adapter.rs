@@ -15,16 +15,15 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use async_trait::async_trait;
 use tokio::sync::watch;
 
 use super::bus::{HandReading, Rh56Bus};
 use super::regs::{self, FINGERS};
 use crate::control::{Active, CommandState, Counters};
-use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::device::{DeviceError, DeviceInfo};
 use crate::inspire_ftp::adapter::{angle_register, CONTACT_FORCE};
 use crate::mapping::DeviceTable;
-use crate::model::{faults, Freshness, HandCommand, HandState, SafeAction};
+use crate::model::{faults, Freshness, HandState, SafeAction};
 
 /// Canonical state of one hand from its reading, into `st` (buffers reused). Sets every field
 /// but the command echo and the wall-clock time (`link::stamp`'s).
@@ -226,47 +225,29 @@ impl Drop for Rh56Device {
     }
 }
 
-#[async_trait]
-impl HandDevice for Rh56Device {
+impl crate::link::BusDevice for Rh56Device {
     fn info(&self) -> &DeviceInfo {
         &self.info
     }
 
-    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
-        self.cmd.submit(cmd)?;
+    fn commands(&self) -> &CommandState {
+        &self.cmd
+    }
+
+    fn state_rx(&self) -> &watch::Receiver<HandState> {
+        &self.state_rx
+    }
+
+    fn taps(&self) -> &crate::device::StateTaps {
+        &self.taps
+    }
+
+    fn apply(&self) -> Result<(), DeviceError> {
         self.apply()
     }
 
-    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
-        self.cmd.submit_checked(seq, body, tag);
-        self.apply()
-    }
-
-    fn state(&self) -> watch::Receiver<HandState> {
-        self.state_rx.clone()
-    }
-
-    fn state_taps(&self) -> Option<&crate::device::StateTaps> {
-        Some(&self.taps)
-    }
-
-    fn commanded(&self) -> Option<Vec<f32>> {
-        self.cmd.targets()
-    }
-
-    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
-            return Ok(());
-        }
-        self.cmd.request_safe(action);
-        self.apply()
-    }
-
-    fn stats(&self) -> DeviceStats {
-        let mut s = self.cmd.counters.snapshot();
+    fn link_counters(&self) -> (u64, u64) {
         let b = self.bus.stats();
-        s.reconnects = s.reconnects.max(b.reconnects);
-        s.crc_errors = b.bad_checksum;
-        s
+        (b.reconnects, b.bad_checksum)
     }
 }

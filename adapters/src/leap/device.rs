@@ -16,20 +16,19 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use async_trait::async_trait;
 use tokio::sync::watch;
 
 use super::control_table::{
     gain_for, parse_present, rad_to_ticks, MOTORS, POSITION_D, POSITION_I, POSITION_P, PRESENT_BLOCK, TORQUE_PER_AMP,
 };
 use crate::control::{Active, CommandState, Counters, CycleClock};
-use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice, StateTaps};
+use crate::device::{DeviceError, DeviceInfo, StateTaps};
 use crate::dynamixel::control_table::{reg, OperatingMode, Reg};
 use crate::dynamixel::protocol::{
     fast_sync_entries, is_fast_reply, wire_time, Decoder, FrameError, Request, StatusRef,
 };
 use crate::mapping::DeviceTable;
-use crate::model::{faults, Freshness, HandCommand, HandState, SafeAction};
+use crate::model::{faults, Freshness, HandState, SafeAction};
 use crate::serial::transport::{Connector, Transport, TransportError};
 
 /// How a LEAP Hand's bus is driven.
@@ -164,48 +163,29 @@ impl Drop for LeapDevice {
     }
 }
 
-#[async_trait]
-impl HandDevice for LeapDevice {
+impl crate::link::BusDevice for LeapDevice {
     fn info(&self) -> &DeviceInfo {
         &self.info
     }
 
-    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
-        self.cmd.submit(cmd)?;
-        Ok(())
+    fn commands(&self) -> &CommandState {
+        &self.cmd
     }
 
-    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
-        self.cmd.submit_checked(seq, body, tag);
-        Ok(())
+    fn state_rx(&self) -> &watch::Receiver<HandState> {
+        &self.state_rx
     }
 
-    fn state(&self) -> watch::Receiver<HandState> {
-        self.state_rx.clone()
+    fn taps(&self) -> &crate::device::StateTaps {
+        &self.taps
     }
 
-    fn state_taps(&self) -> Option<&StateTaps> {
-        Some(&self.taps)
-    }
-
-    fn commanded(&self) -> Option<Vec<f32>> {
-        self.cmd.targets()
-    }
-
-    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
-            return Ok(());
-        }
-        self.cmd.request_safe(action);
-        Ok(())
-    }
-
-    fn stats(&self) -> DeviceStats {
-        let mut s = self.cmd.counters.snapshot();
+    fn link_counters(&self) -> (u64, u64) {
         let c = &self.counters;
-        s.crc_errors = c.crc_errors.load(Ordering::Relaxed);
-        s.reconnects = s.reconnects.max(c.reconnects.load(Ordering::Relaxed));
-        s
+        (
+            c.reconnects.load(Ordering::Relaxed),
+            c.crc_errors.load(Ordering::Relaxed),
+        )
     }
 }
 

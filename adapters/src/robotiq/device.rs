@@ -9,14 +9,13 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use async_trait::async_trait;
 use tokio::sync::watch;
 
 use super::driver::{to_hand_state, Driver, Event};
 use super::regs::{Request, Status};
 use crate::control::{Active, CommandState, Counters, CycleClock};
-use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice, StateTaps};
-use crate::model::{faults, Freshness, HandCommand, HandState, SafeAction};
+use crate::device::{DeviceError, DeviceInfo, StateTaps};
+use crate::model::{faults, Freshness, HandState, SafeAction};
 
 /// Why an exchange with the gripper failed.
 #[derive(Debug, thiserror::Error)]
@@ -251,44 +250,21 @@ fn run(
     }
 }
 
-#[async_trait]
-impl HandDevice for RobotiqDevice {
+impl crate::link::BusDevice for RobotiqDevice {
     fn info(&self) -> &DeviceInfo {
         &self.info
     }
 
-    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
-        self.cmd.submit(cmd)?;
-        Ok(())
+    fn commands(&self) -> &CommandState {
+        &self.cmd
     }
 
-    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
-        self.cmd.submit_checked(seq, body, tag);
-        Ok(())
+    fn state_rx(&self) -> &watch::Receiver<HandState> {
+        &self.state_rx
     }
 
-    fn state(&self) -> watch::Receiver<HandState> {
-        self.state_rx.clone()
-    }
-
-    fn state_taps(&self) -> Option<&StateTaps> {
-        Some(&self.taps)
-    }
-
-    fn commanded(&self) -> Option<Vec<f32>> {
-        self.cmd.targets()
-    }
-
-    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
-            return Ok(());
-        }
-        self.cmd.request_safe(action);
-        Ok(())
-    }
-
-    fn stats(&self) -> DeviceStats {
-        self.cmd.counters.snapshot()
+    fn taps(&self) -> &crate::device::StateTaps {
+        &self.taps
     }
 }
 
@@ -296,6 +272,8 @@ impl HandDevice for RobotiqDevice {
 mod tests {
     use super::*;
     use crate::device::Backend;
+    use crate::device::HandDevice;
+    use crate::model::HandCommand;
     use crate::model::{CommandBody, DeviceKind, Side};
     use crate::motion::Verdict;
     use crate::robotiq::emulator::{Gripper, Tuning};

@@ -9,15 +9,14 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use async_trait::async_trait;
 use tokio::sync::watch;
 
 use super::line::{HandLine, Reading};
 use super::{RegisterHand, MAX_BLOCK};
 use crate::control::{Active, CommandState, Counters};
-use crate::device::{DeviceError, DeviceInfo, DeviceStats, HandDevice};
+use crate::device::{DeviceError, DeviceInfo};
 use crate::mapping::DeviceTable;
-use crate::model::{faults, Freshness, HandCommand, HandState, SafeAction};
+use crate::model::{faults, Freshness, HandState, SafeAction};
 
 /// Canonical state of one hand from its reading, into `st` (buffers reused): the kind's
 /// codec, then link, freshness and closure. Sets every field but the command echo and the
@@ -182,47 +181,29 @@ impl<H: RegisterHand> Drop for ModbusHandDevice<H> {
     }
 }
 
-#[async_trait]
-impl<H: RegisterHand> HandDevice for ModbusHandDevice<H> {
+impl<H: RegisterHand> crate::link::BusDevice for ModbusHandDevice<H> {
     fn info(&self) -> &DeviceInfo {
         &self.info
     }
 
-    fn command(&self, cmd: HandCommand) -> Result<(), DeviceError> {
-        self.cmd.submit(cmd)?;
+    fn commands(&self) -> &CommandState {
+        &self.cmd
+    }
+
+    fn state_rx(&self) -> &watch::Receiver<HandState> {
+        &self.state_rx
+    }
+
+    fn taps(&self) -> &crate::device::StateTaps {
+        &self.taps
+    }
+
+    fn apply(&self) -> Result<(), DeviceError> {
         self.apply()
     }
 
-    fn command_checked(&self, seq: u64, body: crate::mapping::CheckedBody, tag: u32) -> Result<(), DeviceError> {
-        self.cmd.submit_checked(seq, body, tag);
-        self.apply()
-    }
-
-    fn state(&self) -> watch::Receiver<HandState> {
-        self.state_rx.clone()
-    }
-
-    fn state_taps(&self) -> Option<&crate::device::StateTaps> {
-        Some(&self.taps)
-    }
-
-    fn commanded(&self) -> Option<Vec<f32>> {
-        self.cmd.targets()
-    }
-
-    async fn safe_state(&self, action: SafeAction) -> Result<(), DeviceError> {
-        if crate::link::blind_hold_request(&self.state_rx.borrow(), action) {
-            return Ok(());
-        }
-        self.cmd.request_safe(action);
-        self.apply()
-    }
-
-    fn stats(&self) -> DeviceStats {
-        let mut s = self.cmd.counters.snapshot();
+    fn link_counters(&self) -> (u64, u64) {
         let c = &self.line.counters;
-        s.reconnects = s.reconnects.max(c.reconnects.load(Ordering::Relaxed));
-        s.crc_errors = c.bad_crc.load(Ordering::Relaxed);
-        s
+        (c.reconnects.load(Ordering::Relaxed), c.bad_crc.load(Ordering::Relaxed))
     }
 }
