@@ -1133,8 +1133,11 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
                  at {} baud (every reply handed over when its bytes would have crossed the wire), both hands \
                  commanded with targets changing at the rate below (each change one ANGLE_SET write). Per hand \
                  and round: a 9-byte ANGLE_ACT request and its 20-byte reply, the 59-byte slow exchange every \
-                 {} rounds; the wire limit is what the baud leaves for that after the writes \
-                 (docs/inspire-rh56.md, \"Speed\").\n\n\
+                 {} rounds, and a 29-byte ANGLE_SET write a command (at most one a round: once the \
+                 targets change faster than the rounds go, every round writes); the wire limit is the \
+                 rounds the baud allows with those bytes (docs/inspire-rh56.md, \"Speed\"). The wire limit \
+                 stays at or above the issue's 100 Hz a hand while each hand's targets change at up to 78 Hz; \
+                 with both hands' targets changing every round, one line at 115200 baud allows 90 Hz each.\n\n\
                  | commands per hand | hand 1 | hand 2 | wire limit | ratio | timeouts | load (1 min) |\n\
                  |---|---|---|---|---|---|---|",
                 r.baud, r.slow_every

@@ -44,6 +44,19 @@ fn round_bytes(slow_every: u32) -> f64 {
 /// A write exchange: a 20-byte ANGLE_SET request and its 9-byte acknowledgement.
 const WRITE_BYTES: f64 = 29.0;
 
+/// Readings a second per hand the line allows two hands whose targets change `command_hz`
+/// times a second, at `bytes_per_s`: a target is written at most once a round (the line
+/// writes the latest at the hand's turn), so while the rounds outpace the commands each
+/// command costs one write, and once they do not every round carries a write.
+fn wire_limit(bytes_per_s: f64, command_hz: f64, slow_every: u32) -> f64 {
+    let reads_only = (bytes_per_s - 2.0 * command_hz * WRITE_BYTES) / (2.0 * round_bytes(slow_every));
+    if reads_only >= command_hz {
+        reads_only
+    } else {
+        bytes_per_s / (2.0 * (round_bytes(slow_every) + WRITE_BYTES))
+    }
+}
+
 fn one(baud: u32, command_hz: f64, secs: f64) -> (Run, u32) {
     let line = Arc::new(Mutex::new(Line::new(vec![
         Rh56Hand::new(HandSpec::new(1)),
@@ -88,7 +101,7 @@ fn one(baud: u32, command_hz: f64, secs: f64) -> (Run, u32) {
         (b.borrow().round - r0b) as f64 / dt,
     ];
     let bytes_per_s = f64::from(baud) / 10.0;
-    let wire_limit_hz = (bytes_per_s - 2.0 * command_hz * WRITE_BYTES) / (2.0 * round_bytes(slow_every));
+    let wire_limit_hz = wire_limit(bytes_per_s, command_hz, slow_every);
     (
         Run {
             command_hz,
@@ -103,7 +116,7 @@ fn one(baud: u32, command_hz: f64, secs: f64) -> (Run, u32) {
 }
 
 /// Both hands commanded at 50 Hz (the verdict), then at 100 Hz (where the serial protocol's
-/// wire limit itself is under 100 readings a second), `secs` each.
+/// wire limit itself is under 100 readings a second: a write every round), `secs` each.
 pub fn run(secs: f64) -> Result {
     let baud = 115_200;
     let (a, slow_every) = one(baud, 50.0, secs);
@@ -112,5 +125,22 @@ pub fn run(secs: f64) -> Result {
         baud,
         slow_every,
         runs: vec![a, b],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_wire_limit_counts_a_write_a_command_or_a_write_a_round() {
+        let c = 11_520.0; // 115200 baud, 10 bits a byte
+        // 50 Hz of targets: the reads take what the writes leave.
+        let l = wire_limit(c, 50.0, 10);
+        assert!((l - (c - 2.0 * 50.0 * 29.0) / (2.0 * 34.9)).abs() < 1e-6, "{l}");
+        // 100 Hz of targets is more than the rounds allow: a write every round.
+        let l = wire_limit(c, 100.0, 10);
+        assert!((l - c / (2.0 * (34.9 + 29.0))).abs() < 1e-6, "{l}");
+        assert!(l < 100.0);
     }
 }
