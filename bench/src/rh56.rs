@@ -135,7 +135,7 @@ mod tests {
     #[test]
     fn the_wire_limit_counts_a_write_a_command_or_a_write_a_round() {
         let c = 11_520.0; // 115200 baud, 10 bits a byte
-        // 50 Hz of targets: the reads take what the writes leave.
+                          // 50 Hz of targets: the reads take what the writes leave.
         let l = wire_limit(c, 50.0, 10);
         assert!((l - (c - 2.0 * 50.0 * 29.0) / (2.0 * 34.9)).abs() < 1e-6, "{l}");
         // 100 Hz of targets is more than the rounds allow: a write every round.
