@@ -30,6 +30,10 @@ pub enum DdsError {
     BadInterface(String),
     #[error("trace file path {0:?} has characters other than letters, digits, /, ., - and _")]
     BadTracePath(String),
+    #[error("DDS Security file path for {0} is not a valid C string")]
+    BadSecurityPath(&'static str),
+    #[error("could not join domain {domain} with DDS Security: {detail}")]
+    Security { domain: u32, detail: String },
     #[error("could not start a thread: {0}")]
     Thread(String),
     #[error("timed out after {0:?} waiting for {1}")]
@@ -196,7 +200,7 @@ fn finish_qos(q: DdsQos, user_data: &[u8]) -> Result<DdsQos, DdsError> {
 /// `raw` is a live QoS object owned by nobody else. `DdsQos` is a one-field tuple struct
 /// holding exactly this pointer (cyclonedds-rs 0.6.5, pinned `=0.6.5`); `transmute` checks the
 /// sizes agree.
-unsafe fn qos_from_raw(raw: *mut cyclonedds_sys::dds_qos_t) -> DdsQos {
+pub(crate) unsafe fn qos_from_raw(raw: *mut cyclonedds_sys::dds_qos_t) -> DdsQos {
     // SAFETY: see the function's contract.
     unsafe { std::mem::transmute::<*mut cyclonedds_sys::dds_qos_t, DdsQos>(raw) }
 }
@@ -330,13 +334,49 @@ impl Node {
         Self::join(domain_id, domain)
     }
 
+    /// As [`Node::new`], the participant joining with DDS Security when `security` is given
+    /// (its QoS properties: `crate::dds_security`). CycloneDDS's reason for refusing the
+    /// identity (a file it cannot read, an expired certificate, permissions that do not
+    /// grant the domain) is in the error.
+    pub fn with_security(
+        domain_id: u32,
+        interface: Option<&str>,
+        security: Option<&crate::dds_security::Security>,
+    ) -> Result<Self, DdsError> {
+        let Some(sec) = security else {
+            return Self::new(domain_id, interface);
+        };
+        crate::dds_security::install_log_sink();
+        let domain = match interface {
+            Some(iface) => {
+                let cfg = interface_config(iface)?;
+                Some(DdsDomain::create(domain_id, Some(&cfg)).map_err(dds_err("domain create"))?)
+            }
+            None => None,
+        };
+        let qos = sec.participant_qos()?;
+        let mark = crate::dds_security::errors_seen();
+        Self::join_with(domain_id, domain, Some(qos)).map_err(|e| match e {
+            DdsError::Dds { .. } => DdsError::Security {
+                domain: domain_id,
+                detail: crate::dds_security::last_error_since(mark).unwrap_or_else(|| e.to_string()),
+            },
+            other => other,
+        })
+    }
+
     /// A participant on `domain_id`, holding `domain` (an explicitly configured domain) as
     /// long as it lives.
     fn join(domain_id: u32, domain: Option<DdsDomain>) -> Result<Self, DdsError> {
-        let participant = ParticipantBuilder::new()
-            .with_domain(domain_id)
-            .create()
-            .map_err(dds_err("participant create"))?;
+        Self::join_with(domain_id, domain, None)
+    }
+
+    fn join_with(domain_id: u32, domain: Option<DdsDomain>, qos: Option<DdsQos>) -> Result<Self, DdsError> {
+        let mut builder = ParticipantBuilder::new().with_domain(domain_id);
+        if let Some(q) = qos {
+            builder = builder.with_qos(q);
+        }
+        let participant = builder.create().map_err(dds_err("participant create"))?;
         // SAFETY: only reads the integer handle out of the wrapper.
         let guid = entity_guid(unsafe { participant.entity().entity() })?;
         Ok(Self {

@@ -7,6 +7,7 @@ pub mod brainco;
 pub mod control;
 pub mod dds;
 pub mod dds_device;
+pub mod dds_security;
 pub mod device;
 pub mod dex1;
 pub mod dex3;

@@ -270,6 +270,71 @@ pub struct DdsConfig {
     pub namespace: Option<String>,
     /// Announce handgate as ROS node `<namespace>/handgate` on `ros_discovery_info`.
     pub ros_node: bool,
+    /// `[dds.security]`: the devices' participant joins its domain with DDS Security (a
+    /// gateway whose devices are DDS clients of another gateway's secured export side: an
+    /// operator station, docs/security.md). Off: plain DDS, as a robot's own network is.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub security: Option<SecurityConfig>,
+}
+
+/// `[dds.security]` / `[export.security]`: the identity a participant joins a secured domain
+/// with (docs/security.md). Either `enclave`, a directory in the SROS2 keystore layout
+/// (`handgate security issue` or `ros2 security create_enclave` writes one), or each file;
+/// a file given beside `enclave` replaces the enclave's.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SecurityConfig {
+    /// `<keystore>/enclaves/<name>`: `identity_ca.cert.pem`, `cert.pem`, `key.pem`,
+    /// `permissions_ca.cert.pem`, `governance.p7s`, `permissions.p7s`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub enclave: Option<String>,
+    /// The identity CA's certificate (PEM).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub identity_ca: Option<String>,
+    /// This gateway's certificate (PEM), issued by the identity CA.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub certificate: Option<String>,
+    /// Its private key (PEM, unencrypted; readable by handgate only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub private_key: Option<String>,
+    /// The permissions CA's certificate (PEM): it signed the governance and the permissions.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub permissions_ca: Option<String>,
+    /// The domain's governance document, signed (S/MIME, `.p7s`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub governance: Option<String>,
+    /// This identity's permissions document, signed (S/MIME, `.p7s`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub permissions: Option<String>,
+    /// The identity CA's certificate revocation list (PEM; `handgate security revoke`
+    /// writes `<keystore>/public/crl.pem`): a listed identity is refused.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub crl: Option<String>,
+}
+
+impl SecurityConfig {
+    /// The identity's files, each from its own key or else from the enclave; the key of the
+    /// first one missing when neither gives it.
+    pub fn resolve(&self) -> Result<handgate_adapters::dds_security::Security, &'static str> {
+        use handgate_adapters::dds_security::ENCLAVE_FILES;
+        let enclave = self.enclave.as_deref().map(std::path::Path::new);
+        let pick = |own: &Option<String>, i: usize| -> Result<std::path::PathBuf, &'static str> {
+            match (own, enclave) {
+                (Some(p), _) => Ok(p.into()),
+                (None, Some(dir)) => Ok(dir.join(ENCLAVE_FILES[i].1)),
+                (None, None) => Err(ENCLAVE_FILES[i].0),
+            }
+        };
+        Ok(handgate_adapters::dds_security::Security {
+            identity_ca: pick(&self.identity_ca, 0)?,
+            certificate: pick(&self.certificate, 1)?,
+            private_key: pick(&self.private_key, 2)?,
+            permissions_ca: pick(&self.permissions_ca, 3)?,
+            governance: pick(&self.governance, 4)?,
+            permissions: pick(&self.permissions, 5)?,
+            crl: self.crl.as_ref().map(Into::into),
+        })
+    }
 }
 
 impl DdsConfig {
@@ -293,6 +358,7 @@ impl Default for DdsConfig {
             discovery_max_wait_ms: Millis(DEFAULT_DISCOVERY_MAX_WAIT_MS),
             namespace: None,
             ros_node: true,
+            security: None,
         }
     }
 }
@@ -321,6 +387,11 @@ pub struct ExportConfig {
     /// the list is refused and counted; states still flow.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub allow_commands_from: Vec<String>,
+    /// `[export.security]`: the clients' side joins its domain with DDS Security, refusing
+    /// every participant without an identity of the lab's CA whose permissions grant it
+    /// (docs/security.md). The devices' side (`[dds]`) stays plain.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub security: Option<SecurityConfig>,
 }
 
 /// Default `dds.discovery_settle_ms`.
