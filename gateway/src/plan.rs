@@ -99,6 +99,8 @@ pub struct FoxglovePlan {
 pub struct ExportPlan {
     pub domain: u32,
     pub interface: Option<String>,
+    /// `[export.security]`: the identity the clients' side joins with (DDS Security).
+    pub security: Option<handgate_adapters::dds_security::Security>,
 }
 
 impl Plan {
@@ -118,6 +120,8 @@ pub struct Plan {
     pub profile: String,
     pub domain: u32,
     pub interface: Option<String>,
+    /// `[dds.security]`: the identity the devices' side joins with (DDS Security).
+    pub security: Option<handgate_adapters::dds_security::Security>,
     pub status_topic: String,
     pub status_hz: f64,
     /// Start-up: another process already writing a front's state topic refuses the start or

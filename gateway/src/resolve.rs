@@ -243,7 +243,13 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         export: p.export_side().map(|(domain, interface)| crate::plan::ExportPlan {
             domain: domain.0,
             interface,
+            security: p
+                .export
+                .as_ref()
+                .and_then(|e| e.security.as_ref())
+                .and_then(|s| s.resolve().ok()),
         }),
+        security: p.dds.security.as_ref().and_then(|s| s.resolve().ok()),
         status_hz: p.status.rate_hz.0,
         foreign_state_writers: p.dds.foreign_state_writers,
         discovery_settle: p.dds.discovery_settle_ms.as_duration(),

@@ -52,6 +52,33 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
             );
         }
     }
+    let secured = |what: &str, sec: &Option<crate::profile::SecurityConfig>, s: &mut String| {
+        let Some(c) = sec else { return };
+        let line = match c.resolve() {
+            Ok(f) => format!(
+                "{what} security: DDS Security, unauthenticated participants refused; identity {} (CA {}), \
+                 permissions {} (CA {}), governance {}{}",
+                f.certificate.display(),
+                f.identity_ca.display(),
+                f.permissions.display(),
+                f.permissions_ca.display(),
+                f.governance.display(),
+                f.crl
+                    .as_ref()
+                    .map(|c| format!(", revocation list {}", c.display()))
+                    .unwrap_or_default(),
+            ),
+            Err(missing) => format!("{what} security: incomplete ({missing} not given)"),
+        };
+        let _ = writeln!(s, "{line}");
+    };
+    let (devices, clients) = if p.export_side().is_some() {
+        ("dds (devices)", "export")
+    } else {
+        ("dds", "export")
+    };
+    secured(devices, &p.dds.security, &mut s);
+    secured(clients, &p.export.as_ref().and_then(|e| e.security.clone()), &mut s);
     let _ = writeln!(s, "log: {} {}", p.log.format, p.log.level);
     let _ = writeln!(s, "status: {} at {}", p.status_topic(), p.status.rate_hz);
     if let Some(r) = &p.record {

@@ -150,6 +150,18 @@ impl Checker {
                 );
             }
         }
+        if let Some(s) = &e.security {
+            if p.export_side().is_none() {
+                self.err(
+                    key("security"),
+                    "secures the export side, but it has no domain of its own (export.domain): the clients \
+                     and the devices would share one participant; use [dds.security] to secure it, or give \
+                     [export] a domain",
+                );
+            } else {
+                self.security(key("security"), s);
+            }
+        }
         for (i, a) in e.allow_commands_from.iter().enumerate() {
             if let Err(why) = handgate_adapters::front::sources::Net::parse(a) {
                 self.err(key("allow_commands_from").index(i), why);
@@ -223,6 +235,47 @@ impl Checker {
         if let Some(i) = &d.interface {
             if i.trim().is_empty() || i.chars().any(char::is_whitespace) {
                 self.err(k.key("interface"), format!("`{i}` is not an interface name"));
+            }
+        }
+        if let Some(s) = &d.security {
+            self.security(k.key("security"), s);
+        }
+    }
+
+    /// `[dds.security]` / `[export.security]`: every file given (by its key or the enclave)
+    /// and readable. What is inside them (dates, signatures, the grant) is `handgate doctor`'s.
+    fn security(&mut self, k: KeyPath, s: &SecurityConfig) {
+        let files = match s.resolve() {
+            Ok(f) => f,
+            Err(missing) => {
+                self.err(
+                    k.key(missing),
+                    "is not given, and there is no `enclave` to take it from: set `enclave` to an enclave \
+                     directory of the lab's keystore (`handgate security issue`) or give each file",
+                );
+                return;
+            }
+        };
+        if let Some(dir) = &s.enclave {
+            if !std::path::Path::new(dir).is_dir() {
+                self.err(k.key("enclave"), format!("`{dir}` is not a directory"));
+                return;
+            }
+        }
+        for (role, path) in files.files() {
+            // The key the file came from: its own, else the enclave's.
+            let own = match role {
+                "identity_ca" => &s.identity_ca,
+                "certificate" => &s.certificate,
+                "private_key" => &s.private_key,
+                "permissions_ca" => &s.permissions_ca,
+                "governance" => &s.governance,
+                "permissions" => &s.permissions,
+                _ => &s.crl,
+            };
+            let key = if own.is_some() { k.key(role) } else { k.key("enclave") };
+            if let Err(e) = std::fs::File::open(path) {
+                self.err(key, format!("cannot read {} (the {role}): {e}", path.display()));
             }
         }
     }
