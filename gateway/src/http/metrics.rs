@@ -408,14 +408,14 @@ fn security_families(out: &mut String) {
     }
     let mut f = Family::new(
         out,
-        "handgate_dds_security_refused_participants",
+        "handgate_dds_security_refused_participants_total",
         "counter",
         "Remote participants a secured DDS domain refused, by reason (unauthenticated, unknown_ca, revoked, expired, not_yet_valid, handshake, not_allowed).",
     );
     for (domain, r) in &domains {
         for reason in Refusal::ALL {
             f.sample(
-                "handgate_dds_security_refused_participants",
+                "handgate_dds_security_refused_participants_total",
                 &format!("domain=\"{domain}\",reason=\"{}\"", reason.label()),
                 r.participants.get(&reason).copied().unwrap_or(0) as f64,
             );
