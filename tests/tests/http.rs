@@ -392,7 +392,9 @@ fn a_non_loopback_bind_needs_a_token_and_without_one_commands_stay_off() {
         "{text}"
     );
     let gw = Gateway::start(domain, &["--profile", lo.to_str().unwrap()]);
-    let warn = gw.wait_stdout("commands = true but no [http] token_file", WAIT).unwrap();
+    let warn = gw
+        .wait_stdout("commands = true but no [http] token_file", WAIT)
+        .unwrap();
     assert!(warn.contains("WARN"), "{warn}");
     let url = gw.http_url().unwrap();
     let cmd = r#"{"type":"command","device":"jaw","closure":0.9}"#;
@@ -407,10 +409,7 @@ fn a_non_loopback_bind_needs_a_token_and_without_one_commands_stay_off() {
     let sample = frames(&probe, "samples", 1).remove(0);
     assert_eq!(sample["devices"]["jaw"]["cmd"], Value::Null, "{sample}");
     let (_, text) = get(&url, "/metrics");
-    assert!(
-        text.contains("handgate_dashboard_commands_enabled 0"),
-        "{text}"
-    );
+    assert!(text.contains("handgate_dashboard_commands_enabled 0"), "{text}");
     let commands = device_metrics(&text)[&("handgate_device_commands_total".to_string(), "jaw".to_string())];
     assert_eq!(commands, 0.0, "{text}");
 }
@@ -473,8 +472,14 @@ fn with_a_token_every_route_refuses_requests_without_it_and_the_page_works_with_
     for path in routes {
         let r = raw_response(&url, &format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
         assert!(r.starts_with("HTTP/1.1 401 "), "{path}: {r}");
-        assert!(r.contains("\r\nWWW-Authenticate: Bearer realm=\"handgate\"\r\n"), "{path}: {r}");
-        assert!(!r.contains("jaw") && !r.contains("handgate_") && !r.contains(&token), "{path}: {r}");
+        assert!(
+            r.contains("\r\nWWW-Authenticate: Bearer realm=\"handgate\"\r\n"),
+            "{path}: {r}"
+        );
+        assert!(
+            !r.contains("jaw") && !r.contains("handgate_") && !r.contains(&token),
+            "{path}: {r}"
+        );
         refused += 1;
     }
     // HEAD, HTTP/1.0 without Host and other methods too.
@@ -518,7 +523,13 @@ fn with_a_token_every_route_refuses_requests_without_it_and_the_page_works_with_
     let r = raw_response(&url, &upgrade(&addr, Some(&origin)));
     assert!(r.starts_with("HTTP/1.1 401 "), "{r}");
     refused += 1;
-    let bare = page(&url, r#"{"type":"command","device":"jaw","closure":0.9}"#, 0, Some(&origin), None);
+    let bare = page(
+        &url,
+        r#"{"type":"command","device":"jaw","closure":0.9}"#,
+        0,
+        Some(&origin),
+        None,
+    );
     let err = bare.wait_line("hello", WAIT);
     assert!(
         matches!(err, Err(handgate_tests::PyError::Exited { .. })),
@@ -549,7 +560,10 @@ fn with_a_token_every_route_refuses_requests_without_it_and_the_page_works_with_
     let r = raw_response(&url, &format!("GET /?token={token} HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
     assert!(r.starts_with("HTTP/1.1 303 "), "{r}");
     assert!(r.contains("\r\nLocation: /\r\n"), "{r}");
-    let set = format!("\r\nSet-Cookie: {}; Path=/; HttpOnly; SameSite=Strict\r\n", cookie(&token));
+    let set = format!(
+        "\r\nSet-Cookie: {}; Path=/; HttpOnly; SameSite=Strict\r\n",
+        cookie(&token)
+    );
     assert!(r.contains(&set), "{r}");
     let r = raw_response(
         &url,
@@ -559,7 +573,10 @@ fn with_a_token_every_route_refuses_requests_without_it_and_the_page_works_with_
     for path in ["/", "/assets/app.js", "/fleet"] {
         let (code, body) = http_raw(
             &url,
-            &format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nCookie: theme=dark; {}\r\n\r\n", cookie(&token)),
+            &format!(
+                "GET {path} HTTP/1.1\r\nHost: {addr}\r\nCookie: theme=dark; {}\r\n\r\n",
+                cookie(&token)
+            ),
         );
         assert_eq!(code, 200, "{path}: {body}");
     }
@@ -581,7 +598,8 @@ fn with_a_token_every_route_refuses_requests_without_it_and_the_page_works_with_
     // Nothing more refused; logged at most once per 10 s from this address, never the token.
     let (_, text) = get_with(&url, "/metrics", &token);
     assert_eq!(refused_token(&text), refused as f64, "{text}");
-    gw.wait_stdout("http: refused a request without the right token", WAIT).unwrap();
+    gw.wait_stdout("http: refused a request without the right token", WAIT)
+        .unwrap();
     let log = gw.transcript();
     let lines = log.matches("http: refused a request without the right token").count();
     let allowed = 1 + (started.elapsed().as_secs() / 10) as usize;
@@ -707,7 +725,13 @@ fn with_commands_on_a_rebinding_page_is_refused_before_anything_and_nothing_move
     // commands move the jaw, which is what the refused page's would have done.
     let cmd = r#"{"type":"command","device":"jaw","closure":0.8}"#;
     let local = format!("http://localhost:{port}/");
-    let probe = page(&local, cmd, 1000, Some(&format!("http://localhost:{port}")), Some(&token));
+    let probe = page(
+        &local,
+        cmd,
+        1000,
+        Some(&format!("http://localhost:{port}")),
+        Some(&token),
+    );
     assert_eq!(frames(&probe, "hello", 1)[0]["commands"], true);
     let deadline = Instant::now() + WAIT;
     loop {

@@ -468,7 +468,12 @@ impl Server {
         } else {
             Response::text(401, "unauthorized\n")
         };
-        write(stream, r.header("WWW-Authenticate: Bearer realm=\"handgate\"".into()), false).await
+        write(
+            stream,
+            r.header("WWW-Authenticate: Bearer realm=\"handgate\"".into()),
+            false,
+        )
+        .await
     }
 
     fn route(&self, path: &str) -> Response {

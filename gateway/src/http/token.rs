@@ -81,7 +81,9 @@ impl Token {
             });
         }
         if !text.iter().all(|b| token_char(*b)) {
-            return Err(TokenError::BadCharacter { path: path.to_path_buf() });
+            return Err(TokenError::BadCharacter {
+                path: path.to_path_buf(),
+            });
         }
         Ok(Token { digest: digest(text) })
     }
@@ -96,7 +98,9 @@ impl Token {
         };
         let meta = std::fs::metadata(path).map_err(unreadable)?;
         if !meta.is_file() {
-            return Err(TokenError::NotAFile { path: path.to_path_buf() });
+            return Err(TokenError::NotAFile {
+                path: path.to_path_buf(),
+            });
         }
         let mode = meta.permissions().mode() & 0o777;
         if mode & 0o077 != 0 {
@@ -106,7 +110,9 @@ impl Token {
             });
         }
         if meta.len() > MAX_TOKEN_FILE {
-            return Err(TokenError::TooLarge { path: path.to_path_buf() });
+            return Err(TokenError::TooLarge {
+                path: path.to_path_buf(),
+            });
         }
         let bytes = std::fs::read(path).map_err(unreadable)?;
         let end = bytes
@@ -180,7 +186,11 @@ impl Token {
         // Verified, so visible ASCII.
         if let Some(text) = found.and_then(|v| String::from_utf8(v).ok()) {
             // A path of this server only (`//host/...` would send the page elsewhere).
-            let path = if path.starts_with('/') && !path.starts_with("//") { path } else { "/" };
+            let path = if path.starts_with('/') && !path.starts_with("//") {
+                path
+            } else {
+                "/"
+            };
             let clean = if rest.is_empty() {
                 path.to_string()
             } else {
@@ -290,7 +300,10 @@ mod tests {
         assert_eq!(t.check("/metrics", &["Bearer nope"], &[]), Verdict::Refuse);
         let cookie = format!("theme=dark; {COOKIE}={TEXT}; x=1");
         assert_eq!(t.check("/ws", &[], &[&cookie]), Verdict::Pass);
-        assert_eq!(t.check("/ws", &[], &[&format!("other_{COOKIE}={TEXT}")]), Verdict::Refuse);
+        assert_eq!(
+            t.check("/ws", &[], &[&format!("other_{COOKIE}={TEXT}")]),
+            Verdict::Refuse
+        );
         assert_eq!(t.check("/ws", &[], &[&format!("{COOKIE}=x")]), Verdict::Refuse);
         // `+`, `/` and `=` as typed, or percent-encoded as a form sends them.
         let encoded = TEXT.replace('+', "%2B").replace('/', "%2f").replace('=', "%3D");
@@ -341,7 +354,10 @@ mod tests {
         assert!(matches!(e, TokenError::Unreadable { .. }), "{e}");
         assert!(e.to_string().contains("missing"), "{e}");
         let e = Token::load(&write("group", TEXT, 0o640)).unwrap_err();
-        assert!(e.to_string().contains("chmod 600") && e.to_string().contains("640"), "{e}");
+        assert!(
+            e.to_string().contains("chmod 600") && e.to_string().contains("640"),
+            "{e}"
+        );
         assert!(Token::load(&write("other", TEXT, 0o604)).is_err());
         assert!(Token::load(&write("other-w", TEXT, 0o602)).is_err());
         let e = Token::load(&write("empty", "\n", 0o600)).unwrap_err();

@@ -2314,7 +2314,10 @@ fn http_off_loopback_requires_a_token_file_that_is_private_and_long_enough() {
         ));
         let bad = line_for(r, &path);
         assert_eq!(bad.len(), 1, "{mode:o} {text:?}: {bad:?}");
-        assert!(bad[0].contains(why) && bad[0].contains(&f.display().to_string()), "{bad:?}");
+        assert!(
+            bad[0].contains(why) && bad[0].contains(&f.display().to_string()),
+            "{bad:?}"
+        );
     }
     let missing = temp_profile("").with_extension("absent");
     let (path, r) = load_text(&format!("[http]\ntoken_file = \"{}\"\n{DEX3}", missing.display()));

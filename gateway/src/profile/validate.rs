@@ -316,7 +316,10 @@ impl Checker {
                 }
             }
             None => {
-                let open = h.bind.parse::<std::net::IpAddr>().is_ok_and(|ip| !ip.to_canonical().is_loopback());
+                let open = h
+                    .bind
+                    .parse::<std::net::IpAddr>()
+                    .is_ok_and(|ip| !ip.to_canonical().is_loopback());
                 if open {
                     self.err(
                         k.key("token_file"),
