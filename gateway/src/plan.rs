@@ -72,7 +72,12 @@ pub struct RecordPlan {
 #[derive(Debug, Clone, PartialEq)]
 pub struct HttpPlan {
     pub addr: std::net::SocketAddr,
+    /// The page may command devices: `[http] commands = true` and a token configured.
     pub commands: bool,
+    /// `[http] commands = true` without a token: commands stay off (logged at start).
+    pub commands_need_token: bool,
+    /// `[http] token_file`: read at bind time; every request must present its token.
+    pub token_file: Option<std::path::PathBuf>,
     pub sample_hz: f64,
     pub command_watchdog: Duration,
     /// `[http] allowed_hosts`: names and addresses a request's `Host` may name besides the

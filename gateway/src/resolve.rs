@@ -274,7 +274,10 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
                 p.http.bind.parse().unwrap_or(std::net::Ipv4Addr::LOCALHOST.into()),
                 p.http.port,
             ),
-            commands: p.http.commands,
+            // Commands only with a token (docs/dashboard.md, "Security").
+            commands: p.http.commands && p.http.token_file.is_some(),
+            commands_need_token: p.http.commands && p.http.token_file.is_none(),
+            token_file: p.http.token_file.as_ref().map(std::path::PathBuf::from),
             sample_hz: p.http.sample_hz.0,
             command_watchdog: p.http.command_watchdog_ms.as_duration(),
             // Validated: each a host name or an IP address.

@@ -121,9 +121,13 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         &mut out,
         "handgate_http_refused_total",
         "counter",
-        "Requests refused for their Host (not a name of this server, or malformed) or, opening the WebSocket, their Origin.",
+        "Requests refused for their Host (not a name of this server, or malformed), opening the WebSocket their Origin, or without the right token ([http] token_file).",
     );
-    for (reason, n) in [("host", &fleet.refused.host), ("origin", &fleet.refused.origin)] {
+    for (reason, n) in [
+        ("host", &fleet.refused.host),
+        ("origin", &fleet.refused.origin),
+        ("token", &fleet.refused.token),
+    ] {
         f.sample(
             "handgate_http_refused_total",
             &format!("reason=\"{reason}\""),

@@ -92,13 +92,20 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     if p.http.enabled {
         let _ = writeln!(
             s,
-            "http: dashboard, /metrics, /healthz on {}:{}{}{}",
+            "http: dashboard, /metrics, /healthz on {}:{}{}{}{}",
             p.http.bind,
             p.http.port,
-            if p.http.commands {
-                " (the page may command devices)"
-            } else {
-                " (read-only)"
+            match (p.http.commands, &p.http.token_file) {
+                (true, Some(_)) => " (the page may command devices)",
+                (true, None) => {
+                    " (read-only: WARNING commands = true needs [http] token_file; without a token the \
+                     dashboard accepts no command)"
+                }
+                (false, _) => " (read-only)",
+            },
+            match &p.http.token_file {
+                Some(f) => format!(", token required (from {f})"),
+                None => ", no token".to_string(),
             },
             if p.http.allowed_hosts.is_empty() {
                 String::new()

@@ -330,7 +330,8 @@ impl Checker {
     }
 
     /// `[http]`: the bind address, the sampling rate, the page's watchdog, the fleet's
-    /// domains, the allowed hosts.
+    /// domains, the allowed hosts, the token (read here: a missing, short or shared file is
+    /// refused; required off loopback).
     fn http(&mut self, h: &HttpConfig) {
         let k = root().key("http");
         if h.bind.parse::<std::net::IpAddr>().is_err() {
@@ -356,6 +357,33 @@ impl Checker {
                     k.key("allowed_hosts"),
                     format!("{e}: each entry is a host name or an IP address, without scheme or port"),
                 );
+            }
+        }
+        if !h.enabled {
+            return;
+        }
+        match &h.token_file {
+            Some(f) => {
+                if let Err(e) = crate::http::token::Token::load(std::path::Path::new(f)) {
+                    self.err(k.key("token_file"), e.to_string());
+                }
+            }
+            None => {
+                let open = h
+                    .bind
+                    .parse::<std::net::IpAddr>()
+                    .is_ok_and(|ip| !ip.to_canonical().is_loopback());
+                if open {
+                    self.err(
+                        k.key("token_file"),
+                        format!(
+                            "required: [http] bind = \"{}\" is not a loopback address, so the dashboard, its \
+                             WebSocket and /metrics are reachable from the network; name a file holding a token \
+                             (docs/dashboard.md, \"Security\"), or bind 127.0.0.1",
+                            h.bind
+                        ),
+                    );
+                }
             }
         }
     }
