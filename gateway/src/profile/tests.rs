@@ -2538,7 +2538,8 @@ fn export_puts_the_clients_on_a_second_domain_from_file_env_or_flags() {
         plan.export,
         Some(crate::plan::ExportPlan {
             domain: 10,
-            interface: Some("eth1".into())
+            interface: Some("eth1".into()),
+            security: None,
         })
     );
     assert_eq!(
