@@ -395,7 +395,10 @@ mod tests {
             c("Remote secure participant b0436de6:d29086f3:60bb4eca:1c1 not allowed"),
             Some((Refusal::NotAllowed, "b0436de6:d29086f3:60bb4eca:1c1".into()))
         );
-        assert_eq!(c("selected interface \"lo\" is not multicast-capable: disabling multicast"), None);
+        assert_eq!(
+            c("selected interface \"lo\" is not multicast-capable: disabling multicast"),
+            None
+        );
         assert_eq!(c("handshake_debug ok"), None);
     }
 

@@ -612,7 +612,10 @@ impl Keystore {
         let index = read_index(&self.private().join("index.txt"))?;
         let Some(subject) = index.iter().find(|e| e.serial == serial).map(|e| e.subject.clone()) else {
             return Err(SecurityError::Openssl {
-                what: format!("find {}'s certificate (serial {serial}) in private/index.txt", name.name),
+                what: format!(
+                    "find {}'s certificate (serial {serial}) in private/index.txt",
+                    name.name
+                ),
                 detail: "not issued by this keystore's CA".into(),
             });
         };
@@ -735,7 +738,12 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), SecurityError> {
     let entries = match fs::read_dir(dir) {
         Ok(e) => e,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
-        Err(e) => return Err(SecurityError::Io { path: dir.into(), source: e }),
+        Err(e) => {
+            return Err(SecurityError::Io {
+                path: dir.into(),
+                source: e,
+            })
+        }
     };
     for e in entries {
         let e = e.map_err(SecurityError::io(dir))?;
@@ -760,7 +768,10 @@ mod tests {
         assert_eq!((n.name.as_str(), n.dir.as_path()), ("/robot_a", Path::new("robot_a")));
         assert_eq!(EnclaveName::parse("/robot_a").unwrap(), n);
         let o = EnclaveName::parse("ops/alice").unwrap();
-        assert_eq!((o.name.as_str(), o.dir.as_path()), ("/ops/alice", Path::new("ops/alice")));
+        assert_eq!(
+            (o.name.as_str(), o.dir.as_path()),
+            ("/ops/alice", Path::new("ops/alice"))
+        );
         assert_eq!(o.subj(), "/CN=\\/ops\\/alice");
         for bad in ["", "/", "a//b", "a/", "../x", "a/.", "1robot", "a b", "a-b"] {
             assert!(EnclaveName::parse(bad).is_err(), "{bad}");
@@ -769,11 +780,23 @@ mod tests {
 
     #[test]
     fn domains_per_role() {
-        assert_eq!(domains_for(Role::Gateway, &[12, 11, 12]).unwrap(), Domains::Ids(vec![11, 12]));
-        assert!(matches!(domains_for(Role::Operator, &[]), Err(SecurityError::NoRobot("operator"))));
-        assert!(matches!(domains_for(Role::Gateway, &[]), Err(SecurityError::NoRobot("gateway"))));
+        assert_eq!(
+            domains_for(Role::Gateway, &[12, 11, 12]).unwrap(),
+            Domains::Ids(vec![11, 12])
+        );
+        assert!(matches!(
+            domains_for(Role::Operator, &[]),
+            Err(SecurityError::NoRobot("operator"))
+        ));
+        assert!(matches!(
+            domains_for(Role::Gateway, &[]),
+            Err(SecurityError::NoRobot("gateway"))
+        ));
         assert_eq!(domains_for(Role::Observer, &[]).unwrap(), Domains::All);
-        assert!(matches!(domains_for(Role::Observer, &[231]), Err(SecurityError::BadDomain(231))));
+        assert!(matches!(
+            domains_for(Role::Observer, &[231]),
+            Err(SecurityError::BadDomain(231))
+        ));
     }
 
     #[test]
@@ -790,6 +813,11 @@ mod tests {
     fn validity_spans() {
         assert_eq!(Validity::Days(2).span(100).unwrap(), (100, 100 + 2 * 86_400));
         assert!(matches!(Validity::Days(0).span(100), Err(SecurityError::BadDays)));
-        assert!(Validity::Span { not_before: 5, not_after: 5 }.span(0).is_err());
+        assert!(Validity::Span {
+            not_before: 5,
+            not_after: 5
+        }
+        .span(0)
+        .is_err());
     }
 }
