@@ -116,6 +116,11 @@ pub enum Command {
     Replay(ReplayCmd),
     /// Export a recording's hand streams.
     Export(ExportCmd),
+    /// The lab's DDS Security keystore (docs/security-keystore.md): a lab CA, an identity per
+    /// gateway and operator with permissions per robot, revocation, renewal; in the SROS2
+    /// keystore layout, made with the `openssl` command line.
+    #[command(subcommand)]
+    Security(SecurityCmd),
 }
 
 /// The profile of `run` and `check`, given either way: `handgate check PROFILE` or
@@ -509,4 +514,107 @@ impl From<OverrideArgs> for CliOverrides {
 /// The directories `--profile NAME` searches (see `profile::default_search_dirs`).
 pub fn profile_dirs() -> Vec<PathBuf> {
     crate::profile::default_search_dirs()
+}
+
+/// `handgate security`.
+#[derive(Debug, Clone, Subcommand)]
+pub enum SecurityCmd {
+    /// Create a keystore: the lab CA (ECDSA P-256, SHA-256; one CA as identity and permissions
+    /// CA, as SROS2), the governance of every domain signed by it, an empty revocation list.
+    /// Refuses a directory that holds a keystore already.
+    Init {
+        #[command(flatten)]
+        keystore: KeystoreArg,
+        /// The CA's common name.
+        #[arg(long, default_value = crate::security::keystore::DEFAULT_CA_NAME)]
+        name: String,
+        /// How long the CA is valid, days (every identity and the revocation list end with it).
+        #[arg(long, default_value_t = crate::security::keystore::DEFAULT_CA_DAYS)]
+        days: u32,
+    },
+    /// Issue an identity (an SROS2 enclave, enclaves/NAME/): a key, a certificate of subject
+    /// `CN=/NAME` and permissions for its role on its robots' DDS domains. Roles: gateway
+    /// (publishes and subscribes every topic: it serves the robot's clients); operator
+    /// (publishes the fronts' command topics and the ROS 2 bookkeeping topics, subscribes
+    /// everything); observer (subscribes everything, publishes only the ROS 2 bookkeeping;
+    /// without --robot: every domain).
+    Issue {
+        #[command(flatten)]
+        keystore: KeystoreArg,
+        /// The enclave: `robot_a`, `/robot_a`, `ops/alice` (SROS2 enclave path).
+        name: String,
+        /// What the identity may do.
+        #[arg(long, value_enum)]
+        role: RoleArg,
+        /// A robot's DDS domain the identity may join; repeatable (a gateway and an operator
+        /// need one at least).
+        #[arg(long = "robot", value_name = "DOMAIN")]
+        robots: Vec<u32>,
+        /// How long the certificate and permissions are valid, days from now.
+        #[arg(long, default_value_t = crate::security::keystore::DEFAULT_DAYS, conflicts_with_all = ["not_before", "not_after"])]
+        days: u32,
+        /// Start of validity, RFC 3339 (with --not-after; to make expired or not-yet-valid
+        /// identities for tests).
+        #[arg(long, requires = "not_after")]
+        not_before: Option<String>,
+        /// End of validity, RFC 3339 (with --not-before).
+        #[arg(long, requires = "not_before")]
+        not_after: Option<String>,
+        /// A subject alternative name, `DNS:NAME` or `IP:ADDRESS` (for TLS uses of the
+        /// identity); repeatable.
+        #[arg(long = "san", value_name = "DNS:x|IP:y")]
+        sans: Vec<String>,
+    },
+    /// Revoke an identity: every certificate issued to it (renewed ones too) goes on the
+    /// identity CA's revocation list, rewritten to public/crl.pem. Participants refuse it once
+    /// they are given the new list (`crl` in the profile's security section). Idempotent.
+    Revoke {
+        #[command(flatten)]
+        keystore: KeystoreArg,
+        /// The enclave.
+        name: String,
+    },
+    /// Renew an identity: a new key and certificate (new serial and validity, the same
+    /// subject, role and robots) and its permissions re-signed. The old certificate keeps
+    /// working until it expires unless revoked.
+    Renew {
+        #[command(flatten)]
+        keystore: KeystoreArg,
+        /// The enclave.
+        name: String,
+        /// How long the new certificate and permissions are valid, days from now.
+        #[arg(long, default_value_t = crate::security::keystore::DEFAULT_DAYS)]
+        days: u32,
+    },
+    /// List the keystore's enclaves: subject, role, robots, validity, revoked or not.
+    List {
+        #[command(flatten)]
+        keystore: KeystoreArg,
+    },
+}
+
+/// The keystore directory of `handgate security`.
+#[derive(Debug, Clone, Args)]
+pub struct KeystoreArg {
+    /// The keystore directory (SROS2 layout: public/, private/, enclaves/).
+    #[arg(long, value_name = "DIR")]
+    pub keystore: PathBuf,
+}
+
+/// `--role`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RoleArg {
+    Gateway,
+    Operator,
+    Observer,
+}
+
+impl From<RoleArg> for crate::security::xml::Role {
+    fn from(r: RoleArg) -> Self {
+        match r {
+            RoleArg::Gateway => Self::Gateway,
+            RoleArg::Operator => Self::Operator,
+            RoleArg::Observer => Self::Observer,
+        }
+    }
 }

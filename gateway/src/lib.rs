@@ -13,6 +13,7 @@ pub mod profile;
 pub mod recording;
 pub mod resolve;
 pub mod runtime;
+pub mod security;
 pub mod systemd;
 pub mod ticker;
 pub mod tools;

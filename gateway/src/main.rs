@@ -44,5 +44,6 @@ fn main() -> anyhow::Result<ExitCode> {
         Command::Record(cmd) => commands::recording::record(cmd),
         Command::Replay(cmd) => commands::recording::replay(cmd),
         Command::Export(cmd) => commands::recording::export(cmd),
+        Command::Security(cmd) => commands::security::security(cmd),
     }
 }

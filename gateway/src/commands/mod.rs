@@ -9,6 +9,7 @@ pub mod doctor;
 pub mod emulate;
 pub mod recording;
 pub mod run;
+pub mod security;
 pub mod send;
 pub mod status;
 
