@@ -9,10 +9,10 @@ mod device_loop;
 mod fleet;
 mod fleet_ref;
 mod hop;
-mod secure;
 mod record;
 mod report;
 mod rh56;
+mod secure;
 mod shim;
 mod startup;
 mod stats;
@@ -560,7 +560,16 @@ fn main() -> anyhow::Result<()> {
             rounds,
             out,
         } => {
-            let r = secure::run(&handgate, &repo, domain, devices_domain, &rates, samples, warmup, rounds)?;
+            let r = secure::run(
+                &handgate,
+                &repo,
+                domain,
+                devices_domain,
+                &rates,
+                samples,
+                warmup,
+                rounds,
+            )?;
             save(&out, &r)?;
         }
         Cmd::Echo {

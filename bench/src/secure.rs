@@ -31,7 +31,16 @@ fn keystore(handgate: &Path, dir: &Path, domain: u32) -> anyhow::Result<PathBuf>
     let d = domain.to_string();
     run(&["init", "--keystore", &k])?;
     run(&["issue", "--keystore", &k, "robot", "--role", "gateway", "--robot", &d])?;
-    run(&["issue", "--keystore", &k, "operator", "--role", "operator", "--robot", &d])?;
+    run(&[
+        "issue",
+        "--keystore",
+        &k,
+        "operator",
+        "--role",
+        "operator",
+        "--robot",
+        &d,
+    ])?;
     Ok(ks)
 }
 

@@ -53,8 +53,7 @@ fn metrics(h: &Hosts, gw: &Gateway) -> Value {
     let url = gw.http_url().unwrap();
     let probe = PyProcess::spawn_in(Some(&h.ns[PC]), "http_probe.py", &["metrics".into(), url]).unwrap();
     let line = probe.wait_line("{", Duration::from_secs(30)).unwrap();
-    serde_json::from_str(&format!("{{{line}"))
-        .unwrap_or_else(|e| panic!("{e}: {line}"))
+    serde_json::from_str(&format!("{{{line}")).unwrap_or_else(|e| panic!("{e}: {line}"))
 }
 
 /// The sample of `family` whose labels contain every one of `labels` (0 when absent).
@@ -151,9 +150,13 @@ fn text(o: &Output) -> String {
 fn assert_refused(h: &Hosts, gw: &Gateway, what: &str, out: &Output, reason: Option<&str>, before: &Value) {
     assert!(!out.status.success(), "{what}: the client succeeded:\n{}", text(out));
     let after = match reason {
-        Some(r) => wait_metrics(h, gw, Duration::from_secs(20), &format!("{what}: counted as {r}"), |m| {
-            refused(m, r) > refused(before, r)
-        }),
+        Some(r) => wait_metrics(
+            h,
+            gw,
+            Duration::from_secs(20),
+            &format!("{what}: counted as {r}; client:\n{}", text(out)),
+            |m| refused(m, r) > refused(before, r),
+        ),
         None => metrics(h, gw),
     };
     assert_eq!(
@@ -164,11 +167,10 @@ fn assert_refused(h: &Hosts, gw: &Gateway, what: &str, out: &Output, reason: Opt
     );
     eprintln!(
         "{what}: refused ({}), robot A's left hand accepted no command ({} before and after)",
-        reason.map_or_else(|| "by the client's own access control".to_string(), |r| format!(
-            "counted as {r}: {} -> {}",
-            refused(before, r),
-            refused(&after, r)
-        )),
+        reason.map_or_else(
+            || "by the client's own access control".to_string(),
+            |r| format!("counted as {r}: {} -> {}", refused(before, r), refused(&after, r))
+        ),
         commands(before)
     );
 }
@@ -201,14 +203,10 @@ fn only_the_labs_identities_command_a_hand() {
     ] {
         security(&["issue", "--keystore", k, name, "--role", role, "--robot", &lab]);
     }
-    let day = |d: i64| {
-        let t = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap()
-            .as_secs() as i64
-            + d * 86_400;
-        rfc3339(t)
-    };
+    // An identity that expired: valid from an hour before the CA to 10 s after it; by the
+    // time its client runs (after everything above and below), it has expired. Its client's
+    // clock is then set (libfaketime) to 3 s after the CA's start, when both were valid.
+    let ca_start = not_before(&ks.join("public/ca.cert.pem"));
     security(&[
         "issue",
         "--keystore",
@@ -219,9 +217,9 @@ fn only_the_labs_identities_command_a_hand() {
         "--robot",
         &lab,
         "--not-before",
-        &day(-10),
+        &rfc3339(ca_start - 3600),
         "--not-after",
-        &day(-5),
+        &rfc3339(ca_start + 10),
     ]);
     security(&["revoke", "--keystore", k, "revoked"]);
     security(&["init", "--keystore", other.to_str().unwrap(), "--name", "intruder CA"]);
@@ -323,22 +321,46 @@ fn only_the_labs_identities_command_a_hand() {
     .unwrap();
     let result = client
         .wait_line("RESULT ", Duration::from_secs(90))
-        .unwrap_or_else(|e| panic!("{e}\nclient:\n{}\nstation:\n{}\nrobot:\n{}", client.transcript(), station.transcript(), robot.transcript()));
+        .unwrap_or_else(|e| {
+            panic!(
+                "{e}\nclient:\n{}\nstation:\n{}\nrobot:\n{}",
+                client.transcript(),
+                station.transcript(),
+                robot.transcript()
+            )
+        });
     let result: Value = serde_json::from_str(result.trim_start_matches("RESULT ")).unwrap();
     assert_eq!(
-        result["converged"], true,
+        result["converged"],
+        true,
         "the station's SDK client did not drive robot A's hands: {result}\nstation:\n{}",
         station.transcript()
     );
     let m = metrics(&h, &robot);
-    assert!(commands(&m) > commands(&before), "robot A took none of the station's commands");
+    assert!(
+        commands(&m) > commands(&before),
+        "robot A took none of the station's commands"
+    );
     let total_refused = |m: &Value| {
-        ["unauthenticated", "unknown_ca", "revoked", "expired", "not_yet_valid", "handshake", "not_allowed"]
-            .iter()
-            .map(|r| refused(m, r))
-            .sum::<f64>()
+        [
+            "unauthenticated",
+            "unknown_ca",
+            "revoked",
+            "expired",
+            "not_yet_valid",
+            "handshake",
+            "not_allowed",
+        ]
+        .iter()
+        .map(|r| refused(m, r))
+        .sum::<f64>()
     };
-    assert_eq!(total_refused(&m), 0.0, "the permitted station was refused: {}", m["samples"]);
+    assert_eq!(
+        total_refused(&m),
+        0.0,
+        "the permitted station was refused: {}",
+        m["samples"]
+    );
     eprintln!(
         "permitted: the station's SDK client converged in {} s through the secured domain; robot A's left hand took {} commands",
         result["seconds"],
@@ -350,43 +372,80 @@ fn only_the_labs_identities_command_a_hand() {
     // handgate send as the station's identity, from the stray machine: accepted.
     let base = metrics(&h, &robot);
     let ok = send_from_stray(&h, &lab_x.a_if, Some(&enclave(&ks, "station")), &[]);
-    assert!(ok.status.success(), "the station's identity was refused:\n{}", text(&ok));
+    assert!(
+        ok.status.success(),
+        "the station's identity was refused:\n{}",
+        text(&ok)
+    );
     let m = metrics(&h, &robot);
     assert!(commands(&m) > commands(&base), "robot A took none of `send`'s commands");
 
-    // 1. A participant without security: the official SDK's client, unmodified, streaming.
+    // 1. A participant without security: the official SDK's ChannelPublisher writing the
+    // left hand's command topic every 10 ms.
     let base = metrics(&h, &robot);
+    let fixture = root.join("tests/fixtures/golden/unitree_hg__HandCmd___typical.json");
     let plain = PyProcess::spawn_in(
         Some(&h.ns[STRAY]),
-        "stream_client.py",
+        "interop_pub.py",
         &[
             "--domain",
             &lab,
-            "--side",
-            "left",
-            "--target",
-            "-0.6",
+            "--topic",
+            "rt/dex3/left/cmd",
+            "--type",
+            "unitree_hg/HandCmd_",
+            "--fixture",
+            fixture.to_str().unwrap(),
             "--interface",
             &lab_x.a_if,
-            "--seconds",
-            "4",
+            "--timeout",
+            "30",
         ]
         .map(String::from),
     )
     .unwrap();
-    plain.wait_line("STREAMING", Duration::from_secs(30)).unwrap();
-    let m = wait_metrics(&h, &robot, Duration::from_secs(20), "an SDK client without security counted", |m| {
-        refused(m, "unauthenticated") > refused(&base, "unauthenticated")
-    });
+    plain.wait_line("READY", Duration::from_secs(30)).unwrap();
+    let m = wait_metrics(
+        &h,
+        &robot,
+        Duration::from_secs(20),
+        "an SDK writer without security counted",
+        |m| refused(m, "unauthenticated") > refused(&base, "unauthenticated"),
+    );
+    assert_eq!(
+        commands(&m),
+        commands(&base),
+        "robot A's left hand took the SDK writer's commands:\n{}",
+        plain.transcript()
+    );
+    eprintln!(
+        "an SDK writer without security: refused, counted as unauthenticated ({} -> {}), no command taken",
+        refused(&base, "unauthenticated"),
+        refused(&m, "unauthenticated")
+    );
     drop(plain);
     // And a plain `handgate send`.
     let out = send_from_stray(&h, &lab_x.a_if, None, &[]);
-    assert_refused(&h, &robot, "a participant without security", &out, Some("unauthenticated"), &m);
+    assert_refused(
+        &h,
+        &robot,
+        "a participant without security",
+        &out,
+        Some("unauthenticated"),
+        &m,
+    );
 
     // 2. An identity from another CA.
     let base = metrics(&h, &robot);
     let out = send_from_stray(&h, &lab_x.a_if, Some(&enclave(&other, "intruder")), &[]);
-    assert_refused(&h, &robot, "an identity from another CA", &out, Some("unknown_ca"), &base);
+    assert_refused(
+        &h,
+        &robot,
+        "an identity from another CA",
+        &out,
+        Some("unknown_ca"),
+        &base,
+    );
 
     // 3. A read-only identity writing a command topic.
     let base = metrics(&h, &robot);
@@ -396,7 +455,14 @@ fn only_the_labs_identities_command_a_hand() {
         "the observer's writer was not refused by security:\n{}",
         text(&out)
     );
-    assert_refused(&h, &robot, "a read-only identity writing a command topic", &out, None, &base);
+    assert_refused(
+        &h,
+        &robot,
+        "a read-only identity writing a command topic",
+        &out,
+        None,
+        &base,
+    );
 
     // 4. A revoked identity: the robot's CRL lists it.
     let base = metrics(&h, &robot);
@@ -408,15 +474,52 @@ fn only_the_labs_identities_command_a_hand() {
     let out = send_from_stray(&h, &lab_x.a_if, Some(&enclave(&ks, "expired")), &[]);
     assert!(!out.status.success(), "an expired identity joined:\n{}", text(&out));
     let base = metrics(&h, &robot);
+    let now = || {
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_secs() as i64
+    };
+    assert!(
+        now() > ca_start + 10,
+        "the test ran in under 10 s: the expired identity is still valid"
+    );
+    let fake = format!("@{}", rfc3339(ca_start + 3).replace('T', " ").trim_end_matches('Z'));
     let out = send_from_stray(
         &h,
         &lab_x.a_if,
         Some(&enclave(&ks, "expired")),
-        &["env", "FAKETIME_DONT_FAKE_MONOTONIC=1", "faketime", "-f", "-7d"],
+        &[
+            "env",
+            "TZ=UTC",
+            "FAKETIME_DONT_FAKE_MONOTONIC=1",
+            "faketime",
+            "-f",
+            &fake,
+        ],
     );
     assert_refused(&h, &robot, "an expired certificate", &out, Some("expired"), &base);
 
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A certificate's notBefore, seconds since the epoch (`openssl x509`, `date -d`).
+fn not_before(cert: &Path) -> i64 {
+    let out = std::process::Command::new("openssl")
+        .args(["x509", "-noout", "-startdate", "-in"])
+        .arg(cert)
+        .output()
+        .unwrap();
+    let line = String::from_utf8_lossy(&out.stdout);
+    let when = line.trim().trim_start_matches("notBefore=");
+    let out = std::process::Command::new("date")
+        .args(["-u", "-d", when, "+%s"])
+        .output()
+        .unwrap();
+    String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .parse()
+        .unwrap_or_else(|e| panic!("{e}: notBefore {when:?}"))
 }
 
 /// `t` (seconds since the epoch, UTC) as RFC 3339 (`2026-11-19T12:00:00Z`).
