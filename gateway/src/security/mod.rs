@@ -3,6 +3,7 @@
 //! renewal) in the SROS2 keystore layout, made with the `openssl` command line; and the
 //! doctor's reading of one identity's files ([`diagnose`]).
 
+pub mod diagnose;
 pub mod keystore;
 pub mod openssl;
 pub mod time;
