@@ -295,7 +295,10 @@ fn security_section(
                 out.problem(
                     "  ",
                     format!("{}: no `{key}` and no `enclave` to take it from", t.section),
-                    format!("set `enclave = \"<keystore>/enclaves/<name>\"` (or `{key}`) in {}", t.section),
+                    format!(
+                        "set `enclave = \"<keystore>/enclaves/<name>\"` (or `{key}`) in {}",
+                        t.section
+                    ),
                 );
                 continue;
             }
@@ -303,11 +306,7 @@ fn security_section(
         let findings = diagnose(sec, t.domain);
         for f in &findings {
             match f.severity() {
-                Severity::Problem => out.problem(
-                    "  ",
-                    format!("{}: {f}", t.section),
-                    f.fix().unwrap_or_default(),
-                ),
+                Severity::Problem => out.problem("  ", format!("{}: {f}", t.section), f.fix().unwrap_or_default()),
                 Severity::Warning => {
                     out.line(format!("  WARNING {}: {f}", t.section));
                     if let Some(fix) = f.fix() {
@@ -1933,7 +1932,10 @@ mod tests {
         ];
         let mut out = Outcome::default();
         security_section(&mut out, &targets, |s, d| {
-            assert_eq!((s.certificate.as_path(), d), (std::path::Path::new("/k/enclaves/robot_a/cert.pem"), 11));
+            assert_eq!(
+                (s.certificate.as_path(), d),
+                (std::path::Path::new("/k/enclaves/robot_a/cert.pem"), 11)
+            );
             vec![
                 Finding::KeyMismatch,
                 Finding::KeyReadable {
@@ -1944,10 +1946,29 @@ mod tests {
             ]
         });
         assert_eq!(out.problems.len(), 2, "{}", out.text);
-        assert!(out.text.starts_with("DDS Security [export.security] on domain 11:\n"), "{}", out.text);
-        assert!(out.text.contains("  PROBLEM [export.security]: the private key does not match the certificate"), "{}", out.text);
+        assert!(
+            out.text.starts_with("DDS Security [export.security] on domain 11:\n"),
+            "{}",
+            out.text
+        );
+        assert!(
+            out.text
+                .contains("  PROBLEM [export.security]: the private key does not match the certificate"),
+            "{}",
+            out.text
+        );
         assert!(out.text.contains("  WARNING [export.security]: private_key: /k/key.pem is readable by its group (mode 640)\n    fix: chmod 600 /k/key.pem"), "{}", out.text);
-        assert!(out.text.contains("  OK the certificate was issued by the identity CA CN=lab"), "{}", out.text);
-        assert!(out.text.contains("PROBLEM [dds.security]: no `certificate` and no `enclave` to take it from"), "{}", out.text);
+        assert!(
+            out.text
+                .contains("  OK the certificate was issued by the identity CA CN=lab"),
+            "{}",
+            out.text
+        );
+        assert!(
+            out.text
+                .contains("PROBLEM [dds.security]: no `certificate` and no `enclave` to take it from"),
+            "{}",
+            out.text
+        );
     }
 }

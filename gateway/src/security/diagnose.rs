@@ -30,15 +30,27 @@ pub enum Severity {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Finding {
     /// A file is missing or cannot be read.
-    Unreadable { key: &'static str, path: PathBuf, error: String },
+    Unreadable {
+        key: &'static str,
+        path: PathBuf,
+        error: String,
+    },
     /// A file is there but is not what its key says (not a certificate, not a key, not a CRL).
-    Malformed { key: &'static str, path: PathBuf, error: String },
+    Malformed {
+        key: &'static str,
+        path: PathBuf,
+        error: String,
+    },
     /// The certificate's validity has ended.
     CertificateExpired { not_before: Unix, not_after: Unix },
     /// The certificate's validity has not begun.
     CertificateNotYetValid { not_before: Unix, not_after: Unix },
     /// A CA certificate's validity has ended (or not begun).
-    CaNotValid { key: &'static str, not_before: Unix, not_after: Unix },
+    CaNotValid {
+        key: &'static str,
+        not_before: Unix,
+        not_after: Unix,
+    },
     /// The private key is not the certificate's.
     KeyMismatch,
     /// The certificate was not issued by the identity CA.
@@ -57,9 +69,17 @@ pub enum Finding {
     /// No grant of the permissions has the certificate's subject.
     SubjectNotGranted { subject: String, grants: Vec<String> },
     /// The grant does not allow the domain.
-    DomainNotGranted { subject: String, domain: u32, domains: String },
+    DomainNotGranted {
+        subject: String,
+        domain: u32,
+        domains: String,
+    },
     /// The grant's validity has ended (or not begun).
-    PermissionsNotValid { not_before: String, not_after: String, expired: bool },
+    PermissionsNotValid {
+        not_before: String,
+        not_after: String,
+        expired: bool,
+    },
     /// The grant's validity is unreadable.
     PermissionsDates { not_before: String, not_after: String },
     /// CycloneDDS would not find its DDS Security plugins.
@@ -218,15 +238,19 @@ pub const PLUGINS: [&str; 3] = [
 /// (`<libdir>/libddsc0debian/`, compiled into its libddsc).
 pub fn plugin_dirs() -> Vec<PathBuf> {
     let mut dirs: Vec<PathBuf> = std::env::var_os("LD_LIBRARY_PATH")
-        .map(|v| std::env::split_paths(&v).filter(|p| !p.as_os_str().is_empty()).collect())
+        .map(|v| {
+            std::env::split_paths(&v)
+                .filter(|p| !p.as_os_str().is_empty())
+                .collect()
+        })
         .unwrap_or_default();
     // libddsc as this process loaded it.
     if let Ok(maps) = std::fs::read_to_string("/proc/self/maps") {
-        if let Some(lib) = maps
-            .lines()
-            .filter_map(|l| l.split_whitespace().nth(5))
-            .find(|p| Path::new(p).file_name().is_some_and(|n| n.to_string_lossy().starts_with("libddsc.so")))
-        {
+        if let Some(lib) = maps.lines().filter_map(|l| l.split_whitespace().nth(5)).find(|p| {
+            Path::new(p)
+                .file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("libddsc.so"))
+        }) {
             if let Some(dir) = Path::new(lib).parent() {
                 dirs.push(dir.join("libddsc0debian"));
                 dirs.push(dir.to_path_buf());
@@ -374,7 +398,11 @@ pub fn diagnose_with(sec: &Security, domain: u32, now: Unix, plugin_dirs: &[Path
     }
 
     // The identity: certificate, key, CA, revocation.
-    let certificate = if cert_ok { cert("certificate", &sec.certificate, &mut out) } else { None };
+    let certificate = if cert_ok {
+        cert("certificate", &sec.certificate, &mut out)
+    } else {
+        None
+    };
     if let Some(c) = &certificate {
         if now >= c.not_after {
             out.push(Finding::CertificateExpired {
@@ -406,7 +434,11 @@ pub fn diagnose_with(sec: &Security, domain: u32, now: Unix, plugin_dirs: &[Path
             }
         }
     }
-    let identity_ca = if id_ca_ok { cert("identity_ca", &sec.identity_ca, &mut out) } else { None };
+    let identity_ca = if id_ca_ok {
+        cert("identity_ca", &sec.identity_ca, &mut out)
+    } else {
+        None
+    };
     if let Some(ca) = &identity_ca {
         if now >= ca.not_after || now < ca.not_before {
             out.push(Finding::CaNotValid {
@@ -433,7 +465,11 @@ pub fn diagnose_with(sec: &Security, domain: u32, now: Unix, plugin_dirs: &[Path
     }
 
     // Access control: the signed documents.
-    let permissions_ca = if perm_ca_ok { cert("permissions_ca", &sec.permissions_ca, &mut out) } else { None };
+    let permissions_ca = if perm_ca_ok {
+        cert("permissions_ca", &sec.permissions_ca, &mut out)
+    } else {
+        None
+    };
     if let Some(ca) = &permissions_ca {
         if now >= ca.not_after || now < ca.not_before {
             out.push(Finding::CaNotValid {
@@ -460,7 +496,9 @@ pub fn diagnose_with(sec: &Security, domain: u32, now: Unix, plugin_dirs: &[Path
         if let Some(doc) = signed("governance", &sec.governance, &mut out) {
             let domains = xml::governance_domains(&doc);
             if domains.contains(domain) {
-                passed.push(format!("the governance is signed by the permissions CA and covers domain {domain}"));
+                passed.push(format!(
+                    "the governance is signed by the permissions CA and covers domain {domain}"
+                ));
             } else {
                 out.push(Finding::GovernanceMissesDomain {
                     domain,
@@ -517,8 +555,13 @@ fn check_crl(c: &CertInfo, sec: &Security, crl: &Path, now: Unix, out: &mut Vec<
         out.push(Finding::CrlExpired { next_update: n });
     }
     match verify(&sec.certificate, &sec.identity_ca, Some(crl)) {
-        Ok(()) => passed.push(format!("the certificate is not on the revocation list {}", crl.display())),
-        Err(why) if why.contains("revoked") => out.push(Finding::Revoked { serial: c.serial.clone() }),
+        Ok(()) => passed.push(format!(
+            "the certificate is not on the revocation list {}",
+            crl.display()
+        )),
+        Err(why) if why.contains("revoked") => out.push(Finding::Revoked {
+            serial: c.serial.clone(),
+        }),
         Err(why) => out.push(Finding::CrlUnusable { detail: why }),
     }
 }
@@ -532,7 +575,10 @@ fn check_grant(doc: &str, c: &CertInfo, domain: u32, now: Unix, out: &mut Vec<Fi
         });
         return;
     };
-    let (nb, na) = (g.not_before.clone().unwrap_or_default(), g.not_after.clone().unwrap_or_default());
+    let (nb, na) = (
+        g.not_before.clone().unwrap_or_default(),
+        g.not_after.clone().unwrap_or_default(),
+    );
     match (time::parse(&nb), time::parse(&na)) {
         (Some(b), Some(a)) => {
             if now >= a || now < b {
@@ -646,10 +692,20 @@ mod tests {
     fn a_good_identity_has_no_problem() {
         let f = fixture();
         let got = diagnose_with(&enclave(&f.lab, "robot_a"), 11, f.now, &here());
-        let p: Vec<_> = problems(&got).into_iter().filter(|f| !matches!(f, Finding::PluginsMissing { .. })).collect();
+        let p: Vec<_> = problems(&got)
+            .into_iter()
+            .filter(|f| !matches!(f, Finding::PluginsMissing { .. }))
+            .collect();
         assert!(p.is_empty(), "{got:#?}");
-        assert!(got.iter().any(|f| matches!(f, Finding::Passed(s) if s.contains("grant CN=/robot_a domain 11"))), "{got:#?}");
-        assert!(!got.iter().any(|f| matches!(f, Finding::KeyReadable { .. })), "{got:#?}");
+        assert!(
+            got.iter()
+                .any(|f| matches!(f, Finding::Passed(s) if s.contains("grant CN=/robot_a domain 11"))),
+            "{got:#?}"
+        );
+        assert!(
+            !got.iter().any(|f| matches!(f, Finding::KeyReadable { .. })),
+            "{got:#?}"
+        );
     }
 
     #[test]
@@ -669,20 +725,31 @@ mod tests {
     fn expired_and_not_yet_valid() {
         let f = fixture();
         let old = diagnose_with(&enclave(&f.lab, "old"), 11, f.now, &here());
-        assert!(old.iter().any(|x| matches!(x, Finding::CertificateExpired { .. })), "{old:#?}");
         assert!(
-            old.iter().any(|x| matches!(x, Finding::PermissionsNotValid { expired: true, .. })),
+            old.iter().any(|x| matches!(x, Finding::CertificateExpired { .. })),
+            "{old:#?}"
+        );
+        assert!(
+            old.iter()
+                .any(|x| matches!(x, Finding::PermissionsNotValid { expired: true, .. })),
             "{old:#?}"
         );
         let text: Vec<String> = old.iter().map(|x| x.to_string()).collect();
-        assert!(text.iter().any(|t| t.contains("the certificate expired on ")), "{text:?}");
+        assert!(
+            text.iter().any(|t| t.contains("the certificate expired on ")),
+            "{text:?}"
+        );
         let future = diagnose_with(&enclave(&f.lab, "future"), 11, f.now, &here());
         assert!(
-            future.iter().any(|x| matches!(x, Finding::CertificateNotYetValid { .. })),
+            future
+                .iter()
+                .any(|x| matches!(x, Finding::CertificateNotYetValid { .. })),
             "{future:#?}"
         );
         assert!(
-            future.iter().any(|x| matches!(x, Finding::PermissionsNotValid { expired: false, .. })),
+            future
+                .iter()
+                .any(|x| matches!(x, Finding::PermissionsNotValid { expired: false, .. })),
             "{future:#?}"
         );
     }
@@ -698,7 +765,8 @@ mod tests {
         s.permissions = f.lab.enclaves().join("robot_b/permissions.p7s");
         let got = diagnose_with(&s, 11, f.now, &here());
         assert!(
-            got.iter().any(|x| matches!(x, Finding::SubjectNotGranted { subject, grants }
+            got.iter()
+                .any(|x| matches!(x, Finding::SubjectNotGranted { subject, grants }
                 if subject == "CN=/robot_a" && grants == &vec!["CN=/robot_b".to_string()])),
             "{got:#?}"
         );
@@ -719,10 +787,13 @@ mod tests {
         s.governance = f.other.governance();
         let got = diagnose_with(&s, 11, f.now, &here());
         assert!(
-            got.iter().any(|x| matches!(x, Finding::NotSignedByPermissionsCa { key: "governance", .. })),
+            got.iter()
+                .any(|x| matches!(x, Finding::NotSignedByPermissionsCa { key: "governance", .. })),
             "{got:#?}"
         );
-        assert!(!got.iter().any(|x| matches!(x, Finding::NotSignedByPermissionsCa { key: "permissions", .. })));
+        assert!(!got
+            .iter()
+            .any(|x| matches!(x, Finding::NotSignedByPermissionsCa { key: "permissions", .. })));
     }
 
     #[test]
@@ -749,7 +820,8 @@ mod tests {
         let got = diagnose_with(&enclave(&f.short, "robot_s"), 11, later, &here());
         assert!(got.iter().any(|x| matches!(x, Finding::CrlExpired { .. })), "{got:#?}");
         assert!(
-            got.iter().any(|x| matches!(x, Finding::CaNotValid { key: "identity_ca", .. })),
+            got.iter()
+                .any(|x| matches!(x, Finding::CaNotValid { key: "identity_ca", .. })),
             "{got:#?}"
         );
     }
@@ -759,7 +831,8 @@ mod tests {
         let f = fixture();
         let got = diagnose_with(&enclave(&f.lab, "robot_a"), 12, f.now, &here());
         assert!(
-            got.iter().any(|x| matches!(x, Finding::DomainNotGranted { domain: 12, domains, .. } if domains == "11")),
+            got.iter()
+                .any(|x| matches!(x, Finding::DomainNotGranted { domain: 12, domains, .. } if domains == "11")),
             "{got:#?}"
         );
         assert_eq!(problems(&got).len(), 1, "{got:#?}");
@@ -780,7 +853,11 @@ mod tests {
         assert!(matches!(plugins(std::slice::from_ref(&empty)), Finding::Passed(_)));
         let _ = std::fs::remove_dir_all(&empty);
         // libddsc is loaded in this process: its directory is among those looked in.
-        assert!(plugin_dirs().iter().any(|d| d.ends_with("libddsc0debian")), "{:?}", plugin_dirs());
+        assert!(
+            plugin_dirs().iter().any(|d| d.ends_with("libddsc0debian")),
+            "{:?}",
+            plugin_dirs()
+        );
     }
 
     #[test]
@@ -794,7 +871,10 @@ mod tests {
         t.private_key = loose.clone();
         let got = diagnose_with(&t, 11, f.now, &here());
         let w: Vec<_> = got.iter().filter(|x| x.severity() == Severity::Warning).collect();
-        assert!(matches!(w.as_slice(), [Finding::KeyReadable { mode, .. }] if mode & 0o777 == 0o644), "{got:#?}");
+        assert!(
+            matches!(w.as_slice(), [Finding::KeyReadable { mode, .. }] if mode & 0o777 == 0o644),
+            "{got:#?}"
+        );
         assert!(w[0].to_string().contains("readable by everyone"), "{}", w[0]);
     }
 }
