@@ -266,7 +266,7 @@ fn write_file(path: &Path, data: &[u8], mode: u32) -> Result<(), SecurityError> 
         let _ = fs::remove_file(&tmp);
         SecurityError::Io {
             path: path.to_path_buf(),
-            source: e,
+            error: e,
         }
     })
 }
@@ -353,8 +353,39 @@ impl Keystore {
                 return Err(SecurityError::KeystoreExists(dir.to_path_buf()));
             }
         }
-        let private = ks.private();
-        for d in [ks.public(), private.clone(), private.join("newcerts"), ks.enclaves()] {
+        let subs = [ks.public(), ks.private(), ks.enclaves()];
+        for d in &subs {
+            if fs::read_dir(d).is_ok_and(|mut e| e.next().is_some()) {
+                return Err(SecurityError::NotEmpty(d.clone()));
+            }
+        }
+        // Made in a directory of its own beside them, then moved in: a failure (openssl
+        // missing) leaves nothing behind that a second `init` would refuse.
+        mkdir(dir)?;
+        let stage = Keystore {
+            dir: dir.join(format!(".handgate-init.{}", std::process::id())),
+        };
+        let _ = fs::remove_dir_all(&stage.dir);
+        let built = stage.build(ca_name, days, now).and_then(|()| {
+            for (from, to) in [stage.public(), stage.private(), stage.enclaves()].iter().zip(&subs) {
+                let _ = fs::remove_dir(to);
+                fs::rename(from, to).map_err(SecurityError::io(to))?;
+            }
+            Ok(())
+        });
+        let _ = fs::remove_dir_all(&stage.dir);
+        built.map(|()| ks)
+    }
+
+    /// The keystore's files in `self.dir` (see [`Keystore::init`]).
+    fn build(&self, ca_name: &str, days: u32, now: Unix) -> Result<(), SecurityError> {
+        let private = self.private();
+        for d in [
+            self.public(),
+            private.clone(),
+            private.join("newcerts"),
+            self.enclaves(),
+        ] {
             mkdir(&d)?;
         }
         fs::set_permissions(&private, fs::Permissions::from_mode(0o700)).map_err(SecurityError::io(&private))?;
@@ -362,10 +393,9 @@ impl Keystore {
         write_file(&private.join("index.txt"), b"", 0o644)?;
         write_file(&private.join("serial"), b"1000\n", 0o644)?;
         write_file(&private.join("crlnumber"), b"1000\n", 0o644)?;
-        write_file(&ks.ca_key(), &openssl::new_key()?, 0o600)?;
+        write_file(&self.ca_key(), &openssl::new_key()?, 0o600)?;
         symlink("ca.key.pem", &private.join("identity_ca.key.pem"))?;
         symlink("ca.key.pem", &private.join("permissions_ca.key.pem"))?;
-        let _ = now;
         openssl::run(
             "create the lab CA's certificate",
             &[
@@ -389,14 +419,13 @@ impl Keystore {
             Some(&private),
             None,
         )?;
-        symlink("ca.cert.pem", &ks.public().join("identity_ca.cert.pem"))?;
-        symlink("ca.cert.pem", &ks.public().join("permissions_ca.cert.pem"))?;
-        let gov_xml = ks.enclaves().join("governance.xml");
+        symlink("ca.cert.pem", &self.public().join("identity_ca.cert.pem"))?;
+        symlink("ca.cert.pem", &self.public().join("permissions_ca.cert.pem"))?;
+        let gov_xml = self.enclaves().join("governance.xml");
         write_file(&gov_xml, xml::governance().as_bytes(), 0o644)?;
-        let signed = openssl::smime_sign(&gov_xml, &ks.ca_cert(), &ks.ca_key())?;
-        write_file(&ks.governance(), &signed, 0o644)?;
-        ks.write_crl(now)?;
-        Ok(ks)
+        let signed = openssl::smime_sign(&gov_xml, &self.ca_cert(), &self.ca_key())?;
+        write_file(&self.governance(), &signed, 0o644)?;
+        self.write_crl(now)
     }
 
     /// The keystore in `dir`, if it is one.
@@ -741,7 +770,7 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), SecurityError> {
         Err(e) => {
             return Err(SecurityError::Io {
                 path: dir.into(),
-                source: e,
+                error: e,
             })
         }
     };
@@ -807,6 +836,39 @@ mod tests {
         for bad in ["robot", "DNS:", "DNS:a b", "IP:300.1.1.1", "URI:x"] {
             assert!(San::parse(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn init_refuses_a_keystore_and_leaves_no_stage() {
+        let dir = std::env::temp_dir().join(format!("handgate-init-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let ks = Keystore::init(&dir, "t CA", 1, time::now()).expect("init");
+        let mut names: Vec<String> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["enclaves", "private", "public"]);
+        assert_eq!(fs::metadata(ks.ca_key()).unwrap().permissions().mode() & 0o777, 0o600);
+        assert_eq!(fs::metadata(ks.private()).unwrap().permissions().mode() & 0o777, 0o700);
+        assert_eq!(
+            fs::read_link(ks.public().join("identity_ca.cert.pem")).unwrap(),
+            Path::new("ca.cert.pem")
+        );
+        assert!(ks.crl().is_file() && ks.governance().is_file());
+        assert!(matches!(
+            Keystore::init(&dir, "t CA", 1, time::now()),
+            Err(SecurityError::KeystoreExists(_))
+        ));
+        // A directory with other files in public/ is not taken either.
+        let other = dir.join("other");
+        fs::create_dir_all(other.join("public")).unwrap();
+        fs::write(other.join("public/x"), b"x").unwrap();
+        assert!(matches!(
+            Keystore::init(&other, "t CA", 1, time::now()),
+            Err(SecurityError::NotEmpty(_))
+        ));
+        let _ = fs::remove_dir_all(&dir);
     }
 
     #[test]
