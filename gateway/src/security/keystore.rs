@@ -872,6 +872,61 @@ mod tests {
     }
 
     #[test]
+    fn renew_revoke_list() {
+        let dir = std::env::temp_dir().join(format!("handgate-renew-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let now = time::now();
+        let ks = Keystore::init(&dir, "t CA", 30, now).expect("init");
+        let req = |name: &str, role, robots: Vec<u32>| IssueRequest {
+            name: name.into(),
+            role,
+            robots,
+            validity: Validity::Days(10),
+            sans: vec![San::Dns("gw.lab".into())],
+        };
+        let first = ks.issue(&req("ops/gw", Role::Gateway, vec![4, 3]), now).expect("issue");
+        assert_eq!(first.cert.subject, "CN=/ops/gw");
+        assert!(matches!(
+            ks.issue(&req("/ops/gw", Role::Operator, vec![1]), now),
+            Err(SecurityError::EnclaveExists(n)) if n == "/ops/gw"
+        ));
+        ks.issue(&req("watch", Role::Observer, vec![]), now).expect("observer");
+        let renewed = ks.renew("ops/gw", 20, now + 60).expect("renew");
+        assert_ne!(renewed.cert.serial, first.cert.serial);
+        assert_eq!(renewed.cert.subject, first.cert.subject);
+        assert_eq!(renewed.cert.not_after, now + 60 + 20 * 86_400);
+        assert_eq!(
+            sans_of(&renewed.dir.join("cert.pem")).unwrap(),
+            vec![San::Dns("gw.lab".into())]
+        );
+        let key_mode = fs::metadata(renewed.dir.join("key.pem")).unwrap().permissions().mode();
+        assert_eq!(key_mode & 0o777, 0o600);
+        let list = ks.list().expect("list");
+        let names: Vec<(&str, Option<Role>, &str, bool)> = list
+            .iter()
+            .map(|e| (e.name.as_str(), e.role, e.robots.as_str(), e.revoked))
+            .collect();
+        assert_eq!(
+            names,
+            [
+                ("/ops/gw", Some(Role::Gateway), "3, 4", false),
+                ("/watch", Some(Role::Observer), "0-230", false)
+            ]
+        );
+        ks.renew("watch", 5, now).expect("an observer of every domain renews");
+        // Revoking revokes the renewed certificate and the one it replaced; again: nothing.
+        let mut revoked = ks.revoke("/ops/gw", now).expect("revoke");
+        revoked.sort();
+        let mut both = vec![first.cert.serial.clone(), renewed.cert.serial.clone()];
+        both.sort();
+        assert_eq!(revoked, both);
+        assert!(ks.revoke("ops/gw", now).expect("again").is_empty());
+        assert!(ks.list().unwrap().iter().any(|e| e.name == "/ops/gw" && e.revoked));
+        assert!(matches!(ks.revoke("nobody", now), Err(SecurityError::NoEnclave(_))));
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn validity_spans() {
         assert_eq!(Validity::Days(2).span(100).unwrap(), (100, 100 + 2 * 86_400));
         assert!(matches!(Validity::Days(0).span(100), Err(SecurityError::BadDays)));
