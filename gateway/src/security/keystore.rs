@@ -284,11 +284,58 @@ struct Scratch(PathBuf);
 
 impl Scratch {
     fn new(private: &Path) -> Result<Self, SecurityError> {
-        let p = private.join(format!("tmp.{}", std::process::id()));
+        static N: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let p = private.join(format!("tmp.{}.{n}", std::process::id()));
         let _ = fs::remove_dir_all(&p);
         fs::create_dir(&p).map_err(SecurityError::io(&p))?;
         fs::set_permissions(&p, fs::Permissions::from_mode(0o700)).map_err(SecurityError::io(&p))?;
         Ok(Scratch(p))
+    }
+}
+
+/// The keystore's lock (`private/lock`, holding the owner's pid): `openssl ca`'s database
+/// (index.txt, serial, crlnumber) takes one writer at a time. Released when dropped.
+struct Lock(PathBuf);
+
+/// How long an operation waits for another one on the same keystore.
+const LOCK_WAIT: std::time::Duration = std::time::Duration::from_secs(60);
+
+impl Lock {
+    fn take(private: &Path) -> Result<Self, SecurityError> {
+        let path = private.join("lock");
+        let deadline = std::time::Instant::now() + LOCK_WAIT;
+        loop {
+            match fs::OpenOptions::new().write(true).create_new(true).open(&path) {
+                Ok(mut f) => {
+                    let _ = writeln!(f, "{}", std::process::id());
+                    return Ok(Lock(path));
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    // A lock left by a process that is gone is taken over.
+                    let owner = fs::read_to_string(&path)
+                        .ok()
+                        .and_then(|s| s.trim().parse::<u32>().ok());
+                    if owner
+                        .is_some_and(|pid| pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists())
+                    {
+                        let _ = fs::remove_file(&path);
+                        continue;
+                    }
+                    if std::time::Instant::now() >= deadline {
+                        return Err(SecurityError::Locked(path));
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                }
+                Err(e) => return Err(SecurityError::Io { path, error: e }),
+            }
+        }
+    }
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        let _ = fs::remove_file(&self.0);
     }
 }
 
@@ -476,6 +523,7 @@ impl Keystore {
         let name = EnclaveName::parse(&req.name)?;
         let domains = domains_for(req.role, &req.robots)?;
         let (nb, na) = req.validity.span(now)?;
+        let _lock = Lock::take(&self.private())?;
         let dir = self.enclave_dir(&name);
         if dir.join("cert.pem").symlink_metadata().is_ok() {
             return Err(SecurityError::EnclaveExists(name.name));
@@ -488,6 +536,7 @@ impl Keystore {
     /// robots. The old certificate stays valid until it expires unless revoked.
     pub fn renew(&self, name: &str, days: u32, now: Unix) -> Result<Issued, SecurityError> {
         let name = EnclaveName::parse(name)?;
+        let _lock = Lock::take(&self.private())?;
         let dir = self.enclave_dir(&name);
         let cert = dir.join("cert.pem");
         if !cert.is_file() {
@@ -633,6 +682,7 @@ impl Keystore {
     /// revoked now (empty: all were already).
     pub fn revoke(&self, name: &str, now: Unix) -> Result<Vec<String>, SecurityError> {
         let name = EnclaveName::parse(name)?;
+        let _lock = Lock::take(&self.private())?;
         let cert = self.enclave_dir(&name).join("cert.pem");
         if !cert.is_file() {
             return Err(SecurityError::NoEnclave(name.name));
@@ -923,6 +973,38 @@ mod tests {
         assert!(ks.revoke("ops/gw", now).expect("again").is_empty());
         assert!(ks.list().unwrap().iter().any(|e| e.name == "/ops/gw" && e.revoked));
         assert!(matches!(ks.revoke("nobody", now), Err(SecurityError::NoEnclave(_))));
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn parallel_issues_share_the_database() {
+        let dir = std::env::temp_dir().join(format!("handgate-parallel-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let ks = Keystore::init(&dir, "t CA", 30, time::now()).expect("init");
+        let serials: Vec<String> = std::thread::scope(|s| {
+            let hs: Vec<_> = (0..4)
+                .map(|i| {
+                    let ks = &ks;
+                    s.spawn(move || {
+                        let req = IssueRequest {
+                            name: format!("robot_{i}"),
+                            role: Role::Gateway,
+                            robots: vec![11],
+                            validity: Validity::Days(1),
+                            sans: vec![],
+                        };
+                        ks.issue(&req, time::now()).expect("issue").cert.serial
+                    })
+                })
+                .collect();
+            hs.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let mut unique = serials.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), 4, "{serials:?}");
+        assert_eq!(read_index(&ks.private().join("index.txt")).unwrap().len(), 4);
+        assert!(!ks.private().join("lock").exists());
         let _ = fs::remove_dir_all(&dir);
     }
 

@@ -22,6 +22,8 @@ pub enum SecurityError {
     Io { path: PathBuf, error: std::io::Error },
     #[error("{0} already holds a keystore (its CA would be replaced): refusing to overwrite it")]
     KeystoreExists(PathBuf),
+    #[error("{0} is held by another `handgate security` command (still there after 60 s: remove it if no such command runs)")]
+    Locked(PathBuf),
     #[error("{0} is not empty: `handgate security init` makes a keystore in a new directory, or one without files in public/, private/ and enclaves/")]
     NotEmpty(PathBuf),
     #[error("{0} is not a handgate keystore (no private/ca.key.pem, public/ca.cert.pem or private/ca.cnf: run `handgate security init` first)")]
