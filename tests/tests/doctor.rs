@@ -441,7 +441,7 @@ fn keystore_cmd(args: &[&str]) {
 }
 
 /// A keystore in `dir` with a gateway identity `robot_a`, an expired one `old` and a
-/// revoked one `eve`, all for domain 108.
+/// revoked one `eve`, all for domain 108, and `robot_x` for domain 11.
 fn lab_keystore(dir: &std::path::Path) -> String {
     let _ = std::fs::remove_dir_all(dir);
     let ks = dir.to_str().unwrap().to_string();
@@ -464,17 +464,28 @@ fn lab_keystore(dir: &std::path::Path) -> String {
         "2021-01-01T00:00:00Z",
     ]);
     keystore_cmd(&["revoke", "--keystore", &ks, "eve"]);
+    keystore_cmd(&[
+        "issue",
+        "--keystore",
+        &ks,
+        "robot_x",
+        "--role",
+        "gateway",
+        "--robot",
+        "11",
+    ]);
     ks
 }
 
-/// The doctor on domain 108 for a profile whose `[export.security]` is `security` (TOML
-/// lines); its exit code and the lines of its DDS Security section.
+/// The doctor on domain 108 for a profile whose `[dds.security]` is `security` (TOML
+/// lines: the devices' side secured; an `[export.security]` needs an `[export]` domain of its
+/// own, a second domain); its exit code and the lines of its DDS Security section.
 fn doctor_security(name: &str, security: &str) -> (i32, Vec<String>) {
     let profile = temp_profile(
         "doctor-security",
         name,
         &format!(
-            "name = \"{name}\"\n[dds]\ndomain = 108\n[export.security]\n{security}\n{}",
+            "name = \"{name}\"\n[dds]\ndomain = 108\n[dds.security]\n{security}\n{}",
             emulated_device("left_hand", "dex3", "left")
         ),
     );
@@ -491,7 +502,7 @@ fn doctor_security(name: &str, security: &str) -> (i32, Vec<String>) {
     );
     let section: Vec<String> = out
         .lines()
-        .skip_while(|l| !l.starts_with("DDS Security [export.security] on domain 108:"))
+        .skip_while(|l| !l.starts_with("DDS Security [dds.security] on domain 108:"))
         .map(str::to_string)
         .collect();
     assert!(!section.is_empty(), "no DDS Security section in:\n{out}");
@@ -499,7 +510,7 @@ fn doctor_security(name: &str, security: &str) -> (i32, Vec<String>) {
 }
 
 #[test]
-fn doctor_security_says_expired_revoked_and_missing() {
+fn doctor_security_says_expired_revoked_and_other_domain() {
     let dir = std::env::temp_dir().join(format!("handgate-doctor-keystore-{}", std::process::id()));
     let ks = lab_keystore(&dir);
     let crl = format!("{ks}/public/crl.pem");
@@ -520,7 +531,7 @@ fn doctor_security_says_expired_revoked_and_missing() {
     assert_eq!(code, 1, "{old:#?}");
     assert!(
         old.iter().any(|l| l.contains(
-            "PROBLEM [export.security]: the certificate expired on 2021-01-01T00:00:00Z (valid 2020-01-01T00:00:00Z to 2021-01-01T00:00:00Z)"
+            "PROBLEM [dds.security]: the certificate expired on 2021-01-01T00:00:00Z (valid 2020-01-01T00:00:00Z to 2021-01-01T00:00:00Z)"
         )),
         "{old:#?}"
     );
@@ -535,22 +546,26 @@ fn doctor_security_says_expired_revoked_and_missing() {
     assert_eq!(code, 1, "{eve:#?}");
     assert!(
         eve.iter()
-            .any(|l| l.contains("PROBLEM [export.security]: the certificate (serial ")
+            .any(|l| l.contains("PROBLEM [dds.security]: the certificate (serial ")
                 && l.contains("is revoked by the revocation list")),
         "{eve:#?}"
     );
 
-    // A file given beside the enclave that is not there: named by its profile key.
-    let (code, missing) = doctor_security(
-        "sec-missing",
-        &format!("enclave = \"{ks}/enclaves/robot_a\"\npermissions = \"{ks}/enclaves/robot_a/nope.p7s\""),
-    );
-    assert_eq!(code, 1, "{missing:#?}");
+    // An identity issued for another robot's domain (a file that cannot be read is refused
+    // by the profile's check before the doctor looks).
+    let (code, other) = doctor_security("sec-other", &format!("enclave = \"{ks}/enclaves/robot_x\""));
+    assert_eq!(code, 1, "{other:#?}");
     assert!(
-        missing.iter().any(|l| l.contains(&format!(
-            "PROBLEM [export.security]: permissions: {ks}/enclaves/robot_a/nope.p7s cannot be read: No such file"
-        ))),
-        "{missing:#?}"
+        other.iter().any(|l| l.contains(
+            "PROBLEM [dds.security]: permissions: the grant of CN=/robot_x does not allow domain 108 (it allows 11)"
+        )),
+        "{other:#?}"
+    );
+    assert!(
+        other
+            .iter()
+            .any(|l| l.contains("fix: issue the identity for this robot: `handgate security issue ... --robot 108`")),
+        "{other:#?}"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
