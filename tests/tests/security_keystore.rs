@@ -301,7 +301,10 @@ fn keystore_identities_on_a_secured_domain() {
     let mut observer = IdentityProcess::spawn("observe", &lab, "watcher", true);
     observer.wait_line("READER matched", Duration::from_secs(30));
     let w = observer.wait_line("WRITER", Duration::from_secs(30));
-    assert!(w.starts_with("WRITER refused: "), "{w}");
+    assert!(
+        w.starts_with("WRITER refused: ") && w.contains("Not allowed by security"),
+        "{w}"
+    );
     drop(observer);
 
     // Another CA's identity and a revoked one (whose process does not have the new list: a
