@@ -108,8 +108,11 @@ fi
 
 if want secure; then
   echo "bench: 3c. the export hop, plain and with DDS Security ($samples samples per rate, 2 rounds each)"
-  "$bin/handgate-bench" secure-hop --handgate "$bin/handgate" --repo "$root" --samples "$samples" \
-    --out "$results/secure_hop.json"
+  rm -f "$results/secure_hop.json"
+  for round in 1 2; do
+    "$bin/handgate-bench" secure-hop --handgate "$bin/handgate" --repo "$root" --samples "$samples" \
+      --append --out "$results/secure_hop.json"
+  done
 fi
 
 if want fleet; then

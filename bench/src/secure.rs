@@ -3,7 +3,7 @@
 //! Rust client on that domain times `HandCmd_` → the `HandState_` reflecting it, as
 //! `handgate-bench hop` does. Plain and secured (`[export.security]`, the client joining with
 //! an operator identity of the same lab keystore) alternate in one run, twice each, so both are
-//! measured on the same machine in the same minutes.
+//! measured on the same machine in the same minutes (a round per process: scripts/bench.sh).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
