@@ -27,10 +27,11 @@
 # it, by tests/python/shaped_link.py between two TUN devices (this kernel has no sch_netem);
 # --no-netem: a plain veth pair. No packet leaves the two namespaces.
 #
-# Identities: a lab keystore made for the run in LOGS/keystore (lab_keystore below: one lab CA;
-# the robot site's zenohd "/robot", its certificate naming 10.77.0.2; the operator site's
-# "/operator"; a third lab identity "/student"), and a second CA's keystore in
-# LOGS/keystore-other that issues another "/operator". The robot's zenohd logs its TLS
+# Identities: a lab keystore made for the run in LOGS/keystore by `handgate security` (below,
+# lab_keystore: one lab CA; the robot site's zenohd "/robot", role gateway, its certificate
+# naming 10.77.0.2; the operator site's "/operator", role operator; a third lab identity
+# "/student", role observer), and a second CA's keystore in LOGS/keystore-other that issues
+# another "/operator". The robot's zenohd logs its TLS
 # handshakes (zenoh_link_tls=debug) and its access-control decisions
 # (zenoh::net::routing::interceptor::access_control=trace), from which the refusals are counted.
 #
@@ -49,10 +50,10 @@
 # c: refused puts on rt/dex3/left/cmd); d when its commands were applied and none refused.
 #
 # Needs root (namespaces), tools/zenoh (scripts/zenoh-tools.sh), the handgate binary
-# ($HANDGATE_BIN, default ${CARGO_TARGET_DIR:-target}/debug/handgate: cargo build -p handgate),
-# openssl, and .venv with unitree_sdk2py (scripts/setup.sh). Exit 0 when the state crossed to
-# the operator, the operator's command reached the robot's hands, handgate's status crossed and
-# the four identity tests passed.
+# ($HANDGATE_BIN, default ${CARGO_TARGET_DIR:-target}/debug/handgate: cargo build -p handgate;
+# its `handgate security` makes the certificates, with openssl), and .venv with unitree_sdk2py
+# (scripts/setup.sh). Exit 0 when the state crossed to the operator, the operator's command
+# reached the robot's hands, handgate's status crossed and the four identity tests passed.
 #
 # --measure FILE (make fleet, scripts/fleet.sh; docs/benchmarks.md "Sites over Zenoh"): handgate
 # runs profiles/zenoh/sites-robot.toml instead (two emulated Dex3 hands; the right one's front
@@ -93,7 +94,9 @@ py="$root/.venv/bin/python"
 [ -x "$handgate" ] || { echo "zenoh-sites: no handgate binary at $handgate (cargo build -p handgate, or set HANDGATE_BIN)" >&2; exit 2; }
 [ -x "$py" ] || { echo "zenoh-sites: no .venv (scripts/setup.sh)" >&2; exit 2; }
 [ -x "$root/tools/zenoh/bin/zenohd" ] || { echo "zenoh-sites: tools/zenoh is not built (scripts/zenoh-tools.sh)" >&2; exit 2; }
-command -v openssl >/dev/null || { echo "zenoh-sites: needs openssl (the run's certificates)" >&2; exit 2; }
+command -v openssl >/dev/null || { echo "zenoh-sites: needs openssl (handgate security makes the run's certificates with it)" >&2; exit 2; }
+"$handgate" security --help > /dev/null 2>&1 \
+  || { echo "zenoh-sites: $handgate has no 'security' command (the lab keystore): rebuild it" >&2; exit 2; }
 
 ns=${ZENOH_SITES_NS:-hg-zenoh}
 rb="$ns-rb" op="$ns-op"
@@ -164,35 +167,19 @@ wait_log() {
   done
 }
 
-# The run's certificates, in the SROS2 keystore layout of the lab keystore (`handgate security`):
-#   lab_keystore DIR CA_NAME              DIR/public/ca.cert.pem, DIR/private/ca.key.pem
-#   lab_keystore DIR CA_NAME NAME [SAN]   + DIR/enclaves/NAME/{cert.pem,key.pem}, subject CN
-#                                           "/NAME" as SROS2 writes it, SAN e.g. IP:10.77.0.2
-# ECDSA P-256, valid for a day. For now with the openssl CLI, in this one function: the lab
-# keystore's CLI (`handgate security init` / `issue`) takes its place when it lands.
+# The run's certificates, from the lab keystore (`handgate security`, SROS2 layout):
+#   lab_keystore DIR CA_NAME                  DIR/public/ca.cert.pem, DIR/private/ca.key.pem, ...
+#   lab_keystore DIR CA_NAME NAME ROLE [SAN]  + DIR/enclaves/NAME/{cert.pem,key.pem,...}: ECDSA
+#                                               P-256, subject CN "/NAME", valid for a day; a
+#                                               gateway or operator for this run's domain
 lab_keystore() {
-  local dir=$1 ca_name=$2 name=${3:-} san=${4:-}
-  mkdir -p "$dir/public" "$dir/private"
-  if [ ! -f "$dir/public/ca.cert.pem" ]; then
-    openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -days 1 \
-      -keyout "$dir/private/ca.key.pem" -out "$dir/public/ca.cert.pem" -subj "/CN=$ca_name" \
-      -addext "basicConstraints=critical,CA:TRUE" -addext "keyUsage=critical,keyCertSign,cRLSign" \
-      2>/dev/null
-  fi
+  local dir=$1 ca_name=$2 name=${3:-} role=${4:-} san=${5:-}
+  [ -f "$dir/public/ca.cert.pem" ] || "$handgate" security init --keystore "$dir" --name "$ca_name" > /dev/null
   [ -n "$name" ] || return 0
-  local e="$dir/enclaves/$name"
-  mkdir -p "$e"
-  openssl req -new -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes \
-    -keyout "$e/key.pem" -out "$e/req.pem" -subj "/CN=\\/$name" 2>/dev/null
-  {
-    echo "basicConstraints=critical,CA:FALSE"
-    echo "keyUsage=critical,digitalSignature"
-    echo "extendedKeyUsage=serverAuth,clientAuth"
-    [ -z "$san" ] || echo "subjectAltName=$san"
-  } > "$e/ext.cnf"
-  openssl x509 -req -in "$e/req.pem" -CA "$dir/public/ca.cert.pem" -CAkey "$dir/private/ca.key.pem" \
-    -CAserial "$dir/private/ca.srl" -CAcreateserial -days 1 -extfile "$e/ext.cnf" -out "$e/cert.pem" 2>/dev/null
-  rm -f "$e/req.pem" "$e/ext.cnf"
+  local opts=(--role "$role" --days 1)
+  [ "$role" = observer ] || opts+=(--robot "$domain")
+  [ -z "$san" ] || opts+=(--san "$san")
+  "$handgate" security issue --keystore "$dir" "$name" "${opts[@]}" > /dev/null
 }
 
 echo "zenoh-sites: namespaces $rb (robot) and $op (operator), DDS domain $domain, logs in $logs"
@@ -235,10 +222,10 @@ done
 # The identities: the lab's keystore and another CA's (above, lab_keystore).
 keystore="$logs/keystore" other="$logs/keystore-other"
 rm -rf "$keystore" "$other"
-lab_keystore "$keystore" "handgate lab CA" robot "IP:10.77.0.2"
-lab_keystore "$keystore" "handgate lab CA" operator
-lab_keystore "$keystore" "handgate lab CA" student
-lab_keystore "$other" "another CA" operator
+lab_keystore "$keystore" "handgate lab CA" robot gateway "IP:10.77.0.2"
+lab_keystore "$keystore" "handgate lab CA" operator operator
+lab_keystore "$keystore" "handgate lab CA" student observer
+lab_keystore "$other" "another CA" operator operator
 lab_ca="$keystore/public/ca.cert.pem"
 for n in robot operator student; do
   echo "zenoh-sites: identity $n: $(openssl x509 -in "$keystore/enclaves/$n/cert.pem" -noout -subject -issuer -ext subjectAltName 2>/dev/null | paste -sd' ' - | tr -s ' ')"
