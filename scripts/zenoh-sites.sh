@@ -102,6 +102,7 @@ ns=${ZENOH_SITES_NS:-hg-zenoh}
 rb="$ns-rb" op="$ns-op"
 [ -n "$logs" ] || logs=$(mktemp -d /tmp/zenoh-sites.XXXXXX)
 mkdir -p "$logs"
+logs=$(cd "$logs" && pwd) # absolute: the wrapper and the keystore take paths under it
 # handgate's own settings come from this script's flags, not from the caller's environment.
 for v in $(env | sed -n 's/^\(HANDGATE_[A-Z0-9_]*\)=.*/\1/p'); do unset "$v"; done
 
