@@ -329,7 +329,7 @@ done
 
 # 7. (or the end of the proof without --measure) The identity tests (see the top of this file).
 # What the robot's zenohd counted, from its log: TLS handshakes it refused, and commands its
-# access_control refused on arrival (the ACL's trace lines, cached decision or not).
+# access_control refused on arrival (the ACL's trace line for each message, below).
 # A refused handshake is the TLS listener's accept error (zenoh-link-tls 1.10.2 logs it at warn,
 # with a hint about open files whatever the error was), e.g. "peer sent no certificates" or
 # "invalid peer certificate: UnknownIssuer".
