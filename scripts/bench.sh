@@ -11,6 +11,8 @@
 #                 plus one emulated Dex3 USB exchange, and a unitree_sdk2py relay, at 200 Hz and 1 kHz
 #   3b. shim      a Dex1 client driving a Dex3 served by the G1-service emulator (its own process)
 #                 through handgate vs a raw Rust relay (two DDS hops) and a unitree_sdk2py shim
+#   3c. secure    the hop on an export domain, plain and with DDS Security ([export.security], the
+#                 client an operator identity of a keystore made by handgate security), alternating
 #   4. fleet      32 Dex3 + 32 Dex1 emulated in one gateway, 30 s, between two 15 s windows of the
 #                 reference (the same emulated hands and DDS traffic without handgate, domain 105):
 #                 the verdict is the gateway's CPU over the reference's; again with loop_threads = 0
@@ -25,7 +27,7 @@
 #   8. sites      not run here: make fleet measures it (root, Zenoh); the section is re-written
 #                 from its last figures, docs/benchmarks/sites.json
 # Environment: CARGO_TARGET_DIR (default target/), BENCH_QUICK=1 for short smoke runs,
-# BENCH_ONLY="codec loop busy hop shim fleet simall startup timers rh56 record dashboard" to run a subset:
+# BENCH_ONLY="codec loop busy hop shim secure fleet simall startup timers rh56 record dashboard" to run a subset:
 # the sections it does not run are carried from docs/benchmarks/raw/ (the last report's raw results),
 # marked in the report with the date and load of the run that measured them; raw/ then holds the union.
 set -euo pipefail
@@ -34,7 +36,7 @@ root=$PWD
 cargo=${CARGO:-cargo}
 target=${CARGO_TARGET_DIR:-$root/target}
 results="$target/bench-results"
-only=${BENCH_ONLY:-"codec loop busy hop shim fleet simall startup timers rh56 record dashboard"}
+only=${BENCH_ONLY:-"codec loop busy hop shim secure fleet simall startup timers rh56 record dashboard"}
 quick=${BENCH_QUICK:-0}
 
 loop_secs=60; busy_secs=30; fleet_secs=30; samples=2000; record_secs=600; dash_secs=30
@@ -102,6 +104,12 @@ if want shim; then
   echo "bench: 3b. shim hop through a DDS-client device ($samples samples per rate)"
   "$bin/handgate-bench" shim --handgate "$bin/handgate" --python "$root/.venv/bin/python" \
     --script "$root/bench/python/shim.py" --samples "$samples" --out "$results/shim.json"
+fi
+
+if want secure; then
+  echo "bench: 3c. the export hop, plain and with DDS Security ($samples samples per rate, 2 rounds each)"
+  "$bin/handgate-bench" secure-hop --handgate "$bin/handgate" --repo "$root" --samples "$samples" \
+    --out "$results/secure_hop.json"
 fi
 
 if want fleet; then

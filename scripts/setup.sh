@@ -5,7 +5,9 @@
 #     libclang-dev (bindgen), libusb-1.0-0-dev (rusb), pkg-config, iproute2 (the two-hosts
 #     test's network namespaces), chromium (the dashboard's browser test), valgrind (make
 #     valgrind, the DDS paths under memcheck), openssl (`handgate security`'s keystore, its
-#     DDS Security test and the doctor's security checks); systemd (only for
+#     DDS Security test and the doctor's security checks), faketime (the secured lab's client
+#     whose clock says its expired certificate is still valid, tests/tests/secure_lab.rs);
+#     systemd (only for
 #     systemd-analyze, which checks the shipped unit; nothing is started).
 #   - tests/browser/node_modules/ (git-ignored): playwright-core from tests/browser's
 #     package-lock.json (npm ci), which drives Debian's chromium in the dashboard's test.
@@ -25,7 +27,7 @@ sudo_cmd=""
 
 source "$root/scripts/debian-packages.sh"
 ensure_debian_packages setup cyclonedds-dev cyclonedds-tools libclang-dev libusb-1.0-0-dev pkg-config \
-  iproute2 chromium valgrind openssl
+  iproute2 chromium valgrind openssl faketime
 # systemd-analyze checks the shipped unit (tests/tests/least_privilege.rs: offline exposure
 # <= 2.0, verify). Debian's systemd package installs cleanly in a container without an init
 # (it does not start anything); no recommends (dbus, timesyncd), only the tool is needed.

@@ -347,13 +347,26 @@ impl Node {
             return Self::new(domain_id, interface);
         };
         crate::dds_security::install_log_sink();
-        let domain = match interface {
+        let general = match interface {
             Some(iface) => {
-                let cfg = interface_config(iface)?;
-                Some(DdsDomain::create(domain_id, Some(&cfg)).map_err(dds_err("domain create"))?)
+                // Validates the name.
+                interface_config(iface)?;
+                format!(
+                    "<General><Interfaces><NetworkInterface name=\"{iface}\" priority=\"default\" \
+                     multicast=\"default\"/></Interfaces></General>"
+                )
             }
-            None => None,
+            None => String::new(),
         };
+        let cfg = crate::dds_security::domain_config(&general);
+        // A second secured participant on the same domain in this process (several identities
+        // in one test) joins the domain the first one configured.
+        let domain = match DdsDomain::create(domain_id, Some(&cfg)) {
+            Ok(d) => Some(d),
+            Err(cyclonedds_rs::DDSError::PreconditionNotMet) => None,
+            Err(e) => return Err(dds_err("domain create")(e)),
+        };
+        crate::dds_security::mark_secured(domain_id);
         let qos = sec.participant_qos()?;
         let mark = crate::dds_security::errors_seen();
         Self::join_with(domain_id, domain, Some(qos)).map_err(|e| match e {

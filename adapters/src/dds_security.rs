@@ -132,6 +132,16 @@ impl Security {
     }
 }
 
+/// The CycloneDDS domain configuration of a secured domain: its discovery trace on (to
+/// [`install_log_sink`]'s function, the file is never written), so a participant without
+/// security is seen being refused; `interface_xml` is the `<General>` part, if any.
+pub(crate) fn domain_config(interface_xml: &str) -> String {
+    format!(
+        "<CycloneDDS><Domain Id=\"any\">{interface_xml}<Tracing><Category>discovery</Category>\
+         <OutputFile>/dev/null</OutputFile></Tracing></Domain></CycloneDDS>"
+    )
+}
+
 /// Why CycloneDDS refused a remote participant, read from its log line ([`classify`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Refusal {
@@ -147,11 +157,15 @@ pub enum Refusal {
     Handshake,
     /// It authenticated, but its permissions do not let it join this domain.
     NotAllowed,
+    /// It joined without DDS Security (no identity at all): none of its readers or writers is
+    /// matched.
+    Unauthenticated,
 }
 
 impl Refusal {
     /// Every reason, in the order `/metrics` lists them.
-    pub const ALL: [Refusal; 6] = [
+    pub const ALL: [Refusal; 7] = [
+        Refusal::Unauthenticated,
         Refusal::UnknownCa,
         Refusal::Revoked,
         Refusal::Expired,
@@ -169,6 +183,7 @@ impl Refusal {
             Refusal::NotYetValid => "not_yet_valid",
             Refusal::Handshake => "handshake",
             Refusal::NotAllowed => "not_allowed",
+            Refusal::Unauthenticated => "unauthenticated",
         }
     }
 }
@@ -192,6 +207,22 @@ pub struct Refused {
 /// <guid> not allowed` when its permissions do not grant the domain.
 pub fn classify(message: &str) -> Option<Refused> {
     let m = message.trim();
+    // A participant without security: CycloneDDS's discovery trace refuses each of its
+    // endpoints ("Non secure remote writer 1104cf6:f49acf2e:93b57be8:3c2 is not allowed.");
+    // the participant is the GUID's prefix.
+    for kind in ["Non secure remote writer ", "Non secure remote reader "] {
+        if let Some(rest) = m.strip_prefix(kind) {
+            let guid = rest.split_whitespace().next()?;
+            let prefix: Vec<&str> = guid.split(':').take(3).collect();
+            if prefix.len() != 3 || !rest.contains("not allowed") {
+                return None;
+            }
+            return Some(Refused {
+                reason: Refusal::Unauthenticated,
+                who: prefix.join(":"),
+            });
+        }
+    }
     if let Some(rest) = m.strip_prefix("Remote secure participant ") {
         let guid = rest.strip_suffix(" not allowed")?;
         return Some(Refused {
@@ -258,6 +289,25 @@ fn table() -> &'static Mutex<HashMap<u32, DomainRefusals>> {
     T.get_or_init(|| Mutex::new(HashMap::new()))
 }
 
+/// Records that this process joined `domain` with DDS Security (its refusals are then
+/// reported even while there are none).
+pub(crate) fn mark_secured(domain: u32) {
+    table()
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .entry(domain)
+        .or_default();
+}
+
+/// Every domain this process joined with DDS Security or saw a refusal on, with its
+/// refusals, in domain order.
+pub fn secured() -> Vec<(u32, DomainRefusals)> {
+    let t = table().lock().unwrap_or_else(|p| p.into_inner());
+    let mut v: Vec<_> = t.iter().map(|(d, r)| (*d, r.clone())).collect();
+    v.sort_by_key(|(d, _)| *d);
+    v
+}
+
 /// The refusals counted on `domain` since [`install_log_sink`].
 pub fn refusals(domain: u32) -> DomainRefusals {
     table()
@@ -303,6 +353,7 @@ struct LogData {
 const LC_FATAL: u32 = 1;
 const LC_ERROR: u32 = 2;
 const LC_WARNING: u32 = 4;
+const LC_INFO: u32 = 8;
 
 /// The domain id in a log line's header (`<sec>.<usec> [<domain>] <thread>: `).
 fn header_domain(header: &str) -> Option<u32> {
@@ -352,23 +403,33 @@ extern "C" fn log_sink(_arg: *mut c_void, data: *const LogData) {
         tracing::error!(target: "cyclonedds", "{msg}");
     } else if priority & LC_WARNING != 0 {
         tracing::warn!(target: "cyclonedds", "{msg}");
-    } else {
+    } else if priority & LC_INFO != 0 {
         tracing::info!(target: "cyclonedds", "{msg}");
     }
+    // Anything else is a trace line (a secured domain's discovery): not for the log.
 }
 
 /// Routes CycloneDDS's log (errors, warnings) into `tracing` and counts refused participants
-/// per domain. Process-wide; idempotent. CycloneDDS's traces (`Tracing/OutputFile`) are not
-/// affected.
+/// per domain. Process-wide; idempotent. CycloneDDS's traces go to the same function
+/// (a domain secured through [`domain_config`] traces its discovery there, which is where a
+/// participant without security is refused); trace lines that are not refusals are dropped,
+/// so a process that secures a domain writes no CycloneDDS trace file.
 pub fn install_log_sink() {
     static ONCE: OnceLock<()> = OnceLock::new();
     ONCE.get_or_init(|| {
         extern "C" {
             fn dds_set_log_sink(callback: extern "C" fn(*mut c_void, *const LogData), userdata: *mut c_void);
         }
+        extern "C" {
+            fn dds_set_trace_sink(callback: extern "C" fn(*mut c_void, *const LogData), userdata: *mut c_void);
+        }
         // SAFETY: `log_sink` is a plain function valid for the life of the process and does
-        // not call back into CycloneDDS.
-        unsafe { dds_set_log_sink(log_sink, std::ptr::null_mut()) };
+        // not call back into CycloneDDS. The same function and argument for both sinks:
+        // CycloneDDS then passes a line that is both logged and traced only once.
+        unsafe {
+            dds_set_log_sink(log_sink, std::ptr::null_mut());
+            dds_set_trace_sink(log_sink, std::ptr::null_mut());
+        }
     });
 }
 
@@ -395,7 +456,14 @@ mod tests {
             c("Remote secure participant b0436de6:d29086f3:60bb4eca:1c1 not allowed"),
             Some((Refusal::NotAllowed, "b0436de6:d29086f3:60bb4eca:1c1".into()))
         );
-        assert_eq!(c("selected interface \"lo\" is not multicast-capable: disabling multicast"), None);
+        assert_eq!(
+            c("Non secure remote writer 1104cf6:f49acf2e:93b57be8:3c2 is not allowed.connect_proxy_writer_with_reader (pwr 1104cf6:f49acf2e:93b57be8:3c2) with (rd c55cd5c5:9c978408:9db1f39c:3c7) not allowed by security"),
+            Some((Refusal::Unauthenticated, "1104cf6:f49acf2e:93b57be8".into()))
+        );
+        assert_eq!(
+            c("selected interface \"lo\" is not multicast-capable: disabling multicast"),
+            None
+        );
         assert_eq!(c("handshake_debug ok"), None);
     }
 

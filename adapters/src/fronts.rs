@@ -91,6 +91,9 @@ mod tests {
         }
         // State topics are not commands.
         assert!(!p.iter().any(|x| x.contains("state")), "{p:?}");
-        assert!(!p.iter().any(|x| x == crate::front::joint_state::DEFAULT_TOPIC), "{p:?}");
+        assert!(
+            !p.iter().any(|x| x == crate::front::joint_state::DEFAULT_TOPIC),
+            "{p:?}"
+        );
     }
 }

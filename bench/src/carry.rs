@@ -28,6 +28,7 @@ pub const SECTIONS: &[(&str, &[&str])] = &[
     ("busy", &["busy.json"]),
     ("hop", &["hop.json", "hop_min_gap_100.toml"]),
     ("shim", &["shim.json", "shim.toml"]),
+    ("secure", &["secure_hop.json"]),
     (
         "fleet",
         &["fleet.json", "fleet_own.json", "fleet.toml", "fleet_own.toml"],

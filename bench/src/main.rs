@@ -12,6 +12,7 @@ mod hop;
 mod record;
 mod report;
 mod rh56;
+mod secure;
 mod shim;
 mod startup;
 mod stats;
@@ -112,6 +113,30 @@ enum Cmd {
         /// LABEL=PATH).
         #[arg(long)]
         handgate_profile: Vec<String>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The export hop plain and with DDS Security, alternating in one run (docs/benchmarks.md §3c).
+    SecureHop {
+        #[arg(long)]
+        handgate: PathBuf,
+        /// The repository (its profiles/default.toml).
+        #[arg(long, default_value = ".")]
+        repo: PathBuf,
+        #[arg(long, value_delimiter = ',', default_value = "200,1000")]
+        rates: Vec<f64>,
+        #[arg(long, default_value_t = 2000)]
+        samples: usize,
+        #[arg(long, default_value_t = 200)]
+        warmup: usize,
+        /// The clients' (export) domain; the devices' is --devices-domain.
+        #[arg(long, default_value_t = 109)]
+        domain: u32,
+        #[arg(long, default_value_t = 229)]
+        devices_domain: u32,
+        /// Plain then secured, this many times.
+        #[arg(long, default_value_t = 2)]
+        rounds: usize,
         #[arg(long)]
         out: PathBuf,
     },
@@ -523,6 +548,29 @@ fn main() -> anyhow::Result<()> {
                 proc_.stop();
             }
             save(&out, &results)?;
+        }
+        Cmd::SecureHop {
+            handgate,
+            repo,
+            rates,
+            samples,
+            warmup,
+            domain,
+            devices_domain,
+            rounds,
+            out,
+        } => {
+            let r = secure::run(
+                &handgate,
+                &repo,
+                domain,
+                devices_domain,
+                &rates,
+                samples,
+                warmup,
+                rounds,
+            )?;
+            save(&out, &r)?;
         }
         Cmd::Echo {
             domain,

@@ -511,6 +511,10 @@ pub fn write(results: &Path, repo: &Path, out_path: &Path) -> anyhow::Result<()>
     crate::shim::report_section(results, repo, &mut body, &mut summary);
 
     mark_carried(&runs, "shim", &mut summary[rows..], &mut body, at);
+    // 3c. The export hop with DDS Security
+    let (rows, at) = (summary.len(), body.len());
+    crate::secure::report_section(results, repo, &mut body, &mut summary);
+    mark_carried(&runs, "secure", &mut summary[rows..], &mut body, at);
     // 4. Fleet
     let (rows, at) = (summary.len(), body.len());
     body.push_str("\n## 4. Fleet scale\n\n");

@@ -435,9 +435,26 @@ pub struct DdsArgs {
     /// The gateway's ROS namespace (`dds.namespace`): its own topics are inside it.
     #[arg(long, value_parser = handgate_adapters::ros::Namespace::parse)]
     pub namespace: Option<handgate_adapters::ros::Namespace>,
+    /// Join a domain secured with DDS Security as this identity: an enclave directory of the
+    /// lab's keystore (`handgate security issue`; docs/security.md).
+    #[arg(long)]
+    pub enclave: Option<std::path::PathBuf>,
+    /// With --enclave: the identity CA's revocation list (PEM).
+    #[arg(long, requires = "enclave")]
+    pub crl: Option<std::path::PathBuf>,
 }
 
 impl DdsArgs {
+    /// The participant these arguments say: domain, interface and, with `--enclave`, the
+    /// identity it joins a secured domain as.
+    pub fn node(&self) -> Result<handgate_adapters::dds::Node, handgate_adapters::dds::DdsError> {
+        let security = self
+            .enclave
+            .as_deref()
+            .map(|dir| handgate_adapters::dds_security::Security::from_enclave(dir, self.crl.clone()));
+        handgate_adapters::dds::Node::with_security(self.domain, self.interface.as_deref(), security.as_ref())
+    }
+
     /// One of handgate's own topics, in `--namespace`.
     pub fn topic(&self, topic: &str) -> String {
         self.namespace.clone().unwrap_or_default().topic(topic)

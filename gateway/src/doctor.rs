@@ -235,6 +235,90 @@ pub fn run(plan: &Plan, opts: &Options) -> Result<Outcome, DoctorError> {
     Ok(out)
 }
 
+/// One DDS Security identity the profile configures: its section (`[export.security]`,
+/// `[dds.security]`), the domain that participant joins, and its files (or the key the
+/// section lacks).
+#[derive(Debug, Clone)]
+pub struct SecurityTarget {
+    pub section: &'static str,
+    pub domain: u32,
+    pub identity: Result<handgate_adapters::dds_security::Security, &'static str>,
+}
+
+/// The identities of `profile`'s `[export.security]` (on the clients' side's domain) and
+/// `[dds.security]` (on the devices' domain) (`plan` is the profile's, with the command
+/// line's overrides).
+pub fn security_targets(profile: &crate::profile::Profile, plan: &Plan) -> Vec<SecurityTarget> {
+    let mut v = Vec::new();
+    if let Some(sec) = profile.export.as_ref().and_then(|e| e.security.as_ref()) {
+        v.push(SecurityTarget {
+            section: "[export.security]",
+            domain: plan.clients_side().0,
+            identity: sec.resolve(),
+        });
+    }
+    if let Some(sec) = &profile.dds.security {
+        v.push(SecurityTarget {
+            section: "[dds.security]",
+            domain: plan.domain,
+            identity: sec.resolve(),
+        });
+    }
+    v
+}
+
+/// Adds the DDS Security section (each identity's [`crate::security::diagnose`] findings at
+/// `now`) before the summary line, which then counts its problems too. Nothing when the
+/// profile configures no identity.
+pub fn add_security(out: &mut Outcome, targets: &[SecurityTarget], now: crate::security::time::Unix) {
+    if targets.is_empty() {
+        return;
+    }
+    let summary = out.text.trim_end().rfind('\n').map_or(0, |i| i + 1);
+    out.text.truncate(summary);
+    security_section(out, targets, |s, d| crate::security::diagnose::diagnose(s, d, now));
+    summary_section(out);
+}
+
+/// Each identity's findings: problems (with their fix), warnings, then the checks passed.
+fn security_section(
+    out: &mut Outcome,
+    targets: &[SecurityTarget],
+    diagnose: impl Fn(&handgate_adapters::dds_security::Security, u32) -> Vec<crate::security::diagnose::Finding>,
+) {
+    use crate::security::diagnose::Severity;
+    for t in targets {
+        out.line(format!("DDS Security {} on domain {}:", t.section, t.domain));
+        let sec = match &t.identity {
+            Ok(s) => s,
+            Err(key) => {
+                out.problem(
+                    "  ",
+                    format!("{}: no `{key}` and no `enclave` to take it from", t.section),
+                    format!(
+                        "set `enclave = \"<keystore>/enclaves/<name>\"` (or `{key}`) in {}",
+                        t.section
+                    ),
+                );
+                continue;
+            }
+        };
+        let findings = diagnose(sec, t.domain);
+        for f in &findings {
+            match f.severity() {
+                Severity::Problem => out.problem("  ", format!("{}: {f}", t.section), f.fix().unwrap_or_default()),
+                Severity::Warning => {
+                    out.line(format!("  WARNING {}: {f}", t.section));
+                    if let Some(fix) = f.fix() {
+                        out.line(format!("    fix: {fix}"));
+                    }
+                }
+                Severity::Ok => out.line(format!("  OK {f}")),
+            }
+        }
+    }
+}
+
 /// The serial ports the profile's devices on the serial backend own: (device, port).
 fn serial_ports(plan: &Plan) -> Vec<(String, std::path::PathBuf)> {
     plan.devices
@@ -1827,5 +1911,64 @@ mod tests {
         let (what, _) = subnet_problem("c", ip("127.0.0.1"), &eth0, &ifs).unwrap();
         assert!(what.contains("lo's subnet"), "{what}");
         assert!(subnet_problem("c", ip("127.0.0.1"), &[&ifs[0]], &ifs).is_none());
+    }
+
+    #[test]
+    fn security_section_prints_and_counts() {
+        use crate::security::diagnose::Finding;
+        use handgate_adapters::dds_security::Security;
+        let sec = Security::from_enclave(std::path::Path::new("/k/enclaves/robot_a"), None);
+        let targets = vec![
+            SecurityTarget {
+                section: "[export.security]",
+                domain: 11,
+                identity: Ok(sec),
+            },
+            SecurityTarget {
+                section: "[dds.security]",
+                domain: 3,
+                identity: Err("certificate"),
+            },
+        ];
+        let mut out = Outcome::default();
+        security_section(&mut out, &targets, |s, d| {
+            assert_eq!(
+                (s.certificate.as_path(), d),
+                (std::path::Path::new("/k/enclaves/robot_a/cert.pem"), 11)
+            );
+            vec![
+                Finding::KeyMismatch,
+                Finding::KeyReadable {
+                    path: "/k/key.pem".into(),
+                    mode: 0o100640,
+                },
+                Finding::Passed("the certificate was issued by the identity CA CN=lab".into()),
+            ]
+        });
+        assert_eq!(out.problems.len(), 2, "{}", out.text);
+        assert!(
+            out.text.starts_with("DDS Security [export.security] on domain 11:\n"),
+            "{}",
+            out.text
+        );
+        assert!(
+            out.text
+                .contains("  PROBLEM [export.security]: the private key does not match the certificate"),
+            "{}",
+            out.text
+        );
+        assert!(out.text.contains("  WARNING [export.security]: private_key: /k/key.pem is readable by its group (mode 640)\n    fix: chmod 600 /k/key.pem"), "{}", out.text);
+        assert!(
+            out.text
+                .contains("  OK the certificate was issued by the identity CA CN=lab"),
+            "{}",
+            out.text
+        );
+        assert!(
+            out.text
+                .contains("PROBLEM [dds.security]: no `certificate` and no `enclave` to take it from"),
+            "{}",
+            out.text
+        );
     }
 }

@@ -72,7 +72,12 @@ pub struct RecordPlan {
 #[derive(Debug, Clone, PartialEq)]
 pub struct HttpPlan {
     pub addr: std::net::SocketAddr,
+    /// The page may command devices: `[http] commands = true` and a token configured.
     pub commands: bool,
+    /// `[http] commands = true` without a token: commands stay off (logged at start).
+    pub commands_need_token: bool,
+    /// `[http] token_file`: read at bind time; every request must present its token.
+    pub token_file: Option<std::path::PathBuf>,
     pub sample_hz: f64,
     pub command_watchdog: Duration,
     /// `[http] allowed_hosts`: names and addresses a request's `Host` may name besides the
@@ -99,6 +104,8 @@ pub struct FoxglovePlan {
 pub struct ExportPlan {
     pub domain: u32,
     pub interface: Option<String>,
+    /// `[export.security]`: the identity the clients' side joins with (DDS Security).
+    pub security: Option<handgate_adapters::dds_security::Security>,
 }
 
 impl Plan {
@@ -118,6 +125,8 @@ pub struct Plan {
     pub profile: String,
     pub domain: u32,
     pub interface: Option<String>,
+    /// `[dds.security]`: the identity the devices' side joins with (DDS Security).
+    pub security: Option<handgate_adapters::dds_security::Security>,
     pub status_topic: String,
     pub status_hz: f64,
     /// Start-up: another process already writing a front's state topic refuses the start or

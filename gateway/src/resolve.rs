@@ -243,7 +243,13 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
         export: p.export_side().map(|(domain, interface)| crate::plan::ExportPlan {
             domain: domain.0,
             interface,
+            security: p
+                .export
+                .as_ref()
+                .and_then(|e| e.security.as_ref())
+                .and_then(|s| s.resolve().ok()),
         }),
+        security: p.dds.security.as_ref().and_then(|s| s.resolve().ok()),
         status_hz: p.status.rate_hz.0,
         foreign_state_writers: p.dds.foreign_state_writers,
         discovery_settle: p.dds.discovery_settle_ms.as_duration(),
@@ -268,7 +274,10 @@ pub fn plan(p: &Profile) -> Result<Plan, Vec<ResolveError>> {
                 p.http.bind.parse().unwrap_or(std::net::Ipv4Addr::LOCALHOST.into()),
                 p.http.port,
             ),
-            commands: p.http.commands,
+            // Commands only with a token (docs/dashboard.md, "Security").
+            commands: p.http.commands && p.http.token_file.is_some(),
+            commands_need_token: p.http.commands && p.http.token_file.is_none(),
+            token_file: p.http.token_file.as_ref().map(std::path::PathBuf::from),
             sample_hz: p.http.sample_hz.0,
             command_watchdog: p.http.command_watchdog_ms.as_duration(),
             // Validated: each a host name or an IP address.

@@ -8,6 +8,10 @@
 //
 // Requests ({"op": ..., ...}):
 //   open {url}                       load the page; wait for hello and samples on every chart
+//   goto {url}                       load url in a fresh browser context (no cookie); its HTTP
+//                                    status, final URL, whether it is the token form, the cookies
+//   login {token}                    type the token in the form goto showed and submit it; then
+//                                    as ready (the page with its cookie, the URL without the token)
 //   ready {timeout_ms}               wait (without reloading) until connected and plotting again
 //   state                            connection, counters, cards, controls, page errors
 //   hello                            the hello frame the page read
@@ -28,12 +32,18 @@ import { createInterface } from 'node:readline';
 import { launch } from './chromium.mjs';
 
 const { browser, close } = await launch();
-const page = await browser.newPage({ viewport: { width: 1400, height: 1000 } });
 const pageErrors = [];
-page.on('pageerror', (e) => pageErrors.push(`pageerror: ${e.message}`));
-page.on('console', (m) => {
-  if (m.type() === 'error') pageErrors.push(`console.error: ${m.text()}`);
-});
+// Each page is in a context of its own (browser.newPage): its own cookies.
+async function newPage() {
+  const p = await browser.newPage({ viewport: { width: 1400, height: 1000 } });
+  p.on('pageerror', (e) => pageErrors.push(`pageerror: ${e.message}`));
+  p.on('console', (m) => {
+    // The token form is answered with 401, which Chromium reports as a console error.
+    if (m.type() === 'error' && !m.text().includes('401')) pageErrors.push(`console.error: ${m.text()}`);
+  });
+  return p;
+}
+let page = await newPage();
 
 const card = (device) => `article.card[data-device="${device}"]`;
 
@@ -62,6 +72,7 @@ async function state() {
     };
   });
   s.pageErrors = pageErrors.slice();
+  s.url = page.url();
   return s;
 }
 
@@ -79,6 +90,34 @@ const ops = {
   async open({ url, timeout_ms = 60000 }) {
     await page.goto(url, { timeout: timeout_ms });
     return ops.ready({ timeout_ms });
+  },
+  async goto({ url, timeout_ms = 60000 }) {
+    await page.context().close();
+    page = await newPage();
+    const r = await page.goto(url, { timeout: timeout_ms });
+    return {
+      status: r ? r.status() : null,
+      url: page.url(),
+      form: await page.locator('form input[name="token"]').count(),
+      dashboard: await page.evaluate(() => window.__handgate !== undefined),
+      cookies: (await page.context().cookies()).map((c) => c.name),
+    };
+  },
+  async login({ token, timeout_ms = 60000 }) {
+    await page.locator('form input[name="token"]').fill(token);
+    // The form opens ?token=..., which the server answers with the cookie and a redirect:
+    // one navigation of the main frame, to the URL without the token.
+    await Promise.all([
+      page.waitForEvent('framenavigated', { predicate: (f) => f === page.mainFrame(), timeout: timeout_ms }),
+      page.locator('form button[type="submit"]').click(),
+    ]);
+    await page.waitForLoadState('load', { timeout: timeout_ms });
+    const s = await ops.ready({ timeout_ms });
+    s.cookies = (await page.context().cookies()).map((c) => ({
+      name: c.name, httpOnly: c.httpOnly, sameSite: c.sameSite,
+    }));
+    s.scriptSeesCookie = await page.evaluate(() => document.cookie.includes('handgate_token'));
+    return s;
   },
   async ready({ timeout_ms = 60000 }) {
     // Connected, and every device's chart has been handed samples.

@@ -1,12 +1,14 @@
 """Independent clients of handgate's HTTP server (tests/tests/http.rs), one per subcommand.
 
-  metrics URL             parse URL/metrics with prometheus_client's own text parser; print
-                          one JSON line {"families": {name: type}, "samples": {"name{labels}": v}}
-  ws URL [--send F ...] [--every-ms N --for-ms M] [--origin O]
+  metrics URL [TOKEN]     parse URL/metrics with prometheus_client's own text parser; print
+                          one JSON line {"families": {name: type}, "samples": {"name{labels}": v}};
+                          with TOKEN, sent as `Authorization: Bearer TOKEN` (as Prometheus does)
+  ws URL [--send F ...] [--every-ms N --for-ms M] [--origin O] [--cookie C]
                           open URL/ws (websockets); print each frame received as "<type> <json>";
                           send the frames F (re-sent every N ms for M ms, like the page's
                           slider), then print "sent_done"; "closed" when the server closes.
                           --origin: send Origin O, as a browser page does (none by default).
+                          --cookie: send `Cookie: C` (the page's token cookie, [http] token_file).
 """
 
 import asyncio
@@ -15,10 +17,13 @@ import sys
 import urllib.request
 
 
-def metrics(url):
+def metrics(url, token=None):
     from prometheus_client.parser import text_string_to_metric_families
 
-    text = urllib.request.urlopen(url + "metrics", timeout=10).read().decode()
+    req = urllib.request.Request(url + "metrics")
+    if token:
+        req.add_header("Authorization", f"Bearer {token}")
+    text = urllib.request.urlopen(req, timeout=10).read().decode()
     families = {}
     samples = {}
     for fam in text_string_to_metric_families(text):
@@ -41,9 +46,11 @@ async def ws(url, args):
     ap.add_argument("--for-ms", type=float, default=0, help="keep re-sending this long")
     ap.add_argument("--quiet", action="store_true", help="READY at hello, then only count frames (a benchmark's viewer)")
     ap.add_argument("--origin", help="the Origin header a browser page would send")
+    ap.add_argument("--cookie", help="the Cookie header a browser page would send")
     a = ap.parse_args(args)
     uri = url.replace("http://", "ws://") + "ws"
-    async with websockets.connect(uri, max_size=2**24, origin=a.origin) as sock:
+    headers = {"Cookie": a.cookie} if a.cookie else None
+    async with websockets.connect(uri, max_size=2**24, origin=a.origin, additional_headers=headers) as sock:
 
         async def pump():
             n = 0
@@ -76,7 +83,7 @@ if __name__ == "__main__":
     if not url.endswith("/"):
         url += "/"
     if cmd == "metrics":
-        metrics(url)
+        metrics(url, sys.argv[3] if len(sys.argv) > 3 else None)
     elif cmd == "ws":
         asyncio.run(ws(url, sys.argv[3:]))
     else:

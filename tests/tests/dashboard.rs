@@ -8,8 +8,11 @@
 //!   `index_0` of `dex3_left` and the chart's data follows to the position the hand reports on
 //!   DDS; after SIGINT stops the gateway the page reads `disconnected`, and it reconnects by
 //!   itself to a gateway started again on the same port;
-//! - `[http] commands = true`, the page opened as `http://localhost:PORT/` (the read-only test
-//!   opens `127.0.0.1`): every card has its controls; the slider with "command" on moves
+//! - `[http] commands = true` with `[http] token_file` (commands need a token), the page opened
+//!   as `http://localhost:PORT/` (the read-only test opens `127.0.0.1`): without the token it is
+//!   a form asking for it (401, no cookie); the token typed there gives the page its cookie
+//!   (HttpOnly, SameSite=Strict, unseen by the page's script) and the URL without the token, and
+//!   the page connects and plots; every card has its controls; the slider with "command" on moves
 //!   the hand (seen on DDS and on the chart) and the fleet table names the page as its owner;
 //!   "safe" puts the device in its safe state (the status topic says so); a device another front commands is refused and the
 //!   card shows the reason.
@@ -209,6 +212,22 @@ impl Drop for Browser {
 // ---------------------------------------------------------------------------------------------
 // Helpers
 
+/// A token file (0600, a fresh random token) for `[http] token_file`, and its token.
+fn token_file(name: &str) -> (PathBuf, String) {
+    use std::os::unix::fs::PermissionsExt;
+    let mut raw = [0u8; 24];
+    std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| f.read_exact(&mut raw))
+        .expect("/dev/urandom");
+    let token: String = raw.iter().map(|b| format!("{b:02x}")).collect();
+    let dir = std::env::temp_dir().join(format!("handgate-dashboard-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let p = dir.join(name);
+    std::fs::write(&p, format!("{token}\n")).expect("token file");
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o600)).expect("chmod 600");
+    (p, token)
+}
+
 /// The device names `handgate check PROFILE` resolves, in its order.
 fn fleet_names(profile: &Path) -> Vec<String> {
     let out = handgate_check(profile);
@@ -399,9 +418,16 @@ fn with_commands_enabled_the_slider_moves_the_hand_safe_stops_it_and_a_foreign_o
         return;
     };
     let domain = 183;
+    let (tf, token) = token_file("dashboard-commands.token");
     let profile = default_profile_edited(
         "dashboard-commands",
-        &[("\n[status]\n", "\n[http]\ncommands = true\n\n[status]\n")],
+        &[(
+            "\n[status]\n",
+            &format!(
+                "\n[http]\ncommands = true\ntoken_file = \"{}\"\n\n[status]\n",
+                tf.display()
+            ),
+        )],
     );
     let names = fleet_names(&profile);
     let gw = Gateway::start(domain, &["--profile", profile.to_str().unwrap()]);
@@ -411,7 +437,25 @@ fn with_commands_enabled_the_slider_moves_the_hand_safe_stops_it_and_a_foreign_o
     assert!(url.starts_with("http://127.0.0.1:"), "{url}");
     let url = url.replacen("127.0.0.1", "localhost", 1);
 
-    let st = b.call(json!({"op": "open", "url": url}), &gw);
+    // Without the token: a form asking for it, nothing of the dashboard, no cookie.
+    let g = b.call(json!({"op": "goto", "url": url}), &gw);
+    assert_eq!(
+        (&g["status"], &g["form"], &g["dashboard"]),
+        (&json!(401), &json!(1), &json!(false)),
+        "{g}"
+    );
+    assert_eq!(g["cookies"], json!([]), "{g}");
+    // The token typed in the form: the page's cookie, the URL without the token, and the page
+    // connected (its WebSocket carries the cookie) and plotting.
+    let st = b.call(json!({"op": "login", "token": token}), &gw);
+    assert_eq!(st["url"], json!(url), "the URL keeps no token: {st}");
+    assert_eq!(
+        st["cookies"],
+        json!([{"name": "handgate_token", "httpOnly": true, "sameSite": "Strict"}]),
+        "{st}"
+    );
+    assert_eq!(st["scriptSeesCookie"], false, "{st}");
+    assert_eq!(st["conn"], "connected", "{st}");
     assert_eq!(st["commands"], true, "{st}");
     assert_eq!(strings(&st["cards"]), names, "{st}");
     for name in &names {

@@ -1,6 +1,6 @@
 //! `handgate doctor` through the real binary, against clients made with the official
-//! unitree_sdk2py (`tests/python/doctor_client.py`). DDS domains 140–149 and 83
-//! (docs/development.md); every domain scan stays inside 144–145.
+//! unitree_sdk2py (`tests/python/doctor_client.py`). DDS domains 140–149, 83 and 108 (the DDS
+//! Security section's test) (docs/development.md); every domain scan stays inside 144–145.
 
 use std::time::Duration;
 
@@ -419,4 +419,138 @@ fn another_hand_on_a_hands_topics_is_named_by_its_entry_count() {
         let want = format!("fix: a hand of kind {kind} carries {entries}: set that kind for device left_hand");
         assert!(fix.contains(&want), "{profile}: {out}");
     }
+}
+
+// DDS Security (docs/security-keystore.md, "The doctor's checks"): identities made by
+// `handgate security`, checked by the doctor's security section. DDS domain 108 (the doctor
+// joins it while it looks; `security_keystore.rs` uses it too, in another test binary).
+
+/// `handgate security ARGS` succeeds.
+fn keystore_cmd(args: &[&str]) {
+    let out = std::process::Command::new(handgate_tests::handgate_bin())
+        .arg("security")
+        .args(args)
+        .output()
+        .expect("handgate security runs");
+    assert!(
+        out.status.success(),
+        "handgate security {args:?}: {}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A keystore in `dir` with a gateway identity `robot_a`, an expired one `old` and a
+/// revoked one `eve`, all for domain 108.
+fn lab_keystore(dir: &std::path::Path) -> String {
+    let _ = std::fs::remove_dir_all(dir);
+    let ks = dir.to_str().unwrap().to_string();
+    keystore_cmd(&["init", "--keystore", &ks]);
+    for name in ["robot_a", "eve"] {
+        keystore_cmd(&["issue", "--keystore", &ks, name, "--role", "gateway", "--robot", "108"]);
+    }
+    keystore_cmd(&[
+        "issue",
+        "--keystore",
+        &ks,
+        "old",
+        "--role",
+        "gateway",
+        "--robot",
+        "108",
+        "--not-before",
+        "2020-01-01T00:00:00Z",
+        "--not-after",
+        "2021-01-01T00:00:00Z",
+    ]);
+    keystore_cmd(&["revoke", "--keystore", &ks, "eve"]);
+    ks
+}
+
+/// The doctor on domain 108 for a profile whose `[export.security]` is `security` (TOML
+/// lines); its exit code and the lines of its DDS Security section.
+fn doctor_security(name: &str, security: &str) -> (i32, Vec<String>) {
+    let profile = temp_profile(
+        "doctor-security",
+        name,
+        &format!(
+            "name = \"{name}\"\n[dds]\ndomain = 108\n[export.security]\n{security}\n{}",
+            emulated_device("left_hand", "dex3", "left")
+        ),
+    );
+    let (code, out) = run_doctor(
+        None,
+        &[
+            "--profile",
+            profile.to_str().unwrap(),
+            "--seconds",
+            "0.5",
+            "--no-scan",
+            "--no-sweep",
+        ],
+    );
+    let section: Vec<String> = out
+        .lines()
+        .skip_while(|l| !l.starts_with("DDS Security [export.security] on domain 108:"))
+        .map(str::to_string)
+        .collect();
+    assert!(!section.is_empty(), "no DDS Security section in:\n{out}");
+    (code, section)
+}
+
+#[test]
+fn doctor_security_says_expired_revoked_and_missing() {
+    let dir = std::env::temp_dir().join(format!("handgate-doctor-keystore-{}", std::process::id()));
+    let ks = lab_keystore(&dir);
+    let crl = format!("{ks}/public/crl.pem");
+
+    // A good identity: every check passes.
+    let (_, good) = doctor_security(
+        "sec-good",
+        &format!("enclave = \"{ks}/enclaves/robot_a\"\ncrl = \"{crl}\""),
+    );
+    assert!(!good.iter().any(|l| l.contains("PROBLEM")), "{good:#?}");
+    assert!(
+        good.iter().any(|l| l.contains("OK the permissions are signed by the permissions CA and grant CN=/robot_a domain 108")),
+        "{good:#?}"
+    );
+
+    // Expired: the dates, and the count in the summary.
+    let (code, old) = doctor_security("sec-old", &format!("enclave = \"{ks}/enclaves/old\""));
+    assert_eq!(code, 1, "{old:#?}");
+    assert!(
+        old.iter().any(|l| l.contains(
+            "PROBLEM [export.security]: the certificate expired on 2021-01-01T00:00:00Z (valid 2020-01-01T00:00:00Z to 2021-01-01T00:00:00Z)"
+        )),
+        "{old:#?}"
+    );
+    assert!(
+        old.iter().any(|l| l.contains("permissions: the grant has expired")),
+        "{old:#?}"
+    );
+    assert_eq!(old.last().map(String::as_str), Some("doctor: 2 problem(s)"), "{old:#?}");
+
+    // Revoked by the list the profile gives.
+    let (code, eve) = doctor_security("sec-eve", &format!("enclave = \"{ks}/enclaves/eve\"\ncrl = \"{crl}\""));
+    assert_eq!(code, 1, "{eve:#?}");
+    assert!(
+        eve.iter()
+            .any(|l| l.contains("PROBLEM [export.security]: the certificate (serial ")
+                && l.contains("is revoked by the revocation list")),
+        "{eve:#?}"
+    );
+
+    // A file given beside the enclave that is not there: named by its profile key.
+    let (code, missing) = doctor_security(
+        "sec-missing",
+        &format!("enclave = \"{ks}/enclaves/robot_a\"\npermissions = \"{ks}/enclaves/robot_a/nope.p7s\""),
+    );
+    assert_eq!(code, 1, "{missing:#?}");
+    assert!(
+        missing.iter().any(|l| l.contains(&format!(
+            "PROBLEM [export.security]: permissions: {ks}/enclaves/robot_a/nope.p7s cannot be read: No such file"
+        ))),
+        "{missing:#?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -25,16 +25,18 @@ pub fn doctor(cmd: DoctorCmd) -> anyhow::Result<ExitCode> {
             })
         })
         .flatten();
-    let (_, plan) = match load_plan(cmd.profile, cmd.overrides) {
+    let (loaded, plan) = match load_plan(cmd.profile, cmd.overrides) {
         Ok(lp) => lp,
         Err(code) => return Ok(code),
     };
     let scan = if cmd.count_only { Vec::new() } else { scan };
-    let out = doctor::run(&plan, &doctor::Options { listen, scan, sweep })?;
+    let mut out = doctor::run(&plan, &doctor::Options { listen, scan, sweep })?;
     if cmd.count_only {
         println!("relevant {}", out.relevant);
         return Ok(ExitCode::SUCCESS);
     }
+    let security = doctor::security_targets(&loaded.profile, &plan);
+    doctor::add_security(&mut out, &security, handgate_gateway::security::time::now());
     print!("{}", out.text);
     Ok(if out.problems.is_empty() {
         ExitCode::SUCCESS

@@ -13,11 +13,17 @@ pub fn security(cmd: SecurityCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         SecurityCmd::Init { keystore, name, days } => {
             let ks = Keystore::init(&keystore.keystore, &name, days, now)?;
-            println!("keystore {} created: CA \"{name}\", valid {days} days", ks.dir.display());
+            println!(
+                "keystore {} created: CA \"{name}\", valid {days} days",
+                ks.dir.display()
+            );
             println!("  CA certificate   {}", ks.ca_cert().display());
             println!("  governance       {}", ks.governance().display());
             println!("  revocation list  {}", ks.crl().display());
-            println!("issue identities with `handgate security issue --keystore {} NAME --role ...`", ks.dir.display());
+            println!(
+                "issue identities with `handgate security issue --keystore {} NAME --role ...`",
+                ks.dir.display()
+            );
         }
         SecurityCmd::Issue {
             keystore,

@@ -11,7 +11,7 @@ use handgate_idl::handgate as hg;
 /// Sends the safe state, a closure or joint targets (whichever `cmd` gives), repeated for
 /// `--hold` seconds.
 pub fn send(cmd: SendCmd) -> anyhow::Result<ExitCode> {
-    let node = handgate_adapters::dds::Node::new(cmd.dds.domain, cmd.dds.interface.as_deref())?;
+    let node = cmd.dds.node()?;
     let msg = if cmd.safe {
         hg::HandCmd_ {
             mode: hg::MODE_SAFE,

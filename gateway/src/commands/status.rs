@@ -11,7 +11,7 @@ use handgate_gateway::tools;
 /// between them; with `once`, one sample and exit. An error when no sample comes within
 /// `timeout` seconds.
 pub fn status(dds: &DdsArgs, topic: &str, once: bool, timeout: f64) -> anyhow::Result<ExitCode> {
-    let node = handgate_adapters::dds::Node::new(dds.domain, dds.interface.as_deref())?;
+    let node = dds.node()?;
     let mut reader = tools::StatusReader::new(&node, &dds.topic(topic))?;
     loop {
         let (s, ext) = reader.next(Duration::from_secs_f64(timeout))?;

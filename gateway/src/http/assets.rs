@@ -3,6 +3,15 @@
 /// (path under `assets/`, bytes), sorted by path.
 static FILES: &[(&str, &[u8])] = include!(concat!(env!("OUT_DIR"), "/assets.rs"));
 
+/// The answer to a browser without the token (`[http] token_file`): a form that opens the
+/// same URL with `?token=`, which the server turns into its cookie and redirects to the URL
+/// without it. No script, nothing of the dashboard.
+pub const LOGIN_PAGE: &str = "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
+<title>handgate: token required</title></head><body>\
+<h1>handgate dashboard</h1><p>This dashboard requires its token ([http] token_file).</p>\
+<form method=\"get\"><label>Token <input type=\"password\" name=\"token\" autocomplete=\"off\" autofocus></label> \
+<button type=\"submit\">Open</button></form></body></html>\n";
+
 /// The content type of a file by its extension.
 fn content_type(path: &str) -> &'static str {
     match path.rsplit('.').next().unwrap_or("") {

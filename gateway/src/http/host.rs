@@ -158,11 +158,12 @@ impl Refusal {
     }
 }
 
-/// Requests refused, by [`Refusal::reason`] (`/metrics`).
+/// Requests refused, by [`Refusal::reason`], and without the token (`token`; `/metrics`).
 #[derive(Debug, Default)]
 pub struct Refused {
     pub host: AtomicU64,
     pub origin: AtomicU64,
+    pub token: AtomicU64,
 }
 
 impl Refused {

@@ -121,9 +121,13 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
         &mut out,
         "handgate_http_refused_total",
         "counter",
-        "Requests refused for their Host (not a name of this server, or malformed) or, opening the WebSocket, their Origin.",
+        "Requests refused for their Host (not a name of this server, or malformed), opening the WebSocket their Origin, or without the right token ([http] token_file).",
     );
-    for (reason, n) in [("host", &fleet.refused.host), ("origin", &fleet.refused.origin)] {
+    for (reason, n) in [
+        ("host", &fleet.refused.host),
+        ("origin", &fleet.refused.origin),
+        ("token", &fleet.refused.token),
+    ] {
         f.sample(
             "handgate_http_refused_total",
             &format!("reason=\"{reason}\""),
@@ -393,7 +397,47 @@ pub fn render(fleet: &Fleet, commands: bool) -> String {
     );
     f.sample("handgate_record_dropped_total", "", status.record_dropped as f64);
     stream_families(&mut out);
+    security_families(&mut out);
     out
+}
+
+/// DDS Security's refusals (docs/security.md), per secured domain: the distinct remote
+/// participants refused, by reason, and every refusal CycloneDDS logged (a refused peer
+/// retries its handshake about once a second).
+fn security_families(out: &mut String) {
+    use handgate_adapters::dds_security::{secured, Refusal};
+    let domains = secured();
+    if domains.is_empty() {
+        return;
+    }
+    let mut f = Family::new(
+        out,
+        "handgate_dds_security_refused_participants_total",
+        "counter",
+        "Remote participants a secured DDS domain refused, by reason (unauthenticated, unknown_ca, revoked, expired, not_yet_valid, handshake, not_allowed).",
+    );
+    for (domain, r) in &domains {
+        for reason in Refusal::ALL {
+            f.sample(
+                "handgate_dds_security_refused_participants_total",
+                &format!("domain=\"{domain}\",reason=\"{}\"", reason.label()),
+                r.participants.get(&reason).copied().unwrap_or(0) as f64,
+            );
+        }
+    }
+    let mut f = Family::new(
+        out,
+        "handgate_dds_security_refusals_total",
+        "counter",
+        "Refusals a secured DDS domain logged, retries included.",
+    );
+    for (domain, r) in &domains {
+        f.sample(
+            "handgate_dds_security_refusals_total",
+            &format!("domain=\"{domain}\""),
+            r.attempts as f64,
+        );
+    }
 }
 
 /// The byte-stream fronts' families (a device's own interface over TCP or a pty:

@@ -3,13 +3,17 @@
 //! loopback unless the profile chooses another address; accepts no command unless the
 //! profile's `commands = true`, and then only through the page's own front (the same
 //! clamps, ownership and watchdog as any client). Answers only requests whose `Host` names it
-//! and, on the WebSocket, pages of that origin (`host.rs`: DNS rebinding). Never on a device
-//! path: it reads the devices' state channels and lock-free counters.
+//! and, on the WebSocket, pages of that origin (`host.rs`: DNS rebinding); then, when the
+//! profile names a token (`[http] token_file`, required off loopback), only requests that
+//! present it (`token.rs`), on every route. Commands need the token too: without one the page's
+//! front is not started. Never on a device path: it reads the devices' state channels and
+//! lock-free counters.
 
 mod assets;
 mod feed;
 pub mod host;
 mod metrics;
+pub mod token;
 mod web_front;
 mod ws;
 
@@ -43,6 +47,8 @@ pub enum HttpError {
         #[source]
         source: std::io::Error,
     },
+    #[error("[http] token_file: {0}")]
+    Token(#[from] token::TokenError),
 }
 
 /// A front as the page lists it.
@@ -68,7 +74,7 @@ pub struct Fleet {
     pub started: Instant,
     /// Pages connected now.
     pub clients: AtomicUsize,
-    /// Requests refused for their `Host` or `Origin`.
+    /// Requests refused for their `Host`, `Origin` or token.
     pub refused: host::Refused,
     /// The fleet page's latest look (`[http] fleet_domains`); `None`: no fleet page.
     pub lab: Option<watch::Receiver<Arc<crate::fleet::Fleet>>>,
@@ -119,29 +125,54 @@ const MAX_HEAD: usize = 8 * 1024;
 /// How long a client may take to send its request head.
 const HEAD_TIMEOUT: Duration = Duration::from_secs(5);
 
-/// Binds `[http]`'s address (an error names it and the fixes): called before any device
-/// opens, so a taken port stops the start without touching hardware.
-pub fn bind(h: &HttpPlan) -> Result<std::net::TcpListener, HttpError> {
-    std::net::TcpListener::bind(h.addr)
-        .and_then(|l| l.set_nonblocking(true).map(|_| l))
-        .map_err(|source| HttpError::Bind { addr: h.addr, source })
+/// `[http]`'s socket and token, from [`bind`].
+pub struct Bound {
+    listener: std::net::TcpListener,
+    token: Option<token::Token>,
 }
 
-/// Serves `[http]` on `listener` (from [`bind`]) until shutdown.
+/// Binds `[http]`'s address (an error names it and the fixes) and reads its token file (read
+/// once, here): called before any device opens, so a taken port or a bad token file stops the
+/// start without touching hardware.
+pub fn bind(h: &HttpPlan) -> Result<Bound, HttpError> {
+    let token = h.token_file.as_deref().map(token::Token::load).transpose()?;
+    if token.is_none() && !h.addr.ip().to_canonical().is_loopback() {
+        // The profile's validation refuses this; a plan built otherwise is refused here too.
+        return Err(HttpError::Bind {
+            addr: h.addr,
+            source: std::io::Error::other("a non-loopback address needs [http] token_file"),
+        });
+    }
+    let listener = std::net::TcpListener::bind(h.addr)
+        .and_then(|l| l.set_nonblocking(true).map(|_| l))
+        .map_err(|source| HttpError::Bind { addr: h.addr, source })?;
+    Ok(Bound { listener, token })
+}
+
+/// Serves `[http]` on `bound` (from [`bind`]) until shutdown.
 pub fn spawn(
     h: &HttpPlan,
-    listener: std::net::TcpListener,
+    bound: Bound,
     fleet: Fleet,
     by_name: &HashMap<String, Arc<DeviceSlot>>,
     shutdown: watch::Receiver<bool>,
 ) -> Result<Vec<tokio::task::JoinHandle<()>>, HttpError> {
+    let Bound { listener, token } = bound;
     let listener = TcpListener::from_std(listener).map_err(|source| HttpError::Bind { addr: h.addr, source })?;
     let local = listener.local_addr().unwrap_or(h.addr);
+    // Commands only with a token (the plan says so; the token read is what counts).
+    let commands = h.commands && token.is_some();
+    let token_required = token.is_some();
     if local.ip().is_loopback() {
-        tracing::info!(url = %format!("http://{local}/"), commands = h.commands, "http: listening");
+        tracing::info!(url = %format!("http://{local}/"), commands, token_required, "http: listening");
     } else {
-        tracing::warn!(url = %format!("http://{local}/"), commands = h.commands,
-            "http: listening on a non-loopback address ([http] bind): the dashboard and /metrics are reachable from the network");
+        tracing::warn!(url = %format!("http://{local}/"), commands, token_required,
+            "http: listening on a non-loopback address ([http] bind): the dashboard and /metrics are reachable from the network (token required; in clear without TLS in front)");
+    }
+    if h.commands_need_token || (h.commands && !commands) {
+        tracing::warn!(
+            "http: [http] commands = true but no [http] token_file: the dashboard accepts no command (docs/dashboard.md, \"Security\")"
+        );
     }
     let fleet = Arc::new(fleet);
     let mut tasks = Vec::new();
@@ -152,7 +183,7 @@ pub fn spawn(
         frames.clone(),
         shutdown.clone(),
     ));
-    let page = if h.commands {
+    let page = if commands {
         let (front, task) =
             web_front::spawn(&fleet, by_name, h.command_watchdog, shutdown.clone()).map_err(|e| HttpError::Bind {
                 addr: local,
@@ -171,7 +202,14 @@ pub fn spawn(
         allowed: host::Allowed {
             extra: h.allowed_hosts.clone(),
         },
+        no_commands: if h.commands_need_token || (h.commands && !commands) {
+            "the dashboard accepts no command: [http] commands = true needs [http] token_file (a token), and the profile names none"
+        } else {
+            "the dashboard accepts no command: set [http] commands = true (and [http] token_file) in the profile"
+        },
+        token,
         log: RateLimitedLog::default(),
+        token_log: std::sync::Mutex::default(),
     };
     let server = Arc::new(server);
     let mut stop = shutdown.clone();
@@ -210,8 +248,14 @@ pub(crate) struct Server {
     sample_hz: f64,
     /// The names it answers to besides the built-in ones (`[http] allowed_hosts`).
     allowed: host::Allowed,
+    /// Why a page's command is refused when the page's front is off.
+    no_commands: &'static str,
+    /// `[http] token_file`'s token: every request must present it.
+    token: Option<token::Token>,
     /// Refused requests' log lines.
     log: RateLimitedLog,
+    /// Requests refused for their token: log lines per peer address.
+    token_log: std::sync::Mutex<token::PeerLog>,
 }
 
 /// One parsed request head.
@@ -266,6 +310,8 @@ pub(crate) struct Response {
     pub status: u16,
     pub content_type: &'static str,
     pub body: Vec<u8>,
+    /// Further header lines (`Name: value`).
+    pub extra: Vec<String>,
 }
 
 impl Response {
@@ -274,7 +320,13 @@ impl Response {
             status,
             content_type,
             body: body.into(),
+            extra: Vec::new(),
         }
+    }
+
+    pub fn header(mut self, line: String) -> Self {
+        self.extra.push(line);
+        self
     }
 
     pub fn text(status: u16, body: impl Into<String>) -> Self {
@@ -284,7 +336,9 @@ impl Response {
     fn head(&self) -> String {
         let reason = match self.status {
             200 => "OK",
+            303 => "See Other",
             400 => "Bad Request",
+            401 => "Unauthorized",
             403 => "Forbidden",
             404 => "Not Found",
             405 => "Method Not Allowed",
@@ -293,9 +347,10 @@ impl Response {
             503 => "Service Unavailable",
             _ => "Error",
         };
+        let extra: String = self.extra.iter().map(|l| format!("{l}\r\n")).collect();
         format!(
             "HTTP/1.1 {} {reason}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\n\
-             X-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\n",
+             X-Content-Type-Options: nosniff\r\n{extra}Connection: close\r\n\r\n",
             self.status,
             self.content_type,
             self.body.len()
@@ -346,6 +401,22 @@ impl Server {
             Ok(h) => h,
             Err(r) => return self.refuse(&mut stream, peer, r).await,
         };
+        // Then who asks: the token, on every route (token.rs).
+        if let Some(t) = &self.token {
+            let auth = req.headers_named("authorization");
+            let cookies = req.headers_named("cookie");
+            match t.check(&req.path, &auth, &cookies) {
+                token::Verdict::Pass => {}
+                token::Verdict::SetCookie { clean, cookie } if req.method == "GET" || req.method == "HEAD" => {
+                    // The page opened with `?token=`: the cookie, and the URL without the token.
+                    let r = Response::text(303, "")
+                        .header(format!("Location: {clean}"))
+                        .header(format!("Set-Cookie: {cookie}"));
+                    return write(&mut stream, r, false).await;
+                }
+                _ => return self.refuse_token(&mut stream, peer, &req).await,
+            }
+        }
         let head_only = req.method == "HEAD";
         if req.method != "GET" && !head_only {
             return write(&mut stream, Response::text(405, "only GET\n"), false).await;
@@ -375,6 +446,34 @@ impl Server {
             tracing::warn!(%peer, suppressed, "http: refused a request: {r}");
         }
         write(stream, Response::text(r.status(), format!("{r}\n")), false).await
+    }
+
+    /// Answers a request without the token: 401, nothing about the token in it but how to
+    /// present one; counted, and logged at most once per [`token::LOG_EVERY`] per peer address.
+    async fn refuse_token(&self, stream: &mut TcpStream, peer: SocketAddr, req: &Request) -> std::io::Result<()> {
+        self.fleet.refused.token.fetch_add(1, Ordering::Relaxed);
+        let logged = self
+            .token_log
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .admit(peer.ip().to_canonical(), Instant::now());
+        if let Some(suppressed) = logged {
+            let path = req.path.split('?').next().unwrap_or("/");
+            tracing::warn!(%peer, path, suppressed,
+                "http: refused a request without the right token ([http] token_file; counted in handgate_http_refused_total{{reason=\"token\"}})");
+        }
+        let browser = req.header("accept").is_some_and(|a| a.contains("text/html"));
+        let r = if browser {
+            Response::new(401, "text/html; charset=utf-8", assets::LOGIN_PAGE)
+        } else {
+            Response::text(401, "unauthorized\n")
+        };
+        write(
+            stream,
+            r.header("WWW-Authenticate: Bearer realm=\"handgate\"".into()),
+            false,
+        )
+        .await
     }
 
     fn route(&self, path: &str) -> Response {

@@ -120,7 +120,7 @@ fn command(server: &Server, conn: u64, peer: SocketAddr, text: &str) -> Option<S
         Err(e) => return refused(e),
     };
     let Some(front) = &server.page else {
-        return refused("the dashboard accepts no command: set [http] commands = true in the profile".into());
+        return refused(server.no_commands.into());
     };
     match front.submit(conn, peer, cmd) {
         Ok(()) => None,

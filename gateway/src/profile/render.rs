@@ -52,6 +52,33 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
             );
         }
     }
+    let secured = |what: &str, sec: &Option<crate::profile::SecurityConfig>, s: &mut String| {
+        let Some(c) = sec else { return };
+        let line = match c.resolve() {
+            Ok(f) => format!(
+                "{what} security: DDS Security, unauthenticated participants refused; identity {} (CA {}), \
+                 permissions {} (CA {}), governance {}{}",
+                f.certificate.display(),
+                f.identity_ca.display(),
+                f.permissions.display(),
+                f.permissions_ca.display(),
+                f.governance.display(),
+                f.crl
+                    .as_ref()
+                    .map(|c| format!(", revocation list {}", c.display()))
+                    .unwrap_or_default(),
+            ),
+            Err(missing) => format!("{what} security: incomplete ({missing} not given)"),
+        };
+        let _ = writeln!(s, "{line}");
+    };
+    let (devices, clients) = if p.export_side().is_some() {
+        ("dds (devices)", "export")
+    } else {
+        ("dds", "export")
+    };
+    secured(devices, &p.dds.security, &mut s);
+    secured(clients, &p.export.as_ref().and_then(|e| e.security.clone()), &mut s);
     let _ = writeln!(s, "log: {} {}", p.log.format, p.log.level);
     let _ = writeln!(s, "status: {} at {}", p.status_topic(), p.status.rate_hz);
     if let Some(r) = &p.record {
@@ -65,13 +92,20 @@ pub fn render_fleet(p: &Profile, origin: &Origin) -> String {
     if p.http.enabled {
         let _ = writeln!(
             s,
-            "http: dashboard, /metrics, /healthz on {}:{}{}{}",
+            "http: dashboard, /metrics, /healthz on {}:{}{}{}{}",
             p.http.bind,
             p.http.port,
-            if p.http.commands {
-                " (the page may command devices)"
-            } else {
-                " (read-only)"
+            match (p.http.commands, &p.http.token_file) {
+                (true, Some(_)) => " (the page may command devices)",
+                (true, None) => {
+                    " (read-only: WARNING commands = true needs [http] token_file; without a token the \
+                     dashboard accepts no command)"
+                }
+                (false, _) => " (read-only)",
+            },
+            match &p.http.token_file {
+                Some(f) => format!(", token required (from {f})"),
+                None => ", no token".to_string(),
             },
             if p.http.allowed_hosts.is_empty() {
                 String::new()

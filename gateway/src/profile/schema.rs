@@ -481,8 +481,15 @@ pub struct HttpConfig {
     /// TCP port; 0: any free port (the log names it).
     pub port: u16,
     /// The page may command devices (a closure slider and a safe button per device), through
-    /// the same rules as any front. Off: the server accepts no command.
+    /// the same rules as any front. Off: the server accepts no command. Needs `token_file`:
+    /// without a token the server accepts no command either (`handgate check` says so).
     pub commands: bool,
+    /// A file holding the token every request must present (`Authorization: Bearer`, or the
+    /// page's cookie once opened with `?token=`): one line, at least 16 bytes, no access for
+    /// group or others. Required when `bind` is not a loopback address (docs/dashboard.md,
+    /// "Security").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub token_file: Option<String>,
     /// Joint samples pushed to each page per second.
     pub sample_hz: RateHz,
     /// Commands from the page: after this long without one, the device's safe action.
@@ -507,6 +514,7 @@ impl Default for HttpConfig {
             bind: "127.0.0.1".into(),
             port: HTTP_DEFAULT_PORT,
             commands: false,
+            token_file: None,
             sample_hz: RateHz(50.0),
             command_watchdog_ms: Millis(500),
             allowed_hosts: Vec::new(),

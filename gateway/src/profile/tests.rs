@@ -2263,6 +2263,84 @@ fn http_allowed_hosts_are_names_or_addresses_resolved_once() {
     );
 }
 
+/// A token file of `text` with `mode`, next to the test profiles.
+fn token_file(text: &str, mode: u32) -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let p = temp_profile(text).with_extension("token");
+    std::fs::write(&p, text).unwrap();
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(mode)).unwrap();
+    p
+}
+
+#[test]
+fn http_off_loopback_requires_a_token_file_that_is_private_and_long_enough() {
+    let line_for = |r: Result<Loaded, ProfileError>, path: &PathBuf| -> Vec<String> {
+        let file = path.display().to_string();
+        r.unwrap_err()
+            .lines()
+            .into_iter()
+            .filter(|l| l.starts_with(&file) && l.contains(": http.token_file: "))
+            .collect()
+    };
+    for bind in ["0.0.0.0", "::", "192.168.1.10", "fd00::5"] {
+        let (path, r) = load_text(&format!("[http]\nbind = \"{bind}\"\n{DEX3}"));
+        let bad = line_for(r, &path);
+        assert_eq!(bad.len(), 1, "{bind}: {bad:?}");
+        assert!(bad[0].contains("required") && bad[0].contains(bind), "{bad:?}");
+    }
+    // Off, it needs none.
+    let (_, r) = load_text(&format!("[http]\nenabled = false\nbind = \"0.0.0.0\"\n{DEX3}"));
+    assert!(r.is_ok(), "{r:?}");
+
+    let good = token_file("0123456789abcdef0123456789abcdef\n", 0o600);
+    let (_, r) = load_text(&format!(
+        "[http]\nbind = \"0.0.0.0\"\ncommands = true\ntoken_file = \"{}\"\n{DEX3}",
+        good.display()
+    ));
+    let h = crate::resolve::plan(&r.unwrap().profile).unwrap().http.unwrap();
+    assert_eq!(h.token_file.as_deref(), Some(good.as_path()));
+    assert!(h.commands && !h.commands_need_token, "{h:?}");
+
+    for (text, mode, why) in [
+        ("0123456789abcdef0123456789abcdef\n", 0o640, "chmod 600"),
+        ("0123456789abcdef0123456789abcdef\n", 0o604, "chmod 600"),
+        ("short\n", 0o600, "fewer than 16"),
+        ("\n", 0o600, "0 bytes"),
+    ] {
+        let f = token_file(text, mode);
+        let (path, r) = load_text(&format!(
+            "[http]\nbind = \"127.0.0.1\"\ntoken_file = \"{}\"\n{DEX3}",
+            f.display()
+        ));
+        let bad = line_for(r, &path);
+        assert_eq!(bad.len(), 1, "{mode:o} {text:?}: {bad:?}");
+        assert!(
+            bad[0].contains(why) && bad[0].contains(&f.display().to_string()),
+            "{bad:?}"
+        );
+    }
+    let missing = temp_profile("").with_extension("absent");
+    let (path, r) = load_text(&format!("[http]\ntoken_file = \"{}\"\n{DEX3}", missing.display()));
+    let bad = line_for(r, &path);
+    assert!(bad.len() == 1 && bad[0].contains("cannot read"), "{bad:?}");
+}
+
+#[test]
+fn http_commands_without_a_token_stay_off_on_loopback_and_check_says_why() {
+    let (path, r) = load_text(&format!("[http]\ncommands = true\n{DEX3}"));
+    let l = r.unwrap();
+    let h = crate::resolve::plan(&l.profile).unwrap().http.unwrap();
+    assert!(!h.commands && h.commands_need_token, "{h:?}");
+    let shown = render_fleet(&l.profile, &Origin::File(path));
+    assert!(
+        shown.contains("WARNING commands = true needs [http] token_file"),
+        "{shown}"
+    );
+    let (_, r) = load_text(&format!("[http]\n{DEX3}"));
+    let h = crate::resolve::plan(&r.unwrap().profile).unwrap().http.unwrap();
+    assert!(!h.commands && !h.commands_need_token && h.token_file.is_none(), "{h:?}");
+}
+
 #[test]
 fn foxglove_section_errors_name_their_keys_and_a_lean_build_names_the_feature() {
     // Keys checked in every build.
@@ -2460,7 +2538,8 @@ fn export_puts_the_clients_on_a_second_domain_from_file_env_or_flags() {
         plan.export,
         Some(crate::plan::ExportPlan {
             domain: 10,
-            interface: Some("eth1".into())
+            interface: Some("eth1".into()),
+            security: None,
         })
     );
     assert_eq!(

@@ -150,6 +150,18 @@ impl Checker {
                 );
             }
         }
+        if let Some(s) = &e.security {
+            if p.export_side().is_none() {
+                self.err(
+                    key("security"),
+                    "secures the export side, but it has no domain of its own (export.domain): the clients \
+                     and the devices would share one participant; use [dds.security] to secure it, or give \
+                     [export] a domain",
+                );
+            } else {
+                self.security(key("security"), s);
+            }
+        }
         for (i, a) in e.allow_commands_from.iter().enumerate() {
             if let Err(why) = handgate_adapters::front::sources::Net::parse(a) {
                 self.err(key("allow_commands_from").index(i), why);
@@ -225,6 +237,47 @@ impl Checker {
                 self.err(k.key("interface"), format!("`{i}` is not an interface name"));
             }
         }
+        if let Some(s) = &d.security {
+            self.security(k.key("security"), s);
+        }
+    }
+
+    /// `[dds.security]` / `[export.security]`: every file given (by its key or the enclave)
+    /// and readable. What is inside them (dates, signatures, the grant) is `handgate doctor`'s.
+    fn security(&mut self, k: KeyPath, s: &SecurityConfig) {
+        let files = match s.resolve() {
+            Ok(f) => f,
+            Err(missing) => {
+                self.err(
+                    k.key(missing),
+                    "is not given, and there is no `enclave` to take it from: set `enclave` to an enclave \
+                     directory of the lab's keystore (`handgate security issue`) or give each file",
+                );
+                return;
+            }
+        };
+        if let Some(dir) = &s.enclave {
+            if !std::path::Path::new(dir).is_dir() {
+                self.err(k.key("enclave"), format!("`{dir}` is not a directory"));
+                return;
+            }
+        }
+        for (role, path) in files.files() {
+            // The key the file came from: its own, else the enclave's.
+            let own = match role {
+                "identity_ca" => &s.identity_ca,
+                "certificate" => &s.certificate,
+                "private_key" => &s.private_key,
+                "permissions_ca" => &s.permissions_ca,
+                "governance" => &s.governance,
+                "permissions" => &s.permissions,
+                _ => &s.crl,
+            };
+            let key = if own.is_some() { k.key(role) } else { k.key("enclave") };
+            if let Err(e) = std::fs::File::open(path) {
+                self.err(key, format!("cannot read {} (the {role}): {e}", path.display()));
+            }
+        }
     }
 
     /// `[dds]` discovery: the wait bounded, the settling time within it.
@@ -277,7 +330,8 @@ impl Checker {
     }
 
     /// `[http]`: the bind address, the sampling rate, the page's watchdog, the fleet's
-    /// domains, the allowed hosts.
+    /// domains, the allowed hosts, the token (read here: a missing, short or shared file is
+    /// refused; required off loopback).
     fn http(&mut self, h: &HttpConfig) {
         let k = root().key("http");
         if h.bind.parse::<std::net::IpAddr>().is_err() {
@@ -303,6 +357,33 @@ impl Checker {
                     k.key("allowed_hosts"),
                     format!("{e}: each entry is a host name or an IP address, without scheme or port"),
                 );
+            }
+        }
+        if !h.enabled {
+            return;
+        }
+        match &h.token_file {
+            Some(f) => {
+                if let Err(e) = crate::http::token::Token::load(std::path::Path::new(f)) {
+                    self.err(k.key("token_file"), e.to_string());
+                }
+            }
+            None => {
+                let open = h
+                    .bind
+                    .parse::<std::net::IpAddr>()
+                    .is_ok_and(|ip| !ip.to_canonical().is_loopback());
+                if open {
+                    self.err(
+                        k.key("token_file"),
+                        format!(
+                            "required: [http] bind = \"{}\" is not a loopback address, so the dashboard, its \
+                             WebSocket and /metrics are reachable from the network; name a file holding a token \
+                             (docs/dashboard.md, \"Security\"), or bind 127.0.0.1",
+                            h.bind
+                        ),
+                    );
+                }
             }
         }
     }

@@ -170,13 +170,13 @@ impl Runtime {
             );
         }
         let started = Instant::now();
-        let node = Node::new(plan.domain, plan.interface.as_deref())?;
+        let node = Node::with_security(plan.domain, plan.interface.as_deref(), plan.security.as_ref())?;
         // Started first, so what is already on the domain is known by the time fronts open.
         let discovery = Discovery::start(&node, DiscoveryConfig::default())?;
         // `[export]`: the clients' side on a participant of its own, with its own discovery.
         let export = match &plan.export {
             Some(e) => {
-                let n = Node::new(e.domain, e.interface.as_deref())?;
+                let n = Node::with_security(e.domain, e.interface.as_deref(), e.security.as_ref())?;
                 let d = Discovery::start(&n, DiscoveryConfig::default())?;
                 Some(Export { node: n, discovery: d })
             }

@@ -266,7 +266,7 @@ fn write_file(path: &Path, data: &[u8], mode: u32) -> Result<(), SecurityError> 
         let _ = fs::remove_file(&tmp);
         SecurityError::Io {
             path: path.to_path_buf(),
-            source: e,
+            error: e,
         }
     })
 }
@@ -284,11 +284,58 @@ struct Scratch(PathBuf);
 
 impl Scratch {
     fn new(private: &Path) -> Result<Self, SecurityError> {
-        let p = private.join(format!("tmp.{}", std::process::id()));
+        static N: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let p = private.join(format!("tmp.{}.{n}", std::process::id()));
         let _ = fs::remove_dir_all(&p);
         fs::create_dir(&p).map_err(SecurityError::io(&p))?;
         fs::set_permissions(&p, fs::Permissions::from_mode(0o700)).map_err(SecurityError::io(&p))?;
         Ok(Scratch(p))
+    }
+}
+
+/// The keystore's lock (`private/lock`, holding the owner's pid): `openssl ca`'s database
+/// (index.txt, serial, crlnumber) takes one writer at a time. Released when dropped.
+struct Lock(PathBuf);
+
+/// How long an operation waits for another one on the same keystore.
+const LOCK_WAIT: std::time::Duration = std::time::Duration::from_secs(60);
+
+impl Lock {
+    fn take(private: &Path) -> Result<Self, SecurityError> {
+        let path = private.join("lock");
+        let deadline = std::time::Instant::now() + LOCK_WAIT;
+        loop {
+            match fs::OpenOptions::new().write(true).create_new(true).open(&path) {
+                Ok(mut f) => {
+                    let _ = writeln!(f, "{}", std::process::id());
+                    return Ok(Lock(path));
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    // A lock left by a process that is gone is taken over.
+                    let owner = fs::read_to_string(&path)
+                        .ok()
+                        .and_then(|s| s.trim().parse::<u32>().ok());
+                    if owner
+                        .is_some_and(|pid| pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists())
+                    {
+                        let _ = fs::remove_file(&path);
+                        continue;
+                    }
+                    if std::time::Instant::now() >= deadline {
+                        return Err(SecurityError::Locked(path));
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                }
+                Err(e) => return Err(SecurityError::Io { path, error: e }),
+            }
+        }
+    }
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        let _ = fs::remove_file(&self.0);
     }
 }
 
@@ -353,8 +400,39 @@ impl Keystore {
                 return Err(SecurityError::KeystoreExists(dir.to_path_buf()));
             }
         }
-        let private = ks.private();
-        for d in [ks.public(), private.clone(), private.join("newcerts"), ks.enclaves()] {
+        let subs = [ks.public(), ks.private(), ks.enclaves()];
+        for d in &subs {
+            if fs::read_dir(d).is_ok_and(|mut e| e.next().is_some()) {
+                return Err(SecurityError::NotEmpty(d.clone()));
+            }
+        }
+        // Made in a directory of its own beside them, then moved in: a failure (openssl
+        // missing) leaves nothing behind that a second `init` would refuse.
+        mkdir(dir)?;
+        let stage = Keystore {
+            dir: dir.join(format!(".handgate-init.{}", std::process::id())),
+        };
+        let _ = fs::remove_dir_all(&stage.dir);
+        let built = stage.build(ca_name, days, now).and_then(|()| {
+            for (from, to) in [stage.public(), stage.private(), stage.enclaves()].iter().zip(&subs) {
+                let _ = fs::remove_dir(to);
+                fs::rename(from, to).map_err(SecurityError::io(to))?;
+            }
+            Ok(())
+        });
+        let _ = fs::remove_dir_all(&stage.dir);
+        built.map(|()| ks)
+    }
+
+    /// The keystore's files in `self.dir` (see [`Keystore::init`]).
+    fn build(&self, ca_name: &str, days: u32, now: Unix) -> Result<(), SecurityError> {
+        let private = self.private();
+        for d in [
+            self.public(),
+            private.clone(),
+            private.join("newcerts"),
+            self.enclaves(),
+        ] {
             mkdir(&d)?;
         }
         fs::set_permissions(&private, fs::Permissions::from_mode(0o700)).map_err(SecurityError::io(&private))?;
@@ -362,10 +440,9 @@ impl Keystore {
         write_file(&private.join("index.txt"), b"", 0o644)?;
         write_file(&private.join("serial"), b"1000\n", 0o644)?;
         write_file(&private.join("crlnumber"), b"1000\n", 0o644)?;
-        write_file(&ks.ca_key(), &openssl::new_key()?, 0o600)?;
+        write_file(&self.ca_key(), &openssl::new_key()?, 0o600)?;
         symlink("ca.key.pem", &private.join("identity_ca.key.pem"))?;
         symlink("ca.key.pem", &private.join("permissions_ca.key.pem"))?;
-        let _ = now;
         openssl::run(
             "create the lab CA's certificate",
             &[
@@ -389,14 +466,13 @@ impl Keystore {
             Some(&private),
             None,
         )?;
-        symlink("ca.cert.pem", &ks.public().join("identity_ca.cert.pem"))?;
-        symlink("ca.cert.pem", &ks.public().join("permissions_ca.cert.pem"))?;
-        let gov_xml = ks.enclaves().join("governance.xml");
+        symlink("ca.cert.pem", &self.public().join("identity_ca.cert.pem"))?;
+        symlink("ca.cert.pem", &self.public().join("permissions_ca.cert.pem"))?;
+        let gov_xml = self.enclaves().join("governance.xml");
         write_file(&gov_xml, xml::governance().as_bytes(), 0o644)?;
-        let signed = openssl::smime_sign(&gov_xml, &ks.ca_cert(), &ks.ca_key())?;
-        write_file(&ks.governance(), &signed, 0o644)?;
-        ks.write_crl(now)?;
-        Ok(ks)
+        let signed = openssl::smime_sign(&gov_xml, &self.ca_cert(), &self.ca_key())?;
+        write_file(&self.governance(), &signed, 0o644)?;
+        self.write_crl(now)
     }
 
     /// The keystore in `dir`, if it is one.
@@ -447,6 +523,7 @@ impl Keystore {
         let name = EnclaveName::parse(&req.name)?;
         let domains = domains_for(req.role, &req.robots)?;
         let (nb, na) = req.validity.span(now)?;
+        let _lock = Lock::take(&self.private())?;
         let dir = self.enclave_dir(&name);
         if dir.join("cert.pem").symlink_metadata().is_ok() {
             return Err(SecurityError::EnclaveExists(name.name));
@@ -459,6 +536,7 @@ impl Keystore {
     /// robots. The old certificate stays valid until it expires unless revoked.
     pub fn renew(&self, name: &str, days: u32, now: Unix) -> Result<Issued, SecurityError> {
         let name = EnclaveName::parse(name)?;
+        let _lock = Lock::take(&self.private())?;
         let dir = self.enclave_dir(&name);
         let cert = dir.join("cert.pem");
         if !cert.is_file() {
@@ -604,6 +682,7 @@ impl Keystore {
     /// revoked now (empty: all were already).
     pub fn revoke(&self, name: &str, now: Unix) -> Result<Vec<String>, SecurityError> {
         let name = EnclaveName::parse(name)?;
+        let _lock = Lock::take(&self.private())?;
         let cert = self.enclave_dir(&name).join("cert.pem");
         if !cert.is_file() {
             return Err(SecurityError::NoEnclave(name.name));
@@ -612,7 +691,10 @@ impl Keystore {
         let index = read_index(&self.private().join("index.txt"))?;
         let Some(subject) = index.iter().find(|e| e.serial == serial).map(|e| e.subject.clone()) else {
             return Err(SecurityError::Openssl {
-                what: format!("find {}'s certificate (serial {serial}) in private/index.txt", name.name),
+                what: format!(
+                    "find {}'s certificate (serial {serial}) in private/index.txt",
+                    name.name
+                ),
                 detail: "not issued by this keystore's CA".into(),
             });
         };
@@ -735,7 +817,12 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), SecurityError> {
     let entries = match fs::read_dir(dir) {
         Ok(e) => e,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
-        Err(e) => return Err(SecurityError::Io { path: dir.into(), source: e }),
+        Err(e) => {
+            return Err(SecurityError::Io {
+                path: dir.into(),
+                error: e,
+            })
+        }
     };
     for e in entries {
         let e = e.map_err(SecurityError::io(dir))?;
@@ -760,7 +847,10 @@ mod tests {
         assert_eq!((n.name.as_str(), n.dir.as_path()), ("/robot_a", Path::new("robot_a")));
         assert_eq!(EnclaveName::parse("/robot_a").unwrap(), n);
         let o = EnclaveName::parse("ops/alice").unwrap();
-        assert_eq!((o.name.as_str(), o.dir.as_path()), ("/ops/alice", Path::new("ops/alice")));
+        assert_eq!(
+            (o.name.as_str(), o.dir.as_path()),
+            ("/ops/alice", Path::new("ops/alice"))
+        );
         assert_eq!(o.subj(), "/CN=\\/ops\\/alice");
         for bad in ["", "/", "a//b", "a/", "../x", "a/.", "1robot", "a b", "a-b"] {
             assert!(EnclaveName::parse(bad).is_err(), "{bad}");
@@ -769,11 +859,23 @@ mod tests {
 
     #[test]
     fn domains_per_role() {
-        assert_eq!(domains_for(Role::Gateway, &[12, 11, 12]).unwrap(), Domains::Ids(vec![11, 12]));
-        assert!(matches!(domains_for(Role::Operator, &[]), Err(SecurityError::NoRobot("operator"))));
-        assert!(matches!(domains_for(Role::Gateway, &[]), Err(SecurityError::NoRobot("gateway"))));
+        assert_eq!(
+            domains_for(Role::Gateway, &[12, 11, 12]).unwrap(),
+            Domains::Ids(vec![11, 12])
+        );
+        assert!(matches!(
+            domains_for(Role::Operator, &[]),
+            Err(SecurityError::NoRobot("operator"))
+        ));
+        assert!(matches!(
+            domains_for(Role::Gateway, &[]),
+            Err(SecurityError::NoRobot("gateway"))
+        ));
         assert_eq!(domains_for(Role::Observer, &[]).unwrap(), Domains::All);
-        assert!(matches!(domains_for(Role::Observer, &[231]), Err(SecurityError::BadDomain(231))));
+        assert!(matches!(
+            domains_for(Role::Observer, &[231]),
+            Err(SecurityError::BadDomain(231))
+        ));
     }
 
     #[test]
@@ -787,9 +889,134 @@ mod tests {
     }
 
     #[test]
+    fn init_refuses_a_keystore_and_leaves_no_stage() {
+        let dir = std::env::temp_dir().join(format!("handgate-init-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let ks = Keystore::init(&dir, "t CA", 1, time::now()).expect("init");
+        let mut names: Vec<String> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["enclaves", "private", "public"]);
+        assert_eq!(fs::metadata(ks.ca_key()).unwrap().permissions().mode() & 0o777, 0o600);
+        assert_eq!(fs::metadata(ks.private()).unwrap().permissions().mode() & 0o777, 0o700);
+        assert_eq!(
+            fs::read_link(ks.public().join("identity_ca.cert.pem")).unwrap(),
+            Path::new("ca.cert.pem")
+        );
+        assert!(ks.crl().is_file() && ks.governance().is_file());
+        assert!(matches!(
+            Keystore::init(&dir, "t CA", 1, time::now()),
+            Err(SecurityError::KeystoreExists(_))
+        ));
+        // A directory with other files in public/ is not taken either.
+        let other = dir.join("other");
+        fs::create_dir_all(other.join("public")).unwrap();
+        fs::write(other.join("public/x"), b"x").unwrap();
+        assert!(matches!(
+            Keystore::init(&other, "t CA", 1, time::now()),
+            Err(SecurityError::NotEmpty(_))
+        ));
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn renew_revoke_list() {
+        let dir = std::env::temp_dir().join(format!("handgate-renew-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let now = time::now();
+        let ks = Keystore::init(&dir, "t CA", 30, now).expect("init");
+        let req = |name: &str, role, robots: Vec<u32>| IssueRequest {
+            name: name.into(),
+            role,
+            robots,
+            validity: Validity::Days(10),
+            sans: vec![San::Dns("gw.lab".into())],
+        };
+        let first = ks.issue(&req("ops/gw", Role::Gateway, vec![4, 3]), now).expect("issue");
+        assert_eq!(first.cert.subject, "CN=/ops/gw");
+        assert!(matches!(
+            ks.issue(&req("/ops/gw", Role::Operator, vec![1]), now),
+            Err(SecurityError::EnclaveExists(n)) if n == "/ops/gw"
+        ));
+        ks.issue(&req("watch", Role::Observer, vec![]), now).expect("observer");
+        let renewed = ks.renew("ops/gw", 20, now + 60).expect("renew");
+        assert_ne!(renewed.cert.serial, first.cert.serial);
+        assert_eq!(renewed.cert.subject, first.cert.subject);
+        assert_eq!(renewed.cert.not_after, now + 60 + 20 * 86_400);
+        assert_eq!(
+            sans_of(&renewed.dir.join("cert.pem")).unwrap(),
+            vec![San::Dns("gw.lab".into())]
+        );
+        let key_mode = fs::metadata(renewed.dir.join("key.pem")).unwrap().permissions().mode();
+        assert_eq!(key_mode & 0o777, 0o600);
+        let list = ks.list().expect("list");
+        let names: Vec<(&str, Option<Role>, &str, bool)> = list
+            .iter()
+            .map(|e| (e.name.as_str(), e.role, e.robots.as_str(), e.revoked))
+            .collect();
+        assert_eq!(
+            names,
+            [
+                ("/ops/gw", Some(Role::Gateway), "3, 4", false),
+                ("/watch", Some(Role::Observer), "0-230", false)
+            ]
+        );
+        ks.renew("watch", 5, now).expect("an observer of every domain renews");
+        // Revoking revokes the renewed certificate and the one it replaced; again: nothing.
+        let mut revoked = ks.revoke("/ops/gw", now).expect("revoke");
+        revoked.sort();
+        let mut both = vec![first.cert.serial.clone(), renewed.cert.serial.clone()];
+        both.sort();
+        assert_eq!(revoked, both);
+        assert!(ks.revoke("ops/gw", now).expect("again").is_empty());
+        assert!(ks.list().unwrap().iter().any(|e| e.name == "/ops/gw" && e.revoked));
+        assert!(matches!(ks.revoke("nobody", now), Err(SecurityError::NoEnclave(_))));
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn parallel_issues_share_the_database() {
+        let dir = std::env::temp_dir().join(format!("handgate-parallel-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let ks = Keystore::init(&dir, "t CA", 30, time::now()).expect("init");
+        let serials: Vec<String> = std::thread::scope(|s| {
+            let hs: Vec<_> = (0..4)
+                .map(|i| {
+                    let ks = &ks;
+                    s.spawn(move || {
+                        let req = IssueRequest {
+                            name: format!("robot_{i}"),
+                            role: Role::Gateway,
+                            robots: vec![11],
+                            validity: Validity::Days(1),
+                            sans: vec![],
+                        };
+                        ks.issue(&req, time::now()).expect("issue").cert.serial
+                    })
+                })
+                .collect();
+            hs.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let mut unique = serials.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), 4, "{serials:?}");
+        assert_eq!(read_index(&ks.private().join("index.txt")).unwrap().len(), 4);
+        assert!(!ks.private().join("lock").exists());
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn validity_spans() {
         assert_eq!(Validity::Days(2).span(100).unwrap(), (100, 100 + 2 * 86_400));
         assert!(matches!(Validity::Days(0).span(100), Err(SecurityError::BadDays)));
-        assert!(Validity::Span { not_before: 5, not_after: 5 }.span(0).is_err());
+        assert!(Validity::Span {
+            not_before: 5,
+            not_after: 5
+        }
+        .span(0)
+        .is_err());
     }
 }

@@ -3,6 +3,7 @@
 //! renewal) in the SROS2 keystore layout, made with the `openssl` command line; and the
 //! doctor's reading of one identity's files ([`diagnose`]).
 
+pub mod diagnose;
 pub mod keystore;
 pub mod openssl;
 pub mod time;
@@ -14,17 +15,17 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum SecurityError {
     #[error("cannot run openssl (install it: apt-get install openssl): {0}")]
-    OpensslMissing(#[source] std::io::Error),
+    OpensslMissing(std::io::Error),
     #[error("openssl could not {what}: {detail}")]
     Openssl { what: String, detail: String },
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{path}: {error}")]
+    Io { path: PathBuf, error: std::io::Error },
     #[error("{0} already holds a keystore (its CA would be replaced): refusing to overwrite it")]
     KeystoreExists(PathBuf),
+    #[error("{0} is held by another `handgate security` command (still there after 60 s: remove it if no such command runs)")]
+    Locked(PathBuf),
+    #[error("{0} is not empty: `handgate security init` makes a keystore in a new directory, or one without files in public/, private/ and enclaves/")]
+    NotEmpty(PathBuf),
     #[error("{0} is not a handgate keystore (no private/ca.key.pem, public/ca.cert.pem or private/ca.cnf: run `handgate security init` first)")]
     NoKeystore(PathBuf),
     #[error("enclave name {name:?} {why}")]
@@ -54,6 +55,6 @@ pub enum SecurityError {
 impl SecurityError {
     fn io(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> SecurityError {
         let path = path.into();
-        move |source| SecurityError::Io { path, source }
+        move |error| SecurityError::Io { path, error }
     }
 }

@@ -34,7 +34,9 @@ impl Role {
     /// The topics it may publish (patterns). `commands`: the fronts' command topic patterns
     /// (`handgate_adapters::fronts::command_topic_patterns`).
     pub fn publishes(self, commands: &[String]) -> Vec<String> {
-        let bookkeeping = handgate_adapters::fronts::ROS_BOOKKEEPING_TOPICS.iter().map(|s| s.to_string());
+        let bookkeeping = handgate_adapters::fronts::ROS_BOOKKEEPING_TOPICS
+            .iter()
+            .map(|s| s.to_string());
         match self {
             Role::Gateway => vec!["*".into()],
             Role::Operator => commands.iter().cloned().chain(bookkeeping).collect(),
@@ -45,15 +47,13 @@ impl Role {
     /// The role whose publish list is `publish`; `None`: not one of handgate's (an SROS2
     /// policy's permissions, an edited document).
     pub fn recognise(publish: &[String], commands: &[String]) -> Option<Role> {
-        [Role::Gateway, Role::Operator, Role::Observer]
-            .into_iter()
-            .find(|r| {
-                let mut a = r.publishes(commands);
-                let mut b = publish.to_vec();
-                a.sort();
-                b.sort();
-                a == b
-            })
+        [Role::Gateway, Role::Operator, Role::Observer].into_iter().find(|r| {
+            let mut a = r.publishes(commands);
+            let mut b = publish.to_vec();
+            a.sort();
+            b.sort();
+            a == b
+        })
     }
 }
 
@@ -267,7 +267,9 @@ impl DomainSet {
     }
 
     pub fn contains(&self, domain: u32) -> bool {
-        self.0.iter().any(|&(lo, hi)| domain >= lo && hi.map_or(true, |h| domain <= h))
+        self.0
+            .iter()
+            .any(|&(lo, hi)| domain >= lo && hi.map_or(true, |h| domain <= h))
     }
 
     /// `11, 12` or `0-230`.
@@ -368,7 +370,11 @@ pub fn governance_domains(xml: &str) -> DomainSet {
 /// `attribute=value` after splitting at `,`, or equal to the one-line form.
 pub fn same_subject(grant: &str, certificate_rfc2253: &str) -> bool {
     let set = |s: &str| -> Vec<String> {
-        let mut v: Vec<String> = s.split(',').map(|p| p.trim().to_string()).filter(|p| !p.is_empty()).collect();
+        let mut v: Vec<String> = s
+            .split(',')
+            .map(|p| p.trim().to_string())
+            .filter(|p| !p.is_empty())
+            .collect();
         v.sort();
         v
     };
@@ -420,7 +426,10 @@ mod tests {
             "<metadata_protection_kind>ENCRYPT",
             "<data_protection_kind>ENCRYPT",
         ];
-        let at: Vec<usize> = order.iter().map(|e| g.find(e).unwrap_or_else(|| panic!("{e}"))).collect();
+        let at: Vec<usize> = order
+            .iter()
+            .map(|e| g.find(e).unwrap_or_else(|| panic!("{e}")))
+            .collect();
         assert!(at.windows(2).all(|w| w[0] < w[1]), "{at:?}");
     }
 
@@ -431,7 +440,10 @@ mod tests {
         let read = read_permissions(&gw);
         assert_eq!(read.len(), 1);
         let r = &read[0];
-        assert_eq!((r.name.as_deref(), r.subject.as_str()), (Some("/robot_a"), "CN=/robot_a"));
+        assert_eq!(
+            (r.name.as_deref(), r.subject.as_str()),
+            (Some("/robot_a"), "CN=/robot_a")
+        );
         assert_eq!(r.not_before.as_deref(), Some("2026-11-29T12:27:03"));
         assert_eq!(r.not_after.as_deref(), Some("2026-11-30T12:27:03"));
         assert_eq!(r.default, "DENY");
@@ -449,7 +461,10 @@ mod tests {
 
         let ob = read_permissions(&permissions(&grant(Role::Observer, Domains::All), &c));
         let rule = &ob[0].allow[0];
-        assert_eq!(rule.publish, vec!["ros_discovery_info", "rt/rosout", "rt/parameter_events"]);
+        assert_eq!(
+            rule.publish,
+            vec!["ros_discovery_info", "rt/rosout", "rt/parameter_events"]
+        );
         assert_eq!(rule.subscribe, vec!["*"]);
         assert!(rule.domains.contains(230) && !rule.domains.contains(231));
         assert_eq!(rule.domains.describe(), "0-230");
@@ -465,7 +480,15 @@ mod tests {
         let x = permissions(&g, &commands());
         assert!(x.contains("<subject_name>CN=a&amp;b,O=&lt;lab&gt;</subject_name>"));
         assert_eq!(read_permissions(&x)[0].subject, "CN=a&b,O=<lab>");
-        let order = ["<subject_name>", "<validity>", "<allow_rule>", "<domains>", "<publish>", "<subscribe>", "<default>"];
+        let order = [
+            "<subject_name>",
+            "<validity>",
+            "<allow_rule>",
+            "<domains>",
+            "<publish>",
+            "<subscribe>",
+            "<default>",
+        ];
         let at: Vec<usize> = order.iter().map(|e| x.find(e).unwrap()).collect();
         assert!(at.windows(2).all(|w| w[0] < w[1]), "{at:?}");
     }
