@@ -285,6 +285,7 @@ mod tests {
                     status: status("/robot_a", 11, "front dex3_left: process xr (pid 7) on op at 10.0.0.5"),
                     ext: Some(hg::GatewayStatusExt_ {
                         version: hg::STATUS_EXT_VERSION,
+                        refused_participants: 0,
                         fronts: vec![hg::FrontStatus_ {
                             name: "dex3_left".into(),
                             kind: "dex3".into(),
@@ -349,6 +350,7 @@ mod tests {
                 },
                 ext: Some(hg::GatewayStatusExt_ {
                     version: 1,
+                    refused_participants: 0,
                     fronts: vec![hg::FrontStatus_ {
                         name: "<b>x</b>".into(),
                         ..Default::default()

@@ -186,6 +186,14 @@ pub fn render_fronts(ext: Option<&hg::GatewayStatusExt_>) -> String {
         );
         return out;
     };
+    if x.refused_participants > 0 {
+        let _ = writeln!(
+            out,
+            "\nDDS Security: {} remote participant(s) refused (by reason: /metrics \
+             handgate_dds_security_refused_participants_total, docs/security.md)",
+            x.refused_participants
+        );
+    }
     if x.fronts.is_empty() {
         return out;
     }
@@ -380,6 +388,7 @@ mod tests {
     fn renders_the_fronts_rates_from_the_extension() {
         let x = hg::GatewayStatusExt_ {
             version: hg::STATUS_EXT_VERSION,
+            refused_participants: 0,
             fronts: vec![
                 hg::FrontStatus_ {
                     name: "dex3_left".into(),

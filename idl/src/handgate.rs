@@ -202,7 +202,7 @@ keyless_topic_type!(GatewayStatus_, "handgate::msg::dds_::GatewayStatus_");
 // ---------------------------------------------------------------------------------------------
 
 /// The extension layout this build writes ([`GatewayStatusExt_::version`]).
-pub const STATUS_EXT_VERSION: u32 = 1;
+pub const STATUS_EXT_VERSION: u32 = 2;
 
 /// The extension's topic for status topic `status_topic` (`rt/handgate/status` →
 /// `rt/handgate/status_ext`).
@@ -255,6 +255,11 @@ pub struct GatewayStatusExt_ {
     pub version: u32,
     /// Per front: its name, kind, client command rate and state rate.
     pub fronts: Vec<FrontStatus_>,
+    /// Version 2: remote participants the gateway's DDS Security domains refused (distinct
+    /// identities, every reason: docs/security.md); 0 without DDS Security, and as read from
+    /// a version 1 writer.
+    #[serde(default)]
+    pub refused_participants: u32,
 }
 
 impl GatewayStatusExt_ {
@@ -264,6 +269,7 @@ impl GatewayStatusExt_ {
         w.delimited(|w| {
             w.u32(self.version);
             w.sequence(&self.fronts, |w, f| f.write(w));
+            w.u32(self.refused_participants);
         });
         w.finish()
     }
@@ -274,6 +280,7 @@ impl GatewayStatusExt_ {
             Ok(Self {
                 version: r.u32()?,
                 fronts: r.sequence(FrontStatus_::read)?,
+                refused_participants: r.u32_or_default()?,
             })
         })
     }

@@ -247,6 +247,15 @@ impl<'a> Reader<'a> {
         }
     }
 
+    /// A `u32` member appended to an appendable struct: 0 when the enclosing struct ended
+    /// before it (a writer of an earlier layout).
+    pub fn u32_or_default(&mut self) -> Result<u32, Xcdr2Error> {
+        if self.done() {
+            return Ok(0);
+        }
+        self.u32()
+    }
+
     /// A delimited body (an appendable struct, a sequence of non-primitive elements): reads
     /// its DHEADER, runs `body` within it, and continues after it whatever `body` left unread.
     pub fn delimited<R>(&mut self, body: impl FnOnce(&mut Self) -> Result<R, Xcdr2Error>) -> Result<R, Xcdr2Error> {

@@ -158,6 +158,7 @@ class FrontStatus_(idl.IdlStruct, typename="handgate.msg.dds_.FrontStatus_"):
 class GatewayStatusExt_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatusExt_"):
     version: types.uint32
     fronts: types.sequence[FrontStatus_]
+    refused_participants: types.uint32
 
 
 @dataclass

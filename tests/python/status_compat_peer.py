@@ -69,6 +69,7 @@ class LaterFrontStatus_(idl.IdlStruct, typename="handgate.msg.dds_.FrontStatus_"
 class LaterGatewayStatusExt_(idl.IdlStruct, typename="handgate.msg.dds_.GatewayStatusExt_"):
     version: types.uint32
     fronts: types.sequence[LaterFrontStatus_]
+    refused_participants: types.uint32
     load: types.float32
     notes: types.sequence[str]
 

@@ -500,6 +500,34 @@ fn only_the_labs_identities_command_a_hand() {
     );
     assert_refused(&h, &robot, "an expired certificate", &out, Some("expired"), &base);
 
+    // `handgate status` on the lab, as the read-only identity: the robot's refusals.
+    let out = in_netns(Some(&h.ns[STRAY]), &handgate_bin())
+        .args([
+            "status",
+            "--domain",
+            &lab,
+            "--interface",
+            &lab_x.a_if,
+            "--namespace",
+            "robot_a",
+            "--enclave",
+            enclave(&ks, "observer").to_str().unwrap(),
+            "--once",
+            "--timeout",
+            "10",
+        ])
+        .output()
+        .unwrap();
+    let status = text(&out);
+    assert!(
+        status.contains("DDS Security: ") && status.contains("remote participant(s) refused"),
+        "handgate status shows no refusal:\n{status}"
+    );
+    eprintln!(
+        "handgate status (as the observer): {}",
+        status.lines().find(|l| l.contains("DDS Security")).unwrap_or_default()
+    );
+
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -253,6 +253,7 @@ fn the_extension_reads_across_layouts_in_bytes() {
                 state_rate_hz: 100.0,
             },
         ],
+        refused_participants: 3,
     };
     let json = serde_json::to_string(&ext).unwrap();
     let py = peer_once(&["encode", "--layout", "today", "--json", &json], "HEX ");
@@ -269,7 +270,7 @@ fn the_extension_reads_across_layouts_in_bytes() {
         "JSON ",
     );
     let later: Value = serde_json::from_str(&later).unwrap();
-    assert_eq!(later["version"], 1);
+    assert_eq!(later["version"], hg::STATUS_EXT_VERSION);
     assert_eq!(later["fronts"][1]["name"], "joint_state");
     assert_eq!(later["fronts"][0]["cmd_rate_hz"], 99.5);
     assert_eq!(later["fronts"][0]["dropped_cmd"], 0, "{later}");
@@ -291,18 +292,20 @@ fn the_extension_reads_across_layouts_in_bytes() {
 /// version must read of it.
 fn later_sample() -> (String, hg::GatewayStatusExt_) {
     let json = serde_json::json!({
-        "version": 2,
+        "version": 3,
         "fronts": [
             {"name": "dex3_left", "kind": "dex3", "cmd_rate_hz": 48.5, "state_rate_hz": 500.0,
              "dropped_cmd": 12345678901u64, "owner": "front dex3_left: process xr", "latency_ms": [0.5, 0.75]},
             {"name": "canonical_dex3_left", "kind": "canonical", "cmd_rate_hz": 20.0, "state_rate_hz": 100.0,
              "dropped_cmd": 1, "owner": "", "latency_ms": []},
         ],
+        "refused_participants": 7,
         "load": 0.25,
         "notes": ["a note of a later version", "another"],
     });
     let known = hg::GatewayStatusExt_ {
-        version: 2,
+        version: 3,
+        refused_participants: 7,
         fronts: vec![
             hg::FrontStatus_ {
                 name: "dex3_left".into(),

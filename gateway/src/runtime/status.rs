@@ -217,6 +217,11 @@ pub(super) fn spawn_status(
                         }
                     })
                     .collect(),
+                refused_participants: handgate_adapters::dds_security::secured()
+                    .iter()
+                    .map(|(_, r)| r.total())
+                    .sum::<u64>()
+                    .min(u64::from(u32::MAX)) as u32,
             };
             latest.send_replace(Arc::new(msg.clone()));
             latest_ext.send_replace(Arc::new(ext.clone()));
