@@ -53,6 +53,7 @@ while [ $# -gt 0 ]; do
     --cert) cert=${2:?--cert takes the site certificate file}; shift 2 ;;
     --key) key=${2:?--key takes the site private key file}; shift 2 ;;
     --) shift; extra=("$@"); break ;;
+    -h | --help) usage ;;
     *) echo "zenoh-bridge: unknown argument $1" >&2; usage ;;
   esac
 done
