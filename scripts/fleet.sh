@@ -9,7 +9,10 @@
 #      feature, so with the default FEATURES they reuse it)
 #   2. the simulated lab: cargo test --release -p handgate-tests --test lab --test export
 #      (tests/tests/lab.rs, tests/tests/export.rs); a test that skips (not root) fails the target
-#   3. the two sites over the shaped Zenoh link, measured: scripts/zenoh-sites.sh --measure
+#   3. the two sites over the shaped Zenoh link (TLS with mutual authentication, the robot's
+#      access control), measured, then the identity tests (no client certificate, another CA,
+#      a lab certificate the ACL does not allow, and the permitted operator as the control):
+#      scripts/zenoh-sites.sh --measure
 #   4. docs/benchmarks.md's section "8. Sites over Zenoh" from the figures, which are kept in
 #      docs/benchmarks/sites.json (make bench re-inserts the section from it)
 #
@@ -67,7 +70,7 @@ if want lab; then
 fi
 
 if want sites; then
-  echo "fleet: 3. the two sites over the shaped Zenoh link, measured (scripts/zenoh-sites.sh --measure)"
+  echo "fleet: 3. the two sites over the shaped Zenoh link, TLS, measured, and the identity tests (scripts/zenoh-sites.sh --measure)"
   results="$logs/sites.json"
   sandbox env HANDGATE_BIN="$target/release/handgate" \
     SITES_COMMAND="make fleet (scripts/zenoh-sites.sh --measure FILE --logs DIR)" \

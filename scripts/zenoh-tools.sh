@@ -20,7 +20,9 @@
 # The plugin builds CycloneDDS 11 (crate cyclors) with cmake and generates its bindings with
 # bindgen (libclang): the Debian packages cmake and libclang-dev are installed when missing.
 # Lean build: release, default features only (zenohd's zenoh/default, the plugin's
-# dynamic_plugin); no DDS security, no shared memory, no stats, no other plugin. zenohd needs
+# dynamic_plugin); no DDS security, no shared memory, no stats, no other plugin. zenoh 1.10.2's
+# default features include transport_tls (rustls), and its access control is not behind a
+# feature: the sites' TLS link with mutual authentication and ACL needs nothing more. zenohd needs
 # zenoh's default features anyway: the plugin's zenoh has them, and zenohd refuses a plugin whose
 # zenoh features differ.
 #

@@ -6,7 +6,10 @@ scripts/zenoh-sites.sh starts each piece in the site it belongs to; this file on
     latency     an official-SDK (unitree_sdk2py) Dex3 client that streams commands, each with a
                 tag of its own in HandCmd_.reserve[0], and times each until the hand's state
                 reflects it (below)
-    observe     at the robot site: when the hand's state first shows each command tag
+    observe     at the robot site: when the hand's state first shows each command tag, and how far
+                its joints moved meanwhile
+    blind       an operator-site client that streams tagged Dex3 commands without waiting for any
+                state (the negative tests: a site the robot refuses never sees a state)
     echo-server / echo-client
                 TCP round trips across the link itself, at the same rate as the commands
     cpu         CPU seconds (utime + stime, /proc/PID/stat) of processes, now
@@ -206,31 +209,130 @@ def cmd_observe(a):
     changes = []  # [wall, monotonic, tag] whenever the echoed tag changes
     lock = threading.Lock()
     first = threading.Event()
+    q = {"first": None, "last": None, "moved": [0.0] * 7, "samples": 0}
+    watch = {"shown": False, "moved": False}
 
     def on_state(msg):
         wall, mono = time.time(), time.monotonic()
         tag = int(msg.reserve[0])
+        now_q = [float(msg.motor_state[i].q) for i in range(7)]
         with lock:
             if not changes or changes[-1][2] != tag:
                 changes.append([wall, mono, tag])
+            if q["first"] is None:
+                q["first"] = now_q
+            q["last"] = now_q
+            q["samples"] += 1
+            q["moved"] = [max(m, abs(x - f)) for m, x, f in zip(q["moved"], now_q, q["first"])]
+            shown = a.watch_from is not None and tag >= a.watch_from and not watch["shown"]
+            if shown:
+                watch["shown"] = True
+            moved = a.watch_move is not None and q["moved"][INDEX_0] >= a.watch_move and not watch["moved"]
+            if moved:
+                watch["moved"] = True
         first.set()
+        if shown:
+            print(f"SHOWN {tag}", flush=True)
+        if moved:
+            print(f"MOVED {now_q[INDEX_0]:.4f}", flush=True)
 
     sub = ChannelSubscriber(f"rt/dex3/{a.side}/state", HandState_)
     sub.Init(on_state, 0)
     if not first.wait(a.timeout):
         print(f"ERROR no state on rt/dex3/{a.side}/state within {a.timeout} s", flush=True)
         return 1
-    print("READY", flush=True)
+    with lock:
+        print("READY " + json.dumps({"tag": changes[-1][2], "q": q["first"]}), flush=True)
     stop.wait()
     with lock:
-        out = {"side": a.side, "changes": list(changes)}
+        out = {
+            "side": a.side,
+            "changes": list(changes),
+            "samples": q["samples"],
+            "q_first": q["first"],
+            "q_last": q["last"],
+            "max_abs_move": q["moved"],
+        }
     with open(a.out, "w") as f:
         json.dump(out, f)
     print(f"DONE {len(out['changes'])}", flush=True)
     quit_now(0)
 
 
+def cmd_blind(a):
+    """Streams Dex3 commands (tags tag_base + 1, + 2, ...; every joint's target from --q, index_0
+    from --index0) at --rate until SIGTERM, never waiting for a state: a client at a site whose
+    link the robot refuses sees none. Writes how many it sent."""
+    from unitree_sdk2py.core.channel import ChannelPublisher
+    from unitree_sdk2py.idl.default import unitree_hg_msg_dds__HandCmd_
+    from unitree_sdk2py.idl.unitree_hg.msg.dds_ import HandCmd_
+
+    stop = stop_on_term()
+    dds(a.domain, a.interface)
+    pub = ChannelPublisher(f"rt/dex3/{a.side}/cmd", HandCmd_)
+    pub.Init()
+    cmd = unitree_hg_msg_dds__HandCmd_()
+    for i, m in enumerate(cmd.motor_cmd):
+        m.mode = 0x10 | i
+        m.q = a.q[i]
+        m.kp, m.kd = 1.5, 0.2
+    cmd.motor_cmd[INDEX_0].q = a.index0
+    print("STREAMING", flush=True)
+    period = 1.0 / a.rate
+    start = time.monotonic()
+    sent = 0
+    while not stop.is_set():
+        wait = start + sent * period - time.monotonic()
+        if wait > 0 and stop.wait(wait):  # the stream's own pace, not a readiness wait
+            break
+        cmd.reserve[0] = a.tag_base + 1 + sent
+        pub.Write(cmd)
+        sent += 1
+    out = {"side": a.side, "tag_base": a.tag_base, "sent": sent, "rate_hz": a.rate, "index0": a.index0}
+    with open(a.out, "w") as f:
+        json.dump(out, f)
+    print("RESULT " + json.dumps(out), flush=True)
+    quit_now(0)
+
+
 RECORD = struct.Struct("!Qd")  # sequence number, padding to 16 bytes
+
+
+def cmd_judge(a):
+    """One negative test (or the control) of the sites' identity: did the robot's hand take any
+    of this site's commands, and how many refusals did the robot's zenohd count meanwhile."""
+    obs = load(a.observe)
+    blind = load(a.blind)
+    lo, hi = blind["tag_base"] + 1, blind["tag_base"] + blind["sent"]
+    shown = [t for _, _, t in obs["changes"] if lo <= t <= hi]
+    moved = obs["max_abs_move"][INDEX_0]
+    out = {
+        "name": a.name,
+        "what": a.what,
+        "expect": a.expect,
+        "sent": blind["sent"],
+        "rate_hz": blind["rate_hz"],
+        "tags_shown": len(shown),
+        "index0_moved_rad": round(moved, 4),
+        "index0_target": blind["index0"],
+        "index0_first": obs["q_first"][INDEX_0],
+        "index0_last": obs["q_last"][INDEX_0],
+        "state_samples": obs["samples"],
+        "refusals": {k: int(v) for k, v in (x.split("=", 1) for x in a.refusals)},
+        "refused_detail": [x for x in a.detail.split(";") if x],
+    }
+    if a.expect == "refused":
+        # Not moved, no command of this site applied, and refused by the guard named.
+        ok = not shown and moved < a.still_rad and out["refusals"].get(a.counted, 0) > 0
+    else:
+        # The control: moved, commands applied, nothing refused.
+        ok = bool(shown) and moved >= a.moved_rad and sum(out["refusals"].values()) == 0
+    out["counted"] = a.counted
+    out["ok"] = ok
+    with open(a.out, "w") as f:
+        json.dump(out, f)
+    print(("PASS " if ok else "FAIL ") + json.dumps(out), flush=True)
+    return 0 if ok else 1
 
 
 def cmd_echo_server(a):
@@ -482,9 +584,13 @@ def cmd_summarize(a):
     }
     with open(os.path.join(d, "status.txt")) as f:
         r["status_text"] = f.read()
+    # The identity tests (scripts/zenoh-sites.sh, identity_test): one file each.
+    r["identity"] = [
+        load(os.path.join(d, f"identity-{n}.json")) for n in "abcd" if os.path.exists(os.path.join(d, f"identity-{n}.json"))
+    ]
     with open(a.out, "w") as f:
         json.dump(r, f, indent=1)
-    print(json.dumps({k: v for k, v in r.items() if k not in ("latency", "status_text")}, indent=1))
+    print(json.dumps({k: v for k, v in r.items() if k not in ("latency", "status_text", "identity")}, indent=1))
     lat = r["latency"]
     print(
         f"latency: direct median {lat['direct']['median_ms']:.2f} ms p99 {lat['direct']['p99_ms']:.2f} ms; "
@@ -510,7 +616,9 @@ def report(r):
     out.append(
         f"Run {r['date_utc']} UTC by `{r['command']}`, on {r['nproc']} cores (kernel {r['kernel']}); "
         f"`uptime` before: `{r['uptime_before']}`; after: `{r['uptime_after']}`. Two network namespaces "
-        "joined only by one Zenoh TCP link (zenohd and zenoh-plugin-dds 1.10.2 at each site, "
+        "joined only by one Zenoh link"
+        + (", TLS 1.3 with mutual authentication and the robot's access control" if r.get("identity") else ", plain TCP")
+        + " (zenohd and zenoh-plugin-dds 1.10.2 at each site, "
         "`profiles/zenoh/*.json5`; docs/deployment.md \"Sites over Zenoh\"), the robot site running "
         "`handgate run --profile profiles/zenoh/sites-robot.toml` (two emulated Dex3 hands, release build), "
         f"the operator site an official-SDK client (unitree_sdk2py); the link is {link}"
@@ -527,7 +635,7 @@ def report(r):
         "(`HandState_.reserve[0]`, docs/fronts.md), both on the client's clock: a round trip. "
         "Baseline, in the same run: the same client and gateway with no Zenoh, the client in the "
         "robot's namespace on handgate's own network. The link's own TCP round trip, at the same "
-        "rate (16-byte messages, `TCP_NODELAY`), across the same link."
+        "rate (16-byte messages, `TCP_NODELAY`, no TLS), across the same link."
     )
     out.append("")
     out.append("| path | samples | median ms | p90 ms | p99 ms | max ms |")
@@ -561,6 +669,12 @@ def report(r):
         "the client streaming to one hand at 100 Hz, both hands' states crossing to the operator at the "
         "robot config's 50 Hz) "
         "and over each process's whole life in the run."
+        + (
+            " The robot's zenohd checks every message against its access control and, in this run, "
+            "logs each decision at trace level (to count the refusals below): both are in its figure."
+            if r.get("identity")
+            else ""
+        )
     )
     out.append("")
     out.append("| process | latency phase % | whole run % (s) |")
@@ -654,6 +768,35 @@ def report(r):
         f"{c['tags_written_during_cut_shown_after_restore']} of {c['tags_written_during_cut']} |"
     )
     out.append(f"| counted late meanwhile (max_command_age_ms = 100) | {c['late_cmd_during_cut']:.0f} |")
+    ids = r.get("identity") or []
+    if ids:
+        out.append("")
+        out.append("### Identity: TLS and access control")
+        out.append("")
+        out.append(
+            "The run's own keystore: one lab CA, the robot's zenohd `/robot` (its certificate naming "
+            "10.77.0.2), the operator's `/operator`, a third lab identity `/student`; and a second "
+            "CA that issues another `/operator`. After the measurements the operator's zenohd stops "
+            "and each test is a zenohd of its own at the operator site, with an SDK client streaming "
+            "tagged commands to the left hand through it at "
+            f"{ids[0]['rate_hz']:.0f} Hz without waiting for any state; a subscriber at the robot site "
+            "watches the hand's state (the tags it echoes, index_0's position). The refusals are "
+            "counted in the robot's zenohd log: refused TLS handshakes, and puts on "
+            "`rt/dex3/left/cmd` its `access_control` refused on arrival (trace level). Each test "
+            "streams until the robot's zenohd has counted its refusal (two more refused handshakes "
+            "once the test site's bridge had the commands; 100 refused puts), the control until the "
+            "hand moved."
+        )
+        out.append("")
+        out.append("| test | commands sent | shown in the hand's state | index_0 moved (rad) | refused handshakes | refused puts | result |")
+        out.append("|---|---|---|---|---|---|---|")
+        for t in ids:
+            rf = t["refusals"]
+            out.append(
+                f"| {t['name']}. {t['what']} | {t['sent']} | {t['tags_shown']} | {t['index0_moved_rad']:.3f} | "
+                f"{rf.get('tls_handshakes', 0)} | {rf.get('acl_puts', 0)} | "
+                f"{'pass' if t['ok'] else 'FAIL'} ({'refused' if t['expect'] == 'refused' else 'moved'}) |"
+            )
     out.append("")
     out.append("`handgate status --once` at the operator site, across the link, at the end:")
     out.append("")
@@ -712,8 +855,35 @@ def main():
     p.add_argument("--interface", default=None)
     p.add_argument("--side", choices=["left", "right"], default="right")
     p.add_argument("--timeout", type=float, default=60.0)
+    p.add_argument("--watch-from", type=int, default=None, help="print SHOWN once a state echoes a tag >= this")
+    p.add_argument("--watch-move", type=float, default=None, help="print MOVED once index_0 moved this far (rad)")
     p.add_argument("--out", required=True)
     p.set_defaults(fn=cmd_observe)
+
+    p = sub.add_parser("blind")
+    p.add_argument("--domain", type=int, required=True)
+    p.add_argument("--interface", default=None)
+    p.add_argument("--side", choices=["left", "right"], default="left")
+    p.add_argument("--rate", type=float, default=100.0)
+    p.add_argument("--tag-base", type=int, required=True)
+    p.add_argument("--q", type=lambda v: [float(x) for x in v.split(",")], required=True, help="7 joint targets, comma-separated")
+    p.add_argument("--index0", type=float, required=True, help="index_0's target")
+    p.add_argument("--out", required=True)
+    p.set_defaults(fn=cmd_blind)
+
+    p = sub.add_parser("judge")
+    p.add_argument("--name", required=True)
+    p.add_argument("--what", required=True)
+    p.add_argument("--expect", choices=["refused", "moved"], required=True)
+    p.add_argument("--observe", required=True)
+    p.add_argument("--blind", required=True)
+    p.add_argument("--refusals", nargs="*", default=[], help="KIND=COUNT, counted at the robot's zenohd")
+    p.add_argument("--counted", default=None, help="refused: the KIND that must have counted this site's attempt")
+    p.add_argument("--detail", default="", help="what the robot's zenohd refused meanwhile, ';'-separated")
+    p.add_argument("--still-rad", type=float, default=0.02, help="refused: index_0 moved less than this")
+    p.add_argument("--moved-rad", type=float, default=0.2, help="moved: index_0 moved at least this")
+    p.add_argument("--out", required=True)
+    p.set_defaults(fn=cmd_judge)
 
     p = sub.add_parser("echo-server")
     p.add_argument("--listen", required=True, help="ADDR:PORT")
