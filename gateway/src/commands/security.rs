@@ -12,7 +12,7 @@ pub fn security(cmd: SecurityCmd) -> anyhow::Result<ExitCode> {
     let now = time::now();
     match cmd {
         SecurityCmd::Init { keystore, name, days } => {
-            let ks = Keystore::init(&keystore.keystore, &name, days, now)?;
+            let ks = Keystore::init(&std::path::absolute(&keystore.keystore)?, &name, days, now)?;
             println!(
                 "keystore {} created: CA \"{name}\", valid {days} days",
                 ks.dir.display()
@@ -35,7 +35,7 @@ pub fn security(cmd: SecurityCmd) -> anyhow::Result<ExitCode> {
             not_after,
             sans,
         } => {
-            let ks = Keystore::open(&keystore.keystore)?;
+            let ks = Keystore::open(&std::path::absolute(&keystore.keystore)?)?;
             let validity = match (not_before, not_after) {
                 (Some(nb), Some(na)) => Validity::Span {
                     not_before: parse_time("--not-before", &nb)?,
@@ -55,7 +55,7 @@ pub fn security(cmd: SecurityCmd) -> anyhow::Result<ExitCode> {
             print_issued("issued", &issued);
         }
         SecurityCmd::Revoke { keystore, name } => {
-            let ks = Keystore::open(&keystore.keystore)?;
+            let ks = Keystore::open(&std::path::absolute(&keystore.keystore)?)?;
             let serials = ks.revoke(&name, now)?;
             if serials.is_empty() {
                 println!("{name}: already revoked; {} unchanged", ks.crl().display());
@@ -68,13 +68,13 @@ pub fn security(cmd: SecurityCmd) -> anyhow::Result<ExitCode> {
             }
         }
         SecurityCmd::Renew { keystore, name, days } => {
-            let ks = Keystore::open(&keystore.keystore)?;
+            let ks = Keystore::open(&std::path::absolute(&keystore.keystore)?)?;
             let issued = ks.renew(&name, days, now)?;
             print_issued("renewed", &issued);
             println!("  the previous certificate keeps working until it expires; revoke it with `handgate security revoke` if it must stop");
         }
         SecurityCmd::List { keystore } => {
-            let ks = Keystore::open(&keystore.keystore)?;
+            let ks = Keystore::open(&std::path::absolute(&keystore.keystore)?)?;
             let rows = ks.list()?;
             if rows.is_empty() {
                 println!("no enclaves in {}", ks.enclaves().display());
