@@ -207,6 +207,11 @@ pub(crate) unsafe fn qos_from_raw(raw: *mut cyclonedds_sys::dds_qos_t) -> DdsQos
 
 /// The CycloneDDS XML that binds a domain to one network interface.
 pub fn interface_config(interface: &str) -> Result<String, DdsError> {
+    Ok(domain_xml(&general_xml(interface)?))
+}
+
+/// The `<General>` element that binds a domain to `interface` (its name checked first).
+fn general_xml(interface: &str) -> Result<String, DdsError> {
     let ok = !interface.is_empty()
         && interface
             .chars()
@@ -215,24 +220,24 @@ pub fn interface_config(interface: &str) -> Result<String, DdsError> {
         return Err(DdsError::BadInterface(interface.to_string()));
     }
     Ok(format!(
-        "<CycloneDDS><Domain Id=\"any\"><General><Interfaces><NetworkInterface name=\"{interface}\" \
-         priority=\"default\" multicast=\"default\"/></Interfaces></General></Domain></CycloneDDS>"
+        "<General><Interfaces><NetworkInterface name=\"{interface}\" priority=\"default\" \
+         multicast=\"default\"/></Interfaces></General>"
     ))
+}
+
+/// A whole CycloneDDS configuration of one domain from the elements `inner`.
+fn domain_xml(inner: &str) -> String {
+    format!("<CycloneDDS><Domain Id=\"any\">{inner}</Domain></CycloneDDS>")
 }
 
 /// The CycloneDDS XML for one domain: an optional interface, and optionally CycloneDDS's
 /// `config` trace (which includes the interfaces it found, the ones it selected and its
 /// multicast decision) written to `trace_file`.
 fn domain_config(interface: Option<&str>, trace_file: Option<&std::path::Path>) -> Result<String, DdsError> {
-    let mut inner = String::new();
-    if let Some(iface) = interface {
-        // Validates the name (the same check as `interface_config`).
-        interface_config(iface)?;
-        inner.push_str(&format!(
-            "<General><Interfaces><NetworkInterface name=\"{iface}\" priority=\"default\" \
-             multicast=\"default\"/></Interfaces></General>"
-        ));
-    }
+    let mut inner = match interface {
+        Some(iface) => general_xml(iface)?,
+        None => String::new(),
+    };
     if let Some(path) = trace_file {
         let path = path.to_string_lossy();
         let ok = path
@@ -245,7 +250,7 @@ fn domain_config(interface: Option<&str>, trace_file: Option<&std::path::Path>) 
             "<Tracing><Category>config</Category><OutputFile>{path}</OutputFile></Tracing>"
         ));
     }
-    Ok(format!("<CycloneDDS><Domain Id=\"any\">{inner}</Domain></CycloneDDS>"))
+    Ok(domain_xml(&inner))
 }
 
 /// What CycloneDDS's `config` trace says about network interfaces (see [`Node::with_trace`]).
@@ -347,18 +352,8 @@ impl Node {
             return Self::new(domain_id, interface);
         };
         crate::dds_security::install_log_sink();
-        let general = match interface {
-            Some(iface) => {
-                // Validates the name.
-                interface_config(iface)?;
-                format!(
-                    "<General><Interfaces><NetworkInterface name=\"{iface}\" priority=\"default\" \
-                     multicast=\"default\"/></Interfaces></General>"
-                )
-            }
-            None => String::new(),
-        };
-        let cfg = crate::dds_security::domain_config(&general);
+        let general = interface.map(general_xml).transpose()?.unwrap_or_default();
+        let cfg = domain_xml(&(general + crate::dds_security::DISCOVERY_TRACE));
         // A second secured participant on the same domain in this process (several identities
         // in one test) joins the domain the first one configured.
         let domain = match DdsDomain::create(domain_id, Some(&cfg)) {
