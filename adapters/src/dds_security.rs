@@ -132,15 +132,11 @@ impl Security {
     }
 }
 
-/// The CycloneDDS domain configuration of a secured domain: its discovery trace on (to
-/// [`install_log_sink`]'s function, the file is never written), so a participant without
-/// security is seen being refused; `interface_xml` is the `<General>` part, if any.
-pub(crate) fn domain_config(interface_xml: &str) -> String {
-    format!(
-        "<CycloneDDS><Domain Id=\"any\">{interface_xml}<Tracing><Category>discovery</Category>\
-         <OutputFile>/dev/null</OutputFile></Tracing></Domain></CycloneDDS>"
-    )
-}
+/// The tracing element of a secured domain's CycloneDDS configuration: its discovery trace
+/// on (to [`install_log_sink`]'s function, the file is never written), so a participant
+/// without security is seen being refused.
+pub(crate) const DISCOVERY_TRACE: &str =
+    "<Tracing><Category>discovery</Category><OutputFile>/dev/null</OutputFile></Tracing>";
 
 /// Why CycloneDDS refused a remote participant, read from its log line ([`classify`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -264,28 +260,37 @@ pub struct DomainRefusals {
     pub participants: HashMap<Refusal, u64>,
     /// Every refusal line, retries included.
     pub attempts: u64,
-    seen: std::collections::HashSet<(Refusal, String)>,
 }
 
 impl DomainRefusals {
-    /// Records one refusal; true when it is a new identity for its reason.
-    pub fn record(&mut self, r: &Refused) -> bool {
-        self.attempts += 1;
-        if self.seen.len() < 4096 && self.seen.insert((r.reason, r.who.clone())) {
-            *self.participants.entry(r.reason).or_insert(0) += 1;
-            return true;
-        }
-        false
-    }
-
     /// Distinct refused identities, every reason.
     pub fn total(&self) -> u64 {
         self.participants.values().sum()
     }
 }
 
-fn table() -> &'static Mutex<HashMap<u32, DomainRefusals>> {
-    static T: OnceLock<Mutex<HashMap<u32, DomainRefusals>>> = OnceLock::new();
+/// One domain's counts and the identities already counted (kept here, not in the counts that
+/// `/metrics` and the status copy out).
+#[derive(Debug, Default)]
+struct Tally {
+    counts: DomainRefusals,
+    seen: std::collections::HashSet<(Refusal, String)>,
+}
+
+impl Tally {
+    /// Records one refusal; true when it is a new identity for its reason.
+    fn record(&mut self, r: &Refused) -> bool {
+        self.counts.attempts += 1;
+        if self.seen.len() < 4096 && self.seen.insert((r.reason, r.who.clone())) {
+            *self.counts.participants.entry(r.reason).or_insert(0) += 1;
+            return true;
+        }
+        false
+    }
+}
+
+fn table() -> &'static Mutex<HashMap<u32, Tally>> {
+    static T: OnceLock<Mutex<HashMap<u32, Tally>>> = OnceLock::new();
     T.get_or_init(|| Mutex::new(HashMap::new()))
 }
 
@@ -303,7 +308,7 @@ pub(crate) fn mark_secured(domain: u32) {
 /// refusals, in domain order.
 pub fn secured() -> Vec<(u32, DomainRefusals)> {
     let t = table().lock().unwrap_or_else(|p| p.into_inner());
-    let mut v: Vec<_> = t.iter().map(|(d, r)| (*d, r.clone())).collect();
+    let mut v: Vec<_> = t.iter().map(|(d, r)| (*d, r.counts.clone())).collect();
     v.sort_by_key(|(d, _)| *d);
     v
 }
@@ -314,7 +319,7 @@ pub fn refusals(domain: u32) -> DomainRefusals {
         .lock()
         .unwrap_or_else(|p| p.into_inner())
         .get(&domain)
-        .cloned()
+        .map(|t| t.counts.clone())
         .unwrap_or_default()
 }
 
@@ -469,14 +474,14 @@ mod tests {
 
     #[test]
     fn retries_count_once() {
-        let mut d = DomainRefusals::default();
+        let mut d = Tally::default();
         let r = Refused {
             reason: Refusal::UnknownCa,
             who: "/CN=x".into(),
         };
         assert!(d.record(&r));
         assert!(!d.record(&r));
-        assert_eq!((d.total(), d.attempts), (1, 2));
+        assert_eq!((d.counts.total(), d.counts.attempts), (1, 2));
     }
 
     #[test]
