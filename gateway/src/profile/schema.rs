@@ -318,22 +318,39 @@ impl SecurityConfig {
     pub fn resolve(&self) -> Result<handgate_adapters::dds_security::Security, &'static str> {
         use handgate_adapters::dds_security::ENCLAVE_FILES;
         let enclave = self.enclave.as_deref().map(std::path::Path::new);
-        let pick = |own: &Option<String>, i: usize| -> Result<std::path::PathBuf, &'static str> {
-            match (own, enclave) {
+        let pick = |i: usize| -> Result<std::path::PathBuf, &'static str> {
+            let (role, file) = ENCLAVE_FILES[i];
+            match (self.own(role), enclave) {
                 (Some(p), _) => Ok(p.into()),
-                (None, Some(dir)) => Ok(dir.join(ENCLAVE_FILES[i].1)),
-                (None, None) => Err(ENCLAVE_FILES[i].0),
+                (None, Some(dir)) => Ok(dir.join(file)),
+                (None, None) => Err(role),
             }
         };
         Ok(handgate_adapters::dds_security::Security {
-            identity_ca: pick(&self.identity_ca, 0)?,
-            certificate: pick(&self.certificate, 1)?,
-            private_key: pick(&self.private_key, 2)?,
-            permissions_ca: pick(&self.permissions_ca, 3)?,
-            governance: pick(&self.governance, 4)?,
-            permissions: pick(&self.permissions, 5)?,
+            identity_ca: pick(0)?,
+            certificate: pick(1)?,
+            private_key: pick(2)?,
+            permissions_ca: pick(3)?,
+            governance: pick(4)?,
+            permissions: pick(5)?,
             crl: self.crl.as_ref().map(Into::into),
         })
+    }
+
+    /// The path the profile gives under its own key for the file `role`
+    /// ([`handgate_adapters::dds_security::Security::files`]' names); `None`: not given (the
+    /// enclave's, if any, is used).
+    pub fn own(&self, role: &str) -> Option<&str> {
+        match role {
+            "identity_ca" => self.identity_ca.as_deref(),
+            "certificate" => self.certificate.as_deref(),
+            "private_key" => self.private_key.as_deref(),
+            "permissions_ca" => self.permissions_ca.as_deref(),
+            "governance" => self.governance.as_deref(),
+            "permissions" => self.permissions.as_deref(),
+            "crl" => self.crl.as_deref(),
+            _ => None,
+        }
     }
 }
 

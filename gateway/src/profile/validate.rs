@@ -264,16 +264,11 @@ impl Checker {
         }
         for (role, path) in files.files() {
             // The key the file came from: its own, else the enclave's.
-            let own = match role {
-                "identity_ca" => &s.identity_ca,
-                "certificate" => &s.certificate,
-                "private_key" => &s.private_key,
-                "permissions_ca" => &s.permissions_ca,
-                "governance" => &s.governance,
-                "permissions" => &s.permissions,
-                _ => &s.crl,
+            let key = if s.own(role).is_some() {
+                k.key(role)
+            } else {
+                k.key("enclave")
             };
-            let key = if own.is_some() { k.key(role) } else { k.key("enclave") };
             if let Err(e) = std::fs::File::open(path) {
                 self.err(key, format!("cannot read {} (the {role}): {e}", path.display()));
             }
