@@ -142,7 +142,20 @@ pub fn in_netns(netns: Option<&str>, program: &Path) -> Command {
 /// `check`, `doctor`, `record`, ...) exit 2 with `environment (HANDGATE_INTEROP_IFACE):
 /// interop_iface: unknown key` on stderr and nothing on stdout.
 pub fn handgate_cmd(netns: Option<&str>) -> Command {
-    let mut cmd = in_netns(netns, &handgate_bin());
+    handgate_cmd_under(netns, &[])
+}
+
+/// [`handgate_cmd`], run under `prefix` (a program and its arguments before the binary, e.g.
+/// `faketime -f @...`; empty: none).
+pub fn handgate_cmd_under(netns: Option<&str>, prefix: &[&str]) -> Command {
+    let mut cmd = match prefix.split_first() {
+        Some((program, args)) => {
+            let mut c = in_netns(netns, Path::new(program));
+            c.args(args).arg(handgate_bin());
+            c
+        }
+        None => in_netns(netns, &handgate_bin()),
+    };
     without_handgate_env(&mut cmd, std::env::vars().map(|(k, _)| k));
     cmd.current_dir(repo_root());
     cmd

@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::time::{Duration, Instant};
 
-use handgate_tests::{handgate_bin, handgate_cmd, in_netns, Emulation, Gateway, Hosts, PyProcess};
+use handgate_tests::{handgate_cmd, handgate_cmd_under, Emulation, Gateway, Hosts, PyProcess};
 use serde_json::Value;
 
 const LAB: u32 = 229;
@@ -102,15 +102,7 @@ fn wait_metrics(h: &Hosts, gw: &Gateway, within: Duration, what: &str, ok: impl 
 /// `handgate send left_hand` to robot A from the stray machine, as the identity in `enclave`
 /// (none: plain DDS), closing the hand for 2 s; `prefix`: a program to run it under.
 fn send_from_stray(h: &Hosts, stray_if: &str, enclave: Option<&Path>, prefix: &[&str]) -> Output {
-    let bin = handgate_bin();
-    let mut cmd = match prefix.split_first() {
-        Some((p, rest)) => {
-            let mut c = in_netns(Some(&h.ns[STRAY]), Path::new(p));
-            c.args(rest).arg(&bin);
-            c
-        }
-        None => in_netns(Some(&h.ns[STRAY]), &bin),
-    };
+    let mut cmd = handgate_cmd_under(Some(&h.ns[STRAY]), prefix);
     let lab = LAB.to_string();
     cmd.args([
         "send",
@@ -130,9 +122,6 @@ fn send_from_stray(h: &Hosts, stray_if: &str, enclave: Option<&Path>, prefix: &[
     ]);
     if let Some(e) = enclave {
         cmd.arg("--enclave").arg(e);
-    }
-    for (k, _) in std::env::vars().filter(|(k, _)| k.starts_with("HANDGATE_")) {
-        cmd.env_remove(k);
     }
     cmd.output().unwrap()
 }
@@ -501,7 +490,7 @@ fn only_the_labs_identities_command_a_hand() {
     assert_refused(&h, &robot, "an expired certificate", &out, Some("expired"), &base);
 
     // `handgate status` on the lab, as the read-only identity: the robot's refusals.
-    let out = in_netns(Some(&h.ns[STRAY]), &handgate_bin())
+    let out = handgate_cmd(Some(&h.ns[STRAY]))
         .args([
             "status",
             "--domain",
